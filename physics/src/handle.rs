@@ -1,0 +1,55 @@
+//! Generational handles. A handle is an index plus the generation of the slot
+//! it was issued for; when the slot is reused its generation moves on, so a
+//! stale handle is detected and every lookup with it returns `None`.
+
+/// A particle system in a [`World`](crate::World).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct SystemHandle {
+    pub(crate) index: u32,
+    pub(crate) generation: u32,
+}
+
+/// A particle inside one particle system.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ParticleHandle {
+    pub(crate) system: SystemHandle,
+    pub(crate) slot: u32,
+    pub(crate) generation: u32,
+}
+
+/// A Hooke spring inside one particle system.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct SpringHandle {
+    pub(crate) system: SystemHandle,
+    pub(crate) index: u32,
+    pub(crate) generation: u32,
+}
+
+/// A force generator attached to one particle system.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ForceHandle {
+    pub(crate) system: SystemHandle,
+    pub(crate) index: u32,
+    pub(crate) generation: u32,
+}
+
+impl ParticleHandle {
+    /// The system this particle lives in.
+    pub fn system(self) -> SystemHandle {
+        self.system
+    }
+}
+
+impl SpringHandle {
+    /// The system this spring lives in.
+    pub fn system(self) -> SystemHandle {
+        self.system
+    }
+}
+
+impl ForceHandle {
+    /// The system this force acts on.
+    pub fn system(self) -> SystemHandle {
+        self.system
+    }
+}

@@ -1,0 +1,91 @@
+//! Deterministic data parallelism.
+//!
+//! Work is cut into chunks of a fixed size ([`CHUNK`] particles) that does not
+//! depend on the number of threads; every chunk's result lands in its own slot
+//! and reductions add the slots in chunk order. So a run on one thread and a
+//! run on any number of threads produce the same bits. Small inputs (one
+//! chunk) run inline, without touching the thread pool.
+
+use rayon::prelude::*;
+
+/// Particles per parallel work item.
+pub(crate) const CHUNK: usize = 4096;
+
+/// Runs `f(base, chunk)` over `CHUNK`-sized pieces of `a`; results in chunk order.
+pub(crate) fn par_map_chunks<A, R, F>(a: &mut [A], chunk: usize, f: F) -> Vec<R>
+where
+    A: Send,
+    R: Send,
+    F: Fn(usize, &mut [A]) -> R + Sync + Send,
+{
+    if a.len() <= chunk {
+        return vec![f(0, a)];
+    }
+    a.par_chunks_mut(chunk)
+        .enumerate()
+        .map(|(c, a)| f(c * chunk, a))
+        .collect()
+}
+
+/// Like [`par_map_chunks`] over three equally long slices, chunked alike.
+pub(crate) fn par_map_chunks3<A, B, C, R, F>(
+    a: &mut [A],
+    b: &mut [B],
+    c: &mut [C],
+    chunk: usize,
+    f: F,
+) -> Vec<R>
+where
+    A: Send,
+    B: Send,
+    C: Send,
+    R: Send,
+    F: Fn(usize, &mut [A], &mut [B], &mut [C]) -> R + Sync + Send,
+{
+    debug_assert!(a.len() == b.len() && b.len() == c.len());
+    if a.len() <= chunk {
+        return vec![f(0, a, b, c)];
+    }
+    (
+        a.par_chunks_mut(chunk),
+        b.par_chunks_mut(chunk),
+        c.par_chunks_mut(chunk),
+    )
+        .into_par_iter()
+        .enumerate()
+        .map(|(k, (a, b, c))| f(k * chunk, a, b, c))
+        .collect()
+}
+
+/// Like [`par_map_chunks`] over four equally long slices, chunked alike.
+pub(crate) fn par_map_chunks4<A, B, C, D, R, F>(
+    a: &mut [A],
+    b: &mut [B],
+    c: &mut [C],
+    d: &mut [D],
+    chunk: usize,
+    f: F,
+) -> Vec<R>
+where
+    A: Send,
+    B: Send,
+    C: Send,
+    D: Send,
+    R: Send,
+    F: Fn(usize, &mut [A], &mut [B], &mut [C], &mut [D]) -> R + Sync + Send,
+{
+    debug_assert!(a.len() == b.len() && b.len() == c.len() && c.len() == d.len());
+    if a.len() <= chunk {
+        return vec![f(0, a, b, c, d)];
+    }
+    (
+        a.par_chunks_mut(chunk),
+        b.par_chunks_mut(chunk),
+        c.par_chunks_mut(chunk),
+        d.par_chunks_mut(chunk),
+    )
+        .into_par_iter()
+        .enumerate()
+        .map(|(k, (a, b, c, d))| f(k * chunk, a, b, c, d))
+        .collect()
+}

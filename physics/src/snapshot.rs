@@ -1,0 +1,592 @@
+//! Save and restore of the complete world state in a compact binary form.
+//!
+//! Layout (little-endian): magic `INRTWRLD`, format version (u32), the
+//! state, and a 64-bit checksum of everything before it. The state is
+//! written by one walk ([`encode_world`]) that the [state hash](crate::hash)
+//! also uses, so the hash covers exactly what is saved. Everything the step
+//! reads is in it — including the Verlet history, the slot tables and free
+//! lists (which decide future handles) — so restore-then-step gives the same
+//! bits as never-saved-then-step. Derived data (spring adjacency, scratch
+//! buffers, GPU buffers) is rebuilt.
+//!
+//! Decoding treats the bytes as untrusted: every count is bounded by the bytes
+//! left, every value is validated as if it came through the public API, and
+//! nothing is applied unless the whole file decodes.
+
+use glam::DVec3;
+
+use crate::arena::{Arena, Entry};
+use crate::forces::{
+    Buoyancy, Drag, Explosion, Force, ForceEntry, GravityMethod, MutualGravity, UniformGravity,
+    Wind,
+};
+use crate::handle::SystemHandle;
+use crate::hash::hash_bytes;
+use crate::integrator::Integrator;
+use crate::particle_system::{
+    Backend, ParticleSystem, Slot, FLAG_PINNED, FLAG_QUARANTINED, FREE, MAX_GROUPS,
+};
+use crate::spring::{Spring, SpringParams};
+
+const MAGIC: &[u8; 8] = b"INRTWRLD";
+/// The format version this build writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Why a saved state could not be restored. The world is unchanged.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SnapshotError {
+    /// The bytes do not start with the `INRTWRLD` magic.
+    #[error("not an Inertia world state (bad magic)")]
+    BadMagic,
+    /// Written by a format version this build does not read.
+    #[error("unsupported world state format version {0} (this build reads {FORMAT_VERSION})")]
+    UnsupportedVersion(u32),
+    /// The data ended early.
+    #[error("world state truncated at byte {0}")]
+    Truncated(usize),
+    /// The checksum does not match: the bytes were corrupted.
+    #[error("world state checksum mismatch (stored {stored:#018x}, computed {computed:#018x})")]
+    Checksum {
+        /// Checksum in the file.
+        stored: u64,
+        /// Checksum of the bytes read.
+        computed: u64,
+    },
+    /// A value is out of range or inconsistent.
+    #[error("invalid world state: {0}")]
+    Invalid(String),
+    /// Bytes left over after the state.
+    #[error("{0} unexpected trailing bytes after the world state")]
+    Trailing(usize),
+}
+
+/// Where the state walk writes: bytes, or the hasher.
+pub(crate) trait Sink {
+    fn u8(&mut self, v: u8);
+    fn u32(&mut self, v: u32);
+    fn u64(&mut self, v: u64);
+    fn f64(&mut self, v: f64);
+    fn vec3(&mut self, v: DVec3) {
+        self.f64(v.x);
+        self.f64(v.y);
+        self.f64(v.z);
+    }
+}
+
+/// Writes into a byte buffer.
+#[derive(Debug, Default)]
+pub(crate) struct ByteSink(pub(crate) Vec<u8>);
+
+impl Sink for ByteSink {
+    fn u8(&mut self, v: u8) {
+        self.0.push(v);
+    }
+    fn u32(&mut self, v: u32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn u64(&mut self, v: u64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f64(&mut self, v: f64) {
+        self.0.extend_from_slice(&v.to_bits().to_le_bytes());
+    }
+}
+
+fn len<S: Sink>(s: &mut S, n: usize) {
+    s.u64(n as u64);
+}
+
+fn vec3s<S: Sink>(s: &mut S, v: &[DVec3]) {
+    len(s, v.len());
+    for &x in v {
+        s.vec3(x);
+    }
+}
+
+fn f64s<S: Sink>(s: &mut S, v: &[f64]) {
+    len(s, v.len());
+    for &x in v {
+        s.f64(x);
+    }
+}
+
+fn u32s<S: Sink>(s: &mut S, v: &[u32]) {
+    len(s, v.len());
+    for &x in v {
+        s.u32(x);
+    }
+}
+
+fn arena<S: Sink, T>(s: &mut S, a: &Arena<T>, mut item: impl FnMut(&mut S, &T)) {
+    len(s, a.entries.len());
+    for e in &a.entries {
+        match e {
+            Entry::Vacant { generation } => {
+                s.u8(0);
+                s.u32(*generation);
+            }
+            Entry::Occupied { generation, value } => {
+                s.u8(1);
+                s.u32(*generation);
+                item(s, value);
+            }
+        }
+    }
+    u32s(s, &a.free);
+}
+
+fn force<S: Sink>(s: &mut S, f: &Force) {
+    match f {
+        Force::UniformGravity(g) => {
+            s.u8(0);
+            s.f64(g.g);
+            s.vec3(g.direction);
+        }
+        Force::MutualGravity(g) => {
+            s.u8(1);
+            s.f64(g.g_constant);
+            s.f64(g.softening);
+            match g.method {
+                GravityMethod::Exact => s.u8(0),
+                GravityMethod::BarnesHut { theta } => {
+                    s.u8(1);
+                    s.f64(theta);
+                }
+            }
+        }
+        Force::Drag(d) => {
+            s.u8(2);
+            s.f64(d.linear_scale);
+            s.f64(d.quadratic_scale);
+        }
+        Force::Wind(w) => {
+            s.u8(3);
+            s.vec3(w.velocity);
+            s.f64(w.air_density);
+            s.f64(w.pressure_coefficient);
+        }
+        Force::Buoyancy(b) => {
+            s.u8(4);
+            s.f64(b.surface_height);
+            s.vec3(b.up);
+            s.f64(b.fluid_density);
+            s.f64(b.gravity);
+            s.f64(b.fluid_drag);
+        }
+        Force::Explosion(e) => {
+            s.u8(5);
+            s.vec3(e.center);
+            s.f64(e.start_time);
+            s.f64(e.front_speed);
+            s.f64(e.front_thickness);
+            s.f64(e.peak_pressure);
+            s.f64(e.reference_radius);
+            s.f64(e.max_radius);
+        }
+    }
+}
+
+fn system<S: Sink>(s: &mut S, p: &ParticleSystem) {
+    s.u8(p.integrator.code());
+    s.u8(match p.backend {
+        Backend::Cpu => 0,
+        Backend::Gpu => 1,
+    });
+    s.f64(p.verlet_dt);
+    vec3s(s, &p.position);
+    vec3s(s, &p.velocity);
+    vec3s(s, &p.prev_position);
+    f64s(s, &p.inv_mass);
+    f64s(s, &p.drag_linear);
+    f64s(s, &p.drag_quadratic);
+    f64s(s, &p.area);
+    f64s(s, &p.volume);
+    u32s(s, &p.flags);
+    u32s(s, &p.group);
+    s.u8(u8::from(p.control_active));
+    vec3s(s, &p.control);
+    len(s, p.slots.len());
+    for slot in &p.slots {
+        s.u32(slot.generation);
+        s.u32(slot.dense);
+    }
+    u32s(s, &p.free_slots);
+    vec3s(s, &p.group_control);
+    arena(s, &p.springs, |s, sp| {
+        s.u32(sp.a);
+        s.u32(sp.b);
+        s.f64(sp.params.rest_length);
+        s.f64(sp.params.stiffness);
+        s.f64(sp.params.damping);
+    });
+    arena(s, &p.forces, |s, f| force(s, &f.force));
+}
+
+/// The one walk over the world state, shared by save and hash.
+pub(crate) fn encode_world<S: Sink>(
+    s: &mut S,
+    tick: u64,
+    time: f64,
+    systems: &Arena<ParticleSystem>,
+) {
+    s.u64(tick);
+    s.f64(time);
+    arena(s, systems, system);
+}
+
+/// The complete saved file for a state.
+pub(crate) fn save_world(tick: u64, time: f64, systems: &Arena<ParticleSystem>) -> Vec<u8> {
+    let mut sink = ByteSink(Vec::with_capacity(
+        64 + systems.iter().map(|(_, _, p)| p.len() * 140).sum::<usize>(),
+    ));
+    sink.0.extend_from_slice(MAGIC);
+    sink.u32(FORMAT_VERSION);
+    encode_world(&mut sink, tick, time, systems);
+    let sum = hash_bytes(&sink.0);
+    sink.u64(sum);
+    sink.0
+}
+
+/// A decoded world state, validated, ready to swap in.
+#[derive(Debug)]
+pub(crate) struct DecodedWorld {
+    pub(crate) tick: u64,
+    pub(crate) time: f64,
+    pub(crate) systems: Arena<ParticleSystem>,
+}
+
+struct Reader<'a> {
+    b: &'a [u8],
+    pos: usize,
+}
+
+fn invalid<T>(msg: impl Into<String>) -> Result<T, SnapshotError> {
+    Err(SnapshotError::Invalid(msg.into()))
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], SnapshotError> {
+        if self.b.len() - self.pos < n {
+            return Err(SnapshotError::Truncated(self.b.len()));
+        }
+        let s = &self.b[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+    fn u8(&mut self) -> Result<u8, SnapshotError> {
+        Ok(self.take(1)?[0])
+    }
+    fn u32(&mut self) -> Result<u32, SnapshotError> {
+        Ok(u32::from_le_bytes(
+            self.take(4)?.try_into().expect("4 bytes"),
+        ))
+    }
+    fn u64(&mut self) -> Result<u64, SnapshotError> {
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().expect("8 bytes"),
+        ))
+    }
+    fn f64(&mut self) -> Result<f64, SnapshotError> {
+        Ok(f64::from_bits(self.u64()?))
+    }
+    fn finite(&mut self, what: &str) -> Result<f64, SnapshotError> {
+        let v = self.f64()?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            invalid(format!("{what} is not finite"))
+        }
+    }
+    fn vec3(&mut self, what: &str) -> Result<DVec3, SnapshotError> {
+        Ok(DVec3::new(
+            self.finite(what)?,
+            self.finite(what)?,
+            self.finite(what)?,
+        ))
+    }
+    /// A count of items at least `min_size` bytes each, bounded by the bytes left.
+    fn count(&mut self, min_size: usize) -> Result<usize, SnapshotError> {
+        let n = self.u64()?;
+        let left = (self.b.len() - self.pos) as u64;
+        if n > left / min_size.max(1) as u64 {
+            return Err(SnapshotError::Truncated(self.b.len()));
+        }
+        Ok(n as usize)
+    }
+    fn vec3s(&mut self, what: &str) -> Result<Vec<DVec3>, SnapshotError> {
+        let n = self.count(24)?;
+        (0..n).map(|_| self.vec3(what)).collect()
+    }
+    fn f64s(&mut self, what: &str) -> Result<Vec<f64>, SnapshotError> {
+        let n = self.count(8)?;
+        (0..n).map(|_| self.finite(what)).collect()
+    }
+    fn u32s(&mut self) -> Result<Vec<u32>, SnapshotError> {
+        let n = self.count(4)?;
+        (0..n).map(|_| self.u32()).collect()
+    }
+    fn arena<T>(
+        &mut self,
+        mut item: impl FnMut(&mut Self) -> Result<T, SnapshotError>,
+    ) -> Result<Arena<T>, SnapshotError> {
+        let n = self.count(5)?;
+        let mut entries = Vec::with_capacity(n);
+        for _ in 0..n {
+            let tag = self.u8()?;
+            let generation = self.u32()?;
+            entries.push(match tag {
+                0 => Entry::Vacant { generation },
+                1 => Entry::Occupied {
+                    generation,
+                    value: item(self)?,
+                },
+                t => return invalid(format!("arena entry tag {t}")),
+            });
+        }
+        let free = self.u32s()?;
+        Arena::from_parts(entries, free)
+            .ok_or_else(|| SnapshotError::Invalid("arena free list is inconsistent".into()))
+    }
+
+    fn force(&mut self) -> Result<Force, SnapshotError> {
+        let f = match self.u8()? {
+            0 => Force::UniformGravity(UniformGravity {
+                g: self.f64()?,
+                direction: self.vec3("gravity direction")?,
+            }),
+            1 => {
+                let g_constant = self.f64()?;
+                let softening = self.f64()?;
+                let method = match self.u8()? {
+                    0 => GravityMethod::Exact,
+                    1 => GravityMethod::BarnesHut { theta: self.f64()? },
+                    t => return invalid(format!("gravity method {t}")),
+                };
+                Force::MutualGravity(MutualGravity {
+                    g_constant,
+                    softening,
+                    method,
+                })
+            }
+            2 => Force::Drag(Drag {
+                linear_scale: self.f64()?,
+                quadratic_scale: self.f64()?,
+            }),
+            3 => Force::Wind(Wind {
+                velocity: self.vec3("wind velocity")?,
+                air_density: self.f64()?,
+                pressure_coefficient: self.f64()?,
+            }),
+            4 => Force::Buoyancy(Buoyancy {
+                surface_height: self.f64()?,
+                up: self.vec3("buoyancy up")?,
+                fluid_density: self.f64()?,
+                gravity: self.f64()?,
+                fluid_drag: self.f64()?,
+            }),
+            5 => Force::Explosion(Explosion {
+                center: self.vec3("explosion center")?,
+                start_time: self.f64()?,
+                front_speed: self.f64()?,
+                front_thickness: self.f64()?,
+                peak_pressure: self.f64()?,
+                reference_radius: self.f64()?,
+                max_radius: self.f64()?,
+            }),
+            t => return invalid(format!("force kind {t}")),
+        };
+        f.validate()
+            .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+        Ok(f)
+    }
+
+    fn system(&mut self, handle: SystemHandle) -> Result<ParticleSystem, SnapshotError> {
+        let integrator = Integrator::from_code(self.u8()?)
+            .ok_or_else(|| SnapshotError::Invalid("unknown integrator".into()))?;
+        let mut p = ParticleSystem::new(handle, crate::SystemDesc { integrator });
+        p.backend = match self.u8()? {
+            0 => Backend::Cpu,
+            1 => Backend::Gpu,
+            t => return invalid(format!("backend {t}")),
+        };
+        p.verlet_dt = self.finite("verlet dt")?;
+        p.position = self.vec3s("position")?;
+        p.velocity = self.vec3s("velocity")?;
+        p.prev_position = self.vec3s("previous position")?;
+        p.inv_mass = self.f64s("inverse mass")?;
+        p.drag_linear = self.f64s("linear drag")?;
+        p.drag_quadratic = self.f64s("quadratic drag")?;
+        p.area = self.f64s("area")?;
+        p.volume = self.f64s("volume")?;
+        p.flags = self.u32s()?;
+        p.group = self.u32s()?;
+        p.control_active = match self.u8()? {
+            0 => false,
+            1 => true,
+            t => return invalid(format!("control flag {t}")),
+        };
+        p.control = self.vec3s("control force")?;
+        let n_slots = self.count(8)?;
+        p.slots = (0..n_slots)
+            .map(|_| {
+                Ok(Slot {
+                    generation: self.u32()?,
+                    dense: self.u32()?,
+                })
+            })
+            .collect::<Result<_, SnapshotError>>()?;
+        p.free_slots = self.u32s()?;
+        p.group_control = self.vec3s("group control force")?;
+        p.springs = self.arena(|r| {
+            let a = r.u32()?;
+            let b = r.u32()?;
+            let params = SpringParams {
+                rest_length: r.f64()?,
+                stiffness: r.f64()?,
+                damping: r.f64()?,
+            };
+            params
+                .validate()
+                .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+            Ok(Spring { a, b, params })
+        })?;
+        p.forces = self.arena(|r| Ok(ForceEntry { force: r.force()? }))?;
+        validate_system(&mut p)?;
+        p.topology.dirty = true;
+        Ok(p)
+    }
+}
+
+/// Cross-checks one decoded system and rebuilds `dense_to_slot`.
+fn validate_system(p: &mut ParticleSystem) -> Result<(), SnapshotError> {
+    let n = p.position.len();
+    let same = [
+        p.velocity.len(),
+        p.inv_mass.len(),
+        p.drag_linear.len(),
+        p.drag_quadratic.len(),
+        p.area.len(),
+        p.volume.len(),
+        p.flags.len(),
+        p.group.len(),
+    ];
+    if same.iter().any(|&l| l != n) {
+        return invalid("particle arrays differ in length");
+    }
+    if !(p.prev_position.is_empty() || p.prev_position.len() == n) {
+        return invalid("previous-position array has the wrong length");
+    }
+    let control_ok = if p.control_active {
+        p.control.len() == n
+    } else {
+        p.control.is_empty()
+    };
+    if !control_ok {
+        return invalid("control array has the wrong length");
+    }
+    if p.inv_mass.iter().any(|&m| m <= 0.0) {
+        return invalid("inverse mass must be > 0");
+    }
+    for v in [&p.drag_linear, &p.drag_quadratic, &p.area, &p.volume] {
+        if v.iter().any(|&x| x < 0.0) {
+            return invalid("negative drag, area or volume");
+        }
+    }
+    if p.flags
+        .iter()
+        .any(|&f| f & !(FLAG_PINNED | FLAG_QUARANTINED) != 0)
+    {
+        return invalid("unknown particle flag");
+    }
+    if p.group.iter().any(|&g| g >= MAX_GROUPS) || p.group_control.len() > MAX_GROUPS as usize {
+        return invalid("group id out of range");
+    }
+    let mut dense_to_slot = vec![FREE; n];
+    for (s, slot) in p.slots.iter().enumerate() {
+        if slot.dense == FREE {
+            continue;
+        }
+        let d = slot.dense as usize;
+        if d >= n || dense_to_slot[d] != FREE {
+            return invalid("slot table is inconsistent");
+        }
+        dense_to_slot[d] = s as u32;
+    }
+    if dense_to_slot.contains(&FREE) {
+        return invalid("a particle has no slot");
+    }
+    let free_count = p.slots.iter().filter(|s| s.dense == FREE).count();
+    let mut seen = vec![false; p.slots.len()];
+    for &f in &p.free_slots {
+        let f = f as usize;
+        if f >= p.slots.len() || p.slots[f].dense != FREE || seen[f] {
+            return invalid("free slot list is inconsistent");
+        }
+        seen[f] = true;
+    }
+    if p.free_slots.len() != free_count {
+        return invalid("free slot list is incomplete");
+    }
+    p.dense_to_slot = dense_to_slot;
+    let live = |slot: u32| p.slots.get(slot as usize).is_some_and(|s| s.dense != FREE);
+    for (_, _, s) in p.springs.iter() {
+        if !live(s.a) || !live(s.b) || s.a == s.b {
+            return invalid("spring joins a missing particle");
+        }
+    }
+    Ok(())
+}
+
+/// Decodes and validates a saved file.
+pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
+    if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
+        return Err(SnapshotError::BadMagic);
+    }
+    if bytes.len() < MAGIC.len() + 4 + 8 {
+        return Err(SnapshotError::Truncated(bytes.len()));
+    }
+    let body_end = bytes.len() - 8;
+    let stored = u64::from_le_bytes(bytes[body_end..].try_into().expect("8 bytes"));
+    let mut r = Reader {
+        b: &bytes[..body_end],
+        pos: MAGIC.len(),
+    };
+    let version = r.u32()?;
+    if version != FORMAT_VERSION {
+        return Err(SnapshotError::UnsupportedVersion(version));
+    }
+    let computed = hash_bytes(&bytes[..body_end]);
+    if stored != computed {
+        return Err(SnapshotError::Checksum { stored, computed });
+    }
+    let tick = r.u64()?;
+    let time = r.finite("time")?;
+    let n = r.count(5)?;
+    let mut entries = Vec::with_capacity(n);
+    for index in 0..n {
+        let tag = r.u8()?;
+        let generation = r.u32()?;
+        entries.push(match tag {
+            0 => Entry::Vacant { generation },
+            1 => Entry::Occupied {
+                generation,
+                value: r.system(SystemHandle {
+                    index: index as u32,
+                    generation,
+                })?,
+            },
+            t => return invalid(format!("system entry tag {t}")),
+        });
+    }
+    let free = r.u32s()?;
+    let systems = Arena::from_parts(entries, free)
+        .ok_or_else(|| SnapshotError::Invalid("system free list is inconsistent".into()))?;
+    if r.pos != r.b.len() {
+        return Err(SnapshotError::Trailing(r.b.len() - r.pos));
+    }
+    Ok(DecodedWorld {
+        tick,
+        time,
+        systems,
+    })
+}
