@@ -116,3 +116,23 @@ pub(crate) fn exact_potential(x: &[DVec3], mass: &[f64], g: f64, eps2: f64) -> f
     };
     per_particle.iter().sum()
 }
+
+/// Gravitational acceleration on each of `positions` (m) with `masses` (kg),
+/// m/s², by `method`: a standalone entry point for checks and benchmarks
+/// (the step uses the same code). A mass of 0 takes no part.
+pub fn accelerations(positions: &[DVec3], masses: &[f64], gravity: &MutualGravity) -> Vec<DVec3> {
+    let mut force = vec![DVec3::ZERO; positions.len()];
+    let eps2 = gravity.softening * gravity.softening;
+    match gravity.method {
+        GravityMethod::Exact => exact_forces(positions, masses, gravity.g_constant, eps2, &mut force),
+        GravityMethod::BarnesHut { theta } => super::barnes_hut::Octree::build(positions, masses).forces(
+            positions,
+            masses,
+            gravity.g_constant,
+            eps2,
+            theta,
+            &mut force,
+        ),
+    }
+    force.iter().zip(masses).map(|(f, &m)| if m > 0.0 { *f / m } else { DVec3::ZERO }).collect()
+}
