@@ -6,7 +6,7 @@
 //! | [`ForwardEuler`](Integrator::ForwardEuler) | 1 | 1 | grows: an undamped oscillator swings ever wider |
 //! | [`SymplecticEuler`](Integrator::SymplecticEuler) | 1 | 1 | bounded: oscillates around the true value, no drift |
 //! | [`Leapfrog`](Integrator::Leapfrog) | 2 | 2 | bounded, time-reversible (kick-drift-kick) |
-//! | [`Verlet`](Integrator::Verlet) | 2 | 1 | bounded, time-reversible (position Störmer–Verlet) |
+//! | [`Verlet`](Integrator::Verlet) | 2 | 2 | bounded, time-reversible (position Störmer–Verlet) |
 //! | [`Rk4`](Integrator::Rk4) | 4 | 4 | very accurate per step but drifts slowly: not symplectic |
 //!
 //! "Order" is the global error: halving `dt` divides the error after a fixed
@@ -25,9 +25,11 @@
 //!   `v' = v½ + a(x', v½) dt/2`. Velocity-dependent forces see `v½`.
 //! * Verlet (Störmer): `x' = 2x - x_prev + a dt²`; the previous position is
 //!   part of the state. It is primed from the velocity as
-//!   `x_prev = x - v dt + ½ a dt²`, and re-primed if `dt` changes. The
-//!   reported velocity is `(x' - x)/dt + ½ a dt`, exact for constant
-//!   acceleration and second-order in general.
+//!   `x_prev = x - v dt + ½ a dt²`, and re-primed if `dt` changes. The reported velocity is
+//!   `(x' - x)/dt + ½ a(x') dt`, which needs a second force evaluation at
+//!   the new positions: without it (using `a(x)` instead) the velocity, and
+//!   so the energy, is off by `½ ȧ dt²`, several times the error of the
+//!   positions.
 //! * Classic fourth-order Runge–Kutta on the first-order system `(x, v)`.
 
 /// The integration method of a particle system.

@@ -124,15 +124,22 @@ pub fn accelerations(positions: &[DVec3], masses: &[f64], gravity: &MutualGravit
     let mut force = vec![DVec3::ZERO; positions.len()];
     let eps2 = gravity.softening * gravity.softening;
     match gravity.method {
-        GravityMethod::Exact => exact_forces(positions, masses, gravity.g_constant, eps2, &mut force),
-        GravityMethod::BarnesHut { theta } => super::barnes_hut::Octree::build(positions, masses).forces(
-            positions,
-            masses,
-            gravity.g_constant,
-            eps2,
-            theta,
-            &mut force,
-        ),
+        GravityMethod::Exact => {
+            exact_forces(positions, masses, gravity.g_constant, eps2, &mut force)
+        }
+        GravityMethod::BarnesHut { theta } => super::barnes_hut::Octree::build(positions, masses)
+            .forces(
+                positions,
+                masses,
+                gravity.g_constant,
+                eps2,
+                theta,
+                &mut force,
+            ),
     }
-    force.iter().zip(masses).map(|(f, &m)| if m > 0.0 { *f / m } else { DVec3::ZERO }).collect()
+    force
+        .iter()
+        .zip(masses)
+        .map(|(f, &m)| if m > 0.0 { *f / m } else { DVec3::ZERO })
+        .collect()
 }

@@ -1,0 +1,172 @@
+//! Scenes shared by the physics tests.
+#![allow(dead_code)]
+
+use inertia_physics::glam::DVec3;
+use inertia_physics::{
+    GravityMethod, Integrator, MutualGravity, ParticleDesc, ParticleHandle, SpringParams,
+    SystemDesc, SystemHandle, World, WorldConfig,
+};
+
+pub fn world() -> World {
+    World::new(WorldConfig {
+        threads: 1,
+        ..WorldConfig::default()
+    })
+    .unwrap()
+}
+
+/// A mass `m` on a spring of stiffness `k` to a pinned anchor at the origin,
+/// along x, displaced by `amplitude` from rest length 1 m.
+pub struct Oscillator {
+    pub world: World,
+    pub sys: SystemHandle,
+    pub mass: ParticleHandle,
+    pub omega: f64,
+    pub amplitude: f64,
+}
+
+pub const REST: f64 = 1.0;
+
+pub fn oscillator(integrator: Integrator, m: f64, k: f64, c: f64, amplitude: f64) -> Oscillator {
+    let mut world = world();
+    let sys = world.add_system(SystemDesc { integrator });
+    let anchor = world
+        .add_particle(
+            sys,
+            ParticleDesc {
+                pinned: true,
+                ..ParticleDesc::at(DVec3::ZERO, 1.0)
+            },
+        )
+        .unwrap();
+    let mass = world
+        .add_particle(
+            sys,
+            ParticleDesc::at(DVec3::new(REST + amplitude, 0.0, 0.0), m),
+        )
+        .unwrap();
+    world
+        .add_spring(
+            anchor,
+            mass,
+            SpringParams {
+                rest_length: REST,
+                stiffness: k,
+                damping: c,
+            },
+        )
+        .unwrap();
+    Oscillator {
+        world,
+        sys,
+        mass,
+        omega: (k / m).sqrt(),
+        amplitude,
+    }
+}
+
+impl Oscillator {
+    /// Displacement from rest, m.
+    pub fn x(&self) -> f64 {
+        self.world.particle(self.mass).unwrap().position.x - REST
+    }
+}
+
+/// A light body orbiting a pinned central mass with `G M = 1`, starting at
+/// periapsis on +x with semi-major axis `a` and eccentricity `e`.
+pub struct Kepler {
+    pub world: World,
+    pub body: ParticleHandle,
+    pub a: f64,
+    pub e: f64,
+}
+
+pub fn kepler(integrator: Integrator, a: f64, e: f64) -> Kepler {
+    let mut world = world();
+    let sys = world.add_system(SystemDesc { integrator });
+    world
+        .add_force(
+            sys,
+            MutualGravity {
+                g_constant: 1.0,
+                softening: 0.0,
+                method: GravityMethod::Exact,
+            },
+        )
+        .unwrap();
+    world
+        .add_particle(
+            sys,
+            ParticleDesc {
+                pinned: true,
+                ..ParticleDesc::at(DVec3::ZERO, 1.0)
+            },
+        )
+        .unwrap();
+    let rp = a * (1.0 - e);
+    let vp = ((1.0 + e) / rp).sqrt();
+    let body = world
+        .add_particle(
+            sys,
+            ParticleDesc::at(DVec3::new(rp, 0.0, 0.0), 1e-6)
+                .with_velocity(DVec3::new(0.0, vp, 0.0)),
+        )
+        .unwrap();
+    Kepler { world, body, a, e }
+}
+
+/// Analytic position on the Kepler orbit above at time `t` (μ = 1).
+pub fn kepler_position(a: f64, e: f64, t: f64) -> DVec3 {
+    let n = (1.0 / (a * a * a)).sqrt();
+    let m = n * t;
+    let mut ecc = if e > 0.8 { std::f64::consts::PI } else { m };
+    for _ in 0..100 {
+        let d = (ecc - e * ecc.sin() - m) / (1.0 - e * ecc.cos());
+        ecc -= d;
+        if d.abs() < 1e-15 {
+            break;
+        }
+    }
+    DVec3::new(
+        a * (ecc.cos() - e),
+        a * (1.0 - e * e).sqrt() * ecc.sin(),
+        0.0,
+    )
+}
+
+/// Steps `world` `n` times by `dt`.
+pub fn run(world: &mut World, dt: f64, n: usize) {
+    for _ in 0..n {
+        world.step(dt).unwrap();
+    }
+}
+
+/// A tiny deterministic PRNG (splitmix64) for test scenes.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    pub fn f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Uniform in the ball of radius `r`.
+    pub fn in_ball(&mut self, r: f64) -> DVec3 {
+        loop {
+            let p = DVec3::new(
+                self.f64() * 2.0 - 1.0,
+                self.f64() * 2.0 - 1.0,
+                self.f64() * 2.0 - 1.0,
+            );
+            if p.length_squared() <= 1.0 {
+                return p * r;
+            }
+        }
+    }
+}
