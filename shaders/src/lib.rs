@@ -1,1 +1,58 @@
-pub const PLACEHOLDER: &str = "";
+//! # inertia-shaders
+//!
+//! Inertia's WGSL compute shaders, kept as real `.wgsl` files under `wgsl/`
+//! (so editors and `naga` can read them) and exported here as source strings.
+//! `tests/validate.rs` parses and validates every one with naga and checks
+//! that the layouts they declare match the byte sizes in [`layout`], which
+//! the engine's `#[repr(C)]` mirrors assert at compile time.
+//!
+//! The GPU particle step (`inertia-physics`, feature `gpu`) runs three passes
+//! per step, each one invocation per item and each writing only its own
+//! slots, so no pass needs atomics and every sum has a fixed order:
+//!
+//! 1. [`PARTICLE_SPRINGS`]: one force per spring;
+//! 2. [`PARTICLE_INTERACTIONS`]: per particle, gather its spring forces over
+//!    the CSR adjacency and add tiled exact mutual gravity;
+//! 3. [`PARTICLE_INTEGRATE`]: per particle, field forces plus interactions,
+//!    forward or symplectic Euler, pinning and quarantine.
+
+/// Pass 1 of a GPU particle step: damped Hooke force of every spring.
+pub const PARTICLE_SPRINGS: &str = include_str!("../wgsl/particle_springs.wgsl");
+
+/// Pass 2 of a GPU particle step: spring gather and tiled exact N-body gravity.
+pub const PARTICLE_INTERACTIONS: &str = include_str!("../wgsl/particle_interactions.wgsl");
+
+/// Pass 3 of a GPU particle step: field forces and Euler integration.
+pub const PARTICLE_INTEGRATE: &str = include_str!("../wgsl/particle_integrate.wgsl");
+
+/// Every shader as `(file name, source)`, for validation and tooling.
+pub const ALL: &[(&str, &str)] = &[
+    ("particle_springs.wgsl", PARTICLE_SPRINGS),
+    ("particle_interactions.wgsl", PARTICLE_INTERACTIONS),
+    ("particle_integrate.wgsl", PARTICLE_INTEGRATE),
+];
+
+/// Sizes and limits of the data the particle shaders share with the engine.
+/// The shaders declare the same numbers; `tests/validate.rs` checks them
+/// against naga's layout of each struct.
+pub mod layout {
+    /// Invocations per workgroup of every particle pass (and the N-body tile
+    /// length). 64 is a multiple of every vendor's SIMD width (32 or 64).
+    pub const WORKGROUP_SIZE: u32 = 64;
+    /// Most field-force records (winds + buoyancies + explosions) one system
+    /// may carry in a step: they live in the uniform block, 48 bytes each.
+    pub const MAX_FIELD_FORCES: usize = 64;
+    /// Most mutual-gravity generators one system may carry.
+    pub const MAX_MUTUAL_GRAVITY: usize = 4;
+    /// `struct Body`: position (m), flags, velocity (m/s), padding.
+    pub const BODY_BYTES: usize = 32;
+    /// `struct Props`: per-particle constants.
+    pub const PROPS_BYTES: usize = 32;
+    /// `struct Spring`: endpoints, rest length, stiffness, damping.
+    pub const SPRING_BYTES: usize = 20;
+    /// `struct FieldForce`: three `vec4<f32>`.
+    pub const FIELD_FORCE_BYTES: usize = 48;
+    /// `struct Params`: the per-step uniform block.
+    pub const PARAMS_BYTES: usize =
+        80 + 16 * MAX_MUTUAL_GRAVITY + FIELD_FORCE_BYTES * MAX_FIELD_FORCES;
+}

@@ -1,0 +1,108 @@
+//! Every shader parses and validates with naga, declares the workgroup size
+//! the engine dispatches with, and lays out its shared structs at the byte
+//! sizes in `inertia_shaders::layout` (which the engine's `#[repr(C)]`
+//! mirrors assert at compile time).
+
+use inertia_shaders::{layout, ALL};
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+
+fn parse(name: &str, src: &str) -> naga::Module {
+    naga::front::wgsl::parse_str(src)
+        .unwrap_or_else(|e| panic!("{name} does not parse:\n{}", e.emit_to_string(src)))
+}
+
+#[test]
+fn every_shader_parses_and_validates() {
+    assert!(!ALL.is_empty());
+    for (name, src) in ALL {
+        let module = parse(name, src);
+        Validator::new(ValidationFlags::all(), Capabilities::empty())
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{name} does not validate:\n{}", e.emit_to_string(src)));
+    }
+}
+
+#[test]
+fn every_shader_has_one_compute_main_of_the_engine_workgroup_size() {
+    for (name, src) in ALL {
+        let module = parse(name, src);
+        assert_eq!(module.entry_points.len(), 1, "{name}");
+        let ep = &module.entry_points[0];
+        assert_eq!(ep.name, "main", "{name}");
+        assert_eq!(ep.stage, naga::ShaderStage::Compute, "{name}");
+        assert_eq!(ep.workgroup_size, [layout::WORKGROUP_SIZE, 1, 1], "{name}");
+    }
+}
+
+/// Byte size naga computes for the struct called `wanted`, if declared.
+fn struct_size(module: &naga::Module, wanted: &str) -> Option<usize> {
+    module
+        .types
+        .iter()
+        .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
+            (Some(n), naga::TypeInner::Struct { span, .. }) if n == wanted => Some(*span as usize),
+            _ => None,
+        })
+}
+
+#[test]
+fn shared_structs_match_the_engine_layout() {
+    let expected = [
+        ("Params", layout::PARAMS_BYTES),
+        ("Body", layout::BODY_BYTES),
+        ("FieldForce", layout::FIELD_FORCE_BYTES),
+        ("Props", layout::PROPS_BYTES),
+        ("Spring", layout::SPRING_BYTES),
+    ];
+    let mut seen = vec![0; expected.len()];
+    for (name, src) in ALL {
+        let module = parse(name, src);
+        for (k, (ty, bytes)) in expected.iter().enumerate() {
+            if let Some(size) = struct_size(&module, ty) {
+                assert_eq!(size, *bytes, "{name}: struct {ty}");
+                seen[k] += 1;
+            }
+        }
+    }
+    for (k, (ty, _)) in expected.iter().enumerate() {
+        assert!(seen[k] > 0, "no shader declares struct {ty}");
+    }
+}
+
+/// The block between the shared-layout markers, if any.
+fn shared_block(src: &str) -> Option<&str> {
+    let start = src.find("// ---- shared layout")?;
+    let end = src.find("// ---- end of shared layout ----")?;
+    Some(&src[start..end])
+}
+
+#[test]
+fn shared_layout_block_is_identical_in_every_particle_shader() {
+    let blocks: Vec<(&str, &str)> = ALL
+        .iter()
+        .filter(|(name, _)| name.starts_with("particle_"))
+        .map(|(name, src)| {
+            let block =
+                shared_block(src).unwrap_or_else(|| panic!("{name} lacks the shared layout block"));
+            (*name, block)
+        })
+        .collect();
+    assert!(blocks.len() >= 2);
+    for (name, block) in &blocks[1..] {
+        assert_eq!(*block, blocks[0].1, "{name} differs from {}", blocks[0].0);
+    }
+}
+
+#[test]
+fn shader_constants_match_the_engine_limits() {
+    for (name, src) in ALL {
+        for (constant, value) in [
+            ("WORKGROUP_SIZE", layout::WORKGROUP_SIZE as usize),
+            ("MAX_FIELD_FORCES", layout::MAX_FIELD_FORCES),
+            ("MAX_MUTUAL_GRAVITY", layout::MAX_MUTUAL_GRAVITY),
+        ] {
+            let decl = format!("const {constant}: u32 = {value}u;");
+            assert!(src.contains(&decl), "{name} must declare `{decl}`");
+        }
+    }
+}
