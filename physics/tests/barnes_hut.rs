@@ -8,7 +8,11 @@ use inertia_physics::glam::DVec3;
 use inertia_physics::{GravityMethod, MutualGravity};
 
 fn errors(positions: &[DVec3], masses: &[f64], theta: f64) -> (f64, f64) {
-    let g = |method| MutualGravity { g_constant: 1.0, softening: 0.01, method };
+    let g = |method| MutualGravity {
+        g_constant: 1.0,
+        softening: 0.01,
+        method,
+    };
     let exact = accelerations(positions, masses, &g(GravityMethod::Exact));
     let bh = accelerations(positions, masses, &g(GravityMethod::BarnesHut { theta }));
     let mut sum2 = 0.0;
@@ -41,7 +45,11 @@ fn distributions() -> Vec<(&'static str, Vec<DVec3>, Vec<f64>)> {
         })
         .collect();
     let masses: Vec<f64> = (0..n).map(|_| 0.5 + rng.f64()).collect();
-    vec![("ball", ball, masses.clone()), ("plummer", plummer, masses.clone()), ("disc", disc, masses)]
+    vec![
+        ("ball", ball, masses.clone()),
+        ("plummer", plummer, masses.clone()),
+        ("disc", disc, masses),
+    ]
 }
 
 #[test]
@@ -52,7 +60,10 @@ fn force_error_is_below_the_stated_bound() {
             let (rms, worst) = errors(&x, &m, theta);
             let bound = rms_error_bound(theta);
             eprintln!("{name} θ={theta}: rms {rms:.5} max {worst:.4} bound {bound}");
-            assert!(rms < bound, "{name} θ={theta}: rms error {rms} above bound {bound} (max {worst})");
+            assert!(
+                rms < bound,
+                "{name} θ={theta}: rms error {rms} above bound {bound} (max {worst})"
+            );
             assert!(rms >= last * 0.5, "{name}: error should grow with θ");
             last = rms;
         }
