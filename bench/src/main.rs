@@ -1,1 +1,56 @@
-fn main() {}
+//! `inertia-bench <suite> [--json] [--quick]`: runs one benchmark suite and
+//! prints one record per measured case (JSON lines with `--json`).
+
+use std::process::ExitCode;
+
+use clap::{Parser, ValueEnum};
+use inertia_bench::report::{Machine, Reporter};
+use inertia_bench::suites::Suite;
+use inertia_bench::Opts;
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum SuiteArg {
+    /// Order of convergence and energy drift of every integrator.
+    Integrators,
+    /// Particles 1e5/1e6, cloth 256x256 and n-body 1e4 against a memory copy, CPU and GPU.
+    Particles,
+    /// Exact vs Barnes–Hut mutual gravity at 1e4 bodies.
+    Nbody,
+}
+
+impl From<SuiteArg> for Suite {
+    fn from(s: SuiteArg) -> Self {
+        match s {
+            SuiteArg::Integrators => Suite::Integrators,
+            SuiteArg::Particles => Suite::Particles,
+            SuiteArg::Nbody => Suite::Nbody,
+        }
+    }
+}
+
+/// Measures what Inertia claims. See bench/README.md for every field.
+#[derive(Debug, Parser)]
+#[command(name = "inertia-bench", version)]
+struct Cli {
+    /// The suite to run.
+    suite: SuiteArg,
+    /// One JSON object per line per measured case on stdout, nothing else.
+    #[arg(long)]
+    json: bool,
+    /// Small sizes and few repetitions: a smoke test, not a measurement.
+    #[arg(long)]
+    quick: bool,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let suite = Suite::from(cli.suite);
+    let mut reporter = Reporter::new(suite.name(), Machine::detect(), cli.json);
+    match suite.run(&Opts { quick: cli.quick }, &mut reporter) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("inertia-bench {}: {e}", suite.name());
+            ExitCode::FAILURE
+        }
+    }
+}

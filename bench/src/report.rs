@@ -1,0 +1,280 @@
+//! What every measured case prints: the machine that produced it and one
+//! record per case, either as a JSON object on its own line (`--json`, the
+//! contract in DESIGN.md) or as a human-readable line.
+//!
+//! Progress and side remarks (wall times, warnings) go to stderr, so that
+//! `--json` output on stdout is nothing but records.
+
+use std::io::Write;
+use std::time::Duration;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+use serde_json::{Map, Value};
+
+/// The machine a run measured: CPU model and logical core count.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Machine {
+    /// CPU model name from `/proc/cpuinfo` ("unknown" where there is none).
+    pub cpu: String,
+    /// Logical cores the process may use.
+    pub logical_cores: usize,
+}
+
+impl Machine {
+    /// Reads the machine description once.
+    pub fn detect() -> Self {
+        let cpu = std::fs::read_to_string("/proc/cpuinfo")
+            .ok()
+            .and_then(|s| {
+                s.lines()
+                    .find(|l| l.starts_with("model name"))
+                    .and_then(|l| l.split_once(':'))
+                    .map(|(_, v)| v.trim().to_string())
+            })
+            .unwrap_or_else(|| "unknown".to_string());
+        Self {
+            cpu,
+            logical_cores: logical_cores(),
+        }
+    }
+}
+
+/// Logical cores available to this process (at least 1).
+pub fn logical_cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// One measured case: an ordered set of named fields.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Record(pub Map<String, Value>);
+
+impl Record {
+    /// An empty record.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds (or replaces) a field.
+    pub fn field(mut self, key: &str, value: impl Into<Value>) -> Self {
+        self.0.insert(key.to_string(), value.into());
+        self
+    }
+
+    /// Adds a float field; a non-finite value is written as `null`, as JSON
+    /// has no infinity or NaN.
+    pub fn num(self, key: &str, value: f64) -> Self {
+        let v = if value.is_finite() {
+            Value::from(value)
+        } else {
+            Value::Null
+        };
+        self.field(key, v)
+    }
+
+    /// A field's value.
+    pub fn get(&self, key: &str) -> Option<&Value> {
+        self.0.get(key)
+    }
+}
+
+/// Where suites send their records.
+pub trait Sink {
+    /// Receives one measured case (without `suite` and `machine`, which the
+    /// reporter adds).
+    fn record(&mut self, r: Record);
+}
+
+impl Sink for Vec<Record> {
+    fn record(&mut self, r: Record) {
+        self.push(r);
+    }
+}
+
+/// Prints records to stdout as they arrive.
+#[derive(Debug)]
+pub struct Reporter {
+    suite: String,
+    machine: Machine,
+    json: bool,
+    printed_header: bool,
+}
+
+impl Reporter {
+    /// A reporter for `suite` on `machine`; `json` selects JSON lines.
+    pub fn new(suite: &str, machine: Machine, json: bool) -> Self {
+        Self {
+            suite: suite.to_string(),
+            machine,
+            json,
+            printed_header: false,
+        }
+    }
+
+    /// The full record as printed: `suite` and `machine` first, then the
+    /// suite's fields.
+    pub fn complete(&self, r: Record) -> Map<String, Value> {
+        let mut m = Map::new();
+        m.insert("suite".into(), Value::from(self.suite.clone()));
+        m.insert(
+            "machine".into(),
+            serde_json::to_value(&self.machine).expect("machine serializes"),
+        );
+        for (k, v) in r.0 {
+            m.insert(k, v);
+        }
+        m
+    }
+}
+
+impl Sink for Reporter {
+    fn record(&mut self, r: Record) {
+        let m = self.complete(r);
+        let mut out = std::io::stdout().lock();
+        let line = if self.json {
+            serde_json::to_string(&m).expect("records serialize")
+        } else {
+            let mut s = String::new();
+            if !self.printed_header {
+                s.push_str(&format!(
+                    "# {} on {} ({} logical cores)\n",
+                    self.suite, self.machine.cpu, self.machine.logical_cores
+                ));
+                self.printed_header = true;
+            }
+            s.push_str(&human_line(&m));
+            s
+        };
+        // A closed pipe (`| head`) is not worth a panic.
+        let _ = writeln!(out, "{line}");
+        let _ = out.flush();
+    }
+}
+
+/// `case backend threads | key=value ...`, numbers to 4 significant digits.
+fn human_line(m: &Map<String, Value>) -> String {
+    const HEAD: [&str; 5] = ["case", "integrator", "method", "backend", "theta"];
+    let mut head = Vec::new();
+    for k in HEAD {
+        match m.get(k) {
+            Some(Value::String(s)) => head.push(s.clone()),
+            Some(Value::Number(n)) => head.push(format!("{k}={n}")),
+            _ => {}
+        }
+    }
+    if let Some(t) = m.get("threads") {
+        head.push(format!("threads={t}"));
+    }
+    let rest: Vec<String> = m
+        .iter()
+        .filter(|(k, _)| {
+            !HEAD.contains(&k.as_str()) && !matches!(k.as_str(), "suite" | "machine" | "threads")
+        })
+        .map(|(k, v)| format!("{k}={}", human_value(v)))
+        .collect();
+    format!("{:<40} {}", head.join(" "), rest.join(" "))
+}
+
+fn human_value(v: &Value) -> String {
+    match v {
+        Value::Number(n) if n.is_f64() => {
+            let x = n.as_f64().unwrap_or(f64::NAN);
+            if x != 0.0 && (x.abs() >= 1e5 || x.abs() < 1e-3) {
+                format!("{x:.3e}")
+            } else {
+                format!("{}", (x * 1e4).round() / 1e4)
+            }
+        }
+        Value::String(s) => s.clone(),
+        Value::Array(a) => format!(
+            "[{}]",
+            a.iter().map(human_value).collect::<Vec<_>>().join(",")
+        ),
+        other => other.to_string(),
+    }
+}
+
+/// A progress bar on stderr (hidden when stderr is not a terminal).
+pub fn progress(len: u64, what: &str) -> ProgressBar {
+    let pb = ProgressBar::new(len);
+    pb.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb.set_prefix(what.to_string());
+    pb.enable_steady_tick(Duration::from_millis(200));
+    pb
+}
+
+/// Prints a remark on stderr without tearing a progress bar.
+pub fn note(pb: &ProgressBar, msg: &str) {
+    pb.suspend(|| eprintln!("{msg}"));
+}
+
+/// Median of a non-empty sample (mean of the middle two for even lengths).
+pub fn median(xs: &[f64]) -> f64 {
+    assert!(!xs.is_empty(), "median of an empty sample");
+    let mut v = xs.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// SplitMix64 (Steele, Lea & Flood 2014): a tiny, fixed-seed generator for
+/// reproducible scenes. Not for anything that needs real randomness.
+#[derive(Debug, Clone)]
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `[0, 1)`.
+    pub fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+
+    /// Uniform in `[lo, hi)`.
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_odd_and_even() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 2.5);
+    }
+
+    #[test]
+    fn splitmix_is_reproducible_and_in_range() {
+        let (mut a, mut b) = (SplitMix64(7), SplitMix64(7));
+        for _ in 0..1000 {
+            let x = a.unit();
+            assert_eq!(x, b.unit());
+            assert!((0.0..1.0).contains(&x));
+        }
+    }
+
+    #[test]
+    fn non_finite_numbers_become_null() {
+        let r = Record::new().num("x", f64::INFINITY).num("y", 1.5);
+        assert_eq!(r.get("x"), Some(&Value::Null));
+        assert_eq!(r.get("y"), Some(&Value::from(1.5)));
+    }
+}

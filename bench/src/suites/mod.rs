@@ -1,0 +1,42 @@
+//! One file per suite.
+
+pub mod integrators;
+pub mod nbody;
+pub mod particles;
+
+use crate::report::Sink;
+use crate::{BenchError, Opts};
+
+/// The suites the binary runs, by command-line name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Suite {
+    /// Order of convergence and energy drift of every integrator.
+    Integrators,
+    /// Particle, cloth and n-body stepping throughput against a memory copy.
+    Particles,
+    /// Exact and Barnes–Hut mutual gravity: time per step and force error.
+    Nbody,
+}
+
+impl Suite {
+    /// Every suite.
+    pub const ALL: [Suite; 3] = [Suite::Integrators, Suite::Particles, Suite::Nbody];
+
+    /// The command-line name, also the `suite` field of every record.
+    pub fn name(self) -> &'static str {
+        match self {
+            Suite::Integrators => "integrators",
+            Suite::Particles => "particles",
+            Suite::Nbody => "nbody",
+        }
+    }
+
+    /// Runs the suite, sending one record per measured case to `sink`.
+    pub fn run(self, opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
+        match self {
+            Suite::Integrators => integrators::run(opts, sink),
+            Suite::Particles => particles::run(opts, sink),
+            Suite::Nbody => nbody::run(opts, sink),
+        }
+    }
+}

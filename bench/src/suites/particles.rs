@@ -1,0 +1,499 @@
+//! `inertia-bench particles`: stepping throughput of large particle systems
+//! and a cloth, on the CPU at 1 and 2 threads and on the GPU, against a
+//! plain memory copy measured in the same process, interleaved.
+//!
+//! ## Cases
+//!
+//! * `particles_1e5`, `particles_1e6`: free particles under `UniformGravity`,
+//!   `Drag` and `Wind`, every particle with its own mass, drag coefficients
+//!   and area; symplectic Euler; default energy accounting (on).
+//! * `cloth_256`: `build_cloth` 256 × 256 (65 536 particles, 390 658
+//!   springs: structural, shear, bend), two corners pinned, under gravity and
+//!   wind; symplectic Euler; energy accounting **off** (its spring-potential
+//!   pass is bookkeeping, not stepping; the record says so).
+//! * `nbody_1e4`: see [`super::nbody`], run here too.
+//!
+//! `--quick` shrinks them to 1e4 / 1e5 particles, a 64 × 64 cloth and 1e3
+//! bodies, and the case names say so.
+//!
+//! ## Bytes per particle step
+//!
+//! The traffic a step *must* move: every array element the step reads or
+//! writes, counted once per pass that touches it (gathers of neighbours
+//! counted once per particle, as if they hit cache). Checked against
+//! `physics/src/step.rs`, `forces/*.rs` and `spring.rs`.
+//!
+//! Free particles, the fused symplectic-Euler pass with gravity + drag +
+//! wind (no interaction forces, so no force buffer):
+//!
+//! | array | read | written |
+//! |---|---|---|
+//! | position (DVec3) | 24 | 24 |
+//! | velocity (DVec3) | 24 | 24 |
+//! | inv_mass (f64) | 8 | |
+//! | drag_linear, drag_quadratic (f64) | 16 | |
+//! | area (f64) | 8 | |
+//! | flags (u32) | 4 | (only on quarantine) |
+//!
+//! = 84 read + 48 written = **132 B** per particle step. Gravity is a
+//! constant; wind reads only `area`; `volume`, `group` and `control` are
+//! not touched without buoyancy, explosions or control forces. The energy
+//! accounting of kinetic and gravity energy is done inside the same pass from
+//! the values already loaded; with no springs or mutual gravity the energy
+//! stage reads nothing.
+//!
+//! Cloth (per particle `N`, per spring `S`; no drag force, so the drag
+//! arrays are not read):
+//!
+//! * force buffer cleared: 24 N written;
+//! * spring pass: endpoints `a`, `b` (8) and params (24) read, spring force
+//!   (24) written = 56 S; endpoint position, velocity, flags read = 52 N;
+//! * gather pass: offsets 4 N, adjacency 8 S and spring forces 24 S read,
+//!   force buffer 24 N read and 24 N written;
+//! * fused Euler pass: position 24, velocity 24, flags 4, inv_mass 8, area 8
+//!   and force buffer 24 read, position and velocity 48 written = 140 N.
+//!
+//! = **88 B per spring + 268 B per particle**.
+//!
+//! The GPU records use the same byte counts (the CPU's `f64` layout), so
+//! their `bytes_per_s` compare with the CPU records and the copy; the GPU's
+//! own `f32` buffers move fewer bytes.
+
+use std::time::Instant;
+
+use inertia_physics::glam::DVec3;
+use inertia_physics::{
+    build_cloth, Backend, ClothDesc, Drag, Integrator, ParticleDesc, SpringStiffness, SystemDesc,
+    SystemHandle, UniformGravity, Wind, World, WorldConfig,
+};
+
+use crate::copy::CopyBench;
+use crate::report::{logical_cores, median, note, progress, Record, Sink, SplitMix64};
+use crate::{BenchError, Opts};
+
+/// Simulation step, s: a 60 Hz game tick.
+pub const DT: f64 = 1.0 / 60.0;
+
+/// Bytes per particle step of the free-particle case (see the module docs).
+pub const PARTICLE_BYTES: f64 = 132.0;
+/// Bytes per particle step of the cloth, per particle.
+pub const CLOTH_BYTES_PER_PARTICLE: f64 = 268.0;
+/// Bytes per particle step of the cloth, per spring.
+pub const CLOTH_BYTES_PER_SPRING: f64 = 88.0;
+
+/// A scene to step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scene {
+    /// `n` free particles under gravity, drag and wind.
+    Particles(usize),
+    /// An `n` × `n` cloth under gravity and wind.
+    Cloth(usize),
+}
+
+impl Scene {
+    /// The case name, e.g. `particles_1e6` or `cloth_256`.
+    pub fn name(self) -> String {
+        match self {
+            Scene::Particles(n) => format!("particles_{}", sci(n)),
+            Scene::Cloth(n) => format!("cloth_{n}"),
+        }
+    }
+
+    /// Whether the world keeps energy accounting on for this case.
+    pub fn energy_accounting(self) -> bool {
+        matches!(self, Scene::Particles(_))
+    }
+
+    /// Builds the scene in a new world; returns the world, its one system
+    /// and the number of springs.
+    pub fn build(self, config: WorldConfig) -> Result<(World, SystemHandle, usize), BenchError> {
+        let mut w = World::new(config)?;
+        let sys = w.add_system(SystemDesc {
+            integrator: Integrator::SymplecticEuler,
+        });
+        w.add_force(sys, UniformGravity::earth())?;
+        w.add_force(
+            sys,
+            Wind {
+                velocity: DVec3::new(6.0, 0.0, 2.0),
+                ..Wind::default()
+            },
+        )?;
+        let springs = match self {
+            Scene::Particles(n) => {
+                w.add_force(sys, Drag::default())?;
+                let mut rng = SplitMix64(0x1E27_1A00 ^ n as u64);
+                let descs: Vec<ParticleDesc> = (0..n)
+                    .map(|_| {
+                        let position = DVec3::new(
+                            rng.range(-100.0, 100.0),
+                            rng.range(0.0, 200.0),
+                            rng.range(-100.0, 100.0),
+                        );
+                        let velocity = DVec3::new(
+                            rng.range(-5.0, 5.0),
+                            rng.range(0.0, 10.0),
+                            rng.range(-5.0, 5.0),
+                        );
+                        ParticleDesc {
+                            drag_linear: rng.range(0.01, 0.05),
+                            drag_quadratic: rng.range(0.001, 0.01),
+                            area: rng.range(0.005, 0.02),
+                            ..ParticleDesc::at(position, rng.range(0.05, 0.2))
+                                .with_velocity(velocity)
+                        }
+                    })
+                    .collect();
+                w.add_particles(sys, &descs)?;
+                0
+            }
+            Scene::Cloth(n) => {
+                // 10 cm spacing, 10 g per particle; stiffnesses soft enough
+                // for symplectic Euler at 60 Hz (ω dt < 1 for the stiffest
+                // mode), as a game would tune them.
+                let c = build_cloth(
+                    &mut w,
+                    sys,
+                    &ClothDesc {
+                        origin: DVec3::new(0.0, 30.0, 0.0),
+                        width: 0.1 * (n - 1) as f64,
+                        height: 0.1 * (n - 1) as f64,
+                        nu: n,
+                        nv: n,
+                        mass: 0.01 * (n * n) as f64,
+                        structural: SpringStiffness {
+                            stiffness: 5.0,
+                            damping: 0.02,
+                        },
+                        shear: SpringStiffness {
+                            stiffness: 2.0,
+                            damping: 0.01,
+                        },
+                        bend: SpringStiffness {
+                            stiffness: 1.0,
+                            damping: 0.005,
+                        },
+                        drag_linear: 0.0,
+                        pinned: vec![(0, 0), (n - 1, 0)],
+                        ..ClothDesc::default()
+                    },
+                )?;
+                c.spring_counts.iter().sum()
+            }
+        };
+        Ok((w, sys, springs))
+    }
+
+    /// Bytes one step must move (see the module docs).
+    pub fn bytes_per_step(self, particles: usize, springs: usize) -> f64 {
+        match self {
+            Scene::Particles(_) => PARTICLE_BYTES * particles as f64,
+            Scene::Cloth(_) => {
+                CLOTH_BYTES_PER_PARTICLE * particles as f64
+                    + CLOTH_BYTES_PER_SPRING * springs as f64
+            }
+        }
+    }
+}
+
+/// `1e6` for 1 000 000, the number itself otherwise.
+pub fn sci(n: usize) -> String {
+    let mut k = 0;
+    let mut m = n;
+    while m >= 10 && m % 10 == 0 {
+        m /= 10;
+        k += 1;
+    }
+    if m == 1 && k > 0 {
+        format!("1e{k}")
+    } else {
+        n.to_string()
+    }
+}
+
+/// Sizes and repetitions.
+#[derive(Debug, Clone, Copy)]
+struct Plan {
+    reps: usize,
+    /// Wall time one timed burst of steps (or copies) aims at, s.
+    burst_s: f64,
+    warmup: usize,
+    /// Steps compared between CPU and GPU.
+    compare_steps: usize,
+}
+
+impl Plan {
+    fn new(opts: &Opts) -> Self {
+        if opts.quick {
+            Plan {
+                reps: 3,
+                burst_s: 0.002,
+                warmup: 1,
+                compare_steps: 3,
+            }
+        } else {
+            Plan {
+                reps: 21,
+                burst_s: 0.02,
+                warmup: 3,
+                compare_steps: 20,
+            }
+        }
+    }
+}
+
+/// The scenes of the suite.
+pub fn scenes(opts: &Opts) -> Vec<Scene> {
+    if opts.quick {
+        vec![
+            Scene::Particles(10_000),
+            Scene::Particles(100_000),
+            Scene::Cloth(64),
+        ]
+    } else {
+        vec![
+            Scene::Particles(100_000),
+            Scene::Particles(1_000_000),
+            Scene::Cloth(256),
+        ]
+    }
+}
+
+/// CPU thread counts measured: 1 and 2, and every core if there are more.
+pub fn thread_counts() -> Vec<usize> {
+    let mut t = vec![1, 2];
+    let n = logical_cores();
+    if n > 2 {
+        t.push(n);
+    }
+    t
+}
+
+/// Medians of interleaved copy and step bursts, s per copy and per step.
+struct Timing {
+    step_s: f64,
+    copy_s: f64,
+    copy_bytes: f64,
+}
+
+/// Alternates `reps` bursts of copies and of `step` calls (the order flips
+/// every repetition, so neither always runs on a cache the other warmed),
+/// and returns the median time of one of each.
+fn interleaved(
+    plan: &Plan,
+    copy: &mut CopyBench,
+    mut step: impl FnMut() -> Result<(), BenchError>,
+) -> Result<Timing, BenchError> {
+    let mut est_step: f64 = 0.0;
+    for _ in 0..plan.warmup.max(1) {
+        let t0 = Instant::now();
+        step()?;
+        est_step = t0.elapsed().as_secs_f64();
+    }
+    let est_copy = copy.run();
+    let step_burst = ((plan.burst_s / est_step.max(1e-9)).ceil() as usize).max(1);
+    let copy_burst = ((plan.burst_s / est_copy.max(1e-9)).ceil() as usize).max(1);
+    let (mut steps, mut copies) = (Vec::new(), Vec::new());
+    for r in 0..plan.reps {
+        let mut time_copy = |copies: &mut Vec<f64>| {
+            let s: f64 = (0..copy_burst).map(|_| copy.run()).sum();
+            copies.push(s / copy_burst as f64);
+        };
+        if r % 2 == 0 {
+            time_copy(&mut copies);
+        }
+        let t0 = Instant::now();
+        for _ in 0..step_burst {
+            step()?;
+        }
+        steps.push(t0.elapsed().as_secs_f64() / step_burst as f64);
+        if r % 2 == 1 {
+            time_copy(&mut copies);
+        }
+    }
+    Ok(Timing {
+        step_s: median(&steps),
+        copy_s: median(&copies),
+        copy_bytes: copy.counted_bytes() as f64,
+    })
+}
+
+fn throughput_record(
+    scene: Scene,
+    backend: &str,
+    threads: usize,
+    particles: usize,
+    springs: usize,
+    t: &Timing,
+) -> Record {
+    let bytes = scene.bytes_per_step(particles, springs);
+    let bytes_per_s = bytes / t.step_s;
+    let copy_bytes_per_s = t.copy_bytes / t.copy_s;
+    let mut r = Record::new()
+        .field("case", scene.name())
+        .field("backend", backend)
+        .field("threads", threads)
+        .field("particles", particles);
+    if springs > 0 {
+        r = r.field("springs", springs);
+    }
+    r.num("ns_per_particle_step", t.step_s * 1e9 / particles as f64)
+        .num("ms_per_step", t.step_s * 1e3)
+        .num("bytes_per_particle_step", bytes / particles as f64)
+        .num("bytes_per_s", bytes_per_s)
+        .num("copy_bytes_per_s", copy_bytes_per_s)
+        .num("fraction_of_copy", bytes_per_s / copy_bytes_per_s)
+        .field("energy_accounting", scene.energy_accounting())
+}
+
+fn config(threads: usize, energy: bool, gpu_readback_every_step: bool) -> WorldConfig {
+    WorldConfig {
+        threads,
+        energy_accounting: energy,
+        gpu_readback_every_step,
+    }
+}
+
+/// Measures one scene on the CPU with `threads` workers.
+pub fn cpu_case(
+    opts: &Opts,
+    scene: Scene,
+    threads: usize,
+    sink: &mut dyn Sink,
+) -> Result<(), BenchError> {
+    let plan = Plan::new(opts);
+    let (mut w, sys, springs) = scene.build(config(threads, scene.energy_accounting(), true))?;
+    let particles = w.system(sys).ok_or("system vanished")?.len();
+    let mut copy = CopyBench::new(scene.bytes_per_step(particles, springs) as usize, threads);
+    let t = interleaved(&plan, &mut copy, || {
+        w.step(DT)?;
+        Ok(())
+    })?;
+    let quarantined = w.system(sys).ok_or("system vanished")?.quarantined_count();
+    let p = w.profile_totals();
+    let integrate_share = p.sum.integrate.as_secs_f64() / p.sum.total.as_secs_f64().max(1e-12);
+    sink.record(
+        throughput_record(scene, "cpu", threads, particles, springs, &t)
+            .field("steps", w.tick())
+            .field("quarantined", quarantined)
+            .num("integrate_share", integrate_share),
+    );
+    Ok(())
+}
+
+/// Measures one scene on the GPU: correctness against the CPU first, then
+/// throughput with no readback per step (each timed burst ends with one
+/// `sync_gpu`, so the work is really done). If the GPU backend is not
+/// available the record carries an `error` field instead of figures.
+pub fn gpu_case(opts: &Opts, scene: Scene, sink: &mut dyn Sink) -> Result<(), BenchError> {
+    let plan = Plan::new(opts);
+    let threads = logical_cores();
+    let energy = scene.energy_accounting();
+    let (mut g, gsys, springs) = scene.build(config(0, energy, false))?;
+    let particles = g.system(gsys).ok_or("system vanished")?.len();
+    let base = Record::new()
+        .field("case", scene.name())
+        .field("backend", "gpu")
+        .field("threads", threads)
+        .field("particles", particles);
+    if let Err(e) = g.set_backend(gsys, Backend::Gpu) {
+        sink.record(
+            base.field("error", e.to_string())
+                .field("energy_accounting", energy),
+        );
+        return Ok(());
+    }
+    let mut run = || -> Result<Record, BenchError> {
+        let (mut c, csys, _) = scene.build(config(0, energy, true))?;
+        for _ in 0..plan.compare_steps {
+            g.step(DT)?;
+            c.step(DT)?;
+        }
+        g.sync_gpu()?;
+        let gp = g.system(gsys).ok_or("system vanished")?.positions();
+        let cp = c.system(csys).ok_or("system vanished")?.positions();
+        let max_abs_diff = gp
+            .iter()
+            .zip(cp)
+            .map(|(a, b)| (*a - *b).abs().max_element())
+            .fold(0.0f64, f64::max);
+        let mut copy = CopyBench::new(scene.bytes_per_step(particles, springs) as usize, threads);
+        // One burst = `k` steps + one sync; `interleaved` times bursts of
+        // this closure, so per-step time includes the amortized readback.
+        let k = if opts.quick { 2 } else { 10 };
+        let t = interleaved(&plan, &mut copy, || {
+            for _ in 0..k {
+                g.step(DT)?;
+            }
+            g.sync_gpu()?;
+            Ok(())
+        })?;
+        let t = Timing {
+            step_s: t.step_s / k as f64,
+            ..t
+        };
+        Ok(
+            throughput_record(scene, "gpu", threads, particles, springs, &t)
+                .num("max_abs_diff_vs_cpu", max_abs_diff)
+                .field("compare_steps", plan.compare_steps),
+        )
+    };
+    match run() {
+        Ok(r) => sink.record(r),
+        Err(e) => sink.record(
+            base.field("error", format!("GPU run failed: {e}"))
+                .field("energy_accounting", energy),
+        ),
+    }
+    Ok(())
+}
+
+/// Runs the suite: every scene on the CPU at each thread count and on the
+/// GPU, then the n-body case.
+pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
+    let scenes = scenes(opts);
+    let threads = thread_counts();
+    let pb = progress((scenes.len() * (threads.len() + 1)) as u64, "particles");
+    for scene in scenes {
+        for &t in &threads {
+            pb.set_message(format!("{} cpu threads={t}", scene.name()));
+            let t0 = Instant::now();
+            cpu_case(opts, scene, t, sink)?;
+            note(
+                &pb,
+                &format!(
+                    "particles: {} cpu threads={t} measured in {:.1} s",
+                    scene.name(),
+                    t0.elapsed().as_secs_f64()
+                ),
+            );
+            pb.inc(1);
+        }
+        pb.set_message(format!("{} gpu", scene.name()));
+        gpu_case(opts, scene, sink)?;
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    super::nbody::run(opts, sink)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn case_names() {
+        assert_eq!(sci(1_000_000), "1e6");
+        assert_eq!(sci(100_000), "1e5");
+        assert_eq!(sci(65_536), "65536");
+        assert_eq!(Scene::Cloth(256).name(), "cloth_256");
+    }
+
+    #[test]
+    fn cloth_springs_match_the_byte_model_count() {
+        let (w, sys, springs) = Scene::Cloth(16).build(WorldConfig::default()).unwrap();
+        assert_eq!(w.system(sys).unwrap().spring_count(), springs);
+        // 2·15·16 structural + 2·15·15 shear + 2·14·16 bend.
+        assert_eq!(springs, 480 + 450 + 448);
+    }
+}

@@ -1,0 +1,147 @@
+//! Runs every suite of the real binary in `--quick --json` mode and checks
+//! the output contract: stdout is nothing but JSON objects, one per case,
+//! each with `suite`, `machine` and `threads`, and the suite's own fields
+//! present and sane.
+
+use std::process::Command;
+
+use serde_json::{Map, Value};
+
+fn run(suite: &str) -> Vec<Map<String, Value>> {
+    let out = Command::new(env!("CARGO_BIN_EXE_inertia-bench"))
+        .args([suite, "--json", "--quick"])
+        .output()
+        .expect("run inertia-bench");
+    assert!(
+        out.status.success(),
+        "{suite} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).expect("utf-8 stdout");
+    let lines: Vec<Map<String, Value>> = stdout
+        .lines()
+        .map(|l| match serde_json::from_str::<Value>(l) {
+            Ok(Value::Object(m)) => m,
+            other => panic!("{suite}: not a JSON object line: {l:?} ({other:?})"),
+        })
+        .collect();
+    assert!(!lines.is_empty(), "{suite} printed nothing");
+    for m in &lines {
+        assert_eq!(m["suite"], suite, "{m:?}");
+        let machine = m["machine"].as_object().expect("machine object");
+        assert!(!machine["cpu"].as_str().expect("cpu string").is_empty());
+        assert!(machine["logical_cores"].as_u64().expect("cores") >= 1);
+        assert!(m["threads"].as_u64().expect("threads") >= 1, "{m:?}");
+    }
+    lines
+}
+
+fn num(m: &Map<String, Value>, k: &str) -> f64 {
+    m.get(k)
+        .and_then(Value::as_f64)
+        .unwrap_or_else(|| panic!("field {k} missing or not a number in {m:?}"))
+}
+
+fn positive(m: &Map<String, Value>, k: &str) -> f64 {
+    let x = num(m, k);
+    assert!(x.is_finite() && x > 0.0, "{k} = {x} in {m:?}");
+    x
+}
+
+#[test]
+fn integrators_suite() {
+    let lines = run("integrators");
+    let names: Vec<&str> = lines
+        .iter()
+        .map(|m| m["integrator"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        ["forward_euler", "symplectic_euler", "leapfrog", "verlet", "rk4"]
+    );
+    for m in &lines {
+        let expected = num(m, "expected_order");
+        for k in ["order_oscillator", "order_kepler"] {
+            let order = num(m, k);
+            assert!((order - expected).abs() < 0.3, "{k} = {order} in {m:?}");
+        }
+        let name = m["integrator"].as_str().unwrap();
+        match name {
+            // Grows by (1 + (ω dt)²) per step: huge, or overflowed (null).
+            "forward_euler" => assert!(m["energy_drift"].as_f64().is_none_or(|d| d > 1.0)),
+            "rk4" => assert!(positive(m, "energy_drift") < 1e-3, "{m:?}"),
+            _ => assert!(num(m, "energy_drift") < 0.05, "{m:?}"),
+        }
+    }
+}
+
+#[test]
+fn particles_suite() {
+    let lines = run("particles");
+    let mut cpu_threads = Vec::new();
+    let mut gpu = 0;
+    let mut nbody = 0;
+    for m in &lines {
+        let case = m["case"].as_str().expect("case");
+        if case.starts_with("nbody_") {
+            nbody += 1;
+            positive(m, "ms_per_step");
+            continue;
+        }
+        assert!(positive(m, "particles") >= 1000.0);
+        match m["backend"].as_str().expect("backend") {
+            "cpu" => {
+                cpu_threads.push(m["threads"].as_u64().unwrap());
+                for k in [
+                    "ns_per_particle_step",
+                    "bytes_per_s",
+                    "copy_bytes_per_s",
+                    "fraction_of_copy",
+                ] {
+                    positive(m, k);
+                }
+                assert!(num(m, "fraction_of_copy") < 10.0, "{m:?}");
+                assert_eq!(num(m, "quarantined"), 0.0, "{m:?}");
+                assert!(m["energy_accounting"].is_boolean());
+            }
+            "gpu" => {
+                gpu += 1;
+                // Either the GPU ran and agrees with the CPU to f32
+                // precision, or the record says why it did not.
+                if m.get("error").is_none() {
+                    positive(m, "ns_per_particle_step");
+                    positive(m, "fraction_of_copy");
+                    assert!(num(m, "max_abs_diff_vs_cpu") < 1.0, "{m:?}");
+                } else {
+                    assert!(!m["error"].as_str().unwrap().is_empty());
+                }
+            }
+            other => panic!("unknown backend {other}"),
+        }
+    }
+    assert_eq!(gpu, 3, "one GPU record per scene");
+    assert!(cpu_threads.contains(&1) && cpu_threads.contains(&2));
+    assert_eq!(cpu_threads.len() % 3, 0, "each scene at each thread count");
+    assert!(nbody >= 4, "the n-body case is part of the particles suite");
+}
+
+#[test]
+fn nbody_suite() {
+    let lines = run("nbody");
+    let exact = lines.iter().filter(|m| m["method"] == "exact").count();
+    assert!(exact >= 2, "exact at 1 and 2 threads");
+    for m in &lines {
+        positive(m, "ms_per_step");
+        positive(m, "bodies");
+        if m["method"] == "barnes_hut" {
+            let theta = positive(m, "theta");
+            let rms = positive(m, "rms_rel_force_error");
+            let max = positive(m, "max_rel_force_error");
+            assert!(rms <= max, "{m:?}");
+            assert!(rms < 0.05 * theta * theta + 1e-6, "{m:?}");
+            positive(m, "rms_error_bound");
+        } else {
+            assert_eq!(num(m, "rms_rel_force_error"), 0.0);
+        }
+    }
+}
