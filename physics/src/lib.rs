@@ -15,7 +15,7 @@
 //! use glam::DVec3;
 //!
 //! let mut world = World::new(WorldConfig::default()).unwrap();
-//! let sys = world.add_system(SystemDesc { integrator: Integrator::ForwardEuler });
+//! let sys = world.add_system(SystemDesc::with_integrator(Integrator::ForwardEuler));
 //! world.add_force(sys, UniformGravity { g: 1.0, direction: DVec3::NEG_Y }).unwrap();
 //! let p = world
 //!     .add_particle(sys, ParticleDesc::at(DVec3::ZERO, 1.0).with_velocity(DVec3::new(2.0, 3.0, 0.0)))

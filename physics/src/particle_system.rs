@@ -113,10 +113,35 @@ impl ParticleDesc {
 }
 
 /// How a new particle system is set up.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SystemDesc {
     /// The integration method.
     pub integrator: Integrator,
+    /// Most substeps one world step may be cut into to keep stiff springs
+    /// stable (1 = never substep). An explicit step of a spring network is
+    /// stable while `ω dt < 2` (symplectic methods); the system splits `dt`
+    /// so that `ω_max h <= 1`, a margin of two, where `ω_max` is bounded from
+    /// the springs' stiffness and the particles' masses. Default 16.
+    pub max_substeps: u32,
+}
+
+impl Default for SystemDesc {
+    fn default() -> Self {
+        Self {
+            integrator: Integrator::default(),
+            max_substeps: 16,
+        }
+    }
+}
+
+impl SystemDesc {
+    /// Default settings with the given integrator.
+    pub fn with_integrator(integrator: Integrator) -> Self {
+        Self {
+            integrator,
+            ..Self::default()
+        }
+    }
 }
 
 /// Maps a handle's slot to a dense index.
@@ -135,6 +160,7 @@ pub struct ParticleSystem {
     pub(crate) handle: SystemHandle,
     pub(crate) integrator: Integrator,
     pub(crate) backend: Backend,
+    pub(crate) max_substeps: u32,
 
     // --- hot data, one entry per particle, dense ---
     /// Positions, m.
@@ -203,6 +229,7 @@ impl ParticleSystem {
             handle,
             integrator: desc.integrator,
             backend: Backend::Cpu,
+            max_substeps: desc.max_substeps.max(1),
             position: Vec::new(),
             velocity: Vec::new(),
             prev_position: Vec::new(),
@@ -392,6 +419,34 @@ impl ParticleSystem {
             self.control = vec![DVec3::ZERO; self.len()];
             self.control_active = true;
         }
+    }
+
+    /// Rebuilds the spring adjacency and stability bound if anything changed.
+    pub(crate) fn refresh_topology(&mut self) {
+        if self.topology.dirty {
+            let (slots, flags) = (&self.slots, &self.flags);
+            self.topology.rebuild(
+                self.springs.iter().map(|(_, _, s)| s),
+                |slot| slots[slot as usize].dense,
+                &self.inv_mass,
+                |i| flags[i] & (FLAG_PINNED | FLAG_QUARANTINED) == 0,
+            );
+        }
+    }
+
+    /// Substeps a world step of `dt` seconds is cut into for this system.
+    pub fn substeps_for(&mut self, dt: f64) -> u32 {
+        self.refresh_topology();
+        if self.topology.is_empty() {
+            1
+        } else {
+            self.topology.substeps(dt, self.max_substeps)
+        }
+    }
+
+    /// Most substeps per world step (see [`SystemDesc::max_substeps`]).
+    pub fn max_substeps(&self) -> u32 {
+        self.max_substeps
     }
 
     /// Number of particles flagged quarantined.

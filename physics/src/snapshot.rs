@@ -193,6 +193,7 @@ fn system<S: Sink>(s: &mut S, p: &ParticleSystem) {
         Backend::Gpu => 1,
     });
     s.f64(p.verlet_dt);
+    s.u32(p.max_substeps);
     vec3s(s, &p.position);
     vec3s(s, &p.velocity);
     vec3s(s, &p.prev_position);
@@ -403,13 +404,17 @@ impl<'a> Reader<'a> {
     fn system(&mut self, handle: SystemHandle) -> Result<ParticleSystem, SnapshotError> {
         let integrator = Integrator::from_code(self.u8()?)
             .ok_or_else(|| SnapshotError::Invalid("unknown integrator".into()))?;
-        let mut p = ParticleSystem::new(handle, crate::SystemDesc { integrator });
+        let mut p = ParticleSystem::new(handle, crate::SystemDesc::with_integrator(integrator));
         p.backend = match self.u8()? {
             0 => Backend::Cpu,
             1 => Backend::Gpu,
             t => return invalid(format!("backend {t}")),
         };
         p.verlet_dt = self.finite("verlet dt")?;
+        p.max_substeps = self.u32()?;
+        if p.max_substeps == 0 {
+            return invalid("max substeps is zero");
+        }
         p.position = self.vec3s("position")?;
         p.velocity = self.vec3s("velocity")?;
         p.prev_position = self.vec3s("previous position")?;

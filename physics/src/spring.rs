@@ -63,6 +63,11 @@ pub(crate) struct SpringTopology {
     pub(crate) adj: Vec<u32>,
     /// Scratch: force on endpoint `a` of each spring, N.
     pub(crate) force: Vec<DVec3>,
+    /// Upper bound on the squared highest natural frequency of the spring
+    /// network, rad²/s² (Gershgorin bound on `M^-1 K`).
+    pub(crate) omega2_max: f64,
+    /// Upper bound on the damping rate `Σ c / m` of any particle, 1/s.
+    pub(crate) damping_rate_max: f64,
 }
 
 impl SpringTopology {
@@ -71,8 +76,10 @@ impl SpringTopology {
         &mut self,
         springs: impl Iterator<Item = &'a Spring>,
         slot_to_dense: impl Fn(u32) -> u32,
-        particle_count: usize,
+        inv_mass: &[f64],
+        movable: impl Fn(usize) -> bool,
     ) {
+        let particle_count = inv_mass.len();
         self.a.clear();
         self.b.clear();
         self.params.clear();
@@ -100,7 +107,42 @@ impl SpringTopology {
             cursor[b as usize] += 1;
         }
         self.force.resize(self.a.len(), DVec3::ZERO);
+        // Stability: per movable particle, Σ k (1/m_i + 1/sqrt(m_i m_j)) bounds
+        // the row sum of M^-1/2 K M^-1/2 (Gershgorin), hence ω².
+        let (mut w2, mut g) = (0.0f64, 0.0f64);
+        for i in 0..particle_count {
+            if !movable(i) {
+                continue;
+            }
+            let (mut row, mut damp) = (0.0, 0.0);
+            for &e in &self.adj[self.offsets[i] as usize..self.offsets[i + 1] as usize] {
+                let s = (e >> 1) as usize;
+                let j = if e & 1 == 0 { self.b[s] } else { self.a[s] } as usize;
+                let p = &self.params[s];
+                let other = if movable(j) {
+                    (inv_mass[i] * inv_mass[j]).sqrt()
+                } else {
+                    0.0
+                };
+                row += p.stiffness * (inv_mass[i] + other);
+                damp += p.damping * (inv_mass[i] + other);
+            }
+            w2 = w2.max(row);
+            g = g.max(damp);
+        }
+        self.omega2_max = w2;
+        self.damping_rate_max = g;
         self.dirty = false;
+    }
+
+    /// Substeps that keep an explicit step of `dt` stable for this network:
+    /// `ω_max h <= 1` and `damping_rate h <= 1` with `h = dt / n`, at most `max`.
+    pub(crate) fn substeps(&self, dt: f64, max: u32) -> u32 {
+        let need = (self.omega2_max.sqrt() * dt).max(self.damping_rate_max * dt);
+        if !need.is_finite() {
+            return max.max(1);
+        }
+        (need.ceil() as u32).clamp(1, max.max(1))
     }
 
     pub(crate) fn is_empty(&self) -> bool {

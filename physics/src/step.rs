@@ -125,14 +125,7 @@ pub(crate) fn step_system(
     dt: f64,
 ) -> (ChunkOut, StageTimes) {
     let mut times = StageTimes::default();
-    if sys.topology.dirty {
-        let slots = &sys.slots;
-        sys.topology.rebuild(
-            sys.springs.iter().map(|(_, _, s)| s),
-            |slot| slots[slot as usize].dense,
-            sys.position.len(),
-        );
-    }
+    sys.refresh_topology();
     let field = FieldForces::compile(sys, t, dt);
     let n = sys.position.len();
     let ParticleSystem {

@@ -196,6 +196,14 @@ impl World {
         self.systems.iter().map(|(_, _, s)| s)
     }
 
+    /// How many substeps a world step of `dt` seconds takes for system `h`
+    /// (see [`SystemDesc::max_substeps`]); 0 for a stale handle.
+    pub fn substeps_for(&mut self, h: SystemHandle, dt: f64) -> u32 {
+        self.systems
+            .get_mut(h.index, h.generation)
+            .map_or(0, |s| s.substeps_for(dt))
+    }
+
     fn sys_mut(&mut self, h: SystemHandle) -> Result<&mut ParticleSystem, PhysicsError> {
         self.systems
             .get_mut(h.index, h.generation)
@@ -304,6 +312,7 @@ impl World {
     /// anchors springs and attracts others.
     pub fn set_pinned(&mut self, h: ParticleHandle, pinned: bool) -> Result<(), PhysicsError> {
         let (s, i) = self.particle_mut(h)?;
+        s.topology.dirty = true;
         if pinned {
             s.flags[i] |= FLAG_PINNED;
             s.velocity[i] = DVec3::ZERO;
@@ -527,8 +536,21 @@ impl World {
         for (_, _, s) in self.systems.iter_mut() {
             match s.backend {
                 Backend::Cpu => {
+                    let n = s.substeps_for(dt);
+                    let h = dt / f64::from(n);
                     let mut scratch = std::mem::take(&mut s.scratch);
-                    let (out, times) = step_system(s, &mut scratch, t, dt);
+                    let mut out = crate::step::ChunkOut::default();
+                    let mut times = crate::step::StageTimes::default();
+                    for k in 0..n {
+                        let (o, tm) = step_system(s, &mut scratch, t + f64::from(k) * h, h);
+                        times.forces += tm.forces;
+                        times.integrate += tm.integrate;
+                        // Energy is that of the final state; quarantines add up.
+                        out = crate::step::ChunkOut {
+                            quarantined: out.quarantined + o.quarantined,
+                            ..o
+                        };
+                    }
                     s.scratch = scratch;
                     profile.forces += std::time::Duration::from_secs_f64(times.forces);
                     profile.integrate += std::time::Duration::from_secs_f64(times.integrate);
@@ -564,6 +586,20 @@ impl World {
                         )?;
                         energy.kinetic += e.kinetic;
                         energy.gravity_uniform += e.gravity_uniform;
+                        // 3. quarantine (flags are only current after a readback)
+                        if self.config.gpu_readback_every_step {
+                            for (i, f) in s.flags.iter_mut().enumerate() {
+                                if *f & FLAG_NEW_QUARANTINE != 0 {
+                                    *f &= !FLAG_NEW_QUARANTINE;
+                                    let slot = s.dense_to_slot[i];
+                                    report.quarantined.push(ParticleHandle {
+                                        system: s.handle,
+                                        slot,
+                                        generation: s.slots[slot as usize].generation,
+                                    });
+                                }
+                            }
+                        }
                     }
                     profile.gpu += t0.elapsed();
                 }
@@ -754,14 +790,7 @@ impl World {
 fn potential_energy(s: &mut ParticleSystem) -> Energy {
     let mut e = Energy::default();
     if s.springs.len() > 0 {
-        if s.topology.dirty {
-            let slots = &s.slots;
-            s.topology.rebuild(
-                s.springs.iter().map(|(_, _, sp)| sp),
-                |slot| slots[slot as usize].dense,
-                s.position.len(),
-            );
-        }
+        s.refresh_topology();
         e.spring = s
             .topology
             .potential(&s.position, &s.flags, FLAG_QUARANTINED);

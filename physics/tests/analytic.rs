@@ -23,9 +23,7 @@ fn upward_crossings(samples: &[(f64, f64)]) -> Vec<f64> {
 #[test]
 fn two_body_orbit_period_matches_keplers_third_law() {
     let mut world = common::world();
-    let sys = world.add_system(SystemDesc {
-        integrator: Integrator::Leapfrog,
-    });
+    let sys = world.add_system(SystemDesc::with_integrator(Integrator::Leapfrog));
     let g = 1.0;
     world
         .add_force(
@@ -129,9 +127,7 @@ fn damped_amplitude_decays_as_exp_minus_ct_over_2m() {
 
 fn terminal_speed(linear: f64, quadratic: f64) -> f64 {
     let mut world = common::world();
-    let sys = world.add_system(SystemDesc {
-        integrator: Integrator::Rk4,
-    });
+    let sys = world.add_system(SystemDesc::with_integrator(Integrator::Rk4));
     world
         .add_force(
             sys,

@@ -19,9 +19,7 @@ fn scene(threads: usize) -> World {
     let mut rng = common::Rng(42);
 
     // A large particle cloud: gravity, drag, wind, buoyancy, an explosion, control.
-    let cloud = w.add_system(SystemDesc {
-        integrator: Integrator::SymplecticEuler,
-    });
+    let cloud = w.add_system(SystemDesc::with_integrator(Integrator::SymplecticEuler));
     w.add_force(cloud, UniformGravity::earth()).unwrap();
     w.add_force(cloud, Drag::default()).unwrap();
     w.add_force(
@@ -72,9 +70,7 @@ fn scene(threads: usize) -> World {
         .unwrap();
 
     // Cloth under gravity and wind, leapfrog.
-    let cloth_sys = w.add_system(SystemDesc {
-        integrator: Integrator::Leapfrog,
-    });
+    let cloth_sys = w.add_system(SystemDesc::with_integrator(Integrator::Leapfrog));
     w.add_force(cloth_sys, UniformGravity::earth()).unwrap();
     w.add_force(cloth_sys, Wind::default()).unwrap();
     build_cloth(
@@ -90,9 +86,7 @@ fn scene(threads: usize) -> World {
     .unwrap();
 
     // A rope on Verlet, a Barnes–Hut cluster on RK4, an exact cluster on forward Euler.
-    let rope_sys = w.add_system(SystemDesc {
-        integrator: Integrator::Verlet,
-    });
+    let rope_sys = w.add_system(SystemDesc::with_integrator(Integrator::Verlet));
     w.add_force(rope_sys, UniformGravity::earth()).unwrap();
     build_rope(
         &mut w,
@@ -111,7 +105,7 @@ fn scene(threads: usize) -> World {
         ),
         (Integrator::ForwardEuler, GravityMethod::Exact, 300),
     ] {
-        let s = w.add_system(SystemDesc { integrator });
+        let s = w.add_system(SystemDesc::with_integrator(integrator));
         w.add_force(
             s,
             MutualGravity {

@@ -7,7 +7,7 @@ use inertia_physics::{Integrator, ParticleDesc, SystemDesc, UniformGravity};
 
 fn trajectory(integrator: Integrator, dt: f64, steps: usize) -> Vec<DVec3> {
     let mut world = common::world();
-    let sys = world.add_system(SystemDesc { integrator });
+    let sys = world.add_system(SystemDesc::with_integrator(integrator));
     world
         .add_force(
             sys,

@@ -29,7 +29,7 @@ pub const REST: f64 = 1.0;
 
 pub fn oscillator(integrator: Integrator, m: f64, k: f64, c: f64, amplitude: f64) -> Oscillator {
     let mut world = world();
-    let sys = world.add_system(SystemDesc { integrator });
+    let sys = world.add_system(SystemDesc::with_integrator(integrator));
     let anchor = world
         .add_particle(
             sys,
@@ -83,7 +83,7 @@ pub struct Kepler {
 
 pub fn kepler(integrator: Integrator, a: f64, e: f64) -> Kepler {
     let mut world = world();
-    let sys = world.add_system(SystemDesc { integrator });
+    let sys = world.add_system(SystemDesc::with_integrator(integrator));
     world
         .add_force(
             sys,
