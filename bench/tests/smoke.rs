@@ -57,7 +57,13 @@ fn integrators_suite() {
         .collect();
     assert_eq!(
         names,
-        ["forward_euler", "symplectic_euler", "leapfrog", "verlet", "rk4"]
+        [
+            "forward_euler",
+            "symplectic_euler",
+            "leapfrog",
+            "verlet",
+            "rk4"
+        ]
     );
     for m in &lines {
         let expected = num(m, "expected_order");

@@ -76,7 +76,12 @@ fn world(
         energy_accounting: energy,
         gpu_readback_every_step: true,
     })?;
-    let sys = w.add_system(SystemDesc { integrator });
+    // One pass per step: the method is measured at exactly `dt`, never
+    // substepped.
+    let sys = w.add_system(SystemDesc {
+        integrator,
+        max_substeps: 1,
+    });
     Ok((w, sys))
 }
 

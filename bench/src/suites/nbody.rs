@@ -96,6 +96,7 @@ fn time_steps(
     })?;
     let sys = w.add_system(SystemDesc {
         integrator: Integrator::SymplecticEuler,
+        ..SystemDesc::default()
     });
     w.add_force(sys, gravity(method))?;
     let m = 1.0 / positions.len() as f64;
