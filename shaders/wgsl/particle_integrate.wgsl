@@ -13,8 +13,8 @@
 // Pinned and quarantined particles do not move. A particle whose new state
 // is not finite is quarantined: it keeps its last finite position, its
 // velocity is zeroed, and it is flagged (QUARANTINED | NEW_QUARANTINE) so no
-// force reads it again. NEW_QUARANTINE is cleared at the start of the next
-// step. Units: m, m/s, kg, N, s.
+// force reads it again. NEW_QUARANTINE is cleared in the first substep of
+// the next world step (the CPU reports and clears it after a readback). Units: m, m/s, kg, N, s.
 //
 // Field force records in `params.fields`, in this order:
 //   winds      [0, n_wind):              a = (dir, speed), b.x = 1/2 rho C
@@ -56,7 +56,7 @@ struct Params {
     particle_control: u32,
     n_groups: u32,
     group_base: u32,
-    pad0: u32,
+    first_substep: u32,
     mutual: array<vec4<f32>, MAX_MUTUAL_GRAVITY>,
     fields: array<FieldForce, MAX_FIELD_FORCES>,
 }
@@ -160,7 +160,10 @@ fn main(
         return;
     }
     var body = bodies[i];
-    let flags = body.flags & ~FLAG_NEW_QUARANTINE;
+    var flags = body.flags;
+    if params.first_substep != 0u {
+        flags &= ~FLAG_NEW_QUARANTINE;
+    }
     if (flags & (FLAG_PINNED | FLAG_QUARANTINED)) != 0u {
         // Pinned or quarantined: stays where it is.
         body.flags = flags;

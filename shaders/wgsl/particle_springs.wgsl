@@ -37,7 +37,7 @@ struct Params {
     particle_control: u32,
     n_groups: u32,
     group_base: u32,
-    pad0: u32,
+    first_substep: u32,
     mutual: array<vec4<f32>, MAX_MUTUAL_GRAVITY>,
     fields: array<FieldForce, MAX_FIELD_FORCES>,
 }

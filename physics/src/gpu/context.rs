@@ -16,9 +16,10 @@ const INSTALL_HINT: &str = "no GPU adapter with compute shaders was found (tried
 ///
 /// Created once per [`World`](crate::World) on first use
 /// ([`World::gpu_context`](crate::World::gpu_context)). Adapters are tried
-/// on the Vulkan and GL backends (`WGPU_BACKEND` overrides), preferring a
-/// discrete GPU, then integrated, virtual, other, and a CPU rasterizer
-/// (Mesa lavapipe / llvmpipe) last; Vulkan before GL.
+/// on Vulkan, then (only if Vulkan has none) on GL; `WGPU_BACKEND=gl` or
+/// `=vulkan` restricts the search. Within a backend a discrete GPU is
+/// preferred, then integrated, virtual, other, and a CPU rasterizer (Mesa
+/// lavapipe / llvmpipe) last.
 pub struct GpuContext {
     pub(crate) device: wgpu::Device,
     pub(crate) queue: wgpu::Queue,
@@ -51,14 +52,6 @@ fn device_rank(t: wgpu::DeviceType) -> u8 {
     }
 }
 
-fn backend_rank(b: wgpu::Backend) -> u8 {
-    match b {
-        wgpu::Backend::Vulkan => 0,
-        wgpu::Backend::Gl => 1,
-        _ => 2,
-    }
-}
-
 impl GpuContext {
     /// Opens an adapter and compiles the pipelines.
     ///
@@ -66,12 +59,20 @@ impl GpuContext {
     /// exists (the message says what to install), or when the device or a
     /// pipeline cannot be created.
     pub fn new() -> Result<Self, PhysicsError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = (wgpu::Backends::VULKAN | wgpu::Backends::GL).with_env();
-        desc.flags = wgpu::InstanceFlags::empty().with_env();
-        let instance = wgpu::Instance::new(desc);
-        let mut adapters: Vec<wgpu::Adapter> =
-            pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()))
+        let allowed = (wgpu::Backends::VULKAN | wgpu::Backends::GL).with_env();
+        // Vulkan first; GL (EGL) only when Vulkan offers nothing, so that
+        // machines with Vulkan never pay for (or print from) the GL probe.
+        let mut adapters = Vec::new();
+        for backends in [wgpu::Backends::VULKAN, wgpu::Backends::GL] {
+            let backends = backends & allowed;
+            if backends.is_empty() || !adapters.is_empty() {
+                continue;
+            }
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+            desc.backends = backends;
+            desc.flags = wgpu::InstanceFlags::empty().with_env();
+            let instance = wgpu::Instance::new(desc);
+            adapters = pollster::block_on(instance.enumerate_adapters(backends))
                 .into_iter()
                 .filter(|a| {
                     a.get_downlevel_capabilities()
@@ -79,10 +80,8 @@ impl GpuContext {
                         .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
                 })
                 .collect();
-        adapters.sort_by_key(|a| {
-            let info = a.get_info();
-            (device_rank(info.device_type), backend_rank(info.backend))
-        });
+        }
+        adapters.sort_by_key(|a| device_rank(a.get_info().device_type));
         let adapter = adapters
             .into_iter()
             .next()

@@ -99,7 +99,8 @@ pub(crate) struct Params {
     /// Group control forces live at `control[group_base + g]` for `g < n_groups`.
     pub(crate) n_groups: u32,
     pub(crate) group_base: u32,
-    pub(crate) pad0: u32,
+    /// 1 in the first substep of a world step: clears `FLAG_NEW_QUARANTINE`.
+    pub(crate) first_substep: u32,
     /// Per mutual gravity: x = G (m³/(kg·s²)), y = ε² (m²).
     pub(crate) mutual: [[f32; 4]; wgsl::MAX_MUTUAL_GRAVITY],
     pub(crate) fields: [FieldForce; wgsl::MAX_FIELD_FORCES],
