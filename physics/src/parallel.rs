@@ -4,9 +4,30 @@
 //! depend on the number of threads; every chunk's result lands in its own slot
 //! and reductions add the slots in chunk order. So a run on one thread and a
 //! run on any number of threads produce the same bits. Small inputs (one
-//! chunk) run inline, without touching the thread pool.
+//! chunk) run inline, without touching the thread pool, and so does all work
+//! inside [`sequential`] (a world configured for one thread), which then
+//! costs no hand-off to a worker thread at all.
+
+use std::cell::Cell;
 
 use rayon::prelude::*;
+
+thread_local! {
+    static SEQUENTIAL: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Runs `f` with every parallel helper running its chunks in order on the
+/// calling thread.
+pub(crate) fn sequential<R>(f: impl FnOnce() -> R) -> R {
+    let before = SEQUENTIAL.with(|s| s.replace(true));
+    let r = f();
+    SEQUENTIAL.with(|s| s.set(before));
+    r
+}
+
+fn inline() -> bool {
+    SEQUENTIAL.with(Cell::get)
+}
 
 /// Particles per parallel work item.
 pub(crate) const CHUNK: usize = 4096;
@@ -20,6 +41,13 @@ where
 {
     if a.len() <= chunk {
         return vec![f(0, a)];
+    }
+    if inline() {
+        return a
+            .chunks_mut(chunk)
+            .enumerate()
+            .map(|(c, a)| f(c * chunk, a))
+            .collect();
     }
     a.par_chunks_mut(chunk)
         .enumerate()
@@ -45,6 +73,15 @@ where
     debug_assert!(a.len() == b.len() && b.len() == c.len());
     if a.len() <= chunk {
         return vec![f(0, a, b, c)];
+    }
+    if inline() {
+        return a
+            .chunks_mut(chunk)
+            .zip(b.chunks_mut(chunk))
+            .zip(c.chunks_mut(chunk))
+            .enumerate()
+            .map(|(k, ((a, b), c))| f(k * chunk, a, b, c))
+            .collect();
     }
     (
         a.par_chunks_mut(chunk),
@@ -77,6 +114,16 @@ where
     debug_assert!(a.len() == b.len() && b.len() == c.len() && c.len() == d.len());
     if a.len() <= chunk {
         return vec![f(0, a, b, c, d)];
+    }
+    if inline() {
+        return a
+            .chunks_mut(chunk)
+            .zip(b.chunks_mut(chunk))
+            .zip(c.chunks_mut(chunk))
+            .zip(d.chunks_mut(chunk))
+            .enumerate()
+            .map(|(k, (((a, b), c), d))| f(k * chunk, a, b, c, d))
+            .collect();
     }
     (
         a.par_chunks_mut(chunk),

@@ -121,7 +121,10 @@ pub struct SystemDesc {
     /// stable (1 = never substep). An explicit step of a spring network is
     /// stable while `ω dt < 2` (symplectic methods); the system splits `dt`
     /// so that `ω_max h <= 1`, a margin of two, where `ω_max` is bounded from
-    /// the springs' stiffness and the particles' masses. Default 16.
+    /// the springs' stiffness and the particles' masses. If even this many
+    /// substeps are not enough, the springs are softened for the step just
+    /// enough to stay stable (see `ParticleSystem::spring_stiffness_scale`).
+    /// Default 16.
     pub max_substeps: u32,
 }
 
@@ -440,7 +443,18 @@ impl ParticleSystem {
         if self.topology.is_empty() {
             1
         } else {
-            self.topology.substeps(dt, self.max_substeps)
+            self.topology.plan(dt, self.max_substeps)
+        }
+    }
+
+    /// The factor applied to spring stiffness in the last planned step: 1
+    /// unless the springs were too stiff for `max_substeps` and were softened
+    /// to stay stable.
+    pub fn spring_stiffness_scale(&self) -> f64 {
+        if self.topology.is_empty() {
+            1.0
+        } else {
+            self.topology.stiffness_scale
         }
     }
 

@@ -68,6 +68,11 @@ pub(crate) struct SpringTopology {
     pub(crate) omega2_max: f64,
     /// Upper bound on the damping rate `Σ c / m` of any particle, 1/s.
     pub(crate) damping_rate_max: f64,
+    /// Factors on every spring's stiffness and damping for the current step:
+    /// 1 unless even the most substeps allowed cannot keep the network stable
+    /// (see [`SpringTopology::plan`]).
+    pub(crate) stiffness_scale: f64,
+    pub(crate) damping_scale: f64,
 }
 
 impl SpringTopology {
@@ -132,17 +137,30 @@ impl SpringTopology {
         }
         self.omega2_max = w2;
         self.damping_rate_max = g;
+        self.stiffness_scale = 1.0;
+        self.damping_scale = 1.0;
         self.dirty = false;
     }
 
-    /// Substeps that keep an explicit step of `dt` stable for this network:
-    /// `ω_max h <= 1` and `damping_rate h <= 1` with `h = dt / n`, at most `max`.
-    pub(crate) fn substeps(&self, dt: f64, max: u32) -> u32 {
-        let need = (self.omega2_max.sqrt() * dt).max(self.damping_rate_max * dt);
-        if !need.is_finite() {
-            return max.max(1);
-        }
-        (need.ceil() as u32).clamp(1, max.max(1))
+    /// Plans a world step of `dt`: the substeps that keep an explicit step
+    /// stable for this network (`ω_max h <= 1` and `damping_rate h <= 1` with
+    /// `h = dt / n`), at most `max`. If `max` is not enough, the springs are
+    /// softened for this step just enough to be stable at `max` substeps
+    /// (stiffness by `(n / ω dt)²`, damping by `n / (rate dt)`): the network
+    /// gets stretchier instead of exploding. Returns the substep count.
+    pub(crate) fn plan(&mut self, dt: f64, max: u32) -> u32 {
+        let max = max.max(1);
+        let (w, r) = (self.omega2_max.sqrt() * dt, self.damping_rate_max * dt);
+        let need = w.max(r);
+        let n = if need.is_finite() {
+            (need.ceil() as u32).clamp(1, max)
+        } else {
+            max
+        };
+        let nf = f64::from(n);
+        self.stiffness_scale = if w > nf { (nf / w) * (nf / w) } else { 1.0 };
+        self.damping_scale = if r > nf { nf / r } else { 1.0 };
+        n
     }
 
     pub(crate) fn is_empty(&self) -> bool {
@@ -161,6 +179,8 @@ impl SpringTopology {
         out: &mut [DVec3],
     ) {
         let (a, b, params) = (&self.a, &self.b, &self.params);
+        let (ks, cs) = (self.stiffness_scale, self.damping_scale);
+        let scaled = ks != 1.0 || cs != 1.0;
         par_map_chunks(&mut self.force, CHUNK, |base, chunk| {
             for (k, f) in chunk.iter_mut().enumerate() {
                 let s = base + k;
@@ -168,7 +188,16 @@ impl SpringTopology {
                 *f = if (flags[ia] | flags[ib]) & skip != 0 {
                     DVec3::ZERO
                 } else {
-                    spring_force(x[ia] - x[ib], v[ia] - v[ib], &params[s])
+                    let p = if scaled {
+                        SpringParams {
+                            stiffness: params[s].stiffness * ks,
+                            damping: params[s].damping * cs,
+                            ..params[s]
+                        }
+                    } else {
+                        params[s]
+                    };
+                    spring_force(x[ia] - x[ib], v[ia] - v[ib], &p)
                 };
             }
         });
@@ -196,7 +225,7 @@ impl SpringTopology {
             }
             let p = &self.params[s];
             let stretch = (x[ia] - x[ib]).length() - p.rest_length;
-            e += 0.5 * p.stiffness * stretch * stretch;
+            e += 0.5 * p.stiffness * self.stiffness_scale * stretch * stretch;
         }
         e
     }

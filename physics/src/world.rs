@@ -106,7 +106,8 @@ impl std::fmt::Debug for World {
 impl World {
     /// An empty world.
     pub fn new(config: WorldConfig) -> Result<Self, PhysicsError> {
-        let pool = if config.threads == 0 {
+        // One thread: run on the caller, no pool and no hand-off per step.
+        let pool = if config.threads <= 1 {
             None
         } else {
             let p = rayon::ThreadPoolBuilder::new()
@@ -500,6 +501,7 @@ impl World {
         positive("time step dt", dt)?;
         match self.pool.clone() {
             Some(pool) => pool.install(|| self.step_inner(dt)),
+            None if self.config.threads == 1 => crate::parallel::sequential(|| self.step_inner(dt)),
             None => self.step_inner(dt),
         }
     }
