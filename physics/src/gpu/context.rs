@@ -5,12 +5,25 @@ use std::sync::{Arc, Mutex};
 
 use crate::error::PhysicsError;
 
-/// What to install when no adapter is found, in the error message.
-const INSTALL_HINT: &str = "no GPU adapter with compute shaders was found (tried Vulkan and GL). \
-     On a machine without a GPU install Mesa's CPU drivers: \
-     `apt-get install mesa-vulkan-drivers` (Vulkan lavapipe), or Mesa GL/EGL \
-     (`apt-get install libegl-mesa0 libgl1-mesa-dri`, llvmpipe). \
-     `WGPU_BACKEND=vulkan` or `WGPU_BACKEND=gl` restricts the search to one backend";
+/// The error when no adapter is found: what was tried and what to install.
+fn no_adapter(tried: wgpu::Backends) -> PhysicsError {
+    let tried = match (
+        tried.contains(wgpu::Backends::VULKAN),
+        tried.contains(wgpu::Backends::GL),
+    ) {
+        (true, true) => "tried Vulkan and GL",
+        (true, false) => "tried Vulkan only",
+        (false, true) => "tried GL only",
+        (false, false) => "WGPU_BACKEND excludes both Vulkan and GL",
+    };
+    PhysicsError::Gpu(format!(
+        "no GPU adapter with compute shaders was found ({tried}). \
+         On a machine without a GPU install Mesa's CPU drivers: \
+         `apt-get install mesa-vulkan-drivers` (Vulkan lavapipe), or Mesa GL/EGL \
+         (`apt-get install libegl-mesa0 libgl1-mesa-dri`, llvmpipe). \
+         WGPU_BACKEND (e.g. `vulkan` or `gl`) restricts the search"
+    ))
+}
 
 /// The wgpu device and compiled pipelines, shared by every GPU system.
 ///
@@ -85,7 +98,7 @@ impl GpuContext {
         let adapter = adapters
             .into_iter()
             .next()
-            .ok_or_else(|| PhysicsError::Gpu(INSTALL_HINT.into()))?;
+            .ok_or_else(|| no_adapter(allowed & (wgpu::Backends::VULKAN | wgpu::Backends::GL)))?;
         Self::from_adapter(adapter)
     }
 

@@ -10,8 +10,8 @@
 //! never panic on bad input.
 //!
 //! **Precision.** WGSL has no f64, so GPU state is f32 (about 7 significant
-//! digits). The CPU arrays stay the f64 *mirror*: [`upload`] converts (and
-//! refuses values outside the f32 range), [`download`] and readback steps
+//! digits). The CPU arrays stay the f64 *mirror*: the upload converts (and
+//! refuses values outside the f32 range), downloads and readback steps
 //! convert back. A system moved to the GPU and straight back is unchanged
 //! (the mirror is not overwritten until the GPU has stepped). How far a GPU
 //! run may drift from the CPU run is stated in [`GPU_TOLERANCE`] and
@@ -21,14 +21,15 @@
 //! only thing a step writes and a readback copies), one of 32-byte constant
 //! properties, the springs and their CSR adjacency as compiled by
 //! `SpringTopology`, the control forces, and one force scratch buffer. See
-//! [`buffers`] for the table. The force generators go into a uniform block
+//! `gpu/buffers.rs` for the table. The force generators go into a uniform block
 //! rewritten every step, because `World::set_force` may change them between
 //! steps; at most `MAX_FIELD_FORCES` winds/buoyancies/explosions and
 //! `MAX_MUTUAL_GRAVITY` mutual gravities fit (more is refused with
-//! [`PhysicsError::Gpu`]).
+//! [`PhysicsError::Gpu`](crate::PhysicsError::Gpu)).
 //!
-//! **Passes.** A step is one submission of three dispatches
-//! (`inertia-shaders` has the WGSL):
+//! **Passes.** A step is cut into the same substeps as on the CPU (stiff
+//! springs, `ParticleSystem::substeps_for`); each substep is one submission
+//! of three dispatches (`inertia-shaders` has the WGSL):
 //! 1. *springs* — one invocation per spring writes that spring's force to
 //!    its own slot;
 //! 2. *interactions* — one invocation per particle gathers its springs'
