@@ -141,6 +141,47 @@ fn spring_cloth() {
     );
 }
 
+/// A cloth far too stiff for its substep budget (2): the CPU plan softens
+/// the springs for each step, and the GPU must apply the same factors.
+#[test]
+fn stiff_cloth_softened_by_the_substep_plan() {
+    let build = |w: &mut World| {
+        let sys = w.add_system(SystemDesc {
+            max_substeps: 2,
+            ..SystemDesc::with_integrator(Integrator::SymplecticEuler)
+        });
+        build_cloth(
+            w,
+            sys,
+            &ClothDesc {
+                nu: 8,
+                nv: 8,
+                pinned: vec![(0, 0), (7, 0)],
+                ..ClothDesc::default()
+            },
+        )
+        .unwrap();
+        w.add_force(sys, UniformGravity::earth()).unwrap();
+        let mut probe = w.system(sys).unwrap().clone();
+        probe.substeps_for(1.0 / 30.0);
+        assert!(
+            probe.spring_stiffness_scale() < 1.0,
+            "scene must be softened"
+        );
+        Scene {
+            sys,
+            forces: Vec::new(),
+        }
+    };
+    assert_agreement(
+        "stiff cloth 8x8, softened at 2 substeps",
+        60,
+        1.0 / 30.0,
+        build,
+        |_, _, _| {},
+    );
+}
+
 /// 150 bodies (three partial N-body tiles of 64) in a softened cluster, one
 /// pinned at the centre.
 fn cluster(w: &mut World) -> Scene {

@@ -54,5 +54,5 @@ pub mod layout {
     pub const FIELD_FORCE_BYTES: usize = 48;
     /// `struct Params`: the per-step uniform block.
     pub const PARAMS_BYTES: usize =
-        80 + 16 * MAX_MUTUAL_GRAVITY + FIELD_FORCE_BYTES * MAX_FIELD_FORCES;
+        96 + 16 * MAX_MUTUAL_GRAVITY + FIELD_FORCE_BYTES * MAX_FIELD_FORCES;
 }

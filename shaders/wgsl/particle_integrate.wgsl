@@ -41,6 +41,7 @@ struct FieldForce {
 
 struct Params {
     gravity: vec4<f32>,
+    spring_scale: vec4<f32>,
     n: u32,
     n_springs: u32,
     symplectic: u32,

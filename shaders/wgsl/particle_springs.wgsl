@@ -5,7 +5,10 @@
 // so nothing needs atomics and the sum order is fixed.
 //
 // F_a = -(k (L - L0) + c (v_a - v_b) . n) n,  d = x_a - x_b, L = |d|, n = d / L
-// (same formula as physics/src/spring.rs). Units: m, m/s, N/m, N s/m, N.
+// (same formula as physics/src/spring.rs). `k` and `c` are scaled by
+// `params.spring_scale` (x: stiffness, y: damping), below 1 only when the
+// CPU's substep plan softens a network too stiff for its substep budget.
+// Units: m, m/s, N/m, N s/m, N.
 
 const WORKGROUP_SIZE: u32 = 64u;
 const MAX_FIELD_FORCES: u32 = 64u;
@@ -22,6 +25,7 @@ struct FieldForce {
 
 struct Params {
     gravity: vec4<f32>,
+    spring_scale: vec4<f32>,
     n: u32,
     n_springs: u32,
     symplectic: u32,
@@ -88,7 +92,9 @@ fn main(
         // Coincident endpoints: the direction is undefined, exert nothing.
         if len > MIN_POSITIVE && is_finite(len) {
             let n = d / len;
-            f = -(sp.stiffness * (len - sp.rest_length) + sp.damping * dot(a.vel - b.vel, n)) * n;
+            let k = sp.stiffness * params.spring_scale.x;
+            let c = sp.damping * params.spring_scale.y;
+            f = -(k * (len - sp.rest_length) + c * dot(a.vel - b.vel, n)) * n;
         }
     }
     forces[params.n + s] = vec4<f32>(f, 0.0);

@@ -79,6 +79,9 @@ pub(crate) struct FieldForce {
 pub(crate) struct Params {
     /// xyz: sum of the uniform gravities, m/s².
     pub(crate) gravity: [f32; 4],
+    /// x: factor on spring stiffness, y: on spring damping (1 unless the
+    /// substep plan softened the springs, as on the CPU).
+    pub(crate) spring_scale: [f32; 4],
     pub(crate) n: u32,
     pub(crate) n_springs: u32,
     /// 1 = symplectic Euler, 0 = forward Euler.

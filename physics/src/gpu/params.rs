@@ -63,7 +63,8 @@ pub(crate) fn check_supported(sys: &ParticleSystem) -> Result<(), PhysicsError> 
     Ok(())
 }
 
-/// The uniform block for stepping `sys` by `dt` s from time `t` s.
+/// The uniform block for stepping `sys` by `dt` s from time `t` s (one
+/// substep; the caller plans the substeps first).
 pub(crate) fn compile(sys: &ParticleSystem, t: f64, dt: f64) -> Result<Params, PhysicsError> {
     check_supported(sys)?;
     let dt32 = to_f32("time step dt", dt)?;
@@ -77,6 +78,14 @@ pub(crate) fn compile(sys: &ParticleSystem, t: f64, dt: f64) -> Result<Params, P
     p.gravity = vec4_f32("uniform gravity", field.gravity, 0.0)?;
     p.n = sys.len() as u32;
     p.n_springs = sys.topology.a.len() as u32;
+    // Set by the substep plan (`ParticleSystem::substeps_for`, called first):
+    // below 1 when even the most substeps cannot keep the springs stable.
+    p.spring_scale = [
+        sys.topology.stiffness_scale as f32,
+        sys.topology.damping_scale as f32,
+        0.0,
+        0.0,
+    ];
     p.symplectic = u32::from(sys.integrator == Integrator::SymplecticEuler);
     p.dt = dt32;
     if let Some(d) = field.drag {

@@ -107,7 +107,8 @@ fn grid(ctx: &GpuContext, items: u32) -> Result<(u32, u32), PhysicsError> {
 
 /// Steps one GPU system by `dt` s from time `t` s, cut into the same
 /// substeps as the CPU path (`ParticleSystem::substeps_for`: stiff springs
-/// are stepped at `h = dt / n`). Each substep is one submission of the
+/// are stepped at `h = dt / n`, and softened by the same factors when the
+/// substep budget runs out). Each substep is one submission of the
 /// springs, interactions and integration passes. With `readback`, waits,
 /// copies positions, velocities and flags into the CPU arrays and returns
 /// kinetic and uniform-gravity energy summed on the CPU in index order;
@@ -121,6 +122,7 @@ pub(crate) fn step_system(
 ) -> Result<Energy, PhysicsError> {
     let substeps = sys.substeps_for(dt);
     let h = dt / f64::from(substeps);
+
     // Compile every substep's uniform block first: anything unsupported is
     // refused before any work is submitted.
     let blocks = (0..substeps)
