@@ -12,8 +12,34 @@ pub mod suites;
 pub type BenchError = Box<dyn std::error::Error + Send + Sync>;
 
 /// How a suite runs.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Opts {
     /// Shrink sizes and repetitions to a smoke test of a few seconds.
     pub quick: bool,
+    /// Run only the cases whose name contains this (case, integrator or
+    /// method name); `None` runs everything.
+    pub only: Option<String>,
+}
+
+impl Opts {
+    /// Whether the case called `name` is selected.
+    pub fn wants(&self, name: &str) -> bool {
+        self.only.as_deref().is_none_or(|f| name.contains(f))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_selects_by_substring() {
+        let all = Opts::default();
+        assert!(all.wants("particles_1e6"));
+        let some = Opts {
+            only: Some("1e6".into()),
+            ..Opts::default()
+        };
+        assert!(some.wants("particles_1e6") && !some.wants("cloth_256"));
+    }
 }

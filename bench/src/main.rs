@@ -40,13 +40,23 @@ struct Cli {
     /// Small sizes and few repetitions: a smoke test, not a measurement.
     #[arg(long)]
     quick: bool,
+    /// Run only the cases whose name contains this (e.g. `particles_1e6`,
+    /// `rk4`, `nbody`).
+    #[arg(long, value_name = "SUBSTRING")]
+    only: Option<String>,
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let suite = Suite::from(cli.suite);
     let mut reporter = Reporter::new(suite.name(), Machine::detect(), cli.json);
-    match suite.run(&Opts { quick: cli.quick }, &mut reporter) {
+    match suite.run(
+        &Opts {
+            quick: cli.quick,
+            only: cli.only,
+        },
+        &mut reporter,
+    ) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("inertia-bench {}: {e}", suite.name());

@@ -112,11 +112,24 @@ fn time_steps(
     Ok(median(&times))
 }
 
+fn bodies(opts: &Opts) -> usize {
+    if opts.quick {
+        1_000
+    } else {
+        10_000
+    }
+}
+
+/// The case name, `nbody_1e4` (`nbody_1e3` with `--quick`).
+pub fn case_name(opts: &Opts) -> String {
+    format!("nbody_{}", sci(bodies(opts)))
+}
+
 /// Runs the n-body cases (shared by the `nbody` and `particles` suites).
 pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
-    let n = if opts.quick { 1_000 } else { 10_000 };
+    let n = bodies(opts);
     let (exact_reps, bh_reps) = if opts.quick { (1, 2) } else { (3, 7) };
-    let case = format!("nbody_{}", sci(n));
+    let case = case_name(opts);
     let positions = plummer(n, 0x00B0_D1E5);
     let masses = vec![1.0 / n as f64; n];
     let threads = thread_counts();

@@ -455,7 +455,10 @@ pub fn gpu_case(opts: &Opts, scene: Scene, sink: &mut dyn Sink) -> Result<(), Be
 /// Runs the suite: every scene on the CPU at each thread count and on the
 /// GPU, then the n-body case.
 pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
-    let scenes = scenes(opts);
+    let scenes: Vec<Scene> = scenes(opts)
+        .into_iter()
+        .filter(|s| opts.wants(&s.name()))
+        .collect();
     let threads = thread_counts();
     let pb = progress((scenes.len() * (threads.len() + 1)) as u64, "particles");
     for scene in scenes {
@@ -478,7 +481,10 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         pb.inc(1);
     }
     pb.finish_and_clear();
-    super::nbody::run(opts, sink)
+    if opts.wants(&super::nbody::case_name(opts)) {
+        super::nbody::run(opts, sink)?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]
