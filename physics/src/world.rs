@@ -16,7 +16,7 @@
 //! returns an error.
 
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use glam::DVec3;
 
@@ -36,7 +36,7 @@ use crate::particle_system::{
 use crate::profile::{ProfileTotals, StepProfile};
 use crate::snapshot::{encode_world, load_world, save_world, SnapshotError};
 use crate::spring::{Spring, SpringParams};
-use crate::step::{fill_masses, step_system, FLAG_NEW_QUARANTINE};
+use crate::step::{fill_masses, step_system, ChunkOut, FLAG_NEW_QUARANTINE};
 
 /// How a world runs. None of this is simulation state: a world saved with
 /// one configuration restores and steps identically under another.
@@ -506,117 +506,22 @@ impl World {
         }
     }
 
+    /// The step as named stages; each adds its wall time to the profile.
     fn step_inner(&mut self, dt: f64) -> Result<StepReport, PhysicsError> {
         let start = Instant::now();
         let mut profile = StepProfile::default();
         let mut report = StepReport::default();
-        let t = self.time;
 
-        // 1. prepare
         let t0 = Instant::now();
-        for (_, _, s) in self.systems.iter_mut() {
-            let sh = s.handle;
-            let spent: Vec<(u32, u32)> = s
-                .forces
-                .iter()
-                .filter(|(_, _, e)| matches!(e.force, Force::Explosion(x) if x.is_spent(t)))
-                .map(|(i, g, _)| (i, g))
-                .collect();
-            for (index, generation) in spent {
-                s.forces.remove(index, generation);
-                report.expired_forces.push(ForceHandle {
-                    system: sh,
-                    index,
-                    generation,
-                });
-            }
-        }
-        profile.prepare += t0.elapsed();
+        self.stage_prepare(&mut report);
+        profile.prepare = t0.elapsed();
 
-        // 2. systems
-        let mut energy = Energy::default();
-        for (_, _, s) in self.systems.iter_mut() {
-            match s.backend {
-                Backend::Cpu => {
-                    let n = s.substeps_for(dt);
-                    let h = dt / f64::from(n);
-                    let mut scratch = std::mem::take(&mut s.scratch);
-                    let mut out = crate::step::ChunkOut::default();
-                    let mut times = crate::step::StageTimes::default();
-                    for k in 0..n {
-                        let (o, tm) = step_system(s, &mut scratch, t + f64::from(k) * h, h);
-                        times.forces += tm.forces;
-                        times.integrate += tm.integrate;
-                        // Energy is that of the final state; quarantines add up.
-                        out = crate::step::ChunkOut {
-                            quarantined: out.quarantined + o.quarantined,
-                            ..o
-                        };
-                    }
-                    s.scratch = scratch;
-                    profile.forces += std::time::Duration::from_secs_f64(times.forces);
-                    profile.integrate += std::time::Duration::from_secs_f64(times.integrate);
-                    energy.kinetic += out.kinetic;
-                    energy.gravity_uniform += out.gravity;
-                    // 3. quarantine
-                    if out.quarantined > 0 {
-                        let t0 = Instant::now();
-                        let handles: Vec<ParticleHandle> = s.particle_handles().collect();
-                        for (i, f) in s.flags.iter_mut().enumerate() {
-                            if *f & FLAG_NEW_QUARANTINE != 0 {
-                                *f &= !FLAG_NEW_QUARANTINE;
-                                report.quarantined.push(handles[i]);
-                            }
-                        }
-                        profile.quarantine += t0.elapsed();
-                    }
-                }
-                Backend::Gpu => {
-                    let t0 = Instant::now();
-                    #[cfg(feature = "gpu")]
-                    {
-                        let ctx = self
-                            .gpu
-                            .as_ref()
-                            .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
-                        let e = crate::gpu::step_system(
-                            ctx,
-                            s,
-                            t,
-                            dt,
-                            self.config.gpu_readback_every_step,
-                        )?;
-                        energy.kinetic += e.kinetic;
-                        energy.gravity_uniform += e.gravity_uniform;
-                        // 3. quarantine (flags are only current after a readback)
-                        if self.config.gpu_readback_every_step {
-                            for (i, f) in s.flags.iter_mut().enumerate() {
-                                if *f & FLAG_NEW_QUARANTINE != 0 {
-                                    *f &= !FLAG_NEW_QUARANTINE;
-                                    let slot = s.dense_to_slot[i];
-                                    report.quarantined.push(ParticleHandle {
-                                        system: s.handle,
-                                        slot,
-                                        generation: s.slots[slot as usize].generation,
-                                    });
-                                }
-                            }
-                        }
-                    }
-                    profile.gpu += t0.elapsed();
-                }
-            }
-        }
+        let mut energy = self.stage_systems(dt, &mut profile, &mut report)?;
 
-        // 4. energy
         if self.config.energy_accounting {
             let t0 = Instant::now();
-            for (_, _, s) in self.systems.iter_mut() {
-                let e = potential_energy(s);
-                energy.spring += e.spring;
-                energy.gravity_mutual += e.gravity_mutual;
-            }
-            profile.energy += t0.elapsed();
+            self.stage_energy(&mut energy);
+            profile.energy = t0.elapsed();
         }
 
         self.tick += 1;
@@ -629,6 +534,83 @@ impl World {
         report.time = self.time;
         report.energy = energy;
         Ok(report)
+    }
+
+    /// Stage 1: explosions whose front has passed their max radius expire.
+    /// (Spring adjacency and substep plans are refreshed per system in stage 2.)
+    fn stage_prepare(&mut self, report: &mut StepReport) {
+        let t = self.time;
+        for (_, _, s) in self.systems.iter_mut() {
+            let spent: Vec<(u32, u32)> = s
+                .forces
+                .iter()
+                .filter(|(_, _, e)| matches!(e.force, Force::Explosion(x) if x.is_spent(t)))
+                .map(|(i, g, _)| (i, g))
+                .collect();
+            for (index, generation) in spent {
+                s.forces.remove(index, generation);
+                report.expired_forces.push(ForceHandle {
+                    system: s.handle,
+                    index,
+                    generation,
+                });
+            }
+        }
+    }
+
+    /// Stage 2: every system, in handle order, on its backend. Returns the
+    /// kinetic and uniform-gravity energy of the new state.
+    fn stage_systems(
+        &mut self,
+        dt: f64,
+        profile: &mut StepProfile,
+        report: &mut StepReport,
+    ) -> Result<Energy, PhysicsError> {
+        let t = self.time;
+        let mut energy = Energy::default();
+        for (_, _, s) in self.systems.iter_mut() {
+            match s.backend {
+                Backend::Cpu => {
+                    let (kinetic, gravity, quarantined) = step_cpu_system(s, t, dt, profile);
+                    energy.kinetic += kinetic;
+                    energy.gravity_uniform += gravity;
+                    if quarantined {
+                        let t0 = Instant::now();
+                        collect_quarantined(s, &mut report.quarantined);
+                        profile.quarantine += t0.elapsed();
+                    }
+                }
+                Backend::Gpu => {
+                    let t0 = Instant::now();
+                    #[cfg(feature = "gpu")]
+                    {
+                        let ctx = self
+                            .gpu
+                            .as_ref()
+                            .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
+                        let readback = self.config.gpu_readback_every_step;
+                        let e = crate::gpu::step_system(ctx, s, t, dt, readback)?;
+                        energy.kinetic += e.kinetic;
+                        energy.gravity_uniform += e.gravity_uniform;
+                        // Flags are only current after a readback.
+                        if readback {
+                            collect_quarantined(s, &mut report.quarantined);
+                        }
+                    }
+                    profile.gpu += t0.elapsed();
+                }
+            }
+        }
+        Ok(energy)
+    }
+
+    /// Stage 4: spring and mutual-gravity potential energy.
+    fn stage_energy(&mut self, energy: &mut Energy) {
+        for (_, _, s) in self.systems.iter_mut() {
+            let e = potential_energy(s);
+            energy.spring += e.spring;
+            energy.gravity_mutual += e.gravity_mutual;
+        }
     }
 
     /// Computes the world's energy now (all terms, whatever the config).
@@ -649,6 +631,8 @@ impl World {
     // ----- state -----
 
     /// 64-bit hash over the bit patterns of the whole state (what `save` writes).
+    /// GPU systems are read from their CPU mirror: with
+    /// [`WorldConfig::gpu_readback_every_step`] off, call [`World::sync_gpu`] first.
     pub fn state_hash(&self) -> u64 {
         let mut h = StateHasher::default();
         encode_world(&mut h, self.tick, self.time, &self.systems);
@@ -656,6 +640,8 @@ impl World {
     }
 
     /// The complete state as compact bytes (see [`crate::snapshot`]).
+    /// GPU systems are saved from their CPU mirror: with
+    /// [`WorldConfig::gpu_readback_every_step`] off, call [`World::sync_gpu`] first.
     pub fn save(&self) -> Vec<u8> {
         save_world(self.tick, self.time, &self.systems)
     }
@@ -784,6 +770,46 @@ impl World {
                 "move the system back to the CPU backend before editing it".into(),
             )),
             _ => Ok(()),
+        }
+    }
+}
+
+/// Steps one CPU system by `dt` from `t` in its planned substeps. Returns
+/// kinetic and uniform-gravity energy of the final state and whether any
+/// particle was quarantined.
+fn step_cpu_system(
+    s: &mut ParticleSystem,
+    t: f64,
+    dt: f64,
+    profile: &mut StepProfile,
+) -> (f64, f64, bool) {
+    let n = s.substeps_for(dt);
+    let h = dt / f64::from(n);
+    let mut scratch = std::mem::take(&mut s.scratch);
+    let (mut last, mut quarantined) = (ChunkOut::default(), 0);
+    for k in 0..n {
+        let (out, times) = step_system(s, &mut scratch, t + f64::from(k) * h, h);
+        profile.forces += Duration::from_secs_f64(times.forces);
+        profile.integrate += Duration::from_secs_f64(times.integrate);
+        quarantined += out.quarantined;
+        last = out;
+    }
+    s.scratch = scratch;
+    (last.kinetic, last.gravity, quarantined > 0)
+}
+
+/// Stage 3: reports (and clears the transient mark of) particles
+/// quarantined during this step.
+fn collect_quarantined(s: &mut ParticleSystem, out: &mut Vec<ParticleHandle>) {
+    for (i, f) in s.flags.iter_mut().enumerate() {
+        if *f & FLAG_NEW_QUARANTINE != 0 {
+            *f &= !FLAG_NEW_QUARANTINE;
+            let slot = s.dense_to_slot[i];
+            out.push(ParticleHandle {
+                system: s.handle,
+                slot,
+                generation: s.slots[slot as usize].generation,
+            });
         }
     }
 }
