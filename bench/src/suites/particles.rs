@@ -55,6 +55,10 @@
 //!
 //! = **88 B per spring + 268 B per particle**.
 //!
+//! Both are per pass: a step the engine cuts into `n` substeps (its
+//! stability plan, `World::substeps_for`) moves `n` times as much. The
+//! scenes here are tuned to need one.
+//!
 //! The GPU records use the same byte counts (the CPU's `f64` layout), so
 //! their `bytes_per_s` compare with the CPU records and the copy; the GPU's
 //! own `f32` buffers move fewer bytes.
@@ -104,15 +108,12 @@ impl Scene {
         matches!(self, Scene::Particles(_))
     }
 
-    /// Builds the scene in a new world; returns the world, its one system
-    /// and the number of springs.
-    pub fn build(self, config: WorldConfig) -> Result<(World, SystemHandle, usize), BenchError> {
+    /// Builds the scene in a new world.
+    pub fn build(self, config: WorldConfig) -> Result<Built, BenchError> {
         let mut w = World::new(config)?;
-        // One pass per step, so the byte model below holds; the cloth is
-        // tuned to be stable at 60 Hz without substeps.
         let sys = w.add_system(SystemDesc {
             integrator: Integrator::SymplecticEuler,
-            max_substeps: 1,
+            ..SystemDesc::default()
         });
         w.add_force(sys, UniformGravity::earth())?;
         w.add_force(
@@ -152,8 +153,9 @@ impl Scene {
             }
             Scene::Cloth(n) => {
                 // 10 cm spacing, 10 g per particle; stiffnesses soft enough
-                // for symplectic Euler at 60 Hz (ω dt < 1 for the stiffest
-                // mode), as a game would tune them.
+                // that the engine's stability bound (Gershgorin, `ω_max dt
+                // <= 1`) needs no substep at 60 Hz: 2·(4·2.5 + 4·1 + 4·0.5)
+                // / 0.01 = 3200 rad²/s², ω_max dt = 0.94.
                 let c = build_cloth(
                     &mut w,
                     sys,
@@ -165,15 +167,15 @@ impl Scene {
                         nv: n,
                         mass: 0.01 * (n * n) as f64,
                         structural: SpringStiffness {
-                            stiffness: 5.0,
+                            stiffness: 2.5,
                             damping: 0.02,
                         },
                         shear: SpringStiffness {
-                            stiffness: 2.0,
+                            stiffness: 1.0,
                             damping: 0.01,
                         },
                         bend: SpringStiffness {
-                            stiffness: 1.0,
+                            stiffness: 0.5,
                             damping: 0.005,
                         },
                         drag_linear: 0.0,
@@ -184,18 +186,45 @@ impl Scene {
                 c.spring_counts.iter().sum()
             }
         };
-        Ok((w, sys, springs))
+        let particles = w.system(sys).ok_or("system vanished")?.len();
+        let substeps = w.substeps_for(sys, DT);
+        Ok(Built {
+            world: w,
+            sys,
+            particles,
+            springs,
+            substeps,
+        })
     }
+}
 
-    /// Bytes one step must move (see the module docs).
-    pub fn bytes_per_step(self, particles: usize, springs: usize) -> f64 {
-        match self {
-            Scene::Particles(_) => PARTICLE_BYTES * particles as f64,
+/// A scene built in a world.
+#[derive(Debug)]
+pub struct Built {
+    /// The world holding the scene.
+    pub world: World,
+    /// Its one particle system.
+    pub sys: SystemHandle,
+    /// Number of particles.
+    pub particles: usize,
+    /// Number of springs.
+    pub springs: usize,
+    /// Passes the engine cuts one step of [`DT`] into (its stability plan).
+    pub substeps: u32,
+}
+
+impl Built {
+    /// Bytes one step must move: the per-pass traffic of the module docs
+    /// times the number of substeps.
+    pub fn bytes_per_step(&self, scene: Scene) -> f64 {
+        let pass = match scene {
+            Scene::Particles(_) => PARTICLE_BYTES * self.particles as f64,
             Scene::Cloth(_) => {
-                CLOTH_BYTES_PER_PARTICLE * particles as f64
-                    + CLOTH_BYTES_PER_SPRING * springs as f64
+                CLOTH_BYTES_PER_PARTICLE * self.particles as f64
+                    + CLOTH_BYTES_PER_SPRING * self.springs as f64
             }
-        }
+        };
+        pass * f64::from(self.substeps)
     }
 }
 
@@ -323,13 +352,13 @@ fn interleaved(
 
 fn throughput_record(
     scene: Scene,
+    built: &Built,
     backend: &str,
     threads: usize,
-    particles: usize,
-    springs: usize,
     t: &Timing,
 ) -> Record {
-    let bytes = scene.bytes_per_step(particles, springs);
+    let (particles, springs) = (built.particles, built.springs);
+    let bytes = built.bytes_per_step(scene);
     let bytes_per_s = bytes / t.step_s;
     let copy_bytes_per_s = t.copy_bytes / t.copy_s;
     let mut r = Record::new()
@@ -340,7 +369,7 @@ fn throughput_record(
     if springs > 0 {
         r = r.field("springs", springs);
     }
-    r.field("substeps", 1)
+    r.field("substeps", built.substeps)
         .num("ns_per_particle_step", t.step_s * 1e9 / particles as f64)
         .num("ms_per_step", t.step_s * 1e3)
         .num("bytes_per_particle_step", bytes / particles as f64)
@@ -366,19 +395,24 @@ pub fn cpu_case(
     sink: &mut dyn Sink,
 ) -> Result<(), BenchError> {
     let plan = Plan::new(opts);
-    let (mut w, sys, springs) = scene.build(config(threads, scene.energy_accounting(), true))?;
-    let particles = w.system(sys).ok_or("system vanished")?.len();
-    let mut copy = CopyBench::new(scene.bytes_per_step(particles, springs) as usize, threads);
+    let mut b = scene.build(config(threads, scene.energy_accounting(), true))?;
+    let mut copy = CopyBench::new(b.bytes_per_step(scene) as usize, threads);
+    let w = &mut b.world;
     let t = interleaved(&plan, &mut copy, || {
         w.step(DT)?;
         Ok(())
     })?;
-    let quarantined = w.system(sys).ok_or("system vanished")?.quarantined_count();
+    let w = &b.world;
+    let quarantined = w
+        .system(b.sys)
+        .ok_or("system vanished")?
+        .quarantined_count();
     let p = w.profile_totals();
     let integrate_share = p.sum.integrate.as_secs_f64() / p.sum.total.as_secs_f64().max(1e-12);
+    let steps = w.tick();
     sink.record(
-        throughput_record(scene, "cpu", threads, particles, springs, &t)
-            .field("steps", w.tick())
+        throughput_record(scene, &b, "cpu", threads, &t)
+            .field("steps", steps)
             .field("quarantined", quarantined)
             .num("integrate_share", integrate_share),
     );
@@ -393,14 +427,14 @@ pub fn gpu_case(opts: &Opts, scene: Scene, sink: &mut dyn Sink) -> Result<(), Be
     let plan = Plan::new(opts);
     let threads = logical_cores();
     let energy = scene.energy_accounting();
-    let (mut g, gsys, springs) = scene.build(config(0, energy, false))?;
-    let particles = g.system(gsys).ok_or("system vanished")?.len();
+    let mut gb = scene.build(config(0, energy, false))?;
     let base = Record::new()
         .field("case", scene.name())
         .field("backend", "gpu")
         .field("threads", threads)
-        .field("particles", particles);
-    if let Err(e) = g.set_backend(gsys, Backend::Gpu) {
+        .field("particles", gb.particles);
+    let gsys = gb.sys;
+    if let Err(e) = gb.world.set_backend(gsys, Backend::Gpu) {
         sink.record(
             base.field("error", e.to_string())
                 .field("energy_accounting", energy),
@@ -408,7 +442,8 @@ pub fn gpu_case(opts: &Opts, scene: Scene, sink: &mut dyn Sink) -> Result<(), Be
         return Ok(());
     }
     let mut run = || -> Result<Record, BenchError> {
-        let (mut c, csys, _) = scene.build(config(0, energy, true))?;
+        let mut cb = scene.build(config(0, energy, true))?;
+        let (g, c, csys) = (&mut gb.world, &mut cb.world, cb.sys);
         for _ in 0..plan.compare_steps {
             g.step(DT)?;
             c.step(DT)?;
@@ -421,7 +456,8 @@ pub fn gpu_case(opts: &Opts, scene: Scene, sink: &mut dyn Sink) -> Result<(), Be
             .zip(cp)
             .map(|(a, b)| (*a - *b).abs().max_element())
             .fold(0.0f64, f64::max);
-        let mut copy = CopyBench::new(scene.bytes_per_step(particles, springs) as usize, threads);
+        let mut copy = CopyBench::new(gb.bytes_per_step(scene) as usize, threads);
+        let g = &mut gb.world;
         // One burst = `k` steps + one sync; `interleaved` times bursts of
         // this closure, so per-step time includes the amortized readback.
         let k = if opts.quick { 2 } else { 10 };
@@ -436,11 +472,9 @@ pub fn gpu_case(opts: &Opts, scene: Scene, sink: &mut dyn Sink) -> Result<(), Be
             step_s: t.step_s / k as f64,
             ..t
         };
-        Ok(
-            throughput_record(scene, "gpu", threads, particles, springs, &t)
-                .num("max_abs_diff_vs_cpu", max_abs_diff)
-                .field("compare_steps", plan.compare_steps),
-        )
+        Ok(throughput_record(scene, &gb, "gpu", threads, &t)
+            .num("max_abs_diff_vs_cpu", max_abs_diff)
+            .field("compare_steps", plan.compare_steps))
     };
     match run() {
         Ok(r) => sink.record(r),
@@ -501,9 +535,18 @@ mod tests {
 
     #[test]
     fn cloth_springs_match_the_byte_model_count() {
-        let (w, sys, springs) = Scene::Cloth(16).build(WorldConfig::default()).unwrap();
-        assert_eq!(w.system(sys).unwrap().spring_count(), springs);
+        let b = Scene::Cloth(16).build(WorldConfig::default()).unwrap();
+        assert_eq!(b.world.system(b.sys).unwrap().spring_count(), b.springs);
         // 2·15·16 structural + 2·15·15 shear + 2·14·16 bend.
-        assert_eq!(springs, 480 + 450 + 448);
+        assert_eq!(b.springs, 480 + 450 + 448);
+        // Tuned to need no substep at 60 Hz, so no spring is softened.
+        assert_eq!(b.substeps, 1);
+        assert_eq!(
+            Scene::Particles(10)
+                .build(WorldConfig::default())
+                .unwrap()
+                .substeps,
+            1
+        );
     }
 }
