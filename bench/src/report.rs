@@ -207,6 +207,33 @@ pub fn progress(len: u64, what: &str) -> ProgressBar {
     pb
 }
 
+/// A sink that hides a progress bar while a record is printed, so records
+/// on a terminal's stdout do not interleave with the bar on its stderr.
+pub struct Suspended<'a> {
+    pb: &'a ProgressBar,
+    inner: &'a mut dyn Sink,
+}
+
+impl std::fmt::Debug for Suspended<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Suspended").finish_non_exhaustive()
+    }
+}
+
+impl<'a> Suspended<'a> {
+    /// Wraps `inner` around `pb`.
+    pub fn new(pb: &'a ProgressBar, inner: &'a mut dyn Sink) -> Self {
+        Self { pb, inner }
+    }
+}
+
+impl Sink for Suspended<'_> {
+    fn record(&mut self, r: Record) {
+        let inner = &mut *self.inner;
+        self.pb.suspend(|| inner.record(r));
+    }
+}
+
 /// Prints a remark on stderr without tearing a progress bar.
 pub fn note(pb: &ProgressBar, msg: &str) {
     pb.suspend(|| eprintln!("{msg}"));

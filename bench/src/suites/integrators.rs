@@ -40,7 +40,7 @@ use inertia_physics::{
     SystemDesc, World, WorldConfig,
 };
 
-use crate::report::{note, progress, Record, Sink};
+use crate::report::{note, progress, Record, Sink, Suspended};
 use crate::{BenchError, Opts};
 
 // Oscillator.
@@ -251,6 +251,8 @@ fn energy_drift(integrator: Integrator, steps: u64) -> Result<Drift, BenchError>
 pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     let drift_steps: u64 = if opts.quick { 10_000 } else { 1_000_000 };
     let pb = progress(Integrator::ALL.len() as u64, "integrators");
+    let mut out = Suspended::new(&pb, sink);
+    let sink: &mut dyn Sink = &mut out;
     for integrator in Integrator::ALL {
         if !opts.wants(integrator.name()) {
             pb.inc(1);

@@ -26,7 +26,7 @@ use inertia_physics::{
     GravityMethod, Integrator, MutualGravity, ParticleDesc, SystemDesc, World, WorldConfig,
 };
 
-use crate::report::{median, note, progress, Record, Sink, SplitMix64};
+use crate::report::{median, note, progress, Record, Sink, SplitMix64, Suspended};
 use crate::suites::particles::{sci, thread_counts};
 use crate::{BenchError, Opts};
 
@@ -134,6 +134,8 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     let masses = vec![1.0 / n as f64; n];
     let threads = thread_counts();
     let pb = progress((threads.len() * (1 + THETAS.len())) as u64, "nbody");
+    let mut out = Suspended::new(&pb, sink);
+    let sink: &mut dyn Sink = &mut out;
 
     let t0 = Instant::now();
     let exact = accelerations(&positions, &masses, &gravity(GravityMethod::Exact));

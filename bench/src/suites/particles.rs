@@ -72,7 +72,7 @@ use inertia_physics::{
 };
 
 use crate::copy::CopyBench;
-use crate::report::{logical_cores, median, note, progress, Record, Sink, SplitMix64};
+use crate::report::{logical_cores, median, note, progress, Record, Sink, SplitMix64, Suspended};
 use crate::{BenchError, Opts};
 
 /// Simulation step, s: a 60 Hz game tick.
@@ -495,11 +495,12 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         .collect();
     let threads = thread_counts();
     let pb = progress((scenes.len() * (threads.len() + 1)) as u64, "particles");
+    let mut out = Suspended::new(&pb, sink);
     for scene in scenes {
         for &t in &threads {
             pb.set_message(format!("{} cpu threads={t}", scene.name()));
             let t0 = Instant::now();
-            cpu_case(opts, scene, t, sink)?;
+            cpu_case(opts, scene, t, &mut out)?;
             note(
                 &pb,
                 &format!(
@@ -511,9 +512,10 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
             pb.inc(1);
         }
         pb.set_message(format!("{} gpu", scene.name()));
-        gpu_case(opts, scene, sink)?;
+        gpu_case(opts, scene, &mut out)?;
         pb.inc(1);
     }
+    drop(out);
     pb.finish_and_clear();
     if opts.wants(&super::nbody::case_name(opts)) {
         super::nbody::run(opts, sink)?;
