@@ -515,7 +515,6 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         gpu_case(opts, scene, &mut out)?;
         pb.inc(1);
     }
-    drop(out);
     pb.finish_and_clear();
     if opts.wants(&super::nbody::case_name(opts)) {
         super::nbody::run(opts, sink)?;
