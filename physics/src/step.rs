@@ -3,9 +3,10 @@
 //!
 //! Single-evaluation methods (forward and symplectic Euler) run *fused*: one
 //! pass reads each particle once, adds its field forces to the precomputed
-//! interaction force, integrates, checks the result is finite and
-//! accumulates kinetic and gravitational energy. That pass is what the
-//! memory-bandwidth target in `inertia-bench particles` measures.
+//! interaction force, integrates and checks the result is finite; kinetic
+//! and gravitational energy are then summed over the chunk while it is still
+//! in cache. That pass is what the memory-bandwidth target in
+//! `inertia-bench particles` measures.
 //! Multi-stage methods evaluate accelerations into a buffer per stage.
 //!
 //! A particle whose new position or velocity is not finite is quarantined:
@@ -35,12 +36,18 @@ pub(crate) struct ChunkOut {
 }
 
 impl ChunkOut {
+    /// Adds chunk results in chunk order. `commit` accumulates `m v²`; the
+    /// ½ is applied here, once.
     fn sum(parts: &[ChunkOut]) -> ChunkOut {
-        parts.iter().fold(ChunkOut::default(), |a, b| ChunkOut {
+        let total = parts.iter().fold(ChunkOut::default(), |a, b| ChunkOut {
             kinetic: a.kinetic + b.kinetic,
             gravity: a.gravity + b.gravity,
             quarantined: a.quarantined + b.quarantined,
-        })
+        });
+        ChunkOut {
+            kinetic: 0.5 * total.kinetic,
+            ..total
+        }
     }
 }
 
@@ -459,15 +466,19 @@ fn commit(
     field: &FieldForces,
     o: &mut ChunkOut,
 ) {
-    if nx.is_finite() && nv.is_finite() {
+    // One add chain decides the common case: the sum of finite numbers is
+    // finite unless it overflows, and any NaN or infinity poisons it.
+    let sum = nx.x + nx.y + nx.z + nv.x + nv.y + nv.z;
+    if sum.is_finite() || (nx.is_finite() && nv.is_finite()) {
         xs[k] = nx;
         vs[k] = nv;
     } else {
         quarantine(&mut fs[k], &mut vs[k]);
         o.quarantined += 1;
     }
-    o.kinetic += 0.5 * vs[k].length_squared() / inv_mass[i];
-    o.gravity += field.gravity_potential(xs[k], inv_mass[i]);
+    let m = 1.0 / inv_mass[i];
+    o.kinetic += m * vs[k].length_squared();
+    o.gravity -= m * field.gravity.dot(xs[k]);
 }
 
 #[inline]
@@ -487,29 +498,88 @@ fn euler_pass<const SYMPLECTIC: bool>(
     dt: f64,
 ) -> Vec<ChunkOut> {
     par_map_chunks3(position, velocity, flags, CHUNK, |base, xs, vs, fs| {
-        let mut o = ChunkOut::default();
+        // Chunk-local views: the loop indexes them from 0 without bounds surprises.
+        let props = props.chunk(base, xs.len());
+        let interaction = interaction.map(|e| &e[base..base + xs.len()]);
+        let mut quarantined = 0;
         for k in 0..xs.len() {
-            let i = base + k;
-            let (x, v) = (xs[k], vs[k]);
             if fs[k] != 0 {
-                commit(k, i, x, v, xs, vs, fs, props.inv_mass, field, &mut o);
                 continue;
             }
-            let mut f = field.force(props, i, x, v);
+            let (x, v) = (xs[k], vs[k]);
+            let mut f = field.force(&props, k, x, v);
             if let Some(ext) = interaction {
-                f += ext[i];
+                f += ext[k];
             }
-            let a = f * props.inv_mass[i] + field.gravity;
+            let a = f * props.inv_mass[k] + field.gravity;
             let (nx, nv) = if SYMPLECTIC {
                 let nv = v + a * dt;
                 (x + nv * dt, nv)
             } else {
                 (x + v * dt, v + a * dt)
             };
-            commit(k, i, nx, nv, xs, vs, fs, props.inv_mass, field, &mut o);
+            if store_if_finite(k, nx, nv, xs, vs, fs) {
+                quarantined += 1;
+            }
         }
-        o
+        // Energy in a second, branch-free sweep while the chunk is still in
+        // cache: four independent partial sums, so it vectorises and the add
+        // chains overlap (the summation order is fixed, hence deterministic).
+        let (kinetic, gravity) = chunk_energy(xs, vs, props.inv_mass, field.gravity);
+        ChunkOut {
+            kinetic,
+            gravity,
+            quarantined,
+        }
     })
+}
+
+/// Stores `(nx, nv)` for particle `k`, or quarantines it if not finite.
+/// Returns whether it was quarantined.
+#[inline(always)]
+fn store_if_finite(
+    k: usize,
+    nx: DVec3,
+    nv: DVec3,
+    xs: &mut [DVec3],
+    vs: &mut [DVec3],
+    fs: &mut [u32],
+) -> bool {
+    // One add chain decides the common case: the sum of finite numbers is
+    // finite unless it overflows, and any NaN or infinity poisons it.
+    let sum = nx.x + nx.y + nx.z + nv.x + nv.y + nv.z;
+    if sum.is_finite() || (nx.is_finite() && nv.is_finite()) {
+        xs[k] = nx;
+        vs[k] = nv;
+        false
+    } else {
+        quarantine(&mut fs[k], &mut vs[k]);
+        true
+    }
+}
+
+/// `(Σ m v², -Σ m (g · x))` over a chunk (the ½ is applied by
+/// [`ChunkOut::sum`]), in four interleaved partial sums.
+fn chunk_energy(xs: &[DVec3], vs: &[DVec3], inv_mass: &[f64], g: DVec3) -> (f64, f64) {
+    let mut ke = [0.0f64; 4];
+    let mut pe = [0.0f64; 4];
+    let n4 = xs.len() / 4 * 4;
+    for b in (0..n4).step_by(4) {
+        for l in 0..4 {
+            let m = 1.0 / inv_mass[b + l];
+            ke[l] += m * vs[b + l].length_squared();
+            pe[l] -= m * g.dot(xs[b + l]);
+        }
+    }
+    for k in n4..xs.len() {
+        let m = 1.0 / inv_mass[k];
+        ke[0] += m * vs[k].length_squared();
+        pe[0] -= m * g.dot(xs[k]);
+    }
+    (
+        (ke[0] + ke[1]) + (ke[2] + ke[3]),
+        (pe[0] + pe[1]) + (pe[2] + pe[3]),
+    )
 }
 
 /// One RK4 stage update: accumulate `weight * (v1, acc)` into `(sx, sv)` and

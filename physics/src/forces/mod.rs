@@ -178,6 +178,25 @@ impl FieldForces {
     }
 }
 
+impl<'a> PerParticle<'a> {
+    /// The same properties for dense particles `base..base + n`, indexed from 0.
+    /// (`group_control` is indexed by group id and stays whole.)
+    #[inline]
+    pub(crate) fn chunk(&self, base: usize, n: usize) -> PerParticle<'a> {
+        let r = base..base + n;
+        PerParticle {
+            inv_mass: &self.inv_mass[r.clone()],
+            drag_linear: &self.drag_linear[r.clone()],
+            drag_quadratic: &self.drag_quadratic[r.clone()],
+            area: &self.area[r.clone()],
+            volume: &self.volume[r.clone()],
+            group: &self.group[r.clone()],
+            control: self.control.map(|c| &c[r]),
+            group_control: self.group_control,
+        }
+    }
+}
+
 /// Borrowed read-only per-particle properties that field forces read.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct PerParticle<'a> {
