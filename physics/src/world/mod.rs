@@ -1,0 +1,364 @@
+//! The world: particle systems, their forces and springs, the clock, and the
+//! step.
+//!
+//! [`World::step`] reads top to bottom as named stages, each timed into a
+//! [`StepProfile`]:
+//!
+//! 1. **prepare** — expire spent explosions, rebuild derived data.
+//! 2. **systems** — per system, in handle order: interaction forces
+//!    (**forces**), then the **integrate** pass (CPU), or the **gpu**
+//!    dispatches.
+//! 3. **quarantine** — report particles that went non-finite.
+//! 4. **energy** — spring and mutual-gravity potential (kinetic and uniform
+//!    gravity come free from the integrate pass).
+//!
+//! Every mutating call validates its input first and changes nothing when it
+//! returns an error.
+
+mod backend;
+mod particles;
+mod state;
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use crate::arena::Arena;
+use crate::energy::Energy;
+use crate::error::{positive, PhysicsError};
+use crate::forces::barnes_hut::Octree;
+use crate::forces::mutual_gravity::exact_potential;
+use crate::forces::{Force, GravityMethod};
+use crate::handle::{ForceHandle, ParticleHandle};
+use crate::particle_system::{Backend, ParticleSystem, FLAG_QUARANTINED};
+use crate::profile::{ProfileTotals, StepProfile};
+use crate::step::{fill_masses, step_system, ChunkOut, FLAG_NEW_QUARANTINE};
+
+/// How a world runs. None of this is simulation state: a world saved with
+/// one configuration restores and steps identically under another.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WorldConfig {
+    /// Worker threads for the step; 0 = rayon's global pool (one per core).
+    /// Results are bit-identical for every count.
+    pub threads: usize,
+    /// Compute spring and mutual-gravity potential energy after every step
+    /// (kinetic and uniform-gravity energy are always computed, for free).
+    pub energy_accounting: bool,
+    /// Read GPU systems back to the CPU mirror after every step (feature
+    /// `gpu`); without it, call [`World::sync_gpu`] before reading them.
+    pub gpu_readback_every_step: bool,
+}
+
+impl Default for WorldConfig {
+    fn default() -> Self {
+        Self {
+            threads: 0,
+            energy_accounting: true,
+            gpu_readback_every_step: true,
+        }
+    }
+}
+
+/// What one step did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StepReport {
+    /// The tick just completed (the world's tick count after the step).
+    pub tick: u64,
+    /// Simulation time after the step, s.
+    pub time: f64,
+    /// Particles that became non-finite during the step and were quarantined.
+    pub quarantined: Vec<ParticleHandle>,
+    /// Explosions whose front passed their max radius and were removed.
+    pub expired_forces: Vec<ForceHandle>,
+    /// World energy after the step.
+    pub energy: Energy,
+}
+
+/// A physics world of particle systems.
+pub struct World {
+    config: WorldConfig,
+    pool: Option<Arc<rayon::ThreadPool>>,
+    tick: u64,
+    time: f64,
+    systems: Arena<ParticleSystem>,
+    energy: Energy,
+    profile: StepProfile,
+    totals: ProfileTotals,
+    #[cfg(feature = "gpu")]
+    gpu: Option<crate::gpu::GpuContext>,
+}
+
+impl std::fmt::Debug for World {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("World")
+            .field("config", &self.config)
+            .field("tick", &self.tick)
+            .field("time", &self.time)
+            .field("systems", &self.systems.len())
+            .finish()
+    }
+}
+
+impl World {
+    /// An empty world.
+    pub fn new(config: WorldConfig) -> Result<Self, PhysicsError> {
+        // One thread: run on the caller, no pool and no hand-off per step.
+        let pool = if config.threads <= 1 {
+            None
+        } else {
+            let p = rayon::ThreadPoolBuilder::new()
+                .num_threads(config.threads)
+                .build()
+                .map_err(|e| PhysicsError::ThreadPool(e.to_string()))?;
+            Some(Arc::new(p))
+        };
+        Ok(Self {
+            config,
+            pool,
+            tick: 0,
+            time: 0.0,
+            systems: Arena::default(),
+            energy: Energy::default(),
+            profile: StepProfile::default(),
+            totals: ProfileTotals::default(),
+            #[cfg(feature = "gpu")]
+            gpu: None,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &WorldConfig {
+        &self.config
+    }
+
+    /// Ticks stepped so far.
+    pub fn tick(&self) -> u64 {
+        self.tick
+    }
+
+    /// Simulation time, s (the sum of every step's `dt`).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Stage timings of the last step.
+    pub fn profile(&self) -> &StepProfile {
+        &self.profile
+    }
+
+    /// Stage timings summed over every step so far.
+    pub fn profile_totals(&self) -> &ProfileTotals {
+        &self.totals
+    }
+
+    /// World energy after the last step (see [`WorldConfig::energy_accounting`]).
+    pub fn energy(&self) -> Energy {
+        self.energy
+    }
+
+    // ----- stepping -----
+
+    /// Advances the world by `dt` seconds of simulation time.
+    pub fn step(&mut self, dt: f64) -> Result<StepReport, PhysicsError> {
+        positive("time step dt", dt)?;
+        match self.pool.clone() {
+            Some(pool) => pool.install(|| self.step_inner(dt)),
+            None if self.config.threads == 1 => crate::parallel::sequential(|| self.step_inner(dt)),
+            None => self.step_inner(dt),
+        }
+    }
+
+    /// The step as named stages; each adds its wall time to the profile.
+    fn step_inner(&mut self, dt: f64) -> Result<StepReport, PhysicsError> {
+        let start = Instant::now();
+        let mut profile = StepProfile::default();
+        let mut report = StepReport::default();
+
+        let t0 = Instant::now();
+        self.stage_prepare(&mut report);
+        profile.prepare = t0.elapsed();
+
+        let mut energy = self.stage_systems(dt, &mut profile, &mut report)?;
+
+        if self.config.energy_accounting {
+            let t0 = Instant::now();
+            self.stage_energy(&mut energy);
+            profile.energy = t0.elapsed();
+        }
+
+        self.tick += 1;
+        self.time += dt;
+        self.energy = energy;
+        profile.total = start.elapsed();
+        self.profile = profile;
+        self.totals.add(&profile);
+        report.tick = self.tick;
+        report.time = self.time;
+        report.energy = energy;
+        Ok(report)
+    }
+
+    /// Stage 1: explosions whose front has passed their max radius expire.
+    /// (Spring adjacency and substep plans are refreshed per system in stage 2.)
+    fn stage_prepare(&mut self, report: &mut StepReport) {
+        let t = self.time;
+        for (_, _, s) in self.systems.iter_mut() {
+            let spent: Vec<(u32, u32)> = s
+                .forces
+                .iter()
+                .filter(|(_, _, e)| matches!(e.force, Force::Explosion(x) if x.is_spent(t)))
+                .map(|(i, g, _)| (i, g))
+                .collect();
+            for (index, generation) in spent {
+                s.forces.remove(index, generation);
+                report.expired_forces.push(ForceHandle {
+                    system: s.handle,
+                    index,
+                    generation,
+                });
+            }
+        }
+    }
+
+    /// Stage 2: every system, in handle order, on its backend. Returns the
+    /// kinetic and uniform-gravity energy of the new state.
+    fn stage_systems(
+        &mut self,
+        dt: f64,
+        profile: &mut StepProfile,
+        report: &mut StepReport,
+    ) -> Result<Energy, PhysicsError> {
+        let t = self.time;
+        let mut energy = Energy::default();
+        for (_, _, s) in self.systems.iter_mut() {
+            match s.backend {
+                Backend::Cpu => {
+                    let (kinetic, gravity, quarantined) = step_cpu_system(s, t, dt, profile);
+                    energy.kinetic += kinetic;
+                    energy.gravity_uniform += gravity;
+                    if quarantined {
+                        let t0 = Instant::now();
+                        collect_quarantined(s, &mut report.quarantined);
+                        profile.quarantine += t0.elapsed();
+                    }
+                }
+                Backend::Gpu => {
+                    let t0 = Instant::now();
+                    #[cfg(feature = "gpu")]
+                    {
+                        let ctx = self
+                            .gpu
+                            .as_ref()
+                            .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
+                        let readback = self.config.gpu_readback_every_step;
+                        let e = crate::gpu::step_system(ctx, s, t, dt, readback)?;
+                        energy.kinetic += e.kinetic;
+                        energy.gravity_uniform += e.gravity_uniform;
+                        // Flags are only current after a readback.
+                        if readback {
+                            collect_quarantined(s, &mut report.quarantined);
+                        }
+                    }
+                    profile.gpu += t0.elapsed();
+                }
+            }
+        }
+        Ok(energy)
+    }
+
+    /// Stage 4: spring and mutual-gravity potential energy.
+    fn stage_energy(&mut self, energy: &mut Energy) {
+        for (_, _, s) in self.systems.iter_mut() {
+            let e = potential_energy(s);
+            energy.spring += e.spring;
+            energy.gravity_mutual += e.gravity_mutual;
+        }
+    }
+
+    /// Computes the world's energy now (all terms, whatever the config).
+    pub fn compute_energy(&mut self) -> Energy {
+        let mut total = Energy::default();
+        for (_, _, s) in self.systems.iter_mut() {
+            let mut e = potential_energy(s);
+            let field = crate::forces::FieldForces::compile(s, self.time, 1.0);
+            for i in 0..s.len() {
+                e.kinetic += 0.5 * s.velocity[i].length_squared() / s.inv_mass[i];
+                e.gravity_uniform += field.gravity_potential(s.position[i], s.inv_mass[i]);
+            }
+            total = total.add(&e);
+        }
+        total
+    }
+}
+
+/// Steps one CPU system by `dt` from `t` in its planned substeps. Returns
+/// kinetic and uniform-gravity energy of the final state and whether any
+/// particle was quarantined.
+fn step_cpu_system(
+    s: &mut ParticleSystem,
+    t: f64,
+    dt: f64,
+    profile: &mut StepProfile,
+) -> (f64, f64, bool) {
+    let n = s.substeps_for(dt);
+    let h = dt / f64::from(n);
+    let mut scratch = std::mem::take(&mut s.scratch);
+    let (mut last, mut quarantined) = (ChunkOut::default(), 0);
+    for k in 0..n {
+        let (out, times) = step_system(s, &mut scratch, t + f64::from(k) * h, h);
+        profile.forces += Duration::from_secs_f64(times.forces);
+        profile.integrate += Duration::from_secs_f64(times.integrate);
+        quarantined += out.quarantined;
+        last = out;
+    }
+    s.scratch = scratch;
+    (last.kinetic, last.gravity, quarantined > 0)
+}
+
+/// Stage 3: reports (and clears the transient mark of) particles
+/// quarantined during this step.
+fn collect_quarantined(s: &mut ParticleSystem, out: &mut Vec<ParticleHandle>) {
+    for (i, f) in s.flags.iter_mut().enumerate() {
+        if *f & FLAG_NEW_QUARANTINE != 0 {
+            *f &= !FLAG_NEW_QUARANTINE;
+            let slot = s.dense_to_slot[i];
+            out.push(ParticleHandle {
+                system: s.handle,
+                slot,
+                generation: s.slots[slot as usize].generation,
+            });
+        }
+    }
+}
+
+/// Spring and mutual-gravity potential of one system, J.
+fn potential_energy(s: &mut ParticleSystem) -> Energy {
+    let mut e = Energy::default();
+    if s.springs.len() > 0 {
+        s.refresh_topology();
+        e.spring = s
+            .topology
+            .potential(&s.position, &s.flags, FLAG_QUARANTINED);
+    }
+    let gravities: Vec<_> = s
+        .forces
+        .iter()
+        .filter_map(|(_, _, f)| match f.force {
+            Force::MutualGravity(g) => Some(g),
+            _ => None,
+        })
+        .collect();
+    if !gravities.is_empty() {
+        let mut mass = Vec::new();
+        fill_masses(&s.inv_mass, &s.flags, &mut mass);
+        for g in gravities {
+            let eps2 = g.softening * g.softening;
+            e.gravity_mutual +=
+                match g.method {
+                    GravityMethod::Exact => exact_potential(&s.position, &mass, g.g_constant, eps2),
+                    GravityMethod::BarnesHut { theta } => Octree::build(&s.position, &mass)
+                        .potential(&s.position, &mass, g.g_constant, eps2, theta),
+                };
+        }
+    }
+    e
+}
