@@ -708,7 +708,7 @@ fn random_hulls_are_valid_and_deterministic() {
                 .collect(),
             // The same with noise right at the coplanarity tolerance.
             _ => (0..n)
-                .map(|_| turn * on_box_face(&mut rng, true) + rng.in_cube(2e-10))
+                .map(|_| turn * on_box_face(&mut rng, true) + rng.in_cube(2e-6))
                 .collect(),
         };
         let hull = match ConvexHull::from_points(&pts) {
@@ -763,9 +763,10 @@ fn random_hulls_are_valid_and_deterministic() {
 #[test]
 fn noisy_boxes_stay_boxes() {
     // Box corners plus face points that are coplanar only to rounding,
-    // f32 precision or noise around the tolerance: the hull stays valid,
-    // its volume is the box's, and its big faces are the box's six.
-    for (noise, f32_round) in [(0.0, true), (1e-12, false), (1e-10, false), (3e-9, false)] {
+    // f32 precision or noise up to and past the tolerance (2e-6 m here):
+    // the hull stays valid, its volume is the box's, and within the
+    // tolerance its faces are the box's six quads.
+    for (noise, f32_round) in [(0.0, true), (1e-12, false), (1e-6, false), (1e-5, false)] {
         for seed in 0..20 {
             let mut rng = Rng(7000 + seed);
             let turn = rng.rotation();
@@ -784,39 +785,25 @@ fn noisy_boxes_stay_boxes() {
             let what = format!("noisy box {noise:e} seed {seed}");
             let hull = ConvexHull::from_points(&pts).unwrap();
             check_hull(&hull, &pts, &what);
-            let slack = if f32_round { 1e-6 } else { 4.0 * noise + 1e-12 };
+            // Faces move by the noise (outward at most √3 of it) and by the
+            // merge (at most the tolerance); 24 m² of surface.
+            let rounding = if f32_round { 2e-7 } else { 0.0 };
+            let slack = 24.0 * (3f64.sqrt() * noise + rounding + hull.tolerance());
             assert!(
-                rel_err(hull.volume(), 8.0) < 3.0 * slack,
+                (hull.volume() - 8.0).abs() <= slack,
                 "{what}: volume {}",
                 hull.volume()
             );
-            let mut areas: Vec<f64> = hull
-                .faces()
-                .iter()
-                .map(|f| {
-                    let v: Vec<DVec3> = f
-                        .vertices
-                        .iter()
-                        .map(|&i| hull.vertices()[i as usize])
-                        .collect();
-                    (1..v.len() - 1)
-                        .map(|k| (v[k] - v[0]).cross(v[k + 1] - v[0]).length() / 2.0)
-                        .sum()
-                })
-                .collect();
-            areas.sort_by(|a, b| b.total_cmp(a));
-            if noise <= 1e-12 {
-                // Coplanar to rounding: exactly six quads.
+            if noise <= 1e-6 {
+                // Coplanar to within the tolerance: exactly six quads.
                 assert_eq!(hull.faces().len(), 6, "{what}");
                 assert_eq!(hull.vertices().len(), 8, "{what}");
+                for face in hull.faces() {
+                    assert_eq!(face.vertices.len(), 4, "{what}");
+                }
             }
-            // Noise a little above the tolerance makes real facets, but
-            // the six largest faces still carry nearly all the area.
-            let big: f64 = areas[..6].iter().sum();
-            assert!(
-                big > 24.0 * 0.9,
-                "{what}: six largest faces hold {big} of 24 m²"
-            );
+            // Noise well above the tolerance is real (if tiny) geometry:
+            // its facets stay, and the hull is still valid (checked above).
         }
     }
 }
