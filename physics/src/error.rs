@@ -1,7 +1,7 @@
 //! Typed errors. Every fallible call says what was wrong and changes nothing
 //! when it fails: validation happens before any state is touched.
 
-use crate::handle::{ForceHandle, ParticleHandle, SpringHandle, SystemHandle};
+use crate::handle::{BodyHandle, ForceHandle, ParticleHandle, SpringHandle, SystemHandle};
 
 /// Why a call into the [`World`](crate::World) was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -51,6 +51,9 @@ pub enum PhysicsError {
     /// The spring handle is stale or was never issued.
     #[error("unknown spring {0:?}")]
     UnknownSpring(SpringHandle),
+    /// The body handle is stale or was never issued.
+    #[error("unknown rigid body {0:?}")]
+    UnknownBody(BodyHandle),
     /// The force handle is stale or was never issued.
     #[error("unknown force {0:?}")]
     UnknownForce(ForceHandle),

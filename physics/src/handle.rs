@@ -53,3 +53,10 @@ impl ForceHandle {
         self.system
     }
 }
+
+/// A rigid body in a [`World`](crate::World).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct BodyHandle {
+    pub(crate) index: u32,
+    pub(crate) generation: u32,
+}

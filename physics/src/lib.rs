@@ -40,6 +40,7 @@ pub mod integrator;
 mod parallel;
 pub mod particle_system;
 pub mod profile;
+pub mod rigid;
 pub mod snapshot;
 pub mod soft_body;
 pub mod spring;
@@ -53,7 +54,7 @@ pub use forces::{
 };
 /// Re-export of the math library used in the public API.
 pub use glam;
-pub use handle::{ForceHandle, ParticleHandle, SpringHandle, SystemHandle};
+pub use handle::{BodyHandle, ForceHandle, ParticleHandle, SpringHandle, SystemHandle};
 pub use integrator::Integrator;
 pub use particle_system::{
     Backend, ParticleDesc, ParticleState, ParticleSystem, SystemDesc, MAX_GROUPS,

@@ -15,6 +15,8 @@ pub struct StepProfile {
     pub integrate: Duration,
     /// GPU dispatches (feature `gpu`), including any readback.
     pub gpu: Duration,
+    /// Rigid-body motion.
+    pub bodies: Duration,
     /// Collecting and reporting quarantined particles.
     pub quarantine: Duration,
     /// Spring and mutual-gravity potential energy.
@@ -40,6 +42,7 @@ impl ProfileTotals {
         s.forces += p.forces;
         s.integrate += p.integrate;
         s.gpu += p.gpu;
+        s.bodies += p.bodies;
         s.quarantine += p.quarantine;
         s.energy += p.energy;
         s.total += p.total;

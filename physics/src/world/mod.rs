@@ -8,7 +8,8 @@
 //! 2. **systems** — per system, in handle order: interaction forces
 //!    (**forces**), then the **integrate** pass (CPU), or the **gpu**
 //!    dispatches.
-//! 3. **quarantine** — report particles that went non-finite.
+//! 3. **bodies** — rigid bodies move (gravity, damping, scripted forces,
+//!    rotation); particles and bodies that went non-finite are reported.
 //! 4. **energy** — spring and mutual-gravity potential (kinetic and uniform
 //!    gravity come free from the integrate pass).
 //!
@@ -17,6 +18,7 @@
 
 mod backend;
 mod particles;
+mod rigid;
 mod state;
 
 use std::sync::Arc;
@@ -28,9 +30,12 @@ use crate::error::{positive, PhysicsError};
 use crate::forces::barnes_hut::Octree;
 use crate::forces::mutual_gravity::exact_potential;
 use crate::forces::{Force, GravityMethod};
-use crate::handle::{ForceHandle, ParticleHandle};
+use glam::DVec3;
+
+use crate::handle::{BodyHandle, ForceHandle, ParticleHandle};
 use crate::particle_system::{Backend, ParticleSystem, FLAG_QUARANTINED};
 use crate::profile::{ProfileTotals, StepProfile};
+use crate::rigid::body::RigidBody;
 use crate::step::{fill_masses, step_system, ChunkOut, FLAG_NEW_QUARANTINE};
 
 /// How a world runs. None of this is simulation state: a world saved with
@@ -67,19 +72,24 @@ pub struct StepReport {
     pub time: f64,
     /// Particles that became non-finite during the step and were quarantined.
     pub quarantined: Vec<ParticleHandle>,
+    /// Rigid bodies that became non-finite during the step and were quarantined.
+    pub quarantined_bodies: Vec<BodyHandle>,
     /// Explosions whose front passed their max radius and were removed.
     pub expired_forces: Vec<ForceHandle>,
     /// World energy after the step.
     pub energy: Energy,
 }
 
-/// A physics world of particle systems.
+/// A physics world: particle systems and rigid bodies.
 pub struct World {
     config: WorldConfig,
     pool: Option<Arc<rayon::ThreadPool>>,
     tick: u64,
     time: f64,
     systems: Arena<ParticleSystem>,
+    bodies: Arena<RigidBody>,
+    /// Uniform gravity on rigid bodies, m/s².
+    body_gravity: DVec3,
     energy: Energy,
     profile: StepProfile,
     totals: ProfileTotals,
@@ -117,6 +127,8 @@ impl World {
             tick: 0,
             time: 0.0,
             systems: Arena::default(),
+            bodies: Arena::default(),
+            body_gravity: DVec3::ZERO,
             energy: Energy::default(),
             profile: StepProfile::default(),
             totals: ProfileTotals::default(),
@@ -178,6 +190,10 @@ impl World {
         profile.prepare = t0.elapsed();
 
         let mut energy = self.stage_systems(dt, &mut profile, &mut report)?;
+
+        let t0 = Instant::now();
+        self.stage_bodies(dt, &mut energy, &mut report);
+        profile.bodies = t0.elapsed();
 
         if self.config.energy_accounting {
             let t0 = Instant::now();
@@ -263,6 +279,27 @@ impl World {
             }
         }
         Ok(energy)
+    }
+
+    /// Stage 3: rigid bodies move freely (gravity, damping, scripted forces,
+    /// gyroscopic rotation). A body whose new state would not be finite is
+    /// quarantined: left where it was, at rest, and reported.
+    fn stage_bodies(&mut self, dt: f64, energy: &mut Energy, report: &mut StepReport) {
+        let g = self.body_gravity;
+        for (index, generation, b) in self.bodies.iter_mut() {
+            if !crate::rigid::motion::integrate(b, g, dt) {
+                b.quarantined = true;
+                b.linvel = DVec3::ZERO;
+                b.angvel = DVec3::ZERO;
+                report
+                    .quarantined_bodies
+                    .push(BodyHandle { index, generation });
+            }
+            energy.kinetic += b.kinetic_energy();
+            if b.inv_mass > 0.0 {
+                energy.gravity_uniform -= (g * b.gravity_scale).dot(b.com) / b.inv_mass;
+            }
+        }
     }
 
     /// Stage 4: spring and mutual-gravity potential energy.

@@ -4,10 +4,20 @@ use super::World;
 use crate::error::PhysicsError;
 use crate::hash::StateHasher;
 use crate::particle_system::Backend;
-use crate::snapshot::{encode_world, load_world, save_world, SnapshotError};
+use crate::snapshot::{encode_world, load_world, save_world, SnapshotError, StateRef};
 use crate::world::WorldConfig;
 
 impl World {
+    fn state_ref(&self) -> StateRef<'_> {
+        StateRef {
+            tick: self.tick,
+            time: self.time,
+            systems: &self.systems,
+            bodies: &self.bodies,
+            body_gravity: self.body_gravity,
+        }
+    }
+
     // ----- state -----
 
     /// 64-bit hash over the bit patterns of the whole state (what `save` writes).
@@ -15,7 +25,7 @@ impl World {
     /// [`WorldConfig::gpu_readback_every_step`] off, call [`World::sync_gpu`] first.
     pub fn state_hash(&self) -> u64 {
         let mut h = StateHasher::default();
-        encode_world(&mut h, self.tick, self.time, &self.systems);
+        encode_world(&mut h, &self.state_ref());
         h.finish()
     }
 
@@ -23,7 +33,7 @@ impl World {
     /// GPU systems are saved from their CPU mirror: with
     /// [`WorldConfig::gpu_readback_every_step`] off, call [`World::sync_gpu`] first.
     pub fn save(&self) -> Vec<u8> {
-        save_world(self.tick, self.time, &self.systems)
+        save_world(&self.state_ref())
     }
 
     /// Replaces the whole state with a saved one. On error the world is untouched.
@@ -60,6 +70,8 @@ impl World {
         self.tick = decoded.tick;
         self.time = decoded.time;
         self.systems = decoded.systems;
+        self.bodies = decoded.bodies;
+        self.body_gravity = decoded.body_gravity;
         Ok(())
     }
 

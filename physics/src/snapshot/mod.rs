@@ -13,6 +13,8 @@
 //! left, every value is validated as if it came through the public API, and
 //! nothing is applied unless the whole file decodes.
 
+mod rigid;
+
 use glam::DVec3;
 
 use crate::arena::{Arena, Entry};
@@ -26,11 +28,12 @@ use crate::integrator::Integrator;
 use crate::particle_system::{
     Backend, ParticleSystem, Slot, FLAG_PINNED, FLAG_QUARANTINED, FREE, MAX_GROUPS,
 };
+use crate::rigid::body::RigidBody;
 use crate::spring::{Spring, SpringParams};
 
 const MAGIC: &[u8; 8] = b"INRTWRLD";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Why a saved state could not be restored. The world is unchanged.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -224,25 +227,34 @@ fn system<S: Sink>(s: &mut S, p: &ParticleSystem) {
 }
 
 /// The one walk over the world state, shared by save and hash.
-pub(crate) fn encode_world<S: Sink>(
-    s: &mut S,
-    tick: u64,
-    time: f64,
-    systems: &Arena<ParticleSystem>,
-) {
-    s.u64(tick);
-    s.f64(time);
-    arena(s, systems, system);
+/// Everything that is world state, borrowed for one walk.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StateRef<'a> {
+    pub(crate) tick: u64,
+    pub(crate) time: f64,
+    pub(crate) systems: &'a Arena<ParticleSystem>,
+    pub(crate) bodies: &'a Arena<RigidBody>,
+    pub(crate) body_gravity: DVec3,
+}
+
+/// The one walk over the world state, shared by save and hash.
+pub(crate) fn encode_world<S: Sink>(s: &mut S, w: &StateRef<'_>) {
+    s.u64(w.tick);
+    s.f64(w.time);
+    arena(s, w.systems, system);
+    s.vec3(w.body_gravity);
+    arena(s, w.bodies, rigid::body);
 }
 
 /// The complete saved file for a state.
-pub(crate) fn save_world(tick: u64, time: f64, systems: &Arena<ParticleSystem>) -> Vec<u8> {
+pub(crate) fn save_world(w: &StateRef<'_>) -> Vec<u8> {
+    let particles: usize = w.systems.iter().map(|(_, _, p)| p.len()).sum();
     let mut sink = ByteSink(Vec::with_capacity(
-        64 + systems.iter().map(|(_, _, p)| p.len() * 140).sum::<usize>(),
+        64 + particles * 140 + w.bodies.len() * 256,
     ));
     sink.0.extend_from_slice(MAGIC);
     sink.u32(FORMAT_VERSION);
-    encode_world(&mut sink, tick, time, systems);
+    encode_world(&mut sink, w);
     let sum = hash_bytes(&sink.0);
     sink.u64(sum);
     sink.0
@@ -254,6 +266,8 @@ pub(crate) struct DecodedWorld {
     pub(crate) tick: u64,
     pub(crate) time: f64,
     pub(crate) systems: Arena<ParticleSystem>,
+    pub(crate) bodies: Arena<RigidBody>,
+    pub(crate) body_gravity: DVec3,
 }
 
 struct Reader<'a> {
@@ -586,6 +600,8 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     let free = r.u32s()?;
     let systems = Arena::from_parts(entries, free)
         .ok_or_else(|| SnapshotError::Invalid("system free list is inconsistent".into()))?;
+    let body_gravity = r.vec3("body gravity")?;
+    let bodies = r.arena(|r| r.body())?;
     if r.pos != r.b.len() {
         return Err(SnapshotError::Trailing(r.b.len() - r.pos));
     }
@@ -593,5 +609,7 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         tick,
         time,
         systems,
+        bodies,
+        body_gravity,
     })
 }

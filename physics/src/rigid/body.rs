@@ -1,0 +1,382 @@
+//! Rigid bodies: the state of one body and how it is described.
+//!
+//! A body is integrated at its **centre of mass**: `com` (world, m) and
+//! `rotation` (body frame → world) are the state, with the linear velocity
+//! of the centre of mass and the angular velocity, both in world
+//! coordinates. The pose a game sees — the body frame's origin — is derived:
+//! `origin = com - rotation · local_com`.
+//!
+//! The inertia tensor is stored diagonalised: `principal` rotates the
+//! principal frame into the body frame and `inv_principal_inertia` holds
+//! `1 / I_i` along those axes, so the world tensor is
+//! `R diag(I) Rᵀ` with `R = rotation · principal`, rebuilt whenever it is
+//! needed instead of being stored (no state that can go stale).
+//!
+//! Kinds: **dynamic** bodies respond to forces; **kinematic** bodies move
+//! with the velocity the game sets and push but are never pushed; **static**
+//! bodies never move. Kinematic and static bodies have infinite mass.
+
+use glam::{DMat3, DQuat, DVec3};
+
+use crate::error::{finite, finite3, non_negative, PhysicsError};
+use crate::rigid::mass::MassProperties;
+use crate::rigid::pose::Pose;
+use crate::rigid::shape::Shape;
+
+/// How a body moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum BodyKind {
+    /// Moved by forces, contacts and joints.
+    Dynamic,
+    /// Moved only by the velocity the game sets; infinite mass.
+    Kinematic,
+    /// Never moves; infinite mass.
+    Static,
+}
+
+impl BodyKind {
+    pub(crate) fn code(self) -> u8 {
+        match self {
+            BodyKind::Dynamic => 0,
+            BodyKind::Kinematic => 1,
+            BodyKind::Static => 2,
+        }
+    }
+
+    pub(crate) fn from_code(c: u8) -> Option<Self> {
+        [BodyKind::Dynamic, BodyKind::Kinematic, BodyKind::Static]
+            .get(c as usize)
+            .copied()
+    }
+}
+
+/// Everything needed to create a rigid body. Units are SI.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigidBodyDesc {
+    /// Dynamic, kinematic or static.
+    pub kind: BodyKind,
+    /// Pose of the body frame in the world.
+    pub pose: Pose,
+    /// Velocity of the centre of mass, m/s.
+    pub linear_velocity: DVec3,
+    /// Angular velocity, rad/s, world frame.
+    pub angular_velocity: DVec3,
+    /// Mass, centre of mass and inertia in the body frame (dynamic bodies;
+    /// ignored for kinematic and static ones).
+    pub mass_properties: MassProperties,
+    /// The collision shape, in the body frame.
+    pub shape: Option<Shape>,
+    /// Linear damping, 1/s: velocity is scaled by `1 / (1 + c dt)` each step.
+    pub linear_damping: f64,
+    /// Angular damping, 1/s, applied like the linear one.
+    pub angular_damping: f64,
+    /// Multiplies the world's rigid-body gravity (0 = floats, -1 = falls up).
+    pub gravity_scale: f64,
+    /// Continuous collision detection for this body (fast, small bodies).
+    pub ccd: bool,
+    /// Whether the body may fall asleep when it comes to rest.
+    pub can_sleep: bool,
+}
+
+impl RigidBodyDesc {
+    /// A dynamic body of `shape` with uniform `density` (kg/m³) at `pose`.
+    pub fn dynamic(shape: Shape, density: f64, pose: Pose) -> Result<Self, PhysicsError> {
+        let mass_properties =
+            shape
+                .mass_properties(density)
+                .map_err(|e| PhysicsError::Invalid {
+                    what: "rigid body shape",
+                    why: e.to_string(),
+                })?;
+        Ok(Self {
+            mass_properties,
+            shape: Some(shape),
+            ..Self::base(BodyKind::Dynamic, pose)
+        })
+    }
+
+    /// A static body of `shape` at `pose`.
+    pub fn fixed(shape: Shape, pose: Pose) -> Self {
+        Self {
+            shape: Some(shape),
+            ..Self::base(BodyKind::Static, pose)
+        }
+    }
+
+    /// A kinematic body of `shape` at `pose`.
+    pub fn kinematic(shape: Shape, pose: Pose) -> Self {
+        Self {
+            shape: Some(shape),
+            ..Self::base(BodyKind::Kinematic, pose)
+        }
+    }
+
+    fn base(kind: BodyKind, pose: Pose) -> Self {
+        Self {
+            kind,
+            pose,
+            linear_velocity: DVec3::ZERO,
+            angular_velocity: DVec3::ZERO,
+            mass_properties: MassProperties {
+                mass: 0.0,
+                center_of_mass: DVec3::ZERO,
+                inertia: DMat3::ZERO,
+            },
+            shape: None,
+            linear_damping: 0.0,
+            angular_damping: 0.0,
+            gravity_scale: 1.0,
+            ccd: false,
+            can_sleep: true,
+        }
+    }
+
+    /// Sets the initial velocities, m/s and rad/s.
+    pub fn with_velocity(mut self, linear: DVec3, angular: DVec3) -> Self {
+        self.linear_velocity = linear;
+        self.angular_velocity = angular;
+        self
+    }
+
+    /// Checks every field and builds the body.
+    pub(crate) fn build(&self) -> Result<RigidBody, PhysicsError> {
+        finite3("body position", self.pose.translation)?;
+        let rotation = checked_rotation(self.pose.rotation)?;
+        finite3("body linear velocity", self.linear_velocity)?;
+        finite3("body angular velocity", self.angular_velocity)?;
+        non_negative("linear damping", self.linear_damping)?;
+        non_negative("angular damping", self.angular_damping)?;
+        finite("gravity scale", self.gravity_scale)?;
+        let mut body = RigidBody {
+            kind: self.kind,
+            com: self.pose.translation,
+            rotation,
+            linvel: self.linear_velocity,
+            angvel: self.angular_velocity,
+            local_com: DVec3::ZERO,
+            inv_mass: 0.0,
+            principal: DQuat::IDENTITY,
+            inv_principal_inertia: DVec3::ZERO,
+            shape: self.shape.clone(),
+            linear_damping: self.linear_damping,
+            angular_damping: self.angular_damping,
+            gravity_scale: self.gravity_scale,
+            ccd: self.ccd,
+            can_sleep: self.can_sleep,
+            sleeping: false,
+            quarantined: false,
+            control_force: DVec3::ZERO,
+            control_torque: DVec3::ZERO,
+        };
+        match self.kind {
+            BodyKind::Dynamic => {
+                let mp = &self.mass_properties;
+                if !(mp.mass.is_finite() && mp.mass > 0.0) {
+                    return Err(PhysicsError::NonPositiveMass(mp.mass));
+                }
+                finite3("centre of mass", mp.center_of_mass)?;
+                for c in mp.inertia.to_cols_array() {
+                    finite("inertia tensor", c)?;
+                }
+                let (moments, principal) = mp.principal_axes();
+                if moments.min_element() <= 0.0 || !moments.is_finite() {
+                    return Err(PhysicsError::Invalid {
+                        what: "inertia tensor",
+                        why: format!("principal moments must be > 0 kg·m², got {moments}"),
+                    });
+                }
+                body.inv_mass = 1.0 / mp.mass;
+                body.local_com = mp.center_of_mass;
+                body.principal = principal;
+                body.inv_principal_inertia = moments.recip();
+                body.com = self.pose.translation + rotation * mp.center_of_mass;
+            }
+            BodyKind::Static => {
+                body.linvel = DVec3::ZERO;
+                body.angvel = DVec3::ZERO;
+            }
+            BodyKind::Kinematic => {}
+        }
+        Ok(body)
+    }
+}
+
+/// A finite, non-zero quaternion, normalised; refused otherwise.
+pub(crate) fn checked_rotation(q: DQuat) -> Result<DQuat, PhysicsError> {
+    for c in q.to_array() {
+        finite("body rotation", c)?;
+    }
+    let len = q.length();
+    if len <= 1e-9 || !len.is_finite() {
+        return Err(PhysicsError::ZeroDirection("body rotation quaternion"));
+    }
+    Ok(q / len)
+}
+
+/// One rigid body.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigidBody {
+    pub(crate) kind: BodyKind,
+    /// Centre of mass, world, m.
+    pub(crate) com: DVec3,
+    /// Body frame → world, unit.
+    pub(crate) rotation: DQuat,
+    /// Velocity of the centre of mass, m/s.
+    pub(crate) linvel: DVec3,
+    /// Angular velocity, rad/s, world.
+    pub(crate) angvel: DVec3,
+    /// Centre of mass in the body frame, m.
+    pub(crate) local_com: DVec3,
+    /// 1/kg; 0 for kinematic and static bodies.
+    pub(crate) inv_mass: f64,
+    /// Principal frame → body frame.
+    pub(crate) principal: DQuat,
+    /// 1 / principal moments, 1/(kg·m²); 0 for kinematic and static bodies.
+    pub(crate) inv_principal_inertia: DVec3,
+    pub(crate) shape: Option<Shape>,
+    pub(crate) linear_damping: f64,
+    pub(crate) angular_damping: f64,
+    pub(crate) gravity_scale: f64,
+    pub(crate) ccd: bool,
+    pub(crate) can_sleep: bool,
+    pub(crate) sleeping: bool,
+    /// Became non-finite during a step: frozen and excluded until released.
+    pub(crate) quarantined: bool,
+    /// Scripted force at the centre of mass, N, world; stays until changed.
+    pub(crate) control_force: DVec3,
+    /// Scripted torque, N·m, world; stays until changed.
+    pub(crate) control_torque: DVec3,
+}
+
+impl RigidBody {
+    /// Dynamic, kinematic or static.
+    pub fn kind(&self) -> BodyKind {
+        self.kind
+    }
+
+    /// Pose of the body frame (its origin and orientation) in the world.
+    pub fn pose(&self) -> Pose {
+        Pose {
+            translation: self.com - self.rotation * self.local_com,
+            rotation: self.rotation,
+        }
+    }
+
+    /// Centre of mass in the world, m.
+    pub fn center_of_mass(&self) -> DVec3 {
+        self.com
+    }
+
+    /// Velocity of the centre of mass, m/s.
+    pub fn linear_velocity(&self) -> DVec3 {
+        self.linvel
+    }
+
+    /// Angular velocity, rad/s, world frame.
+    pub fn angular_velocity(&self) -> DVec3 {
+        self.angvel
+    }
+
+    /// Velocity of the material point at `point` (world), m/s.
+    pub fn velocity_at(&self, point: DVec3) -> DVec3 {
+        self.linvel + self.angvel.cross(point - self.com)
+    }
+
+    /// Mass, kg (infinite for kinematic and static bodies).
+    pub fn mass(&self) -> f64 {
+        if self.inv_mass > 0.0 {
+            1.0 / self.inv_mass
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Inverse mass, 1/kg.
+    pub fn inverse_mass(&self) -> f64 {
+        self.inv_mass
+    }
+
+    /// Principal moments of inertia, kg·m² (infinite for non-dynamic bodies).
+    pub fn principal_inertia(&self) -> DVec3 {
+        self.inv_principal_inertia
+            .map(|i| if i > 0.0 { 1.0 / i } else { f64::INFINITY })
+    }
+
+    /// Principal frame → world.
+    pub(crate) fn principal_rotation(&self) -> DQuat {
+        self.rotation * self.principal
+    }
+
+    /// Inverse inertia tensor in world coordinates, 1/(kg·m²).
+    pub fn inverse_inertia_world(&self) -> DMat3 {
+        let r = DMat3::from_quat(self.principal_rotation());
+        r * DMat3::from_diagonal(self.inv_principal_inertia) * r.transpose()
+    }
+
+    /// Inertia tensor in world coordinates, kg·m² (dynamic bodies; zero otherwise).
+    pub fn inertia_world(&self) -> DMat3 {
+        if self.inv_mass == 0.0 {
+            return DMat3::ZERO;
+        }
+        let r = DMat3::from_quat(self.principal_rotation());
+        r * DMat3::from_diagonal(self.inv_principal_inertia.recip()) * r.transpose()
+    }
+
+    /// Angular momentum about the centre of mass, kg·m²/s, world.
+    pub fn angular_momentum(&self) -> DVec3 {
+        self.inertia_world() * self.angvel
+    }
+
+    /// Linear momentum, kg·m/s.
+    pub fn linear_momentum(&self) -> DVec3 {
+        if self.inv_mass > 0.0 {
+            self.linvel / self.inv_mass
+        } else {
+            DVec3::ZERO
+        }
+    }
+
+    /// Translational plus rotational kinetic energy, J (0 for non-dynamic bodies).
+    pub fn kinetic_energy(&self) -> f64 {
+        if self.inv_mass == 0.0 {
+            return 0.0;
+        }
+        let rot = self.angvel.dot(self.inertia_world() * self.angvel);
+        0.5 * (self.linvel.length_squared() / self.inv_mass + rot)
+    }
+
+    /// The collision shape, in the body frame.
+    pub fn shape(&self) -> Option<&Shape> {
+        self.shape.as_ref()
+    }
+
+    /// Whether the body is asleep.
+    pub fn is_sleeping(&self) -> bool {
+        self.sleeping
+    }
+
+    /// Whether the body was quarantined after becoming non-finite.
+    pub fn is_quarantined(&self) -> bool {
+        self.quarantined
+    }
+
+    /// Linear damping, 1/s.
+    pub fn linear_damping(&self) -> f64 {
+        self.linear_damping
+    }
+
+    /// Angular damping, 1/s.
+    pub fn angular_damping(&self) -> f64 {
+        self.angular_damping
+    }
+
+    /// Gravity scale.
+    pub fn gravity_scale(&self) -> f64 {
+        self.gravity_scale
+    }
+
+    /// Whether continuous collision detection is on.
+    pub fn ccd(&self) -> bool {
+        self.ccd
+    }
+}

@@ -1,0 +1,10 @@
+//! Rigid bodies: poses, shapes and their mass properties, convex hulls,
+//! bounding boxes, the body state and its free motion.
+
+pub mod aabb;
+pub mod body;
+pub mod hull;
+pub mod mass;
+pub(crate) mod motion;
+pub mod pose;
+pub mod shape;

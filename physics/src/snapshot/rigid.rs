@@ -1,0 +1,261 @@
+//! Rigid bodies and their shapes in the saved state.
+//!
+//! Shapes are written as the inputs that built them (a hull as its
+//! vertices, a mesh as vertices and triangles) and rebuilt through the same
+//! validating constructors on restore; a compound nests at most
+//! [`MAX_COMPOUND_DEPTH`] levels so hostile bytes cannot recurse without
+//! bound.
+
+use glam::{DQuat, DVec3};
+
+use super::{invalid, Reader, Sink, SnapshotError};
+use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::pose::Pose;
+use crate::rigid::shape::Shape;
+
+/// Deepest nesting of compound shapes a saved state may hold.
+pub const MAX_COMPOUND_DEPTH: u32 = 8;
+
+fn quat<S: Sink>(s: &mut S, q: DQuat) {
+    for c in q.to_array() {
+        s.f64(c);
+    }
+}
+
+fn pose<S: Sink>(s: &mut S, p: &Pose) {
+    s.vec3(p.translation);
+    quat(s, p.rotation);
+}
+
+pub(super) fn body<S: Sink>(s: &mut S, b: &RigidBody) {
+    s.u8(b.kind.code());
+    s.vec3(b.com);
+    quat(s, b.rotation);
+    s.vec3(b.linvel);
+    s.vec3(b.angvel);
+    s.vec3(b.local_com);
+    s.f64(b.inv_mass);
+    quat(s, b.principal);
+    s.vec3(b.inv_principal_inertia);
+    s.f64(b.linear_damping);
+    s.f64(b.angular_damping);
+    s.f64(b.gravity_scale);
+    s.u8(u8::from(b.ccd)
+        | (u8::from(b.can_sleep) << 1)
+        | (u8::from(b.sleeping) << 2)
+        | (u8::from(b.quarantined) << 3));
+    s.vec3(b.control_force);
+    s.vec3(b.control_torque);
+    match &b.shape {
+        None => s.u8(0),
+        Some(sh) => {
+            s.u8(1);
+            shape(s, sh);
+        }
+    }
+}
+
+fn points<S: Sink>(s: &mut S, p: &[DVec3]) {
+    s.u64(p.len() as u64);
+    for &v in p {
+        s.vec3(v);
+    }
+}
+
+fn shape<S: Sink>(s: &mut S, sh: &Shape) {
+    match sh {
+        Shape::Sphere { radius } => {
+            s.u8(0);
+            s.f64(*radius);
+        }
+        Shape::Cuboid { half_extents } => {
+            s.u8(1);
+            s.vec3(*half_extents);
+        }
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => {
+            s.u8(2);
+            s.f64(*half_height);
+            s.f64(*radius);
+        }
+        Shape::Cylinder {
+            half_height,
+            radius,
+        } => {
+            s.u8(3);
+            s.f64(*half_height);
+            s.f64(*radius);
+        }
+        Shape::ConvexHull(h) => {
+            s.u8(4);
+            points(s, h.vertices());
+        }
+        Shape::TriMesh(m) => {
+            s.u8(5);
+            points(s, m.vertices());
+            s.u64(m.triangles().len() as u64);
+            for t in m.triangles() {
+                for &i in t {
+                    s.u32(i);
+                }
+            }
+        }
+        Shape::HeightField(h) => {
+            s.u8(6);
+            s.u64(h.rows() as u64);
+            s.u64(h.cols() as u64);
+            s.vec3(h.scale());
+            s.u64(h.heights().len() as u64);
+            for &x in h.heights() {
+                s.f64(x);
+            }
+        }
+        Shape::Compound(parts) => {
+            s.u8(7);
+            s.u64(parts.len() as u64);
+            for (p, child) in parts.iter() {
+                pose(s, p);
+                shape(s, child);
+            }
+        }
+    }
+}
+
+fn shape_err(e: impl std::fmt::Display) -> SnapshotError {
+    SnapshotError::Invalid(format!("shape: {e}"))
+}
+
+impl Reader<'_> {
+    fn quat(&mut self, what: &str) -> Result<DQuat, SnapshotError> {
+        let q = DQuat::from_xyzw(
+            self.finite(what)?,
+            self.finite(what)?,
+            self.finite(what)?,
+            self.finite(what)?,
+        );
+        if (q.length() - 1.0).abs() > 1e-6 {
+            return invalid(format!("{what} is not a unit quaternion"));
+        }
+        Ok(q)
+    }
+
+    fn points(&mut self, what: &str) -> Result<Vec<DVec3>, SnapshotError> {
+        self.vec3s(what)
+    }
+
+    pub(super) fn body(&mut self) -> Result<RigidBody, SnapshotError> {
+        let kind = BodyKind::from_code(self.u8()?)
+            .ok_or_else(|| SnapshotError::Invalid("body kind".into()))?;
+        let com = self.vec3("body centre of mass")?;
+        let rotation = self.quat("body rotation")?;
+        let linvel = self.vec3("body velocity")?;
+        let angvel = self.vec3("body angular velocity")?;
+        let local_com = self.vec3("body local centre of mass")?;
+        let inv_mass = self.finite("body inverse mass")?;
+        let principal = self.quat("body principal frame")?;
+        let inv_principal_inertia = self.vec3("body inverse inertia")?;
+        let linear_damping = self.finite("linear damping")?;
+        let angular_damping = self.finite("angular damping")?;
+        let gravity_scale = self.finite("gravity scale")?;
+        let bits = self.u8()?;
+        if bits > 0b1111 {
+            return invalid("unknown body flag");
+        }
+        let control_force = self.vec3("body control force")?;
+        let control_torque = self.vec3("body control torque")?;
+        let shape = match self.u8()? {
+            0 => None,
+            1 => Some(self.shape(0)?),
+            t => return invalid(format!("shape presence tag {t}")),
+        };
+        let dynamic = kind == BodyKind::Dynamic;
+        let masses_ok = if dynamic {
+            inv_mass > 0.0 && inv_principal_inertia.min_element() > 0.0
+        } else {
+            inv_mass == 0.0 && inv_principal_inertia == DVec3::ZERO
+        };
+        if !masses_ok || linear_damping < 0.0 || angular_damping < 0.0 {
+            return invalid("body mass, inertia or damping out of range");
+        }
+        Ok(RigidBody {
+            kind,
+            com,
+            rotation,
+            linvel,
+            angvel,
+            local_com,
+            inv_mass,
+            principal,
+            inv_principal_inertia,
+            shape,
+            linear_damping,
+            angular_damping,
+            gravity_scale,
+            ccd: bits & 1 != 0,
+            can_sleep: bits & 2 != 0,
+            sleeping: bits & 4 != 0,
+            quarantined: bits & 8 != 0,
+            control_force,
+            control_torque,
+        })
+    }
+
+    fn shape(&mut self, depth: u32) -> Result<Shape, SnapshotError> {
+        let s = match self.u8()? {
+            0 => Shape::sphere(self.finite("sphere radius")?),
+            1 => Shape::cuboid(self.vec3("box half extents")?),
+            2 => Shape::capsule(
+                self.finite("capsule half height")?,
+                self.finite("capsule radius")?,
+            ),
+            3 => Shape::cylinder(
+                self.finite("cylinder half height")?,
+                self.finite("cylinder radius")?,
+            ),
+            4 => {
+                let p = self.points("hull vertex")?;
+                let h = Shape::convex_hull(&p).map_err(shape_err)?;
+                // The hull of a hull's own vertices must be the same hull, or
+                // saving after restore would not give the same bytes.
+                match &h {
+                    Shape::ConvexHull(c) if c.vertices() == p.as_slice() => Ok(h),
+                    _ => return invalid("hull vertices do not rebuild the same hull"),
+                }
+            }
+            5 => {
+                let vertices = self.points("mesh vertex")?;
+                let n = self.count(12)?;
+                let triangles = (0..n)
+                    .map(|_| Ok([self.u32()?, self.u32()?, self.u32()?]))
+                    .collect::<Result<Vec<_>, SnapshotError>>()?;
+                Shape::trimesh(vertices, triangles)
+            }
+            6 => {
+                let rows = self.u64()? as usize;
+                let cols = self.u64()? as usize;
+                let scale = self.vec3("heightfield scale")?;
+                let heights = self.f64s("height")?;
+                Shape::heightfield(heights, rows, cols, scale)
+            }
+            7 => {
+                if depth >= MAX_COMPOUND_DEPTH {
+                    return invalid("compound shapes nested too deep");
+                }
+                let n = self.count(57)?;
+                let mut parts = Vec::with_capacity(n);
+                for _ in 0..n {
+                    let p = Pose {
+                        translation: self.vec3("compound part position")?,
+                        rotation: self.quat("compound part rotation")?,
+                    };
+                    parts.push((p, self.shape(depth + 1)?));
+                }
+                Shape::compound(parts)
+            }
+            t => return invalid(format!("shape kind {t}")),
+        };
+        s.map_err(shape_err)
+    }
+}

@@ -1,0 +1,154 @@
+//! The rigid-body half of the `World` API. Every method validates before it
+//! changes anything.
+
+use glam::DVec3;
+
+use super::World;
+use crate::error::{finite3, PhysicsError};
+use crate::handle::BodyHandle;
+use crate::rigid::body::{checked_rotation, BodyKind, RigidBody, RigidBodyDesc};
+use crate::rigid::pose::Pose;
+
+impl World {
+    /// Adds a rigid body.
+    pub fn add_body(&mut self, desc: &RigidBodyDesc) -> Result<BodyHandle, PhysicsError> {
+        let body = desc.build()?;
+        let (index, generation) = self.bodies.insert(body);
+        Ok(BodyHandle { index, generation })
+    }
+
+    /// Removes a rigid body.
+    pub fn remove_body(&mut self, h: BodyHandle) -> Result<(), PhysicsError> {
+        self.bodies
+            .remove(h.index, h.generation)
+            .map(|_| ())
+            .ok_or(PhysicsError::UnknownBody(h))
+    }
+
+    /// A body, or `None` for a stale handle.
+    pub fn body(&self, h: BodyHandle) -> Option<&RigidBody> {
+        self.bodies.get(h.index, h.generation)
+    }
+
+    /// All bodies with their handles, in handle order.
+    pub fn bodies(&self) -> impl Iterator<Item = (BodyHandle, &RigidBody)> {
+        self.bodies
+            .iter()
+            .map(|(index, generation, b)| (BodyHandle { index, generation }, b))
+    }
+
+    fn body_mut(&mut self, h: BodyHandle) -> Result<&mut RigidBody, PhysicsError> {
+        self.bodies
+            .get_mut(h.index, h.generation)
+            .ok_or(PhysicsError::UnknownBody(h))
+    }
+
+    /// Sets a body's velocities, m/s and rad/s (world). Wakes it. Refused for
+    /// static bodies.
+    pub fn set_body_velocity(
+        &mut self,
+        h: BodyHandle,
+        linear: DVec3,
+        angular: DVec3,
+    ) -> Result<(), PhysicsError> {
+        finite3("body linear velocity", linear)?;
+        finite3("body angular velocity", angular)?;
+        let b = self.body_mut(h)?;
+        if b.kind == BodyKind::Static {
+            return Err(PhysicsError::Invalid {
+                what: "body velocity",
+                why: "static bodies do not move".into(),
+            });
+        }
+        b.linvel = linear;
+        b.angvel = angular;
+        b.sleeping = false;
+        Ok(())
+    }
+
+    /// Teleports a body: its frame goes to `pose`. Wakes it.
+    pub fn set_body_pose(&mut self, h: BodyHandle, pose: Pose) -> Result<(), PhysicsError> {
+        finite3("body position", pose.translation)?;
+        let rotation = checked_rotation(pose.rotation)?;
+        let b = self.body_mut(h)?;
+        b.rotation = rotation;
+        b.com = pose.translation + rotation * b.local_com;
+        b.sleeping = false;
+        Ok(())
+    }
+
+    /// Sets the scripted force (N, at the centre of mass) and torque (N·m)
+    /// that act on a dynamic body every step until changed. Wakes it.
+    pub fn set_body_control(
+        &mut self,
+        h: BodyHandle,
+        force: DVec3,
+        torque: DVec3,
+    ) -> Result<(), PhysicsError> {
+        finite3("body control force", force)?;
+        finite3("body control torque", torque)?;
+        let b = self.body_mut(h)?;
+        b.control_force = force;
+        b.control_torque = torque;
+        b.sleeping = false;
+        Ok(())
+    }
+
+    /// Applies an impulse (N·s) at a world point to a dynamic body: its
+    /// momentum changes at once. Wakes it.
+    pub fn apply_body_impulse(
+        &mut self,
+        h: BodyHandle,
+        impulse: DVec3,
+        point: DVec3,
+    ) -> Result<(), PhysicsError> {
+        finite3("impulse", impulse)?;
+        finite3("impulse point", point)?;
+        let b = self.body_mut(h)?;
+        if b.kind != BodyKind::Dynamic {
+            return Ok(());
+        }
+        let dv = impulse * b.inv_mass;
+        let dw = b.inverse_inertia_world() * (point - b.com).cross(impulse);
+        if !(dv.is_finite() && dw.is_finite()) {
+            return Err(PhysicsError::NonFinite {
+                what: "velocity after impulse",
+                value: f64::INFINITY,
+            });
+        }
+        b.linvel += dv;
+        b.angvel += dw;
+        b.sleeping = false;
+        Ok(())
+    }
+
+    /// Releases a quarantined body at a new, finite state.
+    pub fn release_body_quarantine(
+        &mut self,
+        h: BodyHandle,
+        pose: Pose,
+        linear: DVec3,
+        angular: DVec3,
+    ) -> Result<(), PhysicsError> {
+        finite3("body linear velocity", linear)?;
+        finite3("body angular velocity", angular)?;
+        self.set_body_pose(h, pose)?;
+        let b = self.body_mut(h)?;
+        b.quarantined = false;
+        b.linvel = linear;
+        b.angvel = angular;
+        Ok(())
+    }
+
+    /// Uniform gravity on every rigid body, m/s² (scaled per body by its
+    /// gravity scale). Zero until set.
+    pub fn set_body_gravity(&mut self, gravity: DVec3) -> Result<(), PhysicsError> {
+        self.body_gravity = finite3("body gravity", gravity)?;
+        Ok(())
+    }
+
+    /// The rigid-body gravity, m/s².
+    pub fn body_gravity(&self) -> DVec3 {
+        self.body_gravity
+    }
+}
