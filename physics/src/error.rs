@@ -1,7 +1,9 @@
 //! Typed errors. Every fallible call says what was wrong and changes nothing
 //! when it fails: validation happens before any state is touched.
 
-use crate::handle::{BodyHandle, ForceHandle, ParticleHandle, SpringHandle, SystemHandle};
+use crate::handle::{
+    BodyForceHandle, BodyHandle, ForceHandle, ParticleHandle, SpringHandle, SystemHandle,
+};
 
 /// Why a call into the [`World`](crate::World) was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -54,6 +56,9 @@ pub enum PhysicsError {
     /// The body handle is stale or was never issued.
     #[error("unknown rigid body {0:?}")]
     UnknownBody(BodyHandle),
+    /// The body force handle is stale or was never issued.
+    #[error("unknown body force {0:?}")]
+    UnknownBodyForce(BodyForceHandle),
     /// The force handle is stale or was never issued.
     #[error("unknown force {0:?}")]
     UnknownForce(ForceHandle),

@@ -54,6 +54,13 @@ impl ForceHandle {
     }
 }
 
+/// A force generator acting on every rigid body of a [`World`](crate::World).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct BodyForceHandle {
+    pub(crate) index: u32,
+    pub(crate) generation: u32,
+}
+
 /// A rigid body in a [`World`](crate::World).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct BodyHandle {

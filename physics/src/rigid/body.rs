@@ -72,6 +72,10 @@ pub struct RigidBodyDesc {
     pub angular_damping: f64,
     /// Multiplies the world's rigid-body gravity (0 = floats, -1 = falls up).
     pub gravity_scale: f64,
+    /// Linear drag coefficient `b`, kg/s, used by a [`Drag`](crate::Drag) body force.
+    pub drag_linear: f64,
+    /// Quadratic drag coefficient `c`, kg/m, used by a [`Drag`](crate::Drag) body force.
+    pub drag_quadratic: f64,
     /// Continuous collision detection for this body (fast, small bodies).
     pub ccd: bool,
     /// Whether the body may fall asleep when it comes to rest.
@@ -126,6 +130,8 @@ impl RigidBodyDesc {
             linear_damping: 0.0,
             angular_damping: 0.0,
             gravity_scale: 1.0,
+            drag_linear: 0.0,
+            drag_quadratic: 0.0,
             ccd: false,
             can_sleep: true,
         }
@@ -147,6 +153,8 @@ impl RigidBodyDesc {
         non_negative("linear damping", self.linear_damping)?;
         non_negative("angular damping", self.angular_damping)?;
         finite("gravity scale", self.gravity_scale)?;
+        non_negative("body linear drag", self.drag_linear)?;
+        non_negative("body quadratic drag", self.drag_quadratic)?;
         let mut body = RigidBody {
             kind: self.kind,
             com: self.pose.translation,
@@ -161,6 +169,8 @@ impl RigidBodyDesc {
             linear_damping: self.linear_damping,
             angular_damping: self.angular_damping,
             gravity_scale: self.gravity_scale,
+            drag_linear: self.drag_linear,
+            drag_quadratic: self.drag_quadratic,
             ccd: self.ccd,
             can_sleep: self.can_sleep,
             sleeping: false,
@@ -237,6 +247,9 @@ pub struct RigidBody {
     pub(crate) linear_damping: f64,
     pub(crate) angular_damping: f64,
     pub(crate) gravity_scale: f64,
+    /// Drag coefficients, kg/s and kg/m.
+    pub(crate) drag_linear: f64,
+    pub(crate) drag_quadratic: f64,
     pub(crate) ccd: bool,
     pub(crate) can_sleep: bool,
     pub(crate) sleeping: bool,

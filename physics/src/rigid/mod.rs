@@ -3,7 +3,9 @@
 
 pub mod aabb;
 pub mod body;
+pub(crate) mod forces;
 pub mod hull;
+pub(crate) mod immersion;
 pub mod mass;
 pub(crate) mod motion;
 pub mod pose;

@@ -31,7 +31,13 @@ use crate::rigid::body::{BodyKind, RigidBody};
 /// Advances one body by `dt` seconds under uniform `gravity` (m/s², before
 /// the body's gravity scale). Returns false, leaving the body untouched, if
 /// the result would not be finite.
-pub(crate) fn integrate(body: &mut RigidBody, gravity: DVec3, dt: f64) -> bool {
+pub(crate) fn integrate(
+    body: &mut RigidBody,
+    gravity: DVec3,
+    force: DVec3,
+    torque: DVec3,
+    dt: f64,
+) -> bool {
     match body.kind {
         BodyKind::Static => true,
         BodyKind::Kinematic => {
@@ -48,7 +54,7 @@ pub(crate) fn integrate(body: &mut RigidBody, gravity: DVec3, dt: f64) -> bool {
             if body.sleeping || body.quarantined {
                 return true;
             }
-            let (com, linvel, rotation, angvel) = dynamic_step(body, gravity, dt);
+            let (com, linvel, rotation, angvel) = dynamic_step(body, gravity, force, torque, dt);
             if !(com.is_finite()
                 && linvel.is_finite()
                 && rotation.is_finite()
@@ -65,17 +71,25 @@ pub(crate) fn integrate(body: &mut RigidBody, gravity: DVec3, dt: f64) -> bool {
     }
 }
 
-/// The new `(com, linear velocity, rotation, angular velocity)` of a dynamic body.
-fn dynamic_step(b: &RigidBody, gravity: DVec3, dt: f64) -> (DVec3, DVec3, DQuat, DVec3) {
+/// The new `(com, linear velocity, rotation, angular velocity)` of a dynamic
+/// body under `gravity` (before its scale) and an external `force` (N, at the
+/// centre of mass) and `torque` (N·m), both on top of its scripted control.
+fn dynamic_step(
+    b: &RigidBody,
+    gravity: DVec3,
+    force: DVec3,
+    torque: DVec3,
+    dt: f64,
+) -> (DVec3, DVec3, DQuat, DVec3) {
     // Linear: symplectic Euler with implicit damping.
-    let accel = gravity * b.gravity_scale + b.control_force * b.inv_mass;
+    let accel = gravity * b.gravity_scale + (b.control_force + force) * b.inv_mass;
     let linvel = (b.linvel + accel * dt) / (1.0 + dt * b.linear_damping);
     let com = b.com + linvel * dt;
 
     // Angular: torque kick on the body-frame momentum, then the free rotation.
     let inertia = b.inv_principal_inertia.recip();
     let q = b.principal_rotation();
-    let pi = inertia * (q.inverse() * b.angvel) + q.inverse() * (b.control_torque * dt);
+    let pi = inertia * (q.inverse() * b.angvel) + q.inverse() * ((b.control_torque + torque) * dt);
     let (q, pi) = free_rotation(q, pi, b.inv_principal_inertia, dt);
     let angvel = (q * (b.inv_principal_inertia * pi)) / (1.0 + dt * b.angular_damping);
     let rotation = (q * b.principal.inverse()).normalize();

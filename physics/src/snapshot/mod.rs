@@ -235,6 +235,7 @@ pub(crate) struct StateRef<'a> {
     pub(crate) systems: &'a Arena<ParticleSystem>,
     pub(crate) bodies: &'a Arena<RigidBody>,
     pub(crate) body_gravity: DVec3,
+    pub(crate) body_forces: &'a Arena<ForceEntry>,
 }
 
 /// The one walk over the world state, shared by save and hash.
@@ -244,6 +245,7 @@ pub(crate) fn encode_world<S: Sink>(s: &mut S, w: &StateRef<'_>) {
     arena(s, w.systems, system);
     s.vec3(w.body_gravity);
     arena(s, w.bodies, rigid::body);
+    arena(s, w.body_forces, |s, f| force(s, &f.force));
 }
 
 /// The complete saved file for a state.
@@ -268,6 +270,7 @@ pub(crate) struct DecodedWorld {
     pub(crate) systems: Arena<ParticleSystem>,
     pub(crate) bodies: Arena<RigidBody>,
     pub(crate) body_gravity: DVec3,
+    pub(crate) body_forces: Arena<ForceEntry>,
 }
 
 struct Reader<'a> {
@@ -602,6 +605,7 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         .ok_or_else(|| SnapshotError::Invalid("system free list is inconsistent".into()))?;
     let body_gravity = r.vec3("body gravity")?;
     let bodies = r.arena(|r| r.body())?;
+    let body_forces = r.arena(|r| Ok(ForceEntry { force: r.force()? }))?;
     if r.pos != r.b.len() {
         return Err(SnapshotError::Trailing(r.b.len() - r.pos));
     }
@@ -611,5 +615,6 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         systems,
         bodies,
         body_gravity,
+        body_forces,
     })
 }

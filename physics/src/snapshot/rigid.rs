@@ -40,6 +40,8 @@ pub(super) fn body<S: Sink>(s: &mut S, b: &RigidBody) {
     s.f64(b.linear_damping);
     s.f64(b.angular_damping);
     s.f64(b.gravity_scale);
+    s.f64(b.drag_linear);
+    s.f64(b.drag_quadratic);
     s.u8(u8::from(b.ccd)
         | (u8::from(b.can_sleep) << 1)
         | (u8::from(b.sleeping) << 2)
@@ -159,6 +161,8 @@ impl Reader<'_> {
         let linear_damping = self.finite("linear damping")?;
         let angular_damping = self.finite("angular damping")?;
         let gravity_scale = self.finite("gravity scale")?;
+        let drag_linear = self.finite("body linear drag")?;
+        let drag_quadratic = self.finite("body quadratic drag")?;
         let bits = self.u8()?;
         if bits > 0b1111 {
             return invalid("unknown body flag");
@@ -176,7 +180,12 @@ impl Reader<'_> {
         } else {
             inv_mass == 0.0 && inv_principal_inertia == DVec3::ZERO
         };
-        if !masses_ok || linear_damping < 0.0 || angular_damping < 0.0 {
+        if !masses_ok
+            || linear_damping < 0.0
+            || angular_damping < 0.0
+            || drag_linear < 0.0
+            || drag_quadratic < 0.0
+        {
             return invalid("body mass, inertia or damping out of range");
         }
         Ok(RigidBody {
@@ -193,6 +202,8 @@ impl Reader<'_> {
             linear_damping,
             angular_damping,
             gravity_scale,
+            drag_linear,
+            drag_quadratic,
             ccd: bits & 1 != 0,
             can_sleep: bits & 2 != 0,
             sleeping: bits & 4 != 0,

@@ -36,6 +36,7 @@ use crate::handle::{BodyHandle, ForceHandle, ParticleHandle};
 use crate::particle_system::{Backend, ParticleSystem, FLAG_QUARANTINED};
 use crate::profile::{ProfileTotals, StepProfile};
 use crate::rigid::body::RigidBody;
+use crate::rigid::forces::BodyField;
 use crate::step::{fill_masses, step_system, ChunkOut, FLAG_NEW_QUARANTINE};
 
 /// How a world runs. None of this is simulation state: a world saved with
@@ -90,6 +91,8 @@ pub struct World {
     bodies: Arena<RigidBody>,
     /// Uniform gravity on rigid bodies, m/s².
     body_gravity: DVec3,
+    /// Force generators acting on every rigid body.
+    body_forces: Arena<crate::forces::ForceEntry>,
     energy: Energy,
     profile: StepProfile,
     totals: ProfileTotals,
@@ -129,6 +132,7 @@ impl World {
             systems: Arena::default(),
             bodies: Arena::default(),
             body_gravity: DVec3::ZERO,
+            body_forces: Arena::default(),
             energy: Energy::default(),
             profile: StepProfile::default(),
             totals: ProfileTotals::default(),
@@ -285,9 +289,15 @@ impl World {
     /// gyroscopic rotation). A body whose new state would not be finite is
     /// quarantined: left where it was, at rest, and reported.
     fn stage_bodies(&mut self, dt: f64, energy: &mut Energy, report: &mut StepReport) {
-        let g = self.body_gravity;
+        let field = BodyField::compile(
+            self.body_forces.iter().map(|(_, _, e)| &e.force),
+            self.time,
+            dt,
+        );
+        let g = self.body_gravity + field.gravity;
         for (index, generation, b) in self.bodies.iter_mut() {
-            if !crate::rigid::motion::integrate(b, g, dt) {
+            let (force, torque) = field.force_and_torque(b);
+            if !crate::rigid::motion::integrate(b, g, force, torque, dt) {
                 b.quarantined = true;
                 b.linvel = DVec3::ZERO;
                 b.angvel = DVec3::ZERO;

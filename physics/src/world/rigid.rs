@@ -5,7 +5,8 @@ use glam::DVec3;
 
 use super::World;
 use crate::error::{finite3, PhysicsError};
-use crate::handle::BodyHandle;
+use crate::forces::{Force, ForceEntry};
+use crate::handle::{BodyForceHandle, BodyHandle};
 use crate::rigid::body::{checked_rotation, BodyKind, RigidBody, RigidBodyDesc};
 use crate::rigid::pose::Pose;
 
@@ -151,4 +152,55 @@ impl World {
     pub fn body_gravity(&self) -> DVec3 {
         self.body_gravity
     }
+
+    /// Attaches a force generator that acts on every rigid body (see
+    /// [`crate::rigid::forces`]). Mutual gravity between bodies is refused.
+    pub fn add_body_force(
+        &mut self,
+        force: impl Into<Force>,
+    ) -> Result<BodyForceHandle, PhysicsError> {
+        let force = checked_body_force(force.into())?;
+        let (index, generation) = self.body_forces.insert(ForceEntry { force });
+        Ok(BodyForceHandle { index, generation })
+    }
+
+    /// Replaces a body force generator's parameters.
+    pub fn set_body_force(
+        &mut self,
+        h: BodyForceHandle,
+        force: impl Into<Force>,
+    ) -> Result<(), PhysicsError> {
+        let force = checked_body_force(force.into())?;
+        let e = self
+            .body_forces
+            .get_mut(h.index, h.generation)
+            .ok_or(PhysicsError::UnknownBodyForce(h))?;
+        e.force = force;
+        Ok(())
+    }
+
+    /// Detaches a body force generator.
+    pub fn remove_body_force(&mut self, h: BodyForceHandle) -> Result<(), PhysicsError> {
+        self.body_forces
+            .remove(h.index, h.generation)
+            .map(|_| ())
+            .ok_or(PhysicsError::UnknownBodyForce(h))
+    }
+
+    /// A body force generator, or `None` for a stale handle.
+    pub fn body_force(&self, h: BodyForceHandle) -> Option<Force> {
+        Some(self.body_forces.get(h.index, h.generation)?.force)
+    }
+}
+
+fn checked_body_force(force: Force) -> Result<Force, PhysicsError> {
+    force.validate()?;
+    if matches!(force, Force::MutualGravity(_)) {
+        return Err(PhysicsError::Invalid {
+            what: "body force",
+            why: "mutual gravity acts between particles; between rigid bodies it is not supported"
+                .into(),
+        });
+    }
+    Ok(force)
 }

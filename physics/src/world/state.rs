@@ -15,6 +15,7 @@ impl World {
             systems: &self.systems,
             bodies: &self.bodies,
             body_gravity: self.body_gravity,
+            body_forces: &self.body_forces,
         }
     }
 
@@ -72,6 +73,7 @@ impl World {
         self.systems = decoded.systems;
         self.bodies = decoded.bodies;
         self.body_gravity = decoded.body_gravity;
+        self.body_forces = decoded.body_forces;
         Ok(())
     }
 

@@ -1,0 +1,127 @@
+//! The particle engine's force generators acting on rigid bodies.
+//!
+//! The same [`Force`] values that act on particles act on bodies, with the
+//! body's shape standing in for a particle's area and volume:
+//!
+//! * **uniform gravity** — `m g` (times the body's gravity scale) at the
+//!   centre of mass;
+//! * **drag** — `-(b + c |v|) v` at the centre of mass with the body's own
+//!   coefficients;
+//! * **wind** — `½ ρ C s² A` along the wind, where `A` is the area the shape
+//!   shows to the wind and the force acts at its centre of pressure, so a
+//!   long body turns into the wind;
+//! * **buoyancy** — `ρ g V_sub` up through the centre of the submerged
+//!   volume (so a floating body rights itself), plus fluid drag scaled by the
+//!   submerged fraction on the linear and angular velocity;
+//! * **explosions** — the blast pressure on the area the shape shows to the
+//!   blast centre, at the centre of mass, averaged over the step exactly as
+//!   for particles.
+//!
+//! Mutual gravity between bodies is refused for now (typed error).
+
+use glam::DVec3;
+
+use crate::forces::wind::CompiledWind;
+use crate::forces::{Buoyancy, Drag, Explosion, Force};
+use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::immersion::{projected_area, submerged, surface};
+
+/// The body force generators of a world, compiled once per step.
+#[derive(Debug, Default)]
+pub(crate) struct BodyField {
+    /// Extra uniform gravity from generators, m/s².
+    pub(crate) gravity: DVec3,
+    drag: Option<Drag>,
+    winds: Vec<CompiledWind>,
+    buoyancy: Vec<Buoyancy>,
+    explosions: Vec<Explosion>,
+    t: f64,
+    dt: f64,
+}
+
+impl BodyField {
+    pub(crate) fn compile<'a>(forces: impl Iterator<Item = &'a Force>, t: f64, dt: f64) -> Self {
+        let mut f = BodyField {
+            t,
+            dt,
+            ..Default::default()
+        };
+        for force in forces {
+            match *force {
+                Force::UniformGravity(g) => f.gravity += g.acceleration(),
+                Force::Drag(d) => {
+                    let prev = f.drag.unwrap_or(Drag {
+                        linear_scale: 0.0,
+                        quadratic_scale: 0.0,
+                    });
+                    f.drag = Some(Drag {
+                        linear_scale: prev.linear_scale + d.linear_scale,
+                        quadratic_scale: prev.quadratic_scale + d.quadratic_scale,
+                    });
+                }
+                Force::Wind(w) => f.winds.push(w.compiled()),
+                Force::Buoyancy(b) => f.buoyancy.push(b.compiled()),
+                Force::Explosion(e) => f.explosions.push(e),
+                Force::MutualGravity(_) => {}
+            }
+        }
+        f
+    }
+
+    fn needs_surface(&self) -> bool {
+        !(self.winds.is_empty() && self.buoyancy.is_empty() && self.explosions.is_empty())
+    }
+
+    /// Force (N, world) at the centre of mass and torque (N·m, world) about
+    /// it on one dynamic body, from every generator but uniform gravity.
+    pub(crate) fn force_and_torque(&self, b: &RigidBody) -> (DVec3, DVec3) {
+        let (mut force, mut torque) = (DVec3::ZERO, DVec3::ZERO);
+        if b.kind != BodyKind::Dynamic {
+            return (force, torque);
+        }
+        if let Some(d) = &self.drag {
+            force += d.force(b.linvel, b.drag_linear, b.drag_quadratic);
+        }
+        let Some(shape) = b.shape.as_ref().filter(|_| self.needs_surface()) else {
+            return (force, torque);
+        };
+        let tris = surface(shape);
+        let pose = b.pose();
+        let to_local = pose.rotation.inverse();
+        // Lever arm from the centre of mass to a point given in the body frame.
+        let arm = |local_point: DVec3| pose.transform_point(local_point) - b.com;
+        for w in &self.winds {
+            if w.dir == DVec3::ZERO {
+                continue;
+            }
+            let (area, centre) = projected_area(shape, &tris, to_local * w.dir);
+            let f = w.force(b.linvel, area);
+            force += f;
+            torque += arm(centre).cross(f);
+        }
+        for fluid in &self.buoyancy {
+            let n = to_local * fluid.up;
+            let d = fluid.surface_height - fluid.up.dot(pose.translation);
+            let (volume, centre) = submerged(shape, &tris, n, d);
+            if volume <= 0.0 {
+                continue;
+            }
+            let f = fluid.up * (fluid.fluid_density * volume * fluid.gravity);
+            force += f;
+            torque += arm(centre).cross(f);
+            let fraction = shape.volume().map_or(1.0, |v| (volume / v).min(1.0));
+            force -= (fluid.fluid_drag * fraction) * b.linvel;
+            // Angular fluid drag: the same coefficient times a length² (V^(2/3)).
+            torque -= (fluid.fluid_drag * fraction * volume.powf(2.0 / 3.0)) * b.angvel;
+        }
+        for e in &self.explosions {
+            let away = b.com - e.center;
+            if away.length_squared() == 0.0 {
+                continue;
+            }
+            let (area, _) = projected_area(shape, &tris, to_local * -away.normalize());
+            force += e.force(b.com, area, self.t, self.dt);
+        }
+        (force, torque)
+    }
+}

@@ -1,0 +1,186 @@
+//! The particle engine's force generators acting on rigid bodies.
+
+mod common;
+
+use inertia_physics::glam::{DQuat, DVec3};
+use inertia_physics::rigid::body::RigidBodyDesc;
+use inertia_physics::rigid::pose::Pose;
+use inertia_physics::rigid::shape::Shape;
+use inertia_physics::{Buoyancy, Drag, Explosion, MutualGravity, PhysicsError, Wind, World};
+
+const WATER: f64 = 1000.0;
+
+fn floating(shape: Shape, density_ratio: f64, pose: Pose) -> (World, inertia_physics::BodyHandle) {
+    let mut w = common::world();
+    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.add_body_force(Buoyancy {
+        surface_height: 0.0,
+        up: DVec3::Y,
+        fluid_density: WATER,
+        gravity: 9.81,
+        fluid_drag: 400.0,
+    })
+    .unwrap();
+    let h = w
+        .add_body(&RigidBodyDesc::dynamic(shape, density_ratio * WATER, pose).unwrap())
+        .unwrap();
+    common::run(&mut w, 1.0 / 60.0, 60 * 40);
+    (w, h)
+}
+
+#[test]
+fn boxes_float_at_the_depth_archimedes_predicts() {
+    for ratio in [0.25, 0.5, 0.75] {
+        let half = DVec3::new(0.5, 0.25, 0.4);
+        let (w, h) = floating(
+            Shape::cuboid(half).unwrap(),
+            ratio,
+            Pose::from_translation(DVec3::Y * 1.0),
+        );
+        let b = w.body(h).unwrap();
+        // Submerged depth = ratio × height; the bottom is at -ratio·2·half.y.
+        let expected = -ratio * 2.0 * half.y + half.y;
+        let y = b.center_of_mass().y;
+        assert!(
+            (y - expected).abs() < 1e-3,
+            "density ratio {ratio}: centre at {y}, expected {expected}"
+        );
+        assert!(b.linear_velocity().length() < 1e-3 && b.angular_velocity().length() < 1e-3);
+    }
+}
+
+#[test]
+fn a_ball_of_half_the_waters_density_floats_half_submerged() {
+    let (w, h) = floating(
+        Shape::sphere(0.3).unwrap(),
+        0.5,
+        Pose::from_translation(DVec3::Y * 2.0),
+    );
+    let y = w.body(h).unwrap().center_of_mass().y;
+    assert!(y.abs() < 1e-3, "{y}");
+}
+
+#[test]
+fn a_tilted_raft_rights_itself() {
+    // A wide, flat raft dropped at 25°: the centre of buoyancy moves to the
+    // low side and the torque levels it.
+    let tilt = DQuat::from_rotation_x(25f64.to_radians());
+    let (w, h) = floating(
+        Shape::cuboid(DVec3::new(1.0, 0.1, 1.0)).unwrap(),
+        0.5,
+        Pose::new(DVec3::Y * 0.5, tilt),
+    );
+    let up = w.body(h).unwrap().pose().rotation * DVec3::Y;
+    assert!(up.dot(DVec3::Y) > 0.9999, "raft still tilted: up = {up}");
+}
+
+#[test]
+fn wind_pushes_on_the_area_a_body_shows() {
+    let mut w = common::world();
+    let wind = Wind {
+        velocity: DVec3::new(10.0, 0.0, 0.0),
+        air_density: 1.2,
+        pressure_coefficient: 1.0,
+    };
+    w.add_body_force(wind).unwrap();
+    let board = Shape::cuboid(DVec3::new(0.05, 1.0, 1.5)).unwrap(); // 2 × 3 m face towards the wind
+    let h = w
+        .add_body(&RigidBodyDesc::dynamic(board, 100.0, Pose::IDENTITY).unwrap())
+        .unwrap();
+    let m = w.body(h).unwrap().mass();
+    let dt = 1e-4;
+    w.step(dt).unwrap();
+    let f = w.body(h).unwrap().linear_velocity().x * m / dt;
+    let expected = 0.5 * 1.2 * 100.0 * 6.0;
+    assert!((f - expected).abs() < 1e-6 * expected, "{f} vs {expected}");
+    // Face-on and symmetric: no torque.
+    assert!(w.body(h).unwrap().angular_velocity().length() < 1e-12);
+}
+
+#[test]
+fn off_centre_wind_turns_a_weathervane() {
+    // A compound: a heavy ball at the pivot and a light vane behind it; the
+    // wind pushes the vane, so the body turns about its centre of mass.
+    let mut w = common::world();
+    w.add_body_force(Wind {
+        velocity: DVec3::new(0.0, 0.0, 8.0),
+        air_density: 1.2,
+        pressure_coefficient: 1.0,
+    })
+    .unwrap();
+    let vane = Shape::compound(vec![
+        (Pose::IDENTITY, Shape::sphere(0.2).unwrap()),
+        (
+            Pose::from_translation(DVec3::new(1.0, 0.0, 0.0)),
+            Shape::cuboid(DVec3::new(0.5, 0.3, 0.02)).unwrap(),
+        ),
+    ])
+    .unwrap();
+    let h = w
+        .add_body(&RigidBodyDesc::dynamic(vane, 50.0, Pose::IDENTITY).unwrap())
+        .unwrap();
+    w.step(0.01).unwrap();
+    let omega = w.body(h).unwrap().angular_velocity();
+    // Force +Z applied at +X of the centre of mass: torque r × F along -Y.
+    assert!(omega.y < -1e-6, "{omega}");
+}
+
+#[test]
+fn body_drag_reaches_terminal_velocity() {
+    let mut w = common::world();
+    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.add_body_force(Drag::default()).unwrap();
+    let mut d =
+        RigidBodyDesc::dynamic(Shape::sphere(0.1).unwrap(), 1000.0, Pose::IDENTITY).unwrap();
+    d.drag_quadratic = 0.02;
+    let h = w.add_body(&d).unwrap();
+    common::run(&mut w, 1.0 / 120.0, 120 * 30);
+    let b = w.body(h).unwrap();
+    let expected = (b.mass() * 9.81 / 0.02).sqrt();
+    let v = -b.linear_velocity().y;
+    assert!((v - expected).abs() / expected < 0.01, "{v} vs {expected}");
+}
+
+#[test]
+fn a_blast_gives_a_body_the_impulse_on_its_shown_area() {
+    let blast = Explosion {
+        center: DVec3::ZERO,
+        front_speed: 200.0,
+        front_thickness: 0.5,
+        peak_pressure: 5e4,
+        max_radius: 50.0,
+        ..Explosion::default()
+    };
+    let mut w = common::world();
+    w.add_body_force(blast).unwrap();
+    let crate_shape = Shape::cuboid(DVec3::splat(0.5)).unwrap(); // a 1 m cube, face-on to the blast
+    let h = w
+        .add_body(
+            &RigidBodyDesc::dynamic(crate_shape, 200.0, Pose::from_translation(DVec3::X * 10.0))
+                .unwrap(),
+        )
+        .unwrap();
+    common::run(&mut w, 1.0 / 240.0, 40);
+    let b = w.body(h).unwrap();
+    let expected = blast.impulse_at(10.0, 1.0) / b.mass();
+    let v = b.linear_velocity();
+    assert!(
+        (v.x - expected).abs() < 1e-3 * expected && v.y.abs() < 1e-12,
+        "{v} vs {expected}"
+    );
+}
+
+#[test]
+fn mutual_gravity_between_bodies_is_refused() {
+    let mut w = common::world();
+    assert!(matches!(
+        w.add_body_force(MutualGravity::default()),
+        Err(PhysicsError::Invalid { .. })
+    ));
+    assert!(w
+        .add_body_force(Wind {
+            air_density: -1.0,
+            ..Wind::default()
+        })
+        .is_err());
+}
