@@ -3,6 +3,7 @@
 
 pub mod aabb;
 pub mod body;
+pub mod broad_phase;
 pub(crate) mod forces;
 pub mod hull;
 pub(crate) mod immersion;
