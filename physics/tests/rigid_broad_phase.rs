@@ -65,7 +65,10 @@ fn check_against_brute_force(bp: &BroadPhase, tight: &BTreeMap<u32, (Aabb, bool)
     assert_eq!(bp.pairs(), brute_force_pairs(&bp.proxies()).as_slice());
     let tight: Vec<(u32, Aabb, bool)> = tight.iter().map(|(&k, &(b, s))| (k, b, s)).collect();
     for p in brute_force_pairs(&tight) {
-        assert!(bp.pairs().binary_search(&p).is_ok(), "tight overlap {p:?} missing");
+        assert!(
+            bp.pairs().binary_search(&p).is_ok(),
+            "tight overlap {p:?} missing"
+        );
     }
 }
 
@@ -118,7 +121,11 @@ fn pairs_match_brute_force_through_inserts_removals_and_moves() {
         bp.update_pairs();
         sap.update_pairs();
         check_against_brute_force(&bp, &tight);
-        assert_eq!(bp.pairs(), sap.pairs(), "round {round}: SAP differs from the tree");
+        assert_eq!(
+            bp.pairs(),
+            sap.pairs(),
+            "round {round}: SAP differs from the tree"
+        );
         // The reported changes turn the old pair set into the new one.
         let mut rebuilt: Vec<Pair> = before
             .iter()
@@ -127,7 +134,11 @@ fn pairs_match_brute_force_through_inserts_removals_and_moves() {
             .chain(bp.added_pairs().iter().copied())
             .collect();
         rebuilt.sort_unstable();
-        assert_eq!(rebuilt, bp.pairs(), "round {round}: added/removed inconsistent");
+        assert_eq!(
+            rebuilt,
+            bp.pairs(),
+            "round {round}: added/removed inconsistent"
+        );
         if round == 30 {
             bp.rebuild();
             bp.validate().unwrap();
@@ -159,8 +170,14 @@ fn pair_order_independent_of_insertion_order_rebuilds_and_threads() {
     let mut b = build(&shuffled);
     let mut c = build(&reversed);
     c.rebuild();
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-    let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let two = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
     one.install(|| a.update_pairs());
     two.install(|| b.update_pairs());
     c.update_pairs();
@@ -255,7 +272,11 @@ fn height_stays_logarithmic_for_sorted_insertion() {
         assert!(h < bound, "height {h} >= {bound}");
         tree.rebuild();
         tree.validate().unwrap();
-        assert!((tree.height() as f64) < bound, "rebuilt height {}", tree.height());
+        assert!(
+            (tree.height() as f64) < bound,
+            "rebuilt height {}",
+            tree.height()
+        );
     }
 }
 
@@ -350,10 +371,13 @@ fn queries_without_hits() {
         hits += 1;
         true
     });
-    bp.query(&Aabb::new(DVec3::splat(f64::NAN), DVec3::splat(f64::NAN)), |_| {
-        hits += 1;
-        true
-    });
+    bp.query(
+        &Aabb::new(DVec3::splat(f64::NAN), DVec3::splat(f64::NAN)),
+        |_| {
+            hits += 1;
+            true
+        },
+    );
     bp.ray_cast(DVec3::splat(100.0), DVec3::ONE, f64::INFINITY, |_, _| {
         hits += 1;
         0.0
@@ -385,7 +409,8 @@ fn removing_everything_leaves_an_empty_tree() {
     let mut rng = Rng(6);
     let mut bp = BroadPhase::default();
     for k in 0..1000 {
-        bp.insert(k, random_box(&mut rng, 20.0), k % 5 == 0).unwrap();
+        bp.insert(k, random_box(&mut rng, 20.0), k % 5 == 0)
+            .unwrap();
     }
     bp.update_pairs();
     assert!(!bp.pairs().is_empty());
@@ -427,13 +452,34 @@ fn bad_input_is_refused_without_corrupting_the_tree() {
     let inverted = Aabb::new(DVec3::ONE, DVec3::ZERO);
     let huge = Aabb::new(DVec3::ZERO, DVec3::splat(f64::MAX));
 
-    assert!(matches!(bp.insert(500, nan, false), Err(BroadPhaseError::NonFinite { .. })));
-    assert!(matches!(bp.insert(500, inf, false), Err(BroadPhaseError::NonFinite { .. })));
-    assert!(matches!(bp.insert(500, inverted, false), Err(BroadPhaseError::Inverted { .. })));
-    assert!(matches!(bp.insert(500, huge, false), Err(BroadPhaseError::OutOfRange { .. })));
-    assert_eq!(bp.insert(3, good, false), Err(BroadPhaseError::DuplicateKey(3)));
-    assert!(matches!(bp.update(3, nan, DVec3::ZERO), Err(BroadPhaseError::NonFinite { .. })));
-    assert!(matches!(bp.update(3, inverted, DVec3::ZERO), Err(BroadPhaseError::Inverted { .. })));
+    assert!(matches!(
+        bp.insert(500, nan, false),
+        Err(BroadPhaseError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        bp.insert(500, inf, false),
+        Err(BroadPhaseError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        bp.insert(500, inverted, false),
+        Err(BroadPhaseError::Inverted { .. })
+    ));
+    assert!(matches!(
+        bp.insert(500, huge, false),
+        Err(BroadPhaseError::OutOfRange { .. })
+    ));
+    assert_eq!(
+        bp.insert(3, good, false),
+        Err(BroadPhaseError::DuplicateKey(3))
+    );
+    assert!(matches!(
+        bp.update(3, nan, DVec3::ZERO),
+        Err(BroadPhaseError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        bp.update(3, inverted, DVec3::ZERO),
+        Err(BroadPhaseError::Inverted { .. })
+    ));
     assert!(matches!(
         bp.update(3, good, DVec3::new(f64::NEG_INFINITY, 0.0, 0.0)),
         Err(BroadPhaseError::NonFinite { .. })
@@ -442,7 +488,10 @@ fn bad_input_is_refused_without_corrupting_the_tree() {
         bp.update(3, good, DVec3::splat(f64::MAX)),
         Err(BroadPhaseError::OutOfRange { .. })
     ));
-    assert_eq!(bp.update(999, good, DVec3::ZERO), Err(BroadPhaseError::UnknownKey(999)));
+    assert_eq!(
+        bp.update(999, good, DVec3::ZERO),
+        Err(BroadPhaseError::UnknownKey(999))
+    );
     assert!(matches!(
         bp.ray_cast(DVec3::splat(f64::NAN), DVec3::X, 1.0, |_, t| t),
         Err(BroadPhaseError::NonFinite { .. })
@@ -451,8 +500,14 @@ fn bad_input_is_refused_without_corrupting_the_tree() {
         bp.ray_cast(DVec3::ZERO, DVec3::X, -1.0, |_, t| t),
         Err(BroadPhaseError::BadRayLength(-1.0))
     );
-    assert!(matches!(BroadPhase::new(f64::NAN), Err(BroadPhaseError::BadMargin(_))));
-    assert!(matches!(BroadPhase::new(-0.1), Err(BroadPhaseError::BadMargin(_))));
+    assert!(matches!(
+        BroadPhase::new(f64::NAN),
+        Err(BroadPhaseError::BadMargin(_))
+    ));
+    assert!(matches!(
+        BroadPhase::new(-0.1),
+        Err(BroadPhaseError::BadMargin(_))
+    ));
 
     assert!(!bp.contains(500));
     assert_eq!(bp.len(), 200);
@@ -464,7 +519,10 @@ fn bad_input_is_refused_without_corrupting_the_tree() {
     let mut tree = DynamicTree::default();
     let gone = tree.create_proxy(good, 9).unwrap();
     assert_eq!(tree.destroy_proxy(gone), Ok(9));
-    assert_eq!(tree.destroy_proxy(gone), Err(BroadPhaseError::UnknownProxy(0)));
+    assert_eq!(
+        tree.destroy_proxy(gone),
+        Err(BroadPhaseError::UnknownProxy(0))
+    );
     assert!(tree.move_proxy(gone, good, DVec3::ZERO).is_err());
     let id = tree.create_proxy(good, 0).unwrap();
     assert!(tree.create_proxy(nan, 1).is_err());
@@ -546,7 +604,10 @@ fn cloud(n: usize, moving_fraction: f64, seed: u64) -> Scene {
 
 /// Runs a scene through both broad phases; returns ms (build, per update).
 fn run_scene(scene: &Scene, steps: usize) -> [(f64, f64); 2] {
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
     one.install(|| {
         let mut tree = BroadPhase::default();
         let mut sap = SweepAndPrune::new(tree.tree().margin()).unwrap();
@@ -569,7 +630,11 @@ fn run_scene(scene: &Scene, steps: usize) -> [(f64, f64); 2] {
             let mut moves = Vec::new();
             for (k, b) in boxes.iter_mut().enumerate() {
                 let d = if scene.jitter > 0.0 {
-                    DVec3::splat(if (step + k) % 2 == 0 { scene.jitter } else { -scene.jitter })
+                    DVec3::splat(if (step + k) % 2 == 0 {
+                        scene.jitter
+                    } else {
+                        -scene.jitter
+                    })
                 } else {
                     scene.velocity[k]
                 };
@@ -615,9 +680,6 @@ fn bench_tree_vs_sap() {
     println!("| scene | tree build | tree update | SAP build | SAP update |");
     for scene in [pyramid(n), cloud(n, 1.0, 11), cloud(n, 0.1, 12)] {
         let [(tb, tu), (sb, su)] = run_scene(&scene, steps);
-        println!(
-            "| {} | {tb:.2} | {tu:.3} | {sb:.2} | {su:.3} |",
-            scene.name
-        );
+        println!("| {} | {tb:.2} | {tu:.3} | {sb:.2} | {su:.3} |", scene.name);
     }
 }

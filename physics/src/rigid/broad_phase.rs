@@ -362,7 +362,10 @@ impl BroadPhase {
     /// # Errors
     /// An unknown key.
     pub fn remove(&mut self, key: u32) -> Result<(), BroadPhaseError> {
-        let id = *self.proxies.get(&key).ok_or(BroadPhaseError::UnknownKey(key))?;
+        let id = *self
+            .proxies
+            .get(&key)
+            .ok_or(BroadPhaseError::UnknownKey(key))?;
         self.tree.destroy_proxy(id)?;
         self.proxies.remove(&key);
         self.info[id.index()] = None;
@@ -377,8 +380,16 @@ impl BroadPhase {
     /// # Errors
     /// An unknown key, a non-finite or inverted box or a non-finite
     /// displacement; nothing changes.
-    pub fn update(&mut self, key: u32, aabb: Aabb, displacement: DVec3) -> Result<bool, BroadPhaseError> {
-        let id = *self.proxies.get(&key).ok_or(BroadPhaseError::UnknownKey(key))?;
+    pub fn update(
+        &mut self,
+        key: u32,
+        aabb: Aabb,
+        displacement: DVec3,
+    ) -> Result<bool, BroadPhaseError> {
+        let id = *self
+            .proxies
+            .get(&key)
+            .ok_or(BroadPhaseError::UnknownKey(key))?;
         let moved = self.tree.move_proxy(id, aabb, displacement)?;
         if let Some(info) = self.info.get_mut(id.index()).and_then(Option::as_mut) {
             info.tight = aabb;
@@ -516,10 +527,11 @@ impl BroadPhase {
         max_t: f64,
         mut f: impl FnMut(u32, f64) -> f64,
     ) -> Result<(), BroadPhaseError> {
-        self.tree.ray_cast(origin, dir, max_t, |id, t| match self.tree.user_data(id) {
-            Some(key) => f(key, t),
-            None => max_t,
-        })
+        self.tree
+            .ray_cast(origin, dir, max_t, |id, t| match self.tree.user_data(id) {
+                Some(key) => f(key, t),
+                None => max_t,
+            })
     }
 
     /// Rebuilds the tree top-down (binned SAH). Pairs are unaffected.

@@ -90,7 +90,7 @@ impl SweepAndPrune {
         Ok(())
     }
 
-    /// Removes proxy `key`.
+    /// Removes proxy `key`. O(n): the sweep order is compacted.
     ///
     /// # Errors
     /// An unknown key.
@@ -120,8 +120,16 @@ impl SweepAndPrune {
     ///
     /// # Errors
     /// An unknown key, or a bad box or displacement; nothing changes.
-    pub fn update(&mut self, key: u32, aabb: Aabb, displacement: DVec3) -> Result<bool, BroadPhaseError> {
-        let &i = self.index.get(&key).ok_or(BroadPhaseError::UnknownKey(key))?;
+    pub fn update(
+        &mut self,
+        key: u32,
+        aabb: Aabb,
+        displacement: DVec3,
+    ) -> Result<bool, BroadPhaseError> {
+        let &i = self
+            .index
+            .get(&key)
+            .ok_or(BroadPhaseError::UnknownKey(key))?;
         check_aabb(&aabb)?;
         check_vec("proxy displacement", displacement)?;
         let fat = fat_box(&aabb, self.margin, displacement);
