@@ -215,6 +215,26 @@ fn static_pairs_are_skipped_and_resting_proxies_cost_nothing() {
     bp.validate().unwrap();
 }
 
+#[test]
+fn fat_box_stretches_along_motion_and_shrinks_back_when_it_stops() {
+    let mut bp = BroadPhase::new(0.1).unwrap();
+    let b0 = Aabb::new(DVec3::ZERO, DVec3::ONE);
+    bp.insert(1, b0, false).unwrap();
+    let d = DVec3::new(2.0, 0.0, 0.0);
+    let b1 = translated(&b0, d);
+    assert!(bp.update(1, b1, d).unwrap());
+    let fat = bp.fat_aabb(1).unwrap();
+    // Margin on every side, plus four steps of the motion ahead of it.
+    assert!((fat.max.x - (b1.max.x + 0.1 + 4.0 * d.x)).abs() < 1e-12);
+    assert!((fat.min.x - (b1.min.x - 0.1)).abs() < 1e-12);
+    // Still inside, but the box is now far too long: it is refitted.
+    assert!(bp.update(1, b1, DVec3::ZERO).unwrap());
+    assert_eq!(bp.fat_aabb(1), Some(b1.expanded(0.1)));
+    // And then left alone.
+    assert!(!bp.update(1, b1, DVec3::ZERO).unwrap());
+    bp.validate().unwrap();
+}
+
 // ---------------------------------------------------------------- the tree
 
 #[test]
@@ -269,6 +289,7 @@ fn height_stays_logarithmic_for_sorted_insertion() {
         }
         tree.validate().unwrap();
         let h = tree.height() as f64;
+        println!("sorted insertion of {n}: height {h}, bound {bound:.1}");
         assert!(h < bound, "height {h} >= {bound}");
         tree.rebuild();
         tree.validate().unwrap();
@@ -657,12 +678,18 @@ fn run_scene(scene: &Scene, steps: usize) -> [(f64, f64); 2] {
             sap_ms += t.elapsed().as_secs_f64() * 1e3;
             assert_eq!(tree.pairs(), sap.pairs());
         }
+        let mut rebuilt = tree.clone();
+        let t = Instant::now();
+        rebuilt.rebuild();
+        let rebuild_ms = t.elapsed().as_secs_f64() * 1e3;
         println!(
-            "{:40} pairs {:6} height {:3} area ratio {:5.1}",
+            "{:40} pairs {:6} height {:3} area ratio {:5.1}; rebuilt in {rebuild_ms:.1} ms: height {:3} area ratio {:5.1}",
             scene.name,
             tree.pairs().len(),
             tree.tree().height(),
-            tree.tree().area_ratio()
+            tree.tree().area_ratio(),
+            rebuilt.tree().height(),
+            rebuilt.tree().area_ratio()
         );
         [
             (tree_build, tree_ms / steps as f64),

@@ -54,6 +54,14 @@
 //! ray casts. So [`BroadPhase`] is the tree; [`SweepAndPrune`] stays as the
 //! measured alternative and a second reference in the tests.
 //!
+//! Incremental insertion keeps the tree shallow (height 14–16 for 10 000
+//! proxies, 14 even for sorted insertion), but its SAH quality — the
+//! summed area of internal nodes over the root's,
+//! [`area_ratio`](DynamicTree::area_ratio) — is 104–168 on these scenes;
+//! a binned-SAH [`rebuild`](DynamicTree::rebuild) (4–10 ms) brings it to
+//! 69–77, which is why static level geometry should be rebuilt once
+//! loaded.
+//!
 //! # Determinism
 //!
 //! Pairs are stored canonically (`a < b` by key) and the list is kept
