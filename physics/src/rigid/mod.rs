@@ -4,10 +4,12 @@
 pub mod aabb;
 pub mod body;
 pub mod broad_phase;
+pub mod contact;
 pub(crate) mod forces;
 pub mod hull;
 pub(crate) mod immersion;
 pub mod mass;
 pub(crate) mod motion;
+pub mod narrow;
 pub mod pose;
 pub mod shape;

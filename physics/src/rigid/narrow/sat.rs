@@ -1,0 +1,248 @@
+//! Separating-axis test between two polytopes (boxes, hulls, triangles),
+//! then a manifold: the reference face's side planes clip the most
+//! anti-parallel face of the other shape (face contact), or the closest
+//! points of the two best edges (edge contact).
+//!
+//! Axes tried: every face normal of A, every face normal of B, and the
+//! cross product of every pair of edge directions. Separation along an
+//! axis is measured by projecting both shapes (support functions), which
+//! is valid for any axis; the Gauss-map pruning of Gregorius (GDC 2013)
+//! would skip most edge pairs on large hulls and is left for later. Face
+//! axes win ties (within a tolerance) because face contacts give the
+//! stable multi-point manifolds a resting stack needs; A's faces win ties
+//! against B's for determinism.
+
+use glam::DVec3;
+
+use super::convex::{manifold_from_features, Convex, Feature, Polytope};
+use super::gjk::{gjk, GjkResult};
+use super::{pack_id, Contact};
+
+/// Vertices of a polytope mapped into the common frame.
+fn world_verts(p: &Polytope<'_>) -> Vec<DVec3> {
+    p.verts.iter().map(|&v| p.pose.transform_point(v)).collect()
+}
+
+fn max_dot(v: &[DVec3], d: DVec3) -> f64 {
+    v.iter().map(|p| p.dot(d)).fold(f64::NEG_INFINITY, f64::max)
+}
+
+fn min_dot(v: &[DVec3], d: DVec3) -> f64 {
+    v.iter().map(|p| p.dot(d)).fold(f64::INFINITY, f64::min)
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Axis {
+    FaceA(usize),
+    FaceB(usize),
+    Edge,
+}
+
+/// Contact between two polytope shapes (`a`, `b` with radius 0) in the
+/// common frame; `None` when farther apart than `spec`.
+pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Option<Contact> {
+    let pa = a.polytope()?;
+    let pb = b.polytope()?;
+    let va = world_verts(&pa);
+    let vb = world_verts(&pb);
+    let scale = a.size().max(b.size()).max(1e-12);
+
+    let mut best_face = (f64::NEG_INFINITY, Axis::FaceA(0));
+    for (i, f) in pa.faces.iter().enumerate() {
+        let n = pa.pose.transform_vector(f.normal);
+        let s = min_dot(&vb, n) - (f.offset + n.dot(pa.pose.translation));
+        if s > best_face.0 {
+            best_face = (s, Axis::FaceA(i));
+        }
+    }
+    let face_tol = 1e-9 * scale;
+    for (i, f) in pb.faces.iter().enumerate() {
+        let n = pb.pose.transform_vector(f.normal);
+        let s = min_dot(&va, n) - (f.offset + n.dot(pb.pose.translation));
+        if s > best_face.0 + face_tol {
+            best_face = (s, Axis::FaceB(i));
+        }
+    }
+    let mut best = best_face;
+    if best.0 <= spec {
+        let edge_tol = 1e-6 * scale + 1e-3 * best_face.0.abs();
+        let ca = pa.pose.translation;
+        let cb = pb.pose.translation;
+        for ea in pa.edges.iter() {
+            let da = va[ea[1] as usize] - va[ea[0] as usize];
+            for eb in pb.edges.iter() {
+                let db = vb[eb[1] as usize] - vb[eb[0] as usize];
+                let c = da.cross(db);
+                let l = c.length();
+                if l <= 1e-6 * da.length() * db.length() {
+                    continue;
+                }
+                let mut n = c / l;
+                if n.dot(cb - ca) < 0.0 {
+                    n = -n;
+                }
+                let s = min_dot(&vb, n) - max_dot(&va, n);
+                if s > best.0 + edge_tol && s > best_face.0 + edge_tol {
+                    best = (s, Axis::Edge);
+                }
+            }
+        }
+    }
+    let (sat_sep, axis) = best;
+    if sat_sep.is_nan() || sat_sep > spec {
+        return None;
+    }
+    if sat_sep > 0.0 {
+        // Separated: GJK gives the exact distance and direction. If it
+        // agrees with a face axis, clip that face; otherwise one point.
+        let sa = |d: DVec3| a.core_support(d);
+        let sb = |d: DVec3| b.core_support(d);
+        if let GjkResult::Separated {
+            distance,
+            point_a,
+            point_b,
+        } = gjk(&sa, &sb, ca_cb(a, b), scale)
+        {
+            if distance > spec {
+                return None;
+            }
+            let n = (point_b - point_a) / distance;
+            if (distance - sat_sep).abs() > 1e-6 * scale || matches!(axis, Axis::Edge) {
+                return Some(manifold_from_features(
+                    a, b, n, distance, point_a, point_b, spec,
+                ));
+            }
+        }
+    }
+    match axis {
+        Axis::FaceA(i) => face_contact(&pa, &pb, i, sat_sep, spec, 0),
+        Axis::FaceB(i) => face_contact(&pb, &pa, i, sat_sep, spec, 1).map(|c| Contact {
+            normal: -c.normal,
+            points: c
+                .points
+                .into_iter()
+                .map(|(p, q, s, id)| (q, p, s, id))
+                .collect(),
+        }),
+        // Edge against edge: EPA on the polytopes is exact and gives the
+        // witness points of the two edges.
+        Axis::Edge => return super::convex::convex_convex(a, b, spec),
+    }
+    .map(super::reduce)
+}
+
+fn ca_cb(a: &Convex<'_>, b: &Convex<'_>) -> DVec3 {
+    a.pose.translation - b.pose.translation
+}
+
+/// Face `fi` of `rf` is the reference; the face of `inc` most anti-parallel
+/// to it is clipped against its side planes.
+fn face_contact(
+    rf: &Polytope<'_>,
+    inc: &Polytope<'_>,
+    fi: usize,
+    sat_sep: f64,
+    spec: f64,
+    ref_side: u32,
+) -> Option<Contact> {
+    let face = &rf.faces[fi];
+    let n = rf.pose.transform_vector(face.normal);
+    let ref_feature = Feature {
+        pts: face
+            .vertices
+            .iter()
+            .map(|&v| rf.pose.transform_point(rf.verts[v as usize]))
+            .collect(),
+        ids: face.vertices.iter().map(|&v| v + 1).collect(),
+        face: fi as u32,
+        plane: Some(n),
+    };
+    let local_n = inc.pose.inverse_transform_vector(-n);
+    let ii = inc.best_face_local(local_n);
+    let iface = &inc.faces[ii];
+    let inc_feature = Feature {
+        pts: iface
+            .vertices
+            .iter()
+            .map(|&v| inc.pose.transform_point(inc.verts[v as usize]))
+            .collect(),
+        ids: iface.vertices.iter().map(|&v| v + 1).collect(),
+        face: ii as u32,
+        plane: Some(-n),
+    };
+    let c = super::convex::clip_features(&ref_feature, &inc_feature, n, 0.0, 0.0, spec, ref_side);
+    match c {
+        Some(c) if !c.points.is_empty() => Some(c),
+        _ => {
+            // Clipping lost every point (rounding at a touching corner):
+            // the deepest incident vertex alone.
+            let (k, q) = inc_feature
+                .pts
+                .iter()
+                .enumerate()
+                .min_by(|x, y| x.1.dot(n).total_cmp(&y.1.dot(n)))?;
+            let p = q - n * sat_sep;
+            Some(Contact {
+                normal: n,
+                points: vec![(
+                    p,
+                    *q,
+                    sat_sep,
+                    pack_id(ref_side, fi as u32, ii as u32, inc_feature.ids[k], 0),
+                )],
+            })
+        }
+    }
+}
+
+/// Closest points between segments `p0p1` and `q0q1` (Ericson §5.1.9).
+pub(crate) fn closest_segment_segment(
+    p0: DVec3,
+    p1: DVec3,
+    q0: DVec3,
+    q1: DVec3,
+) -> (DVec3, DVec3) {
+    let d1 = p1 - p0;
+    let d2 = q1 - q0;
+    let r = p0 - q0;
+    let a = d1.dot(d1);
+    let e = d2.dot(d2);
+    let f = d2.dot(r);
+    let tiny = 1e-300;
+    let (s, t);
+    if a <= tiny && e <= tiny {
+        return (p0, q0);
+    }
+    if a <= tiny {
+        s = 0.0;
+        t = (f / e).clamp(0.0, 1.0);
+    } else {
+        let c = d1.dot(r);
+        if e <= tiny {
+            t = 0.0;
+            s = (-c / a).clamp(0.0, 1.0);
+        } else {
+            let b = d1.dot(d2);
+            let denom = a * e - b * b;
+            let mut s0 = if denom > 1e-12 * a * e {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                // Parallel: the middle of the overlap keeps the point stable.
+                let t0 = (-c / a).clamp(0.0, 1.0);
+                let t1 = ((b - c) / a).clamp(0.0, 1.0);
+                0.5 * (t0 + t1)
+            };
+            let mut t0 = (b * s0 + f) / e;
+            if t0 < 0.0 {
+                t0 = 0.0;
+                s0 = (-c / a).clamp(0.0, 1.0);
+            } else if t0 > 1.0 {
+                t0 = 1.0;
+                s0 = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            s = s0;
+            t = t0;
+        }
+    }
+    (p0 + d1 * s, q0 + d2 * t)
+}
