@@ -379,6 +379,44 @@ fn box_on_trimesh_and_sphere_on_heightfield() {
     assert_vec_close(m.normal, DVec3::Y, 1e-9, "field normal");
     let m = collide(&field, &Pose::IDENTITY, &ball, &at(0.3, 0.6, 0.7), 0.05).unwrap();
     assert!(m.is_empty());
+    // Sunk below the terrain: pushed back up, not out through the bottom.
+    let m = collide(&field, &Pose::IDENTITY, &ball, &at(0.3, -0.1, 0.7), 0.0).unwrap();
+    assert_vec_close(m.normal, DVec3::Y, 1e-9, "sunk normal");
+    assert_close(m.min_separation().unwrap(), -0.6, 1e-9, "sunk depth");
+    // A box on a tilted heightfield (a ramp rising along +x).
+    let ramp: Vec<f64> = (0..9).map(|i| 0.5 * (i % 3) as f64).collect();
+    let ramp = Shape::heightfield(ramp, 3, 3, DVec3::new(4.0, 1.0, 4.0)).unwrap();
+    let slope = DVec3::new(-0.25, 1.0, 0.0).normalize();
+    let tilt = DQuat::from_rotation_arc(DVec3::Y, slope);
+    let centre = slope * (0.5 - 0.01) + DVec3::new(0.0, 0.5, 0.0);
+    let m = collide(&ramp, &Pose::IDENTITY, &b, &Pose::new(centre, tilt), 0.0).unwrap();
+    assert_eq!(m.points.len(), 4, "{m:?}");
+    assert_vec_close(m.normal, slope, 1e-9, "ramp normal");
+    for p in &m.points {
+        assert_close(p.separation, -0.01, 1e-9, "ramp separation");
+    }
+}
+
+#[test]
+fn cylinder_lying_on_box_and_stacked_on_cylinder() {
+    let ground = cuboid(2.0, 0.5, 2.0);
+    let cyl = Shape::cylinder(0.5, 0.3).unwrap();
+    let lying = Pose::new(
+        DVec3::new(0.0, 0.79, 0.0),
+        DQuat::from_rotation_x(FRAC_PI_2),
+    );
+    let m = collide(&ground, &Pose::IDENTITY, &cyl, &lying, 0.0).unwrap();
+    assert_eq!(m.points.len(), 2, "{m:?}");
+    assert_vec_close(m.normal, DVec3::Y, 1e-6, "normal");
+    for p in &m.points {
+        assert_close(p.separation, -0.01, 1e-6, "separation");
+    }
+    let m = collide(&cyl, &Pose::IDENTITY, &cyl, &at(0.1, 0.98, 0.0), 0.0).unwrap();
+    assert_eq!(m.points.len(), 4, "{m:?}");
+    assert_vec_close(m.normal, DVec3::Y, 1e-6, "stacked normal");
+    for p in &m.points {
+        assert_close(p.separation, -0.02, 1e-6, "stacked separation");
+    }
 }
 
 // ---------------------------------------------------------------- GJK / EPA

@@ -365,7 +365,27 @@ pub(crate) fn fallback_axis(
     b: &Convex<'_>,
     init: DVec3,
 ) -> (DVec3, f64, DVec3, DVec3) {
-    let n = init.normalize_or(DVec3::Y);
+    // A flat triangle has one good axis: its normal, towards the other shape.
+    let plane = |c: &Convex<'_>, other: &Convex<'_>| match c.core {
+        Core::Triangle(t) => {
+            let n = c.pose.transform_vector((t[1] - t[0]).cross(t[2] - t[0]));
+            let centroid = c.pose.transform_point((t[0] + t[1] + t[2]) / 3.0);
+            let n = n.normalize_or_zero();
+            Some(if n.dot(other.pose.translation - centroid) < 0.0 {
+                -n
+            } else {
+                n
+            })
+        }
+        _ => None,
+    };
+    if let Some(n) = plane(a, b) {
+        let pa = a.core_support(n);
+        let pb = b.core_support(-n);
+        let gap = n.dot(pb - pa);
+        return (n, gap - a.radius - b.radius, pb - n * gap, pb);
+    }
+    let n = plane(b, a).map_or(init.normalize_or(DVec3::Y), |m| -m);
     let pa = a.core_support(n);
     let pb = b.core_support(-n);
     let gap = n.dot(pb - pa);

@@ -9,12 +9,16 @@
 //! normal of the deepest triangle, with the points of every triangle whose
 //! normal agrees with it to within about 18°, reduced to four.
 //!
+//! Heightfield triangles are one-sided (terrain is solid below; see
+//! [`front_side`]); mesh triangles are two-sided, since a mesh need not
+//! be closed.
+//!
 //! Known limit: no internal-edge handling yet, so a box sliding across a
 //! flat mesh can catch on the shared edges of its triangles.
 
 use glam::DVec3;
 
-use super::convex::{mix, Convex, Core};
+use super::convex::{manifold_from_features, mix, Convex, Core};
 use super::{convex_pair, reduce, Contact};
 use crate::rigid::aabb::Aabb;
 use crate::rigid::pose::Pose;
@@ -28,6 +32,7 @@ const MERGE_COS: f64 = 0.95;
 /// a mesh or heightfield.
 pub(crate) fn surface_convex(surface: &Shape, b: &Convex<'_>, spec: f64) -> Option<Contact> {
     let bounds = convex_bounds(b).expanded(spec);
+    let one_sided = matches!(surface, Shape::HeightField(_));
     let mut parts: Vec<Contact> = Vec::new();
     let mut collide_tri = |index: u32, tri: [DVec3; 3]| {
         let lo = tri[0].min(tri[1]).min(tri[2]);
@@ -40,7 +45,11 @@ pub(crate) fn surface_convex(surface: &Shape, b: &Convex<'_>, spec: f64) -> Opti
             radius: 0.0,
             pose: Pose::IDENTITY,
         };
-        let mut c = convex_pair(&a, b, spec);
+        let mut c = if one_sided {
+            front_side(&a, tri, b, spec)
+        } else {
+            convex_pair(&a, b, spec)
+        };
         if c.points.is_empty() {
             return;
         }
@@ -112,6 +121,30 @@ pub(crate) fn surface_convex(surface: &Shape, b: &Convex<'_>, spec: f64) -> Opti
         }
     }
     Some(reduce(out))
+}
+
+/// A heightfield triangle is one-sided: terrain is solid below. A shape
+/// whose centre is above the triangle's plane collides normally; one whose
+/// centre has sunk below is pushed back up along the triangle's normal
+/// instead of out through the bottom.
+fn front_side(a: &Convex<'_>, tri: [DVec3; 3], b: &Convex<'_>, spec: f64) -> Contact {
+    let front = (tri[1] - tri[0])
+        .cross(tri[2] - tri[0])
+        .normalize_or(DVec3::Y);
+    let offset = front.dot(tri[0]);
+    if front.dot(b.pose.translation) >= offset {
+        let c = convex_pair(a, b, spec);
+        if c.points.is_empty() || c.normal.dot(front) > 0.0 {
+            return c;
+        }
+    }
+    let q = b.core_support(-front);
+    let gap = front.dot(q) - offset;
+    let sep = gap - b.radius;
+    if sep.is_nan() || sep > spec {
+        return Contact::default();
+    }
+    manifold_from_features(a, b, front, sep, q - front * gap, q, spec)
 }
 
 /// Bounds of a convex shape placed in the common frame, m.
