@@ -501,7 +501,9 @@ fn random_pairs_points_lie_on_both_surfaces() {
     let shapes = shapes();
     let mut rng = Rng(42);
     let mut checked = 0;
-    for _ in 0..400 {
+    // Worst error (m) per class: [flat (box, hull, sphere), capsule, cylinder].
+    let mut worst = [0.0f64; 3];
+    for _ in 0..40000 {
         let ia = (rng.next_u64() % shapes.len() as u64) as usize;
         let ib = (rng.next_u64() % shapes.len() as u64) as usize;
         let (a, b) = (&shapes[ia], &shapes[ib]);
@@ -513,36 +515,37 @@ fn random_pairs_points_lie_on_both_surfaces() {
             continue;
         }
         assert_close(m.normal.length(), 1.0, 1e-9, "unit normal");
-        // Curved shapes through EPA converge only to a tolerance.
-        let curved = matches!(a, Shape::Cylinder { .. }) || matches!(b, Shape::Cylinder { .. });
-        let tol = if curved { 2e-3 } else { 1e-6 };
+        let class = if matches!(a, Shape::Cylinder { .. }) || matches!(b, Shape::Cylinder { .. }) {
+            2
+        } else if matches!(a, Shape::Capsule { .. }) || matches!(b, Shape::Capsule { .. }) {
+            1
+        } else {
+            0
+        };
         for p in &m.points {
             assert!(p.separation.is_finite());
             assert!(p.separation <= 0.1 + 1e-12);
             let wa = pa.transform_point(p.local_a);
             let wb = pb.transform_point(p.local_b);
-            assert_vec_close(
-                wa + m.normal * p.separation,
-                wb,
-                tol,
-                &format!("{ia}-{ib} gap along normal"),
-            );
-            assert_close(
-                surface_distance(a, p.local_a),
-                0.0,
-                tol,
-                &format!("{ia}-{ib} on A"),
-            );
-            assert_close(
-                surface_distance(b, p.local_b),
-                0.0,
-                tol,
-                &format!("{ia}-{ib} on B"),
-            );
+            let err = (wa + m.normal * p.separation)
+                .distance(wb)
+                .max(surface_distance(a, p.local_a).abs())
+                .max(surface_distance(b, p.local_b).abs());
+            worst[class] = worst[class].max(err);
             checked += 1;
         }
     }
-    assert!(checked > 200, "{checked}");
+    println!(
+        "worst point error: flat {:.1e} m, capsule {:.1e} m, cylinder {:.1e} m",
+        worst[0], worst[1], worst[2]
+    );
+    assert!(checked > 20000, "{checked}");
+    // Flat pairs are exact; a capsule's side counts as parallel within
+    // 1.1°, so its points may sit ~2e-4 of its radius inside; cylinders go
+    // through EPA on a curved difference, which converges to a tolerance.
+    assert!(worst[0] < 1e-6, "{worst:?}");
+    assert!(worst[1] < 1e-4, "{worst:?}");
+    assert!(worst[2] < 1e-2, "{worst:?}");
 }
 
 #[test]
@@ -705,4 +708,73 @@ fn bad_input_gives_typed_errors() {
         collide(&comp, &Pose::IDENTITY, &s, &Pose::IDENTITY, 0.0),
         Err(ContactError::Compound)
     );
+}
+
+#[test]
+fn stress_random_pairs_never_panic_or_nan() {
+    let mut rng = Rng(99);
+    let cloud: Vec<DVec3> = (0..40).map(|_| rng.in_cube(1.0)).collect();
+    let verts: Vec<DVec3> = (0..16)
+        .map(|i| {
+            DVec3::new(
+                (i % 4) as f64 - 1.5,
+                rng.range(-0.2, 0.2),
+                (i / 4) as f64 - 1.5,
+            )
+        })
+        .collect();
+    let mut tris = Vec::new();
+    for r in 0..3u32 {
+        for c in 0..3u32 {
+            let i = r * 4 + c;
+            tris.push([i, i + 4, i + 1]);
+            tris.push([i + 1, i + 4, i + 5]);
+        }
+    }
+    let heights: Vec<f64> = (0..36).map(|_| rng.range(-0.3, 0.3)).collect();
+    let all = [
+        Shape::sphere(0.3).unwrap(),
+        cuboid(0.5, 0.1, 0.3),
+        Shape::capsule(0.6, 0.1).unwrap(),
+        Shape::cylinder(0.2, 0.5).unwrap(),
+        Shape::convex_hull(&cloud).unwrap(),
+        Shape::trimesh(verts, tris).unwrap(),
+        Shape::heightfield(heights, 6, 6, DVec3::new(3.0, 1.0, 3.0)).unwrap(),
+    ];
+    for scale in [1e-3, 1.0, 1e3] {
+        for _ in 0..300 {
+            let ia = (rng.next_u64() % all.len() as u64) as usize;
+            let ib = (rng.next_u64() % all.len() as u64) as usize;
+            let pa = Pose::new(rng.in_cube(scale), rng.rotation());
+            let offset = match rng.next_u64() % 4 {
+                0 => DVec3::ZERO,
+                1 => rng.in_cube(1e-9),
+                _ => rng.in_cube(1.2),
+            };
+            let pb = Pose::new(pa.translation + offset, rng.rotation());
+            match collide(&all[ia], &pa, &all[ib], &pb, 0.1) {
+                Ok(m) => {
+                    assert!(m.points.len() <= 4);
+                    assert!(m.normal.is_finite());
+                    if !m.is_empty() {
+                        assert_close(m.normal.length(), 1.0, 1e-9, "unit normal");
+                    }
+                    let tol = if ia == 3 || ib == 3 { 2e-3 } else { 1e-6 };
+                    for p in &m.points {
+                        assert!(p.local_a.is_finite() && p.local_b.is_finite());
+                        assert!(p.separation.is_finite() && p.separation <= 0.1 + 1e-9);
+                        let wa = pa.transform_point(p.local_a);
+                        let wb = pb.transform_point(p.local_b);
+                        assert_vec_close(
+                            wa + m.normal * p.separation,
+                            wb,
+                            tol,
+                            &format!("{ia}-{ib} gap along normal {pa:?} {pb:?} {m:?}"),
+                        );
+                    }
+                }
+                Err(e) => assert!(ia >= 5 && ib >= 5, "{ia}-{ib}: {e}"),
+            }
+        }
+    }
 }

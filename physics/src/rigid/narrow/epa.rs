@@ -56,23 +56,32 @@ where
     FB: Fn(DVec3) -> DVec3,
 {
     let tol = 1e-9 * scale.max(1e-300);
+    // Start from GJK's simplex grown to a tetrahedron. If rounding left it
+    // flat so that it misses the origin, walk it towards the origin: swap
+    // the vertex opposite a face the origin lies beyond for the support
+    // point along that face's normal (the boolean GJK step), a few times.
     let mut pts: Vec<SupportPoint> = simplex.to_vec();
     grow_to_tetrahedron(sa, sb, &mut pts, tol)?;
-    // Orient the tetrahedron's faces outward.
-    let mut faces = Vec::with_capacity(32);
-    let centroid: DVec3 = pts.iter().map(|p| p.w).sum::<DVec3>() * 0.25;
-    for f in [[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]] {
-        let mut face = make_face(&pts, f)?;
-        if face.n.dot(pts[f[0]].w - centroid) < 0.0 {
-            face = make_face(&pts, [f[0], f[2], f[1]])?;
+    let mut start = None;
+    for _ in 0..32 {
+        let faces = oriented_faces(&pts)?;
+        match faces.iter().position(|f| f.d < -tol) {
+            None => {
+                start = Some(faces);
+                break;
+            }
+            Some(k) => {
+                let f = faces[k];
+                let w = support(sa, sb, f.n);
+                if w.w.dot(f.n) <= tol {
+                    return None; // The origin is outside: no overlap.
+                }
+                let opposite = (0..4).find(|i| !f.v.contains(i))?;
+                pts[opposite] = w;
+            }
         }
-        faces.push(face);
     }
-    // The origin must be inside (or on) the start polytope, or the nearest
-    // face is not the answer; the caller falls back.
-    if faces.iter().any(|f| f.d < -tol) {
-        return None;
-    }
+    let mut faces = start?;
     let mut best = faces[0];
     for iterations in 0..MAX_ITERATIONS {
         let (bi, _) = faces
@@ -137,6 +146,20 @@ where
     })
 }
 
+/// The tetrahedron's faces oriented outward (`None` if it is flat).
+fn oriented_faces(pts: &[SupportPoint]) -> Option<Vec<Face>> {
+    let mut faces = Vec::with_capacity(32);
+    let centroid: DVec3 = pts.iter().map(|p| p.w).sum::<DVec3>() * 0.25;
+    for f in [[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]] {
+        let mut face = make_face(pts, f)?;
+        if face.n.dot(pts[f[0]].w - centroid) < 0.0 {
+            face = make_face(pts, [f[0], f[2], f[1]])?;
+        }
+        faces.push(face);
+    }
+    Some(faces)
+}
+
 fn barycentric(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (f64, f64, f64) {
     let v0 = b - a;
     let v1 = c - a;
@@ -193,7 +216,7 @@ where
             1 => dirs.extend_from_slice(&axes),
             2 => {
                 let d = clean[1].w - clean[0].w;
-                let p = d.any_orthonormal_vector();
+                let p = d.normalize_or(DVec3::X).any_orthonormal_vector();
                 let q = d.normalize_or_zero().cross(p);
                 dirs.extend_from_slice(&[p, -p, q, -q]);
                 dirs.extend_from_slice(&axes);

@@ -235,13 +235,22 @@ fn closest_tetrahedron(s: &[SupportPoint]) -> (Vec<SupportPoint>, Vec<f64>, bool
     let mut best: Option<(Vec<SupportPoint>, Vec<f64>)> = None;
     let mut best_d = f64::INFINITY;
     let mut inside = true;
+    // A nearly flat tetrahedron cannot tell inside from outside reliably:
+    // treat it as outside every face and keep the nearest triangle.
+    let edge = (1..4)
+        .map(|i| (s[i].w - s[0].w).length())
+        .fold(0.0, f64::max);
+    let vol6 = (s[1].w - s[0].w)
+        .dot((s[2].w - s[0].w).cross(s[3].w - s[0].w))
+        .abs();
+    let flat = vol6.is_nan() || vol6 <= 1e-9 * edge * edge * edge;
     for f in faces {
         let (a, b, c, d) = (s[f[0]].w, s[f[1]].w, s[f[2]].w, s[f[3]].w);
         let n = (b - a).cross(c - a);
         let sign_o = (-a).dot(n);
         let sign_d = (d - a).dot(n);
         // Origin on the far side of this face from the fourth vertex.
-        if sign_o * sign_d < 0.0 || sign_d == 0.0 {
+        if flat || sign_o * sign_d < 0.0 || sign_d == 0.0 {
             inside = false;
             let (idx, w) = closest_triangle(a, b, c);
             let q: DVec3 = idx.iter().zip(&w).map(|(&k, &l)| [a, b, c][k] * l).sum();

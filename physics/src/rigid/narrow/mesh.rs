@@ -117,9 +117,16 @@ pub(crate) fn surface_convex(surface: &Shape, b: &Convex<'_>, spec: f64) -> Opti
     };
     for c in &parts {
         if c.normal.dot(normal) >= MERGE_COS {
-            out.points.extend_from_slice(&c.points);
+            // Re-measure along the common normal, keeping the point on the
+            // convex shape; the surface's point moves by a sliver of the
+            // tangential difference, which a static surface does not feel.
+            out.points.extend(c.points.iter().map(|&(p, q, _, id)| {
+                let sep = (q - p).dot(normal);
+                (q - normal * sep, q, sep, id)
+            }));
         }
     }
+    out.points.retain(|p| p.2 <= spec);
     Some(reduce(out))
 }
 

@@ -59,7 +59,7 @@ pub(crate) fn sphere_capsule(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Optio
     let d = c - ca;
     if d.length() <= 1e-12 * (a.radius + b.radius) {
         // Centre on the axis: push out sideways, deterministically.
-        let n = axis.any_orthonormal_vector();
+        let n = axis.normalize_or(DVec3::Y).any_orthonormal_vector();
         let sep = -a.radius - b.radius;
         if sep.is_nan() || sep > spec {
             return None;
