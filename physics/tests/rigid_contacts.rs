@@ -199,6 +199,18 @@ fn capsule_lying_on_box_two_points() {
     xs.sort_by(f64::total_cmp);
     assert_close(xs[0], 0.1 - 0.75, 1e-9, "end");
     assert_close(xs[1], 0.1 + 0.75, 1e-9, "end");
+    // Rolled and slid a little: the same two ids.
+    let mut ids: Vec<u32> = m.points.iter().map(|p| p.id).collect();
+    ids.sort_unstable();
+    assert_ne!(ids[0], ids[1]);
+    let nudged = Pose::new(
+        DVec3::new(0.12, 0.745, 0.01),
+        DQuat::from_rotation_y(0.02) * DQuat::from_rotation_z(FRAC_PI_2 + 0.001),
+    );
+    let m2 = collide(&ground, &Pose::IDENTITY, &cap, &nudged, 0.0).unwrap();
+    let mut ids2: Vec<u32> = m2.points.iter().map(|p| p.id).collect();
+    ids2.sort_unstable();
+    assert_eq!(ids, ids2);
     // Deep: the capsule's axis inside the box (EPA on the cores).
     let deep = Pose::new(DVec3::new(0.0, 0.4, 0.0), DQuat::from_rotation_z(FRAC_PI_2));
     let m = collide(&ground, &Pose::IDENTITY, &cap, &deep, 0.0).unwrap();

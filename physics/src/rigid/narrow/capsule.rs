@@ -3,7 +3,7 @@
 //! When the segments are (nearly) parallel the contact is a line, and the
 //! manifold takes the two ends of the overlap, so a capsule lying on
 //! another does not rock. Capsule against box and hull goes through the
-//! general path in [`super::convex`] (GJK/EPA on the segment against the
+//! general path in `convex.rs` (GJK/EPA on the segment against the
 //! polytope, then the segment clipped against the box face).
 
 use glam::DVec3;

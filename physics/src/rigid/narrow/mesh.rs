@@ -10,7 +10,7 @@
 //! normal agrees with it to within about 18°, reduced to four.
 //!
 //! Heightfield triangles are one-sided (terrain is solid below; see
-//! [`front_side`]); mesh triangles are two-sided, since a mesh need not
+//! `front_side`); mesh triangles are two-sided, since a mesh need not
 //! be closed.
 //!
 //! Known limit: no internal-edge handling yet, so a box sliding across a

@@ -22,10 +22,10 @@
 //! through slowly converging support iterations.
 //!
 //! **Algorithms, by pair.**
-//! - *Fast paths* (closed forms, [`sphere`], [`capsule`]): sphere–sphere,
+//! - *Fast paths* (closed forms, `sphere.rs`, `capsule.rs`): sphere–sphere,
 //!   sphere–capsule, sphere–box, sphere–cylinder, capsule–capsule (segment closest points;
 //!   two points when the capsules lie side by side).
-//! - *Polytopes* (boxes, hulls, mesh triangles; [`sat`]): the separating
+//! - *Polytopes* (boxes, hulls, mesh triangles; `sat.rs`): the separating
 //!   axis test over face normals and edge-pair cross products, then the
 //!   reference face's side planes clip the incident face (Sutherland–
 //!   Hodgman), as in Gottschalk's OBB tree work (1996), Catto's Box2D/
@@ -34,7 +34,7 @@
 //!   creation for physics simulations"). Face axes win near-ties so a
 //!   box resting on a box keeps its four corners. Separated pairs are
 //!   measured with GJK to get the exact gap for speculative points.
-//! - *Everything else* ([`convex`]: capsule–box, anything with a cylinder
+//! - *Everything else* (`convex.rs`: capsule–box, anything with a cylinder
 //!   or a hull against a rounded shape): GJK (Gilbert, Johnson & Keerthi
 //!   1988, with van den Bergen's termination and Ericson's sub-simplex
 //!   selection, [`gjk`]) between the cores gives the normal and the gap;
@@ -43,7 +43,7 @@
 //!   supporting feature along the normal (a polygon face, a segment, or a
 //!   point): the incident feature is clipped against the reference polygon
 //!   or segment, as Jolt does for its convex pairs.
-//! - *Meshes and heightfields* ([`mesh`]): the triangles under the convex
+//! - *Meshes and heightfields* (`mesh.rs`): the triangles under the convex
 //!   shape's bounds, each collided as a two-sided polytope; the deepest
 //!   triangle's normal wins and points from triangles facing the same way
 //!   are merged.
@@ -62,13 +62,13 @@
 //! degenerate input (coincident centres, exactly touching shapes) picks a
 //! deterministic normal instead of dividing by zero; nothing panics.
 
-pub mod capsule;
-pub mod convex;
+mod capsule;
+mod convex;
 pub mod epa;
 pub mod gjk;
-pub mod mesh;
-pub mod sat;
-pub mod sphere;
+mod mesh;
+mod sat;
+mod sphere;
 
 use glam::DVec3;
 
