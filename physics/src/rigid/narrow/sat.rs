@@ -4,10 +4,11 @@
 //! points of the two best edges (edge contact).
 //!
 //! Axes tried: every face normal of A, every face normal of B, and the
-//! cross product of every pair of edge directions. Separation along an
-//! axis is measured by projecting both shapes (support functions), which
-//! is valid for any axis; the Gauss-map pruning of Gregorius (GDC 2013)
-//! would skip most edge pairs on large hulls and is left for later. Face
+//! cross products of edge pairs. For closed polytopes (boxes, hulls) only
+//! the edge pairs whose Gauss-map arcs cross are tried (they build a face
+//! of the Minkowski difference, Gregorius GDC 2013), each measured from
+//! its two edges; for triangles (whose Gauss map is degenerate) every pair
+//! is tried and measured by projecting both shapes, valid for any axis. Face
 //! axes win ties (within a tolerance) because face contacts give the
 //! stable multi-point manifolds a resting stack needs; A's faces win ties
 //! against B's for determinism.
@@ -66,26 +67,12 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
     let mut best = best_face;
     if best.0 <= spec {
         let edge_tol = 1e-6 * scale + 1e-3 * best_face.0.abs();
-        let ca = pa.pose.translation;
-        let cb = pb.pose.translation;
-        for ea in pa.edges.iter() {
-            let da = va[ea[1] as usize] - va[ea[0] as usize];
-            for eb in pb.edges.iter() {
-                let db = vb[eb[1] as usize] - vb[eb[0] as usize];
-                let c = da.cross(db);
-                let l = c.length();
-                if l <= 1e-6 * da.length() * db.length() {
-                    continue;
-                }
-                let mut n = c / l;
-                if n.dot(cb - ca) < 0.0 {
-                    n = -n;
-                }
-                let s = min_dot(&vb, n) - max_dot(&va, n);
-                if s > best.0 + edge_tol && s > best_face.0 + edge_tol {
-                    best = (s, Axis::Edge);
-                }
-            }
+        let edge = match (edge_adjacency(&pa), edge_adjacency(&pb)) {
+            (Some(ja), Some(jb)) => gauss_map_edges(&pa, &pb, &va, &vb, &ja, &jb),
+            _ => projected_edges(&pa, &pb, &va, &vb),
+        };
+        if edge > best.0 + edge_tol && edge > best_face.0 + edge_tol {
+            best = (edge, Axis::Edge);
         }
     }
     let (sat_sep, axis) = best;
@@ -129,6 +116,116 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
         Axis::Edge => return super::convex::convex_convex(a, b, spec),
     }
     .map(super::reduce)
+}
+
+/// Best edge-pair separation by projecting both shapes on every
+/// cross product (any axis is a valid test; used for triangles, whose
+/// Gauss map is degenerate).
+fn projected_edges(pa: &Polytope<'_>, pb: &Polytope<'_>, va: &[DVec3], vb: &[DVec3]) -> f64 {
+    let ca = pa.pose.translation;
+    let cb = pb.pose.translation;
+    let mut best = f64::NEG_INFINITY;
+    for ea in pa.edges.iter() {
+        let da = va[ea[1] as usize] - va[ea[0] as usize];
+        for eb in pb.edges.iter() {
+            let db = vb[eb[1] as usize] - vb[eb[0] as usize];
+            let c = da.cross(db);
+            let l = c.length();
+            if l <= 1e-6 * da.length() * db.length() {
+                continue;
+            }
+            let mut n = c / l;
+            if n.dot(cb - ca) < 0.0 {
+                n = -n;
+            }
+            best = best.max(min_dot(vb, n) - max_dot(va, n));
+        }
+    }
+    best
+}
+
+/// An edge `[v0, v1]` with the faces on its two sides.
+type AdjacentEdge = (u32, u32, usize, usize);
+
+/// Each edge of a closed polytope with its two faces, from the face loops;
+/// `None` when the faces do not pair up (a triangle's two sides).
+fn edge_adjacency(p: &Polytope<'_>) -> Option<Vec<AdjacentEdge>> {
+    let mut half: Vec<(u32, u32, usize)> = Vec::with_capacity(p.edges.len() * 2);
+    for (fi, f) in p.faces.iter().enumerate() {
+        let k = f.vertices.len();
+        for i in 0..k {
+            let (u, v) = (f.vertices[i], f.vertices[(i + 1) % k]);
+            half.push((u.min(v), u.max(v), fi));
+        }
+    }
+    half.sort_unstable();
+    if half.len() % 2 != 0 {
+        return None;
+    }
+    let mut out = Vec::with_capacity(half.len() / 2);
+    for pair in half.chunks(2) {
+        if pair[0].0 != pair[1].0 || pair[0].1 != pair[1].1 || pair[0].2 == pair[1].2 {
+            return None;
+        }
+        out.push((pair[0].0, pair[0].1, pair[0].2, pair[1].2));
+    }
+    Some(out)
+}
+
+/// Best edge-pair separation over the pairs whose arcs cross on the Gauss
+/// map, i.e. that build a face of the Minkowski difference (Gregorius,
+/// GDC 2013); only those can realise the separation, and each is measured
+/// from its two edges directly, without projecting the whole shapes.
+fn gauss_map_edges(
+    pa: &Polytope<'_>,
+    pb: &Polytope<'_>,
+    va: &[DVec3],
+    vb: &[DVec3],
+    ja: &[AdjacentEdge],
+    jb: &[AdjacentEdge],
+) -> f64 {
+    let na: Vec<DVec3> = pa
+        .faces
+        .iter()
+        .map(|f| pa.pose.transform_vector(f.normal))
+        .collect();
+    let nb: Vec<DVec3> = pb
+        .faces
+        .iter()
+        .map(|f| -pb.pose.transform_vector(f.normal))
+        .collect();
+    let centroid = va.iter().copied().sum::<DVec3>() / va.len().max(1) as f64;
+    let mut best = f64::NEG_INFINITY;
+    for &(a0, a1, fa0, fa1) in ja {
+        let (a, b) = (na[fa0], na[fa1]);
+        let bxa = b.cross(a);
+        let pa0 = va[a0 as usize];
+        let ea = va[a1 as usize] - pa0;
+        for &(b0, b1, fb0, fb1) in jb {
+            let (c, d) = (nb[fb0], nb[fb1]);
+            let dxc = d.cross(c);
+            let cba = c.dot(bxa);
+            let dba = d.dot(bxa);
+            let adc = a.dot(dxc);
+            let bdc = b.dot(dxc);
+            if !(cba * dba < 0.0 && adc * bdc < 0.0 && cba * bdc > 0.0) {
+                continue;
+            }
+            let pb0 = vb[b0 as usize];
+            let eb = vb[b1 as usize] - pb0;
+            let axis = ea.cross(eb);
+            let l = axis.length();
+            if l <= 1e-6 * ea.length() * eb.length() {
+                continue;
+            }
+            let mut n = axis / l;
+            if n.dot(pa0 - centroid) < 0.0 {
+                n = -n;
+            }
+            best = best.max(n.dot(pb0 - pa0));
+        }
+    }
+    best
 }
 
 fn ca_cb(a: &Convex<'_>, b: &Convex<'_>) -> DVec3 {
