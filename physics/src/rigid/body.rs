@@ -76,6 +76,14 @@ pub struct RigidBodyDesc {
     pub drag_linear: f64,
     /// Quadratic drag coefficient `c`, kg/m, used by a [`Drag`](crate::Drag) body force.
     pub drag_quadratic: f64,
+    /// Coefficient of static friction (combined with the other body's by
+    /// geometric mean).
+    pub friction_static: f64,
+    /// Coefficient of dynamic (sliding) friction.
+    pub friction_dynamic: f64,
+    /// Coefficient of restitution, 0 (no bounce) to 1 (the larger of the two
+    /// bodies' applies).
+    pub restitution: f64,
     /// Continuous collision detection for this body (fast, small bodies).
     pub ccd: bool,
     /// Whether the body may fall asleep when it comes to rest.
@@ -132,6 +140,9 @@ impl RigidBodyDesc {
             gravity_scale: 1.0,
             drag_linear: 0.0,
             drag_quadratic: 0.0,
+            friction_static: 0.6,
+            friction_dynamic: 0.5,
+            restitution: 0.0,
             ccd: false,
             can_sleep: true,
         }
@@ -155,6 +166,15 @@ impl RigidBodyDesc {
         finite("gravity scale", self.gravity_scale)?;
         non_negative("body linear drag", self.drag_linear)?;
         non_negative("body quadratic drag", self.drag_quadratic)?;
+        non_negative("static friction", self.friction_static)?;
+        non_negative("dynamic friction", self.friction_dynamic)?;
+        non_negative("restitution", self.restitution)?;
+        if self.restitution > 1.0 {
+            return Err(PhysicsError::Invalid {
+                what: "restitution",
+                why: format!("must be at most 1, got {}", self.restitution),
+            });
+        }
         let mut body = RigidBody {
             kind: self.kind,
             com: self.pose.translation,
@@ -171,6 +191,9 @@ impl RigidBodyDesc {
             gravity_scale: self.gravity_scale,
             drag_linear: self.drag_linear,
             drag_quadratic: self.drag_quadratic,
+            friction_static: self.friction_static,
+            friction_dynamic: self.friction_dynamic,
+            restitution: self.restitution,
             ccd: self.ccd,
             can_sleep: self.can_sleep,
             sleeping: false,
@@ -250,6 +273,10 @@ pub struct RigidBody {
     /// Drag coefficients, kg/s and kg/m.
     pub(crate) drag_linear: f64,
     pub(crate) drag_quadratic: f64,
+    /// Friction coefficients and restitution.
+    pub(crate) friction_static: f64,
+    pub(crate) friction_dynamic: f64,
+    pub(crate) restitution: f64,
     pub(crate) ccd: bool,
     pub(crate) can_sleep: bool,
     pub(crate) sleeping: bool,
@@ -386,6 +413,25 @@ impl RigidBody {
     /// Gravity scale.
     pub fn gravity_scale(&self) -> f64 {
         self.gravity_scale
+    }
+
+    /// Radius of the sphere about the centre of mass that holds the shape, m
+    /// (0 without a shape).
+    pub fn shape_radius(&self) -> f64 {
+        self.shape.as_ref().map_or(0.0, |s| {
+            let b = s.local_aabb();
+            let (lo, hi) = (b.min - self.local_com, b.max - self.local_com);
+            lo.abs().max(hi.abs()).length()
+        })
+    }
+
+    /// Static and dynamic friction coefficients and restitution.
+    pub fn material(&self) -> (f64, f64, f64) {
+        (
+            self.friction_static,
+            self.friction_dynamic,
+            self.restitution,
+        )
     }
 
     /// Whether continuous collision detection is on.

@@ -11,5 +11,7 @@ pub(crate) mod immersion;
 pub mod mass;
 pub(crate) mod motion;
 pub mod narrow;
+pub(crate) mod pipeline;
 pub mod pose;
 pub mod shape;
+pub mod solver;

@@ -15,6 +15,8 @@
 
 mod rigid;
 
+use std::collections::BTreeMap;
+
 use glam::DVec3;
 
 use crate::arena::{Arena, Entry};
@@ -29,6 +31,8 @@ use crate::particle_system::{
     Backend, ParticleSystem, Slot, FLAG_PINNED, FLAG_QUARANTINED, FREE, MAX_GROUPS,
 };
 use crate::rigid::body::RigidBody;
+use crate::rigid::pipeline::{CachedPoint, ContactKey};
+use crate::rigid::solver::SolverConfig;
 use crate::spring::{Spring, SpringParams};
 
 const MAGIC: &[u8; 8] = b"INRTWRLD";
@@ -236,6 +240,8 @@ pub(crate) struct StateRef<'a> {
     pub(crate) bodies: &'a Arena<RigidBody>,
     pub(crate) body_gravity: DVec3,
     pub(crate) body_forces: &'a Arena<ForceEntry>,
+    pub(crate) solver: &'a SolverConfig,
+    pub(crate) contacts: &'a BTreeMap<ContactKey, Vec<CachedPoint>>,
 }
 
 /// The one walk over the world state, shared by save and hash.
@@ -246,6 +252,8 @@ pub(crate) fn encode_world<S: Sink>(s: &mut S, w: &StateRef<'_>) {
     s.vec3(w.body_gravity);
     arena(s, w.bodies, rigid::body);
     arena(s, w.body_forces, |s, f| force(s, &f.force));
+    rigid::solver(s, w.solver);
+    rigid::contacts(s, w.contacts);
 }
 
 /// The complete saved file for a state.
@@ -271,6 +279,8 @@ pub(crate) struct DecodedWorld {
     pub(crate) bodies: Arena<RigidBody>,
     pub(crate) body_gravity: DVec3,
     pub(crate) body_forces: Arena<ForceEntry>,
+    pub(crate) solver: SolverConfig,
+    pub(crate) contacts: BTreeMap<ContactKey, Vec<CachedPoint>>,
 }
 
 struct Reader<'a> {
@@ -606,6 +616,8 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     let body_gravity = r.vec3("body gravity")?;
     let bodies = r.arena(|r| r.body())?;
     let body_forces = r.arena(|r| Ok(ForceEntry { force: r.force()? }))?;
+    let solver = r.solver()?;
+    let contacts = r.contacts()?;
     if r.pos != r.b.len() {
         return Err(SnapshotError::Trailing(r.b.len() - r.pos));
     }
@@ -616,5 +628,7 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         bodies,
         body_gravity,
         body_forces,
+        solver,
+        contacts,
     })
 }

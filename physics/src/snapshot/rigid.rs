@@ -6,12 +6,16 @@
 //! [`MAX_COMPOUND_DEPTH`] levels so hostile bytes cannot recurse without
 //! bound.
 
+use std::collections::BTreeMap;
+
 use glam::{DQuat, DVec3};
 
 use super::{invalid, Reader, Sink, SnapshotError};
 use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::pipeline::{CachedPoint, ContactKey};
 use crate::rigid::pose::Pose;
 use crate::rigid::shape::Shape;
+use crate::rigid::solver::SolverConfig;
 
 /// Deepest nesting of compound shapes a saved state may hold.
 pub const MAX_COMPOUND_DEPTH: u32 = 8;
@@ -42,6 +46,9 @@ pub(super) fn body<S: Sink>(s: &mut S, b: &RigidBody) {
     s.f64(b.gravity_scale);
     s.f64(b.drag_linear);
     s.f64(b.drag_quadratic);
+    s.f64(b.friction_static);
+    s.f64(b.friction_dynamic);
+    s.f64(b.restitution);
     s.u8(u8::from(b.ccd)
         | (u8::from(b.can_sleep) << 1)
         | (u8::from(b.sleeping) << 2)
@@ -163,6 +170,12 @@ impl Reader<'_> {
         let gravity_scale = self.finite("gravity scale")?;
         let drag_linear = self.finite("body linear drag")?;
         let drag_quadratic = self.finite("body quadratic drag")?;
+        let friction_static = self.finite("static friction")?;
+        let friction_dynamic = self.finite("dynamic friction")?;
+        let restitution = self.finite("restitution")?;
+        if friction_static < 0.0 || friction_dynamic < 0.0 || !(0.0..=1.0).contains(&restitution) {
+            return invalid("friction or restitution out of range");
+        }
         let bits = self.u8()?;
         if bits > 0b1111 {
             return invalid("unknown body flag");
@@ -204,6 +217,9 @@ impl Reader<'_> {
             gravity_scale,
             drag_linear,
             drag_quadratic,
+            friction_static,
+            friction_dynamic,
+            restitution,
             ccd: bits & 1 != 0,
             can_sleep: bits & 2 != 0,
             sleeping: bits & 4 != 0,
@@ -268,5 +284,90 @@ impl Reader<'_> {
             t => return invalid(format!("shape kind {t}")),
         };
         s.map_err(shape_err)
+    }
+}
+
+pub(super) fn solver<S: Sink>(s: &mut S, c: &SolverConfig) {
+    s.u32(c.substeps);
+    s.f64(c.contact_hertz);
+    s.f64(c.contact_damping_ratio);
+    s.f64(c.push_out);
+    s.f64(c.restitution_threshold);
+    s.f64(c.stick_speed);
+}
+
+pub(super) fn contacts<S: Sink>(s: &mut S, cache: &BTreeMap<ContactKey, Vec<CachedPoint>>) {
+    s.u64(cache.len() as u64);
+    for (k, points) in cache {
+        for v in [k.a.0, k.a.1, k.b.0, k.b.1, k.child_a, k.child_b] {
+            s.u32(v);
+        }
+        s.u64(points.len() as u64);
+        for p in points {
+            s.u32(p.id);
+            s.vec3(p.anchor_a);
+            s.f64(p.normal);
+            s.f64(p.tangent[0]);
+            s.f64(p.tangent[1]);
+        }
+    }
+}
+
+impl Reader<'_> {
+    pub(super) fn solver(&mut self) -> Result<SolverConfig, SnapshotError> {
+        let c = SolverConfig {
+            substeps: self.u32()?,
+            contact_hertz: self.finite("contact hertz")?,
+            contact_damping_ratio: self.finite("contact damping ratio")?,
+            push_out: self.finite("push-out speed")?,
+            restitution_threshold: self.finite("restitution threshold")?,
+            stick_speed: self.finite("stick speed")?,
+        };
+        let ok = (1..=64).contains(&c.substeps)
+            && c.contact_hertz > 0.0
+            && c.contact_damping_ratio >= 0.0
+            && c.push_out > 0.0
+            && c.restitution_threshold >= 0.0
+            && c.stick_speed >= 0.0;
+        if !ok {
+            return invalid("solver settings out of range");
+        }
+        Ok(c)
+    }
+
+    pub(super) fn contacts(
+        &mut self,
+    ) -> Result<BTreeMap<ContactKey, Vec<CachedPoint>>, SnapshotError> {
+        let n = self.count(32)?;
+        let mut cache = BTreeMap::new();
+        for _ in 0..n {
+            let key = ContactKey {
+                a: (self.u32()?, self.u32()?),
+                b: (self.u32()?, self.u32()?),
+                child_a: self.u32()?,
+                child_b: self.u32()?,
+            };
+            let m = self.count(52)?;
+            if m > crate::rigid::contact::MAX_POINTS {
+                return invalid("too many points in a cached manifold");
+            }
+            let points = (0..m)
+                .map(|_| {
+                    Ok(CachedPoint {
+                        id: self.u32()?,
+                        anchor_a: self.vec3("contact anchor")?,
+                        normal: self.finite("contact impulse")?,
+                        tangent: [
+                            self.finite("friction impulse")?,
+                            self.finite("friction impulse")?,
+                        ],
+                    })
+                })
+                .collect::<Result<Vec<_>, SnapshotError>>()?;
+            if cache.insert(key, points).is_some() {
+                return invalid("duplicate cached manifold");
+            }
+        }
+        Ok(cache)
     }
 }

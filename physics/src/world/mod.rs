@@ -37,6 +37,8 @@ use crate::particle_system::{Backend, ParticleSystem, FLAG_QUARANTINED};
 use crate::profile::{ProfileTotals, StepProfile};
 use crate::rigid::body::RigidBody;
 use crate::rigid::forces::BodyField;
+use crate::rigid::pipeline::{self, Contacts};
+use crate::rigid::solver::SolverConfig;
 use crate::step::{fill_masses, step_system, ChunkOut, FLAG_NEW_QUARANTINE};
 
 /// How a world runs. None of this is simulation state: a world saved with
@@ -93,6 +95,10 @@ pub struct World {
     body_gravity: DVec3,
     /// Force generators acting on every rigid body.
     body_forces: Arena<crate::forces::ForceEntry>,
+    /// Contact solver settings (state: they change the motion).
+    solver: SolverConfig,
+    /// Warm-start cache and broad phase.
+    contacts: Contacts,
     energy: Energy,
     profile: StepProfile,
     totals: ProfileTotals,
@@ -133,6 +139,8 @@ impl World {
             bodies: Arena::default(),
             body_gravity: DVec3::ZERO,
             body_forces: Arena::default(),
+            solver: SolverConfig::default(),
+            contacts: Contacts::default(),
             energy: Energy::default(),
             profile: StepProfile::default(),
             totals: ProfileTotals::default(),
@@ -285,9 +293,10 @@ impl World {
         Ok(energy)
     }
 
-    /// Stage 3: rigid bodies move freely (gravity, damping, scripted forces,
-    /// gyroscopic rotation). A body whose new state would not be finite is
-    /// quarantined: left where it was, at rest, and reported.
+    /// Stage 3: rigid bodies: contacts found and solved in substeps with
+    /// gravity, force generators, damping and gyroscopic rotation (see
+    /// [`crate::rigid::pipeline`]). A body whose new state would not be
+    /// finite is quarantined: left where it was, at rest, and reported.
     fn stage_bodies(&mut self, dt: f64, energy: &mut Energy, report: &mut StepReport) {
         let field = BodyField::compile(
             self.body_forces.iter().map(|(_, _, e)| &e.force),
@@ -295,16 +304,15 @@ impl World {
             dt,
         );
         let g = self.body_gravity + field.gravity;
-        for (index, generation, b) in self.bodies.iter_mut() {
-            let (force, torque) = field.force_and_torque(b);
-            if !crate::rigid::motion::integrate(b, g, force, torque, dt) {
-                b.quarantined = true;
-                b.linvel = DVec3::ZERO;
-                b.angvel = DVec3::ZERO;
-                report
-                    .quarantined_bodies
-                    .push(BodyHandle { index, generation });
-            }
+        report.quarantined_bodies = pipeline::step(
+            &mut self.bodies,
+            &mut self.contacts,
+            &field,
+            g,
+            &self.solver,
+            dt,
+        );
+        for (_, _, b) in self.bodies.iter() {
             energy.kinetic += b.kinetic_energy();
             if b.inv_mass > 0.0 {
                 energy.gravity_uniform -= (g * b.gravity_scale).dot(b.com) / b.inv_mass;

@@ -9,6 +9,7 @@ use crate::forces::{Force, ForceEntry};
 use crate::handle::{BodyForceHandle, BodyHandle};
 use crate::rigid::body::{checked_rotation, BodyKind, RigidBody, RigidBodyDesc};
 use crate::rigid::pose::Pose;
+use crate::rigid::solver::SolverConfig;
 
 impl World {
     /// Adds a rigid body.
@@ -22,8 +23,9 @@ impl World {
     pub fn remove_body(&mut self, h: BodyHandle) -> Result<(), PhysicsError> {
         self.bodies
             .remove(h.index, h.generation)
-            .map(|_| ())
-            .ok_or(PhysicsError::UnknownBody(h))
+            .ok_or(PhysicsError::UnknownBody(h))?;
+        self.contacts.reset_broad_phase();
+        Ok(())
     }
 
     /// A body, or `None` for a stale handle.
@@ -146,6 +148,34 @@ impl World {
     pub fn set_body_gravity(&mut self, gravity: DVec3) -> Result<(), PhysicsError> {
         self.body_gravity = finite3("body gravity", gravity)?;
         Ok(())
+    }
+
+    /// Contact solver settings.
+    pub fn solver_config(&self) -> &SolverConfig {
+        &self.solver
+    }
+
+    /// Changes the contact solver settings (substeps 1..=64, positive
+    /// stiffness and push-out, non-negative limits).
+    pub fn set_solver_config(&mut self, cfg: SolverConfig) -> Result<(), PhysicsError> {
+        if cfg.substeps == 0 || cfg.substeps > 64 {
+            return Err(PhysicsError::Invalid {
+                what: "solver substeps",
+                why: format!("must be 1..=64, got {}", cfg.substeps),
+            });
+        }
+        crate::error::positive("contact hertz", cfg.contact_hertz)?;
+        crate::error::non_negative("contact damping ratio", cfg.contact_damping_ratio)?;
+        crate::error::positive("push-out speed", cfg.push_out)?;
+        crate::error::non_negative("restitution threshold", cfg.restitution_threshold)?;
+        crate::error::non_negative("stick speed", cfg.stick_speed)?;
+        self.solver = cfg;
+        Ok(())
+    }
+
+    /// Number of touching manifolds after the last step.
+    pub fn contact_count(&self) -> usize {
+        self.contacts.manifold_count()
     }
 
     /// The rigid-body gravity, m/s².

@@ -16,6 +16,8 @@ impl World {
             bodies: &self.bodies,
             body_gravity: self.body_gravity,
             body_forces: &self.body_forces,
+            solver: &self.solver,
+            contacts: &self.contacts.cache,
         }
     }
 
@@ -74,6 +76,9 @@ impl World {
         self.bodies = decoded.bodies;
         self.body_gravity = decoded.body_gravity;
         self.body_forces = decoded.body_forces;
+        self.solver = decoded.solver;
+        self.contacts.cache = decoded.contacts;
+        self.contacts.reset_broad_phase();
         Ok(())
     }
 

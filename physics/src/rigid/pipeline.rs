@@ -1,0 +1,424 @@
+//! One step of the rigid bodies: find contacts, then integrate and solve in
+//! substeps.
+//!
+//! 1. **forces** — body force generators (wind, buoyancy, ...) are evaluated
+//!    once, at the start of the step.
+//! 2. **broad phase** — each body's box, grown by how far it can move this
+//!    step plus the speculative margin, is updated in the dynamic AABB tree;
+//!    the overlapping pairs come out sorted.
+//! 3. **narrow phase** — each pair (each pair of child shapes for
+//!    compounds) gives a manifold; its points take the impulses they had last
+//!    step (matched by feature id) for warm starting.
+//! 4. **solve** — [`solver`](super::solver) substeps: integrate velocities,
+//!    warm start, solve with bias, integrate positions (with the gyroscopic
+//!    splitting of [`motion`](super::motion)), relax; then restitution.
+//! 5. **store** — impulses go to the contact cache; bodies get their new
+//!    state, or are quarantined if it is not finite.
+//!
+//! Everything iterates in body-handle order and pair order, so the result
+//! does not depend on history the state does not record.
+
+use std::collections::BTreeMap;
+
+use glam::{DQuat, DVec3};
+
+use crate::arena::Arena;
+use crate::handle::BodyHandle;
+use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::broad_phase::BroadPhase;
+use crate::rigid::contact::Manifold;
+use crate::rigid::forces::BodyField;
+use crate::rigid::motion::free_rotation;
+use crate::rigid::narrow::collide;
+use crate::rigid::pose::Pose;
+use crate::rigid::shape::Shape;
+use crate::rigid::solver::{
+    tangent_basis, ContactConstraint, PointConstraint, SolverBody, SolverConfig,
+};
+
+/// Contacts closer than this are kept as speculative points, m.
+pub const SPECULATIVE_DISTANCE: f64 = 0.02;
+/// Margin of the broad phase's fat boxes, m.
+const AABB_MARGIN: f64 = 0.1;
+
+/// Which manifold: the two bodies (handle order) and the child shapes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub(crate) struct ContactKey {
+    pub(crate) a: (u32, u32),
+    pub(crate) b: (u32, u32),
+    pub(crate) child_a: u32,
+    pub(crate) child_b: u32,
+}
+
+/// Impulses of one point kept for warm starting, N·s, with where the point
+/// was on body A (body frame, m) for matching when feature ids change.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct CachedPoint {
+    pub(crate) id: u32,
+    pub(crate) anchor_a: DVec3,
+    pub(crate) normal: f64,
+    pub(crate) tangent: [f64; 2],
+}
+
+/// A new point with no cached id takes the impulses of a cached point whose
+/// anchor on A lies within this distance, m. (Two parallel faces in contact
+/// may swap which one is the reference face from one step to the next,
+/// which renames every feature id though the contact has not changed.)
+const ANCHOR_MATCH_DISTANCE: f64 = 0.02;
+
+/// Contact state carried from step to step.
+#[derive(Debug, Default)]
+pub(crate) struct Contacts {
+    /// Warm-start impulses per manifold (world state: saved and hashed).
+    pub(crate) cache: BTreeMap<ContactKey, Vec<CachedPoint>>,
+    /// The broad phase; derived from the bodies and rebuilt after a restore.
+    broad: Option<BroadPhase>,
+}
+
+impl Contacts {
+    /// Forgets the broad phase (after a restore or a removal it is rebuilt).
+    pub(crate) fn reset_broad_phase(&mut self) {
+        self.broad = None;
+    }
+
+    /// Number of manifolds touching last step.
+    pub(crate) fn manifold_count(&self) -> usize {
+        self.cache.len()
+    }
+}
+
+/// The leaf shapes of a shape with their poses in the body frame.
+fn leaves<'a>(shape: &'a Shape, pose: Pose, out: &mut Vec<(Pose, &'a Shape)>) {
+    match shape {
+        Shape::Compound(parts) => {
+            for (p, child) in parts.iter() {
+                leaves(child, pose.mul(p), out);
+            }
+        }
+        s => out.push((pose, s)),
+    }
+}
+
+/// Advances every body by `dt`. Returns the bodies quarantined.
+pub(crate) fn step(
+    bodies: &mut Arena<RigidBody>,
+    contacts: &mut Contacts,
+    field: &BodyField,
+    gravity: DVec3,
+    cfg: &SolverConfig,
+    dt: f64,
+) -> Vec<BodyHandle> {
+    // 1. Forces, from the state at the start of the step.
+    let handles: Vec<BodyHandle> = bodies
+        .iter()
+        .map(|(index, generation, _)| BodyHandle { index, generation })
+        .collect();
+    let external: Vec<(DVec3, DVec3)> = bodies
+        .iter()
+        .map(|(_, _, b)| field.force_and_torque(b))
+        .collect();
+
+    // 2. Broad phase.
+    let broad = contacts
+        .broad
+        .get_or_insert_with(|| BroadPhase::new(AABB_MARGIN).expect("valid margin"));
+    let mut present = Vec::with_capacity(handles.len());
+    for (_, _, b) in bodies.iter() {
+        present.push(b.shape.is_some());
+    }
+    let slot_of: BTreeMap<u32, usize> = handles
+        .iter()
+        .enumerate()
+        .map(|(k, h)| (h.index, k))
+        .collect();
+    for key in broad
+        .proxies()
+        .into_iter()
+        .map(|(k, _, _)| k)
+        .collect::<Vec<_>>()
+    {
+        if slot_of.get(&key).is_none_or(|&k| !present[k]) {
+            let _ = broad.remove(key);
+        }
+    }
+    for (k, (_, _, b)) in bodies.iter().enumerate() {
+        let Some(shape) = &b.shape else { continue };
+        let reach =
+            (b.linvel.length() + b.angvel.length() * b.shape_radius()) * dt + SPECULATIVE_DISTANCE;
+        let aabb = shape.aabb(&b.pose()).expanded(reach);
+        let key = handles[k].index;
+        let is_static = b.kind == BodyKind::Static;
+        let ok = if broad.contains(key) {
+            broad.update(key, aabb, b.linvel * dt).is_ok()
+        } else {
+            broad.insert(key, aabb, is_static).is_ok()
+        };
+        if !ok {
+            let _ = broad.remove(key);
+        }
+    }
+    broad.update_pairs();
+
+    // 3. Narrow phase.
+    let body_list: Vec<&RigidBody> = bodies.iter().map(|(_, _, b)| b).collect();
+    let mut solver_bodies: Vec<SolverBody> = body_list
+        .iter()
+        .map(|b| SolverBody {
+            v: b.linvel,
+            w: b.angvel,
+            inv_mass: b.inv_mass,
+            inv_inertia: if b.inv_mass > 0.0 {
+                b.inverse_inertia_world()
+            } else {
+                glam::DMat3::ZERO
+            },
+            dp: DVec3::ZERO,
+            dq: DQuat::IDENTITY,
+        })
+        .collect();
+    let mut constraints: Vec<(ContactKey, ContactConstraint)> = Vec::new();
+    for pair in broad.pairs() {
+        let (Some(&ia), Some(&ib)) = (slot_of.get(&pair.a), slot_of.get(&pair.b)) else {
+            continue;
+        };
+        let (ba, bb) = (body_list[ia], body_list[ib]);
+        if ba.inv_mass == 0.0 && bb.inv_mass == 0.0 {
+            continue;
+        }
+        let (Some(sa), Some(sb)) = (&ba.shape, &bb.shape) else {
+            continue;
+        };
+        let speculative = SPECULATIVE_DISTANCE + (ba.linvel - bb.linvel).length() * dt;
+        let (pose_a, pose_b) = (ba.pose(), bb.pose());
+        let (mut la, mut lb) = (Vec::new(), Vec::new());
+        leaves(sa, Pose::IDENTITY, &mut la);
+        leaves(sb, Pose::IDENTITY, &mut lb);
+        for (ca, (pa, shape_a)) in la.iter().enumerate() {
+            for (cb, (pb, shape_b)) in lb.iter().enumerate() {
+                let Ok(m) = collide(
+                    shape_a,
+                    &pose_a.mul(pa),
+                    shape_b,
+                    &pose_b.mul(pb),
+                    speculative,
+                ) else {
+                    continue;
+                };
+                if m.is_empty() {
+                    continue;
+                }
+                let key = ContactKey {
+                    a: (handles[ia].index, handles[ia].generation),
+                    b: (handles[ib].index, handles[ib].generation),
+                    child_a: ca as u32,
+                    child_b: cb as u32,
+                };
+                let cached = contacts.cache.get(&key);
+                let c = constraint(ia, ib, ba, bb, pa, pb, &m, cached);
+                constraints.push((key, c));
+            }
+        }
+    }
+
+    // 4. Solve in substeps.
+    let n = cfg.substeps.max(1);
+    let h = dt / f64::from(n);
+    for (_, c) in &mut constraints {
+        c.prepare(&solver_bodies, cfg.stick_speed);
+    }
+    let start: Vec<(DVec3, DQuat)> = body_list
+        .iter()
+        .map(|b| (b.com, b.principal_rotation()))
+        .collect();
+    drop(body_list);
+    let mut quarantined = Vec::new();
+    for _ in 0..n {
+        for (k, (_, _, b)) in bodies.iter_mut().enumerate() {
+            let sb = &mut solver_bodies[k];
+            if !integrate_velocity(b, sb, gravity, external[k].0, external[k].1, h) {
+                // Non-finite: freeze it now, before a contact can carry the
+                // bad values to a neighbour.
+                *sb = SolverBody {
+                    v: DVec3::ZERO,
+                    w: DVec3::ZERO,
+                    inv_mass: 0.0,
+                    inv_inertia: glam::DMat3::ZERO,
+                    ..*sb
+                };
+                b.quarantined = true;
+                quarantined.push(handles[k]);
+            }
+        }
+        for (_, c) in &constraints {
+            c.warm_start(&mut solver_bodies);
+        }
+        for (_, c) in &mut constraints {
+            c.solve(&mut solver_bodies, cfg, h, true);
+        }
+        for ((_, _, b), (sb, s)) in bodies.iter_mut().zip(solver_bodies.iter_mut().zip(&start)) {
+            integrate_position(b, sb, s.1, h);
+        }
+        for (_, c) in &mut constraints {
+            c.solve(&mut solver_bodies, cfg, h, false);
+        }
+    }
+    for (_, c) in &mut constraints {
+        c.restitute(&mut solver_bodies, cfg.restitution_threshold);
+    }
+
+    // 5. Store.
+    contacts.cache = constraints
+        .iter()
+        .map(|(key, c)| {
+            let pts = c
+                .points
+                .iter()
+                .map(|p| CachedPoint {
+                    id: p.id,
+                    anchor_a: p.anchor_a,
+                    normal: p.normal_impulse,
+                    tangent: p.tangent_impulse,
+                })
+                .collect();
+            (*key, pts)
+        })
+        .collect();
+    for (k, (_, _, b)) in bodies.iter_mut().enumerate() {
+        let sb = &solver_bodies[k];
+        let ok =
+            b.com.is_finite() && b.rotation.is_finite() && sb.v.is_finite() && sb.w.is_finite();
+        if b.quarantined && quarantined.contains(&handles[k]) {
+            b.com = start[k].0;
+            b.rotation = (start[k].1 * b.principal.inverse()).normalize();
+            b.linvel = DVec3::ZERO;
+            b.angvel = DVec3::ZERO;
+        } else if !ok {
+            b.com = start[k].0;
+            b.rotation = (start[k].1 * b.principal.inverse()).normalize();
+            b.linvel = DVec3::ZERO;
+            b.angvel = DVec3::ZERO;
+            b.quarantined = true;
+            quarantined.push(handles[k]);
+        } else if b.kind != BodyKind::Static {
+            b.linvel = sb.v;
+            b.angvel = sb.w;
+        }
+    }
+    quarantined
+}
+
+/// The constraint for one manifold, warm-started from `cached`.
+#[allow(clippy::too_many_arguments)]
+fn constraint(
+    ia: usize,
+    ib: usize,
+    a: &RigidBody,
+    b: &RigidBody,
+    child_a: &Pose,
+    child_b: &Pose,
+    m: &Manifold,
+    cached: Option<&Vec<CachedPoint>>,
+) -> ContactConstraint {
+    let (pose_a, pose_b) = (a.pose().mul(child_a), b.pose().mul(child_b));
+    let n = m.normal;
+    let points = m
+        .points
+        .iter()
+        .map(|p| {
+            let (wa, wb) = (
+                pose_a.transform_point(p.local_a),
+                pose_b.transform_point(p.local_b),
+            );
+            let (ra, rb) = (wa - a.com, wb - b.com);
+            let anchor_a = child_a.transform_point(p.local_a);
+            let warm = cached.and_then(|c| {
+                c.iter().find(|q| q.id == p.id).or_else(|| {
+                    c.iter()
+                        .map(|q| (q, (q.anchor_a - anchor_a).length()))
+                        .filter(|(_, d)| *d < ANCHOR_MATCH_DISTANCE)
+                        .min_by(|x, y| x.1.total_cmp(&y.1))
+                        .map(|(q, _)| q)
+                })
+            });
+            PointConstraint {
+                ra,
+                rb,
+                base_separation: p.separation - n.dot(rb - ra),
+                normal_impulse: warm.map_or(0.0, |q| q.normal),
+                tangent_impulse: warm.map_or([0.0; 2], |q| q.tangent),
+                id: p.id,
+                anchor_a,
+                ..Default::default()
+            }
+        })
+        .collect();
+    ContactConstraint {
+        a: ia,
+        b: ib,
+        normal: n,
+        tangents: tangent_basis(n),
+        friction_static: (a.friction_static * b.friction_static).sqrt(),
+        friction_dynamic: (a.friction_dynamic * b.friction_dynamic).sqrt(),
+        restitution: a.restitution.max(b.restitution),
+        points,
+    }
+}
+
+/// Gravity, external and scripted forces and damping over one substep.
+/// Returns false (changing nothing) if the result is not finite.
+fn integrate_velocity(
+    b: &RigidBody,
+    sb: &mut SolverBody,
+    gravity: DVec3,
+    force: DVec3,
+    torque: DVec3,
+    h: f64,
+) -> bool {
+    if b.kind != BodyKind::Dynamic || b.quarantined || b.sleeping {
+        return true;
+    }
+    let accel = gravity * b.gravity_scale + (b.control_force + force) * b.inv_mass;
+    let v = (sb.v + accel * h) / (1.0 + h * b.linear_damping);
+    let w =
+        (sb.w + sb.inv_inertia * ((b.control_torque + torque) * h)) / (1.0 + h * b.angular_damping);
+    if !(v.is_finite() && w.is_finite()) {
+        return false;
+    }
+    sb.v = v;
+    sb.w = w;
+    true
+}
+
+/// Moves a body over one substep: translation with its velocity, rotation
+/// by the free-body splitting (which also turns the angular velocity the way
+/// a spinning body's does). `q0` is its principal rotation at the start of
+/// the step.
+fn integrate_position(b: &mut RigidBody, sb: &mut SolverBody, q0: DQuat, h: f64) {
+    match b.kind {
+        BodyKind::Static => {}
+        BodyKind::Kinematic => {
+            b.com += sb.v * h;
+            sb.dp += sb.v * h;
+            let angle = sb.w.length() * h;
+            if angle > 0.0 {
+                b.rotation =
+                    (DQuat::from_axis_angle(sb.w / sb.w.length(), angle) * b.rotation).normalize();
+            }
+            sb.dq = (b.principal_rotation() * q0.inverse()).normalize();
+        }
+        BodyKind::Dynamic => {
+            if b.quarantined || b.sleeping {
+                return;
+            }
+            b.com += sb.v * h;
+            sb.dp += sb.v * h;
+            let q = b.principal_rotation();
+            let inertia = b.inv_principal_inertia.recip();
+            let pi = inertia * (q.inverse() * sb.w);
+            let (q, pi) = free_rotation(q, pi, b.inv_principal_inertia, h);
+            sb.w = q * (b.inv_principal_inertia * pi);
+            b.rotation = (q * b.principal.inverse()).normalize();
+            sb.dq = (q * q0.inverse()).normalize();
+        }
+    }
+}
