@@ -54,7 +54,9 @@ pub use forces::{
 };
 /// Re-export of the math library used in the public API.
 pub use glam;
-pub use handle::{BodyForceHandle, BodyHandle, ForceHandle, ParticleHandle, SpringHandle, SystemHandle};
+pub use handle::{
+    BodyForceHandle, BodyHandle, ForceHandle, ParticleHandle, SpringHandle, SystemHandle,
+};
 pub use integrator::Integrator;
 pub use particle_system::{
     Backend, ParticleDesc, ParticleState, ParticleSystem, SystemDesc, MAX_GROUPS,
