@@ -790,3 +790,39 @@ fn stress_random_pairs_never_panic_or_nan() {
         }
     }
 }
+
+#[test]
+fn speculative_rounded_and_curved_pairs() {
+    let ground = cuboid(2.0, 0.5, 2.0);
+    let cap = Shape::capsule(0.75, 0.25).unwrap();
+    let cyl = Shape::cylinder(0.5, 0.3).unwrap();
+    let lying = |y: f64| Pose::new(DVec3::new(0.0, y, 0.0), DQuat::from_rotation_z(FRAC_PI_2));
+    // Capsule 3 cm above the box: two speculative points at +0.03.
+    let m = collide(&ground, &Pose::IDENTITY, &cap, &lying(0.78), 0.05).unwrap();
+    assert_eq!(m.points.len(), 2, "{m:?}");
+    for p in &m.points {
+        assert_close(p.separation, 0.03, 1e-9, "capsule gap");
+    }
+    assert!(collide(&ground, &Pose::IDENTITY, &cap, &lying(0.78), 0.02)
+        .unwrap()
+        .is_empty());
+    // Capsule above capsule, crossed: one point.
+    let crossed = Pose::new(
+        DVec3::new(0.54, 0.0, 0.0),
+        DQuat::from_rotation_x(FRAC_PI_2),
+    );
+    let m = collide(&cap, &Pose::IDENTITY, &cap, &crossed, 0.05).unwrap();
+    assert_eq!(m.points.len(), 1);
+    assert_close(m.points[0].separation, 0.04, 1e-9, "capsule-capsule gap");
+    // Cylinder standing 2 cm above the box.
+    let m = collide(&ground, &Pose::IDENTITY, &cyl, &at(0.0, 1.02, 0.0), 0.05).unwrap();
+    assert!(m.points.len() >= 3, "{m:?}");
+    for p in &m.points {
+        assert_close(p.separation, 0.02, 1e-6, "cylinder gap");
+    }
+    assert!(
+        collide(&ground, &Pose::IDENTITY, &cyl, &at(0.0, 1.02, 0.0), 0.01)
+            .unwrap()
+            .is_empty()
+    );
+}
