@@ -23,30 +23,37 @@
 //!
 //! **Algorithms, by pair.**
 //! - *Fast paths* (closed forms, `sphere.rs`, `capsule.rs`): sphere–sphere,
-//!   sphere–capsule, sphere–box, sphere–cylinder, capsule–capsule (segment closest points;
-//!   two points when the capsules lie side by side).
+//!   sphere–capsule, sphere–box, sphere–cylinder, capsule–capsule (segment
+//!   closest points; two points when the capsules lie side by side).
 //! - *Polytopes* (boxes, hulls, mesh triangles; `sat.rs`): the separating
 //!   axis test over face normals and edge-pair cross products, then the
 //!   reference face's side planes clip the incident face (Sutherland–
 //!   Hodgman), as in Gottschalk's OBB tree work (1996), Catto's Box2D/
 //!   Box3D manifolds and Dirk Gregorius's GDC 2013/2015 talks ("The
 //!   separating axis test between convex polyhedra", "Robust contact
-//!   creation for physics simulations"). Face axes win near-ties so a
-//!   box resting on a box keeps its four corners. Separated pairs are
-//!   measured with GJK to get the exact gap for speculative points.
-//! - *Everything else* (`convex.rs`: capsule–box, anything with a cylinder
-//!   or a hull against a rounded shape): GJK (Gilbert, Johnson & Keerthi
-//!   1988, with van den Bergen's termination and Ericson's sub-simplex
-//!   selection, [`gjk`]) between the cores gives the normal and the gap;
-//!   when the cores overlap, EPA (van den Bergen 2001, [`epa`]) gives the
-//!   depth and direction. A manifold is then built from each shape's
-//!   supporting feature along the normal (a polygon face, a segment, or a
-//!   point): the incident feature is clipped against the reference polygon
-//!   or segment, as Jolt does for its convex pairs.
+//!   creation for physics simulations"). Edge pairs are pruned with
+//!   Gregorius's Gauss-map (Minkowski face) test. Face axes win near-ties
+//!   so a box resting on a box keeps its four corners. When an edge axis
+//!   wins, EPA on the two polytopes (exact for them) gives the normal and
+//!   the one point. Separated pairs are measured with GJK to get the exact
+//!   gap for speculative points.
+//! - *Everything else* (`convex.rs`: capsule–box, capsule–hull, anything
+//!   with a cylinder): GJK (Gilbert, Johnson & Keerthi 1988, with van den
+//!   Bergen's termination and Ericson's sub-simplex selection, [`gjk`])
+//!   between the cores gives the normal and the gap; when the cores
+//!   overlap, EPA (van den Bergen 2001, [`epa`]) gives the depth and
+//!   direction. A manifold is then built from each shape's supporting
+//!   feature along the normal (a polygon face, a segment, or a point; a
+//!   cylinder's cap is an 8-point rim polygon): the incident feature is
+//!   clipped against the reference polygon or segment, as Jolt does for
+//!   its convex pairs. EPA converges exactly on polytope cores; on a
+//!   cylinder's curved side it stops at a tolerance (points within about
+//!   1 % of the radius in the random-pair test).
 //! - *Meshes and heightfields* (`mesh.rs`): the triangles under the convex
-//!   shape's bounds, each collided as a two-sided polytope; the deepest
-//!   triangle's normal wins and points from triangles facing the same way
-//!   are merged.
+//!   shape's bounds, each collided as a polytope (two-sided for meshes,
+//!   one-sided for heightfields, which push sunk shapes up); the deepest
+//!   triangle's normal wins and points from triangles facing within about
+//!   18° of it are merged, re-measured along that normal.
 //!
 //! **Manifolds.** At most [`MAX_POINTS`] points: when clipping gives more
 //! (hull faces, cylinder caps, several triangles), four are kept: the
