@@ -275,3 +275,115 @@ fn contact_scenes_are_deterministic_across_threads_and_restore() {
         );
     }
 }
+
+#[test]
+fn contact_begin_and_end_events() {
+    use inertia_physics::rigid::ContactEventKind;
+    let mut w = world_with_ground(0.5, 0.9);
+    let mut ball = RigidBodyDesc::dynamic(
+        Shape::sphere(0.2).unwrap(),
+        500.0,
+        Pose::from_translation(DVec3::Y * 1.2),
+    )
+    .unwrap();
+    ball.restitution = 0.9;
+    let b = w.add_body(&ball).unwrap();
+    let ground = w.bodies().next().unwrap().0;
+    let mut kinds = Vec::new();
+    for _ in 0..120 {
+        for e in w.step(1.0 / 120.0).unwrap().contact_events {
+            assert!(e.a == ground && e.b == b && !e.sensor);
+            kinds.push(e.kind);
+        }
+    }
+    assert!(kinds.len() >= 2, "{kinds:?}");
+    assert_eq!(kinds[0], ContactEventKind::Begin);
+    assert_eq!(
+        kinds[1],
+        ContactEventKind::End,
+        "the ball bounces off again"
+    );
+}
+
+#[test]
+fn sensors_report_overlaps_without_pushing() {
+    let mut w = common::world();
+    let mut zone = RigidBodyDesc::fixed(
+        Shape::cuboid(DVec3::new(1.0, 1.0, 1.0)).unwrap(),
+        Pose::IDENTITY,
+    );
+    zone.sensor = true;
+    let z = w.add_body(&zone).unwrap();
+    let ball = RigidBodyDesc::dynamic(
+        Shape::sphere(0.2).unwrap(),
+        100.0,
+        Pose::from_translation(DVec3::X * -3.0),
+    )
+    .unwrap()
+    .with_velocity(DVec3::X * 4.0, DVec3::ZERO);
+    let b = w.add_body(&ball).unwrap();
+    let mut events = Vec::new();
+    for _ in 0..120 {
+        events.extend(w.step(1.0 / 60.0).unwrap().contact_events);
+    }
+    assert_eq!(events.len(), 2, "{events:?}");
+    assert!(events.iter().all(|e| e.sensor && e.a == z && e.b == b));
+    assert_eq!(
+        w.body(b).unwrap().linear_velocity(),
+        DVec3::X * 4.0,
+        "a sensor must not push"
+    );
+}
+
+#[test]
+fn contact_force_events_report_the_weight() {
+    let mut w = world_with_ground(0.5, 0.0);
+    let mut crate_desc = RigidBodyDesc::dynamic(
+        Shape::cuboid(DVec3::splat(0.5)).unwrap(),
+        200.0,
+        Pose::from_translation(DVec3::Y * 0.5),
+    )
+    .unwrap();
+    crate_desc.contact_force_threshold = 100.0;
+    let c = w.add_body(&crate_desc).unwrap();
+    let weight = w.body(c).unwrap().mass() * G;
+    let mut last = None;
+    for _ in 0..120 {
+        last = w.step(1.0 / 60.0).unwrap().contact_forces.first().copied();
+    }
+    let e = last.expect("a 200 kg crate presses harder than 100 N");
+    assert!(
+        (e.force - weight).abs() < 0.01 * weight,
+        "{} vs {weight}",
+        e.force
+    );
+    assert!((e.normal - DVec3::Y).length() < 1e-9);
+}
+
+#[test]
+fn bodies_leaving_the_world_bounds_are_removed_and_reported() {
+    let mut w = common::world();
+    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_body_bounds(Some(inertia_physics::rigid::aabb::Aabb::new(
+        DVec3::splat(-10.0),
+        DVec3::splat(10.0),
+    )))
+    .unwrap();
+    let b = w
+        .add_body(
+            &RigidBodyDesc::dynamic(Shape::sphere(0.2).unwrap(), 100.0, Pose::IDENTITY).unwrap(),
+        )
+        .unwrap();
+    let mut removed = Vec::new();
+    for _ in 0..180 {
+        removed.extend(w.step(1.0 / 60.0).unwrap().removed_bodies);
+    }
+    assert_eq!(removed, vec![b]);
+    assert!(w.body(b).is_none());
+    assert!(w
+        .set_body_bounds(Some(inertia_physics::rigid::aabb::Aabb::new(
+            DVec3::ONE,
+            DVec3::ZERO
+        )))
+        .is_err());
+}

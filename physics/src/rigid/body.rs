@@ -84,6 +84,12 @@ pub struct RigidBodyDesc {
     /// Coefficient of restitution, 0 (no bounce) to 1 (the larger of the two
     /// bodies' applies).
     pub restitution: f64,
+    /// A sensor (trigger): it reports contact begin and end events but
+    /// never pushes or is pushed.
+    pub sensor: bool,
+    /// Report a contact force event when the total normal force between this
+    /// body and another exceeds this, N (`f64::MAX` = never).
+    pub contact_force_threshold: f64,
     /// Continuous collision detection for this body (fast, small bodies).
     pub ccd: bool,
     /// Whether the body may fall asleep when it comes to rest.
@@ -143,6 +149,8 @@ impl RigidBodyDesc {
             friction_static: 0.6,
             friction_dynamic: 0.5,
             restitution: 0.0,
+            sensor: false,
+            contact_force_threshold: f64::MAX,
             ccd: false,
             can_sleep: true,
         }
@@ -169,6 +177,7 @@ impl RigidBodyDesc {
         non_negative("static friction", self.friction_static)?;
         non_negative("dynamic friction", self.friction_dynamic)?;
         non_negative("restitution", self.restitution)?;
+        non_negative("contact force threshold", self.contact_force_threshold)?;
         if self.restitution > 1.0 {
             return Err(PhysicsError::Invalid {
                 what: "restitution",
@@ -194,6 +203,8 @@ impl RigidBodyDesc {
             friction_static: self.friction_static,
             friction_dynamic: self.friction_dynamic,
             restitution: self.restitution,
+            sensor: self.sensor,
+            contact_force_threshold: self.contact_force_threshold,
             ccd: self.ccd,
             can_sleep: self.can_sleep,
             sleeping: false,
@@ -277,6 +288,10 @@ pub struct RigidBody {
     pub(crate) friction_static: f64,
     pub(crate) friction_dynamic: f64,
     pub(crate) restitution: f64,
+    /// Sensors report overlaps and take no part in the contact solve.
+    pub(crate) sensor: bool,
+    /// Normal force above which contact force events are reported, N.
+    pub(crate) contact_force_threshold: f64,
     pub(crate) ccd: bool,
     pub(crate) can_sleep: bool,
     pub(crate) sleeping: bool,
@@ -432,6 +447,11 @@ impl RigidBody {
             self.friction_dynamic,
             self.restitution,
         )
+    }
+
+    /// Whether the body is a sensor.
+    pub fn is_sensor(&self) -> bool {
+        self.sensor
     }
 
     /// Whether continuous collision detection is on.

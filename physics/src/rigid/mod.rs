@@ -15,3 +15,5 @@ pub(crate) mod pipeline;
 pub mod pose;
 pub mod shape;
 pub mod solver;
+
+pub use pipeline::{ContactEvent, ContactEventKind, ContactForceEvent, SPECULATIVE_DISTANCE};

@@ -66,11 +66,57 @@ pub(crate) struct CachedPoint {
 /// which renames every feature id though the contact has not changed.)
 const ANCHOR_MATCH_DISTANCE: f64 = 0.02;
 
+/// Whether a pair of bodies started or stopped touching.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactEventKind {
+    /// The bodies touch now and did not at the end of the last step.
+    Begin,
+    /// The bodies touched at the end of the last step and no longer do.
+    End,
+}
+
+/// A change of contact between two bodies (`a` before `b` in handle order).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ContactEvent {
+    /// Began or ended.
+    pub kind: ContactEventKind,
+    /// First body.
+    pub a: BodyHandle,
+    /// Second body.
+    pub b: BodyHandle,
+    /// Whether either body is a sensor (an overlap, not a collision).
+    pub sensor: bool,
+}
+
+/// Two bodies pressed together harder than one of their thresholds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactForceEvent {
+    /// First body.
+    pub a: BodyHandle,
+    /// Second body.
+    pub b: BodyHandle,
+    /// Total normal force over the step, N.
+    pub force: f64,
+    /// Its direction, from `a` to `b`, of the largest manifold.
+    pub normal: DVec3,
+}
+
+/// What the rigid step reports.
+#[derive(Debug, Default)]
+pub(crate) struct RigidStepOut {
+    pub(crate) quarantined: Vec<BodyHandle>,
+    pub(crate) events: Vec<ContactEvent>,
+    pub(crate) forces: Vec<ContactForceEvent>,
+}
+
 /// Contact state carried from step to step.
 #[derive(Debug, Default)]
 pub(crate) struct Contacts {
     /// Warm-start impulses per manifold (world state: saved and hashed).
     pub(crate) cache: BTreeMap<ContactKey, Vec<CachedPoint>>,
+    /// Pairs touching at the end of the last step, for begin/end events
+    /// (world state: saved and hashed).
+    pub(crate) touching: std::collections::BTreeSet<(BodyHandle, BodyHandle)>,
     /// The broad phase; derived from the bodies and rebuilt after a restore.
     broad: Option<BroadPhase>,
 }
@@ -78,6 +124,14 @@ pub(crate) struct Contacts {
 impl Contacts {
     /// Forgets the broad phase (after a restore or a removal it is rebuilt).
     pub(crate) fn reset_broad_phase(&mut self) {
+        self.broad = None;
+    }
+
+    /// Drops everything about a removed body.
+    pub(crate) fn forget(&mut self, h: BodyHandle) {
+        let id = (h.index, h.generation);
+        self.cache.retain(|k, _| k.a != id && k.b != id);
+        self.touching.retain(|(a, b)| *a != h && *b != h);
         self.broad = None;
     }
 
@@ -107,7 +161,7 @@ pub(crate) fn step(
     gravity: DVec3,
     cfg: &SolverConfig,
     dt: f64,
-) -> Vec<BodyHandle> {
+) -> RigidStepOut {
     // 1. Forces, from the state at the start of the step.
     let handles: Vec<BodyHandle> = bodies
         .iter()
@@ -177,12 +231,15 @@ pub(crate) fn step(
         })
         .collect();
     let mut constraints: Vec<(ContactKey, ContactConstraint)> = Vec::new();
+    // Pairs touching this step, with whether either body is a sensor.
+    let mut touching: BTreeMap<(BodyHandle, BodyHandle), bool> = BTreeMap::new();
     for pair in broad.pairs() {
         let (Some(&ia), Some(&ib)) = (slot_of.get(&pair.a), slot_of.get(&pair.b)) else {
             continue;
         };
         let (ba, bb) = (body_list[ia], body_list[ib]);
-        if ba.inv_mass == 0.0 && bb.inv_mass == 0.0 {
+        let sensor = ba.sensor || bb.sensor;
+        if ba.inv_mass == 0.0 && bb.inv_mass == 0.0 && !sensor {
             continue;
         }
         let (Some(sa), Some(sb)) = (&ba.shape, &bb.shape) else {
@@ -205,6 +262,13 @@ pub(crate) fn step(
                     continue;
                 };
                 if m.is_empty() {
+                    continue;
+                }
+                if m.min_separation().is_some_and(|s| s <= 0.0) {
+                    touching.insert((handles[ia], handles[ib]), sensor);
+                }
+                if sensor {
+                    // Sensors only report: no constraint.
                     continue;
                 }
                 let key = ContactKey {
@@ -266,6 +330,73 @@ pub(crate) fn step(
         c.restitute(&mut solver_bodies, cfg.restitution_threshold);
     }
 
+    // Pairs pushed apart count as touching even if they started a hair apart;
+    // their total normal force feeds the force events.
+    let mut pair_force: BTreeMap<(BodyHandle, BodyHandle), (f64, DVec3, f64)> = BTreeMap::new();
+    for (key, c) in &constraints {
+        let total: f64 = c.points.iter().map(|p| p.normal_impulse).sum::<f64>() * f64::from(n) / dt;
+        if total <= 0.0 {
+            continue;
+        }
+        let pair_key = (
+            BodyHandle {
+                index: key.a.0,
+                generation: key.a.1,
+            },
+            BodyHandle {
+                index: key.b.0,
+                generation: key.b.1,
+            },
+        );
+        touching.entry(pair_key).or_insert(false);
+        let e = pair_force.entry(pair_key).or_insert((0.0, c.normal, 0.0));
+        e.0 += total;
+        if total > e.2 {
+            e.1 = c.normal;
+            e.2 = total;
+        }
+    }
+    let mut out = RigidStepOut::default();
+    let threshold = |h: BodyHandle| {
+        bodies
+            .get(h.index, h.generation)
+            .map_or(f64::MAX, |b| b.contact_force_threshold)
+    };
+    for (&(a, b), &(force, normal, _)) in &pair_force {
+        if force > threshold(a).min(threshold(b)) {
+            out.forces.push(ContactForceEvent {
+                a,
+                b,
+                force,
+                normal,
+            });
+        }
+    }
+    for (&(a, b), &sensor) in &touching {
+        if !contacts.touching.contains(&(a, b)) {
+            out.events.push(ContactEvent {
+                kind: ContactEventKind::Begin,
+                a,
+                b,
+                sensor,
+            });
+        }
+    }
+    for &(a, b) in &contacts.touching {
+        if !touching.contains_key(&(a, b)) {
+            let sensor = [a, b]
+                .iter()
+                .any(|h| bodies.get(h.index, h.generation).is_some_and(|x| x.sensor));
+            out.events.push(ContactEvent {
+                kind: ContactEventKind::End,
+                a,
+                b,
+                sensor,
+            });
+        }
+    }
+    contacts.touching = touching.keys().copied().collect();
+
     // 5. Store.
     contacts.cache = constraints
         .iter()
@@ -304,7 +435,8 @@ pub(crate) fn step(
             b.angvel = sb.w;
         }
     }
-    quarantined
+    out.quarantined = quarantined;
+    out
 }
 
 /// The constraint for one manifold, warm-started from `cached`.

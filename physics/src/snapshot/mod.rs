@@ -15,7 +15,10 @@
 
 mod rigid;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
+
+use crate::handle::BodyHandle;
+use crate::rigid::aabb::Aabb;
 
 use glam::DVec3;
 
@@ -242,6 +245,8 @@ pub(crate) struct StateRef<'a> {
     pub(crate) body_forces: &'a Arena<ForceEntry>,
     pub(crate) solver: &'a SolverConfig,
     pub(crate) contacts: &'a BTreeMap<ContactKey, Vec<CachedPoint>>,
+    pub(crate) touching: &'a BTreeSet<(BodyHandle, BodyHandle)>,
+    pub(crate) body_bounds: Option<Aabb>,
 }
 
 /// The one walk over the world state, shared by save and hash.
@@ -254,6 +259,8 @@ pub(crate) fn encode_world<S: Sink>(s: &mut S, w: &StateRef<'_>) {
     arena(s, w.body_forces, |s, f| force(s, &f.force));
     rigid::solver(s, w.solver);
     rigid::contacts(s, w.contacts);
+    rigid::touching(s, w.touching);
+    rigid::bounds(s, w.body_bounds);
 }
 
 /// The complete saved file for a state.
@@ -281,6 +288,8 @@ pub(crate) struct DecodedWorld {
     pub(crate) body_forces: Arena<ForceEntry>,
     pub(crate) solver: SolverConfig,
     pub(crate) contacts: BTreeMap<ContactKey, Vec<CachedPoint>>,
+    pub(crate) touching: BTreeSet<(BodyHandle, BodyHandle)>,
+    pub(crate) body_bounds: Option<Aabb>,
 }
 
 struct Reader<'a> {
@@ -618,6 +627,8 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     let body_forces = r.arena(|r| Ok(ForceEntry { force: r.force()? }))?;
     let solver = r.solver()?;
     let contacts = r.contacts()?;
+    let touching = r.touching()?;
+    let body_bounds = r.bounds()?;
     if r.pos != r.b.len() {
         return Err(SnapshotError::Trailing(r.b.len() - r.pos));
     }
@@ -630,5 +641,7 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         body_forces,
         solver,
         contacts,
+        touching,
+        body_bounds,
     })
 }

@@ -6,11 +6,13 @@
 //! [`MAX_COMPOUND_DEPTH`] levels so hostile bytes cannot recurse without
 //! bound.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use glam::{DQuat, DVec3};
 
 use super::{invalid, Reader, Sink, SnapshotError};
+use crate::handle::BodyHandle;
+use crate::rigid::aabb::Aabb;
 use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::pipeline::{CachedPoint, ContactKey};
 use crate::rigid::pose::Pose;
@@ -49,10 +51,12 @@ pub(super) fn body<S: Sink>(s: &mut S, b: &RigidBody) {
     s.f64(b.friction_static);
     s.f64(b.friction_dynamic);
     s.f64(b.restitution);
+    s.f64(b.contact_force_threshold);
     s.u8(u8::from(b.ccd)
         | (u8::from(b.can_sleep) << 1)
         | (u8::from(b.sleeping) << 2)
-        | (u8::from(b.quarantined) << 3));
+        | (u8::from(b.quarantined) << 3)
+        | (u8::from(b.sensor) << 4));
     s.vec3(b.control_force);
     s.vec3(b.control_torque);
     match &b.shape {
@@ -173,11 +177,12 @@ impl Reader<'_> {
         let friction_static = self.finite("static friction")?;
         let friction_dynamic = self.finite("dynamic friction")?;
         let restitution = self.finite("restitution")?;
+        let contact_force_threshold = self.finite("contact force threshold")?;
         if friction_static < 0.0 || friction_dynamic < 0.0 || !(0.0..=1.0).contains(&restitution) {
             return invalid("friction or restitution out of range");
         }
         let bits = self.u8()?;
-        if bits > 0b1111 {
+        if bits > 0b1_1111 {
             return invalid("unknown body flag");
         }
         let control_force = self.vec3("body control force")?;
@@ -220,6 +225,8 @@ impl Reader<'_> {
             friction_static,
             friction_dynamic,
             restitution,
+            sensor: bits & 16 != 0,
+            contact_force_threshold,
             ccd: bits & 1 != 0,
             can_sleep: bits & 2 != 0,
             sleeping: bits & 4 != 0,
@@ -369,5 +376,58 @@ impl Reader<'_> {
             }
         }
         Ok(cache)
+    }
+}
+
+pub(super) fn touching<S: Sink>(s: &mut S, set: &BTreeSet<(BodyHandle, BodyHandle)>) {
+    s.u64(set.len() as u64);
+    for (a, b) in set {
+        for v in [a.index, a.generation, b.index, b.generation] {
+            s.u32(v);
+        }
+    }
+}
+
+pub(super) fn bounds<S: Sink>(s: &mut S, b: Option<Aabb>) {
+    match b {
+        None => s.u8(0),
+        Some(b) => {
+            s.u8(1);
+            s.vec3(b.min);
+            s.vec3(b.max);
+        }
+    }
+}
+
+impl Reader<'_> {
+    pub(super) fn touching(&mut self) -> Result<BTreeSet<(BodyHandle, BodyHandle)>, SnapshotError> {
+        let n = self.count(16)?;
+        let mut set = BTreeSet::new();
+        for _ in 0..n {
+            let a = BodyHandle {
+                index: self.u32()?,
+                generation: self.u32()?,
+            };
+            let b = BodyHandle {
+                index: self.u32()?,
+                generation: self.u32()?,
+            };
+            set.insert((a, b));
+        }
+        Ok(set)
+    }
+
+    pub(super) fn bounds(&mut self) -> Result<Option<Aabb>, SnapshotError> {
+        match self.u8()? {
+            0 => Ok(None),
+            1 => {
+                let (min, max) = (self.vec3("bounds min")?, self.vec3("bounds max")?);
+                if min.cmpgt(max).any() {
+                    return invalid("world bounds min exceeds max");
+                }
+                Ok(Some(Aabb { min, max }))
+            }
+            t => invalid(format!("bounds tag {t}")),
+        }
     }
 }

@@ -37,7 +37,7 @@ use crate::particle_system::{Backend, ParticleSystem, FLAG_QUARANTINED};
 use crate::profile::{ProfileTotals, StepProfile};
 use crate::rigid::body::RigidBody;
 use crate::rigid::forces::BodyField;
-use crate::rigid::pipeline::{self, Contacts};
+use crate::rigid::pipeline::{self, ContactEvent, ContactForceEvent, Contacts};
 use crate::rigid::solver::SolverConfig;
 use crate::step::{fill_masses, step_system, ChunkOut, FLAG_NEW_QUARANTINE};
 
@@ -77,6 +77,12 @@ pub struct StepReport {
     pub quarantined: Vec<ParticleHandle>,
     /// Rigid bodies that became non-finite during the step and were quarantined.
     pub quarantined_bodies: Vec<BodyHandle>,
+    /// Pairs of bodies that began or stopped touching (sensors: overlapping).
+    pub contact_events: Vec<ContactEvent>,
+    /// Pairs pressed together harder than a body's contact force threshold.
+    pub contact_forces: Vec<ContactForceEvent>,
+    /// Bodies that left the world bounds and were removed (their handles are now stale).
+    pub removed_bodies: Vec<BodyHandle>,
     /// Explosions whose front passed their max radius and were removed.
     pub expired_forces: Vec<ForceHandle>,
     /// World energy after the step.
@@ -95,6 +101,8 @@ pub struct World {
     body_gravity: DVec3,
     /// Force generators acting on every rigid body.
     body_forces: Arena<crate::forces::ForceEntry>,
+    /// Bodies whose centre leaves this box are removed and reported.
+    body_bounds: Option<crate::rigid::aabb::Aabb>,
     /// Contact solver settings (state: they change the motion).
     solver: SolverConfig,
     /// Warm-start cache and broad phase.
@@ -139,6 +147,7 @@ impl World {
             bodies: Arena::default(),
             body_gravity: DVec3::ZERO,
             body_forces: Arena::default(),
+            body_bounds: None,
             solver: SolverConfig::default(),
             contacts: Contacts::default(),
             energy: Energy::default(),
@@ -304,7 +313,7 @@ impl World {
             dt,
         );
         let g = self.body_gravity + field.gravity;
-        report.quarantined_bodies = pipeline::step(
+        let out = pipeline::step(
             &mut self.bodies,
             &mut self.contacts,
             &field,
@@ -312,6 +321,24 @@ impl World {
             &self.solver,
             dt,
         );
+        report.quarantined_bodies = out.quarantined;
+        report.contact_events = out.events;
+        report.contact_forces = out.forces;
+        if let Some(bounds) = self.body_bounds {
+            let gone: Vec<BodyHandle> = self
+                .bodies
+                .iter()
+                .filter(|(_, _, b)| {
+                    b.kind != crate::rigid::body::BodyKind::Static && !bounds.contains_point(b.com)
+                })
+                .map(|(index, generation, _)| BodyHandle { index, generation })
+                .collect();
+            for h in &gone {
+                self.bodies.remove(h.index, h.generation);
+                self.contacts.forget(*h);
+            }
+            report.removed_bodies = gone;
+        }
         for (_, _, b) in self.bodies.iter() {
             energy.kinetic += b.kinetic_energy();
             if b.inv_mass > 0.0 {

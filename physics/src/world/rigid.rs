@@ -24,7 +24,7 @@ impl World {
         self.bodies
             .remove(h.index, h.generation)
             .ok_or(PhysicsError::UnknownBody(h))?;
-        self.contacts.reset_broad_phase();
+        self.contacts.forget(h);
         Ok(())
     }
 
@@ -170,6 +170,26 @@ impl World {
         crate::error::non_negative("restitution threshold", cfg.restitution_threshold)?;
         crate::error::non_negative("stick speed", cfg.stick_speed)?;
         self.solver = cfg;
+        Ok(())
+    }
+
+    /// Removes (and reports) every non-static body whose centre of mass
+    /// leaves `bounds` from now on; `None` switches this off.
+    pub fn set_body_bounds(
+        &mut self,
+        bounds: Option<crate::rigid::aabb::Aabb>,
+    ) -> Result<(), PhysicsError> {
+        if let Some(b) = bounds {
+            finite3("bounds min", b.min)?;
+            finite3("bounds max", b.max)?;
+            if b.min.cmpgt(b.max).any() {
+                return Err(PhysicsError::Invalid {
+                    what: "world bounds",
+                    why: "min exceeds max".into(),
+                });
+            }
+        }
+        self.body_bounds = bounds;
         Ok(())
     }
 

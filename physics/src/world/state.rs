@@ -18,6 +18,8 @@ impl World {
             body_forces: &self.body_forces,
             solver: &self.solver,
             contacts: &self.contacts.cache,
+            touching: &self.contacts.touching,
+            body_bounds: self.body_bounds,
         }
     }
 
@@ -78,6 +80,8 @@ impl World {
         self.body_forces = decoded.body_forces;
         self.solver = decoded.solver;
         self.contacts.cache = decoded.contacts;
+        self.contacts.touching = decoded.touching;
+        self.body_bounds = decoded.body_bounds;
         self.contacts.reset_broad_phase();
         Ok(())
     }
