@@ -13,6 +13,11 @@ const WATER: f64 = 1000.0;
 fn floating(shape: Shape, density_ratio: f64, pose: Pose) -> (World, inertia_physics::BodyHandle) {
     let mut w = common::world();
     w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    // Equilibrium is approached slowly under heavy fluid drag: keep the body
+    // awake so the test measures where it floats, not where it fell asleep.
+    let mut cfg = *w.solver_config();
+    cfg.sleep.enabled = false;
+    w.set_solver_config(cfg).unwrap();
     w.add_body_force(Buoyancy {
         surface_height: 0.0,
         up: DVec3::Y,

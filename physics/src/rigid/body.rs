@@ -208,6 +208,7 @@ impl RigidBodyDesc {
             ccd: self.ccd,
             can_sleep: self.can_sleep,
             sleeping: false,
+            sleep_time: 0.0,
             quarantined: false,
             control_force: DVec3::ZERO,
             control_torque: DVec3::ZERO,
@@ -295,6 +296,8 @@ pub struct RigidBody {
     pub(crate) ccd: bool,
     pub(crate) can_sleep: bool,
     pub(crate) sleeping: bool,
+    /// How long the body has been resting, s (see [`crate::rigid::island`]).
+    pub(crate) sleep_time: f64,
     /// Became non-finite during a step: frozen and excluded until released.
     pub(crate) quarantined: bool,
     /// Scripted force at the centre of mass, N, world; stays until changed.
@@ -447,6 +450,18 @@ impl RigidBody {
             self.friction_dynamic,
             self.restitution,
         )
+    }
+
+    /// Wakes the body and restarts its rest timer.
+    pub(crate) fn wake(&mut self) {
+        self.sleeping = false;
+        self.sleep_time = 0.0;
+    }
+
+    /// Whether the solver must leave this body where it is this step: not
+    /// dynamic, or asleep, or quarantined.
+    pub(crate) fn is_fixed_now(&self) -> bool {
+        self.kind != BodyKind::Dynamic || self.sleeping || self.quarantined
     }
 
     /// Whether the body is a sensor.

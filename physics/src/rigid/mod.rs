@@ -8,6 +8,7 @@ pub mod contact;
 pub(crate) mod forces;
 pub mod hull;
 pub(crate) mod immersion;
+pub mod island;
 pub mod mass;
 pub(crate) mod motion;
 pub mod narrow;

@@ -153,6 +153,19 @@ fn leaves<'a>(shape: &'a Shape, pose: Pose, out: &mut Vec<(Pose, &'a Shape)>) {
     }
 }
 
+/// Whether any leaf of `a` comes within `speculative` of any leaf of `b`.
+fn shapes_near(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose, speculative: f64) -> bool {
+    let (mut la, mut lb) = (Vec::new(), Vec::new());
+    leaves(a, Pose::IDENTITY, &mut la);
+    leaves(b, Pose::IDENTITY, &mut lb);
+    la.iter().any(|(pa, sa)| {
+        lb.iter().any(|(pb, sb)| {
+            collide(sa, &pose_a.mul(pa), sb, &pose_b.mul(pb), speculative)
+                .is_ok_and(|m| !m.is_empty())
+        })
+    })
+}
+
 /// Advances every body by `dt`. Returns the bodies quarantined.
 pub(crate) fn step(
     bodies: &mut Arena<RigidBody>,
@@ -171,6 +184,9 @@ pub(crate) fn step(
         .iter()
         .map(|(_, _, b)| field.force_and_torque(b))
         .collect();
+
+    // Sleeping bodies touched by awake ones wake up (through whole stacks).
+    crate::rigid::island::wake_touched(bodies, &contacts.touching);
 
     // 2. Broad phase.
     let broad = contacts
@@ -213,6 +229,49 @@ pub(crate) fn step(
     }
     broad.update_pairs();
 
+    // An awake body about to hit a sleeping one wakes it (and, through the
+    // contacts it rests on, its island) before anything is solved.
+    let mut to_wake = Vec::new();
+    for pair in broad.pairs() {
+        let (Some(&ia), Some(&ib)) = (slot_of.get(&pair.a), slot_of.get(&pair.b)) else {
+            continue;
+        };
+        let (Some(ba), Some(bb)) = (
+            bodies.get(handles[ia].index, handles[ia].generation),
+            bodies.get(handles[ib].index, handles[ib].generation),
+        ) else {
+            continue;
+        };
+        let awake_dynamic =
+            |b: &RigidBody| b.kind == BodyKind::Dynamic && !b.sleeping && !b.quarantined;
+        let sleeper = if ba.sleeping && awake_dynamic(bb) {
+            ia
+        } else if bb.sleeping && awake_dynamic(ba) {
+            ib
+        } else {
+            continue;
+        };
+        if ba.sensor || bb.sensor {
+            continue;
+        }
+        let speculative = SPECULATIVE_DISTANCE + (ba.linvel - bb.linvel).length() * dt;
+        let hit = match (&ba.shape, &bb.shape) {
+            (Some(sa), Some(sb)) => shapes_near(sa, &ba.pose(), sb, &bb.pose(), speculative),
+            _ => false,
+        };
+        if hit {
+            to_wake.push(handles[sleeper]);
+        }
+    }
+    if !to_wake.is_empty() {
+        for h in &to_wake {
+            if let Some(b) = bodies.get_mut(h.index, h.generation) {
+                b.wake();
+            }
+        }
+        crate::rigid::island::wake_touched(bodies, &contacts.touching);
+    }
+
     // 3. Narrow phase.
     let body_list: Vec<&RigidBody> = bodies.iter().map(|(_, _, b)| b).collect();
     let mut solver_bodies: Vec<SolverBody> = body_list
@@ -220,8 +279,8 @@ pub(crate) fn step(
         .map(|b| SolverBody {
             v: b.linvel,
             w: b.angvel,
-            inv_mass: b.inv_mass,
-            inv_inertia: if b.inv_mass > 0.0 {
+            inv_mass: if b.is_fixed_now() { 0.0 } else { b.inv_mass },
+            inv_inertia: if !b.is_fixed_now() {
                 b.inverse_inertia_world()
             } else {
                 glam::DMat3::ZERO
@@ -233,6 +292,9 @@ pub(crate) fn step(
     let mut constraints: Vec<(ContactKey, ContactConstraint)> = Vec::new();
     // Pairs touching this step, with whether either body is a sensor.
     let mut touching: BTreeMap<(BodyHandle, BodyHandle), bool> = BTreeMap::new();
+    // Contacts between bodies that all stay put this step (asleep, static)
+    // are not recomputed: their cache and touching state carry over.
+    let mut carried: Vec<(ContactKey, Vec<CachedPoint>)> = Vec::new();
     for pair in broad.pairs() {
         let (Some(&ia), Some(&ib)) = (slot_of.get(&pair.a), slot_of.get(&pair.b)) else {
             continue;
@@ -240,6 +302,23 @@ pub(crate) fn step(
         let (ba, bb) = (body_list[ia], body_list[ib]);
         let sensor = ba.sensor || bb.sensor;
         if ba.inv_mass == 0.0 && bb.inv_mass == 0.0 && !sensor {
+            continue;
+        }
+        if ba.is_fixed_now() && bb.is_fixed_now() && !sensor {
+            let (ka, kb) = (
+                (handles[ia].index, handles[ia].generation),
+                (handles[ib].index, handles[ib].generation),
+            );
+            carried.extend(
+                contacts
+                    .cache
+                    .iter()
+                    .filter(|(k, _)| k.a == ka && k.b == kb)
+                    .map(|(k, v)| (*k, v.clone())),
+            );
+            if contacts.touching.contains(&(handles[ia], handles[ib])) {
+                touching.insert((handles[ia], handles[ib]), false);
+            }
             continue;
         }
         let (Some(sa), Some(sb)) = (&ba.shape, &bb.shape) else {
@@ -413,6 +492,7 @@ pub(crate) fn step(
                 .collect();
             (*key, pts)
         })
+        .chain(carried)
         .collect();
     for (k, (_, _, b)) in bodies.iter_mut().enumerate() {
         let sb = &solver_bodies[k];
@@ -435,6 +515,7 @@ pub(crate) fn step(
             b.angvel = sb.w;
         }
     }
+    crate::rigid::island::update(bodies, &contacts.touching, &cfg.sleep, dt);
     out.quarantined = quarantined;
     out
 }

@@ -50,6 +50,8 @@ pub struct SolverConfig {
     /// Tangential speed below which a contact counts as sticking (static
     /// friction applies), m/s.
     pub stick_speed: f64,
+    /// When resting islands fall asleep.
+    pub sleep: crate::rigid::island::SleepConfig,
 }
 
 impl Default for SolverConfig {
@@ -61,6 +63,7 @@ impl Default for SolverConfig {
             push_out: 3.0,
             restitution_threshold: 1.0,
             stick_speed: 0.01,
+            sleep: crate::rigid::island::SleepConfig::default(),
         }
     }
 }

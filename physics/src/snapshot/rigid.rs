@@ -52,6 +52,7 @@ pub(super) fn body<S: Sink>(s: &mut S, b: &RigidBody) {
     s.f64(b.friction_dynamic);
     s.f64(b.restitution);
     s.f64(b.contact_force_threshold);
+    s.f64(b.sleep_time);
     s.u8(u8::from(b.ccd)
         | (u8::from(b.can_sleep) << 1)
         | (u8::from(b.sleeping) << 2)
@@ -178,6 +179,7 @@ impl Reader<'_> {
         let friction_dynamic = self.finite("dynamic friction")?;
         let restitution = self.finite("restitution")?;
         let contact_force_threshold = self.finite("contact force threshold")?;
+        let sleep_time = self.finite("sleep time")?;
         if friction_static < 0.0 || friction_dynamic < 0.0 || !(0.0..=1.0).contains(&restitution) {
             return invalid("friction or restitution out of range");
         }
@@ -226,6 +228,7 @@ impl Reader<'_> {
             friction_dynamic,
             restitution,
             sensor: bits & 16 != 0,
+            sleep_time,
             contact_force_threshold,
             ccd: bits & 1 != 0,
             can_sleep: bits & 2 != 0,
@@ -301,6 +304,10 @@ pub(super) fn solver<S: Sink>(s: &mut S, c: &SolverConfig) {
     s.f64(c.push_out);
     s.f64(c.restitution_threshold);
     s.f64(c.stick_speed);
+    s.u8(u8::from(c.sleep.enabled));
+    s.f64(c.sleep.linear_tolerance);
+    s.f64(c.sleep.angular_tolerance);
+    s.f64(c.sleep.time_to_sleep);
 }
 
 pub(super) fn contacts<S: Sink>(s: &mut S, cache: &BTreeMap<ContactKey, Vec<CachedPoint>>) {
@@ -329,13 +336,26 @@ impl Reader<'_> {
             push_out: self.finite("push-out speed")?,
             restitution_threshold: self.finite("restitution threshold")?,
             stick_speed: self.finite("stick speed")?,
+            sleep: crate::rigid::island::SleepConfig {
+                enabled: match self.u8()? {
+                    0 => false,
+                    1 => true,
+                    t => return invalid(format!("sleep flag {t}")),
+                },
+                linear_tolerance: self.finite("linear sleep tolerance")?,
+                angular_tolerance: self.finite("angular sleep tolerance")?,
+                time_to_sleep: self.finite("time to sleep")?,
+            },
         };
         let ok = (1..=64).contains(&c.substeps)
             && c.contact_hertz > 0.0
             && c.contact_damping_ratio >= 0.0
             && c.push_out > 0.0
             && c.restitution_threshold >= 0.0
-            && c.stick_speed >= 0.0;
+            && c.stick_speed >= 0.0
+            && c.sleep.linear_tolerance >= 0.0
+            && c.sleep.angular_tolerance >= 0.0
+            && c.sleep.time_to_sleep >= 0.0;
         if !ok {
             return invalid("solver settings out of range");
         }

@@ -65,7 +65,7 @@ impl World {
         }
         b.linvel = linear;
         b.angvel = angular;
-        b.sleeping = false;
+        b.wake();
         Ok(())
     }
 
@@ -76,7 +76,7 @@ impl World {
         let b = self.body_mut(h)?;
         b.rotation = rotation;
         b.com = pose.translation + rotation * b.local_com;
-        b.sleeping = false;
+        b.wake();
         Ok(())
     }
 
@@ -93,7 +93,7 @@ impl World {
         let b = self.body_mut(h)?;
         b.control_force = force;
         b.control_torque = torque;
-        b.sleeping = false;
+        b.wake();
         Ok(())
     }
 
@@ -121,7 +121,7 @@ impl World {
         }
         b.linvel += dv;
         b.angvel += dw;
-        b.sleeping = false;
+        b.wake();
         Ok(())
     }
 
@@ -169,6 +169,9 @@ impl World {
         crate::error::positive("push-out speed", cfg.push_out)?;
         crate::error::non_negative("restitution threshold", cfg.restitution_threshold)?;
         crate::error::non_negative("stick speed", cfg.stick_speed)?;
+        crate::error::non_negative("linear sleep tolerance", cfg.sleep.linear_tolerance)?;
+        crate::error::non_negative("angular sleep tolerance", cfg.sleep.angular_tolerance)?;
+        crate::error::non_negative("time to sleep", cfg.sleep.time_to_sleep)?;
         self.solver = cfg;
         Ok(())
     }
