@@ -465,3 +465,31 @@ fn bodies_leaving_the_world_bounds_are_removed_and_reported() {
         )))
         .is_err());
 }
+
+/// Speculative contacts reach as far as a body can move in a step, so a
+/// small fast body cannot pass through a thin wall between two steps.
+#[test]
+fn a_thin_wall_stops_a_small_body_at_300_m_per_s() {
+    for shape in [
+        Shape::sphere(0.05).unwrap(),
+        Shape::cuboid(DVec3::splat(0.04)).unwrap(),
+    ] {
+        let mut w = common::world();
+        let wall = Shape::cuboid(DVec3::new(0.005, 2.0, 2.0)).unwrap(); // 1 cm thick
+        w.add_body(&RigidBodyDesc::fixed(
+            wall,
+            Pose::from_translation(DVec3::X * 10.0),
+        ))
+        .unwrap();
+        let mut d = RigidBodyDesc::dynamic(shape, 2000.0, Pose::IDENTITY)
+            .unwrap()
+            .with_velocity(DVec3::X * 300.0, DVec3::ZERO);
+        d.ccd = true;
+        let b = w.add_body(&d).unwrap();
+        for _ in 0..60 {
+            w.step(1.0 / 60.0).unwrap();
+        }
+        let x = w.body(b).unwrap().center_of_mass().x;
+        assert!(x < 10.0, "the body went through the wall: x = {x}");
+    }
+}

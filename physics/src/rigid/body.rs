@@ -90,7 +90,9 @@ pub struct RigidBodyDesc {
     /// Report a contact force event when the total normal force between this
     /// body and another exceeds this, N (`f64::MAX` = never).
     pub contact_force_threshold: f64,
-    /// Continuous collision detection for this body (fast, small bodies).
+    /// Continuous collision detection: contacts are searched along the whole
+    /// path the body can travel in a step, so a fast, small body is stopped
+    /// by the first surface in its way (see `rigid::pipeline`).
     pub ccd: bool,
     /// Whether the body may fall asleep when it comes to rest.
     pub can_sleep: bool,
