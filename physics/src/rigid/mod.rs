@@ -14,6 +14,7 @@ pub(crate) mod motion;
 pub mod narrow;
 pub(crate) mod pipeline;
 pub mod pose;
+pub mod query;
 pub mod shape;
 pub mod solver;
 

@@ -18,6 +18,7 @@
 
 mod backend;
 mod particles;
+mod query;
 mod rigid;
 mod state;
 
