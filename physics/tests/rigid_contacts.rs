@@ -395,6 +395,16 @@ fn box_on_trimesh_and_sphere_on_heightfield() {
     let m = collide(&field, &Pose::IDENTITY, &ball, &at(0.3, -0.1, 0.7), 0.0).unwrap();
     assert_vec_close(m.normal, DVec3::Y, 1e-9, "sunk normal");
     assert_close(m.min_separation().unwrap(), -0.6, 1e-9, "sunk depth");
+    // At the lip of a steep drop (falling 2 m over the last 1 m cell), a
+    // ball resting on the flat part is not grabbed by the drop's plane,
+    // whose extension lies above the ball's centre.
+    let bank: Vec<f64> = (0..25)
+        .map(|i| if i % 5 == 4 { -2.0 } else { 0.0 })
+        .collect();
+    let bank = Shape::heightfield(bank, 5, 5, DVec3::new(4.0, 1.0, 4.0)).unwrap();
+    let m = collide(&bank, &Pose::IDENTITY, &ball, &at(0.6, 0.49, 0.2), 0.0).unwrap();
+    assert_vec_close(m.normal, DVec3::Y, 1e-9, "lip normal");
+    assert_close(m.min_separation().unwrap(), -0.01, 1e-9, "lip");
     // A box on a tilted heightfield (a ramp rising along +x).
     let ramp: Vec<f64> = (0..9).map(|i| 0.5 * (i % 3) as f64).collect();
     let ramp = Shape::heightfield(ramp, 3, 3, DVec3::new(4.0, 1.0, 4.0)).unwrap();

@@ -131,19 +131,20 @@ pub(crate) fn surface_convex(surface: &Shape, b: &Convex<'_>, spec: f64) -> Opti
 }
 
 /// A heightfield triangle is one-sided: terrain is solid below. A shape
-/// whose centre is above the triangle's plane collides normally; one whose
-/// centre has sunk below is pushed back up along the triangle's normal
-/// instead of out through the bottom.
+/// whose centre is above the triangle's plane, or whose centre is not over
+/// the triangle, collides normally; one whose centre has sunk below the
+/// triangle (over it, under its plane) is pushed back up along the
+/// triangle's normal instead of out through the bottom. (Testing "over the
+/// triangle" keeps a steep neighbour's extended plane from grabbing a
+/// shape resting at its foot.)
 fn front_side(a: &Convex<'_>, tri: [DVec3; 3], b: &Convex<'_>, spec: f64) -> Contact {
     let front = (tri[1] - tri[0])
         .cross(tri[2] - tri[0])
         .normalize_or(DVec3::Y);
     let offset = front.dot(tri[0]);
-    if front.dot(b.pose.translation) >= offset {
-        let c = convex_pair(a, b, spec);
-        if c.points.is_empty() || c.normal.dot(front) > 0.0 {
-            return c;
-        }
+    let centre = b.pose.translation;
+    if front.dot(centre) >= offset || !over_triangle(tri, DVec3::Y, centre) {
+        return convex_pair(a, b, spec);
     }
     let q = b.core_support(-front);
     let gap = front.dot(q) - offset;
@@ -152,6 +153,16 @@ fn front_side(a: &Convex<'_>, tri: [DVec3; 3], b: &Convex<'_>, spec: f64) -> Con
         return Contact::default();
     }
     manifold_from_features(a, b, front, sep, q - front * gap, q, spec)
+}
+
+/// True when `p` projected along `n` falls inside the triangle (edges
+/// included; the triangle counter-clockwise seen from `+n`). Heightfields
+/// project straight down (their +Y), which is what "over the terrain" means.
+fn over_triangle(tri: [DVec3; 3], n: DVec3, p: DVec3) -> bool {
+    (0..3).all(|i| {
+        let (u, v) = (tri[i], tri[(i + 1) % 3]);
+        (v - u).cross(p - u).dot(n) >= 0.0
+    })
 }
 
 /// Bounds of a convex shape placed in the common frame, m.
