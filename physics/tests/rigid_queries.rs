@@ -754,3 +754,135 @@ fn world_queries_refuse_bad_input_with_typed_errors() {
         Err(PhysicsError::Invalid { .. })
     ));
 }
+
+#[test]
+fn cast_sphere_at_sphere_matches_ray_on_summed_radius() {
+    // A ball of radius a swept at a ball of radius b first touches when its
+    // centre reaches the ball of radius a + b: a ray cast.
+    let (a, b) = (0.3, 0.7);
+    let mover = Shape::sphere(a).unwrap();
+    let target = Shape::sphere(b).unwrap();
+    let grown = Shape::sphere(a + b).unwrap();
+    let tpose = at(1.0, 2.0, -1.0);
+    let mut rng = Rng(5);
+    let mut hits = 0;
+    for _ in 0..300 {
+        let start = tpose.translation + rng.vec(5.0);
+        if start.distance(tpose.translation) <= a + b + 0.01 {
+            continue;
+        }
+        let d = (tpose.translation + rng.vec(1.2) - start) * rng.range(0.5, 2.0);
+        let cast = cast_shape(
+            &mover,
+            &at(start.x, start.y, start.z),
+            d,
+            3.0,
+            &target,
+            &tpose,
+        )
+        .unwrap();
+        let ray = ray_cast_shape(&grown, &tpose, start, d, 3.0);
+        match (cast, ray) {
+            (Some(t), Some(r)) => {
+                hits += 1;
+                assert!(t <= r.t + 1e-9 && r.t - t < 1e-3 * d.length().recip().max(1.0));
+            }
+            (None, None) => {}
+            // Grazing rays may end within the tolerance of the surface.
+            (c, r) => {
+                let t = c.or(r.map(|r| r.t)).unwrap();
+                let p = start + d * t;
+                assert!(
+                    (p.distance(tpose.translation) - (a + b)).abs() < 1e-3,
+                    "cast {c:?} vs ray {r:?}"
+                );
+            }
+        }
+    }
+    assert!(hits > 100, "{hits}");
+}
+
+#[test]
+fn cast_capsule_and_sphere_onto_box_and_sloped_heightfield() {
+    // A capsule lying along X falls onto a box top: gap 3 − 0.3 − 0.5.
+    let cap = Shape::capsule(1.0, 0.3).unwrap();
+    let lying = Pose::new(
+        DVec3::new(0.5, 3.0, 0.2),
+        DQuat::from_rotation_z(std::f64::consts::FRAC_PI_2),
+    );
+    let slab = Shape::cuboid(DVec3::new(2.0, 0.5, 2.0)).unwrap();
+    let t = cast_shape(&cap, &lying, -DVec3::Y, 10.0, &slab, &Pose::IDENTITY)
+        .unwrap()
+        .unwrap();
+    assert!((t - 2.2).abs() < 1e-3 && t <= 2.2 + 1e-9, "{t}");
+    // A ball of radius 0.2 dropped on the bump's facet y = 1 − x − z
+    // (normal (1, 1, 1)/√3) touches when its centre is at
+    // y = 0.25 + 0.2 √3 above (0.5, 0.25).
+    let heights = vec![0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0];
+    let field = Shape::heightfield(heights, 3, 3, DVec3::new(2.0, 1.0, 2.0)).unwrap();
+    let ball = Shape::sphere(0.2).unwrap();
+    let t = cast_shape(
+        &ball,
+        &at(0.5, 5.0, 0.25),
+        -DVec3::Y,
+        10.0,
+        &field,
+        &Pose::IDENTITY,
+    )
+    .unwrap()
+    .unwrap();
+    let exact = 5.0 - (0.25 + 0.2 * 3f64.sqrt());
+    // Along −Y the gap closes at cos = 1/√3, so the time error is up to
+    // √3 times the distance tolerance.
+    assert!(
+        (t - exact).abs() < 1e-3 && t <= exact + 1e-9,
+        "{t} vs {exact}"
+    );
+}
+
+#[test]
+fn world_queries_see_meshes_and_heightfields() {
+    let mut w = world();
+    let field = add(
+        &mut w,
+        Shape::heightfield(vec![0.0; 25], 5, 5, DVec3::new(8.0, 1.0, 8.0)).unwrap(),
+        at(0.0, -1.0, 0.0),
+    );
+    let ramp = add(
+        &mut w,
+        Shape::trimesh(
+            vec![
+                DVec3::new(5.0, 0.0, -1.0),
+                DVec3::new(5.0, 0.0, 1.0),
+                DVec3::new(7.0, 2.0, 0.0),
+            ],
+            vec![[0, 1, 2]],
+        )
+        .unwrap(),
+        Pose::IDENTITY,
+    );
+    let (h, hit) = w
+        .cast_ray(DVec3::new(1.0, 5.0, 1.0), -DVec3::Y, 10.0, |_, _| true)
+        .unwrap()
+        .unwrap();
+    assert_eq!(h, field);
+    assert!((hit.t - 6.0).abs() < EPS && hit.normal.distance(DVec3::Y) < EPS);
+    let ball = Shape::sphere(0.5).unwrap();
+    assert_eq!(
+        w.overlap_shape(&ball, at(0.0, -0.6, 0.0)).unwrap(),
+        vec![field]
+    );
+    assert!(w
+        .overlap_shape(&ball, at(0.0, -0.4, 0.0))
+        .unwrap()
+        .is_empty());
+    let (h, t) = w
+        .cast_shape(&ball, at(0.0, 0.5, 0.0), DVec3::X, 10.0)
+        .unwrap()
+        .unwrap();
+    assert_eq!(h, ramp);
+    // The ramp's plane is x − y = 5 (normal (−1, 1, 0)/√2); the centre
+    // (t, 0.5) touches it when (5 − t + 0.5)/√2 = 0.5.
+    let exact = 5.5 - 0.5 * 2f64.sqrt();
+    assert!((t - exact).abs() < 1e-3, "{t} vs {exact}");
+}
