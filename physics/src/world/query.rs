@@ -82,7 +82,28 @@ impl World {
 
     /// The nearest hit of the ray `origin + t · dir` (`0 <= t <= max_t`)
     /// on the bodies that `filter` accepts; ties go to the lower handle.
-    /// See [`World::cast_ray_all`] for units and conventions.
+    /// See [`World::cast_ray_all`] for units and conventions. `filter` is
+    /// only asked about bodies whose box the ray crosses.
+    ///
+    /// ```
+    /// use inertia_physics::glam::DVec3;
+    /// use inertia_physics::rigid::body::RigidBodyDesc;
+    /// use inertia_physics::rigid::pose::Pose;
+    /// use inertia_physics::rigid::shape::Shape;
+    /// use inertia_physics::{World, WorldConfig};
+    ///
+    /// let mut world = World::new(WorldConfig::default()).unwrap();
+    /// let ball = Shape::sphere(1.0).unwrap();
+    /// let pose = Pose::from_translation(DVec3::new(5.0, 0.0, 0.0));
+    /// let h = world.add_body(&RigidBodyDesc::fixed(ball, pose)).unwrap();
+    /// let (hit_body, hit) = world
+    ///     .cast_ray(DVec3::ZERO, DVec3::X, 100.0, |_, _| true)
+    ///     .unwrap()
+    ///     .expect("the ray meets the ball");
+    /// assert_eq!(hit_body, h);
+    /// assert!((hit.t - 4.0).abs() < 1e-12); // m, since dir is a unit vector
+    /// assert!((hit.normal + DVec3::X).length() < 1e-12);
+    /// ```
     ///
     /// # Errors
     /// As [`World::cast_ray_all`].
