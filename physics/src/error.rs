@@ -2,7 +2,8 @@
 //! when it fails: validation happens before any state is touched.
 
 use crate::handle::{
-    BodyForceHandle, BodyHandle, ForceHandle, ParticleHandle, SpringHandle, SystemHandle,
+    BodyForceHandle, BodyHandle, ForceHandle, JointHandle, ParticleHandle, SpringHandle,
+    SystemHandle,
 };
 
 /// Why a call into the [`World`](crate::World) was refused.
@@ -56,6 +57,9 @@ pub enum PhysicsError {
     /// The body handle is stale or was never issued.
     #[error("unknown rigid body {0:?}")]
     UnknownBody(BodyHandle),
+    /// The joint handle is stale or was never issued.
+    #[error("unknown joint {0:?}")]
+    UnknownJoint(JointHandle),
     /// The body force handle is stale or was never issued.
     #[error("unknown body force {0:?}")]
     UnknownBodyForce(BodyForceHandle),

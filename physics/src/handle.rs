@@ -61,6 +61,13 @@ pub struct BodyForceHandle {
     pub(crate) generation: u32,
 }
 
+/// A joint between two rigid bodies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct JointHandle {
+    pub(crate) index: u32,
+    pub(crate) generation: u32,
+}
+
 /// A rigid body in a [`World`](crate::World).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct BodyHandle {

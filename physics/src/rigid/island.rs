@@ -129,8 +129,11 @@ pub(crate) fn update(
         if !dynamic[k] || b.sleeping || b.quarantined {
             continue;
         }
-        let resting =
-            b.linvel.length() < cfg.linear_tolerance && b.angvel.length() < cfg.angular_tolerance;
+        // A body the game is pushing (scripted force or torque) never rests.
+        let pushed = b.control_force != glam::DVec3::ZERO || b.control_torque != glam::DVec3::ZERO;
+        let resting = !pushed
+            && b.linvel.length() < cfg.linear_tolerance
+            && b.angvel.length() < cfg.angular_tolerance;
         b.sleep_time = if resting && b.can_sleep {
             b.sleep_time + dt
         } else {

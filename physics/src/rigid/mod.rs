@@ -9,6 +9,7 @@ pub(crate) mod forces;
 pub mod hull;
 pub(crate) mod immersion;
 pub mod island;
+pub mod joint;
 pub mod mass;
 pub(crate) mod motion;
 pub mod narrow;

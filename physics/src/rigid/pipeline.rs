@@ -18,7 +18,7 @@
 //! Everything iterates in body-handle order and pair order, so the result
 //! does not depend on history the state does not record.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use glam::{DQuat, DVec3};
 
@@ -28,6 +28,7 @@ use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::broad_phase::BroadPhase;
 use crate::rigid::contact::Manifold;
 use crate::rigid::forces::BodyField;
+use crate::rigid::joint::{Joint, JointConstraint};
 use crate::rigid::motion::free_rotation;
 use crate::rigid::narrow::collide;
 use crate::rigid::pose::Pose;
@@ -105,6 +106,7 @@ pub struct ContactForceEvent {
 #[derive(Debug, Default)]
 pub(crate) struct RigidStepOut {
     pub(crate) quarantined: Vec<BodyHandle>,
+    pub(crate) broken_joints: Vec<crate::handle::JointHandle>,
     pub(crate) events: Vec<ContactEvent>,
     pub(crate) forces: Vec<ContactForceEvent>,
 }
@@ -184,6 +186,7 @@ fn shapes_near(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose, speculative: 
 /// Advances every body by `dt`. Returns the bodies quarantined.
 pub(crate) fn step(
     bodies: &mut Arena<RigidBody>,
+    joints: &mut Arena<Joint>,
     contacts: &mut Contacts,
     field: &BodyField,
     gravity: DVec3,
@@ -200,8 +203,17 @@ pub(crate) fn step(
         .map(|(_, _, b)| field.force_and_torque(b))
         .collect();
 
-    // Sleeping bodies touched by awake ones wake up (through whole stacks).
-    crate::rigid::island::wake_touched(bodies, &contacts.touching);
+    // Sleeping bodies touched by awake ones wake up (through whole stacks
+    // and along joints).
+    let joint_links: BTreeSet<(BodyHandle, BodyHandle)> = joints
+        .iter()
+        .map(|(_, _, j)| (j.desc.a.min(j.desc.b), j.desc.a.max(j.desc.b)))
+        .collect();
+    let links =
+        |touching: &BTreeSet<(BodyHandle, BodyHandle)>| -> BTreeSet<(BodyHandle, BodyHandle)> {
+            touching.union(&joint_links).copied().collect()
+        };
+    crate::rigid::island::wake_touched(bodies, &links(&contacts.touching));
 
     // 2. Broad phase.
     let broad = contacts
@@ -284,7 +296,7 @@ pub(crate) fn step(
                 b.wake();
             }
         }
-        crate::rigid::island::wake_touched(bodies, &contacts.touching);
+        crate::rigid::island::wake_touched(bodies, &links(&contacts.touching));
     }
 
     // 3. Narrow phase.
@@ -317,6 +329,10 @@ pub(crate) fn step(
         let (ba, bb) = (body_list[ia], body_list[ib]);
         let sensor = ba.sensor || bb.sensor;
         if ba.inv_mass == 0.0 && bb.inv_mass == 0.0 && !sensor {
+            continue;
+        }
+        // Bodies joined by a joint do not collide with each other.
+        if joint_links.contains(&(handles[ia].min(handles[ib]), handles[ia].max(handles[ib]))) {
             continue;
         }
         if ba.is_fixed_now() && bb.is_fixed_now() && !sensor {
@@ -378,6 +394,37 @@ pub(crate) fn step(
         }
     }
 
+    // Joints between bodies that still exist, with one side free to move.
+    let slot = |h: BodyHandle| slot_of.get(&h.index).copied().filter(|&k| handles[k] == h);
+    let mut joint_rows: Vec<(u32, u32, JointConstraint)> = Vec::new();
+    for (index, generation, j) in joints.iter() {
+        let (Some(ia), Some(ib)) = (slot(j.desc.a), slot(j.desc.b)) else {
+            continue;
+        };
+        let (ba, bb) = (body_list[ia], body_list[ib]);
+        if ba.is_fixed_now() && bb.is_fixed_now() {
+            continue;
+        }
+        let (pa, pb) = (
+            ba.pose().transform_point(j.desc.anchor_a),
+            bb.pose().transform_point(j.desc.anchor_b),
+        );
+        joint_rows.push((
+            index,
+            generation,
+            JointConstraint {
+                a: ia,
+                b: ib,
+                ra: pa - ba.com,
+                rb: pb - bb.com,
+                base_offset: pb - pa,
+                qa0: ba.rotation,
+                qb0: bb.rotation,
+                joint: j.clone(),
+            },
+        ));
+    }
+
     // 4. Solve in substeps.
     let n = cfg.substeps.max(1);
     let h = dt / f64::from(n);
@@ -407,8 +454,14 @@ pub(crate) fn step(
                 quarantined.push(handles[k]);
             }
         }
+        for (_, _, j) in &joint_rows {
+            j.warm_start(&mut solver_bodies);
+        }
         for (_, c) in &constraints {
             c.warm_start(&mut solver_bodies);
+        }
+        for (_, _, j) in &mut joint_rows {
+            j.solve(&mut solver_bodies, h, true);
         }
         for (_, c) in &mut constraints {
             c.solve(&mut solver_bodies, cfg, h, true);
@@ -416,8 +469,23 @@ pub(crate) fn step(
         for ((_, _, b), (sb, s)) in bodies.iter_mut().zip(solver_bodies.iter_mut().zip(&start)) {
             integrate_position(b, sb, s.1, h);
         }
+        for (_, _, j) in &mut joint_rows {
+            j.solve(&mut solver_bodies, h, false);
+        }
         for (_, c) in &mut constraints {
             c.solve(&mut solver_bodies, cfg, h, false);
+        }
+    }
+    // Joints keep their impulses for the next step, or break.
+    let mut out = RigidStepOut::default();
+    for (index, generation, row) in joint_rows {
+        let breaks = row.joint.force(h) > row.joint.desc.break_force;
+        if breaks {
+            joints.remove(index, generation);
+            out.broken_joints
+                .push(crate::handle::JointHandle { index, generation });
+        } else if let Some(j) = joints.get_mut(index, generation) {
+            *j = row.joint;
         }
     }
     for (_, c) in &mut constraints {
@@ -450,7 +518,6 @@ pub(crate) fn step(
             e.2 = total;
         }
     }
-    let mut out = RigidStepOut::default();
     let threshold = |h: BodyHandle| {
         bodies
             .get(h.index, h.generation)
@@ -530,7 +597,7 @@ pub(crate) fn step(
             b.angvel = sb.w;
         }
     }
-    crate::rigid::island::update(bodies, &contacts.touching, &cfg.sleep, dt);
+    crate::rigid::island::update(bodies, &links(&contacts.touching), &cfg.sleep, dt);
     out.quarantined = quarantined;
     out
 }

@@ -247,6 +247,7 @@ pub(crate) struct StateRef<'a> {
     pub(crate) contacts: &'a BTreeMap<ContactKey, Vec<CachedPoint>>,
     pub(crate) touching: &'a BTreeSet<(BodyHandle, BodyHandle)>,
     pub(crate) body_bounds: Option<Aabb>,
+    pub(crate) joints: &'a Arena<crate::rigid::joint::Joint>,
 }
 
 /// The one walk over the world state, shared by save and hash.
@@ -261,6 +262,7 @@ pub(crate) fn encode_world<S: Sink>(s: &mut S, w: &StateRef<'_>) {
     rigid::contacts(s, w.contacts);
     rigid::touching(s, w.touching);
     rigid::bounds(s, w.body_bounds);
+    arena(s, w.joints, rigid::joint);
 }
 
 /// The complete saved file for a state.
@@ -290,6 +292,7 @@ pub(crate) struct DecodedWorld {
     pub(crate) contacts: BTreeMap<ContactKey, Vec<CachedPoint>>,
     pub(crate) touching: BTreeSet<(BodyHandle, BodyHandle)>,
     pub(crate) body_bounds: Option<Aabb>,
+    pub(crate) joints: Arena<crate::rigid::joint::Joint>,
 }
 
 struct Reader<'a> {
@@ -629,6 +632,7 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     let contacts = r.contacts()?;
     let touching = r.touching()?;
     let body_bounds = r.bounds()?;
+    let joints = r.arena(|r| r.joint())?;
     if r.pos != r.b.len() {
         return Err(SnapshotError::Trailing(r.b.len() - r.pos));
     }
@@ -643,5 +647,6 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         contacts,
         touching,
         body_bounds,
+        joints,
     })
 }

@@ -14,6 +14,7 @@ use super::{invalid, Reader, Sink, SnapshotError};
 use crate::handle::BodyHandle;
 use crate::rigid::aabb::Aabb;
 use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::joint::{Joint, JointDesc, JointKind};
 use crate::rigid::pipeline::{CachedPoint, ContactKey};
 use crate::rigid::pose::Pose;
 use crate::rigid::shape::Shape;
@@ -449,5 +450,130 @@ impl Reader<'_> {
             }
             t => invalid(format!("bounds tag {t}")),
         }
+    }
+}
+
+pub(super) fn joint<S: Sink>(s: &mut S, j: &Joint) {
+    let d = &j.desc;
+    for v in [d.a.index, d.a.generation, d.b.index, d.b.generation] {
+        s.u32(v);
+    }
+    s.vec3(d.anchor_a);
+    s.vec3(d.anchor_b);
+    s.f64(d.break_force);
+    let opt2 = |s: &mut S, o: Option<(f64, f64)>| match o {
+        None => s.u8(0),
+        Some((x, y)) => {
+            s.u8(1);
+            s.f64(x);
+            s.f64(y);
+        }
+    };
+    match d.kind {
+        JointKind::Ball => s.u8(0),
+        JointKind::Fixed => s.u8(1),
+        JointKind::Hinge {
+            axis_a,
+            axis_b,
+            limits,
+            motor,
+        } => {
+            s.u8(2);
+            s.vec3(axis_a);
+            s.vec3(axis_b);
+            opt2(s, limits);
+            opt2(s, motor);
+        }
+        JointKind::Distance { min, max, spring } => {
+            s.u8(3);
+            s.f64(min);
+            s.f64(max);
+            match spring {
+                None => s.u8(0),
+                Some((r, hz, z)) => {
+                    s.u8(1);
+                    s.f64(r);
+                    s.f64(hz);
+                    s.f64(z);
+                }
+            }
+        }
+    }
+    quat(s, j.reference);
+    s.vec3(j.linear_impulse);
+    s.vec3(j.angular_impulse);
+    s.f64(j.limit_impulse[0]);
+    s.f64(j.limit_impulse[1]);
+    s.f64(j.motor_impulse);
+    s.f64(j.spring_impulse);
+    s.f64(j.distance_impulse[0]);
+    s.f64(j.distance_impulse[1]);
+}
+
+impl Reader<'_> {
+    fn opt2(&mut self, what: &str) -> Result<Option<(f64, f64)>, SnapshotError> {
+        match self.u8()? {
+            0 => Ok(None),
+            1 => Ok(Some((self.finite(what)?, self.finite(what)?))),
+            t => invalid(format!("{what} tag {t}")),
+        }
+    }
+
+    pub(super) fn joint(&mut self) -> Result<Joint, SnapshotError> {
+        let a = BodyHandle {
+            index: self.u32()?,
+            generation: self.u32()?,
+        };
+        let b = BodyHandle {
+            index: self.u32()?,
+            generation: self.u32()?,
+        };
+        let anchor_a = self.vec3("joint anchor")?;
+        let anchor_b = self.vec3("joint anchor")?;
+        let break_force = self.finite("joint break force")?;
+        let kind = match self.u8()? {
+            0 => JointKind::Ball,
+            1 => JointKind::Fixed,
+            2 => JointKind::Hinge {
+                axis_a: self.vec3("hinge axis")?,
+                axis_b: self.vec3("hinge axis")?,
+                limits: self.opt2("hinge limits")?,
+                motor: self.opt2("hinge motor")?,
+            },
+            3 => JointKind::Distance {
+                min: self.finite("distance min")?,
+                max: self.finite("distance max")?,
+                spring: match self.u8()? {
+                    0 => None,
+                    1 => Some((
+                        self.finite("spring")?,
+                        self.finite("spring")?,
+                        self.finite("spring")?,
+                    )),
+                    t => return invalid(format!("spring tag {t}")),
+                },
+            },
+            t => return invalid(format!("joint kind {t}")),
+        };
+        if a == b || break_force < 0.0 {
+            return invalid("joint joins a body to itself or has a negative break force");
+        }
+        Ok(Joint {
+            desc: JointDesc {
+                a,
+                b,
+                anchor_a,
+                anchor_b,
+                kind,
+                break_force,
+            },
+            reference: self.quat("joint reference")?,
+            linear_impulse: self.vec3("joint impulse")?,
+            angular_impulse: self.vec3("joint impulse")?,
+            limit_impulse: [self.finite("joint impulse")?, self.finite("joint impulse")?],
+            motor_impulse: self.finite("joint impulse")?,
+            spring_impulse: self.finite("joint impulse")?,
+            distance_impulse: [self.finite("joint impulse")?, self.finite("joint impulse")?],
+        })
     }
 }

@@ -17,6 +17,7 @@
 //! returns an error.
 
 mod backend;
+mod joints;
 mod particles;
 mod query;
 mod rigid;
@@ -84,6 +85,8 @@ pub struct StepReport {
     pub contact_forces: Vec<ContactForceEvent>,
     /// Bodies that left the world bounds and were removed (their handles are now stale).
     pub removed_bodies: Vec<BodyHandle>,
+    /// Joints that broke (force above their threshold) and were removed.
+    pub broken_joints: Vec<crate::handle::JointHandle>,
     /// Explosions whose front passed their max radius and were removed.
     pub expired_forces: Vec<ForceHandle>,
     /// World energy after the step.
@@ -104,6 +107,8 @@ pub struct World {
     body_forces: Arena<crate::forces::ForceEntry>,
     /// Bodies whose centre leaves this box are removed and reported.
     body_bounds: Option<crate::rigid::aabb::Aabb>,
+    /// Joints between bodies.
+    joints: Arena<crate::rigid::joint::Joint>,
     /// Contact solver settings (state: they change the motion).
     solver: SolverConfig,
     /// Warm-start cache and broad phase.
@@ -149,6 +154,7 @@ impl World {
             body_gravity: DVec3::ZERO,
             body_forces: Arena::default(),
             body_bounds: None,
+            joints: Arena::default(),
             solver: SolverConfig::default(),
             contacts: Contacts::default(),
             energy: Energy::default(),
@@ -316,12 +322,14 @@ impl World {
         let g = self.body_gravity + field.gravity;
         let out = pipeline::step(
             &mut self.bodies,
+            &mut self.joints,
             &mut self.contacts,
             &field,
             g,
             &self.solver,
             dt,
         );
+        report.broken_joints = out.broken_joints.clone();
         report.quarantined_bodies = out.quarantined;
         report.contact_events = out.events;
         report.contact_forces = out.forces;
@@ -337,6 +345,7 @@ impl World {
             for h in &gone {
                 self.bodies.remove(h.index, h.generation);
                 self.contacts.forget(*h);
+                self.joints.retain(|j| j.desc.a != *h && j.desc.b != *h);
             }
             report.removed_bodies = gone;
         }

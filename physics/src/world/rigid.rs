@@ -25,6 +25,7 @@ impl World {
             .remove(h.index, h.generation)
             .ok_or(PhysicsError::UnknownBody(h))?;
         self.contacts.forget(h);
+        self.joints.retain(|j| j.desc.a != h && j.desc.b != h);
         Ok(())
     }
 

@@ -20,6 +20,7 @@ impl World {
             contacts: &self.contacts.cache,
             touching: &self.contacts.touching,
             body_bounds: self.body_bounds,
+            joints: &self.joints,
         }
     }
 
@@ -82,6 +83,7 @@ impl World {
         self.contacts.cache = decoded.contacts;
         self.contacts.touching = decoded.touching;
         self.body_bounds = decoded.body_bounds;
+        self.joints = decoded.joints;
         self.contacts.reset_broad_phase();
         Ok(())
     }

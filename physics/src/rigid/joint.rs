@@ -1,0 +1,361 @@
+//! Joints between rigid bodies, solved with the contacts in the soft-step
+//! substeps (see [`solver`](super::solver)).
+//!
+//! Every joint holds an anchor on each body (in the body frame). The point
+//! part (ball, hinge, fixed) keeps the anchors together with a 3×3 block
+//! solve of `C = p_b - p_a = 0`; the angular parts keep axes aligned (hinge)
+//! or the whole relative rotation (fixed). All position errors are
+//! corrected softly, at [`JOINT_HERTZ`] with [`JOINT_DAMPING_RATIO`], like
+//! the contacts, so a joint pulled apart comes back smoothly instead of
+//! snapping. Hinge limits are one-sided speculative constraints; the motor
+//! is a velocity constraint with a torque cap. A joint may break: when the
+//! force it had to apply in a step exceeds its threshold it is removed and
+//! reported. Two bodies joined by a joint do not collide with each other.
+
+use glam::{DMat3, DQuat, DVec3};
+
+use crate::handle::BodyHandle;
+use crate::rigid::solver::SolverBody;
+
+/// Stiffness of joint position correction, Hz (capped at a quarter of the
+/// substep rate).
+pub const JOINT_HERTZ: f64 = 60.0;
+/// Damping ratio of joint position correction.
+pub const JOINT_DAMPING_RATIO: f64 = 2.0;
+
+/// What a joint constrains.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum JointKind {
+    /// The anchors coincide; rotation is free (a ball-and-socket).
+    Ball,
+    /// The anchors coincide and the bodies turn only about a shared axis
+    /// (`axis_a` in A's frame, `axis_b` in B's frame), with optional limits
+    /// on the angle and a motor.
+    Hinge {
+        /// Hinge axis in A's body frame (unit).
+        axis_a: DVec3,
+        /// Hinge axis in B's body frame (unit).
+        axis_b: DVec3,
+        /// Lower and upper angle, rad, or `None` for free rotation.
+        limits: Option<(f64, f64)>,
+        /// Target relative angular speed, rad/s, and the largest torque, N·m.
+        motor: Option<(f64, f64)>,
+    },
+    /// The bodies move as one: the anchors coincide and the relative
+    /// rotation stays as it was when the joint was made.
+    Fixed,
+    /// The anchors stay between `min` and `max` apart (m); with a spring,
+    /// pulled towards `rest` at `hertz` with `damping_ratio`.
+    Distance {
+        /// Smallest allowed distance, m.
+        min: f64,
+        /// Largest allowed distance, m.
+        max: f64,
+        /// Optional spring: rest length (m), frequency (Hz), damping ratio.
+        spring: Option<(f64, f64, f64)>,
+    },
+}
+
+/// Everything needed to create a joint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointDesc {
+    /// First body.
+    pub a: BodyHandle,
+    /// Second body.
+    pub b: BodyHandle,
+    /// Anchor on A, A's body frame, m.
+    pub anchor_a: DVec3,
+    /// Anchor on B, B's body frame, m.
+    pub anchor_b: DVec3,
+    /// What is constrained.
+    pub kind: JointKind,
+    /// Force above which the joint breaks, N (`f64::MAX` = unbreakable).
+    pub break_force: f64,
+}
+
+/// A joint as stored: the description plus its warm-start impulses.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Joint {
+    pub(crate) desc: JointDesc,
+    /// Relative rotation `q_a⁻¹ q_b` of the body frames when the joint was
+    /// made: what a fixed joint keeps and where hinge angles count from.
+    pub(crate) reference: DQuat,
+    /// Accumulated impulses for warm starting: point (N·s), angular
+    /// (N·m·s), hinge lower/upper limit and motor (N·m·s), distance spring
+    /// and min/max limits (N·s).
+    pub(crate) linear_impulse: DVec3,
+    pub(crate) angular_impulse: DVec3,
+    pub(crate) limit_impulse: [f64; 2],
+    pub(crate) motor_impulse: f64,
+    pub(crate) spring_impulse: f64,
+    pub(crate) distance_impulse: [f64; 2],
+}
+
+impl Joint {
+    pub(crate) fn new(desc: JointDesc, rotation_a: DQuat, rotation_b: DQuat) -> Self {
+        Self {
+            desc,
+            reference: rotation_a.inverse() * rotation_b,
+            linear_impulse: DVec3::ZERO,
+            angular_impulse: DVec3::ZERO,
+            limit_impulse: [0.0; 2],
+            motor_impulse: 0.0,
+            spring_impulse: 0.0,
+            distance_impulse: [0.0; 2],
+        }
+    }
+
+    /// The description it was made from.
+    pub fn desc(&self) -> &JointDesc {
+        &self.desc
+    }
+
+    /// Magnitude of the force the joint applied, N, given the substep `h`
+    /// its impulses were accumulated over.
+    pub(crate) fn force(&self, h: f64) -> f64 {
+        let axial = self.spring_impulse + self.distance_impulse[0] - self.distance_impulse[1];
+        (self.linear_impulse.length() + axial.abs()) / h
+    }
+}
+
+/// One joint prepared for a step.
+#[derive(Debug, Clone)]
+pub(crate) struct JointConstraint {
+    pub(crate) a: usize,
+    pub(crate) b: usize,
+    /// Anchors from the centres of mass at the start of the step, world, m.
+    pub(crate) ra: DVec3,
+    pub(crate) rb: DVec3,
+    /// `p_b - p_a` at the start of the step, m.
+    pub(crate) base_offset: DVec3,
+    /// Body rotations at the start of the step.
+    pub(crate) qa0: DQuat,
+    pub(crate) qb0: DQuat,
+    pub(crate) joint: Joint,
+}
+
+fn softness(hertz: f64, zeta: f64, h: f64) -> (f64, f64, f64) {
+    let omega = 2.0 * std::f64::consts::PI * hertz;
+    let a1 = 2.0 * zeta + h * omega;
+    let a2 = h * omega * a1;
+    let a3 = 1.0 / (1.0 + a2);
+    (omega / a1, a2 * a3, a3)
+}
+
+fn skew(v: DVec3) -> DMat3 {
+    DMat3::from_cols(
+        DVec3::new(0.0, v.z, -v.y),
+        DVec3::new(-v.z, 0.0, v.x),
+        DVec3::new(v.y, -v.x, 0.0),
+    )
+}
+
+fn pair(bodies: &mut [SolverBody], a: usize, b: usize) -> (&mut SolverBody, &mut SolverBody) {
+    if a < b {
+        let (lo, hi) = bodies.split_at_mut(b);
+        (&mut lo[a], &mut hi[0])
+    } else {
+        let (lo, hi) = bodies.split_at_mut(a);
+        (&mut hi[0], &mut lo[b])
+    }
+}
+
+fn invert(m: DMat3) -> Option<DMat3> {
+    let det = m.determinant();
+    (det.abs() > 1e-300 && det.is_finite()).then(|| m.inverse())
+}
+
+/// Linear impulse `p` at the anchors and angular impulse `l` on the pair.
+fn apply(a: &mut SolverBody, b: &mut SolverBody, ra: DVec3, rb: DVec3, p: DVec3, l: DVec3) {
+    a.v -= p * a.inv_mass;
+    a.w -= a.inv_inertia * (ra.cross(p) + l);
+    b.v += p * b.inv_mass;
+    b.w += b.inv_inertia * (rb.cross(p) + l);
+}
+
+impl JointConstraint {
+    /// Current `p_b - p_a`, m.
+    fn offset(&self, a: &SolverBody, b: &SolverBody) -> DVec3 {
+        self.base_offset + (b.dp + b.dq * self.rb - self.rb) - (a.dp + a.dq * self.ra - self.ra)
+    }
+
+    /// The hinge axis in the world, turned with A.
+    fn hinge_axis(&self, a: &SolverBody) -> DVec3 {
+        match self.joint.desc.kind {
+            JointKind::Hinge { axis_a, .. } => a.dq * (self.qa0 * axis_a),
+            _ => DVec3::ZERO,
+        }
+    }
+
+    /// Relative rotation of B from where the joint holds it, world frame.
+    fn rotation_error(&self, a: &SolverBody, b: &SolverBody) -> DQuat {
+        let target = a.dq * self.qa0 * self.joint.reference;
+        let err = (b.dq * self.qb0) * target.inverse();
+        if err.w < 0.0 {
+            -err
+        } else {
+            err
+        }
+    }
+
+    /// Re-applies last step's impulses.
+    pub(crate) fn warm_start(&self, bodies: &mut [SolverBody]) {
+        let (a, b) = pair(bodies, self.a, self.b);
+        let j = &self.joint;
+        let (ra, rb) = (a.dq * self.ra, b.dq * self.rb);
+        let dir = self.offset(a, b).normalize_or_zero();
+        let axial = j.spring_impulse + j.distance_impulse[0] - j.distance_impulse[1];
+        let hinge =
+            self.hinge_axis(a) * (j.limit_impulse[0] - j.limit_impulse[1] + j.motor_impulse);
+        apply(
+            a,
+            b,
+            ra,
+            rb,
+            j.linear_impulse + dir * axial,
+            j.angular_impulse + hinge,
+        );
+    }
+
+    /// One pass: the angular parts, then the point or distance part.
+    pub(crate) fn solve(&mut self, bodies: &mut [SolverBody], h: f64, use_bias: bool) {
+        let (a, b) = pair(bodies, self.a, self.b);
+        let hertz = JOINT_HERTZ.min(0.25 / h);
+        let (bias_rate, mass_scale, impulse_scale) = if use_bias {
+            softness(hertz, JOINT_DAMPING_RATIO, h)
+        } else {
+            (0.0, 1.0, 0.0)
+        };
+        let inv_i_sum = a.inv_inertia + b.inv_inertia;
+        let (ra, rb) = (a.dq * self.ra, b.dq * self.rb);
+        match self.joint.desc.kind {
+            JointKind::Fixed => {
+                let err = self.rotation_error(a, b);
+                let c = 2.0 * DVec3::new(err.x, err.y, err.z);
+                if let Some(inv) = invert(inv_i_sum) {
+                    let imp = -(inv * (b.w - a.w + c * bias_rate)) * mass_scale
+                        - self.joint.angular_impulse * impulse_scale;
+                    self.joint.angular_impulse += imp;
+                    apply(a, b, ra, rb, DVec3::ZERO, imp);
+                }
+            }
+            JointKind::Hinge {
+                axis_b,
+                limits,
+                motor,
+                ..
+            } => {
+                let axis = self.hinge_axis(a);
+                let axis_b_world = b.dq * (self.qb0 * axis_b);
+                // Keep the axes aligned: t · (a × b) = 0 for both t ⟂ axis.
+                let c = axis.cross(axis_b_world);
+                for t in crate::rigid::solver::tangent_basis(axis) {
+                    let k = t.dot(inv_i_sum * t);
+                    if k > 0.0 {
+                        let cdot = t.dot(b.w - a.w);
+                        let imp = -(cdot + t.dot(c) * bias_rate) / k * mass_scale
+                            - impulse_scale * t.dot(self.joint.angular_impulse);
+                        self.joint.angular_impulse += t * imp;
+                        apply(a, b, ra, rb, DVec3::ZERO, t * imp);
+                    }
+                }
+                let k = axis.dot(inv_i_sum * axis);
+                if k > 0.0 {
+                    if let Some((speed, max_torque)) = motor {
+                        let cdot = axis.dot(b.w - a.w) - speed;
+                        let max = max_torque * h;
+                        let old = self.joint.motor_impulse;
+                        self.joint.motor_impulse = (old - cdot / k).clamp(-max, max);
+                        apply(
+                            a,
+                            b,
+                            ra,
+                            rb,
+                            DVec3::ZERO,
+                            axis * (self.joint.motor_impulse - old),
+                        );
+                    }
+                    if let Some((lo, hi)) = limits {
+                        let err = self.rotation_error(a, b);
+                        let angle = 2.0 * DVec3::new(err.x, err.y, err.z).dot(axis).atan2(err.w);
+                        // Lower: angle - lo >= 0. Upper: hi - angle >= 0.
+                        for (side, c, sign) in [(0, angle - lo, 1.0), (1, hi - angle, -1.0)] {
+                            let cdot = sign * axis.dot(b.w - a.w);
+                            let bias = if c > 0.0 {
+                                c / h
+                            } else if use_bias {
+                                (bias_rate * c).max(-3.0)
+                            } else {
+                                0.0
+                            };
+                            let old = self.joint.limit_impulse[side];
+                            self.joint.limit_impulse[side] = (old - (cdot + bias) / k).max(0.0);
+                            let applied = (self.joint.limit_impulse[side] - old) * sign;
+                            apply(a, b, ra, rb, DVec3::ZERO, axis * applied);
+                        }
+                    }
+                }
+            }
+            JointKind::Ball | JointKind::Distance { .. } => {}
+        }
+
+        let d = self.offset(a, b);
+        if let JointKind::Distance { min, max, spring } = self.joint.desc.kind {
+            let len = d.length();
+            if len <= f64::MIN_POSITIVE {
+                return;
+            }
+            let n = d / len;
+            let (cra, crb) = (ra.cross(n), rb.cross(n));
+            let k = a.inv_mass
+                + b.inv_mass
+                + cra.dot(a.inv_inertia * cra)
+                + crb.dot(b.inv_inertia * crb);
+            if k <= 0.0 {
+                return;
+            }
+            let vrel =
+                |a: &SolverBody, b: &SolverBody| n.dot(b.v + b.w.cross(rb) - a.v - a.w.cross(ra));
+            if let Some((rest, hz, zeta)) = spring {
+                let (br, ms, is) = softness(hz, zeta, h);
+                let imp =
+                    -(vrel(a, b) + br * (len - rest)) / k * ms - is * self.joint.spring_impulse;
+                self.joint.spring_impulse += imp;
+                apply(a, b, ra, rb, n * imp, DVec3::ZERO);
+            }
+            for (side, c, sign) in [(0, len - min, 1.0), (1, max - len, -1.0)] {
+                let cdot = sign * vrel(a, b);
+                let bias = if c > 0.0 {
+                    c / h
+                } else if use_bias {
+                    (bias_rate * c).max(-3.0)
+                } else {
+                    0.0
+                };
+                let old = self.joint.distance_impulse[side];
+                self.joint.distance_impulse[side] = (old - (cdot + bias) / k * mass_scale).max(0.0);
+                apply(
+                    a,
+                    b,
+                    ra,
+                    rb,
+                    n * ((self.joint.distance_impulse[side] - old) * sign),
+                    DVec3::ZERO,
+                );
+            }
+            return;
+        }
+        // Point constraint: a 3×3 block.
+        let cdot = b.v + b.w.cross(rb) - a.v - a.w.cross(ra);
+        let (sa, sb) = (skew(ra), skew(rb));
+        let k = DMat3::IDENTITY * (a.inv_mass + b.inv_mass)
+            - sa * a.inv_inertia * sa
+            - sb * b.inv_inertia * sb;
+        if let Some(inv) = invert(k) {
+            let imp = -(inv * (cdot + d * bias_rate)) * mass_scale
+                - self.joint.linear_impulse * impulse_scale;
+            self.joint.linear_impulse += imp;
+            apply(a, b, ra, rb, imp, DVec3::ZERO);
+        }
+    }
+}
