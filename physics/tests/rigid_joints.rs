@@ -283,3 +283,56 @@ fn joints_are_saved_and_restored() {
         .collect();
     assert_eq!(got, expected);
 }
+
+#[test]
+fn a_swing_twist_joint_holds_its_cone() {
+    let mut w = common::world();
+    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    let top = anchor(&mut w);
+    // A rod hanging from the anchor, pushed sideways hard: the cone stops it at 0.4 rad.
+    let rod = w
+        .add_body(
+            &RigidBodyDesc::dynamic(
+                Shape::capsule(0.4, 0.05).unwrap(),
+                500.0,
+                Pose::from_translation(DVec3::new(0.0, -0.5, 0.0)),
+            )
+            .unwrap(),
+        )
+        .unwrap();
+    let kind = JointKind::SwingTwist {
+        axis_a: DVec3::NEG_Y,
+        axis_b: DVec3::NEG_Y,
+        swing_limit: 0.4,
+        twist_limits: (-0.2, 0.2),
+    };
+    w.add_joint(JointDesc {
+        a: top,
+        b: rod,
+        anchor_a: DVec3::ZERO,
+        anchor_b: DVec3::new(0.0, 0.5, 0.0),
+        kind,
+        break_force: f64::MAX,
+    })
+    .unwrap();
+    w.set_body_control(rod, DVec3::new(200.0, 0.0, 0.0), DVec3::new(0.0, 30.0, 0.0))
+        .unwrap();
+    let mut worst_swing = 0.0f64;
+    let mut worst_twist = 0.0f64;
+    for _ in 0..180 {
+        w.step(1.0 / 60.0).unwrap();
+        let q = w.body(rod).unwrap().pose().rotation;
+        worst_swing = worst_swing.max((q * DVec3::NEG_Y).angle_between(DVec3::NEG_Y));
+        let twist = 2.0 * (q.y).atan2(q.w);
+        worst_twist = worst_twist.max(twist.abs());
+    }
+    assert!(
+        worst_swing < 0.43,
+        "swing {worst_swing} rad past the 0.4 cone"
+    );
+    assert!(
+        worst_swing > 0.35,
+        "the push should reach the cone ({worst_swing})"
+    );
+    assert!(worst_twist < 0.45, "twist {worst_twist}");
+}

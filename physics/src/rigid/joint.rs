@@ -41,6 +41,18 @@ pub enum JointKind {
         /// Target relative angular speed, rad/s, and the largest torque, N·m.
         motor: Option<(f64, f64)>,
     },
+    /// A ball joint whose swing is limited to a cone and whose twist about
+    /// the axis is limited to a range: shoulders, hips, necks.
+    SwingTwist {
+        /// Twist axis in A's body frame (unit).
+        axis_a: DVec3,
+        /// Twist axis in B's body frame (unit).
+        axis_b: DVec3,
+        /// Largest angle between the two axes, rad.
+        swing_limit: f64,
+        /// Lower and upper twist angle about the axis, rad.
+        twist_limits: (f64, f64),
+    },
     /// The bodies move as one: the anchors coincide and the relative
     /// rotation stays as it was when the joint was made.
     Fixed,
@@ -86,6 +98,7 @@ pub struct Joint {
     pub(crate) linear_impulse: DVec3,
     pub(crate) angular_impulse: DVec3,
     pub(crate) limit_impulse: [f64; 2],
+    pub(crate) swing_impulse: f64,
     pub(crate) motor_impulse: f64,
     pub(crate) spring_impulse: f64,
     pub(crate) distance_impulse: [f64; 2],
@@ -99,6 +112,7 @@ impl Joint {
             linear_impulse: DVec3::ZERO,
             angular_impulse: DVec3::ZERO,
             limit_impulse: [0.0; 2],
+            swing_impulse: 0.0,
             motor_impulse: 0.0,
             spring_impulse: 0.0,
             distance_impulse: [0.0; 2],
@@ -179,11 +193,56 @@ impl JointConstraint {
         self.base_offset + (b.dp + b.dq * self.rb - self.rb) - (a.dp + a.dq * self.ra - self.ra)
     }
 
-    /// The hinge axis in the world, turned with A.
+    /// The hinge or twist axis in the world, turned with A.
     fn hinge_axis(&self, a: &SolverBody) -> DVec3 {
         match self.joint.desc.kind {
-            JointKind::Hinge { axis_a, .. } => a.dq * (self.qa0 * axis_a),
+            JointKind::Hinge { axis_a, .. } | JointKind::SwingTwist { axis_a, .. } => {
+                a.dq * (self.qa0 * axis_a)
+            }
             _ => DVec3::ZERO,
+        }
+    }
+
+    /// The swing axis along which the last swing impulse acted.
+    fn swing_axis(&self, a: &SolverBody, b: &SolverBody) -> DVec3 {
+        match self.joint.desc.kind {
+            JointKind::SwingTwist { axis_b, .. } => {
+                let (ta, tb) = (self.hinge_axis(a), b.dq * (self.qb0 * axis_b));
+                ta.cross(tb).normalize_or_zero()
+            }
+            _ => DVec3::ZERO,
+        }
+    }
+
+    /// Two-sided angle limits about `axis` on the angle `angle` (rad):
+    /// `lo <= angle <= hi`, accumulated in `limit_impulse`.
+    #[allow(clippy::too_many_arguments)]
+    fn angle_limits(
+        &mut self,
+        a: &mut SolverBody,
+        b: &mut SolverBody,
+        (ra, rb): (DVec3, DVec3),
+        axis: DVec3,
+        angle: f64,
+        (lo, hi): (f64, f64),
+        k: f64,
+        h: f64,
+        bias_rate: f64,
+        use_bias: bool,
+    ) {
+        for (side, c, sign) in [(0, angle - lo, 1.0), (1, hi - angle, -1.0)] {
+            let cdot = sign * axis.dot(b.w - a.w);
+            let bias = if c > 0.0 {
+                c / h
+            } else if use_bias {
+                (bias_rate * c).max(-3.0)
+            } else {
+                0.0
+            };
+            let old = self.joint.limit_impulse[side];
+            self.joint.limit_impulse[side] = (old - (cdot + bias) / k).max(0.0);
+            let applied = (self.joint.limit_impulse[side] - old) * sign;
+            apply(a, b, ra, rb, DVec3::ZERO, axis * applied);
         }
     }
 
@@ -207,13 +266,14 @@ impl JointConstraint {
         let axial = j.spring_impulse + j.distance_impulse[0] - j.distance_impulse[1];
         let hinge =
             self.hinge_axis(a) * (j.limit_impulse[0] - j.limit_impulse[1] + j.motor_impulse);
+        let swing = self.swing_axis(a, b) * -j.swing_impulse;
         apply(
             a,
             b,
             ra,
             rb,
             j.linear_impulse + dir * axial,
-            j.angular_impulse + hinge,
+            j.angular_impulse + hinge + swing,
         );
     }
 
@@ -275,25 +335,78 @@ impl JointConstraint {
                             axis * (self.joint.motor_impulse - old),
                         );
                     }
-                    if let Some((lo, hi)) = limits {
+                    if let Some(range) = limits {
                         let err = self.rotation_error(a, b);
                         let angle = 2.0 * DVec3::new(err.x, err.y, err.z).dot(axis).atan2(err.w);
-                        // Lower: angle - lo >= 0. Upper: hi - angle >= 0.
-                        for (side, c, sign) in [(0, angle - lo, 1.0), (1, hi - angle, -1.0)] {
-                            let cdot = sign * axis.dot(b.w - a.w);
-                            let bias = if c > 0.0 {
-                                c / h
-                            } else if use_bias {
-                                (bias_rate * c).max(-3.0)
-                            } else {
-                                0.0
-                            };
-                            let old = self.joint.limit_impulse[side];
-                            self.joint.limit_impulse[side] = (old - (cdot + bias) / k).max(0.0);
-                            let applied = (self.joint.limit_impulse[side] - old) * sign;
-                            apply(a, b, ra, rb, DVec3::ZERO, axis * applied);
-                        }
+                        self.angle_limits(
+                            a,
+                            b,
+                            (ra, rb),
+                            axis,
+                            angle,
+                            range,
+                            k,
+                            h,
+                            bias_rate,
+                            use_bias,
+                        );
                     }
+                }
+            }
+            JointKind::SwingTwist {
+                axis_b,
+                swing_limit,
+                twist_limits,
+                ..
+            } => {
+                let ta = self.hinge_axis(a);
+                let tb = b.dq * (self.qb0 * axis_b);
+                // Swing: the angle between the axes stays within the cone.
+                let n = ta.cross(tb);
+                let sin = n.length();
+                let theta = sin.atan2(ta.dot(tb));
+                if sin > 1e-9 {
+                    let n = n / sin;
+                    let k = n.dot(inv_i_sum * n);
+                    if k > 0.0 {
+                        let c = swing_limit - theta;
+                        let cdot = -n.dot(b.w - a.w);
+                        let bias = if c > 0.0 {
+                            c / h
+                        } else if use_bias {
+                            (bias_rate * c).max(-3.0)
+                        } else {
+                            0.0
+                        };
+                        let old = self.joint.swing_impulse;
+                        self.joint.swing_impulse = (old - (cdot + bias) / k).max(0.0);
+                        apply(
+                            a,
+                            b,
+                            ra,
+                            rb,
+                            DVec3::ZERO,
+                            n * -(self.joint.swing_impulse - old),
+                        );
+                    }
+                }
+                // Twist about A's axis.
+                let k = ta.dot(inv_i_sum * ta);
+                if k > 0.0 {
+                    let err = self.rotation_error(a, b);
+                    let angle = 2.0 * DVec3::new(err.x, err.y, err.z).dot(ta).atan2(err.w);
+                    self.angle_limits(
+                        a,
+                        b,
+                        (ra, rb),
+                        ta,
+                        angle,
+                        twist_limits,
+                        k,
+                        h,
+                        bias_rate,
+                        use_bias,
+                    );
                 }
             }
             JointKind::Ball | JointKind::Distance { .. } => {}

@@ -484,6 +484,19 @@ pub(super) fn joint<S: Sink>(s: &mut S, j: &Joint) {
             opt2(s, limits);
             opt2(s, motor);
         }
+        JointKind::SwingTwist {
+            axis_a,
+            axis_b,
+            swing_limit,
+            twist_limits,
+        } => {
+            s.u8(4);
+            s.vec3(axis_a);
+            s.vec3(axis_b);
+            s.f64(swing_limit);
+            s.f64(twist_limits.0);
+            s.f64(twist_limits.1);
+        }
         JointKind::Distance { min, max, spring } => {
             s.u8(3);
             s.f64(min);
@@ -504,6 +517,7 @@ pub(super) fn joint<S: Sink>(s: &mut S, j: &Joint) {
     s.vec3(j.angular_impulse);
     s.f64(j.limit_impulse[0]);
     s.f64(j.limit_impulse[1]);
+    s.f64(j.swing_impulse);
     s.f64(j.motor_impulse);
     s.f64(j.spring_impulse);
     s.f64(j.distance_impulse[0]);
@@ -553,6 +567,12 @@ impl Reader<'_> {
                     t => return invalid(format!("spring tag {t}")),
                 },
             },
+            4 => JointKind::SwingTwist {
+                axis_a: self.vec3("twist axis")?,
+                axis_b: self.vec3("twist axis")?,
+                swing_limit: self.finite("swing limit")?,
+                twist_limits: (self.finite("twist limit")?, self.finite("twist limit")?),
+            },
             t => return invalid(format!("joint kind {t}")),
         };
         if a == b || break_force < 0.0 {
@@ -571,6 +591,7 @@ impl Reader<'_> {
             linear_impulse: self.vec3("joint impulse")?,
             angular_impulse: self.vec3("joint impulse")?,
             limit_impulse: [self.finite("joint impulse")?, self.finite("joint impulse")?],
+            swing_impulse: self.finite("joint impulse")?,
             motor_impulse: self.finite("joint impulse")?,
             spring_impulse: self.finite("joint impulse")?,
             distance_impulse: [self.finite("joint impulse")?, self.finite("joint impulse")?],

@@ -42,6 +42,24 @@ impl World {
             .rotation;
         match &mut desc.kind {
             JointKind::Ball | JointKind::Fixed => {}
+            JointKind::SwingTwist {
+                axis_a,
+                axis_b,
+                swing_limit,
+                twist_limits,
+            } => {
+                *axis_a = unit("twist axis", *axis_a)?;
+                *axis_b = unit("twist axis", *axis_b)?;
+                non_negative("swing limit", *swing_limit)?;
+                crate::error::finite("twist limit", twist_limits.0)?;
+                crate::error::finite("twist limit", twist_limits.1)?;
+                if twist_limits.0 > twist_limits.1 {
+                    return Err(invalid(format!(
+                        "twist limits {} > {}",
+                        twist_limits.0, twist_limits.1
+                    )));
+                }
+            }
             JointKind::Hinge {
                 axis_a,
                 axis_b,
