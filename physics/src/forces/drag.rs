@@ -35,6 +35,14 @@ impl Drag {
         Ok(())
     }
 
+    /// Two drag generators acting together: their scales add.
+    pub(crate) fn combined(&self, other: &Drag) -> Drag {
+        Drag {
+            linear_scale: self.linear_scale + other.linear_scale,
+            quadratic_scale: self.quadratic_scale + other.quadratic_scale,
+        }
+    }
+
     /// Drag force, N, on a particle with velocity `v` and coefficients `b`, `c`.
     #[inline]
     pub(crate) fn force(&self, v: DVec3, b: f64, c: f64) -> DVec3 {

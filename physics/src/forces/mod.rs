@@ -122,16 +122,7 @@ impl FieldForces {
         for (_, _, e) in sys.forces.iter() {
             match e.force {
                 Force::UniformGravity(g) => f.gravity += g.acceleration(),
-                Force::Drag(d) => {
-                    let prev = f.drag.unwrap_or(Drag {
-                        linear_scale: 0.0,
-                        quadratic_scale: 0.0,
-                    });
-                    f.drag = Some(Drag {
-                        linear_scale: prev.linear_scale + d.linear_scale,
-                        quadratic_scale: prev.quadratic_scale + d.quadratic_scale,
-                    });
-                }
+                Force::Drag(d) => f.drag = Some(f.drag.map_or(d, |prev| prev.combined(&d))),
                 Force::Wind(w) => f.winds.push(w.compiled()),
                 Force::Buoyancy(b) => f.buoyancy.push(b.compiled()),
                 Force::Explosion(e) => f.explosions.push(e),

@@ -15,7 +15,7 @@
 use glam::{DMat3, DQuat, DVec3};
 
 use crate::handle::BodyHandle;
-use crate::rigid::solver::SolverBody;
+use crate::rigid::solver::{pair, softness, SolverBody};
 
 /// Stiffness of joint position correction, Hz (capped at a quarter of the
 /// substep rate).
@@ -148,14 +148,6 @@ pub(crate) struct JointConstraint {
     pub(crate) joint: Joint,
 }
 
-fn softness(hertz: f64, zeta: f64, h: f64) -> (f64, f64, f64) {
-    let omega = 2.0 * std::f64::consts::PI * hertz;
-    let a1 = 2.0 * zeta + h * omega;
-    let a2 = h * omega * a1;
-    let a3 = 1.0 / (1.0 + a2);
-    (omega / a1, a2 * a3, a3)
-}
-
 fn skew(v: DVec3) -> DMat3 {
     DMat3::from_cols(
         DVec3::new(0.0, v.z, -v.y),
@@ -164,13 +156,17 @@ fn skew(v: DVec3) -> DMat3 {
     )
 }
 
-fn pair(bodies: &mut [SolverBody], a: usize, b: usize) -> (&mut SolverBody, &mut SolverBody) {
-    if a < b {
-        let (lo, hi) = bodies.split_at_mut(b);
-        (&mut lo[a], &mut hi[0])
+/// Velocity bias of a one-sided limit with position error `c` (m or rad;
+/// positive = inside the limit): a speculative "do not cross within this
+/// substep" when inside, a soft push back (capped at 3 units/s) when past it
+/// and `use_bias`, nothing in the relax pass.
+fn limit_bias(c: f64, h: f64, bias_rate: f64, use_bias: bool) -> f64 {
+    if c > 0.0 {
+        c / h
+    } else if use_bias {
+        (bias_rate * c).max(-3.0)
     } else {
-        let (lo, hi) = bodies.split_at_mut(a);
-        (&mut hi[0], &mut lo[b])
+        0.0
     }
 }
 
@@ -232,13 +228,7 @@ impl JointConstraint {
     ) {
         for (side, c, sign) in [(0, angle - lo, 1.0), (1, hi - angle, -1.0)] {
             let cdot = sign * axis.dot(b.w - a.w);
-            let bias = if c > 0.0 {
-                c / h
-            } else if use_bias {
-                (bias_rate * c).max(-3.0)
-            } else {
-                0.0
-            };
+            let bias = limit_bias(c, h, bias_rate, use_bias);
             let old = self.joint.limit_impulse[side];
             self.joint.limit_impulse[side] = (old - (cdot + bias) / k).max(0.0);
             let applied = (self.joint.limit_impulse[side] - old) * sign;
@@ -371,13 +361,7 @@ impl JointConstraint {
                     if k > 0.0 {
                         let c = swing_limit - theta;
                         let cdot = -n.dot(b.w - a.w);
-                        let bias = if c > 0.0 {
-                            c / h
-                        } else if use_bias {
-                            (bias_rate * c).max(-3.0)
-                        } else {
-                            0.0
-                        };
+                        let bias = limit_bias(c, h, bias_rate, use_bias);
                         let old = self.joint.swing_impulse;
                         self.joint.swing_impulse = (old - (cdot + bias) / k).max(0.0);
                         apply(
@@ -438,13 +422,7 @@ impl JointConstraint {
             }
             for (side, c, sign) in [(0, len - min, 1.0), (1, max - len, -1.0)] {
                 let cdot = sign * vrel(a, b);
-                let bias = if c > 0.0 {
-                    c / h
-                } else if use_bias {
-                    (bias_rate * c).max(-3.0)
-                } else {
-                    0.0
-                };
+                let bias = limit_bias(c, h, bias_rate, use_bias);
                 let old = self.joint.distance_impulse[side];
                 self.joint.distance_impulse[side] = (old - (cdot + bias) / k * mass_scale).max(0.0);
                 apply(

@@ -158,7 +158,7 @@ pub(crate) fn tangent_basis(n: DVec3) -> [DVec3; 2] {
 }
 
 /// Softness coefficients of a constraint: `(bias_rate, mass_scale, impulse_scale)`.
-fn softness(hertz: f64, zeta: f64, h: f64) -> (f64, f64, f64) {
+pub(crate) fn softness(hertz: f64, zeta: f64, h: f64) -> (f64, f64, f64) {
     if hertz <= 0.0 {
         return (0.0, 1.0, 0.0);
     }
@@ -169,8 +169,13 @@ fn softness(hertz: f64, zeta: f64, h: f64) -> (f64, f64, f64) {
     (omega / a1, a2 * a3, a3)
 }
 
+/// Mutable references to two different bodies.
 #[inline]
-fn pair(bodies: &mut [SolverBody], a: usize, b: usize) -> (&mut SolverBody, &mut SolverBody) {
+pub(crate) fn pair(
+    bodies: &mut [SolverBody],
+    a: usize,
+    b: usize,
+) -> (&mut SolverBody, &mut SolverBody) {
     debug_assert_ne!(a, b);
     if a < b {
         let (lo, hi) = bodies.split_at_mut(b);
