@@ -336,3 +336,77 @@ fn a_swing_twist_joint_holds_its_cone() {
     );
     assert!(worst_twist < 0.45, "twist {worst_twist}");
 }
+
+#[test]
+fn a_ragdoll_falls_down_stairs_and_comes_to_rest_in_one_piece() {
+    for (lean, turn) in [(0.6, 0.3), (0.9, -0.7), (0.4, 1.5)] {
+        ragdoll_down_stairs(lean, turn);
+    }
+}
+
+fn ragdoll_down_stairs(lean: f64, turn: f64) {
+    use inertia_physics::rigid::ragdoll::{build_ragdoll, RagdollDesc};
+    let mut w = common::world();
+    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    // Six steps climbing towards -z (0.2 m rise, 0.4 m run) above a floor.
+    w.add_body(&RigidBodyDesc::fixed(
+        Shape::cuboid(DVec3::new(4.0, 0.5, 6.0)).unwrap(),
+        Pose::from_translation(DVec3::new(0.0, -0.5, 0.0)),
+    ))
+    .unwrap();
+    for k in 0..6 {
+        let step = Shape::cuboid(DVec3::new(2.0, 0.1 * (k + 1) as f64, 0.2)).unwrap();
+        w.add_body(&RigidBodyDesc::fixed(
+            step,
+            Pose::from_translation(DVec3::new(0.0, 0.1 * (k + 1) as f64, -0.4 * k as f64)),
+        ))
+        .unwrap();
+    }
+    // Standing on the top step, leaning forward down the stairs.
+    let pose = Pose::new(
+        DVec3::new(0.0, 1.25, -2.0),
+        DQuat::from_rotation_x(lean) * DQuat::from_rotation_y(turn),
+    );
+    let doll = build_ragdoll(
+        &mut w,
+        &RagdollDesc {
+            pose,
+            ..RagdollDesc::default()
+        },
+    )
+    .unwrap();
+    let start = w.body(doll.bodies[0].1).unwrap().center_of_mass();
+    assert_eq!((doll.bodies.len(), doll.joints.len()), (11, 10));
+    let mut quarantined = 0;
+    for _ in 0..480 {
+        quarantined += w.step(1.0 / 60.0).unwrap().quarantined_bodies.len();
+    }
+    assert_eq!(quarantined, 0);
+    // Every joint's two anchors still coincide (within 1 cm) and nothing flies off.
+    for j in &doll.joints {
+        let d = *w.joint(*j).unwrap().desc();
+        let (a, b) = (w.body(d.a).unwrap(), w.body(d.b).unwrap());
+        let gap =
+            (a.pose().transform_point(d.anchor_a) - b.pose().transform_point(d.anchor_b)).length();
+        assert!(gap < 0.01, "joint separated by {gap} m");
+    }
+    let kinetic: f64 = doll
+        .bodies
+        .iter()
+        .map(|(_, h)| w.body(*h).unwrap().kinetic_energy())
+        .sum();
+    assert!(kinetic < 1.0, "still moving: {kinetic} J");
+    for (name, h) in &doll.bodies {
+        let p = w.body(*h).unwrap().center_of_mass();
+        assert!(
+            p.is_finite() && p.y > 0.0 && p.length() < 20.0,
+            "{name} at {p}"
+        );
+    }
+    // It really went down the stairs.
+    let end = w.body(doll.bodies[0].1).unwrap().center_of_mass();
+    assert!(
+        end.y < start.y - 0.5 && end.z > start.z + 0.5,
+        "from {start} to {end}"
+    );
+}

@@ -16,6 +16,7 @@ pub mod narrow;
 pub(crate) mod pipeline;
 pub mod pose;
 pub mod query;
+pub mod ragdoll;
 pub mod shape;
 pub mod solver;
 
