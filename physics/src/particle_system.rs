@@ -126,6 +126,11 @@ pub struct SystemDesc {
     /// enough to stay stable (see `ParticleSystem::spring_stiffness_scale`).
     /// Default 16.
     pub max_substeps: u32,
+    /// Radius with which the particles collide with rigid bodies, m; 0 = they
+    /// pass through bodies (see `rigid::particle_contact`).
+    pub collision_radius: f64,
+    /// Friction coefficient of particles sliding on bodies.
+    pub collision_friction: f64,
 }
 
 impl Default for SystemDesc {
@@ -133,6 +138,8 @@ impl Default for SystemDesc {
         Self {
             integrator: Integrator::default(),
             max_substeps: 16,
+            collision_radius: 0.0,
+            collision_friction: 0.3,
         }
     }
 }
@@ -164,6 +171,9 @@ pub struct ParticleSystem {
     pub(crate) integrator: Integrator,
     pub(crate) backend: Backend,
     pub(crate) max_substeps: u32,
+    /// Collision radius against rigid bodies, m (0 = off), and friction.
+    pub(crate) collision_radius: f64,
+    pub(crate) collision_friction: f64,
 
     // --- hot data, one entry per particle, dense ---
     /// Positions, m.
@@ -233,6 +243,16 @@ impl ParticleSystem {
             integrator: desc.integrator,
             backend: Backend::Cpu,
             max_substeps: desc.max_substeps.max(1),
+            collision_radius: if desc.collision_radius.is_finite() {
+                desc.collision_radius.max(0.0)
+            } else {
+                0.0
+            },
+            collision_friction: if desc.collision_friction.is_finite() {
+                desc.collision_friction.max(0.0)
+            } else {
+                0.0
+            },
             position: Vec::new(),
             velocity: Vec::new(),
             prev_position: Vec::new(),

@@ -267,6 +267,7 @@ fn stiff_cloth_at_60_hz_stays_stable_through_substeps() {
         let s = w.add_system(SystemDesc {
             integrator: Integrator::SymplecticEuler,
             max_substeps,
+            ..SystemDesc::default()
         });
         w.add_force(s, UniformGravity::earth()).unwrap();
         let desc = ClothDesc {

@@ -189,3 +189,55 @@ fn mutual_gravity_between_bodies_is_refused() {
         })
         .is_err());
 }
+
+/// Cloth keeps out of a rigid ball and drapes over it.
+#[test]
+fn cloth_drapes_over_a_rigid_ball() {
+    use inertia_physics::{build_cloth, ClothDesc, SystemDesc, UniformGravity};
+    let mut w = common::world();
+    let ball = w
+        .add_body(&RigidBodyDesc::fixed(
+            Shape::sphere(0.5).unwrap(),
+            Pose::IDENTITY,
+        ))
+        .unwrap();
+    let radius = 0.02;
+    let sys = w.add_system(SystemDesc {
+        collision_radius: radius,
+        collision_friction: 0.5,
+        ..SystemDesc::default()
+    });
+    w.add_force(sys, UniformGravity::earth()).unwrap();
+    let cloth = build_cloth(
+        &mut w,
+        sys,
+        &ClothDesc {
+            origin: DVec3::new(-1.0, 1.0, 1.0),
+            nu: 24,
+            nv: 24,
+            width: 2.0,
+            height: 2.0,
+            drag_linear: 0.002,
+            ..ClothDesc::default()
+        },
+    )
+    .unwrap();
+    common::run(&mut w, 1.0 / 60.0, 180);
+    let s = w.system(sys).unwrap();
+    let worst = s
+        .positions()
+        .iter()
+        .map(|p| p.length())
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        worst > 0.5 + radius - 1e-3,
+        "a particle is inside the ball: {worst}"
+    );
+    // The middle of the cloth rests on top of the ball.
+    let mid = w.particle(cloth.particles[12 * 24 + 12]).unwrap().position;
+    assert!(mid.y > 0.5 && mid.y < 0.6 && mid.x.abs() < 0.1, "{mid}");
+    // And the edges hang below it.
+    let corner = w.particle(cloth.particles[0]).unwrap().position;
+    assert!(corner.y < 0.2, "{corner}");
+    assert!(w.body(ball).unwrap().linear_velocity() == DVec3::ZERO);
+}

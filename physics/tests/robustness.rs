@@ -209,6 +209,7 @@ fn a_particle_that_blows_up_is_quarantined_and_touches_nothing_else() {
             integrator,
             // One step, like the twin below, so the bystander is comparable bit for bit.
             max_substeps: 1,
+            ..SystemDesc::default()
         });
         w.add_force(s, UniformGravity::earth()).unwrap();
         let bomb = w

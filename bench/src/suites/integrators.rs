@@ -83,6 +83,7 @@ fn world(
     let sys = w.add_system(SystemDesc {
         integrator,
         max_substeps: 1,
+        ..SystemDesc::default()
     });
     Ok((w, sys))
 }

@@ -13,6 +13,7 @@ pub mod joint;
 pub mod mass;
 pub(crate) mod motion;
 pub mod narrow;
+pub(crate) mod particle_contact;
 pub(crate) mod pipeline;
 pub mod pose;
 pub mod query;

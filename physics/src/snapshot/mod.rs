@@ -204,6 +204,8 @@ fn system<S: Sink>(s: &mut S, p: &ParticleSystem) {
     });
     s.f64(p.verlet_dt);
     s.u32(p.max_substeps);
+    s.f64(p.collision_radius);
+    s.f64(p.collision_friction);
     vec3s(s, &p.position);
     vec3s(s, &p.velocity);
     vec3s(s, &p.prev_position);
@@ -451,6 +453,11 @@ impl<'a> Reader<'a> {
         };
         p.verlet_dt = self.finite("verlet dt")?;
         p.max_substeps = self.u32()?;
+        p.collision_radius = self.finite("collision radius")?;
+        p.collision_friction = self.finite("collision friction")?;
+        if p.collision_radius < 0.0 || p.collision_friction < 0.0 {
+            return invalid("negative collision radius or friction");
+        }
         if p.max_substeps == 0 {
             return invalid("max substeps is zero");
         }

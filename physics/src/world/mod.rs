@@ -221,6 +221,12 @@ impl World {
 
         let t0 = Instant::now();
         self.stage_bodies(dt, &mut energy, &mut report);
+        // Particles that collide with bodies are kept out of them.
+        for (_, _, s) in self.systems.iter_mut() {
+            if s.backend == Backend::Cpu {
+                crate::rigid::particle_contact::resolve(s, &self.bodies);
+            }
+        }
         profile.bodies = t0.elapsed();
 
         if self.config.energy_accounting {
