@@ -57,6 +57,9 @@ pub enum PhysicsError {
     /// The body handle is stale or was never issued.
     #[error("unknown rigid body {0:?}")]
     UnknownBody(BodyHandle),
+    /// The attachment handle is stale or was never issued.
+    #[error("unknown attachment {0:?}")]
+    UnknownAttachment(crate::handle::AttachmentHandle),
     /// The joint handle is stale or was never issued.
     #[error("unknown joint {0:?}")]
     UnknownJoint(JointHandle),

@@ -61,6 +61,13 @@ pub struct BodyForceHandle {
     pub(crate) generation: u32,
 }
 
+/// A spring from a particle to a rigid body.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct AttachmentHandle {
+    pub(crate) index: u32,
+    pub(crate) generation: u32,
+}
+
 /// A joint between two rigid bodies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct JointHandle {

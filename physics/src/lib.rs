@@ -55,8 +55,8 @@ pub use forces::{
 /// Re-export of the math library used in the public API.
 pub use glam;
 pub use handle::{
-    BodyForceHandle, BodyHandle, ForceHandle, JointHandle, ParticleHandle, SpringHandle,
-    SystemHandle,
+    AttachmentHandle, BodyForceHandle, BodyHandle, ForceHandle, JointHandle, ParticleHandle,
+    SpringHandle, SystemHandle,
 };
 pub use integrator::Integrator;
 pub use particle_system::{

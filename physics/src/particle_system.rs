@@ -215,6 +215,9 @@ pub struct ParticleSystem {
     // --- derived, rebuilt on demand, not part of the state ---
     pub(crate) topology: SpringTopology,
     pub(crate) scratch: crate::step::Scratch,
+    /// Forces from attachments to rigid bodies for this step: (dense index,
+    /// force in N). Derived at the start of each step, not state.
+    pub(crate) coupling: Vec<(u32, DVec3)>,
     #[cfg(feature = "gpu")]
     pub(crate) gpu: Option<crate::gpu::GpuSystem>,
 }
@@ -274,6 +277,7 @@ impl ParticleSystem {
             verlet_dt: 0.0,
             topology: SpringTopology::default(),
             scratch: Default::default(),
+            coupling: Vec::new(),
             #[cfg(feature = "gpu")]
             gpu: None,
         }

@@ -241,3 +241,73 @@ fn cloth_drapes_over_a_rigid_ball() {
     assert!(corner.y < 0.2, "{corner}");
     assert!(w.body(ball).unwrap().linear_velocity() == DVec3::ZERO);
 }
+
+/// A particle hangs from a body by a spring, and a body hangs from a pinned
+/// particle: each end pulls the other.
+#[test]
+fn springs_join_particles_and_bodies_both_ways() {
+    use inertia_physics::{ParticleDesc, SpringParams, SystemDesc, UniformGravity};
+    let (k, rest) = (200.0, 1.0);
+    let params = SpringParams {
+        rest_length: rest,
+        stiffness: k,
+        damping: 5.0,
+    };
+    // A 2 kg particle under a fixed beam settles mg/k below the rest length.
+    let mut w = common::world();
+    let beam = w
+        .add_body(&RigidBodyDesc::fixed(
+            Shape::cuboid(DVec3::new(1.0, 0.1, 0.1)).unwrap(),
+            Pose::from_translation(DVec3::Y * 3.0),
+        ))
+        .unwrap();
+    let sys = w.add_system(SystemDesc::default());
+    w.add_force(sys, UniformGravity::earth()).unwrap();
+    let p = w
+        .add_particle(sys, ParticleDesc::at(DVec3::new(0.5, 2.0, 0.0), 2.0))
+        .unwrap();
+    w.attach_particle(p, beam, DVec3::new(0.5, -0.1, 0.0), params)
+        .unwrap();
+    common::run(&mut w, 1.0 / 120.0, 120 * 10);
+    let y = w.particle(p).unwrap().position.y;
+    let expected = 2.9 - rest - 2.0 * 9.81 / k;
+    assert!(
+        (y - expected).abs() < 1e-3,
+        "particle at {y}, expected {expected}"
+    );
+
+    // A 4 kg ball hanging from a pinned particle settles too, and the spring
+    // that holds it is the only thing that does.
+    let mut w = common::world();
+    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    let sys = w.add_system(SystemDesc::default());
+    let hook = w
+        .add_particle(
+            sys,
+            ParticleDesc {
+                pinned: true,
+                ..ParticleDesc::at(DVec3::Y * 5.0, 1.0)
+            },
+        )
+        .unwrap();
+    let ball = Shape::sphere(0.1).unwrap();
+    let density = 4.0 / ball.volume().unwrap();
+    let b = w
+        .add_body(
+            &RigidBodyDesc::dynamic(ball, density, Pose::from_translation(DVec3::Y * 4.0)).unwrap(),
+        )
+        .unwrap();
+    let h = w.attach_particle(hook, b, DVec3::ZERO, params).unwrap();
+    common::run(&mut w, 1.0 / 120.0, 120 * 10);
+    let y = w.body(b).unwrap().center_of_mass().y;
+    let expected = 5.0 - rest - 4.0 * 9.81 / k;
+    assert!(
+        (y - expected).abs() < 1e-3,
+        "ball at {y}, expected {expected}"
+    );
+    // Removing the spring drops the ball; a stale handle is refused.
+    w.detach_particle(h).unwrap();
+    assert!(w.detach_particle(h).is_err());
+    common::run(&mut w, 1.0 / 120.0, 60);
+    assert!(w.body(b).unwrap().center_of_mass().y < expected - 0.5);
+}

@@ -2,6 +2,7 @@
 //! bounding boxes, the body state and its free motion.
 
 pub mod aabb;
+pub mod attachment;
 pub mod body;
 pub mod broad_phase;
 pub mod contact;

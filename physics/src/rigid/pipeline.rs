@@ -183,16 +183,35 @@ fn shapes_near(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose, speculative: 
     })
 }
 
-/// Advances every body by `dt`. Returns the bodies quarantined.
+/// What the rigid step reads besides the bodies, joints and contacts.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StepInputs<'a> {
+    /// Body force generators, compiled.
+    pub(crate) field: &'a BodyField,
+    /// Uniform gravity, m/s².
+    pub(crate) gravity: DVec3,
+    /// Solver settings.
+    pub(crate) cfg: &'a SolverConfig,
+    /// Extra force (N) and torque (N·m) per body, e.g. from attachments.
+    pub(crate) extra: &'a BTreeMap<BodyHandle, (DVec3, DVec3)>,
+    /// The step, s.
+    pub(crate) dt: f64,
+}
+
+/// Advances every body by `dt`: contacts, joints, motion, events.
 pub(crate) fn step(
     bodies: &mut Arena<RigidBody>,
     joints: &mut Arena<Joint>,
     contacts: &mut Contacts,
-    field: &BodyField,
-    gravity: DVec3,
-    cfg: &SolverConfig,
-    dt: f64,
+    inputs: StepInputs<'_>,
 ) -> RigidStepOut {
+    let StepInputs {
+        field,
+        gravity,
+        cfg,
+        extra,
+        dt,
+    } = inputs;
     // 1. Forces, from the state at the start of the step.
     let handles: Vec<BodyHandle> = bodies
         .iter()
@@ -200,7 +219,14 @@ pub(crate) fn step(
         .collect();
     let external: Vec<(DVec3, DVec3)> = bodies
         .iter()
-        .map(|(_, _, b)| field.force_and_torque(b))
+        .map(|(index, generation, b)| {
+            let (f, t) = field.force_and_torque(b);
+            let (ef, et) = extra
+                .get(&BodyHandle { index, generation })
+                .copied()
+                .unwrap_or_default();
+            (f + ef, t + et)
+        })
         .collect();
 
     // Sleeping bodies touched by awake ones wake up (through whole stacks

@@ -250,6 +250,7 @@ pub(crate) struct StateRef<'a> {
     pub(crate) touching: &'a BTreeSet<(BodyHandle, BodyHandle)>,
     pub(crate) body_bounds: Option<Aabb>,
     pub(crate) joints: &'a Arena<crate::rigid::joint::Joint>,
+    pub(crate) attachments: &'a Arena<crate::rigid::attachment::Attachment>,
 }
 
 /// The one walk over the world state, shared by save and hash.
@@ -265,6 +266,7 @@ pub(crate) fn encode_world<S: Sink>(s: &mut S, w: &StateRef<'_>) {
     rigid::touching(s, w.touching);
     rigid::bounds(s, w.body_bounds);
     arena(s, w.joints, rigid::joint);
+    arena(s, w.attachments, rigid::attachment);
 }
 
 /// The complete saved file for a state.
@@ -295,6 +297,7 @@ pub(crate) struct DecodedWorld {
     pub(crate) touching: BTreeSet<(BodyHandle, BodyHandle)>,
     pub(crate) body_bounds: Option<Aabb>,
     pub(crate) joints: Arena<crate::rigid::joint::Joint>,
+    pub(crate) attachments: Arena<crate::rigid::attachment::Attachment>,
 }
 
 struct Reader<'a> {
@@ -640,6 +643,7 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     let touching = r.touching()?;
     let body_bounds = r.bounds()?;
     let joints = r.arena(|r| r.joint())?;
+    let attachments = r.arena(|r| r.attachment())?;
     if r.pos != r.b.len() {
         return Err(SnapshotError::Trailing(r.b.len() - r.pos));
     }
@@ -655,5 +659,6 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         touching,
         body_bounds,
         joints,
+        attachments,
     })
 }

@@ -13,6 +13,7 @@ use glam::{DQuat, DVec3};
 use super::{invalid, Reader, Sink, SnapshotError};
 use crate::handle::BodyHandle;
 use crate::rigid::aabb::Aabb;
+use crate::rigid::attachment::Attachment;
 use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::joint::{Joint, JointDesc, JointKind};
 use crate::rigid::pipeline::{CachedPoint, ContactKey};
@@ -595,6 +596,57 @@ impl Reader<'_> {
             motor_impulse: self.finite("joint impulse")?,
             spring_impulse: self.finite("joint impulse")?,
             distance_impulse: [self.finite("joint impulse")?, self.finite("joint impulse")?],
+        })
+    }
+}
+
+pub(super) fn attachment<S: Sink>(s: &mut S, a: &Attachment) {
+    let p = a.particle;
+    for v in [
+        p.system.index,
+        p.system.generation,
+        p.slot,
+        p.generation,
+        a.body.index,
+        a.body.generation,
+    ] {
+        s.u32(v);
+    }
+    s.vec3(a.anchor);
+    s.f64(a.params.rest_length);
+    s.f64(a.params.stiffness);
+    s.f64(a.params.damping);
+}
+
+impl Reader<'_> {
+    pub(super) fn attachment(&mut self) -> Result<Attachment, SnapshotError> {
+        let system = crate::handle::SystemHandle {
+            index: self.u32()?,
+            generation: self.u32()?,
+        };
+        let particle = crate::handle::ParticleHandle {
+            system,
+            slot: self.u32()?,
+            generation: self.u32()?,
+        };
+        let body = BodyHandle {
+            index: self.u32()?,
+            generation: self.u32()?,
+        };
+        let anchor = self.vec3("attachment anchor")?;
+        let params = crate::spring::SpringParams {
+            rest_length: self.finite("attachment rest length")?,
+            stiffness: self.finite("attachment stiffness")?,
+            damping: self.finite("attachment damping")?,
+        };
+        params
+            .validate()
+            .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+        Ok(Attachment {
+            particle,
+            body,
+            anchor,
+            params,
         })
     }
 }

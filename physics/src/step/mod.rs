@@ -118,6 +118,7 @@ pub(crate) fn step_system(
         forces,
         topology,
         verlet_dt,
+        coupling,
         ..
     } = sys;
     let gravity: Vec<MutualGravity> = forces
@@ -139,7 +140,11 @@ pub(crate) fn step_system(
     };
     scratch.eval.resize(n);
     let mut ev = Evaluator {
-        inter: Interactions { topology, gravity },
+        inter: Interactions {
+            topology,
+            gravity,
+            coupling,
+        },
         props,
         field,
         buf: &mut scratch.eval,
@@ -166,11 +171,13 @@ pub(crate) fn step_system(
 struct Interactions<'a> {
     topology: &'a mut SpringTopology,
     gravity: Vec<MutualGravity>,
+    /// Attachment forces to rigid bodies: (dense index, N).
+    coupling: &'a [(u32, DVec3)],
 }
 
 impl Interactions<'_> {
     fn any(&self) -> bool {
-        !self.topology.is_empty() || !self.gravity.is_empty()
+        !self.topology.is_empty() || !self.gravity.is_empty() || !self.coupling.is_empty()
     }
 }
 
@@ -227,6 +234,11 @@ impl Evaluator<'_> {
                         Octree::build(x, mass).forces(x, mass, g.g_constant, eps2, theta, out)
                     }
                 }
+            }
+        }
+        for &(i, f) in self.inter.coupling {
+            if flags[i as usize] & FLAG_QUARANTINED == 0 {
+                out[i as usize] += f;
             }
         }
         self.times.forces += t0.elapsed().as_secs_f64();

@@ -121,3 +121,44 @@ impl World {
         }
     }
 }
+
+impl World {
+    /// Hangs a particle from a point on a body (`anchor`, body frame, m) by
+    /// a damped spring: the particle is pulled by the body and the body by
+    /// the particle. Dropped automatically when either end is removed. (A
+    /// particle system stepped on the GPU is not coupled while it is there.)
+    pub fn attach_particle(
+        &mut self,
+        particle: crate::handle::ParticleHandle,
+        body: crate::handle::BodyHandle,
+        anchor: DVec3,
+        params: crate::spring::SpringParams,
+    ) -> Result<crate::handle::AttachmentHandle, PhysicsError> {
+        finite3("attachment anchor", anchor)?;
+        params.validate()?;
+        self.particle(particle)
+            .ok_or(PhysicsError::UnknownParticle(particle))?;
+        self.body(body).ok_or(PhysicsError::UnknownBody(body))?;
+        let (index, generation) = self
+            .attachments
+            .insert(crate::rigid::attachment::Attachment {
+                particle,
+                body,
+                anchor,
+                params,
+            });
+        self.wake_body(body);
+        Ok(crate::handle::AttachmentHandle { index, generation })
+    }
+
+    /// Removes a particle–body spring.
+    pub fn detach_particle(
+        &mut self,
+        h: crate::handle::AttachmentHandle,
+    ) -> Result<(), PhysicsError> {
+        self.attachments
+            .remove(h.index, h.generation)
+            .map(|_| ())
+            .ok_or(PhysicsError::UnknownAttachment(h))
+    }
+}

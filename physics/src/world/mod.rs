@@ -109,6 +109,10 @@ pub struct World {
     body_bounds: Option<crate::rigid::aabb::Aabb>,
     /// Joints between bodies.
     joints: Arena<crate::rigid::joint::Joint>,
+    /// Springs from particles to bodies.
+    attachments: Arena<crate::rigid::attachment::Attachment>,
+    /// Forces and torques on bodies from attachments this step (derived).
+    attachment_loads: std::collections::BTreeMap<BodyHandle, (DVec3, DVec3)>,
     /// Contact solver settings (state: they change the motion).
     solver: SolverConfig,
     /// Warm-start cache and broad phase.
@@ -155,6 +159,8 @@ impl World {
             body_forces: Arena::default(),
             body_bounds: None,
             joints: Arena::default(),
+            attachments: Arena::default(),
+            attachment_loads: Default::default(),
             solver: SolverConfig::default(),
             contacts: Contacts::default(),
             energy: Energy::default(),
@@ -217,6 +223,7 @@ impl World {
         self.stage_prepare(&mut report);
         profile.prepare = t0.elapsed();
 
+        self.stage_attachments();
         let mut energy = self.stage_systems(dt, &mut profile, &mut report)?;
 
         let t0 = Instant::now();
@@ -326,14 +333,18 @@ impl World {
             dt,
         );
         let g = self.body_gravity + field.gravity;
+        let inputs = pipeline::StepInputs {
+            field: &field,
+            gravity: g,
+            cfg: &self.solver,
+            extra: &self.attachment_loads,
+            dt,
+        };
         let out = pipeline::step(
             &mut self.bodies,
             &mut self.joints,
             &mut self.contacts,
-            &field,
-            g,
-            &self.solver,
-            dt,
+            inputs,
         );
         report.broken_joints = out.broken_joints.clone();
         report.quarantined_bodies = out.quarantined;
@@ -359,6 +370,62 @@ impl World {
             energy.kinetic += b.kinetic_energy();
             if b.inv_mass > 0.0 {
                 energy.gravity_uniform -= (g * b.gravity_scale).dot(b.com) / b.inv_mass;
+            }
+        }
+    }
+
+    /// Before the systems step: the force of every particle–body spring,
+    /// from both states now, for the particle (its system's interaction
+    /// forces) and the opposite load on the body (the rigid step). Springs
+    /// whose particle or body is gone are dropped.
+    fn stage_attachments(&mut self) {
+        for (_, _, s) in self.systems.iter_mut() {
+            s.coupling.clear();
+        }
+        self.attachment_loads.clear();
+        if self.attachments.len() == 0 {
+            return;
+        }
+        let mut dead = Vec::new();
+        for (index, generation, a) in self.attachments.iter() {
+            let body = self.bodies.get(a.body.index, a.body.generation);
+            let sys = self
+                .systems
+                .get_mut(a.particle.system.index, a.particle.system.generation);
+            let (Some(body), Some(sys)) = (body, sys) else {
+                dead.push((index, generation));
+                continue;
+            };
+            let Some(i) = sys.dense_index(a.particle) else {
+                dead.push((index, generation));
+                continue;
+            };
+            if sys.backend != Backend::Cpu {
+                continue;
+            }
+            let anchor = body.pose().transform_point(a.anchor);
+            let f = a.force(
+                sys.position[i],
+                sys.velocity[i],
+                anchor,
+                body.velocity_at(anchor),
+            );
+            if !f.is_finite() {
+                continue;
+            }
+            sys.coupling.push((i as u32, f));
+            let load = self.attachment_loads.entry(a.body).or_default();
+            load.0 -= f;
+            load.1 -= (anchor - body.com).cross(f);
+        }
+        for (index, generation) in dead {
+            self.attachments.remove(index, generation);
+        }
+        // A body on a spring to particles is kept awake: the particles can
+        // move it at any time.
+        for h in self.attachment_loads.keys() {
+            if let Some(b) = self.bodies.get_mut(h.index, h.generation) {
+                b.wake();
             }
         }
     }

@@ -21,6 +21,7 @@ impl World {
             touching: &self.contacts.touching,
             body_bounds: self.body_bounds,
             joints: &self.joints,
+            attachments: &self.attachments,
         }
     }
 
@@ -84,6 +85,7 @@ impl World {
         self.contacts.touching = decoded.touching;
         self.body_bounds = decoded.body_bounds;
         self.joints = decoded.joints;
+        self.attachments = decoded.attachments;
         self.contacts.reset_broad_phase();
         Ok(())
     }
