@@ -32,8 +32,8 @@
 //!
 //! Measured on 10 000 boxes of about 1 m, margin 0.1 m, 60 updates, one
 //! thread each, both engines producing the identical pair list (asserted).
-//! Command: `cargo test --release -p inertia-physics --test
-//! rigid_broad_phase -- --ignored --nocapture bench_tree_vs_sap`; shared
+//! Command: `cargo run --release -p inertia-physics --example
+//! broad_phase_bench`; shared
 //! 2-core x86-64 VM (Intel Xeon), quietest of three runs, ms. "Build" is
 //! inserting everything plus the first pair update; "update" is one step's
 //! proxy updates plus the pair update.
