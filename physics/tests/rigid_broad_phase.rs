@@ -4,6 +4,9 @@
 //! (The timing behind the tree's choice is an example, not a test:
 //! `cargo run --release -p inertia-physics --example broad_phase_bench`.)
 
+mod common;
+
+use common::Rng;
 use std::collections::BTreeMap;
 
 use inertia_physics::glam::DVec3;
@@ -14,41 +17,9 @@ use inertia_physics::rigid::broad_phase::{
 
 // ---------------------------------------------------------------- helpers
 
-/// SplitMix64: a tiny deterministic generator, enough for test clouds.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    /// Uniform in [lo, hi).
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.f64()
-    }
-    fn vec(&mut self, lo: f64, hi: f64) -> DVec3 {
-        DVec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-    fn shuffle<T>(&mut self, v: &mut [T]) {
-        for i in (1..v.len()).rev() {
-            v.swap(i, self.below(i + 1));
-        }
-    }
-}
-
 /// A random box of size 0.2–2 m with its centre in a cube of side `side` m.
 fn random_box(rng: &mut Rng, side: f64) -> Aabb {
-    Aabb::from_center_half_extents(rng.vec(0.0, side), rng.vec(0.1, 1.0))
+    Aabb::from_center_half_extents(rng.in_box(0.0, side), rng.in_box(0.1, 1.0))
 }
 
 fn translated(b: &Aabb, d: DVec3) -> Aabb {
@@ -106,9 +77,9 @@ fn pairs_match_brute_force_through_inserts_removals_and_moves() {
             }
             // Mostly small steps, sometimes a jump across the scene.
             let d = if rng.f64() < 0.05 {
-                rng.vec(-10.0, 10.0)
+                rng.in_box(-10.0, 10.0)
             } else {
-                rng.vec(-0.08, 0.08)
+                rng.in_box(-0.08, 0.08)
             };
             *b = translated(b, d);
             let m1 = bp.update(k, *b, d).unwrap();
@@ -250,7 +221,7 @@ fn tree_invariants_hold_through_churn() {
             tree.destroy_proxy(id).unwrap();
         } else {
             let i = rng.below(live.len());
-            let d = rng.vec(-0.5, 0.5);
+            let d = rng.in_box(-0.5, 0.5);
             let b = translated(&live[i].1, d);
             tree.move_proxy(live[i].0, b, d).unwrap();
             live[i].1 = b;
@@ -308,8 +279,8 @@ fn ray_casts_match_brute_force() {
     bp.rebuild();
     let proxies = bp.proxies();
     for ray in 0..200 {
-        let origin = rng.vec(-5.0, 45.0);
-        let mut dir = rng.vec(-1.0, 1.0);
+        let origin = rng.in_box(-5.0, 45.0);
+        let mut dir = rng.in_box(-1.0, 1.0);
         if ray % 10 == 0 {
             dir = DVec3::new(dir.x, 0.0, 0.0); // axis-parallel rays too
         }

@@ -1,6 +1,9 @@
 //! Narrow phase: contact manifolds against analytic answers, symmetry,
 //! invariance, GJK/EPA accuracy, random pairs and degenerate input.
 
+mod common;
+
+use common::Rng;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 use inertia_physics::glam::{DQuat, DVec3};
@@ -12,41 +15,6 @@ use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
 
 // ---------------------------------------------------------------- helpers
-
-/// SplitMix64: a tiny deterministic generator.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.f64()
-    }
-    fn in_cube(&mut self, h: f64) -> DVec3 {
-        DVec3::new(self.range(-h, h), self.range(-h, h), self.range(-h, h))
-    }
-    fn rotation(&mut self) -> DQuat {
-        let q = DQuat::from_xyzw(
-            self.range(-1.0, 1.0),
-            self.range(-1.0, 1.0),
-            self.range(-1.0, 1.0),
-            self.range(-1.0, 1.0),
-        );
-        if q.length() < 1e-3 {
-            DQuat::IDENTITY
-        } else {
-            q.normalize()
-        }
-    }
-}
 
 fn at(x: f64, y: f64, z: f64) -> Pose {
     Pose::from_translation(DVec3::new(x, y, z))

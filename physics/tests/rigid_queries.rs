@@ -1,6 +1,9 @@
 //! Scene queries: rays against every shape at analytic hits, point
 //! projection, overlap and shape casts, and the World query API.
 
+mod common;
+
+use common::Rng;
 use std::f64::consts::{FRAC_PI_4, FRAC_PI_6};
 
 use inertia_physics::glam::{DQuat, DVec3};
@@ -15,25 +18,6 @@ use inertia_physics::{BodyHandle, PhysicsError, World, WorldConfig};
 // ---------------------------------------------------------------- helpers
 
 const EPS: f64 = 1e-9;
-
-/// SplitMix64: deterministic numbers for ray fans.
-struct Rng(u64);
-
-impl Rng {
-    fn f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.f64()
-    }
-    fn vec(&mut self, h: f64) -> DVec3 {
-        DVec3::new(self.range(-h, h), self.range(-h, h), self.range(-h, h))
-    }
-}
 
 fn at(x: f64, y: f64, z: f64) -> Pose {
     Pose::from_translation(DVec3::new(x, y, z))
@@ -208,8 +192,8 @@ fn ray_hull_of_box_corners_matches_cuboid() {
     let mut rng = Rng(7);
     let mut hits = 0;
     for _ in 0..500 {
-        let o = pose.translation + rng.vec(6.0);
-        let target = pose.translation + rng.vec(1.5);
+        let o = pose.translation + rng.in_cube(6.0);
+        let target = pose.translation + rng.in_cube(1.5);
         let d = (target - o).normalize();
         let a = ray_cast_shape(&cuboid, &pose, o, d, 20.0);
         let b = ray_cast_shape(&hull, &pose, o, d, 20.0);
@@ -290,8 +274,9 @@ fn ray_heightfield_walk_agrees_with_all_triangles() {
     let pose = Pose::new(DVec3::new(1.0, -2.0, 0.5), DQuat::from_rotation_y(0.4));
     let mut hits = 0;
     for _ in 0..2000 {
-        let o = pose.transform_point(rng.vec(10.0));
-        let d = (pose.transform_point(rng.vec(5.0) * DVec3::new(1.0, 0.2, 1.0)) - o).normalize();
+        let o = pose.transform_point(rng.in_cube(10.0));
+        let d =
+            (pose.transform_point(rng.in_cube(5.0) * DVec3::new(1.0, 0.2, 1.0)) - o).normalize();
         let max_t = rng.range(0.0, 25.0);
         let a = ray_cast_shape(&field, &pose, o, d, max_t);
         let b = ray_cast_shape(&mesh, &pose, o, d, max_t);
@@ -468,7 +453,7 @@ fn project_point_on_other_shapes() {
     let pose = Pose::new(DVec3::new(1.0, 0.0, -1.0), DQuat::from_rotation_z(0.5));
     let mut rng = Rng(11);
     for _ in 0..300 {
-        let q = pose.translation + rng.vec(3.0);
+        let q = pose.translation + rng.in_cube(3.0);
         let a = project_point_shape(&cuboid, &pose, q).unwrap();
         let b = project_point_shape(&hull, &pose, q).unwrap();
         assert_eq!(a.inside, b.inside, "{q}");
@@ -767,11 +752,11 @@ fn cast_sphere_at_sphere_matches_ray_on_summed_radius() {
     let mut rng = Rng(5);
     let mut hits = 0;
     for _ in 0..300 {
-        let start = tpose.translation + rng.vec(5.0);
+        let start = tpose.translation + rng.in_cube(5.0);
         if start.distance(tpose.translation) <= a + b + 0.01 {
             continue;
         }
-        let d = (tpose.translation + rng.vec(1.2) - start) * rng.range(0.5, 2.0);
+        let d = (tpose.translation + rng.in_cube(1.2) - start) * rng.range(0.5, 2.0);
         let cast = cast_shape(
             &mover,
             &at(start.x, start.y, start.z),

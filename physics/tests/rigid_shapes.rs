@@ -1,6 +1,9 @@
 //! Rigid shapes: poses, bounding boxes, convex hulls, mass properties and
 //! support points, against closed forms and brute force.
 
+mod common;
+
+use common::Rng;
 use std::f64::consts::PI;
 
 use inertia_physics::glam::{DMat3, DQuat, DVec3};
@@ -11,62 +14,6 @@ use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::{Shape, ShapeError};
 
 // ---------------------------------------------------------------- helpers
-
-/// SplitMix64: a tiny deterministic generator, enough for test clouds.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    /// Uniform in [lo, hi).
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.f64()
-    }
-    fn in_cube(&mut self, h: f64) -> DVec3 {
-        DVec3::new(self.range(-h, h), self.range(-h, h), self.range(-h, h))
-    }
-    fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = self.in_cube(1.0);
-            let l = v.length();
-            if l > 1e-3 && l <= 1.0 {
-                return v / l;
-            }
-        }
-    }
-    fn rotation(&mut self) -> DQuat {
-        loop {
-            let q = DQuat::from_xyzw(
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            );
-            let l = q.length();
-            if l > 1e-3 && l <= 1.0 {
-                return q / l;
-            }
-        }
-    }
-    fn pose(&mut self) -> Pose {
-        Pose::new(self.in_cube(5.0), self.rotation())
-    }
-    fn shuffle<T>(&mut self, v: &mut [T]) {
-        for i in (1..v.len()).rev() {
-            let j = (self.next_u64() % (i as u64 + 1)) as usize;
-            v.swap(i, j);
-        }
-    }
-}
 
 fn rel_err(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs().max(1e-300)

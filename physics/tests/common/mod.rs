@@ -1,7 +1,8 @@
 //! Scenes shared by the physics tests.
 #![allow(dead_code)]
 
-use inertia_physics::glam::DVec3;
+use inertia_physics::glam::{DQuat, DVec3};
+use inertia_physics::rigid::pose::Pose;
 use inertia_physics::{
     GravityMethod, Integrator, MutualGravity, ParticleDesc, ParticleHandle, SpringParams,
     SystemDesc, SystemHandle, World, WorldConfig,
@@ -155,6 +156,57 @@ impl Rng {
     /// Uniform in [0, 1).
     pub fn f64(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Uniform in [lo, hi).
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.f64()
+    }
+    /// Uniform in the cube [-h, h]³.
+    pub fn in_cube(&mut self, h: f64) -> DVec3 {
+        DVec3::new(self.range(-h, h), self.range(-h, h), self.range(-h, h))
+    }
+    /// Uniform in the box [lo, hi)³.
+    pub fn in_box(&mut self, lo: f64, hi: f64) -> DVec3 {
+        DVec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
+    }
+    /// A random unit vector.
+    pub fn unit(&mut self) -> DVec3 {
+        loop {
+            let v = self.in_cube(1.0);
+            let l = v.length();
+            if l > 1e-3 && l <= 1.0 {
+                return v / l;
+            }
+        }
+    }
+    /// A random rotation (uniform over the unit quaternions).
+    pub fn rotation(&mut self) -> DQuat {
+        loop {
+            let q = DQuat::from_xyzw(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
+            let l = q.length();
+            if l > 1e-3 && l <= 1.0 {
+                return q / l;
+            }
+        }
+    }
+    /// A random pose within 5 m of the origin.
+    pub fn pose(&mut self) -> Pose {
+        Pose::new(self.in_cube(5.0), self.rotation())
+    }
+    /// Uniform in 0..n.
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+    /// Fisher–Yates shuffle.
+    pub fn shuffle<T>(&mut self, v: &mut [T]) {
+        for i in (1..v.len()).rev() {
+            v.swap(i, self.below(i + 1));
+        }
     }
     /// Uniform in the ball of radius `r`.
     pub fn in_ball(&mut self, r: f64) -> DVec3 {
