@@ -121,6 +121,10 @@ pub(crate) struct Contacts {
     pub(crate) touching: std::collections::BTreeSet<(BodyHandle, BodyHandle)>,
     /// The broad phase; derived from the bodies and rebuilt after a restore.
     broad: Option<BroadPhase>,
+    /// Deepest overlap the last step's narrow phase found between two
+    /// bodies (not sensors), m; 0 when nothing overlapped. A diagnostic,
+    /// derived: not saved.
+    pub(crate) deepest_penetration: f64,
 }
 
 impl Contacts {
@@ -348,6 +352,7 @@ pub(crate) fn step(
     // Contacts between bodies that all stay put this step (asleep, static)
     // are not recomputed: their cache and touching state carry over.
     let mut carried: Vec<(ContactKey, Vec<CachedPoint>)> = Vec::new();
+    let mut deepest = 0.0_f64;
     for pair in broad.pairs() {
         let (Some(&ia), Some(&ib)) = (slot_of.get(&pair.a), slot_of.get(&pair.b)) else {
             continue;
@@ -406,6 +411,9 @@ pub(crate) fn step(
                 if sensor {
                     // Sensors only report: no constraint.
                     continue;
+                }
+                if let Some(sep) = m.min_separation() {
+                    deepest = deepest.max(-sep);
                 }
                 let key = ContactKey {
                     a: (handles[ia].index, handles[ia].generation),
@@ -583,6 +591,7 @@ pub(crate) fn step(
         }
     }
     contacts.touching = touching.keys().copied().collect();
+    contacts.deepest_penetration = deepest;
 
     // 5. Store.
     contacts.cache = constraints

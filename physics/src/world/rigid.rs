@@ -202,6 +202,13 @@ impl World {
         self.contacts.manifold_count()
     }
 
+    /// The deepest overlap between two bodies that the last step's narrow
+    /// phase found (before solving), m; 0 when nothing overlapped. Pairs
+    /// that stayed asleep are not re-measured.
+    pub fn deepest_penetration(&self) -> f64 {
+        self.contacts.deepest_penetration
+    }
+
     /// The rigid-body gravity, m/s².
     pub fn body_gravity(&self) -> DVec3 {
         self.body_gravity
