@@ -62,7 +62,7 @@ pub use integrator::Integrator;
 pub use particle_system::{
     Backend, ParticleDesc, ParticleState, ParticleSystem, SystemDesc, MAX_GROUPS,
 };
-pub use profile::{ProfileTotals, StepProfile};
+pub use profile::{ProfileTotals, RigidProfile, StepProfile};
 pub use snapshot::SnapshotError;
 pub use soft_body::{build_cloth, build_rope, Cloth, ClothDesc, Rope, RopeDesc, SpringStiffness};
 pub use spring::SpringParams;

@@ -55,6 +55,36 @@ where
         .collect()
 }
 
+/// Runs `f(chunk)` over `chunk`-sized pieces of `a`, in parallel when there
+/// are at least two pieces. For work whose result does not depend on the
+/// order the pieces run in.
+pub(crate) fn for_each_chunk<A, F>(a: &mut [A], chunk: usize, f: F)
+where
+    A: Send,
+    F: Fn(&mut [A]) + Sync + Send,
+{
+    if a.len() < 2 * chunk || inline() {
+        a.chunks_mut(chunk).for_each(f);
+    } else {
+        a.par_chunks_mut(chunk).for_each(f);
+    }
+}
+
+/// Maps `f` over `items` in `chunk`-sized pieces, in parallel when there
+/// are at least two pieces; the results come back in item order.
+pub(crate) fn par_map<T, R, F>(items: &[T], chunk: usize, f: F) -> Vec<R>
+where
+    T: Sync,
+    R: Send,
+    F: Fn(&T) -> R + Sync + Send,
+{
+    if items.len() < 2 * chunk || inline() {
+        items.iter().map(f).collect()
+    } else {
+        items.par_iter().with_min_len(chunk).map(f).collect()
+    }
+}
+
 /// Like [`par_map_chunks`] over three equally long slices, chunked alike.
 pub(crate) fn par_map_chunks3<A, B, C, R, F>(
     a: &mut [A],

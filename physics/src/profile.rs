@@ -15,14 +15,52 @@ pub struct StepProfile {
     pub integrate: Duration,
     /// GPU dispatches (feature `gpu`), including any readback.
     pub gpu: Duration,
-    /// Rigid-body motion.
+    /// Rigid-body motion (all of it; its parts in [`Self::rigid`]).
     pub bodies: Duration,
+    /// The parts of [`Self::bodies`].
+    pub rigid: RigidProfile,
     /// Collecting and reporting quarantined particles.
     pub quarantine: Duration,
     /// Spring and mutual-gravity potential energy.
     pub energy: Duration,
     /// The whole step.
     pub total: Duration,
+}
+
+/// Wall time of each stage of the rigid-body step (see
+/// [`crate::rigid::pipeline`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RigidProfile {
+    /// Force generators evaluated on every body, and waking.
+    pub forces: Duration,
+    /// Updating the AABB tree and finding the overlapping pairs.
+    pub broad_phase: Duration,
+    /// Contact manifolds of the pairs, and the constraints built from them.
+    pub narrow_phase: Duration,
+    /// Colouring the constraint graph for parallel solving.
+    pub colouring: Duration,
+    /// The substeps: integration, warm starting, solving, relaxing, restitution.
+    pub solve: Duration,
+    /// Joint breaking, contact and force events, the contact cache, writing
+    /// velocities back.
+    pub finish: Duration,
+    /// Islands and sleeping.
+    pub islands: Duration,
+    /// Particles kept out of rigid shapes.
+    pub particle_contacts: Duration,
+}
+
+impl RigidProfile {
+    fn add(&mut self, p: &RigidProfile) {
+        self.forces += p.forces;
+        self.broad_phase += p.broad_phase;
+        self.narrow_phase += p.narrow_phase;
+        self.colouring += p.colouring;
+        self.solve += p.solve;
+        self.finish += p.finish;
+        self.islands += p.islands;
+        self.particle_contacts += p.particle_contacts;
+    }
 }
 
 /// Totals over many steps, with the step count.
@@ -43,6 +81,7 @@ impl ProfileTotals {
         s.integrate += p.integrate;
         s.gpu += p.gpu;
         s.bodies += p.bodies;
+        s.rigid.add(&p.rigid);
         s.quarantine += p.quarantine;
         s.energy += p.energy;
         s.total += p.total;

@@ -5,6 +5,7 @@ pub mod aabb;
 pub mod attachment;
 pub mod body;
 pub mod broad_phase;
+pub(crate) mod colouring;
 pub mod contact;
 pub(crate) mod forces;
 pub mod hull;

@@ -96,11 +96,41 @@ impl SolverBody {
             dq: DQuat::IDENTITY,
         }
     }
+}
 
+/// One row of a contact point (its normal or one friction direction):
+/// what a unit impulse along the row does to the angular velocities, the
+/// effective mass and the impulse accumulated so far.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Row {
+    /// `I_a⁻¹ (ra × d)` and `I_b⁻¹ (rb × d)` for the row's direction `d`:
+    /// the change of angular velocity per unit impulse, 1/(kg·m).
+    pub(crate) ang_a: DVec3,
+    pub(crate) ang_b: DVec3,
+    /// Effective mass along the row, kg.
+    pub(crate) mass: f64,
+    /// Accumulated impulse, N·s (kept across steps for warm starting).
+    pub(crate) impulse: f64,
+}
+
+impl Row {
+    /// The row along `d` for anchors `ra`, `rb`, keeping its impulse.
     #[inline]
-    fn apply(&mut self, r: DVec3, impulse: DVec3) {
-        self.v += impulse * self.inv_mass;
-        self.w += self.inv_inertia * r.cross(impulse);
+    fn prepare(&mut self, a: &SolverBody, b: &SolverBody, ra: DVec3, rb: DVec3, d: DVec3) {
+        let (ca, cb) = (ra.cross(d), rb.cross(d));
+        self.ang_a = a.inv_inertia * ca;
+        self.ang_b = b.inv_inertia * cb;
+        let k = a.inv_mass + b.inv_mass + ca.dot(self.ang_a) + cb.dot(self.ang_b);
+        self.mass = if k > 0.0 { 1.0 / k } else { 0.0 };
+    }
+
+    /// Applies `lambda` (N·s) along `d`: `+` on B, `-` on A.
+    #[inline]
+    fn apply(&self, a: &mut SolverBody, b: &mut SolverBody, d: DVec3, lambda: f64) {
+        a.v -= d * (lambda * a.inv_mass);
+        a.w -= self.ang_a * lambda;
+        b.v += d * (lambda * b.inv_mass);
+        b.w += self.ang_b * lambda;
     }
 }
 
@@ -110,14 +140,13 @@ pub(crate) struct PointConstraint {
     /// Anchors from each centre of mass at the start of the step, world, m.
     pub(crate) ra: DVec3,
     pub(crate) rb: DVec3,
+    /// The non-penetration row.
+    pub(crate) normal: Row,
+    /// The two friction rows.
+    pub(crate) tangent: [Row; 2],
     /// `separation - n · (rb - ra)` at the start: adding `n · (current
     /// anchor offset)` gives the current separation.
     pub(crate) base_separation: f64,
-    pub(crate) normal_mass: f64,
-    pub(crate) tangent_mass: [f64; 2],
-    /// Accumulated impulses, N·s (kept across steps for warm starting).
-    pub(crate) normal_impulse: f64,
-    pub(crate) tangent_impulse: [f64; 2],
     /// Normal relative velocity before solving, m/s (for restitution).
     pub(crate) relative_velocity: f64,
     /// Largest normal impulse seen this step (a point that never pushed gets
@@ -131,6 +160,35 @@ pub(crate) struct PointConstraint {
     pub(crate) anchor_a: DVec3,
 }
 
+impl PointConstraint {
+    /// A point with anchors `ra`, `rb` and warm-start impulses (normal,
+    /// the two tangents), N·s.
+    pub(crate) fn new(ra: DVec3, rb: DVec3, normal: f64, tangent: [f64; 2]) -> Self {
+        let mut p = Self {
+            ra,
+            rb,
+            ..Default::default()
+        };
+        p.normal.impulse = normal;
+        p.tangent[0].impulse = tangent[0];
+        p.tangent[1].impulse = tangent[1];
+        p
+    }
+
+    /// Accumulated normal impulse, N·s.
+    pub(crate) fn normal_impulse(&self) -> f64 {
+        self.normal.impulse
+    }
+
+    /// Accumulated friction impulses, N·s.
+    pub(crate) fn tangent_impulse(&self) -> [f64; 2] {
+        [self.tangent[0].impulse, self.tangent[1].impulse]
+    }
+}
+
+/// Most points one manifold's constraint holds.
+pub(crate) const MAX_POINTS: usize = crate::rigid::contact::MAX_POINTS;
+
 /// The constraint of one manifold between bodies `a` and `b`.
 #[derive(Debug, Clone)]
 pub(crate) struct ContactConstraint {
@@ -142,7 +200,9 @@ pub(crate) struct ContactConstraint {
     pub(crate) friction_static: f64,
     pub(crate) friction_dynamic: f64,
     pub(crate) restitution: f64,
-    pub(crate) points: Vec<PointConstraint>,
+    /// The points; only the first `len` are used.
+    pub(crate) points: [PointConstraint; MAX_POINTS],
+    pub(crate) len: usize,
 }
 
 /// Two unit vectors that make `(n, t1, t2)` an orthonormal basis; a fixed
@@ -169,6 +229,39 @@ pub(crate) fn softness(hertz: f64, zeta: f64, h: f64) -> (f64, f64, f64) {
     (omega / a1, a2 * a3, a3)
 }
 
+/// What one solver pass over the contacts needs besides the bodies: the
+/// substep and the contact softness at that substep.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ContactPass {
+    /// The substep, s.
+    pub(crate) h: f64,
+    /// Whether to correct penetration (the solve) or not (the relax).
+    pub(crate) use_bias: bool,
+    /// From [`softness`] at the contact stiffness, capped at a quarter of
+    /// the substep rate.
+    pub(crate) bias_rate: f64,
+    pub(crate) mass_scale: f64,
+    pub(crate) impulse_scale: f64,
+    /// Fastest push-out, m/s.
+    pub(crate) push_out: f64,
+}
+
+impl ContactPass {
+    /// The pass for substep `h` under `cfg`.
+    pub(crate) fn new(cfg: &SolverConfig, h: f64, use_bias: bool) -> Self {
+        let hertz = cfg.contact_hertz.min(0.25 / h);
+        let (bias_rate, mass_scale, impulse_scale) = softness(hertz, cfg.contact_damping_ratio, h);
+        Self {
+            h,
+            use_bias,
+            bias_rate,
+            mass_scale,
+            impulse_scale,
+            push_out: cfg.push_out,
+        }
+    }
+}
+
 /// Mutable references to two different bodies.
 #[inline]
 pub(crate) fn pair(
@@ -186,21 +279,29 @@ pub(crate) fn pair(
     }
 }
 
+/// Relative velocity of B's anchor against A's, m/s.
+#[inline]
+fn relative_velocity(a: &SolverBody, b: &SolverBody, ra: DVec3, rb: DVec3) -> DVec3 {
+    b.v + b.w.cross(rb) - a.v - a.w.cross(ra)
+}
+
 impl ContactConstraint {
-    /// Effective masses and the pre-solve velocities, from the bodies at the
-    /// start of the step.
-    pub(crate) fn prepare(&mut self, bodies: &[SolverBody], stick_speed: f64) {
-        let (a, b) = (&bodies[self.a], &bodies[self.b]);
+    /// The used points.
+    pub(crate) fn points(&self) -> &[PointConstraint] {
+        &self.points[..self.len]
+    }
+
+    /// Effective masses, the angular rows and the pre-solve velocities,
+    /// from the bodies at the start of the step.
+    pub(crate) fn prepare(&mut self, a: &SolverBody, b: &SolverBody, stick_speed: f64) {
         let n = self.normal;
-        for p in &mut self.points {
-            let k = |dir: DVec3| {
-                let (ca, cb) = (p.ra.cross(dir), p.rb.cross(dir));
-                a.inv_mass + b.inv_mass + ca.dot(a.inv_inertia * ca) + cb.dot(b.inv_inertia * cb)
-            };
-            let inv = |k: f64| if k > 0.0 { 1.0 / k } else { 0.0 };
-            p.normal_mass = inv(k(n));
-            p.tangent_mass = [inv(k(self.tangents[0])), inv(k(self.tangents[1]))];
-            let dv = b.v + b.w.cross(p.rb) - a.v - a.w.cross(p.ra);
+        let [t1, t2] = self.tangents;
+        for p in &mut self.points[..self.len] {
+            let (ra, rb) = (p.ra, p.rb);
+            p.normal.prepare(a, b, ra, rb, n);
+            p.tangent[0].prepare(a, b, ra, rb, t1);
+            p.tangent[1].prepare(a, b, ra, rb, t2);
+            let dv = relative_velocity(a, b, ra, rb);
             p.relative_velocity = n.dot(dv);
             p.sticking = (dv - n * p.relative_velocity).length() < stick_speed;
             p.max_normal_impulse = 0.0;
@@ -208,94 +309,83 @@ impl ContactConstraint {
     }
 
     /// Re-applies the accumulated impulses (warm start).
-    pub(crate) fn warm_start(&self, bodies: &mut [SolverBody]) {
-        let (a, b) = pair(bodies, self.a, self.b);
-        for p in &self.points {
-            let impulse = self.normal * p.normal_impulse
-                + self.tangents[0] * p.tangent_impulse[0]
-                + self.tangents[1] * p.tangent_impulse[1];
-            a.apply(p.ra, -impulse);
-            b.apply(p.rb, impulse);
+    pub(crate) fn warm_start(&self, a: &mut SolverBody, b: &mut SolverBody) {
+        let [t1, t2] = self.tangents;
+        for p in self.points() {
+            let (ln, l1, l2) = (p.normal.impulse, p.tangent[0].impulse, p.tangent[1].impulse);
+            let j = self.normal * ln + t1 * l1 + t2 * l2;
+            a.v -= j * a.inv_mass;
+            a.w -= p.normal.ang_a * ln + p.tangent[0].ang_a * l1 + p.tangent[1].ang_a * l2;
+            b.v += j * b.inv_mass;
+            b.w += p.normal.ang_b * ln + p.tangent[0].ang_b * l1 + p.tangent[1].ang_b * l2;
         }
     }
 
     /// One pass over the points: friction (limited by the normal impulses
-    /// so far), then non-penetration (soft when `use_bias`), so the
+    /// so far), then non-penetration (soft when `pass.use_bias`), so the
     /// constraint that matters most is solved last.
-    pub(crate) fn solve(
-        &mut self,
-        bodies: &mut [SolverBody],
-        cfg: &SolverConfig,
-        h: f64,
-        use_bias: bool,
-    ) {
-        let (a, b) = pair(bodies, self.a, self.b);
+    pub(crate) fn solve(&mut self, a: &mut SolverBody, b: &mut SolverBody, pass: &ContactPass) {
         let n = self.normal;
-        let hertz = cfg.contact_hertz.min(0.25 / h);
-        let (bias_rate, mass_scale, impulse_scale) = softness(hertz, cfg.contact_damping_ratio, h);
-        for p in &mut self.points {
-            let mu = if p.sticking {
-                self.friction_static
-            } else {
-                self.friction_dynamic
-            };
-            let limit = mu * p.normal_impulse;
-            for (k, t) in self.tangents.iter().enumerate() {
-                let dv = b.v + b.w.cross(p.rb) - a.v - a.w.cross(p.ra);
-                let impulse = -p.tangent_mass[k] * t.dot(dv);
-                let total = (p.tangent_impulse[k] + impulse).clamp(-limit, limit);
-                let applied = total - p.tangent_impulse[k];
-                p.tangent_impulse[k] = total;
-                a.apply(p.ra, -*t * applied);
-                b.apply(p.rb, *t * applied);
+        let tangents = self.tangents;
+        let (mu_static, mu_dynamic) = (self.friction_static, self.friction_dynamic);
+        for p in &mut self.points[..self.len] {
+            let mu = if p.sticking { mu_static } else { mu_dynamic };
+            let limit = mu * p.normal.impulse;
+            for (row, t) in p.tangent.iter_mut().zip(tangents) {
+                let vt = t.dot(relative_velocity(a, b, p.ra, p.rb));
+                let total = (row.impulse - row.mass * vt).clamp(-limit, limit);
+                let applied = total - row.impulse;
+                row.impulse = total;
+                row.apply(a, b, t, applied);
             }
         }
-        for p in &mut self.points {
+        let (h, use_bias) = (pass.h, pass.use_bias);
+        let a_moved = a.dq != DQuat::IDENTITY;
+        let b_moved = b.dq != DQuat::IDENTITY;
+        for p in &mut self.points[..self.len] {
             // Current separation from how far the anchors have moved.
-            let d = (b.dp + b.dq * p.rb) - (a.dp + a.dq * p.ra);
-            let s = n.dot(d) + p.base_separation;
+            let ra_now = if a_moved { a.dq * p.ra } else { p.ra };
+            let rb_now = if b_moved { b.dq * p.rb } else { p.rb };
+            let s = n.dot((b.dp + rb_now) - (a.dp + ra_now)) + p.base_separation;
             let (bias, ms, is) = if s > 0.0 {
                 (s / h, 1.0, 0.0) // speculative: just do not close the gap
             } else if use_bias {
                 (
-                    (bias_rate * s).max(-cfg.push_out),
-                    mass_scale,
-                    impulse_scale,
+                    (pass.bias_rate * s).max(-pass.push_out),
+                    pass.mass_scale,
+                    pass.impulse_scale,
                 )
             } else {
                 (0.0, 1.0, 0.0)
             };
-            let dv = b.v + b.w.cross(p.rb) - a.v - a.w.cross(p.ra);
-            let vn = n.dot(dv);
-            let impulse = -p.normal_mass * ms * (vn + bias) - is * p.normal_impulse;
-            let total = (p.normal_impulse + impulse).max(0.0);
-            let applied = total - p.normal_impulse;
-            p.normal_impulse = total;
+            let vn = n.dot(relative_velocity(a, b, p.ra, p.rb));
+            let row = &mut p.normal;
+            let impulse = -row.mass * ms * (vn + bias) - is * row.impulse;
+            let total = (row.impulse + impulse).max(0.0);
+            let applied = total - row.impulse;
+            row.impulse = total;
             p.max_normal_impulse = p.max_normal_impulse.max(applied);
-            a.apply(p.ra, -n * applied);
-            b.apply(p.rb, n * applied);
+            row.apply(a, b, n, applied);
         }
     }
 
     /// Restitution: points that were approaching faster than the threshold
     /// and pushed leave at `e` times their approach speed.
-    pub(crate) fn restitute(&mut self, bodies: &mut [SolverBody], threshold: f64) {
+    pub(crate) fn restitute(&mut self, a: &mut SolverBody, b: &mut SolverBody, threshold: f64) {
         if self.restitution == 0.0 {
             return;
         }
-        let (a, b) = pair(bodies, self.a, self.b);
-        let n = self.normal;
-        for p in &mut self.points {
+        let (n, e) = (self.normal, self.restitution);
+        for p in &mut self.points[..self.len] {
             if p.relative_velocity > -threshold || p.max_normal_impulse == 0.0 {
                 continue;
             }
-            let vn = n.dot(b.v + b.w.cross(p.rb) - a.v - a.w.cross(p.ra));
-            let impulse = -p.normal_mass * (vn + self.restitution * p.relative_velocity);
-            let total = (p.normal_impulse + impulse).max(0.0);
-            let applied = total - p.normal_impulse;
-            p.normal_impulse = total;
-            a.apply(p.ra, -n * applied);
-            b.apply(p.rb, n * applied);
+            let vn = n.dot(relative_velocity(a, b, p.ra, p.rb));
+            let row = &mut p.normal;
+            let total = (row.impulse - row.mass * (vn + e * p.relative_velocity)).max(0.0);
+            let applied = total - row.impulse;
+            row.impulse = total;
+            row.apply(a, b, n, applied);
         }
     }
 }
@@ -320,6 +410,11 @@ mod tests {
                 ..SolverBody::fixed()
             },
         ];
+        let mut points = [PointConstraint::default(); MAX_POINTS];
+        points[0] = PointConstraint {
+            base_separation: 0.5,
+            ..PointConstraint::new(DVec3::ZERO, DVec3::new(0.0, -0.5, 0.0), 0.0, [0.0; 2])
+        };
         let mut c = ContactConstraint {
             a: 0,
             b: 1,
@@ -328,24 +423,27 @@ mod tests {
             friction_static: 0.6,
             friction_dynamic: 0.5,
             restitution: 0.0,
-            points: vec![PointConstraint {
-                rb: DVec3::new(0.0, -0.5, 0.0),
-                base_separation: 0.5,
-                ..Default::default()
-            }],
+            points,
+            len: 1,
         };
+        let (solve, relax) = (
+            ContactPass::new(&cfg, h, true),
+            ContactPass::new(&cfg, h, false),
+        );
         // base: separation 0 with rb pointing down half a metre: s = n·(dp + rb) + base = -0.5 + 0.5 = 0.
         let mut y = 0.0;
         for _ in 0..120 {
-            c.prepare(&bodies, cfg.stick_speed);
-            c.points[0].normal_impulse = c.points[0].normal_impulse.max(0.0);
+            c.prepare(&bodies[0], &bodies[1], cfg.stick_speed);
+            c.points[0].normal.impulse = c.points[0].normal.impulse.max(0.0);
             for _ in 0..cfg.substeps {
                 bodies[1].v.y -= 9.81 * h;
-                c.warm_start(&mut bodies);
-                c.solve(&mut bodies, &cfg, h, true);
+                let (a, b) = pair(&mut bodies, 0, 1);
+                c.warm_start(a, b);
+                c.solve(a, b, &solve);
                 let v = bodies[1].v;
                 bodies[1].dp += v * h;
-                c.solve(&mut bodies, &cfg, h, false);
+                let (a, b) = pair(&mut bodies, 0, 1);
+                c.solve(a, b, &relax);
             }
             y += bodies[1].dp.y;
             // Start the next step from the moved body.
@@ -354,7 +452,7 @@ mod tests {
         }
         assert!(y.abs() < 1e-3, "sank {y}");
         assert!(bodies[1].v.length() < 1e-6);
-        let per_substep = c.points[0].normal_impulse;
+        let per_substep = c.points[0].normal.impulse;
         assert!((per_substep - 9.81 * h).abs() < 1e-9, "{per_substep}");
     }
 

@@ -227,13 +227,15 @@ impl World {
         let mut energy = self.stage_systems(dt, &mut profile, &mut report)?;
 
         let t0 = Instant::now();
-        self.stage_bodies(dt, &mut energy, &mut report);
+        profile.rigid = self.stage_bodies(dt, &mut energy, &mut report);
         // Particles that collide with bodies are kept out of them.
+        let t1 = Instant::now();
         for (_, _, s) in self.systems.iter_mut() {
             if s.backend == Backend::Cpu {
                 crate::rigid::particle_contact::resolve(s, &self.bodies);
             }
         }
+        profile.rigid.particle_contacts = t1.elapsed();
         profile.bodies = t0.elapsed();
 
         if self.config.energy_accounting {
@@ -326,7 +328,12 @@ impl World {
     /// gravity, force generators, damping and gyroscopic rotation (see
     /// [`crate::rigid::pipeline`]). A body whose new state would not be
     /// finite is quarantined: left where it was, at rest, and reported.
-    fn stage_bodies(&mut self, dt: f64, energy: &mut Energy, report: &mut StepReport) {
+    fn stage_bodies(
+        &mut self,
+        dt: f64,
+        energy: &mut Energy,
+        report: &mut StepReport,
+    ) -> crate::profile::RigidProfile {
         let field = BodyField::compile(
             self.body_forces.iter().map(|(_, _, e)| &e.force),
             self.time,
@@ -372,6 +379,7 @@ impl World {
                 energy.gravity_uniform -= (g * b.gravity_scale).dot(b.com) / b.inv_mass;
             }
         }
+        out.profile
     }
 
     /// Before the systems step: the force of every particle–body spring,

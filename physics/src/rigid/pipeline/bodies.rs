@@ -1,0 +1,116 @@
+//! Stage 1: the bodies of the step in slot order, the loads on them, and
+//! waking what touches awake bodies.
+
+use std::collections::BTreeSet;
+
+use glam::DVec3;
+
+use super::StepInputs;
+use crate::arena::Arena;
+use crate::handle::BodyHandle;
+use crate::rigid::body::RigidBody;
+use crate::rigid::joint::Joint;
+
+/// The bodies of this step numbered `0..n` in handle order (their *slots*,
+/// the index of each body in the solver's arrays).
+#[derive(Debug)]
+pub(crate) struct BodyIndex {
+    /// Handle of each slot.
+    pub(crate) handles: Vec<BodyHandle>,
+    /// Slot of each arena index, or `u32::MAX` for a free arena entry.
+    slot_of: Vec<u32>,
+}
+
+impl BodyIndex {
+    pub(crate) fn new(bodies: &Arena<RigidBody>) -> Self {
+        let handles: Vec<BodyHandle> = bodies
+            .iter()
+            .map(|(index, generation, _)| BodyHandle { index, generation })
+            .collect();
+        let mut slot_of = vec![u32::MAX; bodies.entries.len()];
+        for (k, h) in handles.iter().enumerate() {
+            slot_of[h.index as usize] = k as u32;
+        }
+        Self { handles, slot_of }
+    }
+
+    /// The slot of the body at arena index `index` (a broad-phase key).
+    #[inline]
+    pub(crate) fn slot_of_index(&self, index: u32) -> Option<usize> {
+        match self.slot_of.get(index as usize) {
+            Some(&k) if k != u32::MAX => Some(k as usize),
+            _ => None,
+        }
+    }
+
+    /// The slot of a live body.
+    #[inline]
+    pub(crate) fn slot(&self, h: BodyHandle) -> Option<usize> {
+        self.slot_of_index(h.index)
+            .filter(|&k| self.handles[k] == h)
+    }
+}
+
+/// Force (N) and torque (N·m) on each body from the force generators and
+/// the extra loads (attachments), from the state at the start of the step.
+pub(crate) fn external_loads(
+    bodies: &Arena<RigidBody>,
+    inputs: &StepInputs<'_>,
+) -> Vec<(DVec3, DVec3)> {
+    bodies
+        .iter()
+        .map(|(index, generation, b)| {
+            let (f, t) = inputs.field.force_and_torque(b);
+            let (ef, et) = inputs
+                .extra
+                .get(&BodyHandle { index, generation })
+                .copied()
+                .unwrap_or_default();
+            (f + ef, t + et)
+        })
+        .collect()
+}
+
+/// What links bodies into islands: joints and touching contacts.
+#[derive(Debug)]
+pub(crate) struct Links<'a> {
+    /// Pairs joined by a joint, smaller handle first.
+    pub(crate) joined: BTreeSet<(BodyHandle, BodyHandle)>,
+    /// Pairs touching at the end of the last step.
+    touching: &'a BTreeSet<(BodyHandle, BodyHandle)>,
+}
+
+impl<'a> Links<'a> {
+    pub(crate) fn new(
+        joints: &Arena<Joint>,
+        touching: &'a BTreeSet<(BodyHandle, BodyHandle)>,
+    ) -> Self {
+        let joined = joints
+            .iter()
+            .map(|(_, _, j)| (j.desc.a.min(j.desc.b), j.desc.a.max(j.desc.b)))
+            .collect();
+        Self { joined, touching }
+    }
+
+    /// Whether a joint joins `a` and `b`.
+    #[inline]
+    pub(crate) fn joined(&self, a: BodyHandle, b: BodyHandle) -> bool {
+        !self.joined.is_empty() && self.joined.contains(&(a.min(b), a.max(b)))
+    }
+
+    /// Every link: joints and touching pairs.
+    pub(crate) fn all(&self) -> BTreeSet<(BodyHandle, BodyHandle)> {
+        if self.joined.is_empty() {
+            return self.touching.clone();
+        }
+        self.touching.union(&self.joined).copied().collect()
+    }
+
+    /// Sleeping bodies linked to awake ones wake up (through whole stacks
+    /// and along joints). Nothing to do when nothing sleeps.
+    pub(crate) fn wake(&self, bodies: &mut Arena<RigidBody>) {
+        if bodies.iter().any(|(_, _, b)| b.sleeping) {
+            crate::rigid::island::wake_touched(bodies, &self.all());
+        }
+    }
+}

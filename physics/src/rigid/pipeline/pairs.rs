@@ -1,0 +1,152 @@
+//! Stage 2: the broad phase, and waking sleepers that an awake body is
+//! about to hit.
+
+use super::bodies::BodyIndex;
+use super::{AABB_MARGIN, SPECULATIVE_DISTANCE};
+use crate::arena::Arena;
+use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::broad_phase::{BroadPhase, Pair};
+use crate::rigid::narrow::collide;
+use crate::rigid::pose::Pose;
+use crate::rigid::shape::Shape;
+
+/// Brings the broad phase up to date with the bodies (creating it after a
+/// restore) and returns it with this step's overlapping pairs.
+pub(crate) fn update<'a>(
+    bodies: &Arena<RigidBody>,
+    index: &BodyIndex,
+    broad: &'a mut Option<BroadPhase>,
+    dt: f64,
+) -> &'a BroadPhase {
+    let broad = broad.get_or_insert_with(|| BroadPhase::new(AABB_MARGIN).expect("valid margin"));
+    // Proxies of bodies that are gone or have no shape.
+    let present: Vec<bool> = bodies.iter().map(|(_, _, b)| b.shape.is_some()).collect();
+    let stale: Vec<u32> = broad
+        .proxies()
+        .into_iter()
+        .map(|(key, _, _)| key)
+        .filter(|&key| index.slot_of_index(key).is_none_or(|k| !present[k]))
+        .collect();
+    for key in stale {
+        let _ = broad.remove(key);
+    }
+    for (k, (_, _, b)) in bodies.iter().enumerate() {
+        let Some(shape) = &b.shape else { continue };
+        let reach =
+            (b.linvel.length() + b.angvel.length() * b.shape_radius()) * dt + SPECULATIVE_DISTANCE;
+        let aabb = shape.aabb(&b.pose()).expanded(reach);
+        let key = index.handles[k].index;
+        let ok = if broad.contains(key) {
+            broad.update(key, aabb, b.linvel * dt).is_ok()
+        } else {
+            broad.insert(key, aabb, b.kind == BodyKind::Static).is_ok()
+        };
+        if !ok {
+            let _ = broad.remove(key);
+        }
+    }
+    broad.update_pairs();
+    broad
+}
+
+/// A body with its slot.
+pub(crate) type Slotted<'a> = (usize, &'a RigidBody);
+
+/// The two bodies of a broad-phase pair, with their slots.
+pub(crate) fn pair_bodies<'a>(
+    bodies: &'a Arena<RigidBody>,
+    index: &BodyIndex,
+    pair: &Pair,
+) -> Option<(Slotted<'a>, Slotted<'a>)> {
+    let (ia, ib) = (index.slot_of_index(pair.a)?, index.slot_of_index(pair.b)?);
+    let (ha, hb) = (index.handles[ia], index.handles[ib]);
+    Some((
+        (ia, bodies.get(ha.index, ha.generation)?),
+        (ib, bodies.get(hb.index, hb.generation)?),
+    ))
+}
+
+/// An awake body about to hit a sleeping one wakes it before anything is
+/// solved. Returns whether any body woke (so the caller wakes their islands).
+pub(crate) fn wake_before_contact(
+    bodies: &mut Arena<RigidBody>,
+    index: &BodyIndex,
+    broad: &BroadPhase,
+    dt: f64,
+) -> bool {
+    if !bodies.iter().any(|(_, _, b)| b.sleeping) {
+        return false;
+    }
+    let mut to_wake = Vec::new();
+    for pair in broad.pairs() {
+        let Some(((ia, ba), (ib, bb))) = pair_bodies(bodies, index, pair) else {
+            continue;
+        };
+        let awake_dynamic =
+            |b: &RigidBody| b.kind == BodyKind::Dynamic && !b.sleeping && !b.quarantined;
+        let sleeper = if ba.sleeping && awake_dynamic(bb) {
+            ia
+        } else if bb.sleeping && awake_dynamic(ba) {
+            ib
+        } else {
+            continue;
+        };
+        if ba.sensor || bb.sensor {
+            continue;
+        }
+        let speculative = speculative_distance(ba, bb, dt);
+        let hit = match (&ba.shape, &bb.shape) {
+            (Some(sa), Some(sb)) => shapes_near(sa, &ba.pose(), sb, &bb.pose(), speculative),
+            _ => false,
+        };
+        if hit {
+            to_wake.push(index.handles[sleeper]);
+        }
+    }
+    for h in &to_wake {
+        if let Some(b) = bodies.get_mut(h.index, h.generation) {
+            b.wake();
+        }
+    }
+    !to_wake.is_empty()
+}
+
+/// The leaf shapes of a shape with their poses in the body frame.
+pub(crate) fn leaves<'a>(shape: &'a Shape, pose: Pose, out: &mut Vec<(Pose, &'a Shape)>) {
+    match shape {
+        Shape::Compound(parts) => {
+            for (p, child) in parts.iter() {
+                leaves(child, pose.mul(p), out);
+            }
+        }
+        s => out.push((pose, s)),
+    }
+}
+
+/// How far apart two bodies' contact points are still kept, m: the fixed
+/// margin plus how far they close in on each other this step. For ordinary
+/// bodies the closing part is capped at their size (a fast body may then pass
+/// through something thin, as in most engines); with `ccd` on either body it
+/// is not capped, so the body is stopped at the first surface in its path.
+pub(crate) fn speculative_distance(a: &RigidBody, b: &RigidBody, dt: f64) -> f64 {
+    let closing = (a.linvel - b.linvel).length() * dt;
+    let cap = if a.ccd || b.ccd {
+        f64::INFINITY
+    } else {
+        a.shape_radius().max(b.shape_radius())
+    };
+    SPECULATIVE_DISTANCE + closing.min(cap)
+}
+
+/// Whether any leaf of `a` comes within `speculative` of any leaf of `b`.
+fn shapes_near(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose, speculative: f64) -> bool {
+    let (mut la, mut lb) = (Vec::new(), Vec::new());
+    leaves(a, Pose::IDENTITY, &mut la);
+    leaves(b, Pose::IDENTITY, &mut lb);
+    la.iter().any(|(pa, sa)| {
+        lb.iter().any(|(pb, sb)| {
+            collide(sa, &pose_a.mul(pa), sb, &pose_b.mul(pb), speculative)
+                .is_ok_and(|m| !m.is_empty())
+        })
+    })
+}

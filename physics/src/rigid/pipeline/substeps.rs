@@ -1,0 +1,222 @@
+//! Stages 4 and 5: colour the contact constraints, then solve in substeps
+//! (see [`crate::rigid::solver`] for the method).
+
+use std::ops::Range;
+
+use glam::{DQuat, DVec3};
+
+use super::bodies::BodyIndex;
+use super::{ContactKey, StepInputs};
+use crate::arena::Arena;
+use crate::handle::BodyHandle;
+use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::colouring;
+use crate::rigid::joint::JointConstraint;
+use crate::rigid::motion::free_rotation;
+use crate::rigid::solver::{ContactConstraint, ContactPass, SolverBody};
+
+/// Constraints per parallel work item when preparing them.
+const PREPARE_ITEM: usize = 256;
+
+/// The solver's state for one step.
+#[derive(Debug)]
+pub(crate) struct Solve {
+    /// Velocities and frozen mass properties, by slot.
+    pub(crate) bodies: Vec<SolverBody>,
+    /// Contact constraints, grouped by colour.
+    pub(crate) constraints: Vec<(ContactKey, ContactConstraint)>,
+    /// The range of each colour in `constraints` (the overflow last).
+    colours: Vec<Range<usize>>,
+    /// Whether a constraint can move each body (dynamic and awake).
+    movable: Vec<bool>,
+    /// Joint rows with their joint's arena index and generation.
+    pub(crate) joint_rows: Vec<(u32, u32, JointConstraint)>,
+    /// Centre of mass and principal rotation of each body at the start.
+    pub(crate) start: Vec<(DVec3, DQuat)>,
+}
+
+impl Solve {
+    /// Solver bodies from the bodies at the start of the step; the
+    /// constraints coloured and prepared.
+    pub(crate) fn new(
+        bodies: &Arena<RigidBody>,
+        constraints: Vec<(ContactKey, ContactConstraint)>,
+        joint_rows: Vec<(u32, u32, JointConstraint)>,
+        stick_speed: f64,
+    ) -> Self {
+        let solver_bodies: Vec<SolverBody> = bodies
+            .iter()
+            .map(|(_, _, b)| {
+                let fixed = b.is_fixed_now();
+                SolverBody {
+                    v: b.linvel,
+                    w: b.angvel,
+                    inv_mass: if fixed { 0.0 } else { b.inv_mass },
+                    inv_inertia: if fixed {
+                        glam::DMat3::ZERO
+                    } else {
+                        b.inverse_inertia_world()
+                    },
+                    dp: DVec3::ZERO,
+                    dq: DQuat::IDENTITY,
+                }
+            })
+            .collect();
+        let movable: Vec<bool> = bodies.iter().map(|(_, _, b)| !b.is_fixed_now()).collect();
+        let ends: Vec<(usize, usize)> = constraints.iter().map(|(_, c)| (c.a, c.b)).collect();
+        let colour_of = colouring::colour(&ends, &movable);
+        let (mut constraints, colours) = colouring::group(constraints, &colour_of);
+        crate::parallel::for_each_chunk(&mut constraints, PREPARE_ITEM, |chunk| {
+            for (_, c) in chunk {
+                c.prepare(&solver_bodies[c.a], &solver_bodies[c.b], stick_speed);
+            }
+        });
+        let start = bodies
+            .iter()
+            .map(|(_, _, b)| (b.com, b.principal_rotation()))
+            .collect();
+        Self {
+            bodies: solver_bodies,
+            constraints,
+            colours,
+            movable,
+            joint_rows,
+            start,
+        }
+    }
+
+    /// Runs `f` on every contact constraint, colour by colour.
+    fn contacts(
+        &mut self,
+        f: impl Fn(&mut ContactConstraint, &mut SolverBody, &mut SolverBody) + Sync,
+    ) {
+        colouring::solve_coloured(
+            &mut self.constraints,
+            &self.colours,
+            |(_, c)| (c.a, c.b),
+            &mut self.bodies,
+            &self.movable,
+            |(_, c), a, b| f(c, a, b),
+        );
+    }
+
+    /// The substeps, then restitution. Returns the bodies quarantined
+    /// because their velocity stopped being finite.
+    pub(crate) fn run(
+        &mut self,
+        bodies: &mut Arena<RigidBody>,
+        index: &BodyIndex,
+        external: &[(DVec3, DVec3)],
+        inputs: &StepInputs<'_>,
+    ) -> Vec<BodyHandle> {
+        let cfg = inputs.cfg;
+        let n = cfg.substeps.max(1);
+        let h = inputs.dt / f64::from(n);
+        let (solve, relax) = (
+            ContactPass::new(cfg, h, true),
+            ContactPass::new(cfg, h, false),
+        );
+        let mut quarantined = Vec::new();
+        for _ in 0..n {
+            for (k, (_, _, b)) in bodies.iter_mut().enumerate() {
+                let sb = &mut self.bodies[k];
+                let (force, torque) = external[k];
+                if !integrate_velocity(b, sb, inputs.gravity, force, torque, h) {
+                    // Non-finite: freeze it now, before a contact can carry
+                    // the bad values to a neighbour.
+                    *sb = SolverBody {
+                        v: DVec3::ZERO,
+                        w: DVec3::ZERO,
+                        inv_mass: 0.0,
+                        inv_inertia: glam::DMat3::ZERO,
+                        ..*sb
+                    };
+                    b.quarantined = true;
+                    quarantined.push(index.handles[k]);
+                }
+            }
+            for (_, _, j) in &self.joint_rows {
+                j.warm_start(&mut self.bodies);
+            }
+            self.contacts(|c, a, b| c.warm_start(a, b));
+            for (_, _, j) in &mut self.joint_rows {
+                j.solve(&mut self.bodies, h, true);
+            }
+            self.contacts(|c, a, b| c.solve(a, b, &solve));
+            for ((_, _, b), (sb, s)) in bodies
+                .iter_mut()
+                .zip(self.bodies.iter_mut().zip(&self.start))
+            {
+                integrate_position(b, sb, s.1, h);
+            }
+            for (_, _, j) in &mut self.joint_rows {
+                j.solve(&mut self.bodies, h, false);
+            }
+            self.contacts(|c, a, b| c.solve(a, b, &relax));
+        }
+        let threshold = cfg.restitution_threshold;
+        if self.constraints.iter().any(|(_, c)| c.restitution != 0.0) {
+            self.contacts(|c, a, b| c.restitute(a, b, threshold));
+        }
+        quarantined
+    }
+}
+
+/// Gravity, external and scripted forces and damping over one substep.
+/// Returns false (changing nothing) if the result is not finite.
+fn integrate_velocity(
+    b: &RigidBody,
+    sb: &mut SolverBody,
+    gravity: DVec3,
+    force: DVec3,
+    torque: DVec3,
+    h: f64,
+) -> bool {
+    if b.kind != BodyKind::Dynamic || b.quarantined || b.sleeping {
+        return true;
+    }
+    let accel = gravity * b.gravity_scale + (b.control_force + force) * b.inv_mass;
+    let v = (sb.v + accel * h) / (1.0 + h * b.linear_damping);
+    let w =
+        (sb.w + sb.inv_inertia * ((b.control_torque + torque) * h)) / (1.0 + h * b.angular_damping);
+    if !(v.is_finite() && w.is_finite()) {
+        return false;
+    }
+    sb.v = v;
+    sb.w = w;
+    true
+}
+
+/// Moves a body over one substep: translation with its velocity, rotation
+/// by the free-body splitting (which also turns the angular velocity the way
+/// a spinning body's does). `q0` is its principal rotation at the start of
+/// the step.
+fn integrate_position(b: &mut RigidBody, sb: &mut SolverBody, q0: DQuat, h: f64) {
+    match b.kind {
+        BodyKind::Static => {}
+        BodyKind::Kinematic => {
+            b.com += sb.v * h;
+            sb.dp += sb.v * h;
+            let angle = sb.w.length() * h;
+            if angle > 0.0 {
+                b.rotation =
+                    (DQuat::from_axis_angle(sb.w / sb.w.length(), angle) * b.rotation).normalize();
+            }
+            sb.dq = (b.principal_rotation() * q0.inverse()).normalize();
+        }
+        BodyKind::Dynamic => {
+            if b.quarantined || b.sleeping {
+                return;
+            }
+            b.com += sb.v * h;
+            sb.dp += sb.v * h;
+            let q = b.principal_rotation();
+            let inertia = b.inv_principal_inertia.recip();
+            let pi = inertia * (q.inverse() * sb.w);
+            let (q, pi) = free_rotation(q, pi, b.inv_principal_inertia, h);
+            sb.w = q * (b.inv_principal_inertia * pi);
+            b.rotation = (q * b.principal.inverse()).normalize();
+            sb.dq = (q * q0.inverse()).normalize();
+        }
+    }
+}
