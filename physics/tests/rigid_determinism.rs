@@ -163,3 +163,49 @@ fn mixed_scene_is_bit_identical_across_threads_and_restore() {
         rest[rest.len() - 1]
     );
 }
+
+/// A pile big enough that the narrow phase and every colour of the contact
+/// solver run in parallel work items: still the same bits on 1, 2 and 3
+/// threads.
+#[test]
+fn a_large_pile_is_bit_identical_across_thread_counts() {
+    let pile = |threads: usize| {
+        let mut w = World::new(WorldConfig {
+            threads,
+            ..WorldConfig::default()
+        })
+        .unwrap();
+        w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+        w.add_body(&RigidBodyDesc::fixed(
+            Shape::cuboid(DVec3::new(30.0, 0.5, 30.0)).unwrap(),
+            Pose::from_translation(DVec3::NEG_Y * 0.5),
+        ))
+        .unwrap();
+        let mut rng = common::Rng(7);
+        for i in 0..600 {
+            let (x, z) = ((i % 20) as f64 * 1.1 - 11.0, (i / 20 % 6) as f64 * 1.1);
+            let y = 0.6 + (i / 120) as f64 * 1.2;
+            let pose = Pose::new(DVec3::new(x, y, z), rng.rotation());
+            let shape = if i % 3 == 0 {
+                Shape::sphere(0.45).unwrap()
+            } else {
+                Shape::cuboid(DVec3::new(0.5, 0.4, 0.45)).unwrap()
+            };
+            w.add_body(&RigidBodyDesc::dynamic(shape, 500.0, pose).unwrap())
+                .unwrap();
+        }
+        let mut cfg = *w.solver_config();
+        cfg.sleep.enabled = false;
+        w.set_solver_config(cfg).unwrap();
+        w
+    };
+    let hashes = |threads: usize| {
+        let mut w = pile(threads);
+        let h = run(&mut w, 90);
+        (h, w.contact_count())
+    };
+    let (one, contacts) = hashes(1);
+    assert!(contacts > 600, "only {contacts} manifolds");
+    assert_eq!(one, hashes(2).0, "1 and 2 threads differ");
+    assert_eq!(one, hashes(3).0, "1 and 3 threads differ");
+}
