@@ -70,6 +70,21 @@ where
     }
 }
 
+/// Runs `f(chunk)` over `chunk`-sized pieces of `items`, in parallel when
+/// there are at least two pieces. For work whose result does not depend on
+/// the order the pieces run in.
+pub(crate) fn for_each_item<T, F>(items: &[T], chunk: usize, f: F)
+where
+    T: Sync,
+    F: Fn(&[T]) + Sync + Send,
+{
+    if items.len() < 2 * chunk || inline() {
+        items.chunks(chunk).for_each(f);
+    } else {
+        items.par_chunks(chunk).for_each(f);
+    }
+}
+
 /// Maps `f` over `items` in `chunk`-sized pieces, in parallel when there
 /// are at least two pieces; the results come back in item order.
 pub(crate) fn par_map<T, R, F>(items: &[T], chunk: usize, f: F) -> Vec<R>

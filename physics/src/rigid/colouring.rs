@@ -48,84 +48,94 @@ pub(crate) fn colour(ends: &[(usize, usize)], movable: &[bool]) -> Vec<u8> {
         .collect()
 }
 
-/// Sorts `items` by colour (stable: constraint order within a colour) and
-/// returns the range of each colour, then the overflow's range.
-pub(crate) fn group<T>(items: Vec<T>, colours: &[u8]) -> (Vec<T>, Vec<Range<usize>>) {
-    let mut order: Vec<usize> = (0..items.len()).collect();
-    order.sort_by_key(|&k| colours[k]);
-    let mut slots: Vec<Option<T>> = items.into_iter().map(Some).collect();
-    let sorted: Vec<T> = order
-        .iter()
-        .map(|&k| slots[k].take().expect("each index once"))
-        .collect();
-    let mut ranges = Vec::new();
-    let mut start = 0;
-    while start < order.len() {
-        let c = colours[order[start]];
-        let mut end = start;
-        while end < order.len() && colours[order[end]] == c {
-            end += 1;
-        }
-        ranges.push(start..end);
-        start = end;
+/// The constraints in solve order (colour by colour, constraint order
+/// within a colour) and the range of `order` each colour takes, the
+/// overflow last.
+#[derive(Debug, Default)]
+pub(crate) struct Groups {
+    pub(crate) order: Vec<u32>,
+    pub(crate) ranges: Vec<Range<usize>>,
+}
+
+/// Groups the constraints by their colours (a counting sort: stable).
+pub(crate) fn group(colours: &[u8]) -> Groups {
+    let mut count = [0usize; MAX_COLOURS + 1];
+    for &c in colours {
+        count[c as usize] += 1;
     }
-    (sorted, ranges)
+    let mut start = [0usize; MAX_COLOURS + 1];
+    let mut ranges = Vec::new();
+    let mut at = 0;
+    for (c, &n) in count.iter().enumerate() {
+        start[c] = at;
+        if n > 0 {
+            ranges.push(at..at + n);
+        }
+        at += n;
+    }
+    let mut order = vec![0u32; colours.len()];
+    for (k, &c) in colours.iter().enumerate() {
+        order[start[c as usize]] = k as u32;
+        start[c as usize] += 1;
+    }
+    Groups { order, ranges }
 }
 
-/// The solver bodies, lent to the workers of one colour at a time.
-struct SharedBodies<'a> {
-    ptr: *mut SolverBody,
+/// A slice lent to the workers of one colour at a time: each worker takes
+/// the elements its constraints own.
+struct Shared<'a, T> {
+    ptr: *mut T,
     len: usize,
-    _lifetime: PhantomData<&'a mut [SolverBody]>,
+    _lifetime: PhantomData<&'a mut [T]>,
 }
 
-// SAFETY: `SharedBodies` only hands out a `&mut` to a movable body to the
-// one constraint of the current colour that names it (see `run_colour`),
-// and only copies of bodies that are never written; so sharing it between
-// the threads of a colour creates no aliasing `&mut`.
-unsafe impl Sync for SharedBodies<'_> {}
+// SAFETY: `Shared` only hands out a `&mut` to an element to the one
+// constraint of the current colour that owns it (see `solve_coloured`), and
+// only copies of elements that nobody writes while the colour runs; so
+// sharing it between the threads of a colour creates no aliasing `&mut`.
+unsafe impl<T: Send> Sync for Shared<'_, T> {}
 
-impl<'a> SharedBodies<'a> {
-    fn new(bodies: &'a mut [SolverBody]) -> Self {
+impl<'a, T> Shared<'a, T> {
+    fn new(items: &'a mut [T]) -> Self {
         Self {
-            ptr: bodies.as_mut_ptr(),
-            len: bodies.len(),
+            ptr: items.as_mut_ptr(),
+            len: items.len(),
             _lifetime: PhantomData,
         }
     }
 
-    /// A copy of body `i` (for bodies no constraint writes).
-    fn read(&self, i: usize) -> SolverBody {
-        assert!(i < self.len, "body {i} out of {}", self.len);
-        // SAFETY: `i` is in bounds; bodies that are read this way are never
-        // written while a colour runs (they are not movable), so the read
-        // races with no write.
+    /// A copy of element `i` (one that nobody writes while this runs).
+    fn read(&self, i: usize) -> T
+    where
+        T: Copy,
+    {
+        assert!(i < self.len, "index {i} out of {}", self.len);
+        // SAFETY: `i` is in bounds; elements read this way are never written
+        // while a colour runs, so the read races with no write.
         unsafe { *self.ptr.add(i) }
     }
 
-    /// The movable body `i`, exclusively.
+    /// Element `i`, exclusively.
     ///
     /// # Safety
-    /// No other reference to body `i` may exist while the result lives: the
-    /// caller guarantees that `i` is named by one constraint of the colour
-    /// being solved.
+    /// No other reference to element `i` may exist while the result lives.
     #[allow(clippy::mut_from_ref)]
-    unsafe fn get(&self, i: usize) -> &mut SolverBody {
-        assert!(i < self.len, "body {i} out of {}", self.len);
+    unsafe fn get(&self, i: usize) -> &mut T {
+        assert!(i < self.len, "index {i} out of {}", self.len);
         // SAFETY: in bounds (checked above); exclusive by the caller's
         // guarantee.
         unsafe { &mut *self.ptr.add(i) }
     }
 }
 
-/// Runs `f(constraint, body_a, body_b)` over every constraint, colour by
-/// colour (the ranges from [`group`]); within a colour, in parallel. The
-/// overflow (the last range, if its colour is [`MAX_COLOURS`]) runs on the
-/// calling thread. Immovable bodies are passed as copies, so what `f` does
-/// to them is dropped.
+/// Runs `f(constraint, body_a, body_b)` over every constraint in the order
+/// of `groups`: colour by colour, each colour in parallel; the overflow
+/// (colour [`MAX_COLOURS`]) on the calling thread. Immovable bodies are
+/// passed as copies, so what `f` does to them is dropped.
 pub(crate) fn solve_coloured<C, F>(
     constraints: &mut [C],
-    ranges: &[Range<usize>],
+    groups: &Groups,
+    colours: &[u8],
     ends: impl Fn(&C) -> (usize, usize) + Sync,
     bodies: &mut [SolverBody],
     movable: &[bool],
@@ -134,8 +144,14 @@ pub(crate) fn solve_coloured<C, F>(
     C: Send,
     F: Fn(&mut C, &mut SolverBody, &mut SolverBody) + Sync,
 {
-    let shared = SharedBodies::new(bodies);
-    let one = |c: &mut C| {
+    assert_eq!(groups.order.len(), constraints.len());
+    let shared_bodies = Shared::new(bodies);
+    let shared_constraints = Shared::new(constraints);
+    let one = |k: u32| {
+        // SAFETY: `order` names every constraint exactly once (a
+        // permutation from `group`), so constraint `k` is solved by this
+        // call only.
+        let c = unsafe { shared_constraints.get(k as usize) };
         let (a, b) = ends(c);
         assert_ne!(a, b, "a constraint joins two different bodies");
         let (mut copy_a, mut copy_b);
@@ -143,24 +159,28 @@ pub(crate) fn solve_coloured<C, F>(
             // SAFETY: within one colour a movable body is named by one
             // constraint only (`colour`), and `a != b`; the overflow runs
             // alone, one constraint at a time.
-            unsafe { shared.get(a) }
+            unsafe { shared_bodies.get(a) }
         } else {
-            copy_a = shared.read(a);
+            copy_a = shared_bodies.read(a);
             &mut copy_a
         };
         let body_b = if movable[b] {
             // SAFETY: as for `a`.
-            unsafe { shared.get(b) }
+            unsafe { shared_bodies.get(b) }
         } else {
-            copy_b = shared.read(b);
+            copy_b = shared_bodies.read(b);
             &mut copy_b
         };
         f(c, body_a, body_b);
     };
-    for range in ranges {
-        crate::parallel::for_each_chunk(&mut constraints[range.clone()], ITEM, |chunk| {
-            chunk.iter_mut().for_each(one);
-        });
+    for range in &groups.ranges {
+        let ks = &groups.order[range.clone()];
+        let overflow = colours[ks[0] as usize] as usize == MAX_COLOURS;
+        if overflow {
+            ks.iter().copied().for_each(one);
+        } else {
+            crate::parallel::for_each_item(ks, ITEM, |chunk| chunk.iter().copied().for_each(one));
+        }
     }
 }
 
@@ -192,9 +212,17 @@ mod tests {
                 }
             }
         }
-        let (sorted, ranges) = group(ends.to_vec(), &colours);
-        assert_eq!(sorted.len(), ends.len());
-        assert_eq!(ranges.iter().map(|r| r.len()).sum::<usize>(), ends.len());
+        let groups = group(&colours);
+        let mut seen = groups.order.clone();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..ends.len() as u32).collect::<Vec<_>>());
+        for r in &groups.ranges {
+            let c = colours[groups.order[r.start] as usize];
+            assert!(groups.order[r.clone()]
+                .iter()
+                .all(|&k| colours[k as usize] == c));
+            assert!(groups.order[r.clone()].windows(2).all(|w| w[0] < w[1]));
+        }
     }
 
     #[test]

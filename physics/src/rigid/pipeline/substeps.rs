@@ -1,8 +1,6 @@
 //! Stages 4 and 5: colour the contact constraints, then solve in substeps
 //! (see [`crate::rigid::solver`] for the method).
 
-use std::ops::Range;
-
 use glam::{DQuat, DVec3};
 
 use super::bodies::BodyIndex;
@@ -23,10 +21,12 @@ const PREPARE_ITEM: usize = 256;
 pub(crate) struct Solve {
     /// Velocities and frozen mass properties, by slot.
     pub(crate) bodies: Vec<SolverBody>,
-    /// Contact constraints, grouped by colour.
+    /// Contact constraints, in pair order.
     pub(crate) constraints: Vec<(ContactKey, ContactConstraint)>,
-    /// The range of each colour in `constraints` (the overflow last).
-    colours: Vec<Range<usize>>,
+    /// The colour of each constraint.
+    colours: Vec<u8>,
+    /// The solve order: colour by colour.
+    groups: colouring::Groups,
     /// Whether a constraint can move each body (dynamic and awake).
     movable: Vec<bool>,
     /// Joint rows with their joint's arena index and generation.
@@ -64,8 +64,9 @@ impl Solve {
             .collect();
         let movable: Vec<bool> = bodies.iter().map(|(_, _, b)| !b.is_fixed_now()).collect();
         let ends: Vec<(usize, usize)> = constraints.iter().map(|(_, c)| (c.a, c.b)).collect();
-        let colour_of = colouring::colour(&ends, &movable);
-        let (mut constraints, colours) = colouring::group(constraints, &colour_of);
+        let mut constraints = constraints;
+        let colours = colouring::colour(&ends, &movable);
+        let groups = colouring::group(&colours);
         crate::parallel::for_each_chunk(&mut constraints, PREPARE_ITEM, |chunk| {
             for (_, c) in chunk {
                 c.prepare(&solver_bodies[c.a], &solver_bodies[c.b], stick_speed);
@@ -79,6 +80,7 @@ impl Solve {
             bodies: solver_bodies,
             constraints,
             colours,
+            groups,
             movable,
             joint_rows,
             start,
@@ -92,6 +94,7 @@ impl Solve {
     ) {
         colouring::solve_coloured(
             &mut self.constraints,
+            &self.groups,
             &self.colours,
             |(_, c)| (c.a, c.b),
             &mut self.bodies,
