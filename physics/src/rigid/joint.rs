@@ -4,11 +4,16 @@
 //! Every joint holds an anchor on each body (in the body frame). The point
 //! part (ball, hinge, fixed) keeps the anchors together with a 3×3 block
 //! solve of `C = p_b - p_a = 0`; the angular parts keep axes aligned (hinge)
-//! or the whole relative rotation (fixed). All position errors are
-//! corrected softly, at [`JOINT_HERTZ`] with [`JOINT_DAMPING_RATIO`], like
-//! the contacts, so a joint pulled apart comes back smoothly instead of
-//! snapping. Hinge limits are one-sided speculative constraints; the motor
-//! is a velocity constraint with a torque cap. A joint may break: when the
+//! or the whole relative rotation (fixed). A prismatic (slider) joint keeps
+//! the relative rotation like a fixed one and B's anchor on the line through
+//! A's anchor along an axis fixed in A (two rows across the axis, solved
+//! with the three rotation rows as one 5×5 block), and may limit and drive
+//! the translation along the axis. All position
+//! errors are corrected softly, at [`JOINT_HERTZ`] with
+//! [`JOINT_DAMPING_RATIO`], like the contacts, so a joint pulled apart comes
+//! back smoothly instead of snapping. Hinge and prismatic limits are
+//! one-sided speculative constraints; the motors are velocity constraints
+//! with a torque or force cap. A joint may break: when the
 //! force it had to apply in a step exceeds its threshold it is removed and
 //! reported. Two bodies joined by a joint do not collide with each other.
 
@@ -56,6 +61,21 @@ pub enum JointKind {
     /// The bodies move as one: the anchors coincide and the relative
     /// rotation stays as it was when the joint was made.
     Fixed,
+    /// A slider: the relative rotation stays as it was when the joint was
+    /// made (as for [`Fixed`](JointKind::Fixed)) and B's anchor stays on the
+    /// line through A's anchor along `axis_a`, free to slide along it. The
+    /// translation is `axis · (p_b - p_a)` (m), counted from A's anchor, with
+    /// optional limits on it and a motor.
+    Prismatic {
+        /// Slide axis in A's body frame (unit).
+        axis_a: DVec3,
+        /// Lower and upper translation along the axis, m, or `None` for a
+        /// free slide.
+        limits: Option<(f64, f64)>,
+        /// Target relative speed along the axis, m/s, and the largest
+        /// force, N.
+        motor: Option<(f64, f64)>,
+    },
     /// The anchors stay between `min` and `max` apart (m); with a spring,
     /// pulled towards `rest` at `hertz` with `damping_ratio`.
     Distance {
@@ -90,11 +110,13 @@ pub struct JointDesc {
 pub struct Joint {
     pub(crate) desc: JointDesc,
     /// Relative rotation `q_a⁻¹ q_b` of the body frames when the joint was
-    /// made: what a fixed joint keeps and where hinge angles count from.
+    /// made: what a fixed or prismatic joint keeps and where hinge angles
+    /// count from.
     pub(crate) reference: DQuat,
-    /// Accumulated impulses for warm starting: point (N·s), angular
-    /// (N·m·s), hinge lower/upper limit and motor (N·m·s), distance spring
-    /// and min/max limits (N·s).
+    /// Accumulated impulses for warm starting: point (N·s; for a prismatic
+    /// joint the two rows across the axis, world), angular (N·m·s), lower/
+    /// upper limit and motor (hinge: N·m·s; prismatic: N·s along the axis),
+    /// distance spring and min/max limits (N·s).
     pub(crate) linear_impulse: DVec3,
     pub(crate) angular_impulse: DVec3,
     pub(crate) limit_impulse: [f64; 2],
@@ -127,6 +149,12 @@ impl Joint {
     /// Magnitude of the force the joint applied, N, given the substep `h`
     /// its impulses were accumulated over.
     pub(crate) fn force(&self, h: f64) -> f64 {
+        if let JointKind::Prismatic { .. } = self.desc.kind {
+            // The rows across the axis and the limit and motor rows along
+            // it push in orthogonal directions.
+            let axial = self.limit_impulse[0] - self.limit_impulse[1] + self.motor_impulse;
+            return self.linear_impulse.length().hypot(axial) / h;
+        }
         let axial = self.spring_impulse + self.distance_impulse[0] - self.distance_impulse[1];
         (self.linear_impulse.length() + axial.abs()) / h
     }
@@ -175,6 +203,40 @@ fn invert(m: DMat3) -> Option<DMat3> {
     (det.abs() > 1e-300 && det.is_finite()).then(|| m.inverse())
 }
 
+/// Solves `k x = r` for a symmetric positive definite 5×5 `k` by Cholesky
+/// factorisation, or `None` when `k` is (numerically) singular.
+fn solve_spd5(k: &[[f64; 5]; 5], r: [f64; 5]) -> Option<[f64; 5]> {
+    // k = L Lᵀ with L lower triangular.
+    let mut l = [[0.0; 5]; 5];
+    for i in 0..5 {
+        for j in 0..=i {
+            let s = k[i][j] - (0..j).map(|p| l[i][p] * l[j][p]).sum::<f64>();
+            if i == j {
+                if !(s > 1e-12 * k[i][i] && s.is_finite()) {
+                    return None;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    // L y = r, then Lᵀ x = y.
+    let mut y = [0.0; 5];
+    for i in 0..5 {
+        y[i] = (r[i] - (0..i).map(|p| l[i][p] * y[p]).sum::<f64>()) / l[i][i];
+    }
+    let mut x = [0.0; 5];
+    for i in (0..5).rev() {
+        x[i] = (y[i] - (i + 1..5).map(|p| l[p][i] * x[p]).sum::<f64>()) / l[i][i];
+    }
+    Some(x)
+}
+
+/// Softness of one pass: `(bias_rate, mass_scale, impulse_scale)` as from
+/// [`softness`], or `(0, 1, 0)` in the relax pass.
+type Soft = (f64, f64, f64);
+
 /// Linear impulse `p` at the anchors and angular impulse `l` on the pair.
 fn apply(a: &mut SolverBody, b: &mut SolverBody, ra: DVec3, rb: DVec3, p: DVec3, l: DVec3) {
     a.v -= p * a.inv_mass;
@@ -195,6 +257,15 @@ impl JointConstraint {
             JointKind::Hinge { axis_a, .. } | JointKind::SwingTwist { axis_a, .. } => {
                 a.dq * (self.qa0 * axis_a)
             }
+            _ => DVec3::ZERO,
+        }
+    }
+
+    /// The slide axis of a prismatic joint in the world, turned with A
+    /// (unit).
+    fn slide_axis(&self, a: &SolverBody) -> DVec3 {
+        match self.joint.desc.kind {
+            JointKind::Prismatic { axis_a, .. } => a.dq * (self.qa0 * axis_a),
             _ => DVec3::ZERO,
         }
     }
@@ -247,11 +318,115 @@ impl JointConstraint {
         }
     }
 
+    /// One pass of a prismatic joint: the motor and the limits along the
+    /// axis, then the rotation and B's anchor across the axis as one block.
+    ///
+    /// Every linear row acts at B's anchor on both bodies: with the axis
+    /// fixed in A, `d/dt [t · (p_b - p_a)] = t · (v_b + w_b × r_b - v_a -
+    /// w_a × (r_a + d))` for `d = p_b - p_a`, so A is pushed at `r_a + d`.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_prismatic(
+        &mut self,
+        a: &mut SolverBody,
+        b: &mut SolverBody,
+        (ra, rb): (DVec3, DVec3),
+        limits: Option<(f64, f64)>,
+        motor: Option<(f64, f64)>,
+        h: f64,
+        soft: Soft,
+        use_bias: bool,
+    ) {
+        let (bias_rate, mass_scale, impulse_scale) = soft;
+        let axis = self.slide_axis(a);
+        let d = self.offset(a, b);
+        let ra_b = ra + d;
+        // Relative velocity of B's anchor, m/s.
+        let vrel = |a: &SolverBody, b: &SolverBody| b.v + b.w.cross(rb) - a.v - a.w.cross(ra_b);
+
+        // Along the axis: inverse effective mass, 1/kg.
+        let (ca, cb) = (ra_b.cross(axis), rb.cross(axis));
+        let k = a.inv_mass + b.inv_mass + ca.dot(a.inv_inertia * ca) + cb.dot(b.inv_inertia * cb);
+        if k > 0.0 {
+            if let Some((speed, max_force)) = motor {
+                let cdot = axis.dot(vrel(a, b)) - speed;
+                let max = max_force * h;
+                let old = self.joint.motor_impulse;
+                self.joint.motor_impulse = (old - cdot / k).clamp(-max, max);
+                let p = axis * (self.joint.motor_impulse - old);
+                apply(a, b, ra_b, rb, p, DVec3::ZERO);
+            }
+            if let Some((lo, hi)) = limits {
+                let s = axis.dot(d);
+                for (side, c, sign) in [(0, s - lo, 1.0), (1, hi - s, -1.0)] {
+                    let cdot = sign * axis.dot(vrel(a, b));
+                    let bias = limit_bias(c, h, bias_rate, use_bias);
+                    let old = self.joint.limit_impulse[side];
+                    self.joint.limit_impulse[side] = (old - (cdot + bias) / k).max(0.0);
+                    let p = axis * ((self.joint.limit_impulse[side] - old) * sign);
+                    apply(a, b, ra_b, rb, p, DVec3::ZERO);
+                }
+            }
+        }
+
+        // B's anchor across the axis (t · d = 0 for both t ⟂ axis, m) and
+        // the rotation (as for a fixed joint, rad): five rows `(lin, ang_a,
+        // ang_b, c)` with velocity `lin · (v_b - v_a) + ang_b · w_b - ang_a ·
+        // w_a` and position error `c`, solved as one block so that the
+        // torque of the linear rows about the centres of mass does not undo
+        // the rotation rows within the pass (and the other way round).
+        let [t1, t2] = crate::rigid::solver::tangent_basis(axis);
+        let err = self.rotation_error(a, b);
+        let turn = 2.0 * DVec3::new(err.x, err.y, err.z);
+        let rows = [
+            (t1, ra_b.cross(t1), rb.cross(t1), t1.dot(d)),
+            (t2, ra_b.cross(t2), rb.cross(t2), t2.dot(d)),
+            (DVec3::ZERO, DVec3::X, DVec3::X, turn.x),
+            (DVec3::ZERO, DVec3::Y, DVec3::Y, turn.y),
+            (DVec3::ZERO, DVec3::Z, DVec3::Z, turn.z),
+        ];
+        let mut k = [[0.0; 5]; 5];
+        for (i, &(lin_i, ang_a_i, ang_b_i, _)) in rows.iter().enumerate() {
+            for (j, &(lin_j, ang_a_j, ang_b_j, _)) in rows.iter().enumerate() {
+                k[i][j] = (a.inv_mass + b.inv_mass) * lin_i.dot(lin_j)
+                    + ang_a_i.dot(a.inv_inertia * ang_a_j)
+                    + ang_b_i.dot(b.inv_inertia * ang_b_j);
+            }
+        }
+        let (lin_acc, ang_acc) = (self.joint.linear_impulse, self.joint.angular_impulse);
+        let acc = [
+            t1.dot(lin_acc),
+            t2.dot(lin_acc),
+            ang_acc.x,
+            ang_acc.y,
+            ang_acc.z,
+        ];
+        let rhs = rows.map(|(lin, ang_a, ang_b, c)| {
+            lin.dot(b.v - a.v) + ang_b.dot(b.w) - ang_a.dot(a.w) + c * bias_rate
+        });
+        if let Some(x) = solve_spd5(&k, rhs) {
+            let imp: [f64; 5] =
+                std::array::from_fn(|i| -x[i] * mass_scale - acc[i] * impulse_scale);
+            let p = t1 * imp[0] + t2 * imp[1];
+            let l = DVec3::new(imp[2], imp[3], imp[4]);
+            self.joint.linear_impulse += p;
+            self.joint.angular_impulse += l;
+            apply(a, b, ra_b, rb, p, l);
+        }
+    }
+
     /// Re-applies last step's impulses.
     pub(crate) fn warm_start(&self, bodies: &mut [SolverBody]) {
         let (a, b) = pair(bodies, self.a, self.b);
         let j = &self.joint;
         let (ra, rb) = (a.dq * self.ra, b.dq * self.rb);
+        if let JointKind::Prismatic { .. } = j.desc.kind {
+            // The linear rows act at B's anchor (see `solve_prismatic`).
+            let ra_b = ra + self.offset(a, b);
+            let axial = j.limit_impulse[0] - j.limit_impulse[1] + j.motor_impulse;
+            let p = j.linear_impulse + self.slide_axis(a) * axial;
+            apply(a, b, ra_b, rb, p, j.angular_impulse);
+            return;
+        }
         let dir = self.offset(a, b).normalize_or_zero();
         let axial = j.spring_impulse + j.distance_impulse[0] - j.distance_impulse[1];
         let hinge =
@@ -267,7 +442,8 @@ impl JointConstraint {
         );
     }
 
-    /// One pass: the angular parts, then the point or distance part.
+    /// One pass: the angular parts, then the point or distance part (a
+    /// prismatic joint in its own order, see `solve_prismatic`).
     pub(crate) fn solve(&mut self, bodies: &mut [SolverBody], h: f64, use_bias: bool) {
         let (a, b) = pair(bodies, self.a, self.b);
         let hertz = JOINT_HERTZ.min(0.25 / h);
@@ -276,6 +452,7 @@ impl JointConstraint {
         } else {
             (0.0, 1.0, 0.0)
         };
+        let soft = (bias_rate, mass_scale, impulse_scale);
         let inv_i_sum = a.inv_inertia + b.inv_inertia;
         let (ra, rb) = (a.dq * self.ra, b.dq * self.rb);
         match self.joint.desc.kind {
@@ -288,6 +465,10 @@ impl JointConstraint {
                     self.joint.angular_impulse += imp;
                     apply(a, b, ra, rb, DVec3::ZERO, imp);
                 }
+            }
+            JointKind::Prismatic { limits, motor, .. } => {
+                self.solve_prismatic(a, b, (ra, rb), limits, motor, h, soft, use_bias);
+                return;
             }
             JointKind::Hinge {
                 axis_b,
@@ -448,5 +629,37 @@ impl JointConstraint {
             self.joint.linear_impulse += imp;
             apply(a, b, ra, rb, imp, DVec3::ZERO);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_five_by_five_block_solve_inverts_spd_matrices_and_refuses_singular_ones() {
+        // k = mᵀ m + I is symmetric positive definite.
+        let m: [[f64; 5]; 5] =
+            std::array::from_fn(|i| std::array::from_fn(|j| ((3 * i + 7 * j) % 11) as f64 - 5.0));
+        let mut k = [[0.0; 5]; 5];
+        for i in 0..5 {
+            for j in 0..5 {
+                k[i][j] =
+                    (0..5).map(|p| m[p][i] * m[p][j]).sum::<f64>() + f64::from(u8::from(i == j));
+            }
+        }
+        let r = [1.0, -2.0, 0.5, 3.0, -0.25];
+        let x = solve_spd5(&k, r).unwrap();
+        for i in 0..5 {
+            let kx: f64 = (0..5).map(|j| k[i][j] * x[j]).sum();
+            assert!((kx - r[i]).abs() < 1e-9, "row {i}: {kx} vs {}", r[i]);
+        }
+        // Two equal rows: singular.
+        let mut s = k;
+        s[4] = s[3];
+        for row in &mut s {
+            row[4] = row[3];
+        }
+        assert!(solve_spd5(&s, r).is_none());
     }
 }

@@ -498,6 +498,16 @@ pub(super) fn joint<S: Sink>(s: &mut S, j: &Joint) {
             s.f64(twist_limits.0);
             s.f64(twist_limits.1);
         }
+        JointKind::Prismatic {
+            axis_a,
+            limits,
+            motor,
+        } => {
+            s.u8(5);
+            s.vec3(axis_a);
+            opt2(s, limits);
+            opt2(s, motor);
+        }
         JointKind::Distance { min, max, spring } => {
             s.u8(3);
             s.f64(min);
@@ -573,6 +583,11 @@ impl Reader<'_> {
                 axis_b: self.vec3("twist axis")?,
                 swing_limit: self.finite("swing limit")?,
                 twist_limits: (self.finite("twist limit")?, self.finite("twist limit")?),
+            },
+            5 => JointKind::Prismatic {
+                axis_a: self.vec3("prismatic axis")?,
+                limits: self.opt2("prismatic limits")?,
+                motor: self.opt2("prismatic motor")?,
             },
             t => return invalid(format!("joint kind {t}")),
         };

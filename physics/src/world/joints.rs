@@ -20,8 +20,9 @@ fn unit(what: &'static str, v: DVec3) -> Result<DVec3, PhysicsError> {
 }
 
 impl World {
-    /// Joins two bodies. The joint holds them as they are now (fixed joints
-    /// keep the present relative rotation; hinge angles count from it).
+    /// Joins two bodies. The joint holds them as they are now (fixed and
+    /// prismatic joints keep the present relative rotation; hinge angles
+    /// count from it).
     pub fn add_joint(&mut self, desc: JointDesc) -> Result<JointHandle, PhysicsError> {
         let mut desc = desc;
         finite3("joint anchor", desc.anchor_a)?;
@@ -78,6 +79,24 @@ impl World {
                 if let Some((speed, torque)) = motor {
                     crate::error::finite("motor speed", *speed)?;
                     non_negative("motor torque", *torque)?;
+                }
+            }
+            JointKind::Prismatic {
+                axis_a,
+                limits,
+                motor,
+            } => {
+                *axis_a = unit("prismatic axis", *axis_a)?;
+                if let Some((lo, hi)) = limits {
+                    crate::error::finite("prismatic limit", *lo)?;
+                    crate::error::finite("prismatic limit", *hi)?;
+                    if lo > hi {
+                        return Err(invalid(format!("prismatic limits {lo} > {hi}")));
+                    }
+                }
+                if let Some((speed, force)) = motor {
+                    crate::error::finite("motor speed", *speed)?;
+                    non_negative("motor force", *force)?;
                 }
             }
             JointKind::Distance { min, max, spring } => {
