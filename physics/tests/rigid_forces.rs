@@ -242,6 +242,131 @@ fn cloth_drapes_over_a_rigid_ball() {
     assert!(w.body(ball).unwrap().linear_velocity() == DVec3::ZERO);
 }
 
+/// A stream of heavy particles hits a free box in empty space: the box
+/// takes the momentum the particles lose, and the total is conserved.
+#[test]
+fn particles_and_bodies_exchange_momentum() {
+    use inertia_physics::{ParticleDesc, SystemDesc};
+    let mut w = common::world();
+    let cube = w
+        .add_body(
+            &RigidBodyDesc::dynamic(
+                Shape::cuboid(DVec3::splat(0.5)).unwrap(),
+                100.0,
+                Pose::IDENTITY,
+            )
+            .unwrap(),
+        )
+        .unwrap();
+    let sys = w.add_system(SystemDesc {
+        collision_radius: 0.05,
+        collision_friction: 0.3,
+        ..SystemDesc::default()
+    });
+    let mut rng = common::Rng(11);
+    for _ in 0..60 {
+        let p = DVec3::new(
+            rng.range(-4.0, -1.0),
+            rng.range(-0.6, 0.6),
+            rng.range(-0.6, 0.6),
+        );
+        w.add_particle(
+            sys,
+            ParticleDesc {
+                velocity: DVec3::new(10.0, rng.range(-1.0, 1.0), 0.0),
+                ..ParticleDesc::at(p, 1.0)
+            },
+        )
+        .unwrap();
+    }
+    let momentum = |w: &World| {
+        let s = w.system(sys).unwrap();
+        let particles: DVec3 = s
+            .velocities()
+            .iter()
+            .zip(s.inverse_masses())
+            .map(|(v, im)| *v / *im)
+            .sum();
+        particles + w.body(cube).unwrap().linear_momentum()
+    };
+    let before = momentum(&w);
+    common::run(&mut w, 1.0 / 60.0, 90);
+    let after = momentum(&w);
+    let error = (after - before).length() / before.length();
+    eprintln!(
+        "momentum before {before}, after {after}: relative error {error:.2e}; box now at {} m/s",
+        w.body(cube).unwrap().linear_velocity()
+    );
+    assert!(error < 1e-9, "momentum changed by {error}");
+    assert!(
+        w.body(cube).unwrap().linear_velocity().x > 0.5,
+        "the box was not pushed"
+    );
+}
+
+/// Particles resting on a box weigh on it: the ground carries the box and
+/// the particles.
+#[test]
+fn particles_resting_on_a_body_weigh_on_it() {
+    use inertia_physics::{ParticleDesc, SystemDesc, UniformGravity};
+    let mut w = common::world();
+    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.add_body(&RigidBodyDesc::fixed(
+        Shape::cuboid(DVec3::new(5.0, 0.5, 5.0)).unwrap(),
+        Pose::from_translation(DVec3::NEG_Y * 0.5),
+    ))
+    .unwrap();
+    let mut desc = RigidBodyDesc::dynamic(
+        Shape::cuboid(DVec3::splat(0.5)).unwrap(),
+        100.0,
+        Pose::from_translation(DVec3::Y * 0.5),
+    )
+    .unwrap();
+    desc.contact_force_threshold = 0.0;
+    let cube = w.add_body(&desc).unwrap();
+    let sys = w.add_system(SystemDesc {
+        collision_radius: 0.05,
+        collision_friction: 0.5,
+        ..SystemDesc::default()
+    });
+    w.add_force(sys, UniformGravity::earth()).unwrap();
+    let (n, m) = (25, 2.0);
+    for i in 0..n {
+        let p = DVec3::new((i % 5) as f64 * 0.2 - 0.4, 1.1, (i / 5) as f64 * 0.2 - 0.4);
+        w.add_particle(sys, ParticleDesc::at(p, m)).unwrap();
+    }
+    let mut load = 0.0;
+    let steps = 60;
+    common::run(&mut w, 1.0 / 60.0, 120);
+    for _ in 0..steps {
+        let report = w.step(1.0 / 60.0).unwrap();
+        load += report
+            .contact_forces
+            .iter()
+            .filter(|f| f.a == cube || f.b == cube)
+            .map(|f| f.force)
+            .sum::<f64>();
+    }
+    load /= f64::from(steps);
+    let expected = (100.0 + f64::from(n) * m) * 9.81;
+    eprintln!("ground carries {load:.1} N; box and particles weigh {expected:.1} N");
+    assert!(
+        (load - expected).abs() < 0.05 * expected,
+        "ground carries {load} N, expected {expected} N"
+    );
+    let top = w
+        .system(sys)
+        .unwrap()
+        .positions()
+        .iter()
+        .map(|p| p.y)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        top > 1.0 + 0.05 - 2e-3,
+        "a particle sank into the box: {top}"
+    );
+}
+
 /// A particle hangs from a body by a spring, and a body hangs from a pinned
 /// particle: each end pulls the other.
 #[test]

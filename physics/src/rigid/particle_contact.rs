@@ -4,100 +4,198 @@
 //! [`SystemDesc::collision_radius`](crate::SystemDesc::collision_radius))
 //! is kept out of every rigid body's shape after each step: a particle that
 //! ends a step closer than its radius to a surface (or inside a solid
-//! shape) is moved out along the surface normal to exactly one radius away,
-//! loses the part of its velocity that points into the surface, and its
-//! sliding velocity is reduced by Coulomb friction (`μ` times the removed
-//! normal speed). This is the position projection that cloth and rope
-//! solvers in games use; it is one-way: bodies do not feel the particles
-//! (two-way coupling would go through the contact solver).
+//! shape) is moved out along the surface normal to exactly one radius away
+//! (the position projection that cloth and rope solvers in games use).
+//!
+//! The collision is **two-way**. If the particle is approaching the surface,
+//! a normal impulse stops the approach, computed with the effective mass of
+//! the pair (`1 / (1/m_p + 1/M + (r × n) · I⁻¹ (r × n))`), so a heavy
+//! particle moves a light body and a light particle barely moves a heavy
+//! one; a friction impulse, at most `μ` times the normal one, acts against
+//! the sliding. The particle takes the impulse and the body the opposite
+//! one at the contact point, so linear momentum is conserved exactly and
+//! a particle resting on a body weighs on it (`m g` on average). Static and
+//! kinematic bodies take nothing; a sleeping body that is pushed wakes.
 //!
 //! Each particle is handled on its own against the bodies in handle order,
-//! so the pass is parallel and deterministic. Bodies are found with a
-//! bounding-box test per particle, which is fine for the few bodies cloth
-//! and ropes drape over; a broad-phase query would serve crowds.
+//! against the bodies' velocities at the end of the rigid step, so the pass
+//! is parallel; the impulses on bodies are summed in particle order, so the
+//! result is deterministic. Bodies are found with a bounding-box test per
+//! particle, which is fine for the few bodies cloth and ropes drape over; a
+//! broad-phase query would serve crowds.
+
+use glam::{DMat3, DVec3};
 
 use crate::arena::Arena;
-use crate::parallel::{par_map_chunks3, CHUNK};
+use crate::parallel::{par_map_chunks4, CHUNK};
 use crate::particle_system::ParticleSystem;
-use crate::rigid::body::RigidBody;
+use crate::rigid::aabb::Aabb;
+use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::pose::Pose;
 use crate::rigid::query::project_point_shape;
+use crate::rigid::shape::Shape;
 
-/// Pushes the particles of `sys` out of every body. Returns how many were
-/// moved.
-pub(crate) fn resolve(sys: &mut ParticleSystem, bodies: &Arena<RigidBody>) -> usize {
+/// A body as the particles see it.
+struct Target<'a> {
+    /// Arena index and generation.
+    key: (u32, u32),
+    shape: &'a Shape,
+    pose: Pose,
+    aabb: Aabb,
+    com: DVec3,
+    linvel: DVec3,
+    angvel: DVec3,
+    /// 0 for bodies that particles cannot move (static, kinematic).
+    inv_mass: f64,
+    inv_inertia: DMat3,
+}
+
+impl Target<'_> {
+    fn velocity_at(&self, p: DVec3) -> DVec3 {
+        self.linvel + self.angvel.cross(p - self.com)
+    }
+
+    /// `1/M + (r × d) · I⁻¹ (r × d)`: the body's share of the inverse
+    /// effective mass along `d` at `p`, 1/kg.
+    fn inv_mass_along(&self, p: DVec3, d: DVec3) -> f64 {
+        if self.inv_mass == 0.0 {
+            return 0.0;
+        }
+        let c = (p - self.com).cross(d);
+        self.inv_mass + c.dot(self.inv_inertia * c)
+    }
+}
+
+/// An impulse a particle gave a body: the body's key, the point (m) and
+/// the impulse (N·s).
+type BodyImpulse = ((u32, u32), DVec3, DVec3);
+
+/// Pushes the particles of `sys` out of every body, exchanging impulses
+/// with the bodies. Returns how many particles were moved.
+pub(crate) fn resolve(sys: &mut ParticleSystem, bodies: &mut Arena<RigidBody>) -> usize {
     let radius = sys.collision_radius;
     if radius <= 0.0 || bodies.len() == 0 || sys.is_empty() {
         return 0;
     }
     let friction = sys.collision_friction;
-    let targets: Vec<_> = bodies
+    let targets: Vec<Target<'_>> = bodies
         .iter()
         .filter(|(_, _, b)| !b.sensor)
-        .filter_map(|(_, _, b)| {
+        .filter_map(|(index, generation, b)| {
             let shape = b.shape.as_ref()?;
             let pose = b.pose();
-            Some((shape, pose, shape.aabb(&pose).expanded(radius), b))
+            let movable = b.kind == BodyKind::Dynamic && !b.quarantined;
+            Some(Target {
+                key: (index, generation),
+                shape,
+                pose,
+                aabb: shape.aabb(&pose).expanded(radius),
+                com: b.com,
+                linvel: b.linvel,
+                angvel: b.angvel,
+                inv_mass: if movable { b.inv_mass } else { 0.0 },
+                inv_inertia: if movable {
+                    b.inverse_inertia_world()
+                } else {
+                    DMat3::ZERO
+                },
+            })
         })
         .collect();
     let ParticleSystem {
         position,
         velocity,
+        inv_mass,
         flags,
         ..
     } = sys;
-    let moved = par_map_chunks3(position, velocity, flags, CHUNK, |_, xs, vs, fs| {
-        let mut moved = 0;
-        for k in 0..xs.len() {
-            if fs[k] != 0 {
-                continue;
-            }
-            for (shape, pose, aabb, body) in &targets {
-                let x = xs[k];
-                if !aabb.contains_point(x) {
+    let results = par_map_chunks4(
+        position,
+        velocity,
+        inv_mass,
+        flags,
+        CHUNK,
+        |_, xs, vs, ws, fs| {
+            let mut moved = 0;
+            let mut impulses: Vec<BodyImpulse> = Vec::new();
+            for k in 0..xs.len() {
+                if fs[k] != 0 {
                     continue;
                 }
-                let Some(p) = project_point_shape(shape, pose, x) else {
-                    continue;
-                };
-                if !p.inside && p.distance >= radius {
-                    continue;
-                }
-                // Outward normal: from the surface point to the particle,
-                // flipped when the particle is inside.
-                let to = x - p.point;
-                let len = to.length();
-                let normal = if len > 1e-12 {
-                    if p.inside {
-                        -to / len
-                    } else {
-                        to / len
+                for t in &targets {
+                    let x = xs[k];
+                    if !t.aabb.contains_point(x) {
+                        continue;
                     }
-                } else {
-                    continue;
-                };
-                let target = p.point + normal * radius;
-                if !target.is_finite() {
-                    continue;
-                }
-                xs[k] = target;
-                // Velocity relative to the surface the particle touches.
-                let surface_v = body.velocity_at(p.point);
-                let rel = vs[k] - surface_v;
-                let vn = rel.dot(normal);
-                if vn < 0.0 {
+                    let Some(p) = project_point_shape(t.shape, &t.pose, x) else {
+                        continue;
+                    };
+                    if !p.inside && p.distance >= radius {
+                        continue;
+                    }
+                    // Outward normal: from the surface point to the particle,
+                    // flipped when the particle is inside.
+                    let to = x - p.point;
+                    let len = to.length();
+                    let normal = if len > 1e-12 {
+                        if p.inside {
+                            -to / len
+                        } else {
+                            to / len
+                        }
+                    } else {
+                        continue;
+                    };
+                    let target = p.point + normal * radius;
+                    if !target.is_finite() {
+                        continue;
+                    }
+                    xs[k] = target;
+                    moved += 1;
+                    let w = ws[k];
+                    // Velocity relative to the surface the particle touches.
+                    let rel = vs[k] - t.velocity_at(p.point);
+                    let vn = rel.dot(normal);
+                    if vn >= 0.0 {
+                        continue;
+                    }
+                    let kn = w + t.inv_mass_along(p.point, normal);
+                    if kn <= 0.0 {
+                        continue;
+                    }
+                    let jn = -vn / kn;
                     let tangential = rel - normal * vn;
                     let t_len = tangential.length();
-                    let keep = if t_len > 0.0 {
-                        (1.0 - friction * -vn / t_len).max(0.0)
-                    } else {
-                        0.0
-                    };
-                    vs[k] = surface_v + tangential * keep;
+                    let mut j = normal * jn;
+                    if t_len > 1e-12 && friction > 0.0 {
+                        let dir = tangential / t_len;
+                        let kt = w + t.inv_mass_along(p.point, dir);
+                        let jt = (t_len / kt).min(friction * jn);
+                        j -= dir * jt;
+                    }
+                    // A particle of infinite mass (pinned) is skipped above by
+                    // its flag; w > 0 here.
+                    vs[k] += j * w;
+                    if t.inv_mass > 0.0 {
+                        impulses.push((t.key, p.point, -j));
+                    }
                 }
-                moved += 1;
+            }
+            (moved, impulses)
+        },
+    );
+    let mut moved = 0;
+    for (m, impulses) in results {
+        moved += m;
+        for ((index, generation), point, j) in impulses {
+            if let Some(b) = bodies.get_mut(index, generation) {
+                if b.sleeping {
+                    b.wake();
+                }
+                b.linvel += j * b.inv_mass;
+                b.angvel += b.inverse_inertia_world() * (point - b.com).cross(j);
             }
         }
-        moved
-    });
-    moved.iter().sum()
+    }
+    moved
 }

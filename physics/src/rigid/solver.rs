@@ -152,6 +152,9 @@ pub(crate) struct PointConstraint {
     /// Largest normal impulse seen this step (a point that never pushed gets
     /// no restitution).
     pub(crate) max_normal_impulse: f64,
+    /// Normal impulse over the whole step (all substeps and restitution),
+    /// N·s: divided by the step, the average contact force.
+    pub(crate) total_normal_impulse: f64,
     /// Whether the point was sticking at the start of the step.
     pub(crate) sticking: bool,
     /// Feature id from the narrow phase.
@@ -305,6 +308,7 @@ impl ContactConstraint {
             p.relative_velocity = n.dot(dv);
             p.sticking = (dv - n * p.relative_velocity).length() < stick_speed;
             p.max_normal_impulse = 0.0;
+            p.total_normal_impulse = 0.0;
         }
     }
 
@@ -365,6 +369,10 @@ impl ContactConstraint {
             let applied = total - row.impulse;
             row.impulse = total;
             p.max_normal_impulse = p.max_normal_impulse.max(applied);
+            if !use_bias {
+                // The relax ends the substep: this is its impulse.
+                p.total_normal_impulse += total;
+            }
             row.apply(a, b, n, applied);
         }
     }
@@ -385,6 +393,7 @@ impl ContactConstraint {
             let total = (row.impulse - row.mass * (vn + e * p.relative_velocity)).max(0.0);
             let applied = total - row.impulse;
             row.impulse = total;
+            p.total_normal_impulse += applied;
             row.apply(a, b, n, applied);
         }
     }

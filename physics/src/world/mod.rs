@@ -232,7 +232,7 @@ impl World {
         let t1 = Instant::now();
         for (_, _, s) in self.systems.iter_mut() {
             if s.backend == Backend::Cpu {
-                crate::rigid::particle_contact::resolve(s, &self.bodies);
+                crate::rigid::particle_contact::resolve(s, &mut self.bodies);
             }
         }
         profile.rigid.particle_contacts = t1.elapsed();

@@ -73,8 +73,12 @@ pub(crate) fn finish(
         found.touching.into_iter().collect();
     let mut pair_force: BTreeMap<(BodyHandle, BodyHandle), (f64, DVec3, f64)> = BTreeMap::new();
     for (key, c) in &constraints {
-        let total: f64 =
-            c.points().iter().map(|p| p.normal_impulse()).sum::<f64>() * f64::from(n) / inputs.dt;
+        let total: f64 = c
+            .points()
+            .iter()
+            .map(|p| p.total_normal_impulse)
+            .sum::<f64>()
+            / inputs.dt;
         if total <= 0.0 {
             continue;
         }

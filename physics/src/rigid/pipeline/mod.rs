@@ -105,7 +105,8 @@ pub struct ContactForceEvent {
     pub a: BodyHandle,
     /// Second body.
     pub b: BodyHandle,
-    /// Total normal force over the step, N.
+    /// Average normal force over the step: the normal impulse of every
+    /// substep (and of restitution) divided by the step, N. Impacts count.
     pub force: f64,
     /// Its direction, from `a` to `b`, of the largest manifold.
     pub normal: DVec3,
