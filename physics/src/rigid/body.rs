@@ -214,6 +214,7 @@ impl RigidBodyDesc {
             quarantined: false,
             control_force: DVec3::ZERO,
             control_torque: DVec3::ZERO,
+            radius: 0.0,
         };
         match self.kind {
             BodyKind::Dynamic => {
@@ -244,8 +245,19 @@ impl RigidBodyDesc {
             }
             BodyKind::Kinematic => {}
         }
+        body.radius = bounding_radius(body.shape.as_ref(), body.local_com);
         Ok(body)
     }
+}
+
+/// Distance from the centre of mass (`local_com`, body frame, m) to the
+/// farthest corner of the shape's box in the body frame, m; 0 without a shape.
+pub(crate) fn bounding_radius(shape: Option<&Shape>, local_com: DVec3) -> f64 {
+    shape.map_or(0.0, |s| {
+        let b = s.local_aabb();
+        let (lo, hi) = (b.min - local_com, b.max - local_com);
+        lo.abs().max(hi.abs()).length()
+    })
 }
 
 /// A finite, non-zero quaternion, normalised; refused otherwise.
@@ -306,6 +318,8 @@ pub struct RigidBody {
     pub(crate) control_force: DVec3,
     /// Scripted torque, N·m, world; stays until changed.
     pub(crate) control_torque: DVec3,
+    /// [`bounding_radius`] of the shape, m: derived, not saved.
+    pub(crate) radius: f64,
 }
 
 impl RigidBody {
@@ -438,11 +452,7 @@ impl RigidBody {
     /// Radius of the sphere about the centre of mass that holds the shape, m
     /// (0 without a shape).
     pub fn shape_radius(&self) -> f64 {
-        self.shape.as_ref().map_or(0.0, |s| {
-            let b = s.local_aabb();
-            let (lo, hi) = (b.min - self.local_com, b.max - self.local_com);
-            lo.abs().max(hi.abs()).length()
-        })
+        self.radius
     }
 
     /// Static and dynamic friction coefficients and restitution.

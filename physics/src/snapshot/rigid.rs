@@ -210,7 +210,9 @@ impl Reader<'_> {
         {
             return invalid("body mass, inertia or damping out of range");
         }
+        let radius = crate::rigid::body::bounding_radius(shape.as_ref(), local_com);
         Ok(RigidBody {
+            radius,
             kind,
             com,
             rotation,
