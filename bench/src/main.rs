@@ -16,6 +16,8 @@ enum SuiteArg {
     Particles,
     /// Exact vs Barnes–Hut mutual gravity at 1e4 bodies.
     Nbody,
+    /// Our rigid-body engine against rapier3d: pyramids, balls, piles, joints, ragdolls.
+    Physics,
 }
 
 impl From<SuiteArg> for Suite {
@@ -24,6 +26,7 @@ impl From<SuiteArg> for Suite {
             SuiteArg::Integrators => Suite::Integrators,
             SuiteArg::Particles => Suite::Particles,
             SuiteArg::Nbody => Suite::Nbody,
+            SuiteArg::Physics => Suite::Physics,
         }
     }
 }
@@ -41,7 +44,7 @@ struct Cli {
     #[arg(long)]
     quick: bool,
     /// Run only the cases whose name contains this (e.g. `particles_1e6`,
-    /// `rk4`, `nbody`).
+    /// `rk4`, `nbody`, `pyramid_20`).
     #[arg(long, value_name = "SUBSTRING")]
     only: Option<String>,
 }

@@ -153,7 +153,7 @@ impl Sink for Reporter {
 
 /// `case backend threads | key=value ...`, numbers to 4 significant digits.
 fn human_line(m: &Map<String, Value>) -> String {
-    const HEAD: [&str; 5] = ["case", "integrator", "method", "backend", "theta"];
+    const HEAD: [&str; 6] = ["case", "scene", "integrator", "method", "backend", "theta"];
     let mut head = Vec::new();
     for k in HEAD {
         match m.get(k) {

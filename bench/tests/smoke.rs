@@ -151,3 +151,103 @@ fn nbody_suite() {
         }
     }
 }
+
+#[test]
+fn physics_suite() {
+    let lines = run("physics");
+    let scenes = [
+        "pyramid_4",
+        "pyramid_8",
+        "many_pyramids_4x4",
+        "balls_64",
+        "mixed_pile_48",
+        "joint_grid_6x6",
+        "ragdolls_4",
+    ];
+    let numeric = [
+        "bodies",
+        "static_bodies",
+        "joints",
+        "steps",
+        "warmup_steps",
+        "dt",
+        "solver_iterations",
+        "ours_ms_median",
+        "ours_ms_p99",
+        "rapier_ms_median",
+        "rapier_ms_p99",
+        "ratio",
+        "ours_max_penetration_mm",
+        "rapier_max_penetration_mm",
+        "rapier_manifold_penetration_mm",
+        "ours_awake_at_end",
+        "rapier_awake_at_end",
+        "ours_fell_through",
+        "rapier_fell_through",
+        "ours_quarantined",
+        "rapier_quarantined",
+    ];
+    assert_eq!(
+        lines.len(),
+        scenes.len() * 3,
+        "each scene at 1 and 2 threads sleeping off, and at 1 thread sleeping on"
+    );
+    for m in &lines {
+        let scene = m["scene"].as_str().expect("scene");
+        assert!(scenes.contains(&scene), "unexpected scene {scene}");
+        for k in numeric {
+            let x = num(m, k);
+            assert!(x.is_finite() && x >= 0.0, "{k} = {x} in {m:?}");
+        }
+        for k in [
+            "ours_ms_median",
+            "rapier_ms_median",
+            "ratio",
+            "bodies",
+            "steps",
+        ] {
+            positive(m, k);
+        }
+        assert!(num(m, "ours_ms_median") <= num(m, "ours_ms_p99"), "{m:?}");
+        assert!(
+            num(m, "rapier_ms_median") <= num(m, "rapier_ms_p99"),
+            "{m:?}"
+        );
+        for k in ["sleeping", "target_cpu_native", "avx2"] {
+            assert!(m[k].is_boolean(), "{k} in {m:?}");
+        }
+        // Drift is measured for the scenes that start at rest, `null` for the others.
+        let at_rest = scene.contains("pyramid") || scene.starts_with("joint_grid");
+        for k in ["ours_drift_mm", "rapier_drift_mm"] {
+            if at_rest {
+                let d = num(m, k);
+                assert!(
+                    d.is_finite() && (0.0..100.0).contains(&d),
+                    "{k} = {d} in {m:?}"
+                );
+            } else {
+                assert!(m[k].is_null(), "{k} in {m:?}");
+            }
+        }
+        // Nothing blew up, nothing fell through the ground.
+        for k in [
+            "ours_fell_through",
+            "rapier_fell_through",
+            "ours_quarantined",
+            "rapier_quarantined",
+        ] {
+            assert_eq!(num(m, k), 0.0, "{k} in {m:?}");
+        }
+        let bodies = num(m, "bodies");
+        assert!(num(m, "ours_awake_at_end") <= bodies && num(m, "rapier_awake_at_end") <= bodies);
+        if m["sleeping"] == false {
+            assert_eq!(num(m, "ours_awake_at_end"), bodies, "{m:?}");
+            assert_eq!(num(m, "rapier_awake_at_end"), bodies, "{m:?}");
+        }
+    }
+    let threads: Vec<u64> = lines
+        .iter()
+        .map(|m| m["threads"].as_u64().unwrap())
+        .collect();
+    assert!(threads.contains(&1) && threads.contains(&2));
+}

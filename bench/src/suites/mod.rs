@@ -3,6 +3,7 @@
 pub mod integrators;
 pub mod nbody;
 pub mod particles;
+pub mod physics;
 
 use crate::report::Sink;
 use crate::{BenchError, Opts};
@@ -16,11 +17,18 @@ pub enum Suite {
     Particles,
     /// Exact and Barnes–Hut mutual gravity: time per step and force error.
     Nbody,
+    /// Our rigid-body engine against rapier3d on the same scenes.
+    Physics,
 }
 
 impl Suite {
     /// Every suite.
-    pub const ALL: [Suite; 3] = [Suite::Integrators, Suite::Particles, Suite::Nbody];
+    pub const ALL: [Suite; 4] = [
+        Suite::Integrators,
+        Suite::Particles,
+        Suite::Nbody,
+        Suite::Physics,
+    ];
 
     /// The command-line name, also the `suite` field of every record.
     pub fn name(self) -> &'static str {
@@ -28,6 +36,7 @@ impl Suite {
             Suite::Integrators => "integrators",
             Suite::Particles => "particles",
             Suite::Nbody => "nbody",
+            Suite::Physics => "physics",
         }
     }
 
@@ -37,6 +46,7 @@ impl Suite {
             Suite::Integrators => integrators::run(opts, sink),
             Suite::Particles => particles::run(opts, sink),
             Suite::Nbody => nbody::run(opts, sink),
+            Suite::Physics => physics::run(opts, sink),
         }
     }
 }
