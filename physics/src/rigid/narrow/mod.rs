@@ -25,11 +25,19 @@
 //! - *Fast paths* (closed forms, `sphere.rs`, `capsule.rs`): sphere–sphere,
 //!   sphere–capsule, sphere–box, sphere–cylinder, capsule–capsule (segment
 //!   closest points; two points when the capsules lie side by side).
-//! - *Polytopes* (boxes, hulls, mesh triangles; `sat.rs`): the separating
-//!   axis test over face normals and edge-pair cross products, then the
-//!   reference face's side planes clip the incident face (Sutherland–
-//!   Hodgman), as in Gottschalk's OBB tree work (1996), Catto's Box2D/
-//!   Box3D manifolds and Dirk Gregorius's GDC 2013/2015 talks ("The
+//! - *Box–box* (`box_box.rs`): the same separating axis test, clipping,
+//!   tie rules, points and ids as for polytopes below, worked out on the
+//!   boxes' axes (15 axes, clipping on the stack, no allocation but the
+//!   result), GJK only for separated pairs whose SAT gap is not the
+//!   distance. When an edge axis wins, the cross product is the normal
+//!   (where the polytope path runs EPA); faces within 26° of it are
+//!   clipped as the polytope path's features are, else one point, the
+//!   closest points of the two edges.
+//! - *Polytopes* (hulls, mesh triangles, boxes against those; `sat.rs`):
+//!   the separating axis test over face normals and edge-pair cross
+//!   products, then the reference face's side planes clip the incident
+//!   face (Sutherland–Hodgman), as in Gottschalk's OBB tree work (1996),
+//!   Catto's Box2D/Box3D manifolds and Dirk Gregorius's GDC 2013/2015 talks ("The
 //!   separating axis test between convex polyhedra", "Robust contact
 //!   creation for physics simulations"). Edge pairs are pruned with
 //!   Gregorius's Gauss-map (Minkowski face) test. Face axes win near-ties
@@ -69,6 +77,7 @@
 //! degenerate input (coincident centres, exactly touching shapes) picks a
 //! deterministic normal instead of dividing by zero; nothing panics.
 
+mod box_box;
 mod capsule;
 mod convex;
 pub mod epa;
@@ -255,6 +264,9 @@ pub(crate) fn convex_pair(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Contact 
         (Point, Cylinder(..)) => sphere::sphere_cylinder(a, b, spec),
         (Cylinder(..), Point) => flip(sphere::sphere_cylinder(b, a, spec)),
         (Segment(_), Segment(_)) => capsule::capsule_capsule(a, b, spec),
+        (Cuboid(_), Cuboid(_)) if a.radius == 0.0 && b.radius == 0.0 => {
+            box_box::box_box(a, b, spec)
+        }
         (Cuboid(_) | Hull(_) | Triangle(_), Cuboid(_) | Hull(_) | Triangle(_)) => {
             sat::polytope_polytope(a, b, spec)
         }
@@ -311,15 +323,23 @@ pub(crate) fn pack_id(ref_side: u32, ref_face: u32, inc_face: u32, k0: u32, k1: 
 
 /// Keeps at most [`MAX_POINTS`] points, well spread (see the note).
 pub(crate) fn reduce(mut c: Contact) -> Contact {
+    let kept = reduce_in_place(c.normal, &mut c.points);
+    c.points.truncate(kept);
+    c
+}
+
+/// [`reduce`] without allocating: the points kept are moved to the front
+/// of `pts`, in their original order, and their count is returned.
+pub(crate) fn reduce_in_place(n: DVec3, pts: &mut [(DVec3, DVec3, f64, u32)]) -> usize {
     // Drop duplicates (same point twice from clipping), keeping the deeper.
-    let mut pts: Vec<(DVec3, DVec3, f64, u32)> = Vec::with_capacity(c.points.len());
-    let scale = c
-        .points
+    let scale = pts
         .iter()
         .map(|p| p.0.abs().max_element())
         .fold(1e-9, f64::max);
-    for p in c.points.drain(..) {
-        if let Some(q) = pts
+    let mut len = 0;
+    for i in 0..pts.len() {
+        let p = pts[i];
+        if let Some(q) = pts[..len]
             .iter_mut()
             .find(|q| q.0.distance_squared(p.0) <= (1e-9 * scale).powi(2))
         {
@@ -327,20 +347,20 @@ pub(crate) fn reduce(mut c: Contact) -> Contact {
                 *q = p;
             }
         } else {
-            pts.push(p);
+            pts[len] = p;
+            len += 1;
         }
     }
-    if pts.len() <= MAX_POINTS {
-        c.points = pts;
-        return c;
+    if len <= MAX_POINTS {
+        return len;
     }
-    let n = c.normal;
+    let pts = &mut pts[..len];
     let proj = |p: DVec3| p - n * n.dot(p);
-    let i0 = (0..pts.len())
+    let i0 = (0..len)
         .min_by(|&i, &j| pts[i].2.total_cmp(&pts[j].2))
         .unwrap_or(0);
     let p0 = proj(pts[i0].0);
-    let i1 = (0..pts.len())
+    let i1 = (0..len)
         .max_by(|&i, &j| {
             proj(pts[i].0)
                 .distance_squared(p0)
@@ -349,7 +369,7 @@ pub(crate) fn reduce(mut c: Contact) -> Contact {
         .unwrap_or(0);
     let p1 = proj(pts[i1].0);
     let area = |a: DVec3, b: DVec3, q: DVec3| (b - a).cross(q - a).dot(n);
-    let i2 = (0..pts.len())
+    let i2 = (0..len)
         .max_by(|&i, &j| {
             area(p0, p1, proj(pts[i].0))
                 .abs()
@@ -366,15 +386,21 @@ pub(crate) fn reduce(mut c: Contact) -> Contact {
             .min(orient * area(p1, p2, q))
             .min(orient * area(p2, p0, q))
     };
-    let i3 = (0..pts.len())
+    let i3 = (0..len)
         .filter(|&i| i != i0 && i != i1 && i != i2)
         .min_by(|&i, &j| outside(pts[i].0).total_cmp(&outside(pts[j].0)));
-    let mut keep = vec![i0, i1, i2];
-    if let Some(i3) = i3 {
-        keep.push(i3);
-    }
+    let mut keep = [i0, i1, i2, i3.unwrap_or(i2)];
     keep.sort_unstable();
-    keep.dedup();
-    c.points = keep.into_iter().map(|i| pts[i]).collect();
-    c
+    let mut kept = 0;
+    for k in 0..keep.len() {
+        if kept > 0 && keep[k] == keep[kept - 1] {
+            continue;
+        }
+        keep[kept] = keep[k];
+        // Indices are increasing, so the slot written is never one still
+        // to be read.
+        pts[kept] = pts[keep[k]];
+        kept += 1;
+    }
+    kept
 }
