@@ -124,6 +124,15 @@ impl Row {
         self.mass = if k > 0.0 { 1.0 / k } else { 0.0 };
     }
 
+    /// A purely angular row about `d` (twist), keeping its impulse.
+    #[inline]
+    fn prepare_angular(&mut self, a: &SolverBody, b: &SolverBody, d: DVec3) {
+        self.ang_a = a.inv_inertia * d;
+        self.ang_b = b.inv_inertia * d;
+        let k = d.dot(self.ang_a) + d.dot(self.ang_b);
+        self.mass = if k > 0.0 { 1.0 / k } else { 0.0 };
+    }
+
     /// Applies `lambda` (N·s) along `d`: `+` on B, `-` on A.
     #[inline]
     fn apply(&self, a: &mut SolverBody, b: &mut SolverBody, d: DVec3, lambda: f64) {
@@ -142,8 +151,10 @@ pub(crate) struct PointConstraint {
     pub(crate) rb: DVec3,
     /// The non-penetration row.
     pub(crate) normal: Row,
-    /// The two friction rows.
-    pub(crate) tangent: [Row; 2],
+    /// This point's share of the manifold's friction impulse when it was
+    /// cached, along the two tangents, N·s (see
+    /// [`ContactConstraint::point_tangent_impulses`]).
+    pub(crate) cached_tangent: [f64; 2],
     /// `separation - n · (rb - ra)` at the start: adding `n · (current
     /// anchor offset)` gives the current separation.
     pub(crate) base_separation: f64,
@@ -155,8 +166,6 @@ pub(crate) struct PointConstraint {
     /// Normal impulse over the whole step (all substeps and restitution),
     /// N·s: divided by the step, the average contact force.
     pub(crate) total_normal_impulse: f64,
-    /// Whether the point was sticking at the start of the step.
-    pub(crate) sticking: bool,
     /// Feature id from the narrow phase.
     pub(crate) id: u32,
     /// The point on A in A's body frame, m (for warm-start matching).
@@ -170,22 +179,16 @@ impl PointConstraint {
         let mut p = Self {
             ra,
             rb,
+            cached_tangent: tangent,
             ..Default::default()
         };
         p.normal.impulse = normal;
-        p.tangent[0].impulse = tangent[0];
-        p.tangent[1].impulse = tangent[1];
         p
     }
 
     /// Accumulated normal impulse, N·s.
     pub(crate) fn normal_impulse(&self) -> f64 {
         self.normal.impulse
-    }
-
-    /// Accumulated friction impulses, N·s.
-    pub(crate) fn tangent_impulse(&self) -> [f64; 2] {
-        [self.tangent[0].impulse, self.tangent[1].impulse]
     }
 }
 
@@ -206,7 +209,74 @@ pub(crate) struct ContactConstraint {
     /// The points; only the first `len` are used.
     pub(crate) points: [PointConstraint; MAX_POINTS],
     pub(crate) len: usize,
+    /// Friction acts at the centre of the points (anchors from each centre
+    /// of mass, world, m): two tangent rows and a twist row about the
+    /// normal, limited by `μ` times the points' total normal impulse (and,
+    /// for the twist, times their mean distance from the centre).
+    pub(crate) centre_a: DVec3,
+    pub(crate) centre_b: DVec3,
+    pub(crate) friction: [Row; 2],
+    pub(crate) twist: Row,
+    /// Mean distance of the points from their centre, m.
+    pub(crate) twist_radius: f64,
+    /// Whether the centre was sticking at the start of the step.
+    pub(crate) sticking: bool,
+    /// Cholesky factors of the points' normal block `K + Γ` for the solve
+    /// and the relax passes (see [`ContactConstraint::solve_normals_block`]),
+    /// or `None` when the block is not used (one point, or not positive
+    /// definite).
+    pub(crate) block: Option<Box<[Block; 2]>>,
 }
+
+/// A lower-triangular Cholesky factor of a manifold's normal block, up to
+/// 4×4.
+pub(crate) type Block = [[f64; MAX_POINTS]; MAX_POINTS];
+
+/// Factors the symmetric `k` (first `n` rows) as `L Lᵀ`; `None` unless it
+/// is positive definite.
+fn cholesky(k: &Block, n: usize) -> Option<Block> {
+    let mut l = [[0.0; MAX_POINTS]; MAX_POINTS];
+    for i in 0..n {
+        for j in 0..=i {
+            let sum = k[i][j] - (0..j).map(|m| l[i][m] * l[j][m]).sum::<f64>();
+            if i == j {
+                if sum <= 0.0 || !sum.is_finite() {
+                    return None;
+                }
+                l[i][i] = sum.sqrt();
+            } else {
+                l[i][j] = sum / l[j][j];
+            }
+        }
+    }
+    Some(l)
+}
+
+/// Solves `L Lᵀ x = rhs` (first `n` rows).
+fn cholesky_solve(l: &Block, n: usize, rhs: [f64; MAX_POINTS]) -> [f64; MAX_POINTS] {
+    let mut y = [0.0; MAX_POINTS];
+    for i in 0..n {
+        let mut sum = rhs[i];
+        for m in 0..i {
+            sum -= l[i][m] * y[m];
+        }
+        y[i] = sum / l[i][i];
+    }
+    let mut x = [0.0; MAX_POINTS];
+    for i in (0..n).rev() {
+        let mut sum = y[i];
+        for m in i + 1..n {
+            sum -= l[m][i] * x[m];
+        }
+        x[i] = sum / l[i][i];
+    }
+    x
+}
+
+/// Relative regularisation of the relax pass's block (which is singular
+/// for more than three points: a face contact has three degrees of
+/// freedom), as a fraction of each point's own inverse mass.
+const RELAX_REGULARISATION: f64 = 1e-6;
 
 /// Two unit vectors that make `(n, t1, t2)` an orthonormal basis; a fixed
 /// function of `n`, so friction directions never depend on history.
@@ -289,68 +359,291 @@ fn relative_velocity(a: &SolverBody, b: &SolverBody, ra: DVec3, rb: DVec3) -> DV
 }
 
 impl ContactConstraint {
+    /// The constraint of a manifold with normal `normal` (from A to B) and
+    /// the first `len` of `points`, its friction gathered from the points'
+    /// cached shares.
+    pub(crate) fn new(
+        (a, b): (usize, usize),
+        normal: DVec3,
+        (friction_static, friction_dynamic, restitution): (f64, f64, f64),
+        points: [PointConstraint; MAX_POINTS],
+        len: usize,
+    ) -> Self {
+        let mut c = Self {
+            a,
+            b,
+            normal,
+            tangents: tangent_basis(normal),
+            friction_static,
+            friction_dynamic,
+            restitution,
+            points,
+            len: len.min(MAX_POINTS),
+            centre_a: DVec3::ZERO,
+            centre_b: DVec3::ZERO,
+            friction: [Row::default(); 2],
+            twist: Row::default(),
+            twist_radius: 0.0,
+            sticking: false,
+            block: None,
+        };
+        c.gather_friction();
+        c
+    }
+
     /// The used points.
     pub(crate) fn points(&self) -> &[PointConstraint] {
         &self.points[..self.len]
     }
 
-    /// Effective masses, the angular rows and the pre-solve velocities,
-    /// from the bodies at the start of the step.
-    pub(crate) fn prepare(&mut self, a: &SolverBody, b: &SolverBody, stick_speed: f64) {
+    /// The centre of the points and the manifold's friction and twist
+    /// impulses rebuilt from the points' cached shares (the inverse of
+    /// [`Self::point_tangent_impulses`]). Call once the points are set.
+    pub(crate) fn gather_friction(&mut self) {
+        let len = self.len.max(1) as f64;
+        let pts = &self.points[..self.len];
+        self.centre_a = pts.iter().map(|p| p.ra).sum::<DVec3>() / len;
+        self.centre_b = pts.iter().map(|p| p.rb).sum::<DVec3>() / len;
         let n = self.normal;
         let [t1, t2] = self.tangents;
+        let (mut f1, mut f2, mut twist, mut radius) = (0.0, 0.0, 0.0, 0.0);
+        for p in pts {
+            let [s1, s2] = p.cached_tangent;
+            f1 += s1;
+            f2 += s2;
+            let d = p.ra - self.centre_a;
+            let d = d - n * n.dot(d);
+            twist += d.cross(t1 * s1 + t2 * s2).dot(n);
+            radius += d.length();
+        }
+        self.friction[0].impulse = f1;
+        self.friction[1].impulse = f2;
+        self.twist.impulse = twist;
+        self.twist_radius = radius / len;
+    }
+
+    /// Each point's share of the friction and twist impulses, along the two
+    /// tangents, N·s: the friction split evenly, the twist as tangential
+    /// impulses about the centre. Their sum is the friction impulse and
+    /// their moment about the centre the twist impulse, so caching these
+    /// per point (matched by feature id next step) loses nothing while the
+    /// points persist.
+    pub(crate) fn point_tangent_impulses(&self) -> [[f64; 2]; MAX_POINTS] {
+        let mut out = [[0.0; 2]; MAX_POINTS];
+        let n = self.normal;
+        let [t1, t2] = self.tangents;
+        let pts = &self.points[..self.len];
+        let planar = |p: &PointConstraint| {
+            let d = p.ra - self.centre_a;
+            d - n * n.dot(d)
+        };
+        let spread: f64 = pts.iter().map(|p| planar(p).length_squared()).sum();
+        let len = self.len.max(1) as f64;
+        for (o, p) in out.iter_mut().zip(pts) {
+            let mut j =
+                t1 * (self.friction[0].impulse / len) + t2 * (self.friction[1].impulse / len);
+            if spread > 0.0 {
+                j += n.cross(planar(p)) * (self.twist.impulse / spread);
+            }
+            *o = [t1.dot(j), t2.dot(j)];
+        }
+        out
+    }
+
+    /// Effective masses, the angular rows, the normal block and the
+    /// pre-solve velocities, from the bodies at the start of the step and
+    /// the softness of the solve pass.
+    pub(crate) fn prepare(
+        &mut self,
+        a: &SolverBody,
+        b: &SolverBody,
+        stick_speed: f64,
+        solve: &ContactPass,
+    ) {
+        let n = self.normal;
         for p in &mut self.points[..self.len] {
             let (ra, rb) = (p.ra, p.rb);
             p.normal.prepare(a, b, ra, rb, n);
-            p.tangent[0].prepare(a, b, ra, rb, t1);
-            p.tangent[1].prepare(a, b, ra, rb, t2);
-            let dv = relative_velocity(a, b, ra, rb);
-            p.relative_velocity = n.dot(dv);
-            p.sticking = (dv - n * p.relative_velocity).length() < stick_speed;
+            p.relative_velocity = n.dot(relative_velocity(a, b, ra, rb));
             p.max_normal_impulse = 0.0;
             p.total_normal_impulse = 0.0;
         }
+        let (ca, cb) = (self.centre_a, self.centre_b);
+        let [t1, t2] = self.tangents;
+        self.friction[0].prepare(a, b, ca, cb, t1);
+        self.friction[1].prepare(a, b, ca, cb, t2);
+        self.twist.prepare_angular(a, b, n);
+        let dv = relative_velocity(a, b, ca, cb);
+        self.sticking = (dv - n * n.dot(dv)).length() < stick_speed;
+        self.block = self.factor_block(a, b, solve);
+    }
+
+    /// The normal block `K_ij = J_i M⁻¹ J_jᵀ` of the points (how a unit
+    /// impulse at point `j` changes the normal speed at point `i`), plus
+    /// the diagonal `Γ` that makes the solve pass soft (`γ_i = (is/ms)
+    /// K_ii`, see [`Self::solve_normals_block`]) or the relax pass barely
+    /// regularised; factored for both passes.
+    fn factor_block(
+        &self,
+        a: &SolverBody,
+        b: &SolverBody,
+        solve: &ContactPass,
+    ) -> Option<Box<[Block; 2]>> {
+        let len = self.len;
+        if len < 2 {
+            return None;
+        }
+        let n = self.normal;
+        let pts = &self.points[..len];
+        let mut k = [[0.0; MAX_POINTS]; MAX_POINTS];
+        for i in 0..len {
+            for j in 0..=i {
+                let (ci, cj) = (pts[i].ra.cross(n), pts[j].ra.cross(n));
+                let (di, dj) = (pts[i].rb.cross(n), pts[j].rb.cross(n));
+                let kij = a.inv_mass
+                    + b.inv_mass
+                    + ci.dot(a.inv_inertia * cj)
+                    + di.dot(b.inv_inertia * dj);
+                k[i][j] = kij;
+                k[j][i] = kij;
+            }
+        }
+        let soft = solve.impulse_scale / solve.mass_scale;
+        let (mut ks, mut kr) = (k, k);
+        for i in 0..len {
+            ks[i][i] += soft * k[i][i];
+            kr[i][i] += RELAX_REGULARISATION * k[i][i];
+        }
+        Some(Box::new([cholesky(&ks, len)?, cholesky(&kr, len)?]))
+    }
+
+    /// Solves the normal rows of all points at once (a block solve): the
+    /// impulses `x` with `(K + Γ) x = -(v + bias + Γ λ)`, which is where
+    /// point-by-point iteration would converge. Solving the points one
+    /// after another instead leaves their impulses lopsided after a few
+    /// passes, which rocks tall stacks. Used when every point is touching
+    /// and no impulse comes out negative; returns false (changing nothing)
+    /// otherwise, and the points are solved one by one.
+    fn solve_normals_block(
+        &mut self,
+        a: &mut SolverBody,
+        b: &mut SolverBody,
+        pass: &ContactPass,
+        separations: &[f64; MAX_POINTS],
+    ) -> bool {
+        let Some(block) = &self.block else {
+            return false;
+        };
+        let len = self.len;
+        if separations[..len].iter().any(|&s| s > 0.0) {
+            return false;
+        }
+        let n = self.normal;
+        let (l, soft) = if pass.use_bias {
+            (&block[0], pass.impulse_scale / pass.mass_scale)
+        } else {
+            (&block[1], 0.0)
+        };
+        let mut rhs = [0.0; MAX_POINTS];
+        for (i, p) in self.points[..len].iter().enumerate() {
+            let vn = n.dot(relative_velocity(a, b, p.ra, p.rb));
+            let bias = if pass.use_bias {
+                (pass.bias_rate * separations[i]).max(-pass.push_out)
+            } else {
+                0.0
+            };
+            let k_ii = 1.0 / p.normal.mass;
+            rhs[i] = -(vn + bias + soft * k_ii * p.normal.impulse);
+        }
+        let x = cholesky_solve(l, len, rhs);
+        let pts = &self.points[..len];
+        let feasible = |i: usize| {
+            let total = pts[i].normal.impulse + x[i];
+            total.is_finite() && total >= 0.0
+        };
+        if !(0..len).all(feasible) {
+            return false;
+        }
+        for (p, applied) in self.points[..len].iter_mut().zip(x) {
+            p.normal.impulse += applied;
+            p.max_normal_impulse = p.max_normal_impulse.max(applied);
+            if !pass.use_bias {
+                p.total_normal_impulse += p.normal.impulse;
+            }
+            p.normal.apply(a, b, n, applied);
+        }
+        true
     }
 
     /// Re-applies the accumulated impulses (warm start).
     pub(crate) fn warm_start(&self, a: &mut SolverBody, b: &mut SolverBody) {
-        let [t1, t2] = self.tangents;
+        let n = self.normal;
         for p in self.points() {
-            let (ln, l1, l2) = (p.normal.impulse, p.tangent[0].impulse, p.tangent[1].impulse);
-            let j = self.normal * ln + t1 * l1 + t2 * l2;
-            a.v -= j * a.inv_mass;
-            a.w -= p.normal.ang_a * ln + p.tangent[0].ang_a * l1 + p.tangent[1].ang_a * l2;
-            b.v += j * b.inv_mass;
-            b.w += p.normal.ang_b * ln + p.tangent[0].ang_b * l1 + p.tangent[1].ang_b * l2;
+            p.normal.apply(a, b, n, p.normal.impulse);
         }
+        for (row, t) in self.friction.iter().zip(self.tangents) {
+            row.apply(a, b, t, row.impulse);
+        }
+        a.w -= self.twist.ang_a * self.twist.impulse;
+        b.w += self.twist.ang_b * self.twist.impulse;
     }
 
-    /// One pass over the points: friction (limited by the normal impulses
-    /// so far), then non-penetration (soft when `pass.use_bias`), so the
-    /// constraint that matters most is solved last.
+    /// One pass: friction and twist at the centre (limited by the normal
+    /// impulses so far), then non-penetration point by point (soft when
+    /// `pass.use_bias`), so the constraint that matters most is solved last.
     pub(crate) fn solve(&mut self, a: &mut SolverBody, b: &mut SolverBody, pass: &ContactPass) {
         let n = self.normal;
-        let tangents = self.tangents;
-        let (mu_static, mu_dynamic) = (self.friction_static, self.friction_dynamic);
-        for p in &mut self.points[..self.len] {
-            let mu = if p.sticking { mu_static } else { mu_dynamic };
-            let limit = mu * p.normal.impulse;
-            for (row, t) in p.tangent.iter_mut().zip(tangents) {
-                let vt = t.dot(relative_velocity(a, b, p.ra, p.rb));
-                let total = (row.impulse - row.mass * vt).clamp(-limit, limit);
-                let applied = total - row.impulse;
-                row.impulse = total;
-                row.apply(a, b, t, applied);
-            }
+        let mu = if self.sticking {
+            self.friction_static
+        } else {
+            self.friction_dynamic
+        };
+        let pressed: f64 = self.points[..self.len]
+            .iter()
+            .map(|p| p.normal.impulse)
+            .sum();
+        let limit = mu * pressed;
+        // Both tangent rows from the same relative velocity, then the pair
+        // clamped to the friction circle (isotropic Coulomb).
+        let dv = relative_velocity(a, b, self.centre_a, self.centre_b);
+        let [t1, t2] = self.tangents;
+        let [f1, f2] = &mut self.friction;
+        let mut new1 = f1.impulse - f1.mass * t1.dot(dv);
+        let mut new2 = f2.impulse - f2.mass * t2.dot(dv);
+        let size = (new1 * new1 + new2 * new2).sqrt();
+        if size > limit {
+            let scale = if size > 0.0 { limit / size } else { 0.0 };
+            new1 *= scale;
+            new2 *= scale;
         }
+        let (d1, d2) = (new1 - f1.impulse, new2 - f2.impulse);
+        f1.impulse = new1;
+        f2.impulse = new2;
+        f1.apply(a, b, t1, d1);
+        f2.apply(a, b, t2, d2);
+        // Twist about the normal.
+        let twist_limit = limit * self.twist_radius;
+        let tw = &mut self.twist;
+        let spin = n.dot(b.w - a.w);
+        let total = (tw.impulse - tw.mass * spin).clamp(-twist_limit, twist_limit);
+        let applied = total - tw.impulse;
+        tw.impulse = total;
+        a.w -= tw.ang_a * applied;
+        b.w += tw.ang_b * applied;
         let (h, use_bias) = (pass.h, pass.use_bias);
         let a_moved = a.dq != DQuat::IDENTITY;
         let b_moved = b.dq != DQuat::IDENTITY;
-        for p in &mut self.points[..self.len] {
-            // Current separation from how far the anchors have moved.
+        // Current separations from how far the anchors have moved.
+        let mut separations = [0.0; MAX_POINTS];
+        for (s, p) in separations.iter_mut().zip(&self.points[..self.len]) {
             let ra_now = if a_moved { a.dq * p.ra } else { p.ra };
             let rb_now = if b_moved { b.dq * p.rb } else { p.rb };
-            let s = n.dot((b.dp + rb_now) - (a.dp + ra_now)) + p.base_separation;
+            *s = n.dot((b.dp + rb_now) - (a.dp + ra_now)) + p.base_separation;
+        }
+        if self.solve_normals_block(a, b, pass, &separations) {
+            return;
+        }
+        for (p, &s) in self.points[..self.len].iter_mut().zip(&separations) {
             let (bias, ms, is) = if s > 0.0 {
                 (s / h, 1.0, 0.0) // speculative: just do not close the gap
             } else if use_bias {
@@ -424,17 +717,7 @@ mod tests {
             base_separation: 0.5,
             ..PointConstraint::new(DVec3::ZERO, DVec3::new(0.0, -0.5, 0.0), 0.0, [0.0; 2])
         };
-        let mut c = ContactConstraint {
-            a: 0,
-            b: 1,
-            normal: DVec3::Y,
-            tangents: tangent_basis(DVec3::Y),
-            friction_static: 0.6,
-            friction_dynamic: 0.5,
-            restitution: 0.0,
-            points,
-            len: 1,
-        };
+        let mut c = ContactConstraint::new((0, 1), DVec3::Y, (0.6, 0.5, 0.0), points, 1);
         let (solve, relax) = (
             ContactPass::new(&cfg, h, true),
             ContactPass::new(&cfg, h, false),
@@ -442,7 +725,7 @@ mod tests {
         // base: separation 0 with rb pointing down half a metre: s = n·(dp + rb) + base = -0.5 + 0.5 = 0.
         let mut y = 0.0;
         for _ in 0..120 {
-            c.prepare(&bodies[0], &bodies[1], cfg.stick_speed);
+            c.prepare(&bodies[0], &bodies[1], cfg.stick_speed, &solve);
             c.points[0].normal.impulse = c.points[0].normal.impulse.max(0.0);
             for _ in 0..cfg.substeps {
                 bodies[1].v.y -= 9.81 * h;
@@ -463,6 +746,76 @@ mod tests {
         assert!(bodies[1].v.length() < 1e-6);
         let per_substep = c.points[0].normal.impulse;
         assert!((per_substep - 9.81 * h).abs() < 1e-9, "{per_substep}");
+    }
+
+    /// A box resting on four corner points: the block solve gives the four
+    /// points equal shares of the weight, as symmetry demands (points solved
+    /// one by one would not).
+    #[test]
+    fn four_points_share_a_load_evenly() {
+        let cfg = SolverConfig::default();
+        let h = 1.0 / 240.0;
+        let mut bodies = vec![
+            SolverBody::fixed(),
+            SolverBody {
+                inv_mass: 1.0 / 300.0,
+                inv_inertia: DMat3::IDENTITY * (6.0 / 300.0),
+                ..SolverBody::fixed()
+            },
+        ];
+        let mut points = [PointConstraint::default(); MAX_POINTS];
+        for (k, p) in points.iter_mut().enumerate() {
+            let x = if k % 2 == 0 { -0.5 } else { 0.5 };
+            let z = if k < 2 { -0.5 } else { 0.5 };
+            *p = PointConstraint::new(DVec3::new(x, 0.0, z), DVec3::new(x, -0.5, z), 0.0, [0.0; 2]);
+            p.base_separation = 0.5 - 1e-3; // a millimetre of overlap
+        }
+        let (solve, relax) = (
+            ContactPass::new(&cfg, h, true),
+            ContactPass::new(&cfg, h, false),
+        );
+        let mut c = ContactConstraint::new((0, 1), DVec3::Y, (0.6, 0.6, 0.0), points, 4);
+        c.prepare(&bodies[0], &bodies[1], cfg.stick_speed, &solve);
+        assert!(c.block.is_some());
+        for _ in 0..8 {
+            bodies[1].v.y -= 9.81 * h;
+            let (a, b) = pair(&mut bodies, 0, 1);
+            c.warm_start(a, b);
+            c.solve(a, b, &solve);
+            c.solve(a, b, &relax);
+        }
+        let impulses: Vec<f64> = c.points().iter().map(|p| p.normal.impulse).collect();
+        let mean = impulses.iter().sum::<f64>() / 4.0;
+        assert!(mean > 0.0);
+        for i in &impulses {
+            assert!((i - mean).abs() < 1e-9 * mean, "{impulses:?}");
+        }
+        assert!(
+            bodies[1].w.length() < 1e-15,
+            "the box turned: {}",
+            bodies[1].w
+        );
+    }
+
+    #[test]
+    fn cholesky_solves_a_small_spd_system() {
+        let k = [
+            [4.0, 1.0, 0.5, 0.0],
+            [1.0, 3.0, 0.2, 0.1],
+            [0.5, 0.2, 2.0, 0.3],
+            [0.0, 0.1, 0.3, 1.0],
+        ];
+        let l = cholesky(&k, 4).unwrap();
+        let rhs = [1.0, -2.0, 0.5, 3.0];
+        let x = cholesky_solve(&l, 4, rhs);
+        for i in 0..4 {
+            let row: f64 = (0..4).map(|j| k[i][j] * x[j]).sum();
+            assert!((row - rhs[i]).abs() < 1e-12);
+        }
+        // Not positive definite: refused.
+        let mut bad = k;
+        bad[3][3] = -1.0;
+        assert!(cholesky(&bad, 4).is_none());
     }
 
     #[test]

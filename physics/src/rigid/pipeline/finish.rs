@@ -136,14 +136,16 @@ pub(crate) fn finish(
     contacts.cache = constraints
         .iter()
         .map(|(key, c)| {
+            let shares = c.point_tangent_impulses();
             let pts = c
                 .points()
                 .iter()
-                .map(|p| CachedPoint {
+                .zip(shares)
+                .map(|(p, tangent)| CachedPoint {
                     id: p.id,
                     anchor_a: p.anchor_a,
                     normal: p.normal_impulse(),
-                    tangent: p.tangent_impulse(),
+                    tangent,
                 })
                 .collect();
             (*key, pts)

@@ -15,7 +15,7 @@ use crate::rigid::contact::Manifold;
 use crate::rigid::joint::{Joint, JointConstraint};
 use crate::rigid::narrow::collide;
 use crate::rigid::pose::Pose;
-use crate::rigid::solver::{tangent_basis, ContactConstraint, PointConstraint, MAX_POINTS};
+use crate::rigid::solver::{ContactConstraint, PointConstraint, MAX_POINTS};
 
 /// Pairs per parallel work item.
 const PAIRS_PER_ITEM: usize = 64;
@@ -214,17 +214,17 @@ fn constraint(
             )
         };
     }
-    ContactConstraint {
-        a: ia,
-        b: ib,
-        normal: n,
-        tangents: tangent_basis(n),
-        friction_static: (a.friction_static * b.friction_static).sqrt(),
-        friction_dynamic: (a.friction_dynamic * b.friction_dynamic).sqrt(),
-        restitution: a.restitution.max(b.restitution),
+    ContactConstraint::new(
+        (ia, ib),
+        n,
+        (
+            (a.friction_static * b.friction_static).sqrt(),
+            (a.friction_dynamic * b.friction_dynamic).sqrt(),
+            a.restitution.max(b.restitution),
+        ),
         points,
         len,
-    }
+    )
 }
 
 /// The row of every joint between bodies that still exist with one side

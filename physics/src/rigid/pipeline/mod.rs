@@ -226,6 +226,11 @@ pub(crate) fn step(
         narrow.constraints,
         joint_rows,
         inputs.cfg.stick_speed,
+        &crate::rigid::solver::ContactPass::new(
+            inputs.cfg,
+            inputs.dt / f64::from(inputs.cfg.substeps.max(1)),
+            true,
+        ),
     );
     profile.colouring = clock.lap();
 

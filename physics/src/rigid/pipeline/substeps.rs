@@ -43,6 +43,7 @@ impl Solve {
         constraints: Vec<(ContactKey, ContactConstraint)>,
         joint_rows: Vec<(u32, u32, JointConstraint)>,
         stick_speed: f64,
+        solve: &ContactPass,
     ) -> Self {
         let solver_bodies: Vec<SolverBody> = bodies
             .iter()
@@ -69,7 +70,7 @@ impl Solve {
         let groups = colouring::group(&colours);
         crate::parallel::for_each_chunk(&mut constraints, PREPARE_ITEM, |chunk| {
             for (_, c) in chunk {
-                c.prepare(&solver_bodies[c.a], &solver_bodies[c.b], stick_speed);
+                c.prepare(&solver_bodies[c.a], &solver_bodies[c.b], stick_speed, solve);
             }
         });
         let start = bodies
