@@ -631,14 +631,15 @@ impl ContactConstraint {
         a.w -= tw.ang_a * applied;
         b.w += tw.ang_b * applied;
         let (h, use_bias) = (pass.h, pass.use_bias);
-        let a_moved = a.dq != DQuat::IDENTITY;
-        let b_moved = b.dq != DQuat::IDENTITY;
-        // Current separations from how far the anchors have moved.
+        // Current separations from how far the anchors have moved:
+        // `n · (dq r)` is `(dq⁻¹ n) · r`, so each body's rotation since the
+        // start of the step turns the normal once instead of every anchor.
+        let na = if a.dq == DQuat::IDENTITY { n } else { a.dq.inverse() * n };
+        let nb = if b.dq == DQuat::IDENTITY { n } else { b.dq.inverse() * n };
+        let moved = n.dot(b.dp - a.dp);
         let mut separations = [0.0; MAX_POINTS];
         for (s, p) in separations.iter_mut().zip(&self.points[..self.len]) {
-            let ra_now = if a_moved { a.dq * p.ra } else { p.ra };
-            let rb_now = if b_moved { b.dq * p.rb } else { p.rb };
-            *s = n.dot((b.dp + rb_now) - (a.dp + ra_now)) + p.base_separation;
+            *s = moved + nb.dot(p.rb) - na.dot(p.ra) + p.base_separation;
         }
         if self.solve_normals_block(a, b, pass, &separations) {
             return;
