@@ -3,7 +3,7 @@
 mod common;
 
 use inertia_physics::glam::{DQuat, DVec3};
-use inertia_physics::rigid::body::RigidBodyDesc;
+use inertia_physics::rigid::body::{CombineRule, RigidBodyDesc};
 use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{BodyHandle, World};
@@ -63,6 +63,17 @@ fn a_ball_bounces_to_e_squared_h() {
 /// A box on a slope tilted `deg` degrees: its displacement along the slope
 /// and its speed after `t` seconds.
 fn slide(deg: f64, mu_s: f64, mu_k: f64, t: f64) -> (f64, f64, f64) {
+    let same = (mu_s, mu_k, CombineRule::GeometricMean);
+    slide_on(deg, same, same, t)
+}
+
+/// [`slide`] with the slope's and the block's (static, dynamic, rule).
+fn slide_on(
+    deg: f64,
+    slope_material: (f64, f64, CombineRule),
+    block_material: (f64, f64, CombineRule),
+    t: f64,
+) -> (f64, f64, f64) {
     let mut w = common::world();
     w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let tilt = DQuat::from_rotation_z(deg.to_radians());
@@ -70,8 +81,11 @@ fn slide(deg: f64, mu_s: f64, mu_k: f64, t: f64) -> (f64, f64, f64) {
         Shape::cuboid(DVec3::new(30.0, 0.5, 5.0)).unwrap(),
         Pose::new(tilt * (DVec3::NEG_Y * 0.5), tilt),
     );
-    slope.friction_static = mu_s;
-    slope.friction_dynamic = mu_k;
+    (
+        slope.friction_static,
+        slope.friction_dynamic,
+        slope.friction_combine,
+    ) = slope_material;
     w.add_body(&slope).unwrap();
     let mut block = RigidBodyDesc::dynamic(
         Shape::cuboid(DVec3::splat(0.25)).unwrap(),
@@ -79,8 +93,11 @@ fn slide(deg: f64, mu_s: f64, mu_k: f64, t: f64) -> (f64, f64, f64) {
         Pose::new(tilt * (DVec3::Y * 0.25), tilt),
     )
     .unwrap();
-    block.friction_static = mu_s;
-    block.friction_dynamic = mu_k;
+    (
+        block.friction_static,
+        block.friction_dynamic,
+        block.friction_combine,
+    ) = block_material;
     let b = w.add_body(&block).unwrap();
     let down = tilt * DVec3::NEG_X;
     let x0 = w.body(b).unwrap().center_of_mass();
@@ -115,6 +132,40 @@ fn a_box_sticks_below_the_friction_angle_and_slides_above_it() {
     assert!(
         d > 0.1 && v > 0.1,
         "above the friction angle it stayed ({d} m, {v} m/s)"
+    );
+}
+
+/// Friction combine rules: a block of μ = 0.2 slides down a slope of
+/// μ = 0.8 with the acceleration the chosen rule's coefficient gives (the
+/// higher-priority rule of the two wins).
+#[test]
+fn friction_combines_by_the_stronger_rule() {
+    let deg: f64 = 45.0;
+    let th = deg.to_radians();
+    for (rule, mu) in [
+        (CombineRule::Average, 0.5),
+        (CombineRule::GeometricMean, 0.4),
+        (CombineRule::Min, 0.2),
+        (CombineRule::Multiply, 0.16),
+        (CombineRule::Max, 0.8),
+    ] {
+        // The slope asks for the lowest-priority rule; the block's wins
+        // (or ties).
+        let (_, _, a) = slide_on(deg, (0.8, 0.8, CombineRule::Average), (0.2, 0.2, rule), 1.0);
+        let expected = G * (th.sin() - mu * th.cos());
+        eprintln!("{rule:?}: a = {a:.4} m/s², expected {expected:.4}");
+        assert!(
+            (a - expected).abs() < 0.02 * expected,
+            "{rule:?}: a = {a}, expected {expected}"
+        );
+    }
+    assert_eq!(
+        CombineRule::combine((0.3, CombineRule::Max), (0.9, CombineRule::Min)),
+        0.9
+    );
+    assert_eq!(
+        CombineRule::combine((0.3, CombineRule::Min), (0.9, CombineRule::Average)),
+        0.3
     );
 }
 

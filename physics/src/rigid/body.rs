@@ -50,6 +50,59 @@ impl BodyKind {
     }
 }
 
+/// How the friction (or restitution) coefficients of two bodies in contact
+/// combine into the contact's. When the two bodies ask for different rules,
+/// the later one in this list wins (`Max` over `Multiply` over `Min` over
+/// `GeometricMean` over `Average`), as in PhysX and Rapier.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum CombineRule {
+    /// `(a + b) / 2`.
+    Average,
+    /// `√(a b)`: the default for friction (Box2D's rule), so a frictionless
+    /// body slides on anything.
+    GeometricMean,
+    /// `min(a, b)`.
+    Min,
+    /// `a b`.
+    Multiply,
+    /// `max(a, b)`: the default for restitution, so a bouncy ball bounces
+    /// on anything.
+    Max,
+}
+
+impl CombineRule {
+    /// Every rule, in priority order (lowest first).
+    pub const ALL: [CombineRule; 5] = [
+        CombineRule::Average,
+        CombineRule::GeometricMean,
+        CombineRule::Min,
+        CombineRule::Multiply,
+        CombineRule::Max,
+    ];
+
+    /// The contact's coefficient from the two bodies' coefficients and
+    /// rules.
+    pub fn combine((a, rule_a): (f64, CombineRule), (b, rule_b): (f64, CombineRule)) -> f64 {
+        match rule_a.max(rule_b) {
+            CombineRule::Average => 0.5 * (a + b),
+            CombineRule::GeometricMean => (a * b).sqrt(),
+            CombineRule::Min => a.min(b),
+            CombineRule::Multiply => a * b,
+            CombineRule::Max => a.max(b),
+        }
+    }
+
+    /// Its code in the saved state.
+    pub(crate) fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The rule with code `c`.
+    pub(crate) fn from_code(c: u8) -> Option<Self> {
+        Self::ALL.get(usize::from(c)).copied()
+    }
+}
+
 /// Everything needed to create a rigid body. Units are SI.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RigidBodyDesc {
@@ -77,13 +130,19 @@ pub struct RigidBodyDesc {
     /// Quadratic drag coefficient `c`, kg/m, used by a [`Drag`](crate::Drag) body force.
     pub drag_quadratic: f64,
     /// Coefficient of static friction (combined with the other body's by
-    /// geometric mean).
+    /// [`Self::friction_combine`]).
     pub friction_static: f64,
     /// Coefficient of dynamic (sliding) friction.
     pub friction_dynamic: f64,
-    /// Coefficient of restitution, 0 (no bounce) to 1 (the larger of the two
-    /// bodies' applies).
+    /// Coefficient of restitution, 0 (no bounce) to 1 (combined with the
+    /// other body's by [`Self::restitution_combine`]).
     pub restitution: f64,
+    /// How friction combines with the other body's (default
+    /// [`CombineRule::GeometricMean`]).
+    pub friction_combine: CombineRule,
+    /// How restitution combines with the other body's (default
+    /// [`CombineRule::Max`]).
+    pub restitution_combine: CombineRule,
     /// A sensor (trigger): it reports contact begin and end events but
     /// never pushes or is pushed.
     pub sensor: bool,
@@ -151,6 +210,8 @@ impl RigidBodyDesc {
             friction_static: 0.6,
             friction_dynamic: 0.5,
             restitution: 0.0,
+            friction_combine: CombineRule::GeometricMean,
+            restitution_combine: CombineRule::Max,
             sensor: false,
             contact_force_threshold: f64::MAX,
             ccd: false,
@@ -205,6 +266,8 @@ impl RigidBodyDesc {
             friction_static: self.friction_static,
             friction_dynamic: self.friction_dynamic,
             restitution: self.restitution,
+            friction_combine: self.friction_combine,
+            restitution_combine: self.restitution_combine,
             sensor: self.sensor,
             contact_force_threshold: self.contact_force_threshold,
             ccd: self.ccd,
@@ -303,6 +366,9 @@ pub struct RigidBody {
     pub(crate) friction_static: f64,
     pub(crate) friction_dynamic: f64,
     pub(crate) restitution: f64,
+    /// How friction and restitution combine with another body's.
+    pub(crate) friction_combine: CombineRule,
+    pub(crate) restitution_combine: CombineRule,
     /// Sensors report overlaps and take no part in the contact solve.
     pub(crate) sensor: bool,
     /// Normal force above which contact force events are reported, N.
@@ -453,6 +519,11 @@ impl RigidBody {
     /// (0 without a shape).
     pub fn shape_radius(&self) -> f64 {
         self.radius
+    }
+
+    /// How friction and restitution combine with another body's.
+    pub fn combine_rules(&self) -> (CombineRule, CombineRule) {
+        (self.friction_combine, self.restitution_combine)
     }
 
     /// Static and dynamic friction coefficients and restitution.

@@ -225,7 +225,7 @@ pub(crate) struct ContactConstraint {
     /// and the relax passes (see [`ContactConstraint::solve_normals_block`]),
     /// or `None` when the block is not used (one point, or not positive
     /// definite).
-    pub(crate) block: Option<Box<[Block; 2]>>,
+    pub(crate) block: Option<[Block; 2]>,
 }
 
 /// A lower-triangular Cholesky factor of a manifold's normal block, up to
@@ -488,7 +488,7 @@ impl ContactConstraint {
         a: &SolverBody,
         b: &SolverBody,
         solve: &ContactPass,
-    ) -> Option<Box<[Block; 2]>> {
+    ) -> Option<[Block; 2]> {
         let len = self.len;
         if len < 2 {
             return None;
@@ -514,7 +514,7 @@ impl ContactConstraint {
             ks[i][i] += soft * k[i][i];
             kr[i][i] += RELAX_REGULARISATION * k[i][i];
         }
-        Some(Box::new([cholesky(&ks, len)?, cholesky(&kr, len)?]))
+        Some([cholesky(&ks, len)?, cholesky(&kr, len)?])
     }
 
     /// Solves the normal rows of all points at once (a block solve): the
@@ -634,8 +634,16 @@ impl ContactConstraint {
         // Current separations from how far the anchors have moved:
         // `n · (dq r)` is `(dq⁻¹ n) · r`, so each body's rotation since the
         // start of the step turns the normal once instead of every anchor.
-        let na = if a.dq == DQuat::IDENTITY { n } else { a.dq.inverse() * n };
-        let nb = if b.dq == DQuat::IDENTITY { n } else { b.dq.inverse() * n };
+        let na = if a.dq == DQuat::IDENTITY {
+            n
+        } else {
+            a.dq.inverse() * n
+        };
+        let nb = if b.dq == DQuat::IDENTITY {
+            n
+        } else {
+            b.dq.inverse() * n
+        };
         let moved = n.dot(b.dp - a.dp);
         let mut separations = [0.0; MAX_POINTS];
         for (s, p) in separations.iter_mut().zip(&self.points[..self.len]) {

@@ -14,7 +14,7 @@ use super::{invalid, Reader, Sink, SnapshotError};
 use crate::handle::BodyHandle;
 use crate::rigid::aabb::Aabb;
 use crate::rigid::attachment::Attachment;
-use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::body::{BodyKind, CombineRule, RigidBody};
 use crate::rigid::joint::{Joint, JointDesc, JointKind};
 use crate::rigid::pipeline::{CachedPoint, ContactKey};
 use crate::rigid::pose::Pose;
@@ -53,6 +53,7 @@ pub(super) fn body<S: Sink>(s: &mut S, b: &RigidBody) {
     s.f64(b.friction_static);
     s.f64(b.friction_dynamic);
     s.f64(b.restitution);
+    s.u8(b.friction_combine.code() | (b.restitution_combine.code() << 4));
     s.f64(b.contact_force_threshold);
     s.f64(b.sleep_time);
     s.u8(u8::from(b.ccd)
@@ -180,6 +181,13 @@ impl Reader<'_> {
         let friction_static = self.finite("static friction")?;
         let friction_dynamic = self.finite("dynamic friction")?;
         let restitution = self.finite("restitution")?;
+        let rules = self.u8()?;
+        let (Some(friction_combine), Some(restitution_combine)) = (
+            CombineRule::from_code(rules & 0xf),
+            CombineRule::from_code(rules >> 4),
+        ) else {
+            return invalid(format!("unknown combine rules {rules:#x}"));
+        };
         let contact_force_threshold = self.finite("contact force threshold")?;
         let sleep_time = self.finite("sleep time")?;
         if friction_static < 0.0 || friction_dynamic < 0.0 || !(0.0..=1.0).contains(&restitution) {
@@ -231,6 +239,8 @@ impl Reader<'_> {
             friction_static,
             friction_dynamic,
             restitution,
+            friction_combine,
+            restitution_combine,
             sensor: bits & 16 != 0,
             sleep_time,
             contact_force_threshold,

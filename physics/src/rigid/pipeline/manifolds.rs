@@ -9,7 +9,7 @@ use super::pairs::{leaves, pair_bodies, speculative_distance};
 use super::{CachedPoint, ContactKey, ANCHOR_MATCH_DISTANCE};
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
-use crate::rigid::body::RigidBody;
+use crate::rigid::body::{CombineRule, RigidBody};
 use crate::rigid::broad_phase::Pair;
 use crate::rigid::contact::Manifold;
 use crate::rigid::joint::{Joint, JointConstraint};
@@ -218,9 +218,18 @@ fn constraint(
         (ia, ib),
         n,
         (
-            (a.friction_static * b.friction_static).sqrt(),
-            (a.friction_dynamic * b.friction_dynamic).sqrt(),
-            a.restitution.max(b.restitution),
+            CombineRule::combine(
+                (a.friction_static, a.friction_combine),
+                (b.friction_static, b.friction_combine),
+            ),
+            CombineRule::combine(
+                (a.friction_dynamic, a.friction_combine),
+                (b.friction_dynamic, b.friction_combine),
+            ),
+            CombineRule::combine(
+                (a.restitution, a.restitution_combine),
+                (b.restitution, b.restitution_combine),
+            ),
         ),
         points,
         len,
