@@ -3,6 +3,7 @@
 
 pub mod aabb;
 pub mod attachment;
+pub mod ballistic;
 pub mod body;
 pub mod broad_phase;
 pub(crate) mod colouring;
