@@ -27,8 +27,8 @@ pub struct StepProfile {
     pub total: Duration,
 }
 
-/// Wall time of each stage of the rigid-body step (see
-/// [`crate::rigid::pipeline`]).
+/// Wall time of each stage of the rigid-body step (forces, broad phase,
+/// narrow phase, colouring, solve, finish, islands; see ARCHITECTURE.md).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RigidProfile {
     /// Force generators evaluated on every body, and waking.

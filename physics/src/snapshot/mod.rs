@@ -2,7 +2,7 @@
 //!
 //! Layout (little-endian): magic `INRTWRLD`, format version (u32), the
 //! state, and a 64-bit checksum of everything before it. The state is
-//! written by one walk ([`encode_world`]) that the [state hash](crate::hash)
+//! written by one walk (`encode_world`) that the [state hash](crate::hash)
 //! also uses, so the hash covers exactly what is saved. Everything the step
 //! reads is in it — including the Verlet history, the slot tables and free
 //! lists (which decide future handles) — so restore-then-step gives the same

@@ -214,8 +214,8 @@ impl World {
         self.body_gravity
     }
 
-    /// Attaches a force generator that acts on every rigid body (see
-    /// [`crate::rigid::forces`]). Mutual gravity between bodies is refused.
+    /// Attaches a force generator that acts on every rigid body: drag, wind
+    /// on the area shown, buoyancy of the submerged volume, blasts. Mutual gravity between bodies is refused.
     pub fn add_body_force(
         &mut self,
         force: impl Into<Force>,
