@@ -189,8 +189,8 @@ fn physics_suite() {
     ];
     assert_eq!(
         lines.len(),
-        scenes.len() * 3,
-        "each scene at 1 and 2 threads sleeping off, and at 1 thread sleeping on"
+        scenes.len() * 4,
+        "each scene at 1 and 2 threads, sleeping off and on"
     );
     for m in &lines {
         let scene = m["scene"].as_str().expect("scene");

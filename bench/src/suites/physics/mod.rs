@@ -206,12 +206,13 @@ pub fn measure(
         .field("avx2", cfg!(target_feature = "avx2")))
 }
 
-/// The cases run per scene: sleeping off at 1 and 2 threads (and every
-/// core, if more), then sleeping on at 1 thread.
+/// The cases run per scene: 1 and 2 threads (and every core, if more),
+/// each with sleeping off, then on.
 pub fn cases() -> Vec<(usize, bool)> {
-    let mut c: Vec<(usize, bool)> = thread_counts().into_iter().map(|t| (t, false)).collect();
-    c.push((1, true));
-    c
+    thread_counts()
+        .into_iter()
+        .flat_map(|t| [(t, false), (t, true)])
+        .collect()
 }
 
 /// Runs every selected scene in each of [`cases`].

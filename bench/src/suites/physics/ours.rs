@@ -1,7 +1,7 @@
 //! A [`Scene`] built into an `inertia_physics::World`.
 //!
 //! Gravity is set explicitly (rigid-body gravity is zero until set), the
-//! solver runs [`SUBSTEPS`](super::SOLVER_ITERATIONS) substeps, and sleeping
+//! solver runs [`SOLVER_ITERATIONS`] substeps, and sleeping
 //! is switched on or off for the whole world (`SolverConfig::sleep.enabled`)
 //! and for every body (`can_sleep`). Friction is one coefficient used as
 //! both the static and the dynamic one.
@@ -18,7 +18,7 @@ use super::scene::{JointKindDesc, Kind, Scene, ShapeDesc};
 use super::{Engine, GRAVITY, SOLVER_ITERATIONS};
 use crate::BenchError;
 
-/// Our world with the handles of the scene's bodies, in scene order.
+/// Our world with the handles of the scene's dynamic bodies.
 #[derive(Debug)]
 pub struct Ours {
     world: World,
