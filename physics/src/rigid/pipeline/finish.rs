@@ -2,8 +2,6 @@
 //! the contact cache for the next step, and the bodies' new velocities (or
 //! quarantine).
 
-use std::collections::BTreeMap;
-
 use glam::DVec3;
 
 use super::bodies::BodyIndex;
@@ -68,10 +66,11 @@ pub(crate) fn finish(
     }
 
     // Pairs pushed apart count as touching even if they started a hair
-    // apart; their total normal force feeds the force events.
-    let mut touching: BTreeMap<(BodyHandle, BodyHandle), bool> =
-        found.touching.into_iter().collect();
-    let mut pair_force: BTreeMap<(BodyHandle, BodyHandle), (f64, DVec3, f64)> = BTreeMap::new();
+    // apart; their total normal force feeds the force events. Constraints
+    // come in pair order (a pair's compound children next to each other),
+    // as do the narrow phase's touching pairs, so both lists are sorted and
+    // merge in one walk.
+    let mut pushed: Vec<((BodyHandle, BodyHandle), f64, DVec3, f64)> = Vec::new();
     for (key, c) in &constraints {
         let total: f64 = c
             .points()
@@ -83,12 +82,15 @@ pub(crate) fn finish(
             continue;
         }
         let pair_key = (handle(key.a), handle(key.b));
-        touching.entry(pair_key).or_insert(false);
-        let e = pair_force.entry(pair_key).or_insert((0.0, c.normal, 0.0));
-        e.0 += total;
-        if total > e.2 {
-            e.1 = c.normal;
-            e.2 = total;
+        match pushed.last_mut() {
+            Some(last) if last.0 == pair_key => {
+                last.1 += total;
+                if total > last.3 {
+                    last.2 = c.normal;
+                    last.3 = total;
+                }
+            }
+            _ => pushed.push((pair_key, total, c.normal, total)),
         }
     }
     let threshold = |h: BodyHandle| {
@@ -96,7 +98,7 @@ pub(crate) fn finish(
             .get(h.index, h.generation)
             .map_or(f64::MAX, |b| b.contact_force_threshold)
     };
-    for (&(a, b), &(force, normal, _)) in &pair_force {
+    for &((a, b), force, normal, _) in &pushed {
         if force > threshold(a).min(threshold(b)) {
             out.forces.push(ContactForceEvent {
                 a,
@@ -106,18 +108,24 @@ pub(crate) fn finish(
             });
         }
     }
-    for (&(a, b), &sensor) in &touching {
-        if !contacts.touching.contains(&(a, b)) {
+    let touching = merge_touching(found.touching, pushed.iter().map(|p| p.0));
+    // Begin: touching now, not before; end: before, not now.
+    let mut before = contacts.touching.iter().peekable();
+    for &(pair, sensor) in &touching {
+        while before.next_if(|&&old| old < pair).is_some() {}
+        if before.next_if(|&&old| old == pair).is_none() {
             out.events.push(ContactEvent {
                 kind: ContactEventKind::Begin,
-                a,
-                b,
+                a: pair.0,
+                b: pair.1,
                 sensor,
             });
         }
     }
+    let mut now = touching.iter().map(|t| t.0).peekable();
     for &(a, b) in &contacts.touching {
-        if !touching.contains_key(&(a, b)) {
+        while now.next_if(|&p| p < (a, b)).is_some() {}
+        if now.next_if(|&p| p == (a, b)).is_none() {
             let sensor = [a, b]
                 .iter()
                 .any(|h| bodies.get(h.index, h.generation).is_some_and(|x| x.sensor));
@@ -129,7 +137,7 @@ pub(crate) fn finish(
             });
         }
     }
-    contacts.touching = touching.into_keys().collect();
+    contacts.touching = touching.into_iter().map(|t| t.0).collect();
     contacts.deepest_penetration = found.deepest;
 
     // The impulses, for the next step's warm start.
@@ -175,5 +183,24 @@ pub(crate) fn finish(
         }
     }
     out.quarantined = quarantined;
+    out
+}
+
+/// The union of the narrow phase's touching pairs (sorted, with their
+/// sensor flag) and the pairs that pushed (sorted), sorted, each pair once.
+fn merge_touching(
+    found: Vec<((BodyHandle, BodyHandle), bool)>,
+    pushed: impl Iterator<Item = (BodyHandle, BodyHandle)>,
+) -> Vec<((BodyHandle, BodyHandle), bool)> {
+    let mut out = Vec::with_capacity(found.len());
+    let mut pushed = pushed.peekable();
+    for (pair, sensor) in found {
+        while let Some(p) = pushed.next_if(|&p| p < pair) {
+            out.push((p, false));
+        }
+        pushed.next_if(|&p| p == pair);
+        out.push((pair, sensor));
+    }
+    out.extend(pushed.map(|p| (p, false)));
     out
 }

@@ -215,10 +215,22 @@ fn integrate_position(b: &mut RigidBody, sb: &mut SolverBody, q0: DQuat, h: f64)
             b.com += sb.v * h;
             sb.dp += sb.v * h;
             let q = b.principal_rotation();
-            let inertia = b.inv_principal_inertia.recip();
-            let pi = inertia * (q.inverse() * sb.w);
-            let (q, pi) = free_rotation(q, pi, b.inv_principal_inertia, h);
-            sb.w = q * (b.inv_principal_inertia * pi);
+            let inv = b.inv_principal_inertia;
+            let q = if inv.x == inv.y && inv.y == inv.z {
+                // Equal principal moments (cubes, spheres): a torque-free
+                // body keeps its angular velocity and turns about it; one
+                // exact rotation.
+                if sb.w == DVec3::ZERO {
+                    q
+                } else {
+                    (DQuat::from_scaled_axis(sb.w * h) * q).normalize()
+                }
+            } else {
+                let pi = inv.recip() * (q.inverse() * sb.w);
+                let (q, pi) = free_rotation(q, pi, inv, h);
+                sb.w = q * (inv * pi);
+                q
+            };
             b.rotation = (q * b.principal.inverse()).normalize();
             sb.dq = (q * q0.inverse()).normalize();
         }
