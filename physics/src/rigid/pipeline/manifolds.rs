@@ -34,16 +34,55 @@ pub(crate) struct Narrow {
     pub(crate) deepest: f64,
 }
 
-/// The outcome of one pair.
-#[derive(Debug, Default)]
-struct PairOut {
-    touching: Option<bool>,
-    constraints: Vec<(ContactKey, ContactConstraint)>,
-    carried: Vec<(ContactKey, Vec<CachedPoint>)>,
-    deepest: f64,
+/// Walks the contact cache in key order alongside a run of pairs (which
+/// ask for keys in increasing order): each lookup is a step or two instead
+/// of a search.
+struct CacheCursor<'a> {
+    entries: std::iter::Peekable<std::collections::btree_map::Range<'a, ContactKey, Vec<CachedPoint>>>,
 }
 
-/// Manifolds and constraints of every pair.
+impl<'a> CacheCursor<'a> {
+    fn new(cache: &'a BTreeMap<ContactKey, Vec<CachedPoint>>, from: ContactKey) -> Self {
+        Self {
+            entries: cache.range(from..).peekable(),
+        }
+    }
+
+    /// The entry for `key` (keys asked for must not decrease).
+    fn get(&mut self, key: &ContactKey) -> Option<&'a Vec<CachedPoint>> {
+        while self.entries.next_if(|(k, _)| *k < key).is_some() {}
+        self.entries.next_if(|(k, _)| *k == key).map(|(_, v)| v)
+    }
+
+    /// Every entry of the body pair `(a, b)`, in key order.
+    fn pair(&mut self, a: (u32, u32), b: (u32, u32)) -> Vec<(ContactKey, Vec<CachedPoint>)> {
+        let before = |k: &ContactKey| (k.a, k.b) < (a, b);
+        while self.entries.next_if(|(k, _)| before(k)).is_some() {}
+        let mut out = Vec::new();
+        while let Some((k, v)) = self.entries.next_if(|(k, _)| (k.a, k.b) == (a, b)) {
+            out.push((*k, v.clone()));
+        }
+        out
+    }
+}
+
+/// The first cache key a pair could have.
+fn first_key(index: &BodyIndex, pair: &Pair) -> ContactKey {
+    let key = |i: u32| {
+        index
+            .slot_of_index(i)
+            .map_or((i, 0), |k| (i, index.handles[k].generation))
+    };
+    ContactKey {
+        a: key(pair.a),
+        b: key(pair.b),
+        child_a: 0,
+        child_b: 0,
+    }
+}
+
+/// Manifolds and constraints of every pair. Runs of consecutive pairs are
+/// the parallel work items; results are joined in pair order.
 pub(crate) fn find(
     bodies: &Arena<RigidBody>,
     index: &BodyIndex,
@@ -53,19 +92,24 @@ pub(crate) fn find(
     touched: &BTreeSet<(BodyHandle, BodyHandle)>,
     dt: f64,
 ) -> Narrow {
-    let outs = crate::parallel::par_map(pairs, PAIRS_PER_ITEM, |pair| {
-        one_pair(bodies, index, links, pair, cache, touched, dt)
-    });
-    let mut narrow = Narrow::default();
-    for (pair, out) in pairs.iter().zip(outs) {
-        if let Some(sensor) = out.touching {
-            if let (Some(ia), Some(ib)) = (index.slot_of_index(pair.a), index.slot_of_index(pair.b))
-            {
-                narrow
-                    .touching
-                    .push(((index.handles[ia], index.handles[ib]), sensor));
-            }
+    let runs: Vec<&[Pair]> = pairs.chunks(PAIRS_PER_ITEM).collect();
+    let outs = crate::parallel::par_map(&runs, 1, |run| {
+        let mut out = Narrow::default();
+        let Some(first) = run.first() else {
+            return out;
+        };
+        let mut cursor = CacheCursor::new(cache, first_key(index, first));
+        for pair in *run {
+            one_pair(bodies, index, links, pair, &mut cursor, touched, dt, &mut out);
         }
+        out
+    });
+    let mut narrow = Narrow {
+        constraints: Vec::with_capacity(outs.iter().map(|o| o.constraints.len()).sum()),
+        ..Narrow::default()
+    };
+    for out in outs {
+        narrow.touching.extend(out.touching);
         narrow.constraints.extend(out.constraints);
         narrow.carried.extend(out.carried);
         narrow.deepest = narrow.deepest.max(out.deepest);
@@ -73,69 +117,56 @@ pub(crate) fn find(
     narrow
 }
 
+/// Adds what one pair gives to `out`.
+#[allow(clippy::too_many_arguments)]
 fn one_pair(
     bodies: &Arena<RigidBody>,
     index: &BodyIndex,
     links: &Links<'_>,
     pair: &Pair,
-    cache: &BTreeMap<ContactKey, Vec<CachedPoint>>,
+    cache: &mut CacheCursor<'_>,
     touched: &BTreeSet<(BodyHandle, BodyHandle)>,
     dt: f64,
-) -> PairOut {
-    let mut out = PairOut::default();
+    out: &mut Narrow,
+) {
     let Some(((ia, ba), (ib, bb))) = pair_bodies(bodies, index, pair) else {
-        return out;
+        return;
     };
     let (ha, hb) = (index.handles[ia], index.handles[ib]);
     let sensor = ba.sensor || bb.sensor;
     if ba.inv_mass == 0.0 && bb.inv_mass == 0.0 && !sensor {
-        return out;
+        return;
     }
     // Bodies joined by a joint do not collide with each other.
     if links.joined(ha, hb) {
-        return out;
+        return;
     }
     let (ka, kb) = ((ha.index, ha.generation), (hb.index, hb.generation));
     // Contacts between bodies that all stay put this step (asleep, static)
     // are not recomputed: their cache and touching state carry over.
     if ba.is_fixed_now() && bb.is_fixed_now() && !sensor {
-        let lo = ContactKey {
-            a: ka,
-            b: kb,
-            child_a: 0,
-            child_b: 0,
-        };
-        let hi = ContactKey {
-            child_a: u32::MAX,
-            child_b: u32::MAX,
-            ..lo
-        };
-        out.carried = cache.range(lo..=hi).map(|(k, v)| (*k, v.clone())).collect();
+        out.carried.extend(cache.pair(ka, kb));
         if touched.contains(&(ha, hb)) {
-            out.touching = Some(false);
+            out.touching.push(((ha, hb), false));
         }
-        return out;
+        return;
     }
     let (Some(sa), Some(sb)) = (&ba.shape, &bb.shape) else {
-        return out;
+        return;
     };
     let speculative = speculative_distance(ba, bb, dt);
     let (pose_a, pose_b) = (ba.pose(), bb.pose());
+    let mut touching = false;
     let mut add = |ca: usize, pa: &Pose, shape_a, cb: usize, pb: &Pose, shape_b| {
-        let Ok(m) = collide(
-            shape_a,
-            &pose_a.mul(pa),
-            shape_b,
-            &pose_b.mul(pb),
-            speculative,
-        ) else {
+        let Ok(m) = collide(shape_a, &pose_a.mul(pa), shape_b, &pose_b.mul(pb), speculative)
+        else {
             return;
         };
         if m.is_empty() {
             return;
         }
         if m.min_separation().is_some_and(|s| s <= 0.0) {
-            out.touching = Some(sensor);
+            touching = true;
         }
         if sensor {
             // Sensors only report: no constraint.
@@ -150,7 +181,7 @@ fn one_pair(
             child_a: ca as u32,
             child_b: cb as u32,
         };
-        let c = constraint(ia, ib, ba, bb, pa, pb, &m, cache.get(&key));
+        let c = constraint((ia, ba, pa), (ib, bb, pb), &m, cache.get(&key));
         out.constraints.push((key, c));
     };
     let compound =
@@ -167,18 +198,17 @@ fn one_pair(
             }
         }
     }
-    out
+    if touching {
+        out.touching.push(((ha, hb), sensor));
+    }
 }
 
-/// The constraint for one manifold, warm-started from `cached`.
-#[allow(clippy::too_many_arguments)]
+/// The constraint for one manifold between `a` and `b` (each with its slot
+/// and the child shape's pose in its body frame), warm-started from
+/// `cached`.
 fn constraint(
-    ia: usize,
-    ib: usize,
-    a: &RigidBody,
-    b: &RigidBody,
-    child_a: &Pose,
-    child_b: &Pose,
+    (ia, a, child_a): (usize, &RigidBody, &Pose),
+    (ib, b, child_b): (usize, &RigidBody, &Pose),
     m: &Manifold,
     cached: Option<&Vec<CachedPoint>>,
 ) -> ContactConstraint {
