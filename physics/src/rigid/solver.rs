@@ -151,6 +151,12 @@ pub(crate) struct PointConstraint {
     pub(crate) rb: DVec3,
     /// The non-penetration row.
     pub(crate) normal: Row,
+    /// `ra × n` and `rb × n`, m: the normal row's angular parts, so the
+    /// normal speed is `n · (v_b - v_a) + cb · ω_b - ca · ω_a`.
+    pub(crate) ca: DVec3,
+    pub(crate) cb: DVec3,
+    /// The normal row's inverse effective mass `K_ii`, 1/kg.
+    pub(crate) k: f64,
     /// This point's share of the manifold's friction impulse when it was
     /// cached, along the two tangents, N·s (see
     /// [`ContactConstraint::point_tangent_impulses`]).
@@ -232,43 +238,46 @@ pub(crate) struct ContactConstraint {
 /// 4×4.
 pub(crate) type Block = [[f64; MAX_POINTS]; MAX_POINTS];
 
-/// Factors the symmetric `k` (first `n` rows) as `L Lᵀ`; `None` unless it
-/// is positive definite.
-fn cholesky(k: &Block, n: usize) -> Option<Block> {
+/// Factors the symmetric 4×4 `k` as `L Lᵀ`; `None` unless it is positive
+/// definite. The diagonal holds `1 / L_ii`, so solving multiplies instead
+/// of dividing. (Blocks of fewer points are padded with identity rows,
+/// which keeps every loop a fixed four long.)
+fn cholesky(k: &Block) -> Option<Block> {
     let mut l = [[0.0; MAX_POINTS]; MAX_POINTS];
-    for i in 0..n {
+    for i in 0..MAX_POINTS {
         for j in 0..=i {
             let sum = k[i][j] - (0..j).map(|m| l[i][m] * l[j][m]).sum::<f64>();
             if i == j {
                 if sum <= 0.0 || !sum.is_finite() {
                     return None;
                 }
-                l[i][i] = sum.sqrt();
+                l[i][i] = 1.0 / sum.sqrt();
             } else {
-                l[i][j] = sum / l[j][j];
+                l[i][j] = sum * l[j][j];
             }
         }
     }
     Some(l)
 }
 
-/// Solves `L Lᵀ x = rhs` (first `n` rows).
-fn cholesky_solve(l: &Block, n: usize, rhs: [f64; MAX_POINTS]) -> [f64; MAX_POINTS] {
+/// Solves `L Lᵀ x = rhs` with `L` from [`cholesky`].
+#[inline]
+fn cholesky_solve(l: &Block, rhs: [f64; MAX_POINTS]) -> [f64; MAX_POINTS] {
     let mut y = [0.0; MAX_POINTS];
-    for i in 0..n {
+    for i in 0..MAX_POINTS {
         let mut sum = rhs[i];
         for m in 0..i {
             sum -= l[i][m] * y[m];
         }
-        y[i] = sum / l[i][i];
+        y[i] = sum * l[i][i];
     }
     let mut x = [0.0; MAX_POINTS];
-    for i in (0..n).rev() {
+    for i in (0..MAX_POINTS).rev() {
         let mut sum = y[i];
-        for m in i + 1..n {
+        for m in i + 1..MAX_POINTS {
             sum -= l[m][i] * x[m];
         }
-        x[i] = sum / l[i][i];
+        x[i] = sum * l[i][i];
     }
     x
 }
@@ -464,6 +473,9 @@ impl ContactConstraint {
         for p in &mut self.points[..self.len] {
             let (ra, rb) = (p.ra, p.rb);
             p.normal.prepare(a, b, ra, rb, n);
+            p.ca = ra.cross(n);
+            p.cb = rb.cross(n);
+            p.k = a.inv_mass + b.inv_mass + p.ca.dot(p.normal.ang_a) + p.cb.dot(p.normal.ang_b);
             p.relative_velocity = n.dot(relative_velocity(a, b, ra, rb));
             p.max_normal_impulse = 0.0;
             p.total_normal_impulse = 0.0;
@@ -510,11 +522,16 @@ impl ContactConstraint {
         }
         let soft = solve.impulse_scale / solve.mass_scale;
         let (mut ks, mut kr) = (k, k);
-        for i in 0..len {
-            ks[i][i] += soft * k[i][i];
-            kr[i][i] += RELAX_REGULARISATION * k[i][i];
+        for i in 0..MAX_POINTS {
+            if i < len {
+                ks[i][i] += soft * k[i][i];
+                kr[i][i] += RELAX_REGULARISATION * k[i][i];
+            } else {
+                ks[i][i] = 1.0;
+                kr[i][i] = 1.0;
+            }
         }
-        Some([cholesky(&ks, len)?, cholesky(&kr, len)?])
+        Some([cholesky(&ks)?, cholesky(&kr)?])
     }
 
     /// Solves the normal rows of all points at once (a block solve): the
@@ -545,17 +562,17 @@ impl ContactConstraint {
             (&block[1], 0.0)
         };
         let mut rhs = [0.0; MAX_POINTS];
+        let linear = n.dot(b.v - a.v);
         for (i, p) in self.points[..len].iter().enumerate() {
-            let vn = n.dot(relative_velocity(a, b, p.ra, p.rb));
+            let vn = linear + p.cb.dot(b.w) - p.ca.dot(a.w);
             let bias = if pass.use_bias {
                 (pass.bias_rate * separations[i]).max(-pass.push_out)
             } else {
                 0.0
             };
-            let k_ii = 1.0 / p.normal.mass;
-            rhs[i] = -(vn + bias + soft * k_ii * p.normal.impulse);
+            rhs[i] = -(vn + bias + soft * p.k * p.normal.impulse);
         }
-        let x = cholesky_solve(l, len, rhs);
+        let x = cholesky_solve(l, rhs);
         let pts = &self.points[..len];
         let feasible = |i: usize| {
             let total = pts[i].normal.impulse + x[i];
@@ -564,28 +581,45 @@ impl ContactConstraint {
         if !(0..len).all(feasible) {
             return false;
         }
+        let (mut sum, mut turn_a, mut turn_b) = (0.0, DVec3::ZERO, DVec3::ZERO);
         for (p, applied) in self.points[..len].iter_mut().zip(x) {
             p.normal.impulse += applied;
             p.max_normal_impulse = p.max_normal_impulse.max(applied);
             if !pass.use_bias {
                 p.total_normal_impulse += p.normal.impulse;
             }
-            p.normal.apply(a, b, n, applied);
+            sum += applied;
+            turn_a += p.normal.ang_a * applied;
+            turn_b += p.normal.ang_b * applied;
         }
+        a.v -= n * (sum * a.inv_mass);
+        a.w -= turn_a;
+        b.v += n * (sum * b.inv_mass);
+        b.w += turn_b;
         true
     }
 
     /// Re-applies the accumulated impulses (warm start).
     pub(crate) fn warm_start(&self, a: &mut SolverBody, b: &mut SolverBody) {
         let n = self.normal;
+        let (mut sum, mut turn_a, mut turn_b) = (0.0, DVec3::ZERO, DVec3::ZERO);
         for p in self.points() {
-            p.normal.apply(a, b, n, p.normal.impulse);
+            let l = p.normal.impulse;
+            sum += l;
+            turn_a += p.normal.ang_a * l;
+            turn_b += p.normal.ang_b * l;
         }
-        for (row, t) in self.friction.iter().zip(self.tangents) {
-            row.apply(a, b, t, row.impulse);
-        }
-        a.w -= self.twist.ang_a * self.twist.impulse;
-        b.w += self.twist.ang_b * self.twist.impulse;
+        let [t1, t2] = self.tangents;
+        let [f1, f2] = &self.friction;
+        let linear = n * sum + t1 * f1.impulse + t2 * f2.impulse;
+        turn_a +=
+            f1.ang_a * f1.impulse + f2.ang_a * f2.impulse + self.twist.ang_a * self.twist.impulse;
+        turn_b +=
+            f1.ang_b * f1.impulse + f2.ang_b * f2.impulse + self.twist.ang_b * self.twist.impulse;
+        a.v -= linear * a.inv_mass;
+        a.w -= turn_a;
+        b.v += linear * b.inv_mass;
+        b.w += turn_b;
     }
 
     /// One pass: friction and twist at the centre (limited by the normal
@@ -664,7 +698,7 @@ impl ContactConstraint {
             } else {
                 (0.0, 1.0, 0.0)
             };
-            let vn = n.dot(relative_velocity(a, b, p.ra, p.rb));
+            let vn = n.dot(b.v - a.v) + p.cb.dot(b.w) - p.ca.dot(a.w);
             let row = &mut p.normal;
             let impulse = -row.mass * ms * (vn + bias) - is * row.impulse;
             let total = (row.impulse + impulse).max(0.0);
@@ -690,7 +724,7 @@ impl ContactConstraint {
             if p.relative_velocity > -threshold || p.max_normal_impulse == 0.0 {
                 continue;
             }
-            let vn = n.dot(relative_velocity(a, b, p.ra, p.rb));
+            let vn = n.dot(b.v - a.v) + p.cb.dot(b.w) - p.ca.dot(a.w);
             let row = &mut p.normal;
             let total = (row.impulse - row.mass * (vn + e * p.relative_velocity)).max(0.0);
             let applied = total - row.impulse;
@@ -814,9 +848,9 @@ mod tests {
             [0.5, 0.2, 2.0, 0.3],
             [0.0, 0.1, 0.3, 1.0],
         ];
-        let l = cholesky(&k, 4).unwrap();
+        let l = cholesky(&k).unwrap();
         let rhs = [1.0, -2.0, 0.5, 3.0];
-        let x = cholesky_solve(&l, 4, rhs);
+        let x = cholesky_solve(&l, rhs);
         for i in 0..4 {
             let row: f64 = (0..4).map(|j| k[i][j] * x[j]).sum();
             assert!((row - rhs[i]).abs() < 1e-12);
@@ -824,7 +858,7 @@ mod tests {
         // Not positive definite: refused.
         let mut bad = k;
         bad[3][3] = -1.0;
-        assert!(cholesky(&bad, 4).is_none());
+        assert!(cholesky(&bad).is_none());
     }
 
     #[test]
