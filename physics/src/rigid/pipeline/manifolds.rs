@@ -38,7 +38,8 @@ pub(crate) struct Narrow {
 /// ask for keys in increasing order): each lookup is a step or two instead
 /// of a search.
 struct CacheCursor<'a> {
-    entries: std::iter::Peekable<std::collections::btree_map::Range<'a, ContactKey, Vec<CachedPoint>>>,
+    entries:
+        std::iter::Peekable<std::collections::btree_map::Range<'a, ContactKey, Vec<CachedPoint>>>,
 }
 
 impl<'a> CacheCursor<'a> {
@@ -100,7 +101,16 @@ pub(crate) fn find(
         };
         let mut cursor = CacheCursor::new(cache, first_key(index, first));
         for pair in *run {
-            one_pair(bodies, index, links, pair, &mut cursor, touched, dt, &mut out);
+            one_pair(
+                bodies,
+                index,
+                links,
+                pair,
+                &mut cursor,
+                touched,
+                dt,
+                &mut out,
+            );
         }
         out
     });
@@ -158,8 +168,13 @@ fn one_pair(
     let (pose_a, pose_b) = (ba.pose(), bb.pose());
     let mut touching = false;
     let mut add = |ca: usize, pa: &Pose, shape_a, cb: usize, pb: &Pose, shape_b| {
-        let Ok(m) = collide(shape_a, &pose_a.mul(pa), shape_b, &pose_b.mul(pb), speculative)
-        else {
+        let Ok(m) = collide(
+            shape_a,
+            &pose_a.mul(pa),
+            shape_b,
+            &pose_b.mul(pb),
+            speculative,
+        ) else {
             return;
         };
         if m.is_empty() {
