@@ -15,6 +15,8 @@ use crate::rigid::solver::{ContactConstraint, ContactPass, SolverBody};
 
 /// Constraints per parallel work item when preparing them.
 const PREPARE_ITEM: usize = 256;
+/// Bodies per parallel work item when integrating them.
+const BODIES_PER_ITEM: usize = 512;
 
 /// The solver's state for one step.
 #[derive(Debug)]
@@ -121,24 +123,39 @@ impl Solve {
             ContactPass::new(cfg, h, false),
         );
         let mut quarantined = Vec::new();
+        // The bodies in slot order, so the integration can run over chunks
+        // of them in parallel (each body is its own work).
+        let mut refs: Vec<&mut RigidBody> = bodies.iter_mut().map(|(_, _, b)| b).collect();
+        let mut starts: Vec<DQuat> = self.start.iter().map(|s| s.1).collect();
+        let gravity = inputs.gravity;
         for _ in 0..n {
-            for (k, (_, _, b)) in bodies.iter_mut().enumerate() {
-                let sb = &mut self.bodies[k];
-                let (force, torque) = external[k];
-                if !integrate_velocity(b, sb, inputs.gravity, force, torque, h) {
-                    // Non-finite: freeze it now, before a contact can carry
-                    // the bad values to a neighbour.
-                    *sb = SolverBody {
-                        v: DVec3::ZERO,
-                        w: DVec3::ZERO,
-                        inv_mass: 0.0,
-                        inv_inertia: glam::DMat3::ZERO,
-                        ..*sb
-                    };
-                    b.quarantined = true;
-                    quarantined.push(index.handles[k]);
-                }
-            }
+            let frozen = crate::parallel::par_map_chunks3(
+                &mut refs,
+                &mut self.bodies,
+                &mut starts,
+                BODIES_PER_ITEM,
+                |base, bs, sbs, _| {
+                    let mut frozen = Vec::new();
+                    for (i, (b, sb)) in bs.iter_mut().zip(sbs.iter_mut()).enumerate() {
+                        let (force, torque) = external[base + i];
+                        if !integrate_velocity(b, sb, gravity, force, torque, h) {
+                            // Non-finite: freeze it now, before a contact can
+                            // carry the bad values to a neighbour.
+                            *sb = SolverBody {
+                                v: DVec3::ZERO,
+                                w: DVec3::ZERO,
+                                inv_mass: 0.0,
+                                inv_inertia: glam::DMat3::ZERO,
+                                ..*sb
+                            };
+                            b.quarantined = true;
+                            frozen.push(base + i);
+                        }
+                    }
+                    frozen
+                },
+            );
+            quarantined.extend(frozen.into_iter().flatten().map(|k| index.handles[k]));
             for (_, _, j) in &self.joint_rows {
                 j.warm_start(&mut self.bodies);
             }
@@ -147,12 +164,17 @@ impl Solve {
                 j.solve(&mut self.bodies, h, true);
             }
             self.contacts(|c, a, b| c.solve(a, b, &solve));
-            for ((_, _, b), (sb, s)) in bodies
-                .iter_mut()
-                .zip(self.bodies.iter_mut().zip(&self.start))
-            {
-                integrate_position(b, sb, s.1, h);
-            }
+            crate::parallel::par_map_chunks3(
+                &mut refs,
+                &mut self.bodies,
+                &mut starts,
+                BODIES_PER_ITEM,
+                |_, bs, sbs, q0s| {
+                    for ((b, sb), q0) in bs.iter_mut().zip(sbs.iter_mut()).zip(q0s.iter()) {
+                        integrate_position(b, sb, *q0, h);
+                    }
+                },
+            );
             for (_, _, j) in &mut self.joint_rows {
                 j.solve(&mut self.bodies, h, false);
             }
