@@ -143,20 +143,16 @@ impl Row {
     }
 }
 
-/// One contact point inside a [`ContactConstraint`].
+/// One contact point as the narrow phase hands it over: anchors, warm-start
+/// impulses and what the contact cache needs to match it next step. The
+/// solver keeps its working data by lanes (see [`NormalRows`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct PointConstraint {
     /// Anchors from each centre of mass at the start of the step, world, m.
     pub(crate) ra: DVec3,
     pub(crate) rb: DVec3,
-    /// The non-penetration row.
-    pub(crate) normal: Row,
-    /// `ra × n` and `rb × n`, m: the normal row's angular parts, so the
-    /// normal speed is `n · (v_b - v_a) + cb · ω_b - ca · ω_a`.
-    pub(crate) ca: DVec3,
-    pub(crate) cb: DVec3,
-    /// The normal row's inverse effective mass `K_ii`, 1/kg.
-    pub(crate) k: f64,
+    /// Warm-start normal impulse, N·s.
+    pub(crate) normal_impulse: f64,
     /// This point's share of the manifold's friction impulse when it was
     /// cached, along the two tangents, N·s (see
     /// [`ContactConstraint::point_tangent_impulses`]).
@@ -164,14 +160,6 @@ pub(crate) struct PointConstraint {
     /// `separation - n · (rb - ra)` at the start: adding `n · (current
     /// anchor offset)` gives the current separation.
     pub(crate) base_separation: f64,
-    /// Normal relative velocity before solving, m/s (for restitution).
-    pub(crate) relative_velocity: f64,
-    /// Largest normal impulse seen this step (a point that never pushed gets
-    /// no restitution).
-    pub(crate) max_normal_impulse: f64,
-    /// Normal impulse over the whole step (all substeps and restitution),
-    /// N·s: divided by the step, the average contact force.
-    pub(crate) total_normal_impulse: f64,
     /// Feature id from the narrow phase.
     pub(crate) id: u32,
     /// The point on A in A's body frame, m (for warm-start matching).
@@ -182,24 +170,82 @@ impl PointConstraint {
     /// A point with anchors `ra`, `rb` and warm-start impulses (normal,
     /// the two tangents), N·s.
     pub(crate) fn new(ra: DVec3, rb: DVec3, normal: f64, tangent: [f64; 2]) -> Self {
-        let mut p = Self {
+        Self {
             ra,
             rb,
+            normal_impulse: normal,
             cached_tangent: tangent,
             ..Default::default()
-        };
-        p.normal.impulse = normal;
-        p
-    }
-
-    /// Accumulated normal impulse, N·s.
-    pub(crate) fn normal_impulse(&self) -> f64 {
-        self.normal.impulse
+        }
     }
 }
 
 /// Most points one manifold's constraint holds.
 pub(crate) const MAX_POINTS: usize = crate::rigid::contact::MAX_POINTS;
+
+/// One number per point of a manifold (lanes past the point count are 0).
+pub(crate) type Lanes = [f64; MAX_POINTS];
+
+/// One vector per point of a manifold, stored by component, so the work of
+/// the four points is four-wide arithmetic (one AVX register of `f64`).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct LaneVec {
+    x: Lanes,
+    y: Lanes,
+    z: Lanes,
+}
+
+impl LaneVec {
+    #[inline]
+    fn set(&mut self, i: usize, v: DVec3) {
+        (self.x[i], self.y[i], self.z[i]) = (v.x, v.y, v.z);
+    }
+
+    #[inline]
+    fn get(&self, i: usize) -> DVec3 {
+        DVec3::new(self.x[i], self.y[i], self.z[i])
+    }
+
+    /// `v · self_i` in every lane.
+    #[inline]
+    fn dot(&self, v: DVec3) -> Lanes {
+        std::array::from_fn(|i| self.x[i] * v.x + self.y[i] * v.y + self.z[i] * v.z)
+    }
+
+    /// `Σ_i w_i self_i`.
+    #[inline]
+    fn weighted_sum(&self, w: &Lanes) -> DVec3 {
+        let dot = |c: &Lanes| c.iter().zip(w).map(|(c, w)| c * w).sum::<f64>();
+        DVec3::new(dot(&self.x), dot(&self.y), dot(&self.z))
+    }
+}
+
+/// The non-penetration rows of a manifold's points, by lanes.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct NormalRows {
+    /// Anchors from each centre of mass, m (for the separations).
+    pub(crate) ra: LaneVec,
+    pub(crate) rb: LaneVec,
+    /// `ra × n` and `rb × n`, m: the normal speed of point `i` is
+    /// `n · (v_b - v_a) + cb_i · ω_b - ca_i · ω_a`, and an impulse `λ_i`
+    /// turns A by `-I_a⁻¹ ca_i λ_i` and B by `I_b⁻¹ cb_i λ_i`.
+    pub(crate) ca: LaneVec,
+    pub(crate) cb: LaneVec,
+    /// Inverse effective mass `K_ii`, 1/kg (0 in unused lanes).
+    pub(crate) k: Lanes,
+    /// `separation - n · (rb - ra)` at the start of the step, m.
+    pub(crate) base: Lanes,
+    /// Accumulated impulse, N·s (kept across steps for warm starting).
+    pub(crate) impulse: Lanes,
+    /// Largest impulse seen this step (a point that never pushed gets no
+    /// restitution), N·s.
+    pub(crate) max_impulse: Lanes,
+    /// Impulse over the whole step (all substeps and restitution), N·s:
+    /// divided by the step, the average contact force.
+    pub(crate) total_impulse: Lanes,
+    /// Normal relative speed before solving, m/s (for restitution).
+    pub(crate) approach: Lanes,
+}
 
 /// The constraint of one manifold between bodies `a` and `b`.
 #[derive(Debug, Clone)]
@@ -212,9 +258,10 @@ pub(crate) struct ContactConstraint {
     pub(crate) friction_static: f64,
     pub(crate) friction_dynamic: f64,
     pub(crate) restitution: f64,
-    /// The points; only the first `len` are used.
-    pub(crate) points: [PointConstraint; MAX_POINTS],
+    /// How many points (lanes) are used.
     pub(crate) len: usize,
+    /// The points' non-penetration rows.
+    pub(crate) rows: NormalRows,
     /// Friction acts at the centre of the points (anchors from each centre
     /// of mass, world, m): two tangent rows and a twist row about the
     /// normal, limited by `μ` times the points' total normal impulse (and,
@@ -232,6 +279,9 @@ pub(crate) struct ContactConstraint {
     /// or `None` when the block is not used (one point, or not positive
     /// definite).
     pub(crate) block: Option<[Block; 2]>,
+    /// The points as the narrow phase gave them (ids and anchors for the
+    /// contact cache); not read while solving.
+    pub(crate) points: [PointConstraint; MAX_POINTS],
 }
 
 /// A lower-triangular Cholesky factor of a manifold's normal block, up to
@@ -378,6 +428,14 @@ impl ContactConstraint {
         points: [PointConstraint; MAX_POINTS],
         len: usize,
     ) -> Self {
+        let len = len.min(MAX_POINTS);
+        let mut rows = NormalRows::default();
+        for (i, p) in points[..len].iter().enumerate() {
+            rows.ra.set(i, p.ra);
+            rows.rb.set(i, p.rb);
+            rows.base[i] = p.base_separation;
+            rows.impulse[i] = p.normal_impulse;
+        }
         let mut c = Self {
             a,
             b,
@@ -386,8 +444,8 @@ impl ContactConstraint {
             friction_static,
             friction_dynamic,
             restitution,
-            points,
-            len: len.min(MAX_POINTS),
+            len,
+            rows,
             centre_a: DVec3::ZERO,
             centre_b: DVec3::ZERO,
             friction: [Row::default(); 2],
@@ -395,20 +453,39 @@ impl ContactConstraint {
             twist_radius: 0.0,
             sticking: false,
             block: None,
+            points,
         };
         c.gather_friction();
         c
     }
 
-    /// The used points.
+    /// The points as the narrow phase gave them.
     pub(crate) fn points(&self) -> &[PointConstraint] {
         &self.points[..self.len]
     }
 
+    /// Accumulated normal impulse of point `i`, N·s.
+    pub(crate) fn normal_impulse(&self, i: usize) -> f64 {
+        self.rows.impulse[i]
+    }
+
+    /// Normal impulse of all points over the whole step, N·s.
+    pub(crate) fn total_normal_impulse(&self) -> f64 {
+        self.rows.total_impulse.iter().sum()
+    }
+
+    /// The point's anchor on A, its offset from the centre in the contact
+    /// plane, m.
+    fn planar_offset(&self, i: usize) -> DVec3 {
+        let n = self.normal;
+        let d = self.rows.ra.get(i) - self.centre_a;
+        d - n * n.dot(d)
+    }
+
     /// The centre of the points and the manifold's friction and twist
     /// impulses rebuilt from the points' cached shares (the inverse of
-    /// [`Self::point_tangent_impulses`]). Call once the points are set.
-    pub(crate) fn gather_friction(&mut self) {
+    /// [`Self::point_tangent_impulses`]).
+    fn gather_friction(&mut self) {
         let len = self.len.max(1) as f64;
         let pts = &self.points[..self.len];
         self.centre_a = pts.iter().map(|p| p.ra).sum::<DVec3>() / len;
@@ -416,12 +493,11 @@ impl ContactConstraint {
         let n = self.normal;
         let [t1, t2] = self.tangents;
         let (mut f1, mut f2, mut twist, mut radius) = (0.0, 0.0, 0.0, 0.0);
-        for p in pts {
+        for (i, p) in pts.iter().enumerate() {
             let [s1, s2] = p.cached_tangent;
             f1 += s1;
             f2 += s2;
-            let d = p.ra - self.centre_a;
-            let d = d - n * n.dot(d);
+            let d = self.planar_offset(i);
             twist += d.cross(t1 * s1 + t2 * s2).dot(n);
             radius += d.length();
         }
@@ -441,18 +517,15 @@ impl ContactConstraint {
         let mut out = [[0.0; 2]; MAX_POINTS];
         let n = self.normal;
         let [t1, t2] = self.tangents;
-        let pts = &self.points[..self.len];
-        let planar = |p: &PointConstraint| {
-            let d = p.ra - self.centre_a;
-            d - n * n.dot(d)
-        };
-        let spread: f64 = pts.iter().map(|p| planar(p).length_squared()).sum();
+        let spread: f64 = (0..self.len)
+            .map(|i| self.planar_offset(i).length_squared())
+            .sum();
         let len = self.len.max(1) as f64;
-        for (o, p) in out.iter_mut().zip(pts) {
+        for (i, o) in out.iter_mut().enumerate().take(self.len) {
             let mut j =
                 t1 * (self.friction[0].impulse / len) + t2 * (self.friction[1].impulse / len);
             if spread > 0.0 {
-                j += n.cross(planar(p)) * (self.twist.impulse / spread);
+                j += n.cross(self.planar_offset(i)) * (self.twist.impulse / spread);
             }
             *o = [t1.dot(j), t2.dot(j)];
         }
@@ -470,16 +543,18 @@ impl ContactConstraint {
         solve: &ContactPass,
     ) {
         let n = self.normal;
-        for p in &mut self.points[..self.len] {
-            let (ra, rb) = (p.ra, p.rb);
-            p.normal.prepare(a, b, ra, rb, n);
-            p.ca = ra.cross(n);
-            p.cb = rb.cross(n);
-            p.k = a.inv_mass + b.inv_mass + p.ca.dot(p.normal.ang_a) + p.cb.dot(p.normal.ang_b);
-            p.relative_velocity = n.dot(relative_velocity(a, b, ra, rb));
-            p.max_normal_impulse = 0.0;
-            p.total_normal_impulse = 0.0;
+        let linear = n.dot(b.v - a.v);
+        let rows = &mut self.rows;
+        for i in 0..self.len {
+            let (ca, cb) = (rows.ra.get(i).cross(n), rows.rb.get(i).cross(n));
+            rows.ca.set(i, ca);
+            rows.cb.set(i, cb);
+            rows.k[i] =
+                a.inv_mass + b.inv_mass + ca.dot(a.inv_inertia * ca) + cb.dot(b.inv_inertia * cb);
+            rows.approach[i] = linear + cb.dot(b.w) - ca.dot(a.w);
         }
+        rows.max_impulse = [0.0; MAX_POINTS];
+        rows.total_impulse = [0.0; MAX_POINTS];
         let (ca, cb) = (self.centre_a, self.centre_b);
         let [t1, t2] = self.tangents;
         self.friction[0].prepare(a, b, ca, cb, t1);
@@ -495,6 +570,7 @@ impl ContactConstraint {
     /// the diagonal `Γ` that makes the solve pass soft (`γ_i = (is/ms)
     /// K_ii`, see [`Self::solve_normals_block`]) or the relax pass barely
     /// regularised; factored for both passes.
+    #[allow(clippy::needless_range_loop)] // i, j index a symmetric matrix
     fn factor_block(
         &self,
         a: &SolverBody,
@@ -505,17 +581,15 @@ impl ContactConstraint {
         if len < 2 {
             return None;
         }
-        let n = self.normal;
-        let pts = &self.points[..len];
+        let rows = &self.rows;
         let mut k = [[0.0; MAX_POINTS]; MAX_POINTS];
         for i in 0..len {
+            let (ia, ib) = (
+                a.inv_inertia * rows.ca.get(i),
+                b.inv_inertia * rows.cb.get(i),
+            );
             for j in 0..=i {
-                let (ci, cj) = (pts[i].ra.cross(n), pts[j].ra.cross(n));
-                let (di, dj) = (pts[i].rb.cross(n), pts[j].rb.cross(n));
-                let kij = a.inv_mass
-                    + b.inv_mass
-                    + ci.dot(a.inv_inertia * cj)
-                    + di.dot(b.inv_inertia * dj);
+                let kij = a.inv_mass + b.inv_mass + rows.ca.get(j).dot(ia) + rows.cb.get(j).dot(ib);
                 k[i][j] = kij;
                 k[j][i] = kij;
             }
@@ -534,6 +608,25 @@ impl ContactConstraint {
         Some([cholesky(&ks)?, cholesky(&kr)?])
     }
 
+    /// Normal speeds of the points, m/s (positive: separating).
+    #[inline]
+    fn normal_speeds(&self, a: &SolverBody, b: &SolverBody) -> Lanes {
+        let linear = self.normal.dot(b.v - a.v);
+        let (wb, wa) = (self.rows.cb.dot(b.w), self.rows.ca.dot(a.w));
+        std::array::from_fn(|i| linear + wb[i] - wa[i])
+    }
+
+    /// Applies normal impulses `x` (N·s, one per point): `+` on B, `-` on A.
+    #[inline]
+    fn push(&self, a: &mut SolverBody, b: &mut SolverBody, x: &Lanes) {
+        let sum: f64 = x.iter().sum();
+        let n = self.normal;
+        a.v -= n * (sum * a.inv_mass);
+        b.v += n * (sum * b.inv_mass);
+        a.w -= a.inv_inertia * self.rows.ca.weighted_sum(x);
+        b.w += b.inv_inertia * self.rows.cb.weighted_sum(x);
+    }
+
     /// Solves the normal rows of all points at once (a block solve): the
     /// impulses `x` with `(K + Γ) x = -(v + bias + Γ λ)`, which is where
     /// point-by-point iteration would converge. Solving the points one
@@ -541,12 +634,13 @@ impl ContactConstraint {
     /// passes, which rocks tall stacks. Used when every point is touching
     /// and no impulse comes out negative; returns false (changing nothing)
     /// otherwise, and the points are solved one by one.
+    #[allow(clippy::needless_range_loop)] // lanes of several arrays
     fn solve_normals_block(
         &mut self,
         a: &mut SolverBody,
         b: &mut SolverBody,
         pass: &ContactPass,
-        separations: &[f64; MAX_POINTS],
+        separations: &Lanes,
     ) -> bool {
         let Some(block) = &self.block else {
             return false;
@@ -555,76 +649,64 @@ impl ContactConstraint {
         if separations[..len].iter().any(|&s| s > 0.0) {
             return false;
         }
-        let n = self.normal;
         let (l, soft) = if pass.use_bias {
             (&block[0], pass.impulse_scale / pass.mass_scale)
         } else {
             (&block[1], 0.0)
         };
-        let mut rhs = [0.0; MAX_POINTS];
-        let linear = n.dot(b.v - a.v);
-        for (i, p) in self.points[..len].iter().enumerate() {
-            let vn = linear + p.cb.dot(b.w) - p.ca.dot(a.w);
+        let vn = self.normal_speeds(a, b);
+        let rows = &self.rows;
+        let rhs: Lanes = std::array::from_fn(|i| {
             let bias = if pass.use_bias {
                 (pass.bias_rate * separations[i]).max(-pass.push_out)
             } else {
                 0.0
             };
-            rhs[i] = -(vn + bias + soft * p.k * p.normal.impulse);
-        }
+            let r = -(vn[i] + bias + soft * rows.k[i] * rows.impulse[i]);
+            if i < len {
+                r
+            } else {
+                0.0
+            }
+        });
         let x = cholesky_solve(l, rhs);
-        let pts = &self.points[..len];
         let feasible = |i: usize| {
-            let total = pts[i].normal.impulse + x[i];
+            let total = rows.impulse[i] + x[i];
             total.is_finite() && total >= 0.0
         };
         if !(0..len).all(feasible) {
             return false;
         }
-        let (mut sum, mut turn_a, mut turn_b) = (0.0, DVec3::ZERO, DVec3::ZERO);
-        for (p, applied) in self.points[..len].iter_mut().zip(x) {
-            p.normal.impulse += applied;
-            p.max_normal_impulse = p.max_normal_impulse.max(applied);
+        let rows = &mut self.rows;
+        for i in 0..MAX_POINTS {
+            rows.impulse[i] += x[i];
+            rows.max_impulse[i] = rows.max_impulse[i].max(x[i]);
             if !pass.use_bias {
-                p.total_normal_impulse += p.normal.impulse;
+                rows.total_impulse[i] += rows.impulse[i];
             }
-            sum += applied;
-            turn_a += p.normal.ang_a * applied;
-            turn_b += p.normal.ang_b * applied;
         }
-        a.v -= n * (sum * a.inv_mass);
-        a.w -= turn_a;
-        b.v += n * (sum * b.inv_mass);
-        b.w += turn_b;
+        self.push(a, b, &x);
         true
     }
 
     /// Re-applies the accumulated impulses (warm start).
     pub(crate) fn warm_start(&self, a: &mut SolverBody, b: &mut SolverBody) {
-        let n = self.normal;
-        let (mut sum, mut turn_a, mut turn_b) = (0.0, DVec3::ZERO, DVec3::ZERO);
-        for p in self.points() {
-            let l = p.normal.impulse;
-            sum += l;
-            turn_a += p.normal.ang_a * l;
-            turn_b += p.normal.ang_b * l;
-        }
+        self.push(a, b, &self.rows.impulse);
         let [t1, t2] = self.tangents;
         let [f1, f2] = &self.friction;
-        let linear = n * sum + t1 * f1.impulse + t2 * f2.impulse;
-        turn_a +=
-            f1.ang_a * f1.impulse + f2.ang_a * f2.impulse + self.twist.ang_a * self.twist.impulse;
-        turn_b +=
-            f1.ang_b * f1.impulse + f2.ang_b * f2.impulse + self.twist.ang_b * self.twist.impulse;
+        let linear = t1 * f1.impulse + t2 * f2.impulse;
         a.v -= linear * a.inv_mass;
-        a.w -= turn_a;
         b.v += linear * b.inv_mass;
-        b.w += turn_b;
+        a.w -=
+            f1.ang_a * f1.impulse + f2.ang_a * f2.impulse + self.twist.ang_a * self.twist.impulse;
+        b.w +=
+            f1.ang_b * f1.impulse + f2.ang_b * f2.impulse + self.twist.ang_b * self.twist.impulse;
     }
 
     /// One pass: friction and twist at the centre (limited by the normal
-    /// impulses so far), then non-penetration point by point (soft when
-    /// `pass.use_bias`), so the constraint that matters most is solved last.
+    /// impulses so far), then non-penetration (soft when `pass.use_bias`):
+    /// all points at once where possible, else point by point; so the
+    /// constraint that matters most is solved last.
     pub(crate) fn solve(&mut self, a: &mut SolverBody, b: &mut SolverBody, pass: &ContactPass) {
         let n = self.normal;
         let mu = if self.sticking {
@@ -632,10 +714,7 @@ impl ContactConstraint {
         } else {
             self.friction_dynamic
         };
-        let pressed: f64 = self.points[..self.len]
-            .iter()
-            .map(|p| p.normal.impulse)
-            .sum();
+        let pressed: f64 = self.rows.impulse.iter().sum();
         let limit = mu * pressed;
         // Both tangent rows from the same relative velocity, then the pair
         // clamped to the friction circle (isotropic Coulomb).
@@ -664,7 +743,7 @@ impl ContactConstraint {
         tw.impulse = total;
         a.w -= tw.ang_a * applied;
         b.w += tw.ang_b * applied;
-        let (h, use_bias) = (pass.h, pass.use_bias);
+
         // Current separations from how far the anchors have moved:
         // `n · (dq r)` is `(dq⁻¹ n) · r`, so each body's rotation since the
         // start of the step turns the normal once instead of every anchor.
@@ -679,14 +758,13 @@ impl ContactConstraint {
             b.dq.inverse() * n
         };
         let moved = n.dot(b.dp - a.dp);
-        let mut separations = [0.0; MAX_POINTS];
-        for (s, p) in separations.iter_mut().zip(&self.points[..self.len]) {
-            *s = moved + nb.dot(p.rb) - na.dot(p.ra) + p.base_separation;
-        }
+        let (sb, sa) = (self.rows.rb.dot(nb), self.rows.ra.dot(na));
+        let separations: Lanes = std::array::from_fn(|i| moved + sb[i] - sa[i] + self.rows.base[i]);
         if self.solve_normals_block(a, b, pass, &separations) {
             return;
         }
-        for (p, &s) in self.points[..self.len].iter_mut().zip(&separations) {
+        let (h, use_bias) = (pass.h, pass.use_bias);
+        for (i, &s) in separations.iter().enumerate().take(self.len) {
             let (bias, ms, is) = if s > 0.0 {
                 (s / h, 1.0, 0.0) // speculative: just do not close the gap
             } else if use_bias {
@@ -698,18 +776,25 @@ impl ContactConstraint {
             } else {
                 (0.0, 1.0, 0.0)
             };
-            let vn = n.dot(b.v - a.v) + p.cb.dot(b.w) - p.ca.dot(a.w);
-            let row = &mut p.normal;
-            let impulse = -row.mass * ms * (vn + bias) - is * row.impulse;
-            let total = (row.impulse + impulse).max(0.0);
-            let applied = total - row.impulse;
-            row.impulse = total;
-            p.max_normal_impulse = p.max_normal_impulse.max(applied);
+            let vn = self.normal_speeds(a, b)[i];
+            let rows = &mut self.rows;
+            let mass = if rows.k[i] > 0.0 {
+                1.0 / rows.k[i]
+            } else {
+                0.0
+            };
+            let impulse = -mass * ms * (vn + bias) - is * rows.impulse[i];
+            let total = (rows.impulse[i] + impulse).max(0.0);
+            let applied = total - rows.impulse[i];
+            rows.impulse[i] = total;
+            rows.max_impulse[i] = rows.max_impulse[i].max(applied);
             if !use_bias {
                 // The relax ends the substep: this is its impulse.
-                p.total_normal_impulse += total;
+                rows.total_impulse[i] += total;
             }
-            row.apply(a, b, n, applied);
+            let mut x = [0.0; MAX_POINTS];
+            x[i] = applied;
+            self.push(a, b, &x);
         }
     }
 
@@ -719,18 +804,26 @@ impl ContactConstraint {
         if self.restitution == 0.0 {
             return;
         }
-        let (n, e) = (self.normal, self.restitution);
-        for p in &mut self.points[..self.len] {
-            if p.relative_velocity > -threshold || p.max_normal_impulse == 0.0 {
+        let e = self.restitution;
+        for i in 0..self.len {
+            let rows = &self.rows;
+            if rows.approach[i] > -threshold || rows.max_impulse[i] == 0.0 {
                 continue;
             }
-            let vn = n.dot(b.v - a.v) + p.cb.dot(b.w) - p.ca.dot(a.w);
-            let row = &mut p.normal;
-            let total = (row.impulse - row.mass * (vn + e * p.relative_velocity)).max(0.0);
-            let applied = total - row.impulse;
-            row.impulse = total;
-            p.total_normal_impulse += applied;
-            row.apply(a, b, n, applied);
+            let vn = self.normal_speeds(a, b)[i];
+            let mass = if rows.k[i] > 0.0 {
+                1.0 / rows.k[i]
+            } else {
+                0.0
+            };
+            let total = (rows.impulse[i] - mass * (vn + e * rows.approach[i])).max(0.0);
+            let applied = total - rows.impulse[i];
+            let rows = &mut self.rows;
+            rows.impulse[i] = total;
+            rows.total_impulse[i] += applied;
+            let mut x = [0.0; MAX_POINTS];
+            x[i] = applied;
+            self.push(a, b, &x);
         }
     }
 }
@@ -769,7 +862,7 @@ mod tests {
         let mut y = 0.0;
         for _ in 0..120 {
             c.prepare(&bodies[0], &bodies[1], cfg.stick_speed, &solve);
-            c.points[0].normal.impulse = c.points[0].normal.impulse.max(0.0);
+            c.rows.impulse[0] = c.rows.impulse[0].max(0.0);
             for _ in 0..cfg.substeps {
                 bodies[1].v.y -= 9.81 * h;
                 let (a, b) = pair(&mut bodies, 0, 1);
@@ -782,12 +875,12 @@ mod tests {
             }
             y += bodies[1].dp.y;
             // Start the next step from the moved body.
-            c.points[0].base_separation += bodies[1].dp.y;
+            c.rows.base[0] += bodies[1].dp.y;
             bodies[1].dp = DVec3::ZERO;
         }
         assert!(y.abs() < 1e-3, "sank {y}");
         assert!(bodies[1].v.length() < 1e-6);
-        let per_substep = c.points[0].normal.impulse;
+        let per_substep = c.rows.impulse[0];
         assert!((per_substep - 9.81 * h).abs() < 1e-9, "{per_substep}");
     }
 
@@ -827,7 +920,7 @@ mod tests {
             c.solve(a, b, &solve);
             c.solve(a, b, &relax);
         }
-        let impulses: Vec<f64> = c.points().iter().map(|p| p.normal.impulse).collect();
+        let impulses: Vec<f64> = c.rows.impulse.to_vec();
         let mean = impulses.iter().sum::<f64>() / 4.0;
         assert!(mean > 0.0);
         for i in &impulses {

@@ -72,12 +72,7 @@ pub(crate) fn finish(
     // merge in one walk.
     let mut pushed: Vec<((BodyHandle, BodyHandle), f64, DVec3, f64)> = Vec::new();
     for (key, c) in &constraints {
-        let total: f64 = c
-            .points()
-            .iter()
-            .map(|p| p.total_normal_impulse)
-            .sum::<f64>()
-            / inputs.dt;
+        let total = c.total_normal_impulse() / inputs.dt;
         if total <= 0.0 {
             continue;
         }
@@ -149,10 +144,11 @@ pub(crate) fn finish(
                 .points()
                 .iter()
                 .zip(shares)
-                .map(|(p, tangent)| CachedPoint {
+                .enumerate()
+                .map(|(i, (p, tangent))| CachedPoint {
                     id: p.id,
                     anchor_a: p.anchor_a,
-                    normal: p.normal_impulse(),
+                    normal: c.normal_impulse(i),
                     tangent,
                 })
                 .collect();
