@@ -1,5 +1,5 @@
 //! Times the rigid pipeline on a box pyramid with sleeping off:
-//! `cargo run --release -p inertia-physics --example pyramid_profile -- [rows] [steps] [threads]`.
+//! `cargo run --release -p inertia-physics --example pyramid_profile -- [rows] [steps] [threads] [sleep: 0|1]`.
 
 use std::time::Instant;
 
@@ -14,13 +14,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let rows = args.next().transpose()?.unwrap_or(100);
     let steps = args.next().transpose()?.unwrap_or(60);
     let threads = args.next().transpose()?.unwrap_or(1);
+    let sleep = args.next().transpose()?.unwrap_or(0) != 0;
     let mut w = World::new(WorldConfig {
         threads,
         ..WorldConfig::default()
     })?;
     w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0))?;
     let mut cfg = *w.solver_config();
-    cfg.sleep.enabled = false;
+    cfg.sleep.enabled = sleep;
     w.set_solver_config(cfg)?;
     w.add_body(&RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(200.0, 0.5, 200.0))?,
@@ -35,6 +36,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 300.0,
                 p,
             )?)?;
+        }
+    }
+    if sleep {
+        // Let it settle and fall asleep first.
+        for _ in 0..200 {
+            w.step(1.0 / 60.0)?;
         }
     }
     let mut times = Vec::with_capacity(steps);
@@ -52,6 +59,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         times[times.len() - 1]
     );
     let p = w.profile();
-    println!("{p:?}");
+    eprintln!("{p:?}");
     Ok(())
 }

@@ -105,6 +105,12 @@ pub(crate) fn update(
     if !cfg.enabled {
         return;
     }
+    // Nothing awake: nothing to time or put to sleep (a settled world costs
+    // nothing here).
+    let awake = |b: &RigidBody| b.kind == BodyKind::Dynamic && !b.sleeping && !b.quarantined;
+    if !bodies.iter().any(|(_, _, b)| awake(b)) {
+        return;
+    }
     let slots: Vec<(u32, u32)> = bodies.iter().map(|(i, g, _)| (i, g)).collect();
     let index_of = |h: BodyHandle| slots.binary_search(&(h.index, h.generation)).ok();
     let mut parent: Vec<usize> = (0..slots.len()).collect();

@@ -78,6 +78,10 @@ impl World {
         b.rotation = rotation;
         b.com = pose.translation + rotation * b.local_com;
         b.wake();
+        if b.kind == crate::rigid::body::BodyKind::Static {
+            // The broad phase never updates a static body's box on its own.
+            self.contacts.reset_broad_phase();
+        }
         Ok(())
     }
 

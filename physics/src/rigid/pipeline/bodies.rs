@@ -8,7 +8,7 @@ use glam::DVec3;
 use super::StepInputs;
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
-use crate::rigid::body::RigidBody;
+use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::joint::Joint;
 
 /// The bodies of this step numbered `0..n` in handle order (their *slots*,
@@ -109,7 +109,16 @@ impl<'a> Links<'a> {
     /// Sleeping bodies linked to awake ones wake up (through whole stacks
     /// and along joints). Nothing to do when nothing sleeps.
     pub(crate) fn wake(&self, bodies: &mut Arena<RigidBody>) {
-        if bodies.iter().any(|(_, _, b)| b.sleeping) {
+        // Only an awake dynamic body can wake a sleeping one.
+        let (mut sleeping, mut awake) = (false, false);
+        for (_, _, b) in bodies.iter() {
+            sleeping |= b.sleeping;
+            awake |= b.kind == BodyKind::Dynamic && !b.sleeping && !b.quarantined;
+            if sleeping && awake {
+                break;
+            }
+        }
+        if sleeping && awake {
             crate::rigid::island::wake_touched(bodies, &self.all());
         }
     }

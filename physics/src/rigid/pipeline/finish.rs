@@ -7,8 +7,8 @@ use glam::DVec3;
 use super::bodies::BodyIndex;
 use super::substeps::Solve;
 use super::{
-    CachedPoint, ContactEvent, ContactEventKind, ContactForceEvent, ContactKey, Contacts,
-    RigidStepOut, StepInputs,
+    CachedPoint, ContactEvent, ContactEventKind, ContactForceEvent, Contacts, RigidStepOut,
+    StepInputs,
 };
 use crate::arena::Arena;
 use crate::handle::{BodyHandle, JointHandle};
@@ -20,8 +20,8 @@ use crate::rigid::joint::Joint;
 pub(crate) struct Found {
     /// Overlapping pairs from the narrow phase, with whether a sensor is involved.
     pub(crate) touching: Vec<((BodyHandle, BodyHandle), bool)>,
-    /// Cache entries carried over unchanged.
-    pub(crate) carried: Vec<(ContactKey, Vec<CachedPoint>)>,
+    /// Body pairs (keys, sorted) whose cache entries carry over unchanged.
+    pub(crate) carried: Vec<((u32, u32), (u32, u32))>,
     /// Deepest overlap, m.
     pub(crate) deepest: f64,
     /// Bodies quarantined during the substeps.
@@ -135,27 +135,35 @@ pub(crate) fn finish(
     contacts.touching = touching.into_iter().map(|t| t.0).collect();
     contacts.deepest_penetration = found.deepest;
 
-    // The impulses, for the next step's warm start.
-    contacts.cache = constraints
-        .iter()
-        .map(|(key, c)| {
-            let shares = c.point_tangent_impulses();
-            let pts = c
-                .points()
-                .iter()
-                .zip(shares)
-                .enumerate()
-                .map(|(i, (p, tangent))| CachedPoint {
-                    id: p.id,
-                    anchor_a: p.anchor_a,
-                    normal: c.normal_impulse(i),
-                    tangent,
-                })
-                .collect();
-            (*key, pts)
-        })
-        .chain(found.carried)
-        .collect();
+    // The impulses, for the next step's warm start. Pairs that stayed put
+    // keep their entries; every other entry is replaced by this step's.
+    let fresh = constraints.iter().map(|(key, c)| {
+        let shares = c.point_tangent_impulses();
+        let pts = c
+            .points()
+            .iter()
+            .zip(shares)
+            .enumerate()
+            .map(|(i, (p, tangent))| CachedPoint {
+                id: p.id,
+                anchor_a: p.anchor_a,
+                normal: c.normal_impulse(i),
+                tangent,
+            })
+            .collect();
+        (*key, pts)
+    });
+    if found.carried.is_empty() {
+        contacts.cache = fresh.collect();
+    } else {
+        // Both in key order: one walk.
+        let mut kept = found.carried.iter().peekable();
+        contacts.cache.retain(|k, _| {
+            while kept.next_if(|&&p| p < (k.a, k.b)).is_some() {}
+            kept.peek().is_some_and(|&&p| p == (k.a, k.b))
+        });
+        contacts.cache.extend(fresh);
+    }
 
     // New velocities, or quarantine where the state is not finite.
     let mut quarantined = found.quarantined;

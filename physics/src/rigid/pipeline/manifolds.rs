@@ -28,8 +28,9 @@ pub(crate) struct Narrow {
     /// Pairs that overlap (or touched and stayed put), with whether either
     /// body is a sensor.
     pub(crate) touching: Vec<((BodyHandle, BodyHandle), bool)>,
-    /// Cache entries of pairs that stay put this step, carried over as they are.
-    pub(crate) carried: Vec<(ContactKey, Vec<CachedPoint>)>,
+    /// Body pairs (keys) that stay put this step: their cache entries carry
+    /// over as they are.
+    pub(crate) carried: Vec<((u32, u32), (u32, u32))>,
     /// Deepest overlap, m.
     pub(crate) deepest: f64,
 }
@@ -53,17 +54,6 @@ impl<'a> CacheCursor<'a> {
     fn get(&mut self, key: &ContactKey) -> Option<&'a Vec<CachedPoint>> {
         while self.entries.next_if(|(k, _)| *k < key).is_some() {}
         self.entries.next_if(|(k, _)| *k == key).map(|(_, v)| v)
-    }
-
-    /// Every entry of the body pair `(a, b)`, in key order.
-    fn pair(&mut self, a: (u32, u32), b: (u32, u32)) -> Vec<(ContactKey, Vec<CachedPoint>)> {
-        let before = |k: &ContactKey| (k.a, k.b) < (a, b);
-        while self.entries.next_if(|(k, _)| before(k)).is_some() {}
-        let mut out = Vec::new();
-        while let Some((k, v)) = self.entries.next_if(|(k, _)| (k.a, k.b) == (a, b)) {
-            out.push((*k, v.clone()));
-        }
-        out
     }
 }
 
@@ -155,7 +145,7 @@ fn one_pair(
     // Contacts between bodies that all stay put this step (asleep, static)
     // are not recomputed: their cache and touching state carry over.
     if ba.is_fixed_now() && bb.is_fixed_now() && !sensor {
-        out.carried.extend(cache.pair(ka, kb));
+        out.carried.push((ka, kb));
         if touched.contains(&(ha, hb)) {
             out.touching.push(((ha, hb), false));
         }

@@ -19,23 +19,31 @@ pub(crate) fn update<'a>(
     dt: f64,
 ) -> &'a BroadPhase {
     let broad = broad.get_or_insert_with(|| BroadPhase::new(AABB_MARGIN).expect("valid margin"));
-    // Proxies of bodies that are gone or have no shape.
+    // Proxies of bodies that are gone or have no shape. (Removing a body
+    // drops the whole broad phase, so this only finds anything when the
+    // counts disagree.)
     let present: Vec<bool> = bodies.iter().map(|(_, _, b)| b.shape.is_some()).collect();
-    let stale: Vec<u32> = broad
-        .proxies()
-        .into_iter()
-        .map(|(key, _, _)| key)
-        .filter(|&key| index.slot_of_index(key).is_none_or(|k| !present[k]))
-        .collect();
-    for key in stale {
-        let _ = broad.remove(key);
+    if broad.len() != present.iter().filter(|&&p| p).count() {
+        let stale: Vec<u32> = broad
+            .proxies()
+            .into_iter()
+            .map(|(key, _, _)| key)
+            .filter(|&key| index.slot_of_index(key).is_none_or(|k| !present[k]))
+            .collect();
+        for key in stale {
+            let _ = broad.remove(key);
+        }
     }
     for (k, (_, _, b)) in bodies.iter().enumerate() {
         let Some(shape) = &b.shape else { continue };
+        let key = index.handles[k].index;
+        // Sleeping and static bodies do not move: their boxes stand.
+        if (b.sleeping || b.kind == BodyKind::Static) && broad.contains(key) {
+            continue;
+        }
         let reach =
             (b.linvel.length() + b.angvel.length() * b.shape_radius()) * dt + SPECULATIVE_DISTANCE;
         let aabb = shape.aabb(&b.pose()).expanded(reach);
-        let key = index.handles[k].index;
         let ok = if broad.contains(key) {
             broad.update(key, aabb, b.linvel * dt).is_ok()
         } else {
