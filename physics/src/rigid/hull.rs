@@ -113,7 +113,36 @@ pub struct ConvexHull {
     vertices: Vec<DVec3>,
     faces: Vec<Face>,
     edges: Vec<[u32; 2]>,
+    /// Each edge `(u, v)` (`u < v`) with its two faces, sorted: what the
+    /// separating-axis test walks on the Gauss map (derived from `faces`).
+    edge_faces: Vec<(u32, u32, usize, usize)>,
     tolerance: f64,
+}
+
+/// Each edge of closed polygon `faces` with the two faces that share it,
+/// as `(u, v, face, face)` with `u < v`, sorted; empty if an edge does not
+/// have exactly two faces (not a closed surface).
+pub(crate) fn edge_faces(faces: &[Face]) -> Vec<(u32, u32, usize, usize)> {
+    let mut half: Vec<(u32, u32, usize)> = Vec::new();
+    for (fi, f) in faces.iter().enumerate() {
+        let k = f.vertices.len();
+        for i in 0..k {
+            let (u, v) = (f.vertices[i], f.vertices[(i + 1) % k]);
+            half.push((u.min(v), u.max(v), fi));
+        }
+    }
+    half.sort_unstable();
+    if half.len() % 2 != 0 {
+        return Vec::new();
+    }
+    let mut out = Vec::with_capacity(half.len() / 2);
+    for pair in half.chunks(2) {
+        if pair[0].0 != pair[1].0 || pair[0].1 != pair[1].1 || pair[0].2 == pair[1].2 {
+            return Vec::new();
+        }
+        out.push((pair[0].0, pair[0].1, pair[0].2, pair[1].2));
+    }
+    out
 }
 
 impl ConvexHull {
@@ -214,6 +243,12 @@ impl ConvexHull {
     #[inline]
     pub fn face(&self, i: usize) -> Option<&Face> {
         self.faces.get(i)
+    }
+
+    /// Each edge with its two faces (see [`edge_faces`]).
+    #[inline]
+    pub(crate) fn edge_faces(&self) -> &[(u32, u32, usize, usize)] {
+        &self.edge_faces
     }
 
     /// The unique edges as vertex index pairs `[a, b]` with `a < b`, sorted.

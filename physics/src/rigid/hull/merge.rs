@@ -79,7 +79,7 @@ impl Mesh {
         let remap = |i: u32| used.binary_search(&i).map(|k| k as u32).unwrap_or(0);
         let vertices: Vec<DVec3> = used.iter().map(|&i| points[i as usize]).collect();
         let mut edges = Vec::new();
-        let faces = self
+        let faces: Vec<Face> = self
             .faces
             .iter()
             .zip(self.normals)
@@ -105,10 +105,12 @@ impl Mesh {
             })
             .collect();
         edges.sort_unstable();
+        let edge_faces = super::edge_faces(&faces);
         ConvexHull {
             vertices,
             faces,
             edges,
+            edge_faces,
             tolerance,
         }
     }

@@ -131,10 +131,15 @@ impl Convex<'_> {
             }
             _ => return None,
         };
+        let edge_faces = match self.core {
+            Core::Hull(h) => Some(h.edge_faces()),
+            _ => None,
+        };
         Some(Polytope {
             verts,
             faces,
             edges,
+            edge_faces,
             pose: self.pose,
         })
     }
@@ -293,6 +298,8 @@ pub(crate) struct Polytope<'a> {
     pub verts: Cow<'a, [DVec3]>,
     pub faces: Cow<'a, [Face]>,
     pub edges: Cow<'a, [[u32; 2]]>,
+    /// Each edge with its two faces, when the shape keeps them (hulls).
+    pub edge_faces: Option<&'a [(u32, u32, usize, usize)]>,
     pub pose: Pose,
 }
 

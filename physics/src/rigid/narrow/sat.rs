@@ -42,11 +42,26 @@ enum Axis {
 /// Contact between two polytope shapes (`a`, `b` with radius 0) in the
 /// common frame; `None` when farther apart than `spec`.
 pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Option<Contact> {
+    let scale = a.size().max(b.size()).max(1e-12);
+    // Most pairs the broad phase hands over are apart: for hulls, GJK (a
+    // few support queries) settles that before the separating-axis test
+    // (every face against every vertex). Its answer is reused below.
+    let sa = |d: DVec3| a.core_support(d);
+    let sb = |d: DVec3| b.core_support(d);
+    let early = if matches!(a.core, super::convex::Core::Hull(_))
+        || matches!(b.core, super::convex::Core::Hull(_))
+    {
+        match gjk(&sa, &sb, ca_cb(a, b), scale) {
+            GjkResult::Separated { distance, .. } if distance > spec => return None,
+            r => Some(r),
+        }
+    } else {
+        None
+    };
     let pa = a.polytope()?;
     let pb = b.polytope()?;
     let va = world_verts(&pa);
     let vb = world_verts(&pb);
-    let scale = a.size().max(b.size()).max(1e-12);
 
     let mut best_face = (f64::NEG_INFINITY, Axis::FaceA(0));
     for (i, f) in pa.faces.iter().enumerate() {
@@ -82,13 +97,12 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
     if sat_sep > 0.0 {
         // Separated: GJK gives the exact distance and direction. If it
         // agrees with a face axis, clip that face; otherwise one point.
-        let sa = |d: DVec3| a.core_support(d);
-        let sb = |d: DVec3| b.core_support(d);
+        let result = early.unwrap_or_else(|| gjk(&sa, &sb, ca_cb(a, b), scale));
         if let GjkResult::Separated {
             distance,
             point_a,
             point_b,
-        } = gjk(&sa, &sb, ca_cb(a, b), scale)
+        } = result
         {
             if distance > spec {
                 return None;
@@ -147,7 +161,15 @@ type AdjacentEdge = (u32, u32, usize, usize);
 
 /// Each edge of a closed polytope with its two faces, from the face loops;
 /// `None` when the faces do not pair up (a triangle's two sides).
-fn edge_adjacency(p: &Polytope<'_>) -> Option<Vec<AdjacentEdge>> {
+fn edge_adjacency<'p>(p: &'p Polytope<'_>) -> Option<std::borrow::Cow<'p, [AdjacentEdge]>> {
+    if let Some(cached) = p.edge_faces {
+        return (!cached.is_empty()).then_some(std::borrow::Cow::Borrowed(cached));
+    }
+    edge_adjacency_of(p).map(std::borrow::Cow::Owned)
+}
+
+/// [`edge_adjacency`] computed from the faces.
+fn edge_adjacency_of(p: &Polytope<'_>) -> Option<Vec<AdjacentEdge>> {
     let mut half: Vec<(u32, u32, usize)> = Vec::with_capacity(p.edges.len() * 2);
     for (fi, f) in p.faces.iter().enumerate() {
         let k = f.vertices.len();
