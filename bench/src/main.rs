@@ -3,6 +3,12 @@
 
 use std::process::ExitCode;
 
+/// Both engines allocate in their worker threads; glibc's allocator then
+/// serialises the threads on its arena locks. mimalloc keeps per-thread
+/// heaps, so neither engine's thread scaling measures the allocator.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use clap::{Parser, ValueEnum};
 use inertia_bench::report::{Machine, Reporter};
 use inertia_bench::suites::Suite;

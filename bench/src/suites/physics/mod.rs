@@ -23,6 +23,7 @@ pub mod scene;
 use std::time::Instant;
 
 use inertia_physics::glam::DVec3;
+use inertia_physics::ProfileTotals;
 use serde_json::Value;
 
 use crate::report::{median, note, progress, Record, Sink, Suspended};
@@ -120,6 +121,26 @@ fn fell_through(end: &[DVec3], floor_y: f64) -> usize {
         .count()
 }
 
+/// Mean wall time per timed step of each stage of our rigid step, ms:
+/// where our time goes (see `inertia_physics::RigidProfile`).
+fn stage_means(before: &ProfileTotals, after: &ProfileTotals) -> Value {
+    let steps = (after.steps - before.steps).max(1) as f64;
+    let ms = |a: std::time::Duration, b: std::time::Duration| {
+        Value::from((a.saturating_sub(b)).as_secs_f64() * 1e3 / steps)
+    };
+    let (a, b) = (&after.sum.rigid, &before.sum.rigid);
+    serde_json::json!({
+        "forces": ms(a.forces, b.forces),
+        "broad_phase": ms(a.broad_phase, b.broad_phase),
+        "narrow_phase": ms(a.narrow_phase, b.narrow_phase),
+        "colouring": ms(a.colouring, b.colouring),
+        "solve": ms(a.solve, b.solve),
+        "finish": ms(a.finish, b.finish),
+        "islands": ms(a.islands, b.islands),
+        "total": ms(after.sum.total, before.sum.total),
+    })
+}
+
 /// Runs one case: builds both worlds, warms up, then times `scene.steps`
 /// interleaved steps of each.
 pub fn measure(
@@ -134,9 +155,13 @@ pub fn measure(
     let mut ours = ours::Ours::build(scene, threads, sleeping, DT)?;
     let mut rapier = rapier::Rapier::build(scene, sleeping, DT)?;
     let steps = scene.steps;
+    let mut after_warmup = ours.profile_totals();
     let (o, r) = pool.install(|| -> Result<(Run, Run), BenchError> {
         let (mut o, mut r) = (Run::new(steps), Run::new(steps));
         for k in 0..warmup + steps {
+            if k == warmup {
+                after_warmup = ours.profile_totals();
+            }
             let (to, tr) = if k % 2 == 0 {
                 let to = timed(&mut ours)?;
                 (to, timed(&mut rapier)?)
@@ -172,6 +197,7 @@ pub fn measure(
         }
     };
     let (om, rm) = (median(&o.times_ms), median(&r.times_ms));
+    let stages = stage_means(&after_warmup, &ours.profile_totals());
     Ok(Record::new()
         .field("scene", scene.name.clone())
         .field("bodies", scene.dynamic_count())
@@ -196,6 +222,7 @@ pub fn measure(
         )
         .field("ours_drift_mm", drift_mm(&end_o))
         .field("rapier_drift_mm", drift_mm(&end_r))
+        .field("ours_stage_ms", stages)
         .field("ours_awake_at_end", ours.awake())
         .field("rapier_awake_at_end", rapier.awake())
         .field("ours_fell_through", fell_through(&end_o, scene.floor_y))

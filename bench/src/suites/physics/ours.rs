@@ -51,6 +51,11 @@ fn shape(s: &ShapeDesc) -> Result<Shape, BenchError> {
 }
 
 impl Ours {
+    /// The world's per-stage timings summed since it was built.
+    pub fn profile_totals(&self) -> inertia_physics::ProfileTotals {
+        *self.world.profile_totals()
+    }
+
     /// Builds `scene` in a new world. `threads == 1` runs the step inline on
     /// the caller (the engine's own single-thread mode); more threads use
     /// the rayon pool the step is called from (`WorldConfig::threads = 0`).

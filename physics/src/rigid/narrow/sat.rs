@@ -32,6 +32,11 @@ fn min_dot(v: &[DVec3], d: DVec3) -> f64 {
     v.iter().map(|p| p.dot(d)).fold(f64::INFINITY, f64::min)
 }
 
+/// Edge pairs above which two polytopes go to GJK/EPA instead of the
+/// separating-axis test (boxes have 12 edges: 144 pairs; a 32-point hull
+/// about 90: 8100).
+const MAX_EDGE_PAIRS: usize = 1024;
+
 #[derive(Debug, Clone, Copy)]
 enum Axis {
     FaceA(usize),
@@ -60,6 +65,12 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
     };
     let pa = a.polytope()?;
     let pb = b.polytope()?;
+    if pa.edges.len() * pb.edges.len() > MAX_EDGE_PAIRS {
+        // Many-sided hulls: the edge-pair test would dominate; GJK/EPA and
+        // the features along its normal give the manifold instead (as
+        // Rapier does for every convex pair).
+        return super::convex::convex_convex(a, b, spec);
+    }
     let va = world_verts(&pa);
     let vb = world_verts(&pb);
 
