@@ -278,10 +278,11 @@ pub(crate) struct ContactConstraint {
     /// and the relax passes (see [`ContactConstraint::solve_normals_block`]),
     /// or `None` when the block is not used (one point, or not positive
     /// definite).
-    pub(crate) block: Option<[Block; 2]>,
-    /// The points as the narrow phase gave them (ids and anchors for the
-    /// contact cache); not read while solving.
-    pub(crate) points: [PointConstraint; MAX_POINTS],
+    pub(crate) block: Option<Box<[Block; 2]>>,
+    /// Each point's feature id and anchor on A (A's body frame, m), for the
+    /// contact cache; not read while solving.
+    pub(crate) ids: [u32; MAX_POINTS],
+    pub(crate) anchors: LaneVec,
 }
 
 /// A lower-triangular Cholesky factor of a manifold's normal block, up to
@@ -430,11 +431,14 @@ impl ContactConstraint {
     ) -> Self {
         let len = len.min(MAX_POINTS);
         let mut rows = NormalRows::default();
+        let (mut ids, mut anchors) = ([0; MAX_POINTS], LaneVec::default());
         for (i, p) in points[..len].iter().enumerate() {
             rows.ra.set(i, p.ra);
             rows.rb.set(i, p.rb);
             rows.base[i] = p.base_separation;
             rows.impulse[i] = p.normal_impulse;
+            ids[i] = p.id;
+            anchors.set(i, p.anchor_a);
         }
         let mut c = Self {
             a,
@@ -453,15 +457,16 @@ impl ContactConstraint {
             twist_radius: 0.0,
             sticking: false,
             block: None,
-            points,
+            ids,
+            anchors,
         };
-        c.gather_friction();
+        c.gather_friction(&points[..len]);
         c
     }
 
-    /// The points as the narrow phase gave them.
-    pub(crate) fn points(&self) -> &[PointConstraint] {
-        &self.points[..self.len]
+    /// Feature id and anchor on A (A's body frame, m) of point `i`.
+    pub(crate) fn point_id(&self, i: usize) -> (u32, DVec3) {
+        (self.ids[i], self.anchors.get(i))
     }
 
     /// Accumulated normal impulse of point `i`, N·s.
@@ -485,9 +490,8 @@ impl ContactConstraint {
     /// The centre of the points and the manifold's friction and twist
     /// impulses rebuilt from the points' cached shares (the inverse of
     /// [`Self::point_tangent_impulses`]).
-    fn gather_friction(&mut self) {
+    fn gather_friction(&mut self, pts: &[PointConstraint]) {
         let len = self.len.max(1) as f64;
-        let pts = &self.points[..self.len];
         self.centre_a = pts.iter().map(|p| p.ra).sum::<DVec3>() / len;
         self.centre_b = pts.iter().map(|p| p.rb).sum::<DVec3>() / len;
         let n = self.normal;
@@ -562,7 +566,7 @@ impl ContactConstraint {
         self.twist.prepare_angular(a, b, n);
         let dv = relative_velocity(a, b, ca, cb);
         self.sticking = (dv - n * n.dot(dv)).length() < stick_speed;
-        self.block = self.factor_block(a, b, solve);
+        self.block = self.factor_block(a, b, solve).map(Box::new);
     }
 
     /// The normal block `K_ij = J_i M⁻¹ J_jᵀ` of the points (how a unit

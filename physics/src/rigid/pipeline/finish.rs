@@ -139,16 +139,15 @@ pub(crate) fn finish(
     // keep their entries; every other entry is replaced by this step's.
     let fresh = constraints.iter().map(|(key, c)| {
         let shares = c.point_tangent_impulses();
-        let pts = c
-            .points()
-            .iter()
-            .zip(shares)
-            .enumerate()
-            .map(|(i, (p, tangent))| CachedPoint {
-                id: p.id,
-                anchor_a: p.anchor_a,
-                normal: c.normal_impulse(i),
-                tangent,
+        let pts = (0..c.len)
+            .map(|i| {
+                let (id, anchor_a) = c.point_id(i);
+                CachedPoint {
+                    id,
+                    anchor_a,
+                    normal: c.normal_impulse(i),
+                    tangent: shares[i],
+                }
             })
             .collect();
         (*key, pts)
