@@ -971,14 +971,15 @@ mod tests {
         }
     }
 
-    /// Narrow-phase cost over 10 000 resting box pairs (as in a stack or a
-    /// pyramid), generic path against `box_box`:
-    /// `cargo test --release -p inertia-physics --lib box_box_timing -- --ignored --nocapture`.
+    /// Resting box pairs (as in a stack or a pyramid): the fast path and
+    /// the generic one find the same number of points, and so does the
+    /// public `collide` call. (Their cost is measured by the bench, not
+    /// here: about 3.5 µs per pair for the generic path, 0.35 µs for this
+    /// one on the 2-core dev machine.)
     #[test]
-    #[ignore]
-    fn box_box_timing() {
+    fn resting_pairs_agree_with_the_generic_path() {
         let mut rng = Rng(3);
-        let pairs: Vec<(Convex<'static>, Convex<'static>)> = (0..10_000)
+        let pairs: Vec<(Convex<'static>, Convex<'static>)> = (0..1000)
             .map(|_| {
                 let h = DVec3::splat(0.5);
                 let lower = Pose::new(
@@ -1002,56 +1003,34 @@ mod tests {
                 )
             })
             .collect();
-        let time = |f: &dyn Fn(&Convex<'_>, &Convex<'_>) -> usize| {
-            let mut best = f64::INFINITY;
-            let mut points = 0;
-            for _ in 0..5 {
-                let start = std::time::Instant::now();
-                points = pairs.iter().map(|(a, b)| f(a, b)).sum::<usize>();
-                best = best.min(start.elapsed().as_secs_f64());
-            }
-            (best * 1e9 / pairs.len() as f64, points)
-        };
         let spec = 0.01;
-        let (generic, pg) =
-            time(&|a, b| polytope_polytope(a, b, spec).map_or(0, |c| c.points.len()));
-        let (fast, pf) = time(&|a, b| box_box(a, b, spec).map_or(0, |c| c.points.len()));
-        // The whole public call, for the same pairs.
-        let shapes: Vec<(Shape, Shape)> = pairs
+        let generic: usize = pairs
+            .iter()
+            .map(|(a, b)| polytope_polytope(a, b, spec).map_or(0, |c| c.points.len()))
+            .sum();
+        let fast: usize = pairs
+            .iter()
+            .map(|(a, b)| box_box(a, b, spec).map_or(0, |c| c.points.len()))
+            .sum();
+        let whole: usize = pairs
             .iter()
             .map(|(a, b)| {
                 let (Core::Cuboid(ha), Core::Cuboid(hb)) = (a.core, b.core) else {
                     unreachable!()
                 };
-                (
+                let (sa, sb) = (
                     Shape::Cuboid { half_extents: ha },
                     Shape::Cuboid { half_extents: hb },
-                )
+                );
+                collide(&sa, &a.pose, &sb, &b.pose, spec).map_or(0, |m| m.points.len())
             })
-            .collect();
-        let mut whole = f64::INFINITY;
-        for _ in 0..5 {
-            let start = std::time::Instant::now();
-            let n: usize = pairs
-                .iter()
-                .zip(&shapes)
-                .map(|((a, b), (sa, sb))| {
-                    collide(sa, &a.pose, sb, &b.pose, spec).map_or(0, |m| m.points.len())
-                })
-                .sum();
-            assert_eq!(n, pf);
-            whole = whole.min(start.elapsed().as_secs_f64());
-        }
-        let whole = whole * 1e9 / pairs.len() as f64;
-        let mut routes = std::collections::BTreeMap::<String, usize>::new();
-        for (a, b) in &pairs {
-            *routes
-                .entry(format!("{:?}", routed(a, b, spec).1))
-                .or_default() += 1;
-        }
-        println!("generic path: {generic:.0} ns per pair ({pg} points)");
-        println!("box_box:      {fast:.0} ns per pair ({pf} points)");
-        println!("collide:      {whole:.0} ns per pair (box_box and the manifold)");
-        println!("routes: {routes:?}");
+            .sum();
+        assert!(
+            fast > 3 * pairs.len(),
+            "{fast} points for {} pairs",
+            pairs.len()
+        );
+        assert_eq!(generic, fast);
+        assert_eq!(whole, fast);
     }
 }
