@@ -20,7 +20,7 @@
 use glam::{DMat3, DQuat, DVec3};
 
 use crate::handle::BodyHandle;
-use crate::rigid::solver::{pair, softness, SolverBody};
+use crate::rigid::solver::{softness, SolverBody};
 
 /// Stiffness of joint position correction, Hz (capped at a quarter of the
 /// substep rate).
@@ -415,8 +415,7 @@ impl JointConstraint {
     }
 
     /// Re-applies last step's impulses.
-    pub(crate) fn warm_start(&self, bodies: &mut [SolverBody]) {
-        let (a, b) = pair(bodies, self.a, self.b);
+    pub(crate) fn warm_start(&self, a: &mut SolverBody, b: &mut SolverBody) {
         let j = &self.joint;
         let (ra, rb) = (a.dq * self.ra, b.dq * self.rb);
         if let JointKind::Prismatic { .. } = j.desc.kind {
@@ -444,8 +443,7 @@ impl JointConstraint {
 
     /// One pass: the angular parts, then the point or distance part (a
     /// prismatic joint in its own order, see `solve_prismatic`).
-    pub(crate) fn solve(&mut self, bodies: &mut [SolverBody], h: f64, use_bias: bool) {
-        let (a, b) = pair(bodies, self.a, self.b);
+    pub(crate) fn solve(&mut self, a: &mut SolverBody, b: &mut SolverBody, h: f64, use_bias: bool) {
         let hertz = JOINT_HERTZ.min(0.25 / h);
         let (bias_rate, mass_scale, impulse_scale) = if use_bias {
             softness(hertz, JOINT_DAMPING_RATIO, h)

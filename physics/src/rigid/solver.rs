@@ -396,7 +396,7 @@ impl ContactPass {
 }
 
 /// Mutable references to two different bodies.
-#[inline]
+#[cfg(test)]
 pub(crate) fn pair(
     bodies: &mut [SolverBody],
     a: usize,

@@ -33,6 +33,9 @@ pub(crate) struct Solve {
     movable: Vec<bool>,
     /// Joint rows with their joint's arena index and generation.
     pub(crate) joint_rows: Vec<(u32, u32, JointConstraint)>,
+    /// The joints' colours and solve order (coloured like the contacts).
+    joint_colours: Vec<u8>,
+    joint_groups: colouring::Groups,
     /// Centre of mass and principal rotation of each body at the start.
     pub(crate) start: Vec<(DVec3, DQuat)>,
 }
@@ -79,7 +82,13 @@ impl Solve {
             .iter()
             .map(|(_, _, b)| (b.com, b.principal_rotation()))
             .collect();
+        let joint_ends: Vec<(usize, usize)> =
+            joint_rows.iter().map(|(_, _, j)| (j.a, j.b)).collect();
+        let joint_colours = colouring::colour(&joint_ends, &movable);
+        let joint_groups = colouring::group(&joint_colours);
         Self {
+            joint_colours,
+            joint_groups,
             bodies: solver_bodies,
             constraints,
             colours,
@@ -103,6 +112,22 @@ impl Solve {
             &mut self.bodies,
             &self.movable,
             |(_, c), a, b| f(c, a, b),
+        );
+    }
+
+    /// Runs `f` on every joint row, colour by colour.
+    fn joints(
+        &mut self,
+        f: impl Fn(&mut JointConstraint, &mut SolverBody, &mut SolverBody) + Sync,
+    ) {
+        colouring::solve_coloured(
+            &mut self.joint_rows,
+            &self.joint_groups,
+            &self.joint_colours,
+            |(_, _, j)| (j.a, j.b),
+            &mut self.bodies,
+            &self.movable,
+            |(_, _, j), a, b| f(j, a, b),
         );
     }
 
@@ -156,13 +181,9 @@ impl Solve {
                 },
             );
             quarantined.extend(frozen.into_iter().flatten().map(|k| index.handles[k]));
-            for (_, _, j) in &self.joint_rows {
-                j.warm_start(&mut self.bodies);
-            }
+            self.joints(|j, a, b| j.warm_start(a, b));
             self.contacts(|c, a, b| c.warm_start(a, b));
-            for (_, _, j) in &mut self.joint_rows {
-                j.solve(&mut self.bodies, h, true);
-            }
+            self.joints(|j, a, b| j.solve(a, b, h, true));
             self.contacts(|c, a, b| c.solve(a, b, &solve));
             crate::parallel::par_map_chunks3(
                 &mut refs,
@@ -175,9 +196,7 @@ impl Solve {
                     }
                 },
             );
-            for (_, _, j) in &mut self.joint_rows {
-                j.solve(&mut self.bodies, h, false);
-            }
+            self.joints(|j, a, b| j.solve(a, b, h, false));
             self.contacts(|c, a, b| c.solve(a, b, &relax));
         }
         let threshold = cfg.restitution_threshold;
