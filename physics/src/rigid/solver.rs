@@ -620,6 +620,23 @@ impl ContactConstraint {
         std::array::from_fn(|i| linear + wb[i] - wa[i])
     }
 
+    /// Normal speed of point `i`, m/s.
+    #[inline]
+    fn normal_speed(&self, a: &SolverBody, b: &SolverBody, i: usize) -> f64 {
+        let rows = &self.rows;
+        self.normal.dot(b.v - a.v) + rows.cb.get(i).dot(b.w) - rows.ca.get(i).dot(a.w)
+    }
+
+    /// Applies normal impulse `x` (N·s) at point `i`: `+` on B, `-` on A.
+    #[inline]
+    fn push_one(&self, a: &mut SolverBody, b: &mut SolverBody, i: usize, x: f64) {
+        let n = self.normal;
+        a.v -= n * (x * a.inv_mass);
+        b.v += n * (x * b.inv_mass);
+        a.w -= a.inv_inertia * (self.rows.ca.get(i) * x);
+        b.w += b.inv_inertia * (self.rows.cb.get(i) * x);
+    }
+
     /// Applies normal impulses `x` (N·s, one per point): `+` on B, `-` on A.
     #[inline]
     fn push(&self, a: &mut SolverBody, b: &mut SolverBody, x: &Lanes) {
@@ -780,7 +797,7 @@ impl ContactConstraint {
             } else {
                 (0.0, 1.0, 0.0)
             };
-            let vn = self.normal_speeds(a, b)[i];
+            let vn = self.normal_speed(a, b, i);
             let rows = &mut self.rows;
             let mass = if rows.k[i] > 0.0 {
                 1.0 / rows.k[i]
@@ -796,9 +813,7 @@ impl ContactConstraint {
                 // The relax ends the substep: this is its impulse.
                 rows.total_impulse[i] += total;
             }
-            let mut x = [0.0; MAX_POINTS];
-            x[i] = applied;
-            self.push(a, b, &x);
+            self.push_one(a, b, i, applied);
         }
     }
 
@@ -814,7 +829,7 @@ impl ContactConstraint {
             if rows.approach[i] > -threshold || rows.max_impulse[i] == 0.0 {
                 continue;
             }
-            let vn = self.normal_speeds(a, b)[i];
+            let vn = self.normal_speed(a, b, i);
             let mass = if rows.k[i] > 0.0 {
                 1.0 / rows.k[i]
             } else {
@@ -825,9 +840,7 @@ impl ContactConstraint {
             let rows = &mut self.rows;
             rows.impulse[i] = total;
             rows.total_impulse[i] += applied;
-            let mut x = [0.0; MAX_POINTS];
-            x[i] = applied;
-            self.push(a, b, &x);
+            self.push_one(a, b, i, applied);
         }
     }
 }
