@@ -1,0 +1,12 @@
+//! Inertia's wire protocol, free of I/O: everything here turns values into
+//! bytes and untrusted bytes back into values, and is tested without
+//! sockets.
+//!
+//! - [`bits`]: the bit packer every message is written with.
+//! - [`quantize`]: positions on a grid and orientations as smallest three.
+
+pub mod bits;
+pub mod quantize;
+
+pub use bits::{BitError, BitReader, BitWriter};
+pub use quantize::{read_rotation, write_rotation, PositionGrid};
