@@ -4,9 +4,12 @@
 //!
 //! - [`bits`]: the bit packer every message is written with.
 //! - [`quantize`]: positions on a grid and orientations as smallest three.
+//! - [`link`]: a simulated lossy link on a virtual clock, for tests.
 
 pub mod bits;
+pub mod link;
 pub mod quantize;
 
 pub use bits::{BitError, BitReader, BitWriter};
+pub use link::{LinkConfig, LinkError, LinkStats, SimLink};
 pub use quantize::{read_rotation, write_rotation, PositionGrid};
