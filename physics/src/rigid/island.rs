@@ -15,8 +15,6 @@
 //! union–find over body slots in handle order, so the result is
 //! deterministic.
 
-use std::collections::BTreeSet;
-
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::rigid::body::{BodyKind, RigidBody};
@@ -51,12 +49,12 @@ impl Default for SleepConfig {
 /// whether anything woke.
 pub(crate) fn wake_touched(
     bodies: &mut Arena<RigidBody>,
-    touching: &BTreeSet<(BodyHandle, BodyHandle)>,
+    touching: impl Iterator<Item = (BodyHandle, BodyHandle)> + Clone,
 ) -> bool {
     let mut any = false;
     loop {
         let mut woke = false;
-        for &(a, b) in touching {
+        for (a, b) in touching.clone() {
             let state = |h: BodyHandle| {
                 bodies
                     .get(h.index, h.generation)
@@ -98,7 +96,7 @@ fn find(parent: &mut [usize], mut i: usize) -> usize {
 /// bodies have all rested long enough.
 pub(crate) fn update(
     bodies: &mut Arena<RigidBody>,
-    touching: &BTreeSet<(BodyHandle, BodyHandle)>,
+    touching: impl Iterator<Item = (BodyHandle, BodyHandle)>,
     cfg: &SleepConfig,
     dt: f64,
 ) {
@@ -118,7 +116,7 @@ pub(crate) fn update(
         .iter()
         .map(|(_, _, b)| b.kind == BodyKind::Dynamic)
         .collect();
-    for &(a, b) in touching {
+    for (a, b) in touching {
         if let (Some(i), Some(j)) = (index_of(a), index_of(b)) {
             if dynamic[i] && dynamic[j] {
                 let (ri, rj) = (find(&mut parent, i), find(&mut parent, j));

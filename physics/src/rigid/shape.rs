@@ -378,6 +378,21 @@ pub enum Shape {
 }
 
 impl Shape {
+    /// The kind of shape in words ("sphere", "convex hull", ...), for
+    /// error messages.
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Shape::Sphere { .. } => "sphere",
+            Shape::Cuboid { .. } => "cuboid",
+            Shape::Capsule { .. } => "capsule",
+            Shape::Cylinder { .. } => "cylinder",
+            Shape::ConvexHull(_) => "convex hull",
+            Shape::TriMesh(_) => "triangle mesh",
+            Shape::HeightField(_) => "heightfield",
+            Shape::Compound(_) => "compound",
+        }
+    }
+
     /// A ball of `radius` m (> 0).
     pub fn sphere(radius: f64) -> Result<Shape, ShapeError> {
         Ok(Shape::Sphere {

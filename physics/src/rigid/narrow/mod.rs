@@ -212,23 +212,10 @@ fn to_manifold(c: &Contact, rel: &Pose, frame: &Pose, swapped: bool) -> Manifold
     Manifold { normal, points }
 }
 
-fn kind(s: &Shape) -> &'static str {
-    match s {
-        Shape::Sphere { .. } => "sphere",
-        Shape::Cuboid { .. } => "cuboid",
-        Shape::Capsule { .. } => "capsule",
-        Shape::Cylinder { .. } => "cylinder",
-        Shape::ConvexHull(_) => "convex hull",
-        Shape::TriMesh(_) => "triangle mesh",
-        Shape::HeightField(_) => "heightfield",
-        Shape::Compound(_) => "compound",
-    }
-}
-
 fn unsupported(a: &Shape, b: &Shape) -> ContactError {
     ContactError::Unsupported {
-        a: kind(a),
-        b: kind(b),
+        a: a.kind_name(),
+        b: b.kind_name(),
     }
 }
 

@@ -98,12 +98,9 @@ impl<'a> Links<'a> {
         !self.joined.is_empty() && self.joined.contains(&(a.min(b), a.max(b)))
     }
 
-    /// Every link: joints and touching pairs.
-    pub(crate) fn all(&self) -> BTreeSet<(BodyHandle, BodyHandle)> {
-        if self.joined.is_empty() {
-            return self.touching.clone();
-        }
-        self.touching.union(&self.joined).copied().collect()
+    /// Every link: touching pairs, then joints (a pair may come twice).
+    pub(crate) fn all(&self) -> impl Iterator<Item = (BodyHandle, BodyHandle)> + Clone + '_ {
+        self.touching.iter().chain(&self.joined).copied()
     }
 
     /// Sleeping bodies linked to awake ones wake up (through whole stacks
@@ -119,7 +116,7 @@ impl<'a> Links<'a> {
             }
         }
         if sleeping && awake {
-            crate::rigid::island::wake_touched(bodies, &self.all());
+            crate::rigid::island::wake_touched(bodies, self.all());
         }
     }
 }

@@ -274,7 +274,7 @@ pub(crate) fn step(
     profile.finish = clock.lap();
 
     let links = bodies::Links::new(joints, &contacts.touching);
-    crate::rigid::island::update(bodies, &links.all(), &inputs.cfg.sleep, inputs.dt);
+    crate::rigid::island::update(bodies, links.all(), &inputs.cfg.sleep, inputs.dt);
     profile.islands = clock.lap();
     out.profile = profile;
     out

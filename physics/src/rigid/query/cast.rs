@@ -56,7 +56,7 @@ pub fn cast_shape(
         return Err(CastError::BadPose("target"));
     }
     let Some(mover) = to_convex(shape, *pose) else {
-        return Err(CastError::NotConvex(kind(shape)));
+        return Err(CastError::NotConvex(shape.kind_name()));
     };
     let len = dir.length();
     if len <= 0.0 || !len.is_finite() || max_t.is_nan() || max_t < 0.0 {
@@ -215,17 +215,4 @@ fn advance(
         }
     }
     Some(s)
-}
-
-fn kind(s: &Shape) -> &'static str {
-    match s {
-        Shape::Sphere { .. } => "sphere",
-        Shape::Cuboid { .. } => "cuboid",
-        Shape::Capsule { .. } => "capsule",
-        Shape::Cylinder { .. } => "cylinder",
-        Shape::ConvexHull(_) => "convex hull",
-        Shape::TriMesh(_) => "triangle mesh",
-        Shape::HeightField(_) => "heightfield",
-        Shape::Compound(_) => "compound",
-    }
 }
