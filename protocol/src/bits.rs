@@ -168,18 +168,13 @@ impl<'a> BitReader<'a> {
 mod tests {
     use super::*;
 
-    /// splitmix64: a tiny deterministic generator for the round trips.
-    fn next(state: &mut u64) -> u64 {
-        *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = *state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+    fn next(state: &mut crate::rng::SplitMix) -> u64 {
+        state.next_u64()
     }
 
     #[test]
     fn random_widths_round_trip() {
-        let mut s = 1;
+        let mut s = crate::rng::SplitMix(1);
         for _ in 0..200 {
             let n = (next(&mut s) % 100) as usize;
             let values: Vec<(u64, u32)> = (0..n)

@@ -9,6 +9,7 @@
 pub mod bits;
 pub mod link;
 pub mod quantize;
+mod rng;
 
 pub use bits::{BitError, BitReader, BitWriter};
 pub use link::{LinkConfig, LinkError, LinkStats, SimLink};

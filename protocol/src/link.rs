@@ -62,7 +62,7 @@ pub struct LinkStats {
 #[derive(Debug)]
 pub struct SimLink {
     config: LinkConfig,
-    rng: u64,
+    rng: crate::rng::SplitMix,
     /// Packets in flight by (arrival time, order sent).
     in_flight: BinaryHeap<Reverse<(Arrival, u64, Vec<u8>)>>,
     next: u64,
@@ -114,24 +114,15 @@ impl SimLink {
         }
         Ok(Self {
             config,
-            rng: seed,
+            rng: crate::rng::SplitMix(seed),
             in_flight: BinaryHeap::new(),
             next: 0,
             stats: LinkStats::default(),
         })
     }
 
-    /// Uniform in [0, 1) (splitmix64).
-    fn uniform(&mut self) -> f64 {
-        self.rng = self.rng.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.rng;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
     fn enqueue(&mut self, now: f64, packet: Vec<u8>) {
-        let jitter = (self.uniform() * 2.0 - 1.0) * self.config.jitter;
+        let jitter = (self.rng.uniform() * 2.0 - 1.0) * self.config.jitter;
         let at = now + self.config.delay + jitter;
         let id = self.next;
         self.next += 1;
@@ -141,11 +132,11 @@ impl SimLink {
     /// Sends `packet` at virtual time `now` (s).
     pub fn send(&mut self, now: f64, packet: Vec<u8>) {
         self.stats.sent += 1;
-        if self.uniform() < self.config.loss {
+        if self.rng.uniform() < self.config.loss {
             self.stats.lost += 1;
             return;
         }
-        if self.uniform() < self.config.duplicate {
+        if self.rng.uniform() < self.config.duplicate {
             self.stats.duplicated += 1;
             self.enqueue(now, packet.clone());
         }
