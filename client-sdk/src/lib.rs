@@ -1,0 +1,1 @@
+//! The Inertia client SDK.

@@ -1,0 +1,1 @@
+//! Helpers for Inertia's end-to-end tests.
