@@ -2,11 +2,13 @@
 //! bytes and untrusted bytes back into values, and is tested without
 //! sockets.
 //!
+//! - [`entity`]: what an entity is, looks like and where it is; player input.
 //! - [`bits`]: the bit packer every message is written with.
 //! - [`quantize`]: positions on a grid and orientations as smallest three.
 //! - [`link`]: a simulated lossy link on a virtual clock, for tests.
 
 pub mod bits;
+pub mod entity;
 pub mod link;
 pub mod quantize;
 mod rng;
@@ -14,3 +16,4 @@ mod rng;
 pub use bits::{BitError, BitReader, BitWriter};
 pub use link::{LinkConfig, LinkError, LinkStats, SimLink};
 pub use quantize::{read_rotation, write_rotation, PositionGrid};
+pub use entity::{EntityDesc, EntityId, EntityKind, EntityState, PlayerInput, ShapeDesc};

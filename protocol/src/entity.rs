@@ -1,0 +1,157 @@
+//! The shared vocabulary of server, protocol and client: what an entity is,
+//! what it looks like, where it is, and what a player asks of it.
+//!
+//! These are plain values. The snapshot codec turns [`EntityState`]s into
+//! datagrams; the control channel carries [`EntityDesc`]s (on spawn) and
+//! [`PlayerInput`]s travel in the client's datagrams.
+
+use glam::{DQuat, DVec3};
+use serde::{Deserialize, Serialize};
+
+/// A server-assigned entity id, stable for the entity's life and never
+/// reused within one server run.
+pub type EntityId = u32;
+
+/// Where one entity is and how it moves, as the server knows it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EntityState {
+    /// The entity.
+    pub id: EntityId,
+    /// Position of the body's origin in the world, m.
+    pub position: DVec3,
+    /// Orientation (unit quaternion).
+    pub rotation: DQuat,
+    /// Linear velocity of the origin, m/s.
+    pub linear_velocity: DVec3,
+    /// Angular velocity, rad/s (world frame).
+    pub angular_velocity: DVec3,
+    /// True while the body sleeps (it will not move until woken).
+    pub asleep: bool,
+}
+
+/// The look of an entity's shape, enough for a client to draw it. Sizes in
+/// m, in the entity's own frame (capsules and cylinders along +Y).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum ShapeDesc {
+    /// A ball.
+    Sphere {
+        /// Radius, m.
+        radius: f32,
+    },
+    /// A box.
+    Cuboid {
+        /// Half the size along x, y, z, m.
+        half_extents: [f32; 3],
+    },
+    /// A capsule along Y.
+    Capsule {
+        /// Half the inner segment's length, m.
+        half_height: f32,
+        /// Radius, m.
+        radius: f32,
+    },
+    /// A cylinder along Y.
+    Cylinder {
+        /// Half the height, m.
+        half_height: f32,
+        /// Radius, m.
+        radius: f32,
+    },
+    /// A convex polyhedron given by its points (at most
+    /// [`ShapeDesc::MAX_POINTS`]).
+    ConvexHull {
+        /// The hull's points, m.
+        points: Vec<[f32; 3]>,
+    },
+    /// A triangle mesh (static scenery).
+    TriMesh {
+        /// Vertices, m (at most [`ShapeDesc::MAX_POINTS`]).
+        vertices: Vec<[f32; 3]>,
+        /// Triangles as vertex indices (at most [`ShapeDesc::MAX_POINTS`]).
+        triangles: Vec<[u32; 3]>,
+    },
+    /// Several shapes placed in the entity's frame (at most
+    /// [`ShapeDesc::MAX_PARTS`], not nested).
+    Compound {
+        /// Each part with its offset (m) and rotation (x, y, z, w).
+        parts: Vec<([f32; 3], [f32; 4], ShapeDesc)>,
+    },
+    /// A particle drawn as a ball (cloth and rope vertices, fluid).
+    Particle {
+        /// Drawing radius, m.
+        radius: f32,
+    },
+    /// An infinite ground plane through the origin, normal +Y.
+    Ground,
+}
+
+impl ShapeDesc {
+    /// The most points, vertices or triangles a shape description may hold.
+    pub const MAX_POINTS: usize = 4096;
+    /// The most parts a compound may hold.
+    pub const MAX_PARTS: usize = 64;
+}
+
+/// What kind of thing an entity is, for the client's drawing and logic.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum EntityKind {
+    /// Never moves (ground, walls, scenery).
+    Static,
+    /// Moved by the simulation.
+    Dynamic,
+    /// Moved by a script or by its owner's inputs, not by contacts.
+    Kinematic,
+    /// A player's avatar.
+    Avatar,
+    /// A volume of water (drawn, not collided).
+    Water,
+}
+
+/// Everything a client needs to draw an entity, sent reliably once when the
+/// entity enters the client's view.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EntityDesc {
+    /// The entity.
+    pub id: EntityId,
+    /// What it is.
+    pub kind: EntityKind,
+    /// Its shape.
+    pub shape: ShapeDesc,
+    /// RGBA colour.
+    pub color: [u8; 4],
+    /// The client that owns it (its avatar), if any.
+    pub owner: Option<u64>,
+    /// A name for debugging and tools (at most 64 bytes).
+    pub name: String,
+    /// Position when sent, m.
+    pub position: [f64; 3],
+    /// Orientation when sent (x, y, z, w).
+    pub rotation: [f64; 4],
+}
+
+/// Buttons a player can hold, as bits of [`PlayerInput::buttons`].
+pub mod buttons {
+    /// Jump (acts on the press, when the avatar stands on something).
+    pub const JUMP: u8 = 1;
+    /// Push what is in front of the avatar.
+    pub const PUSH: u8 = 2;
+    /// Every defined button.
+    pub const ALL: u8 = JUMP | PUSH;
+}
+
+/// One tick's worth of a player's intent. The server validates and clamps
+/// every field before acting on it.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PlayerInput {
+    /// The client's input sequence number, increasing by one per input.
+    pub sequence: u32,
+    /// The server tick the client meant this input for (its estimate).
+    pub tick: u64,
+    /// Desired movement in the horizontal plane (x, z), each in [−1, 1];
+    /// the length is clamped to 1.
+    pub movement: [f32; 2],
+    /// Facing angle about +Y, rad.
+    pub yaw: f32,
+    /// Held buttons ([`buttons`]).
+    pub buttons: u8,
+}
