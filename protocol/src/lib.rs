@@ -3,11 +3,13 @@
 //! sockets.
 //!
 //! - [`entity`]: what an entity is, looks like and where it is; player input.
+//! - [`credentials`]: the dev-mode credentials file.
 //! - [`bits`]: the bit packer every message is written with.
 //! - [`quantize`]: positions on a grid and orientations as smallest three.
 //! - [`link`]: a simulated lossy link on a virtual clock, for tests.
 
 pub mod bits;
+pub mod credentials;
 pub mod entity;
 pub mod link;
 pub mod quantize;
