@@ -13,7 +13,7 @@ pub mod credentials;
 pub mod entity;
 pub mod link;
 pub mod quantize;
-mod rng;
+pub mod rng;
 
 pub use bits::{BitError, BitReader, BitWriter};
 pub use link::{LinkConfig, LinkError, LinkStats, SimLink};

@@ -1,1 +1,6 @@
-//! Helpers for Inertia's end-to-end tests.
+//! Helpers for Inertia's end-to-end tests: real servers and clients over
+//! loopback, with a link conditioner between them.
+
+pub mod conditioner;
+
+pub use conditioner::{BurstLoss, Conditioner, ConditionerStats, Impairment};
