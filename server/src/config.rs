@@ -1,0 +1,621 @@
+//! Server configuration: command line, environment, TOML file, defaults.
+//!
+//! Each setting is taken from the first source that has it, in this order:
+//!
+//! 1. the command line (`--tick-hz 120`),
+//! 2. the environment (`INERTIA_TICK_HZ=120`),
+//! 3. the TOML file named by `--config FILE` (or `INERTIA_CONFIG`),
+//! 4. the defaults below.
+//!
+//! Every source is parsed into the same all-optional [`ConfigLayer`], the
+//! layers are merged field by field, and the result is checked once
+//! ([`ServerConfig::validate`]). The environment is passed in as a lookup
+//! function rather than read from the process, so precedence is testable
+//! without touching global state; [`ServerConfig::from_process`] is the
+//! one-line entry point for `main`.
+//!
+//! Credentials decide the mode: with no token key and no certificate the
+//! server runs in **dev mode** (self-signed certificate, dev connect tokens)
+//! and listens on loopback unless told otherwise; with them it listens on
+//! every interface.
+
+use std::collections::BTreeMap;
+use std::ffi::OsString;
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::path::{Path, PathBuf};
+
+use clap::Parser;
+use serde::Deserialize;
+
+/// Default UDP port of the QUIC game and admin endpoint.
+pub const DEFAULT_PORT: u16 = 7777;
+/// Default simulation rate, ticks per second of simulation time.
+pub const DEFAULT_TICK_HZ: u32 = 60;
+/// Default snapshot rate, snapshots per wall second per client.
+pub const DEFAULT_SNAPSHOT_HZ: u32 = 30;
+/// Default per-client downstream budget, kbit/s (512 kbit/s = 64 kB/s: room
+/// for a few hundred moving entities at 30 Hz after delta compression).
+pub const DEFAULT_CLIENT_BUDGET_KBPS: u32 = 512;
+/// Default most clients connected at once.
+pub const DEFAULT_MAX_CLIENTS: u32 = 64;
+/// Default most ticks run in one loop of the tick thread before it gives up
+/// on catching up and counts an overrun.
+pub const DEFAULT_MAX_CATCH_UP_TICKS: u32 = 5;
+/// Highest accepted tick rate, Hz.
+pub const MAX_TICK_HZ: u32 = 1000;
+/// Highest accepted client count.
+pub const MAX_CLIENTS_LIMIT: u32 = 4096;
+
+/// How log lines are written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum LogFormat {
+    /// Human-readable lines.
+    #[default]
+    Text,
+    /// One JSON object per line (for log collectors).
+    Json,
+}
+
+impl std::str::FromStr for LogFormat {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "text" => Ok(LogFormat::Text),
+            "json" => Ok(LogFormat::Json),
+            _ => Err(format!("expected `text` or `json`, got `{s}`")),
+        }
+    }
+}
+
+/// One source's settings: every field optional. The command line, the
+/// environment and the TOML file each produce one; see the module docs for
+/// units and meanings (they are those of [`ServerConfig`]).
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, clap::Args)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub struct ConfigLayer {
+    /// UDP address for QUIC (default 127.0.0.1:7777 in dev mode, else 0.0.0.0:7777).
+    #[arg(long)]
+    pub listen: Option<SocketAddr>,
+    /// Scene file (.ron or .json); none = the built-in demo.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Simulation ticks per second of simulation time (1..=1000, default 60).
+    #[arg(long)]
+    pub tick_hz: Option<u32>,
+    /// Snapshots per wall second per client (1..=tick_hz, default 30).
+    #[arg(long)]
+    pub snapshot_hz: Option<u32>,
+    /// Per-client downstream bandwidth budget, kbit/s (default 512).
+    #[arg(long)]
+    pub client_budget_kbps: Option<u32>,
+    /// Most clients at once (1..=4096, default 64).
+    #[arg(long)]
+    pub max_clients: Option<u32>,
+    /// Directory for recordings and other data (default ./inertia-data).
+    #[arg(long)]
+    pub data_dir: Option<PathBuf>,
+    /// TCP address of /metrics, /healthz and /readyz (default 127.0.0.1:9100).
+    #[arg(long)]
+    pub metrics: Option<SocketAddr>,
+    /// Connect-token key file; absent (with no certificate) = dev mode.
+    #[arg(long)]
+    pub key_file: Option<PathBuf>,
+    /// TLS certificate chain (PEM); needs --cert-key-file.
+    #[arg(long)]
+    pub cert_file: Option<PathBuf>,
+    /// TLS private key (PEM) of --cert-file.
+    #[arg(long)]
+    pub cert_key_file: Option<PathBuf>,
+    /// Log line format: text or json (default text).
+    #[arg(long, value_enum)]
+    pub log_format: Option<LogFormat>,
+    /// Most ticks one loop of the tick thread may run to catch up (1..=1000,
+    /// default 5); beyond it the backlog is dropped and an overrun counted.
+    #[arg(long)]
+    pub max_catch_up_ticks: Option<u32>,
+}
+
+/// The command line: a [`ConfigLayer`] plus `--config FILE`. `main` may
+/// parse this itself (or flatten it into a larger parser) and hand it to
+/// [`ServerConfig::resolve`].
+#[derive(Debug, Clone, Default, PartialEq, Parser)]
+#[command(
+    name = "inertia-server",
+    about = "The authoritative Inertia physics server"
+)]
+pub struct ServerArgs {
+    /// TOML configuration file (also INERTIA_CONFIG); keys as the long
+    /// options with `_` for `-`.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Settings that override the environment and the file.
+    #[command(flatten)]
+    pub layer: ConfigLayer,
+}
+
+/// The settings the server runs with, every field resolved.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ServerConfig {
+    /// UDP address for QUIC as configured; `None` = by mode (see
+    /// [`ServerConfig::listen_addr`]).
+    pub listen: Option<SocketAddr>,
+    /// Scene file (.ron or .json); `None` = the built-in demo scene.
+    pub scene: Option<PathBuf>,
+    /// Simulation ticks per second of simulation time, Hz; `dt = 1 / tick_hz` s.
+    pub tick_hz: u32,
+    /// Snapshots per wall second per client, Hz (≤ `tick_hz`).
+    pub snapshot_hz: u32,
+    /// Per-client downstream bandwidth budget, kbit/s (1000 bit/s units).
+    pub client_budget_kbps: u32,
+    /// Most clients connected at once.
+    pub max_clients: u32,
+    /// Directory for recordings and other data.
+    pub data_dir: PathBuf,
+    /// TCP address of the health and Prometheus endpoints.
+    pub metrics: SocketAddr,
+    /// Connect-token key file; `None` with no certificate = dev mode.
+    pub key_file: Option<PathBuf>,
+    /// TLS certificate chain (PEM).
+    pub cert_file: Option<PathBuf>,
+    /// TLS private key (PEM) of `cert_file`.
+    pub cert_key_file: Option<PathBuf>,
+    /// Log line format.
+    pub log_format: LogFormat,
+    /// Most ticks one loop of the tick thread may run to catch up.
+    pub max_catch_up_ticks: u32,
+}
+
+impl Default for ServerConfig {
+    fn default() -> Self {
+        Self {
+            listen: None,
+            scene: None,
+            tick_hz: DEFAULT_TICK_HZ,
+            snapshot_hz: DEFAULT_SNAPSHOT_HZ,
+            client_budget_kbps: DEFAULT_CLIENT_BUDGET_KBPS,
+            max_clients: DEFAULT_MAX_CLIENTS,
+            data_dir: PathBuf::from("./inertia-data"),
+            metrics: SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), 9100),
+            key_file: None,
+            cert_file: None,
+            cert_key_file: None,
+            log_format: LogFormat::Text,
+            max_catch_up_ticks: DEFAULT_MAX_CATCH_UP_TICKS,
+        }
+    }
+}
+
+/// Why the configuration was refused. Each says which setting and how to
+/// fix it.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The command line did not parse (also `--help` and `--version`, which
+    /// clap renders through this; call `.exit()` on the inner error).
+    #[error(transparent)]
+    Cli(#[from] clap::Error),
+    /// The configuration file could not be read.
+    #[error("cannot read config file {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The configuration file is not valid TOML for these settings.
+    #[error("config file {path}: at `{key}`: {message}")]
+    Toml {
+        /// The file.
+        path: PathBuf,
+        /// Dotted path of the offending key (`.` for the whole document).
+        key: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// An `INERTIA_*` environment variable did not parse.
+    #[error("environment variable {var}={value:?}: {why}")]
+    Env {
+        /// The variable.
+        var: String,
+        /// Its value.
+        value: String,
+        /// Why it was refused.
+        why: String,
+    },
+    /// `tick_hz` outside 1..=1000.
+    #[error("tick_hz must be in 1..={MAX_TICK_HZ}, got {0}")]
+    TickHz(u32),
+    /// `snapshot_hz` zero or above the tick rate (a snapshot between two
+    /// ticks would repeat the last one).
+    #[error("snapshot_hz must be in 1..=tick_hz ({tick_hz}), got {snapshot_hz}")]
+    SnapshotHz {
+        /// The snapshot rate given, Hz.
+        snapshot_hz: u32,
+        /// The tick rate, Hz.
+        tick_hz: u32,
+    },
+    /// A zero bandwidth budget.
+    #[error("client_budget_kbps must be > 0")]
+    ClientBudget,
+    /// `max_clients` outside 1..=4096.
+    #[error("max_clients must be in 1..={MAX_CLIENTS_LIMIT}, got {0}")]
+    MaxClients(u32),
+    /// `max_catch_up_ticks` outside 1..=1000.
+    #[error("max_catch_up_ticks must be in 1..=1000, got {0}")]
+    CatchUp(u32),
+    /// Only one of `cert_file` and `cert_key_file` was given.
+    #[error("cert_file and cert_key_file go together: give both or neither")]
+    CertPair,
+    /// The game and metrics endpoints share an address.
+    #[error("listen and metrics addresses are both {0}")]
+    SameAddress(SocketAddr),
+}
+
+/// Prefix of every environment variable the server reads.
+pub const ENV_PREFIX: &str = "INERTIA_";
+
+impl ServerConfig {
+    /// Parses the process's command line and environment (and the file they
+    /// name) into a checked configuration.
+    pub fn from_process() -> Result<ServerConfig, ConfigError> {
+        let env: BTreeMap<String, String> = std::env::vars()
+            .filter(|(k, _)| k.starts_with(ENV_PREFIX))
+            .collect();
+        Self::from_args(std::env::args_os(), |k| env.get(k).cloned())
+    }
+
+    /// Parses `args` (program name first) with the environment looked up
+    /// through `env` (e.g. `|k| map.get(k).cloned()`).
+    pub fn from_args<I, T>(
+        args: I,
+        env: impl Fn(&str) -> Option<String>,
+    ) -> Result<ServerConfig, ConfigError>
+    where
+        I: IntoIterator<Item = T>,
+        T: Into<OsString> + Clone,
+    {
+        let args = ServerArgs::try_parse_from(args)?;
+        Self::resolve(&args, env)
+    }
+
+    /// Merges parsed command-line `args` over the environment over the file
+    /// over the defaults, and validates the result.
+    pub fn resolve(
+        args: &ServerArgs,
+        env: impl Fn(&str) -> Option<String>,
+    ) -> Result<ServerConfig, ConfigError> {
+        let env_layer = env_layer(&env)?;
+        let file = args.config.clone().or_else(|| {
+            env("INERTIA_CONFIG")
+                .filter(|s| !s.is_empty())
+                .map(PathBuf::from)
+        });
+        let file_layer = match file {
+            Some(path) => {
+                let text = std::fs::read_to_string(&path).map_err(|source| ConfigError::Io {
+                    path: path.clone(),
+                    source,
+                })?;
+                parse_toml(&path, &text)?
+            }
+            None => ConfigLayer::default(),
+        };
+        let merged = args.layer.clone().or(env_layer).or(file_layer);
+        let config = ServerConfig::default().with(merged);
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// The defaults with every setting `layer` has replaced.
+    pub fn with(self, layer: ConfigLayer) -> ServerConfig {
+        ServerConfig {
+            listen: layer.listen.or(self.listen),
+            scene: layer.scene.or(self.scene),
+            tick_hz: layer.tick_hz.unwrap_or(self.tick_hz),
+            snapshot_hz: layer.snapshot_hz.unwrap_or(self.snapshot_hz),
+            client_budget_kbps: layer.client_budget_kbps.unwrap_or(self.client_budget_kbps),
+            max_clients: layer.max_clients.unwrap_or(self.max_clients),
+            data_dir: layer.data_dir.unwrap_or(self.data_dir),
+            metrics: layer.metrics.unwrap_or(self.metrics),
+            key_file: layer.key_file.or(self.key_file),
+            cert_file: layer.cert_file.or(self.cert_file),
+            cert_key_file: layer.cert_key_file.or(self.cert_key_file),
+            log_format: layer.log_format.unwrap_or(self.log_format),
+            max_catch_up_ticks: layer.max_catch_up_ticks.unwrap_or(self.max_catch_up_ticks),
+        }
+    }
+
+    /// Checks every range and pairing; see [`ConfigError`].
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !(1..=MAX_TICK_HZ).contains(&self.tick_hz) {
+            return Err(ConfigError::TickHz(self.tick_hz));
+        }
+        if self.snapshot_hz == 0 || self.snapshot_hz > self.tick_hz {
+            return Err(ConfigError::SnapshotHz {
+                snapshot_hz: self.snapshot_hz,
+                tick_hz: self.tick_hz,
+            });
+        }
+        if self.client_budget_kbps == 0 {
+            return Err(ConfigError::ClientBudget);
+        }
+        if !(1..=MAX_CLIENTS_LIMIT).contains(&self.max_clients) {
+            return Err(ConfigError::MaxClients(self.max_clients));
+        }
+        if !(1..=1000).contains(&self.max_catch_up_ticks) {
+            return Err(ConfigError::CatchUp(self.max_catch_up_ticks));
+        }
+        if self.cert_file.is_some() != self.cert_key_file.is_some() {
+            return Err(ConfigError::CertPair);
+        }
+        let listen = self.listen_addr();
+        if listen == self.metrics {
+            return Err(ConfigError::SameAddress(listen));
+        }
+        Ok(())
+    }
+
+    /// Dev mode: no connect-token key and no certificate. The server then
+    /// makes a self-signed certificate and accepts dev tokens.
+    pub fn dev_mode(&self) -> bool {
+        self.key_file.is_none() && self.cert_file.is_none()
+    }
+
+    /// The UDP address to bind: as configured, else 127.0.0.1:7777 in dev
+    /// mode (nothing outside the machine can join an unauthenticated
+    /// server) and 0.0.0.0:7777 otherwise.
+    pub fn listen_addr(&self) -> SocketAddr {
+        self.listen.unwrap_or_else(|| {
+            let ip = if self.dev_mode() {
+                Ipv4Addr::LOCALHOST
+            } else {
+                Ipv4Addr::UNSPECIFIED
+            };
+            SocketAddr::new(IpAddr::V4(ip), DEFAULT_PORT)
+        })
+    }
+
+    /// Simulation time of one tick, s.
+    pub fn dt(&self) -> f64 {
+        1.0 / f64::from(self.tick_hz)
+    }
+
+    /// The per-client budget in bytes per wall second.
+    pub fn client_budget_bytes_per_sec(&self) -> u64 {
+        u64::from(self.client_budget_kbps) * 1000 / 8
+    }
+}
+
+impl ConfigLayer {
+    /// This layer with every unset field taken from `lower`.
+    pub fn or(self, lower: ConfigLayer) -> ConfigLayer {
+        ConfigLayer {
+            listen: self.listen.or(lower.listen),
+            scene: self.scene.or(lower.scene),
+            tick_hz: self.tick_hz.or(lower.tick_hz),
+            snapshot_hz: self.snapshot_hz.or(lower.snapshot_hz),
+            client_budget_kbps: self.client_budget_kbps.or(lower.client_budget_kbps),
+            max_clients: self.max_clients.or(lower.max_clients),
+            data_dir: self.data_dir.or(lower.data_dir),
+            metrics: self.metrics.or(lower.metrics),
+            key_file: self.key_file.or(lower.key_file),
+            cert_file: self.cert_file.or(lower.cert_file),
+            cert_key_file: self.cert_key_file.or(lower.cert_key_file),
+            log_format: self.log_format.or(lower.log_format),
+            max_catch_up_ticks: self.max_catch_up_ticks.or(lower.max_catch_up_ticks),
+        }
+    }
+}
+
+/// Parses a TOML configuration file's text; errors carry the key path.
+pub fn parse_toml(path: &Path, text: &str) -> Result<ConfigLayer, ConfigError> {
+    let err = |key: String, message: String| ConfigError::Toml {
+        path: path.to_path_buf(),
+        key,
+        message,
+    };
+    let de = toml::Deserializer::parse(text).map_err(|e| err(".".into(), e.to_string()))?;
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let key = e.path().to_string();
+        err(key, e.into_inner().message().trim().to_string())
+    })
+}
+
+/// The `INERTIA_*` variables as a layer. Empty values count as unset.
+fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, ConfigError> {
+    fn get<T: std::str::FromStr>(
+        env: &impl Fn(&str) -> Option<String>,
+        var: &str,
+    ) -> Result<Option<T>, ConfigError>
+    where
+        T::Err: std::fmt::Display,
+    {
+        match env(var).filter(|v| !v.trim().is_empty()) {
+            None => Ok(None),
+            Some(value) => value
+                .trim()
+                .parse::<T>()
+                .map(Some)
+                .map_err(|e| ConfigError::Env {
+                    var: var.to_string(),
+                    value: value.clone(),
+                    why: e.to_string(),
+                }),
+        }
+    }
+    Ok(ConfigLayer {
+        listen: get(env, "INERTIA_LISTEN")?,
+        scene: get(env, "INERTIA_SCENE")?,
+        tick_hz: get(env, "INERTIA_TICK_HZ")?,
+        snapshot_hz: get(env, "INERTIA_SNAPSHOT_HZ")?,
+        client_budget_kbps: get(env, "INERTIA_CLIENT_BUDGET_KBPS")?,
+        max_clients: get(env, "INERTIA_MAX_CLIENTS")?,
+        data_dir: get(env, "INERTIA_DATA_DIR")?,
+        metrics: get(env, "INERTIA_METRICS")?,
+        key_file: get(env, "INERTIA_KEY_FILE")?,
+        cert_file: get(env, "INERTIA_CERT_FILE")?,
+        cert_key_file: get(env, "INERTIA_CERT_KEY_FILE")?,
+        log_format: get(env, "INERTIA_LOG_FORMAT")?,
+        max_catch_up_ticks: get(env, "INERTIA_MAX_CATCH_UP_TICKS")?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env_of(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
+        let map: BTreeMap<String, String> = pairs
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        move |k| map.get(k).cloned()
+    }
+
+    fn temp_file(name: &str, text: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("inertia-config-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn defaults_are_dev_mode_on_loopback() {
+        let c = ServerConfig::from_args(["inertia-server"], env_of(&[])).unwrap();
+        assert_eq!(c, ServerConfig::default());
+        assert!(c.dev_mode());
+        assert_eq!(c.listen_addr(), "127.0.0.1:7777".parse().unwrap());
+        assert_eq!(c.metrics, "127.0.0.1:9100".parse().unwrap());
+        assert_eq!(
+            (c.tick_hz, c.snapshot_hz, c.max_catch_up_ticks),
+            (60, 30, 5)
+        );
+    }
+
+    #[test]
+    fn credentials_leave_dev_mode_and_listen_everywhere() {
+        let c = ServerConfig::from_args(
+            [
+                "s",
+                "--key-file",
+                "k",
+                "--cert-file",
+                "c",
+                "--cert-key-file",
+                "ck",
+            ],
+            env_of(&[]),
+        )
+        .unwrap();
+        assert!(!c.dev_mode());
+        assert_eq!(c.listen_addr(), "0.0.0.0:7777".parse().unwrap());
+    }
+
+    #[test]
+    fn command_line_beats_environment_beats_file_beats_default() {
+        let file = temp_file(
+            "layers.toml",
+            "tick_hz = 100\nsnapshot_hz = 20\nmax_clients = 10\nlog_format = \"json\"\n",
+        );
+        let file_s = file.to_str().unwrap();
+        let env = env_of(&[
+            ("INERTIA_TICK_HZ", "120"),
+            ("INERTIA_SNAPSHOT_HZ", "40"),
+            (
+                "INERTIA_CONFIG",
+                "/nonexistent/ignored-because-cli-names-one.toml",
+            ),
+        ]);
+        let c =
+            ServerConfig::from_args(["s", "--config", file_s, "--tick-hz", "200"], env).unwrap();
+        assert_eq!(c.tick_hz, 200, "command line wins");
+        assert_eq!(c.snapshot_hz, 40, "environment beats the file");
+        assert_eq!(c.max_clients, 10, "file beats the default");
+        assert_eq!(c.log_format, LogFormat::Json);
+        assert_eq!(c.client_budget_kbps, DEFAULT_CLIENT_BUDGET_KBPS, "default");
+    }
+
+    #[test]
+    fn config_file_can_come_from_the_environment() {
+        let file = temp_file("env.toml", "scene = \"scenes/pyramid.json\"\n");
+        let env = env_of(&[("INERTIA_CONFIG", file.to_str().unwrap())]);
+        let c = ServerConfig::from_args(["s"], env).unwrap();
+        assert_eq!(c.scene, Some(PathBuf::from("scenes/pyramid.json")));
+    }
+
+    #[test]
+    fn bad_toml_names_the_key() {
+        let e = parse_toml(Path::new("x.toml"), "tick_hz = \"fast\"\n").unwrap_err();
+        match e {
+            ConfigError::Toml { key, .. } => assert_eq!(key, "tick_hz"),
+            e => panic!("{e}"),
+        }
+        let e = parse_toml(Path::new("x.toml"), "tick_hz = 60\nspeed = 3\n").unwrap_err();
+        assert!(e.to_string().contains("speed"), "{e}");
+        let e = parse_toml(Path::new("x.toml"), "listen = \"nowhere\"\n").unwrap_err();
+        match e {
+            ConfigError::Toml { key, .. } => assert_eq!(key, "listen"),
+            e => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn bad_environment_names_the_variable() {
+        let e =
+            ServerConfig::from_args(["s"], env_of(&[("INERTIA_LISTEN", "port 7")])).unwrap_err();
+        assert!(
+            matches!(&e, ConfigError::Env { var, .. } if var == "INERTIA_LISTEN"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn ranges_are_checked() {
+        let run = |args: &[&str]| {
+            let mut a = vec!["s"];
+            a.extend_from_slice(args);
+            ServerConfig::from_args(a, env_of(&[]))
+        };
+        assert!(matches!(
+            run(&["--tick-hz", "0"]),
+            Err(ConfigError::TickHz(0))
+        ));
+        assert!(matches!(
+            run(&["--tick-hz", "1001"]),
+            Err(ConfigError::TickHz(1001))
+        ));
+        assert!(matches!(
+            run(&["--tick-hz", "20", "--snapshot-hz", "30"]),
+            Err(ConfigError::SnapshotHz { .. })
+        ));
+        assert!(matches!(
+            run(&["--max-clients", "0"]),
+            Err(ConfigError::MaxClients(0))
+        ));
+        assert!(matches!(
+            run(&["--max-catch-up-ticks", "0"]),
+            Err(ConfigError::CatchUp(0))
+        ));
+        assert!(matches!(
+            run(&["--cert-file", "c.pem"]),
+            Err(ConfigError::CertPair)
+        ));
+        assert!(matches!(
+            run(&["--client-budget-kbps", "0"]),
+            Err(ConfigError::ClientBudget)
+        ));
+        assert!(matches!(run(&["--tick-hz", "x"]), Err(ConfigError::Cli(_))));
+        assert!(matches!(
+            run(&["--listen", "127.0.0.1:9100"]),
+            Err(ConfigError::SameAddress(_))
+        ));
+    }
+
+    #[test]
+    fn missing_file_is_an_io_error() {
+        let e = ServerConfig::from_args(["s", "--config", "/no/such/inertia.toml"], env_of(&[]))
+            .unwrap_err();
+        assert!(matches!(e, ConfigError::Io { .. }), "{e}");
+    }
+}
