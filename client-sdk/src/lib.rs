@@ -1,1 +1,3 @@
 //! The Inertia client SDK.
+
+pub mod clock;
