@@ -1,0 +1,302 @@
+//! The server's half: one [`SnapshotEncoder`] per client.
+
+use std::collections::BTreeSet;
+
+use crate::bits::BitWriter;
+use crate::entity::{EntityId, EntityState};
+use crate::priority::PriorityAccumulator;
+
+use super::code::{
+    varuint_bits, write_body, write_varuint, BitCount, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES,
+};
+use super::view::{QuantizedEntity, Ring, View};
+use super::{sequence_newer, ConfigError, SnapshotConfig, MAX_ENTITIES, RING, SNAPSHOT_TAG};
+
+/// What the last [`SnapshotEncoder::encode`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct EncodeReport {
+    /// The snapshot's sequence number.
+    pub sequence: u16,
+    /// The view it was coded against, if any.
+    pub baseline: Option<u16>,
+    /// Datagram size, bytes.
+    pub bytes: usize,
+    /// Entities whose state was sent.
+    pub included: usize,
+    /// Entities that differed from the baseline but did not fit the budget.
+    pub deferred: usize,
+    /// Removals sent.
+    pub removed: usize,
+    /// Removals that did not fit the budget.
+    pub removals_deferred: usize,
+    /// Entities in the view the snapshot describes.
+    pub view_len: usize,
+}
+
+/// Codes the world for one client: keeps the views it sent (the last
+/// [`RING`]), the newest one the client acknowledged, and the next
+/// sequence number.
+#[derive(Debug, Clone)]
+pub struct SnapshotEncoder {
+    config: SnapshotConfig,
+    sent: Ring,
+    next: u16,
+    acked: Option<u16>,
+    last: EncodeReport,
+}
+
+/// An entity that differs from the baseline.
+struct Candidate {
+    priority: f64,
+    id: EntityId,
+    state: QuantizedEntity,
+    /// The entity's size without its id, bits.
+    bits: usize,
+}
+
+/// The id gap code's size when `id` follows `prev` (`None`: first).
+fn id_bits(prev: Option<EntityId>, id: EntityId) -> usize {
+    varuint_bits(id_gap(prev, id), &ID_CLASSES)
+}
+
+fn id_gap(prev: Option<EntityId>, id: EntityId) -> u64 {
+    prev.map_or(u64::from(id), |p| u64::from(id - p - 1))
+}
+
+impl SnapshotEncoder {
+    /// An encoder that has sent nothing; the first snapshot is sequence 0.
+    pub fn new(config: SnapshotConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            sent: Ring::new(),
+            next: 0,
+            acked: None,
+            last: EncodeReport::default(),
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SnapshotConfig {
+        &self.config
+    }
+
+    /// The client acknowledged snapshot `sequence`: it may become the
+    /// baseline. Acks of snapshots never sent, no longer held, or older
+    /// than the newest acknowledged are ignored.
+    pub fn on_ack(&mut self, sequence: u16) {
+        let in_window = sequence_newer(self.next, sequence)
+            && usize::from(self.next.wrapping_sub(sequence)) <= RING;
+        if in_window
+            && self.sent.get(sequence).is_some()
+            && self.acked.is_none_or(|a| sequence_newer(sequence, a))
+        {
+            self.acked = Some(sequence);
+        }
+    }
+
+    /// Acknowledgements as [`super::SnapshotDecoder::ack_state`] gives
+    /// them: only the newest matters, as it makes the best baseline.
+    pub fn on_ack_state(&mut self, newest: Option<u16>, _ack_bits: u32) {
+        if let Some(s) = newest {
+            self.on_ack(s);
+        }
+    }
+
+    /// The newest snapshot the client acknowledged, if still held.
+    pub fn acked(&self) -> Option<u16> {
+        self.acked.filter(|&a| self.sent.get(a).is_some())
+    }
+
+    /// The view snapshot `sequence` described, while held.
+    pub fn view(&self, sequence: u16) -> Option<&View> {
+        self.sent.get(sequence)
+    }
+
+    /// What the last [`Self::encode`] did.
+    pub fn last_report(&self) -> EncodeReport {
+        self.last
+    }
+
+    /// Codes the next snapshot of `entities` (ascending by id; an id
+    /// repeated is taken once) at `tick`, with the clock's `time_scale`
+    /// (1 = real time) and `paused` flag. Entities are chosen by
+    /// `priorities` (which also decides relevance: weight 0 is out of view
+    /// and removed from the client's view) until the datagram would exceed
+    /// `min(budget_bytes, max_datagram)` bytes. The header and the counts
+    /// are always written, so a budget below about 20 bytes still sends
+    /// them; a budget that does not fit the top entity sends none.
+    pub fn encode(
+        &mut self,
+        tick: u64,
+        time_scale: f32,
+        paused: bool,
+        entities: &[EntityState],
+        priorities: &mut PriorityAccumulator,
+        budget_bytes: usize,
+    ) -> Vec<u8> {
+        let config = self.config;
+        // The decoder refuses scales no clock produces.
+        let time_scale = if time_scale.is_finite() && time_scale >= 0.0 {
+            time_scale
+        } else {
+            0.0
+        };
+        let sequence = self.next;
+        let baseline = self.acked().filter(|&b| b != sequence);
+        let empty = View::default();
+        let base = baseline.and_then(|b| self.sent.get(b)).unwrap_or(&empty);
+
+        // Walk the entities and the baseline together, by id.
+        let mut order: Vec<usize> = (0..entities.len()).collect();
+        if !entities.windows(2).all(|w| w[0].id < w[1].id) {
+            order.sort_by_key(|&i| entities[i].id);
+            order.dedup_by_key(|i| entities[*i].id);
+        }
+        let mut removed = Vec::new();
+        let mut candidates = Vec::new();
+        let base_entities = base.entities();
+        let mut b = 0;
+        for &i in &order {
+            let e = &entities[i];
+            while b < base_entities.len() && base_entities[b].0 < e.id {
+                removed.push(base_entities[b].0);
+                b += 1;
+            }
+            let in_base = (b < base_entities.len() && base_entities[b].0 == e.id)
+                .then(|| &base_entities[b].1);
+            if in_base.is_some() {
+                b += 1;
+            }
+            let relevance = priorities.relevance(e);
+            if relevance <= 0.0 {
+                if in_base.is_some() {
+                    removed.push(e.id);
+                }
+                continue;
+            }
+            let q = QuantizedEntity::new(e, &config);
+            if in_base == Some(&q) {
+                continue;
+            }
+            let mut bits = BitCount::default();
+            write_body(&mut bits, &q, in_base, &config);
+            candidates.push(Candidate {
+                priority: priorities.accumulate(e, relevance),
+                id: e.id,
+                state: q,
+                bits: bits.0,
+            });
+        }
+        removed.extend(base_entities[b..].iter().map(|e| e.0));
+        // Only entities still waiting keep an accumulated priority.
+        priorities.retain(|id| candidates.binary_search_by_key(&id, |c| c.id).is_ok());
+
+        // Fill the budget: the header with both counts at their widest,
+        // then removals in id order, then entities by priority.
+        let budget = budget_bytes.min(config.max_datagram) * 8;
+        let tick_rel = tick
+            .checked_sub(base.tick)
+            .filter(|&d| baseline.is_some() && d < (1 << 16) + (1 << 8) + (1 << 4));
+        let mut used = 8 + 16 + 1 + if baseline.is_some() { 16 } else { 0 };
+        used += 1 + tick_rel.map_or(64, |d| varuint_bits(d, &TICK_CLASSES));
+        used += 1 + if time_scale == 1.0 { 0 } else { 32 } + 1;
+        used += 2 * varuint_bits(MAX_ENTITIES as u64, &COUNT_CLASSES);
+
+        let mut removed_sent = Vec::new();
+        for &id in &removed {
+            let cost = id_bits(removed_sent.last().copied(), id);
+            if used + cost > budget || removed_sent.len() == MAX_ENTITIES {
+                break;
+            }
+            used += cost;
+            removed_sent.push(id);
+        }
+
+        candidates.sort_by(|a, b| b.priority.total_cmp(&a.priority).then(a.id.cmp(&b.id)));
+        // A view never grows past MAX_ENTITIES: new entities beyond its
+        // room wait.
+        let mut room = MAX_ENTITIES.saturating_sub(base.len());
+        let mut chosen = BTreeSet::new();
+        for c in &candidates {
+            let new = base.get(c.id).is_none();
+            if new && room == 0 {
+                continue;
+            }
+            let prev = chosen.range(..c.id).next_back().copied();
+            let next = chosen.range(c.id..).next().copied();
+            let mut cost = c.bits + id_bits(prev, c.id);
+            if let Some(n) = next {
+                cost = cost + id_bits(Some(c.id), n) - id_bits(prev, n);
+            }
+            if used + cost <= budget {
+                used += cost;
+                chosen.insert(c.id);
+                room -= usize::from(new);
+            }
+        }
+        let mut updated: Vec<(EntityId, QuantizedEntity)> = Vec::with_capacity(chosen.len());
+        let mut by_id: Vec<&Candidate> = candidates
+            .iter()
+            .filter(|c| chosen.contains(&c.id))
+            .collect();
+        by_id.sort_by_key(|c| c.id);
+        for c in by_id {
+            updated.push((c.id, c.state));
+            priorities.sent(c.id);
+        }
+
+        // Write it.
+        let mut w = BitWriter::new();
+        w.write(u64::from(SNAPSHOT_TAG), 8);
+        w.write(u64::from(sequence), 16);
+        w.write_bool(baseline.is_some());
+        if let Some(b) = baseline {
+            w.write(u64::from(b), 16);
+        }
+        w.write_bool(tick_rel.is_some());
+        match tick_rel {
+            Some(d) => write_varuint(&mut w, d, &TICK_CLASSES),
+            None => w.write(tick, 64),
+        }
+        w.write_bool(time_scale == 1.0);
+        if time_scale != 1.0 {
+            w.write(u64::from(time_scale.to_bits()), 32);
+        }
+        w.write_bool(paused);
+        write_varuint(&mut w, removed_sent.len() as u64, &COUNT_CLASSES);
+        let mut prev = None;
+        for &id in &removed_sent {
+            write_varuint(&mut w, id_gap(prev, id), &ID_CLASSES);
+            prev = Some(id);
+        }
+        write_varuint(&mut w, updated.len() as u64, &COUNT_CLASSES);
+        let mut prev = None;
+        for (id, q) in &updated {
+            write_varuint(&mut w, id_gap(prev, *id), &ID_CLASSES);
+            write_body(&mut w, q, base.get(*id), &config);
+            prev = Some(*id);
+        }
+        debug_assert!(
+            w.bit_len() <= budget.max(used),
+            "{} > {budget}",
+            w.bit_len()
+        );
+        let bytes = w.finish();
+
+        let view = base.apply(tick, &removed_sent, &updated);
+        self.last = EncodeReport {
+            sequence,
+            baseline,
+            bytes: bytes.len(),
+            included: updated.len(),
+            deferred: candidates.len() - updated.len(),
+            removed: removed_sent.len(),
+            removals_deferred: removed.len() - removed_sent.len(),
+            view_len: view.len(),
+        };
+        self.sent.insert(sequence, view);
+        self.next = sequence.wrapping_add(1);
+        bytes
+    }
+}

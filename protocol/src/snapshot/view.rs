@@ -1,0 +1,236 @@
+//! What a snapshot describes: entities quantized exactly as they travel,
+//! the view (a set of them, by id) that both ends hold per sequence
+//! number, and the ring of recent views.
+
+use glam::{DQuat, DVec3};
+
+use crate::bits::{BitReader, BitWriter};
+use crate::entity::{EntityId, EntityState};
+use crate::quantize::{read_rotation, write_rotation};
+
+use super::{SnapshotConfig, RING};
+
+/// A rotation as smallest three: which component was dropped and the
+/// other three, each `rotation_bits` wide, in order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct QuantizedRotation {
+    /// Index (0 = x … 3 = w) of the largest component, rebuilt on decode.
+    pub largest: u8,
+    /// The other three components as levels `0 ..= 2^bits - 1` spanning
+    /// `[-1/√2, 1/√2]`.
+    pub small: [u16; 3],
+}
+
+impl QuantizedRotation {
+    /// Quantizes `q` with `bits` a component. Goes through
+    /// [`write_rotation`] itself, so every user of the shared quantizer
+    /// agrees bit for bit.
+    pub fn new(q: DQuat, bits: u32) -> Self {
+        let mut w = BitWriter::new();
+        write_rotation(&mut w, q.to_array(), bits);
+        let bytes = w.finish();
+        let mut r = BitReader::new(&bytes);
+        // Both reads stay within what was just written.
+        let largest = r.read(2).unwrap_or(3) as u8;
+        let small = [0; 3].map(|_| r.read(bits).unwrap_or(0) as u16);
+        Self { largest, small }
+    }
+
+    /// The unit quaternion these levels stand for (as [`read_rotation`]
+    /// rebuilds it).
+    pub fn to_quat(self, bits: u32) -> DQuat {
+        let mut w = BitWriter::new();
+        w.write(u64::from(self.largest & 3), 2);
+        for c in self.small {
+            w.write(u64::from(c), bits);
+        }
+        let bytes = w.finish();
+        read_rotation(&mut BitReader::new(&bytes), bits).map_or(DQuat::IDENTITY, DQuat::from_array)
+    }
+}
+
+/// One entity exactly as snapshots carry it. Two states that quantize
+/// alike are the same state to the protocol.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct QuantizedEntity {
+    /// Position grid index per axis ([`crate::quantize::PositionGrid::index`]).
+    pub position: [u32; 3],
+    /// Orientation.
+    pub rotation: QuantizedRotation,
+    /// Velocity grid index per axis; `Some` only when the config sends
+    /// velocities and the entity is not at rest.
+    pub velocity: Option<[u32; 3]>,
+    /// The body sleeps: it will not move until something wakes it.
+    pub at_rest: bool,
+}
+
+impl QuantizedEntity {
+    /// Quantizes `e` under `config`.
+    pub fn new(e: &EntityState, config: &SnapshotConfig) -> Self {
+        let index =
+            |g: &crate::quantize::PositionGrid, v: DVec3| v.to_array().map(|x| g.index(x) as u32);
+        Self {
+            position: index(&config.grid, e.position),
+            rotation: QuantizedRotation::new(e.rotation, config.rotation_bits),
+            velocity: (config.velocities && !e.asleep)
+                .then(|| index(&config.velocity_grid, e.linear_velocity)),
+            at_rest: e.asleep,
+        }
+    }
+
+    /// The values these indices stand for.
+    pub fn dequantize(&self, id: EntityId, config: &SnapshotConfig) -> ViewEntity {
+        let coords = |g: &crate::quantize::PositionGrid, i: [u32; 3]| {
+            DVec3::from_array(i.map(|x| g.coordinate(u64::from(x))))
+        };
+        ViewEntity {
+            id,
+            position: coords(&config.grid, self.position),
+            rotation: self.rotation.to_quat(config.rotation_bits),
+            velocity: self.velocity.map(|v| coords(&config.velocity_grid, v)),
+            at_rest: self.at_rest,
+        }
+    }
+}
+
+/// One entity of a decoded view, in world units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewEntity {
+    /// The entity.
+    pub id: EntityId,
+    /// Position on the grid, m.
+    pub position: DVec3,
+    /// Orientation (unit quaternion).
+    pub rotation: DQuat,
+    /// Linear velocity on the velocity grid, m/s, when sent.
+    pub velocity: Option<DVec3>,
+    /// The body sleeps.
+    pub at_rest: bool,
+}
+
+/// A full quantized view: the tick it describes and its entities,
+/// ascending by id.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct View {
+    /// The tick the view describes.
+    pub tick: u64,
+    pub(crate) entities: Vec<(EntityId, QuantizedEntity)>,
+}
+
+impl View {
+    /// The entities, ascending by id.
+    pub fn entities(&self) -> &[(EntityId, QuantizedEntity)] {
+        &self.entities
+    }
+
+    /// One entity, if in the view.
+    pub fn get(&self, id: EntityId) -> Option<&QuantizedEntity> {
+        self.entities
+            .binary_search_by_key(&id, |e| e.0)
+            .ok()
+            .map(|i| &self.entities[i].1)
+    }
+
+    /// Entities in the view.
+    pub fn len(&self) -> usize {
+        self.entities.len()
+    }
+
+    /// Whether the view holds no entity.
+    pub fn is_empty(&self) -> bool {
+        self.entities.is_empty()
+    }
+
+    /// This view with `removed` gone and `updated` put in (both ascending by
+    /// id), by one merge.
+    pub(crate) fn apply(
+        &self,
+        tick: u64,
+        removed: &[EntityId],
+        updated: &[(EntityId, QuantizedEntity)],
+    ) -> View {
+        let mut out = Vec::with_capacity(self.entities.len() + updated.len());
+        let (mut r, mut u) = (0, 0);
+        for &(id, q) in &self.entities {
+            while u < updated.len() && updated[u].0 < id {
+                out.push(updated[u]);
+                u += 1;
+            }
+            while r < removed.len() && removed[r] < id {
+                r += 1;
+            }
+            if u < updated.len() && updated[u].0 == id {
+                out.push(updated[u]);
+                u += 1;
+            } else if !(r < removed.len() && removed[r] == id) {
+                out.push((id, q));
+            }
+        }
+        out.extend_from_slice(&updated[u..]);
+        View {
+            tick,
+            entities: out,
+        }
+    }
+}
+
+/// The last [`RING`] views by sequence number.
+#[derive(Debug, Clone)]
+pub(crate) struct Ring {
+    slots: Vec<Option<(u16, View)>>,
+}
+
+impl Ring {
+    pub(crate) fn new() -> Self {
+        Self {
+            slots: vec![None; RING],
+        }
+    }
+
+    pub(crate) fn get(&self, seq: u16) -> Option<&View> {
+        match &self.slots[usize::from(seq) % RING] {
+            Some((s, v)) if *s == seq => Some(v),
+            _ => None,
+        }
+    }
+
+    pub(crate) fn insert(&mut self, seq: u16, view: View) {
+        self.slots[usize::from(seq) % RING] = Some((seq, view));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rotation_levels_rebuild_what_the_shared_reader_rebuilds() {
+        let q = DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -1.2, 2.0);
+        for bits in [9, 11, 16] {
+            let r = QuantizedRotation::new(q, bits);
+            let back = r.to_quat(bits);
+            assert!(back.dot(q).abs() > 0.9999, "{bits}: {back:?} vs {q:?}");
+            assert_eq!(QuantizedRotation::new(back, bits), r, "stable at {bits}");
+        }
+    }
+
+    #[test]
+    fn apply_merges_removals_and_updates() {
+        let q = |x| QuantizedEntity {
+            position: [x; 3],
+            rotation: QuantizedRotation::default(),
+            velocity: None,
+            at_rest: false,
+        };
+        let base = View {
+            tick: 1,
+            entities: vec![(1, q(1)), (3, q(3)), (5, q(5)), (7, q(7))],
+        };
+        let next = base.apply(2, &[3, 7], &[(0, q(9)), (5, q(8)), (9, q(9))]);
+        assert_eq!(next.tick, 2);
+        assert_eq!(
+            next.entities,
+            vec![(0, q(9)), (1, q(1)), (5, q(8)), (9, q(9))]
+        );
+    }
+}

@@ -1,0 +1,463 @@
+//! The snapshot codec end to end: round trips of random worlds, untrusted
+//! bytes, a moving world over a lossy link, budgets, priorities, interest
+//! and sequence wraparound.
+
+use std::collections::BTreeMap;
+
+use glam::{DQuat, DVec3};
+use inertia_protocol::link::{LinkConfig, SimLink};
+use inertia_protocol::rng::SplitMix;
+use inertia_protocol::snapshot::QuantizedEntity;
+use inertia_protocol::{
+    EntityState, Interest, PriorityAccumulator, SnapshotConfig, SnapshotDecoder, SnapshotEncoder,
+    SnapshotError,
+};
+use proptest::prelude::*;
+
+fn config(velocities: bool) -> SnapshotConfig {
+    SnapshotConfig {
+        velocities,
+        ..SnapshotConfig::default()
+    }
+}
+
+/// A config whose datagrams hold whole worlds of a few hundred entities.
+fn roomy(velocities: bool) -> SnapshotConfig {
+    SnapshotConfig {
+        max_datagram: 65_000,
+        ..config(velocities)
+    }
+}
+
+fn random_rotation(r: &mut SplitMix) -> DQuat {
+    let q = DQuat::from_xyzw(
+        r.uniform() - 0.5,
+        r.uniform() - 0.5,
+        r.uniform() - 0.5,
+        r.uniform() - 0.5,
+    );
+    if q.length() < 1e-3 {
+        DQuat::IDENTITY
+    } else {
+        q.normalize()
+    }
+}
+
+/// `n` entities with random ids (ascending), places and motions.
+fn random_world(r: &mut SplitMix, n: usize) -> Vec<EntityState> {
+    let mut id = 0u32;
+    (0..n)
+        .map(|_| {
+            id += 1 + (r.next_u64() % 40) as u32;
+            EntityState {
+                id,
+                position: DVec3::new(
+                    (r.uniform() - 0.5) * 400.0,
+                    r.uniform() * 50.0,
+                    (r.uniform() - 0.5) * 400.0,
+                ),
+                rotation: random_rotation(r),
+                linear_velocity: DVec3::new(r.uniform() - 0.5, r.uniform(), 0.0) * 20.0,
+                angular_velocity: DVec3::ZERO,
+                asleep: r.uniform() < 0.3,
+            }
+        })
+        .collect()
+}
+
+/// Moves some entities a little, some a lot, rotates some, puts some to
+/// sleep and wakes others.
+fn mutate(r: &mut SplitMix, world: &mut [EntityState]) {
+    for e in world.iter_mut() {
+        match r.next_u64() % 6 {
+            0 => e.position += DVec3::new(r.uniform(), r.uniform(), r.uniform()) * 0.002,
+            1 => e.position += DVec3::new(r.uniform() - 0.5, 0.0, r.uniform() - 0.5) * 3.0,
+            2 => e.rotation = (DQuat::from_rotation_y(r.uniform() * 0.05) * e.rotation).normalize(),
+            3 => e.rotation = random_rotation(r),
+            4 => e.asleep = !e.asleep,
+            _ => {}
+        }
+    }
+}
+
+fn quantized(world: &[EntityState], config: &SnapshotConfig) -> Vec<(u32, QuantizedEntity)> {
+    world
+        .iter()
+        .map(|e| (e.id, QuantizedEntity::new(e, config)))
+        .collect()
+}
+
+#[test]
+fn random_worlds_round_trip_exactly_with_and_without_baseline() {
+    for velocities in [false, true] {
+        let config = roomy(velocities);
+        let mut r = SplitMix(11 + u64::from(velocities));
+        for _ in 0..20 {
+            let mut enc = SnapshotEncoder::new(config).unwrap();
+            let mut dec = SnapshotDecoder::new(config).unwrap();
+            let mut pri = PriorityAccumulator::new(Interest::everything());
+            let mut world = random_world(&mut r, 300);
+            for step in 0..4u64 {
+                let bytes = enc.encode(100 + step, 1.0, false, &world, &mut pri, usize::MAX);
+                let report = enc.last_report();
+                assert_eq!(report.deferred, 0, "the whole world fits");
+                assert_eq!(report.baseline.is_some(), step > 0);
+                let got = dec.decode(&bytes).unwrap();
+                assert_eq!(got.tick, 100 + step);
+                // The client's view is the server's quantized world, exactly.
+                let view = dec.view(got.sequence).unwrap();
+                assert_eq!(view, enc.view(got.sequence).unwrap());
+                assert_eq!(view.entities(), &quantized(&world, &config)[..]);
+                for (v, (id, q)) in got.entities.iter().zip(view.entities()) {
+                    assert_eq!(*v, q.dequantize(*id, &config));
+                    assert_eq!(v.velocity.is_some(), velocities && !v.at_rest);
+                }
+                let (newest, _) = dec.ack_state();
+                enc.on_ack(newest.unwrap());
+                mutate(&mut r, &mut world);
+            }
+        }
+    }
+}
+
+#[test]
+fn values_come_back_within_the_grid() {
+    let config = roomy(true);
+    let mut r = SplitMix(3);
+    let world = random_world(&mut r, 200);
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut dec = SnapshotDecoder::new(config).unwrap();
+    let mut pri = PriorityAccumulator::default();
+    let bytes = enc.encode(1, 0.5, true, &world, &mut pri, usize::MAX);
+    let got = dec.decode(&bytes).unwrap();
+    assert_eq!((got.time_scale, got.paused), (0.5, true));
+    for (e, v) in world.iter().zip(&got.entities) {
+        assert_eq!(e.id, v.id);
+        assert!((e.position - v.position).abs().max_element() <= 0.0005 + 1e-9);
+        let angle = 2.0 * e.rotation.dot(v.rotation).abs().min(1.0).acos();
+        assert!(angle.to_degrees() < 0.15, "{}°", angle.to_degrees());
+        if let Some(vel) = v.velocity {
+            assert!((e.linear_velocity - vel).abs().max_element() <= 0.005 + 1e-9);
+        }
+    }
+}
+
+/// A world of `n` bodies on circles, a few asleep at any time.
+fn moving_world(n: u32, tick: u64) -> Vec<EntityState> {
+    let t = tick as f64 / 60.0;
+    (0..n)
+        .map(|i| {
+            let phase = f64::from(i) * 0.37;
+            let asleep = (tick / 60 + u64::from(i)) % 4 == 0;
+            let t = if asleep {
+                (tick / 60 * 60) as f64 / 60.0
+            } else {
+                t
+            };
+            let speed = 0.2 + f64::from(i % 7) * 0.3;
+            EntityState {
+                id: i * 3 + 1,
+                position: DVec3::new(
+                    f64::from(i % 20) * 2.0 + (t * speed + phase).cos(),
+                    0.5 + 0.1 * (t * 2.0 + phase).sin().abs(),
+                    f64::from(i / 20) * 2.0 + (t * speed + phase).sin(),
+                ),
+                rotation: DQuat::from_euler(glam::EulerRot::YXZ, t * speed, t * 0.1, phase),
+                linear_velocity: DVec3::new(-(t * speed).sin(), 0.0, (t * speed).cos()) * speed,
+                angular_velocity: DVec3::ZERO,
+                asleep,
+            }
+        })
+        .collect()
+}
+
+/// Drives an encoder and a decoder through lossy links both ways (the
+/// acks on the way back) and checks, for every snapshot the client
+/// decodes, that its view is the view the server says it sent.
+fn drive(seed: u64, velocities: bool, budget: usize, snapshots: u64) -> (u64, u64) {
+    let config = config(velocities);
+    let link = LinkConfig {
+        delay: 0.05,
+        jitter: 0.02,
+        loss: 0.05,
+        duplicate: 0.03,
+    };
+    let mut down = SimLink::new(link, seed).unwrap();
+    let mut up = SimLink::new(link, seed ^ 0xACC).unwrap();
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut dec = SnapshotDecoder::new(config).unwrap();
+    let mut pri = PriorityAccumulator::default();
+    let mut out_of_order = 0;
+    for tick in 0..snapshots {
+        let now = tick as f64 / 60.0;
+        let world = moving_world(150, tick);
+        let bytes = enc.encode(tick, 1.0, false, &world, &mut pri, budget);
+        assert!(bytes.len() <= budget.min(config.max_datagram));
+        down.send(now, bytes);
+        for packet in down.receive(now) {
+            match dec.decode(&packet) {
+                Ok(got) => {
+                    let view = dec.view(got.sequence).unwrap();
+                    assert_eq!(Some(view), enc.view(got.sequence), "seq {}", got.sequence);
+                    out_of_order += u64::from(!got.newest);
+                    let (newest, bits) = dec.ack_state();
+                    let mut ack = Vec::new();
+                    ack.extend_from_slice(&newest.unwrap().to_le_bytes());
+                    ack.extend_from_slice(&bits.to_le_bytes());
+                    up.send(now, ack);
+                }
+                Err(SnapshotError::Duplicate { .. }) => {}
+                Err(e) => panic!("snapshot {tick}: {e}"),
+            }
+        }
+        for ack in up.receive(now) {
+            enc.on_ack(u16::from_le_bytes([ack[0], ack[1]]));
+        }
+    }
+    let stats = dec.stats();
+    assert!(stats.decoded > snapshots * 85 / 100, "{stats:?}");
+    (stats.duplicate, out_of_order)
+}
+
+#[test]
+fn a_moving_world_over_a_lossy_link_stays_in_step() {
+    let mut dups = 0;
+    let mut reordered = 0;
+    for (seed, velocities) in [(1, false), (2, true), (3, false)] {
+        let (d, o) = drive(seed, velocities, 1200, 600);
+        dups += d;
+        reordered += o;
+    }
+    assert!(
+        dups > 0 && reordered > 0,
+        "the link exercised duplicates ({dups}) and reordering ({reordered})"
+    );
+}
+
+#[test]
+fn a_tight_budget_is_respected_and_the_views_still_agree() {
+    drive(4, true, 200, 600);
+    drive(5, false, 120, 400);
+}
+
+#[test]
+fn every_changed_entity_is_eventually_sent() {
+    // 200 bodies all moving every tick, room for a handful a snapshot, a
+    // perfect link with immediate acks: every body must still go out, over
+    // and over, with a bounded wait.
+    let config = config(false);
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut dec = SnapshotDecoder::new(config).unwrap();
+    let mut pri = PriorityAccumulator::default();
+    let mut last_sent: BTreeMap<u32, u64> = BTreeMap::new();
+    let mut worst_wait = 0;
+    for tick in 0..2000u64 {
+        let mut world = moving_world(200, tick);
+        for e in &mut world {
+            e.asleep = false;
+        }
+        let bytes = enc.encode(tick, 1.0, false, &world, &mut pri, 80);
+        let got = dec.decode(&bytes).unwrap();
+        enc.on_ack(got.sequence);
+        for id in got.changed {
+            let since = last_sent.insert(id, tick).unwrap_or(0);
+            worst_wait = worst_wait.max(tick - since);
+        }
+        if tick > 1000 {
+            for e in &world {
+                let since = last_sent.get(&e.id).copied().unwrap_or(0);
+                assert!(tick - since < 200, "entity {} starved since {since}", e.id);
+            }
+        }
+    }
+    assert_eq!(last_sent.len(), 200);
+    assert!(worst_wait < 200, "worst wait {worst_wait} snapshots");
+}
+
+#[test]
+fn out_of_interest_and_despawned_entities_leave_the_view() {
+    let config = roomy(false);
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut dec = SnapshotDecoder::new(config).unwrap();
+    let mut interest = Interest::around(DVec3::ZERO, 10.0, 20.0);
+    interest.always_relevant.insert(40);
+    let mut pri = PriorityAccumulator::new(interest);
+    let at = |id: u32, x: f64| EntityState {
+        id,
+        position: DVec3::new(x, 0.0, 0.0),
+        rotation: DQuat::IDENTITY,
+        linear_velocity: DVec3::ZERO,
+        angular_velocity: DVec3::ZERO,
+        asleep: false,
+    };
+    let world = vec![at(10, 1.0), at(20, 15.0), at(30, 25.0), at(40, 500.0)];
+    let got = dec
+        .decode(&enc.encode(0, 1.0, false, &world, &mut pri, 2000))
+        .unwrap();
+    let ids: Vec<u32> = got.entities.iter().map(|e| e.id).collect();
+    assert_eq!(ids, [10, 20, 40]);
+    enc.on_ack(got.sequence);
+    // 20 walks out of range, 10 despawns.
+    let world = vec![at(20, 21.0), at(30, 25.0), at(40, 500.0)];
+    let got = dec
+        .decode(&enc.encode(1, 1.0, false, &world, &mut pri, 2000))
+        .unwrap();
+    assert_eq!(got.removed, [10, 20]);
+    let ids: Vec<u32> = got.entities.iter().map(|e| e.id).collect();
+    assert_eq!(ids, [40]);
+}
+
+#[test]
+fn baselines_duplicates_and_stale_snapshots_are_typed_errors() {
+    let config = roomy(false);
+    let mut r = SplitMix(8);
+    let mut world = random_world(&mut r, 50);
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut dec = SnapshotDecoder::new(config).unwrap();
+    let mut pri = PriorityAccumulator::default();
+    let first = enc.encode(0, 1.0, false, &world, &mut pri, usize::MAX);
+    dec.decode(&first).unwrap();
+    assert_eq!(
+        dec.decode(&first),
+        Err(SnapshotError::Duplicate { sequence: 0 })
+    );
+    enc.on_ack(0);
+    mutate(&mut r, &mut world);
+    let second = enc.encode(1, 1.0, false, &world, &mut pri, usize::MAX);
+    let mut fresh = SnapshotDecoder::new(config).unwrap();
+    assert_eq!(
+        fresh.decode(&second),
+        Err(SnapshotError::MissingBaseline {
+            sequence: 1,
+            baseline: 0
+        })
+    );
+    assert_eq!(fresh.stats().missing_baseline, 1);
+    assert_eq!(fresh.ack_state(), (None, 0));
+    // Jump 100 snapshots ahead; the old one is then stale.
+    let mut stale = None;
+    for k in 2..102 {
+        let b = enc.encode(k, 1.0, false, &world, &mut pri, usize::MAX);
+        if k == 5 {
+            stale = Some(b);
+        } else if k == 101 {
+            dec.decode(&b).unwrap();
+        }
+    }
+    assert!(matches!(
+        dec.decode(&stale.unwrap()),
+        Err(SnapshotError::Stale {
+            sequence: 5,
+            newest: 101
+        })
+    ));
+    assert_eq!(
+        dec.decode(&[0x49, 0, 0]),
+        Err(SnapshotError::WrongKind { tag: 0x49 })
+    );
+    assert!(matches!(
+        dec.decode(&vec![0x53; 70_000]),
+        Err(SnapshotError::TooLong { len: 70_000, .. })
+    ));
+}
+
+#[test]
+fn acks_name_the_newest_and_the_32_before_it() {
+    let config = config(false);
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut dec = SnapshotDecoder::new(config).unwrap();
+    let mut pri = PriorityAccumulator::default();
+    let world = moving_world(5, 0);
+    let packets: Vec<Vec<u8>> = (0..40)
+        .map(|k| enc.encode(k, 1.0, false, &world, &mut pri, 1200))
+        .collect();
+    // Receive 0..=39 except 37, 30 and 2, with 36 arriving after 39.
+    for k in (0..40).filter(|k| ![2, 30, 36, 37].contains(k)) {
+        dec.decode(&packets[k]).unwrap();
+    }
+    assert!(!dec.decode(&packets[36]).unwrap().newest);
+    let (newest, bits) = dec.ack_state();
+    assert_eq!(newest, Some(39));
+    for back in 1..=32u16 {
+        let seq = 39 - back;
+        let expected = ![2, 30, 37].contains(&seq);
+        assert_eq!(bits >> (back - 1) & 1 == 1, expected, "seq {seq}");
+    }
+}
+
+#[test]
+fn sequence_numbers_wrap_around() {
+    let config = config(false);
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut dec = SnapshotDecoder::new(config).unwrap();
+    let mut pri = PriorityAccumulator::default();
+    let mut with_baseline = 0;
+    for tick in 0..70_000u64 {
+        let world = moving_world(3, tick);
+        let bytes = enc.encode(tick, 1.0, false, &world, &mut pri, 1200);
+        // Every tenth snapshot is lost; acks come back three snapshots late.
+        if tick % 10 == 9 {
+            continue;
+        }
+        let got = dec.decode(&bytes).unwrap();
+        assert_eq!(got.tick, tick);
+        assert_eq!(dec.view(got.sequence), enc.view(got.sequence));
+        with_baseline += u64::from(got.baseline.is_some());
+        if tick >= 3 && (tick - 3) % 10 != 9 {
+            enc.on_ack((tick - 3) as u16);
+        }
+    }
+    assert!(with_baseline > 60_000, "{with_baseline}");
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    #[test]
+    fn random_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..1500)) {
+        let mut dec = SnapshotDecoder::new(config(true)).unwrap();
+        let _ = dec.decode(&bytes);
+        let mut tagged = bytes;
+        if let Some(b) = tagged.first_mut() {
+            *b = 0x53;
+        }
+        let _ = dec.decode(&tagged);
+    }
+
+    #[test]
+    fn mutated_snapshots_never_panic(
+        seed in any::<u64>(),
+        flips in proptest::collection::vec((any::<usize>(), any::<u8>()), 1..8),
+        cut in any::<usize>(),
+    ) {
+        let config = config(seed % 2 == 0);
+        let mut r = SplitMix(seed);
+        let mut world = random_world(&mut r, 40);
+        let mut enc = SnapshotEncoder::new(config).unwrap();
+        let mut dec = SnapshotDecoder::new(config).unwrap();
+        let mut pri = PriorityAccumulator::default();
+        let first = enc.encode(seed, 1.0, false, &world, &mut pri, 1200);
+        dec.decode(&first).unwrap();
+        enc.on_ack(0);
+        mutate(&mut r, &mut world);
+        let mut bytes = enc.encode(seed + 1, 2.0, false, &world, &mut pri, 1200);
+        let clean = bytes.clone();
+        for (at, x) in flips {
+            let n = bytes.len();
+            bytes[at % n] ^= x;
+        }
+        if cut % 3 == 0 {
+            bytes.truncate(cut % (bytes.len() + 1));
+        }
+        let _ = dec.decode(&bytes);
+        // The clean one still decodes afterwards unless the mutant was
+        // taken as it (a flip in padding bits only).
+        if bytes != clean {
+            match dec.decode(&clean) {
+                Ok(got) => prop_assert_eq!(dec.view(got.sequence), enc.view(got.sequence)),
+                Err(SnapshotError::Duplicate { .. }) => {}
+                Err(e) => prop_assert!(false, "clean snapshot refused: {}", e),
+            }
+        }
+    }
+}
