@@ -7,23 +7,38 @@
 //! - [`bits`]: the bit packer every message is written with.
 //! - [`quantize`]: positions on a grid and orientations as smallest three.
 //! - [`link`]: a simulated lossy link on a virtual clock, for tests.
+//! - [`token`]: connect tokens, sealed with the server key, and the replay
+//!   guard.
+//! - [`control`]: the reliable control channel (hello, spawns, events,
+//!   goodbyes) and its framing.
+//! - [`input`]: the client's input datagram and the server's input buffer.
 //! - [`snapshot`]: the snapshot datagram, delta-coded against acknowledged
 //!   views and fitted to a budget by [`priority`] and [`interest`].
 
 pub mod bits;
+pub mod control;
 pub mod credentials;
 pub mod entity;
+pub mod input;
 pub mod interest;
 pub mod link;
 pub mod priority;
 pub mod quantize;
 pub mod rng;
 pub mod snapshot;
+pub mod token;
 
 pub use bits::{BitError, BitReader, BitWriter};
 pub use link::{LinkConfig, LinkError, LinkStats, SimLink};
 pub use quantize::{read_rotation, write_rotation, PositionGrid};
 pub use entity::{EntityDesc, EntityId, EntityKind, EntityState, PlayerInput, ShapeDesc};
+pub use control::{
+    encode_frame, handshake, ClientControl, ControlError, ControlMessage, DisconnectReason,
+    FrameDecoder, GameEvent, Refusal, ServerControl, TokenRefusal, ALPN, MAX_CONTROL_FRAME,
+    PROTOCOL_VERSION,
+};
+pub use input::{InputBuffer, InputDatagram, InputError, MAX_REDUNDANT_INPUTS};
+pub use token::{ConnectToken, OpenedToken, ReplayGuard, TokenError, TokenIssuer, TokenKey};
 pub use interest::Interest;
 pub use priority::{PriorityAccumulator, PriorityWeights};
 pub use snapshot::{

@@ -1,0 +1,1028 @@
+//! The reliable control channel: the hello and its answer, spawns and
+//! despawns, game events and goodbyes, carried on a QUIC stream.
+//!
+//! Messages are serde types encoded with postcard. Each travels as a frame,
+//! a `u32` little-endian length followed by that many postcard bytes, at
+//! most [`MAX_CONTROL_FRAME`]. [`FrameDecoder`] is sans-IO: stream bytes go
+//! in as they arrive, whole messages come out.
+//!
+//! Serde bounds the shape of a message but not its sizes, so every decoded
+//! message is then [`ControlMessage::validate`]d: counts, string lengths,
+//! finite floats, triangle indices, sensible rates. The sender validates
+//! too ([`encode_frame`]), so a message the peer would refuse is never
+//! sent.
+//!
+//! One bound is enforced while decoding rather than after: a compound
+//! shape inside a compound. [`ShapeDesc`] is recursive, so a frame of
+//! nested compounds would recurse through serde once per level (thousands
+//! of levels fit in a frame) and could overflow the stack before any
+//! validation ran. Spawns are therefore decoded through a private mirror of
+//! [`EntityDesc`] whose grammar stops at one level of nesting.
+
+use serde::{de::DeserializeOwned, Deserialize, Deserializer, Serialize};
+use thiserror::Error;
+
+use crate::entity::{EntityDesc, EntityId, EntityKind, ShapeDesc};
+use crate::token::{self, OpenedToken, ReplayGuard, TokenError, TokenKey, MAX_TOKEN_BYTES};
+
+/// The version of the whole wire protocol (control, datagrams and tokens).
+/// A client and server speak only when theirs are equal.
+pub const PROTOCOL_VERSION: u16 = 1;
+/// The QUIC ALPN protocol id of the game connection.
+pub const ALPN: &[u8] = b"inertia";
+/// Largest postcard payload of one control frame, bytes (the length
+/// prefix's 4 bytes not included).
+pub const MAX_CONTROL_FRAME: usize = 64 * 1024;
+/// Bytes a [`FrameDecoder`] holds at most: room for one whole frame still
+/// being received plus one more push of up to [`MAX_CONTROL_FRAME`] bytes.
+pub const MAX_DECODER_BUFFER: usize = 2 * (4 + MAX_CONTROL_FRAME);
+/// Longest entity name, bytes of UTF-8.
+pub const MAX_ENTITY_NAME_BYTES: usize = 64;
+/// Longest server version string in a welcome, bytes.
+pub const MAX_VERSION_BYTES: usize = 64;
+/// Longest text of a [`GameEvent::Message`], bytes.
+pub const MAX_MESSAGE_BYTES: usize = 1024;
+/// Longest name of a [`GameEvent::Custom`], bytes.
+pub const MAX_EVENT_NAME_BYTES: usize = 64;
+/// Longest data of a [`GameEvent::Custom`], bytes.
+pub const MAX_EVENT_DATA_BYTES: usize = 16 * 1024;
+/// Longest reason or description in a refusal or goodbye, bytes.
+pub const MAX_REASON_BYTES: usize = 256;
+/// Largest `position_bound / position_resolution` a welcome may announce:
+/// keeps a position axis within 33 bits.
+pub const MAX_POSITION_STEPS: f64 = (1u64 << 32) as f64;
+
+/// What a client says on the control stream.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum ClientControl {
+    /// The first message: the client's protocol version and its connect
+    /// token's bytes (at most [`MAX_TOKEN_BYTES`]).
+    Hello {
+        /// The client's [`PROTOCOL_VERSION`].
+        version: u16,
+        /// The connect token, as [`crate::token::ConnectToken::to_bytes`].
+        token: Vec<u8>,
+    },
+    /// The client is leaving.
+    Goodbye,
+}
+
+/// What a server says on the control stream.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum ServerControl {
+    /// The hello was accepted.
+    Welcome {
+        /// The client's id (from its token).
+        client_id: u64,
+        /// The server's current tick.
+        tick: u64,
+        /// Physics ticks per second of simulation time, Hz.
+        tick_hz: u32,
+        /// Snapshots per second of wall time, Hz.
+        snapshot_hz: u32,
+        /// Snapshot position grid step, m.
+        position_resolution: f64,
+        /// Largest snapshot coordinate magnitude, m.
+        position_bound: f64,
+        /// The server build, for logs (at most [`MAX_VERSION_BYTES`]).
+        server_version: String,
+    },
+    /// The hello was refused; the server closes the connection next.
+    Refused(Refusal),
+    /// An entity entered the client's view.
+    Spawn(#[serde(deserialize_with = "deserialize_entity")] EntityDesc),
+    /// An entity left the client's view or the world.
+    Despawn {
+        /// The entity.
+        id: EntityId,
+    },
+    /// Something happened that the client should show.
+    Event(GameEvent),
+    /// The server is closing the connection.
+    Goodbye(DisconnectReason),
+}
+
+/// Why a hello was refused.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Refusal {
+    /// Client and server speak different protocol versions.
+    VersionMismatch {
+        /// The server's version.
+        server: u16,
+        /// The client's version.
+        client: u16,
+    },
+    /// The connect token was refused.
+    Token(TokenRefusal),
+    /// No room for another client; try later or elsewhere.
+    ServerFull,
+    /// The server is shutting down.
+    ShuttingDown,
+    /// The first message was not a well-formed hello.
+    Malformed,
+}
+
+/// Why a connect token was refused, as told to the client: the
+/// [`TokenError`] without anything the client should not learn.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum TokenRefusal {
+    /// The bytes are not a token of this protocol version.
+    Malformed,
+    /// The token does not verify under the server's key.
+    Forged,
+    /// The token has expired; fetch a new one.
+    Expired {
+        /// Its expiry, unix seconds.
+        expires_at: u64,
+        /// The server's clock, unix seconds.
+        now: u64,
+    },
+    /// The token is for another server.
+    WrongServer {
+        /// The address in the token (at most [`MAX_REASON_BYTES`]).
+        token: String,
+        /// This server's address (at most [`MAX_REASON_BYTES`]).
+        ours: String,
+    },
+    /// The token already opened another connection.
+    Reused,
+}
+
+impl From<TokenError> for Refusal {
+    fn from(e: TokenError) -> Self {
+        match e {
+            TokenError::Malformed(_) => Refusal::Token(TokenRefusal::Malformed),
+            TokenError::Forged => Refusal::Token(TokenRefusal::Forged),
+            TokenError::Expired { expires_at, now } => {
+                Refusal::Token(TokenRefusal::Expired { expires_at, now })
+            }
+            TokenError::WrongServer { token, ours } => {
+                Refusal::Token(TokenRefusal::WrongServer { token, ours })
+            }
+            TokenError::Reused { .. } => Refusal::Token(TokenRefusal::Reused),
+            TokenError::ReplayGuardFull { .. } => Refusal::ServerFull,
+        }
+    }
+}
+
+/// Why a connection ended.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum DisconnectReason {
+    /// The server is stopping.
+    ServerShutdown,
+    /// An operator or the game removed the client.
+    Kicked {
+        /// Why, for the player (at most [`MAX_REASON_BYTES`]).
+        reason: String,
+    },
+    /// Nothing was heard from the peer for too long.
+    Timeout,
+    /// The client said goodbye.
+    ClientLeft,
+    /// The peer broke the protocol.
+    ProtocolError {
+        /// What it did (at most [`MAX_REASON_BYTES`]).
+        what: String,
+    },
+}
+
+/// Something that happened in the world, sent reliably to the clients that
+/// should show it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum GameEvent {
+    /// Two entities hit each other hard enough to matter.
+    Contact {
+        /// One entity.
+        a: EntityId,
+        /// The other.
+        b: EntityId,
+        /// The impulse exchanged, N·s.
+        impulse: f32,
+    },
+    /// An explosion.
+    Explosion {
+        /// Its centre, m.
+        position: [f64; 3],
+        /// Its radius, m.
+        radius: f32,
+    },
+    /// A text message (at most [`MAX_MESSAGE_BYTES`]).
+    Message {
+        /// The text.
+        text: String,
+    },
+    /// A game-defined event.
+    Custom {
+        /// Its name (at most [`MAX_EVENT_NAME_BYTES`]).
+        name: String,
+        /// Its payload (at most [`MAX_EVENT_DATA_BYTES`]).
+        data: Vec<u8>,
+    },
+}
+
+/// Why a control frame could not be encoded or decoded.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ControlError {
+    /// A frame longer than [`MAX_CONTROL_FRAME`]. On decoding this is
+    /// fatal: the stream cannot be resynchronised.
+    #[error("control frame of {len} bytes, the most is {max}")]
+    FrameTooLarge {
+        /// Its length, bytes.
+        len: usize,
+        /// The bound, bytes.
+        max: usize,
+    },
+    /// A push that would take the decoder past [`MAX_DECODER_BUFFER`];
+    /// drain it with [`FrameDecoder::next`] first.
+    #[error("decoder holds {buffered} bytes, {pushed} more would pass {max}")]
+    BufferFull {
+        /// Bytes already held.
+        buffered: usize,
+        /// Bytes pushed.
+        pushed: usize,
+        /// The bound, bytes.
+        max: usize,
+    },
+    /// The bytes are not a message of the expected type.
+    #[error("control message does not decode: {0}")]
+    Decode(postcard::Error),
+    /// The message could not be serialized.
+    #[error("control message does not encode: {0}")]
+    Encode(postcard::Error),
+    /// The frame holds bytes after its message.
+    #[error("{extra} bytes after the control message")]
+    TrailingBytes {
+        /// How many.
+        extra: usize,
+    },
+    /// A string or byte field longer than its bound.
+    #[error("{what} is {len} bytes, the most is {max}")]
+    TooLong {
+        /// The field.
+        what: &'static str,
+        /// Its length, bytes.
+        len: usize,
+        /// The bound, bytes.
+        max: usize,
+    },
+    /// A list with more items than its bound.
+    #[error("{what} has {len} items, the most is {max}")]
+    TooMany {
+        /// The list.
+        what: &'static str,
+        /// Its length.
+        len: usize,
+        /// The bound.
+        max: usize,
+    },
+    /// A number that is NaN or infinite.
+    #[error("{what} is not finite")]
+    NotFinite {
+        /// The field.
+        what: &'static str,
+    },
+    /// A number outside its range (a negative size, a zero rate).
+    #[error("{what} is out of range")]
+    OutOfRange {
+        /// The field.
+        what: &'static str,
+    },
+    /// A triangle names a vertex the mesh does not have.
+    #[error("triangle vertex index {index} with {vertices} vertices")]
+    BadIndex {
+        /// The index.
+        index: u32,
+        /// The mesh's vertex count.
+        vertices: usize,
+    },
+    /// A compound shape inside a compound shape.
+    #[error("compound shapes may not nest")]
+    NestedCompound,
+}
+
+/// A message that travels on the control channel.
+pub trait ControlMessage: Serialize + DeserializeOwned {
+    /// Checks the bounds serde cannot: lengths, counts, finite floats,
+    /// ranges.
+    fn validate(&self) -> Result<(), ControlError>;
+}
+
+fn check_len(what: &'static str, len: usize, max: usize) -> Result<(), ControlError> {
+    if len > max {
+        return Err(ControlError::TooLong { what, len, max });
+    }
+    Ok(())
+}
+
+fn check_count(what: &'static str, len: usize, max: usize) -> Result<(), ControlError> {
+    if len > max {
+        return Err(ControlError::TooMany { what, len, max });
+    }
+    Ok(())
+}
+
+fn check_finite<const N: usize, F: Into<f64> + Copy>(
+    what: &'static str,
+    v: &[F; N],
+) -> Result<(), ControlError> {
+    if v.iter().all(|&x| x.into().is_finite()) {
+        Ok(())
+    } else {
+        Err(ControlError::NotFinite { what })
+    }
+}
+
+/// A size: finite and not negative.
+fn check_size(what: &'static str, v: f32) -> Result<(), ControlError> {
+    check_finite(what, &[v])?;
+    if v < 0.0 {
+        return Err(ControlError::OutOfRange { what });
+    }
+    Ok(())
+}
+
+/// Checks a shape description against [`ShapeDesc`]'s bounds. The match is
+/// exhaustive on purpose: a new shape kind must be validated here and
+/// mirrored in [`WireShape`] before this compiles.
+fn validate_shape(shape: &ShapeDesc, nested: bool) -> Result<(), ControlError> {
+    match shape {
+        ShapeDesc::Sphere { radius } | ShapeDesc::Particle { radius } => {
+            check_size("shape radius", *radius)
+        }
+        ShapeDesc::Cuboid { half_extents } => half_extents
+            .iter()
+            .try_for_each(|&h| check_size("cuboid half extent", h)),
+        ShapeDesc::Capsule {
+            half_height,
+            radius,
+        }
+        | ShapeDesc::Cylinder {
+            half_height,
+            radius,
+        } => {
+            check_size("shape half height", *half_height)?;
+            check_size("shape radius", *radius)
+        }
+        ShapeDesc::ConvexHull { points } => {
+            check_count("hull points", points.len(), ShapeDesc::MAX_POINTS)?;
+            points
+                .iter()
+                .try_for_each(|p| check_finite("hull point", p))
+        }
+        ShapeDesc::TriMesh {
+            vertices,
+            triangles,
+        } => {
+            check_count("mesh vertices", vertices.len(), ShapeDesc::MAX_POINTS)?;
+            check_count("mesh triangles", triangles.len(), ShapeDesc::MAX_POINTS)?;
+            vertices
+                .iter()
+                .try_for_each(|p| check_finite("mesh vertex", p))?;
+            for &index in triangles.iter().flatten() {
+                if index as usize >= vertices.len() {
+                    return Err(ControlError::BadIndex {
+                        index,
+                        vertices: vertices.len(),
+                    });
+                }
+            }
+            Ok(())
+        }
+        ShapeDesc::Compound { parts } => {
+            if nested {
+                return Err(ControlError::NestedCompound);
+            }
+            check_count("compound parts", parts.len(), ShapeDesc::MAX_PARTS)?;
+            for (offset, rotation, part) in parts {
+                check_finite("compound part offset", offset)?;
+                check_finite("compound part rotation", rotation)?;
+                validate_shape(part, true)?;
+            }
+            Ok(())
+        }
+        ShapeDesc::Ground => Ok(()),
+    }
+}
+
+/// Checks an entity description against its bounds.
+pub fn validate_entity(e: &EntityDesc) -> Result<(), ControlError> {
+    check_len("entity name", e.name.len(), MAX_ENTITY_NAME_BYTES)?;
+    check_finite("entity position", &e.position)?;
+    check_finite("entity rotation", &e.rotation)?;
+    validate_shape(&e.shape, false)
+}
+
+impl ControlMessage for ClientControl {
+    fn validate(&self) -> Result<(), ControlError> {
+        match self {
+            ClientControl::Hello { token, .. } => {
+                check_len("connect token", token.len(), MAX_TOKEN_BYTES)
+            }
+            ClientControl::Goodbye => Ok(()),
+        }
+    }
+}
+
+impl ControlMessage for ServerControl {
+    fn validate(&self) -> Result<(), ControlError> {
+        match self {
+            ServerControl::Welcome {
+                tick_hz,
+                snapshot_hz,
+                position_resolution,
+                position_bound,
+                server_version,
+                ..
+            } => {
+                check_len("server version", server_version.len(), MAX_VERSION_BYTES)?;
+                if *tick_hz == 0 {
+                    return Err(ControlError::OutOfRange { what: "tick rate" });
+                }
+                if *snapshot_hz == 0 {
+                    return Err(ControlError::OutOfRange {
+                        what: "snapshot rate",
+                    });
+                }
+                check_finite("position grid", &[*position_resolution, *position_bound])?;
+                if *position_resolution <= 0.0
+                    || *position_bound <= 0.0
+                    || *position_bound / *position_resolution > MAX_POSITION_STEPS
+                {
+                    return Err(ControlError::OutOfRange {
+                        what: "position grid",
+                    });
+                }
+                Ok(())
+            }
+            ServerControl::Refused(Refusal::Token(TokenRefusal::WrongServer { token, ours })) => {
+                check_len("refused token address", token.len(), MAX_REASON_BYTES)?;
+                check_len("refused server address", ours.len(), MAX_REASON_BYTES)
+            }
+            ServerControl::Refused(_) | ServerControl::Despawn { .. } => Ok(()),
+            ServerControl::Spawn(e) => validate_entity(e),
+            ServerControl::Event(event) => match event {
+                GameEvent::Contact { impulse, .. } => check_finite("contact impulse", &[*impulse]),
+                GameEvent::Explosion { position, radius } => {
+                    check_finite("explosion position", position)?;
+                    check_size("explosion radius", *radius)
+                }
+                GameEvent::Message { text } => {
+                    check_len("message text", text.len(), MAX_MESSAGE_BYTES)
+                }
+                GameEvent::Custom { name, data } => {
+                    check_len("event name", name.len(), MAX_EVENT_NAME_BYTES)?;
+                    check_len("event data", data.len(), MAX_EVENT_DATA_BYTES)
+                }
+            },
+            ServerControl::Goodbye(reason) => match reason {
+                DisconnectReason::Kicked { reason } => {
+                    check_len("kick reason", reason.len(), MAX_REASON_BYTES)
+                }
+                DisconnectReason::ProtocolError { what } => {
+                    check_len("protocol error", what.len(), MAX_REASON_BYTES)
+                }
+                DisconnectReason::ServerShutdown
+                | DisconnectReason::Timeout
+                | DisconnectReason::ClientLeft => Ok(()),
+            },
+        }
+    }
+}
+
+/// Validates `msg` and encodes it as one frame: its postcard length as a
+/// `u32` little-endian, then the postcard bytes. Refuses messages that
+/// fail validation or exceed [`MAX_CONTROL_FRAME`] (a triangle mesh near
+/// [`ShapeDesc::MAX_POINTS`] can), since the peer would refuse them.
+pub fn encode_frame<T: ControlMessage>(msg: &T) -> Result<Vec<u8>, ControlError> {
+    msg.validate()?;
+    let mut out = postcard::to_extend(msg, vec![0u8; 4]).map_err(ControlError::Encode)?;
+    let len = out.len() - 4;
+    if len > MAX_CONTROL_FRAME {
+        return Err(ControlError::FrameTooLarge {
+            len,
+            max: MAX_CONTROL_FRAME,
+        });
+    }
+    out[..4].copy_from_slice(&(len as u32).to_le_bytes());
+    Ok(out)
+}
+
+/// Decodes one frame's payload (without its length prefix) and validates
+/// the message.
+pub fn decode_payload<T: ControlMessage>(payload: &[u8]) -> Result<T, ControlError> {
+    if payload.len() > MAX_CONTROL_FRAME {
+        return Err(ControlError::FrameTooLarge {
+            len: payload.len(),
+            max: MAX_CONTROL_FRAME,
+        });
+    }
+    let (msg, rest) = postcard::take_from_bytes::<T>(payload).map_err(ControlError::Decode)?;
+    if !rest.is_empty() {
+        return Err(ControlError::TrailingBytes { extra: rest.len() });
+    }
+    msg.validate()?;
+    Ok(msg)
+}
+
+/// Splits a control stream into messages, without I/O: [`Self::push`] the
+/// bytes as they arrive, then call [`Self::next`] until it returns `None`.
+///
+/// A frame that fails to decode or validate is consumed and reported; the
+/// stream stays in step and the caller decides whether to go on (usually
+/// it closes with [`DisconnectReason::ProtocolError`]). A frame whose
+/// length passes [`MAX_CONTROL_FRAME`] leaves the stream out of step, so
+/// the decoder reports that error from then on.
+#[derive(Debug, Default, Clone)]
+pub struct FrameDecoder {
+    buf: Vec<u8>,
+    /// Bytes of `buf` already consumed.
+    start: usize,
+    /// The fatal error, once one happened.
+    failed: Option<ControlError>,
+}
+
+impl FrameDecoder {
+    /// An empty decoder.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Bytes held and not yet decoded.
+    pub fn buffered(&self) -> usize {
+        self.buf.len() - self.start
+    }
+
+    /// Appends stream bytes. Refuses (keeping nothing of `bytes`) a push
+    /// that would hold more than [`MAX_DECODER_BUFFER`]; a push of at most
+    /// [`MAX_CONTROL_FRAME`] bytes after draining with [`Self::next`]
+    /// always fits.
+    pub fn push(&mut self, bytes: &[u8]) -> Result<(), ControlError> {
+        if let Some(e) = &self.failed {
+            return Err(e.clone());
+        }
+        let buffered = self.buffered();
+        if buffered + bytes.len() > MAX_DECODER_BUFFER {
+            return Err(ControlError::BufferFull {
+                buffered,
+                pushed: bytes.len(),
+                max: MAX_DECODER_BUFFER,
+            });
+        }
+        if self.start > 0 {
+            self.buf.drain(..self.start);
+            self.start = 0;
+        }
+        self.buf.extend_from_slice(bytes);
+        Ok(())
+    }
+
+    /// The next whole message, if one has arrived: `None` while a frame is
+    /// incomplete.
+    #[allow(clippy::should_implement_trait)]
+    pub fn next<T: ControlMessage>(&mut self) -> Option<Result<T, ControlError>> {
+        if let Some(e) = &self.failed {
+            return Some(Err(e.clone()));
+        }
+        let held = &self.buf[self.start..];
+        let header: [u8; 4] = held.get(..4)?.try_into().ok()?;
+        let len = u32::from_le_bytes(header) as usize;
+        if len > MAX_CONTROL_FRAME {
+            let e = ControlError::FrameTooLarge {
+                len,
+                max: MAX_CONTROL_FRAME,
+            };
+            self.failed = Some(e.clone());
+            self.buf = Vec::new();
+            self.start = 0;
+            return Some(Err(e));
+        }
+        let payload = held.get(4..4 + len)?;
+        let result = decode_payload(payload);
+        self.start += 4 + len;
+        if self.start == self.buf.len() {
+            self.buf.clear();
+            self.start = 0;
+        }
+        Some(result)
+    }
+}
+
+/// Answers a client's first message, without I/O: checks the protocol
+/// version first (so an old client learns it is old, whatever its token),
+/// then opens the connect token with `key` at `now_unix` (unix seconds)
+/// for the server at `our_addr`, and admits it on `connection_id` through
+/// `guard`. On success the server sends [`ServerControl::Welcome`]; on
+/// failure, [`ServerControl::Refused`] with the refusal.
+pub fn handshake(
+    hello: &ClientControl,
+    now_unix: u64,
+    key: &TokenKey,
+    our_addr: &str,
+    connection_id: u64,
+    guard: &mut ReplayGuard,
+) -> Result<OpenedToken, Refusal> {
+    let ClientControl::Hello { version, token } = hello else {
+        return Err(Refusal::Malformed);
+    };
+    if *version != PROTOCOL_VERSION {
+        return Err(Refusal::VersionMismatch {
+            server: PROTOCOL_VERSION,
+            client: *version,
+        });
+    }
+    Ok(token::verify(
+        token,
+        key,
+        now_unix,
+        our_addr,
+        connection_id,
+        guard,
+    )?)
+}
+
+// ---------------------------------------------------------------------------
+// The spawn mirror: EntityDesc and ShapeDesc as the decoder reads them, with
+// at most one level of compound. Field and variant order must match
+// entity.rs exactly (postcard encodes by position); the round-trip tests
+// pin that.
+
+fn deserialize_entity<'de, D: Deserializer<'de>>(d: D) -> Result<EntityDesc, D::Error> {
+    WireEntityDesc::deserialize(d).map(Into::into)
+}
+
+#[derive(Deserialize)]
+struct WireEntityDesc {
+    id: EntityId,
+    kind: EntityKind,
+    shape: WireShape<WireShape<NoNesting>>,
+    color: [u8; 4],
+    owner: Option<u64>,
+    name: String,
+    position: [f64; 3],
+    rotation: [f64; 4],
+}
+
+impl From<WireEntityDesc> for EntityDesc {
+    fn from(w: WireEntityDesc) -> Self {
+        EntityDesc {
+            id: w.id,
+            kind: w.kind,
+            shape: w.shape.into(),
+            color: w.color,
+            owner: w.owner,
+            name: w.name,
+            position: w.position,
+            rotation: w.rotation,
+        }
+    }
+}
+
+/// [`ShapeDesc`] with compound parts of type `P`.
+#[derive(Deserialize)]
+enum WireShape<P> {
+    Sphere {
+        radius: f32,
+    },
+    Cuboid {
+        half_extents: [f32; 3],
+    },
+    Capsule {
+        half_height: f32,
+        radius: f32,
+    },
+    Cylinder {
+        half_height: f32,
+        radius: f32,
+    },
+    ConvexHull {
+        points: Vec<[f32; 3]>,
+    },
+    TriMesh {
+        vertices: Vec<[f32; 3]>,
+        triangles: Vec<[u32; 3]>,
+    },
+    Compound {
+        parts: Vec<([f32; 3], [f32; 4], P)>,
+    },
+    Particle {
+        radius: f32,
+    },
+    Ground,
+}
+
+impl<P: Into<ShapeDesc>> From<WireShape<P>> for ShapeDesc {
+    fn from(w: WireShape<P>) -> Self {
+        match w {
+            WireShape::Sphere { radius } => ShapeDesc::Sphere { radius },
+            WireShape::Cuboid { half_extents } => ShapeDesc::Cuboid { half_extents },
+            WireShape::Capsule {
+                half_height,
+                radius,
+            } => ShapeDesc::Capsule {
+                half_height,
+                radius,
+            },
+            WireShape::Cylinder {
+                half_height,
+                radius,
+            } => ShapeDesc::Cylinder {
+                half_height,
+                radius,
+            },
+            WireShape::ConvexHull { points } => ShapeDesc::ConvexHull { points },
+            WireShape::TriMesh {
+                vertices,
+                triangles,
+            } => ShapeDesc::TriMesh {
+                vertices,
+                triangles,
+            },
+            WireShape::Compound { parts } => ShapeDesc::Compound {
+                parts: parts
+                    .into_iter()
+                    .map(|(offset, rotation, part)| (offset, rotation, part.into()))
+                    .collect(),
+            },
+            WireShape::Particle { radius } => ShapeDesc::Particle { radius },
+            WireShape::Ground => ShapeDesc::Ground,
+        }
+    }
+}
+
+/// The part of a nested compound: never decodes, so the grammar stops
+/// there. (An empty nested compound decodes, holding no parts, and is
+/// refused by validation as [`ControlError::NestedCompound`].)
+enum NoNesting {}
+
+impl<'de> Deserialize<'de> for NoNesting {
+    fn deserialize<D: Deserializer<'de>>(_: D) -> Result<Self, D::Error> {
+        Err(serde::de::Error::custom("compound shapes may not nest"))
+    }
+}
+
+impl From<NoNesting> for ShapeDesc {
+    fn from(n: NoNesting) -> Self {
+        match n {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::token::mint;
+
+    fn entity(shape: ShapeDesc) -> EntityDesc {
+        EntityDesc {
+            id: 3,
+            kind: EntityKind::Dynamic,
+            shape,
+            color: [1, 2, 3, 4],
+            owner: Some(9),
+            name: "crate".into(),
+            position: [1.0, 2.0, 3.0],
+            rotation: [0.0, 0.0, 0.0, 1.0],
+        }
+    }
+
+    fn round_trip(msg: &ServerControl) -> ServerControl {
+        let bytes = encode_frame(msg).unwrap();
+        let mut d = FrameDecoder::new();
+        d.push(&bytes).unwrap();
+        let out = d.next::<ServerControl>().unwrap().unwrap();
+        assert!(d.next::<ServerControl>().is_none());
+        out
+    }
+
+    #[test]
+    fn frames_split_anywhere_reassemble() {
+        let msgs = vec![
+            ServerControl::Despawn { id: 7 },
+            ServerControl::Spawn(entity(ShapeDesc::Compound {
+                parts: vec![
+                    (
+                        [0.0; 3],
+                        [0.0, 0.0, 0.0, 1.0],
+                        ShapeDesc::Sphere { radius: 1.0 },
+                    ),
+                    ([1.0; 3], [0.0, 0.0, 0.0, 1.0], ShapeDesc::Ground),
+                ],
+            })),
+            ServerControl::Event(GameEvent::Message {
+                text: "hello".into(),
+            }),
+        ];
+        let stream: Vec<u8> = msgs.iter().flat_map(|m| encode_frame(m).unwrap()).collect();
+        for chunk in 1..stream.len() {
+            let mut d = FrameDecoder::new();
+            let mut got = Vec::new();
+            for piece in stream.chunks(chunk) {
+                d.push(piece).unwrap();
+                while let Some(m) = d.next::<ServerControl>() {
+                    got.push(m.unwrap());
+                }
+            }
+            assert_eq!(got, msgs, "chunks of {chunk}");
+            assert_eq!(d.buffered(), 0);
+        }
+    }
+
+    #[test]
+    fn oversized_frames_are_fatal_and_the_buffer_is_bounded() {
+        let mut d = FrameDecoder::new();
+        d.push(&(MAX_CONTROL_FRAME as u32 + 1).to_le_bytes())
+            .unwrap();
+        let e = ControlError::FrameTooLarge {
+            len: MAX_CONTROL_FRAME + 1,
+            max: MAX_CONTROL_FRAME,
+        };
+        assert_eq!(d.next::<ClientControl>(), Some(Err(e.clone())));
+        assert_eq!(d.next::<ClientControl>(), Some(Err(e.clone())));
+        assert_eq!(d.push(&[0]), Err(e));
+
+        let mut d = FrameDecoder::new();
+        d.push(&(MAX_CONTROL_FRAME as u32).to_le_bytes()).unwrap();
+        d.push(&vec![0; MAX_CONTROL_FRAME - 1]).unwrap();
+        assert!(d.next::<ClientControl>().is_none());
+        assert!(matches!(
+            d.push(&vec![0; MAX_CONTROL_FRAME + 8]),
+            Err(ControlError::BufferFull { .. })
+        ));
+    }
+
+    #[test]
+    fn a_bad_frame_is_reported_and_the_next_still_decodes() {
+        let mut d = FrameDecoder::new();
+        d.push(&[1, 0, 0, 0, 0xFF]).unwrap();
+        d.push(&encode_frame(&ClientControl::Goodbye).unwrap())
+            .unwrap();
+        assert!(matches!(
+            d.next::<ClientControl>(),
+            Some(Err(ControlError::Decode(_)))
+        ));
+        assert_eq!(d.next::<ClientControl>(), Some(Ok(ClientControl::Goodbye)));
+    }
+
+    #[test]
+    fn validation_refuses_what_serde_accepts() {
+        let too_many = ShapeDesc::ConvexHull {
+            points: vec![[0.0; 3]; ShapeDesc::MAX_POINTS + 1],
+        };
+        assert!(matches!(
+            validate_entity(&entity(too_many)),
+            Err(ControlError::TooMany { .. })
+        ));
+        let nan = ShapeDesc::Sphere { radius: f32::NAN };
+        assert!(matches!(
+            validate_entity(&entity(nan)),
+            Err(ControlError::NotFinite { .. })
+        ));
+        let bad_index = ShapeDesc::TriMesh {
+            vertices: vec![[0.0; 3]; 3],
+            triangles: vec![[0, 1, 3]],
+        };
+        assert_eq!(
+            validate_entity(&entity(bad_index)),
+            Err(ControlError::BadIndex {
+                index: 3,
+                vertices: 3
+            })
+        );
+        let mut named = entity(ShapeDesc::Ground);
+        named.name = "x".repeat(65);
+        assert!(matches!(
+            validate_entity(&named),
+            Err(ControlError::TooLong { .. })
+        ));
+        let welcome = ServerControl::Welcome {
+            client_id: 1,
+            tick: 0,
+            tick_hz: 0,
+            snapshot_hz: 30,
+            position_resolution: 0.001,
+            position_bound: 1000.0,
+            server_version: "0.1.0".into(),
+        };
+        assert!(matches!(
+            encode_frame(&welcome),
+            Err(ControlError::OutOfRange { .. })
+        ));
+    }
+
+    #[test]
+    fn nested_compounds_are_refused_without_recursing() {
+        let leaf = ([0.0f32; 3], [0.0f32, 0.0, 0.0, 1.0]);
+        let mut shape = ShapeDesc::Sphere { radius: 1.0 };
+        for _ in 0..3 {
+            shape = ShapeDesc::Compound {
+                parts: vec![(leaf.0, leaf.1, shape)],
+            };
+        }
+        let msg = ServerControl::Spawn(entity(shape));
+        assert_eq!(encode_frame(&msg), Err(ControlError::NestedCompound));
+        let bytes = postcard::to_allocvec(&msg).unwrap();
+        assert!(matches!(
+            decode_payload::<ServerControl>(&bytes),
+            Err(ControlError::Decode(_))
+        ));
+        // An empty compound inside a compound decodes, then fails
+        // validation.
+        let msg = ServerControl::Spawn(entity(ShapeDesc::Compound {
+            parts: vec![(leaf.0, leaf.1, ShapeDesc::Compound { parts: vec![] })],
+        }));
+        let bytes = postcard::to_allocvec(&msg).unwrap();
+        assert_eq!(
+            decode_payload::<ServerControl>(&bytes),
+            Err(ControlError::NestedCompound)
+        );
+
+        // A frame full of nesting: thousands of levels, decoded on a small
+        // stack.
+        // Spawn (variant 2), id 3, kind Dynamic (1), then compound after
+        // compound, each with one part: 30 bytes a level.
+        let mut deep = vec![2u8, 3, 1];
+        while deep.len() < MAX_CONTROL_FRAME - 30 {
+            deep.extend_from_slice(&[6, 1]);
+            deep.extend_from_slice(&[0; 28]);
+        }
+        let handle = std::thread::Builder::new()
+            .stack_size(64 * 1024)
+            .spawn(move || decode_payload::<ServerControl>(&deep).is_err())
+            .unwrap();
+        assert!(handle.join().unwrap());
+    }
+
+    #[test]
+    fn every_message_round_trips() {
+        for msg in [
+            ServerControl::Welcome {
+                client_id: 5,
+                tick: 1 << 40,
+                tick_hz: 60,
+                snapshot_hz: 30,
+                position_resolution: 1.0 / 1024.0,
+                position_bound: 4096.0,
+                server_version: "0.1.0".into(),
+            },
+            ServerControl::Refused(Refusal::VersionMismatch {
+                server: 1,
+                client: 2,
+            }),
+            ServerControl::Spawn(entity(ShapeDesc::TriMesh {
+                vertices: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+                triangles: vec![[0, 1, 2]],
+            })),
+            ServerControl::Event(GameEvent::Custom {
+                name: "score".into(),
+                data: vec![1, 2, 3],
+            }),
+            ServerControl::Goodbye(DisconnectReason::Kicked {
+                reason: "afk".into(),
+            }),
+        ] {
+            assert_eq!(round_trip(&msg), msg);
+        }
+    }
+
+    #[test]
+    fn handshake_checks_version_then_token() {
+        let key = TokenKey::from_bytes([1; 32]);
+        let addr = "127.0.0.1:7777";
+        let now = 1_000_000;
+        let token = mint(&key, 77, addr, [0; 32], 60, b"", now)
+            .unwrap()
+            .to_bytes();
+        let mut guard = ReplayGuard::new(16);
+        let old = ClientControl::Hello {
+            version: PROTOCOL_VERSION + 1,
+            token: vec![0; 3],
+        };
+        assert_eq!(
+            handshake(&old, now, &key, addr, 1, &mut guard),
+            Err(Refusal::VersionMismatch {
+                server: PROTOCOL_VERSION,
+                client: PROTOCOL_VERSION + 1
+            })
+        );
+        let hello = ClientControl::Hello {
+            version: PROTOCOL_VERSION,
+            token,
+        };
+        assert_eq!(
+            handshake(&hello, now, &key, addr, 1, &mut guard).map(|o| o.client_id),
+            Ok(77)
+        );
+        assert_eq!(
+            handshake(&hello, now, &key, addr, 2, &mut guard),
+            Err(Refusal::Token(TokenRefusal::Reused))
+        );
+        assert_eq!(
+            handshake(&ClientControl::Goodbye, now, &key, addr, 3, &mut guard),
+            Err(Refusal::Malformed)
+        );
+        let mut full = ReplayGuard::new(0);
+        assert_eq!(
+            handshake(&hello, now, &key, addr, 1, &mut full),
+            Err(Refusal::ServerFull)
+        );
+    }
+}

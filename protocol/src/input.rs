@@ -1,0 +1,688 @@
+//! The client's datagram: its newest inputs and which snapshots it has
+//! received. Sent unreliably every tick, so each datagram repeats the last
+//! few inputs ([`MAX_REDUNDANT_INPUTS`]): an input is lost only when every
+//! datagram that carried it is. The server's [`InputBuffer`] removes the
+//! copies and hands each input on exactly once, in order.
+//!
+//! ## Layout (bit-packed with [`BitWriter`], least significant bit first)
+//!
+//! ```text
+//! tag          8  INPUT_DATAGRAM_TAG (0x49, 'I')
+//! has_ack      1
+//!   ack       16  newest snapshot sequence received     (if has_ack)
+//!   ack_bits  32  bit i: snapshot ack-1-i received       (if has_ack)
+//! count        4  inputs, 0 to MAX_REDUNDANT_INPUTS
+//! newest input:
+//!   sequence  32
+//!   tick      varint
+//!   body      36  movement x, z (8 bits each), yaw (12), buttons (8)
+//! each older input (sequence and tick relative to the one before it):
+//!   seq_step   1  1: sequence is one less; 0: varint (difference − 2)
+//!   tick_step  1  1: tick is one less; 0: zigzag varint of the difference
+//!   body      36
+//! ```
+//!
+//! A varint is groups of 7 value bits, least significant first, each after
+//! a bit saying whether another group follows. The encoding is canonical:
+//! the decoder refuses anything the encoder would not have written
+//! (non-minimal varints, a step spelled long, nonzero padding, trailing
+//! bytes), so `encode(decode(bytes)) == bytes` for every accepted datagram.
+
+use std::collections::BTreeMap;
+use std::f64::consts::TAU;
+
+use thiserror::Error;
+
+use crate::bits::{BitError, BitReader, BitWriter};
+use crate::entity::{buttons, PlayerInput};
+
+/// The first byte of every input datagram.
+pub const INPUT_DATAGRAM_TAG: u8 = 0x49;
+/// The most inputs one datagram carries (the newest and its predecessors).
+pub const MAX_REDUNDANT_INPUTS: usize = 8;
+/// Bits of each movement axis.
+pub const MOVEMENT_BITS: u32 = 8;
+/// Bits of the yaw angle.
+pub const YAW_BITS: u32 = 12;
+/// Movement quantization: an axis in [−1, 1] maps to 0..=254, so 0 is
+/// exact.
+const MOVEMENT_STEPS: f64 = 127.0;
+const MOVEMENT_MAX_INDEX: u64 = 254;
+const VARINT64_BITS: usize = 10 * 8;
+const VARINT32_BITS: usize = 5 * 8;
+const BODY_BITS: usize = 2 * MOVEMENT_BITS as usize + YAW_BITS as usize + 8;
+/// The longest input datagram, bytes; longer ones are refused unread.
+pub const MAX_INPUT_DATAGRAM_BYTES: usize = (8
+    + 1
+    + 16
+    + 32
+    + 4
+    + (32 + VARINT64_BITS + BODY_BITS)
+    + (MAX_REDUNDANT_INPUTS - 1) * (1 + VARINT32_BITS + 1 + VARINT64_BITS + BODY_BITS))
+    .div_ceil(8);
+
+/// What a client sends every tick.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct InputDatagram {
+    /// The newest snapshot sequence received, if any yet.
+    pub ack: Option<u16>,
+    /// Bit `i` set: snapshot `ack - 1 - i` (wrapping) was received too.
+    /// Must be 0 when `ack` is `None`.
+    pub ack_bits: u32,
+    /// The newest inputs, newest first, at most [`MAX_REDUNDANT_INPUTS`],
+    /// with distinct sequences. Movement, yaw and buttons travel quantized
+    /// (see [`quantize_input`]).
+    pub inputs: Vec<PlayerInput>,
+}
+
+/// Why an input datagram could not be encoded or decoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Error)]
+pub enum InputError {
+    /// The bits ran out or a count passed its bound.
+    #[error("input datagram: {0}")]
+    Bits(#[from] BitError),
+    /// Longer than [`MAX_INPUT_DATAGRAM_BYTES`].
+    #[error("input datagram of {len} bytes, the most is {max}")]
+    TooLong {
+        /// Its length, bytes.
+        len: usize,
+        /// The bound, bytes.
+        max: usize,
+    },
+    /// The first byte is not [`INPUT_DATAGRAM_TAG`].
+    #[error("datagram tag {tag:#04x} is not an input datagram")]
+    UnknownTag {
+        /// The tag found.
+        tag: u8,
+    },
+    /// More than [`MAX_REDUNDANT_INPUTS`] inputs.
+    #[error("{count} inputs, the most is {max}")]
+    TooManyInputs {
+        /// Inputs given.
+        count: usize,
+        /// The bound.
+        max: usize,
+    },
+    /// Two inputs in a row with the same sequence.
+    #[error("input {index} repeats the sequence of the one before")]
+    RepeatedSequence {
+        /// The input's position in the datagram.
+        index: usize,
+    },
+    /// Button bits outside [`buttons::ALL`].
+    #[error("buttons {buttons:#010b} include undefined bits")]
+    UnknownButtons {
+        /// The buttons byte.
+        buttons: u8,
+    },
+    /// A movement index above the grid (255).
+    #[error("movement index {index} is off the grid")]
+    BadMovement {
+        /// The index read.
+        index: u8,
+    },
+    /// `ack_bits` without an `ack`.
+    #[error("ack bits without an ack")]
+    AckBitsWithoutAck,
+    /// Bits the encoder would never write: a non-minimal or overlong
+    /// varint, a long form where the short one applies, nonzero padding,
+    /// trailing bytes.
+    #[error("input datagram is not in canonical form: {what}")]
+    NotCanonical {
+        /// What was wrong.
+        what: &'static str,
+    },
+}
+
+/// Writes `v` as a varint (see the module notes).
+fn write_varint(w: &mut BitWriter, mut v: u64) {
+    loop {
+        let group = v & 0x7F;
+        v >>= 7;
+        w.write_bool(v != 0);
+        w.write(group, 7);
+        if v == 0 {
+            return;
+        }
+    }
+}
+
+/// Reads a varint of at most `max_bits` value bits, refusing non-minimal
+/// forms.
+fn read_varint(r: &mut BitReader<'_>, max_bits: u32) -> Result<u64, InputError> {
+    let mut value = 0u64;
+    let mut shift = 0u32;
+    loop {
+        let more = r.read_bool()?;
+        let group = r.read(7)?;
+        if shift > 0 && group == 0 && !more {
+            return Err(InputError::NotCanonical {
+                what: "varint with a zero last group",
+            });
+        }
+        if shift + 7 > max_bits && group >> (max_bits - shift) != 0 {
+            return Err(InputError::NotCanonical {
+                what: "varint too large",
+            });
+        }
+        value |= group << shift;
+        shift += 7;
+        if !more {
+            return Ok(value);
+        }
+        if shift >= max_bits {
+            return Err(InputError::NotCanonical {
+                what: "varint too long",
+            });
+        }
+    }
+}
+
+fn zigzag(v: i64) -> u64 {
+    ((v << 1) ^ (v >> 63)) as u64
+}
+
+fn unzigzag(v: u64) -> i64 {
+    ((v >> 1) as i64) ^ -((v & 1) as i64)
+}
+
+fn movement_index(x: f32) -> u64 {
+    let x = if x.is_nan() {
+        0.0
+    } else {
+        f64::from(x).clamp(-1.0, 1.0)
+    };
+    ((x + 1.0) * MOVEMENT_STEPS).round() as u64
+}
+
+fn movement_value(i: u64) -> f32 {
+    (i as f64 / MOVEMENT_STEPS - 1.0) as f32
+}
+
+fn yaw_index(yaw: f32) -> u64 {
+    if !yaw.is_finite() {
+        return 0;
+    }
+    let turns = f64::from(yaw) / TAU;
+    let frac = turns - turns.floor();
+    ((frac * f64::from(1u32 << YAW_BITS)).round() as u64) & ((1 << YAW_BITS) - 1)
+}
+
+fn yaw_value(i: u64) -> f32 {
+    (i as f64 * TAU / f64::from(1u32 << YAW_BITS)) as f32
+}
+
+/// An input as it arrives after the trip: movement on a grid of 1/127 per
+/// axis (NaN as 0, clamped to [−1, 1]), yaw in [0, 2π) rad in steps of
+/// 2π/4096 (not finite as 0). Quantizing twice changes nothing.
+pub fn quantize_input(input: &PlayerInput) -> PlayerInput {
+    PlayerInput {
+        movement: input.movement.map(|m| movement_value(movement_index(m))),
+        yaw: yaw_value(yaw_index(input.yaw)),
+        ..*input
+    }
+}
+
+fn write_body(w: &mut BitWriter, input: &PlayerInput) {
+    for m in input.movement {
+        w.write(movement_index(m), MOVEMENT_BITS);
+    }
+    w.write(yaw_index(input.yaw), YAW_BITS);
+    w.write(u64::from(input.buttons), 8);
+}
+
+fn read_body(r: &mut BitReader<'_>, sequence: u32, tick: u64) -> Result<PlayerInput, InputError> {
+    let mut movement = [0.0f32; 2];
+    for m in &mut movement {
+        let index = r.read(MOVEMENT_BITS)?;
+        if index > MOVEMENT_MAX_INDEX {
+            return Err(InputError::BadMovement { index: index as u8 });
+        }
+        *m = movement_value(index);
+    }
+    let yaw = yaw_value(r.read(YAW_BITS)?);
+    let buttons = r.read(8)? as u8;
+    if buttons & !buttons::ALL != 0 {
+        return Err(InputError::UnknownButtons { buttons });
+    }
+    Ok(PlayerInput {
+        sequence,
+        tick,
+        movement,
+        yaw,
+        buttons,
+    })
+}
+
+impl InputDatagram {
+    /// The datagram's bytes (at most [`MAX_INPUT_DATAGRAM_BYTES`]).
+    /// Refuses more than [`MAX_REDUNDANT_INPUTS`] inputs, two inputs in a
+    /// row with one sequence, undefined buttons, and `ack_bits` without an
+    /// `ack`.
+    pub fn encode(&self) -> Result<Vec<u8>, InputError> {
+        if self.inputs.len() > MAX_REDUNDANT_INPUTS {
+            return Err(InputError::TooManyInputs {
+                count: self.inputs.len(),
+                max: MAX_REDUNDANT_INPUTS,
+            });
+        }
+        let mut w = BitWriter::new();
+        w.write(u64::from(INPUT_DATAGRAM_TAG), 8);
+        match self.ack {
+            Some(ack) => {
+                w.write_bool(true);
+                w.write(u64::from(ack), 16);
+                w.write(u64::from(self.ack_bits), 32);
+            }
+            None if self.ack_bits != 0 => return Err(InputError::AckBitsWithoutAck),
+            None => w.write_bool(false),
+        }
+        w.write(self.inputs.len() as u64, 4);
+        let mut prev: Option<&PlayerInput> = None;
+        for (index, input) in self.inputs.iter().enumerate() {
+            if input.buttons & !buttons::ALL != 0 {
+                return Err(InputError::UnknownButtons {
+                    buttons: input.buttons,
+                });
+            }
+            match prev {
+                None => {
+                    w.write(u64::from(input.sequence), 32);
+                    write_varint(&mut w, input.tick);
+                }
+                Some(p) => {
+                    let step = p.sequence.wrapping_sub(input.sequence);
+                    match step {
+                        0 => return Err(InputError::RepeatedSequence { index }),
+                        1 => w.write_bool(true),
+                        _ => {
+                            w.write_bool(false);
+                            write_varint(&mut w, u64::from(step - 2));
+                        }
+                    }
+                    let tick_step = input.tick.wrapping_sub(p.tick) as i64;
+                    if tick_step == -1 {
+                        w.write_bool(true);
+                    } else {
+                        w.write_bool(false);
+                        write_varint(&mut w, zigzag(tick_step));
+                    }
+                }
+            }
+            write_body(&mut w, input);
+            prev = Some(input);
+        }
+        Ok(w.finish())
+    }
+
+    /// Reads a datagram from untrusted bytes: every count is bounded,
+    /// every field checked, and anything but a canonical datagram is a
+    /// typed error, never a panic. Movement and yaw come back quantized.
+    pub fn decode(bytes: &[u8]) -> Result<Self, InputError> {
+        if bytes.len() > MAX_INPUT_DATAGRAM_BYTES {
+            return Err(InputError::TooLong {
+                len: bytes.len(),
+                max: MAX_INPUT_DATAGRAM_BYTES,
+            });
+        }
+        let mut r = BitReader::new(bytes);
+        let tag = r.read(8)? as u8;
+        if tag != INPUT_DATAGRAM_TAG {
+            return Err(InputError::UnknownTag { tag });
+        }
+        let (ack, ack_bits) = if r.read_bool()? {
+            (Some(r.read(16)? as u16), r.read(32)? as u32)
+        } else {
+            (None, 0)
+        };
+        let count = r.read_count(4, MAX_REDUNDANT_INPUTS as u64, "inputs")? as usize;
+        let mut inputs: Vec<PlayerInput> = Vec::with_capacity(count);
+        for _ in 0..count {
+            let (sequence, tick) = match inputs.last() {
+                None => (r.read(32)? as u32, read_varint(&mut r, 64)?),
+                Some(p) => {
+                    let sequence = if r.read_bool()? {
+                        p.sequence.wrapping_sub(1)
+                    } else {
+                        // The long form covers steps 2 to u32::MAX.
+                        let step = read_varint(&mut r, 32)?;
+                        let step = u32::try_from(step)
+                            .ok()
+                            .and_then(|s| s.checked_add(2))
+                            .ok_or(InputError::NotCanonical {
+                                what: "sequence step too large",
+                            })?;
+                        p.sequence.wrapping_sub(step)
+                    };
+                    let tick = if r.read_bool()? {
+                        p.tick.wrapping_sub(1)
+                    } else {
+                        let step = unzigzag(read_varint(&mut r, 64)?);
+                        if step == -1 {
+                            return Err(InputError::NotCanonical {
+                                what: "tick step of -1 in the long form",
+                            });
+                        }
+                        p.tick.wrapping_add(step as u64)
+                    };
+                    (sequence, tick)
+                }
+            };
+            inputs.push(read_body(&mut r, sequence, tick)?);
+        }
+        let left = r.bits_left();
+        if left >= 8 {
+            return Err(InputError::NotCanonical {
+                what: "trailing bytes",
+            });
+        }
+        if left > 0 && r.read(left as u32)? != 0 {
+            return Err(InputError::NotCanonical {
+                what: "nonzero padding",
+            });
+        }
+        Ok(Self {
+            ack,
+            ack_bits,
+            inputs,
+        })
+    }
+}
+
+/// What an [`InputBuffer`] did with the inputs it was given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct InputBufferStats {
+    /// Inputs stored for the first time.
+    pub accepted: u64,
+    /// Copies of inputs already stored.
+    pub duplicates: u64,
+    /// Inputs older than the next one due (already handed on or skipped).
+    pub too_old: u64,
+    /// Inputs dropped because the buffer was full.
+    pub overflowed: u64,
+    /// Sequences never received, passed over by [`InputBuffer::pop`].
+    pub skipped: u64,
+}
+
+/// One client's inputs on the server: takes decoded datagrams, keeps each
+/// input sequence once, and hands them on in sequence order, each exactly
+/// once. Bounded: at most `capacity` inputs wait.
+///
+/// Sequences are compared with wrapping arithmetic: an input up to 2³¹
+/// ahead of the next one due is newer, anything else is older.
+#[derive(Debug, Clone)]
+pub struct InputBuffer {
+    capacity: usize,
+    /// The next sequence due, unwrapped to 64 bits; `None` before the
+    /// first input.
+    next: Option<u64>,
+    /// Waiting inputs by unwrapped sequence.
+    pending: BTreeMap<u64, PlayerInput>,
+    stats: InputBufferStats,
+}
+
+impl InputBuffer {
+    /// An empty buffer holding at most `capacity` waiting inputs (a few
+    /// ticks' worth is plenty: the server takes one per tick).
+    pub fn new(capacity: usize) -> Self {
+        Self {
+            capacity,
+            next: None,
+            pending: BTreeMap::new(),
+            stats: InputBufferStats::default(),
+        }
+    }
+
+    /// Takes every input of a datagram. The first datagram ever seen sets
+    /// where the sequence starts: its oldest input.
+    pub fn push_datagram(&mut self, datagram: &InputDatagram) {
+        if self.next.is_none() {
+            // The oldest by wrapping order: the one furthest behind the
+            // newest.
+            if let Some(newest) = datagram.inputs.first() {
+                let oldest = datagram
+                    .inputs
+                    .iter()
+                    .max_by_key(|i| newest.sequence.wrapping_sub(i.sequence))
+                    .map_or(newest.sequence, |i| i.sequence);
+                self.next = Some(u64::from(oldest));
+            }
+        }
+        for input in datagram.inputs.iter().rev() {
+            self.push(*input);
+        }
+    }
+
+    /// Takes one input.
+    pub fn push(&mut self, input: PlayerInput) {
+        let next = *self.next.get_or_insert(u64::from(input.sequence));
+        let ahead = input.sequence.wrapping_sub(next as u32) as i32;
+        if ahead < 0 {
+            self.stats.too_old += 1;
+            return;
+        }
+        let key = next + ahead as u64;
+        if self.pending.contains_key(&key) {
+            self.stats.duplicates += 1;
+            return;
+        }
+        if self.pending.len() >= self.capacity {
+            self.stats.overflowed += 1;
+            // Keep the oldest inputs: they are due first.
+            match self.pending.last_key_value() {
+                Some((&newest, _)) if newest > key => {
+                    self.pending.remove(&newest);
+                }
+                _ => return,
+            }
+        }
+        self.pending.insert(key, input);
+        self.stats.accepted += 1;
+    }
+
+    /// The next input in sequence order, passing over sequences that never
+    /// arrived; `None` when nothing waits.
+    pub fn pop(&mut self) -> Option<PlayerInput> {
+        let (key, input) = self.pending.pop_first()?;
+        if let Some(next) = self.next {
+            self.stats.skipped += key - next;
+        }
+        self.next = Some(key + 1);
+        Some(input)
+    }
+
+    /// Inputs waiting.
+    pub fn len(&self) -> usize {
+        self.pending.len()
+    }
+
+    /// True when nothing waits.
+    pub fn is_empty(&self) -> bool {
+        self.pending.is_empty()
+    }
+
+    /// The sequence due next, once any input has arrived.
+    pub fn next_sequence(&self) -> Option<u32> {
+        self.next.map(|n| n as u32)
+    }
+
+    /// What the buffer has done so far.
+    pub fn stats(&self) -> InputBufferStats {
+        self.stats
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn input(sequence: u32, tick: u64) -> PlayerInput {
+        PlayerInput {
+            sequence,
+            tick,
+            movement: [0.5, -1.0],
+            yaw: 1.0,
+            buttons: buttons::JUMP,
+        }
+    }
+
+    fn datagram(newest: u32, n: u32) -> InputDatagram {
+        InputDatagram {
+            ack: Some(9),
+            ack_bits: 0b101,
+            inputs: (0..n)
+                .map(|k| input(newest.wrapping_sub(k), u64::from(5000 - k)))
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn datagrams_round_trip_and_stay_small() {
+        let d = datagram(u32::MAX - 2, 8);
+        let bytes = d.encode().unwrap();
+        assert_eq!(bytes[0], INPUT_DATAGRAM_TAG);
+        let expected = InputDatagram {
+            inputs: d.inputs.iter().map(quantize_input).collect(),
+            ..d.clone()
+        };
+        assert_eq!(InputDatagram::decode(&bytes).unwrap(), expected);
+        // Tag, acks, count, a full newest input, seven short ones.
+        assert_eq!(
+            bytes.len(),
+            (8 + 49 + 4 + 32 + 16 + 36 + 7 * 38usize).div_ceil(8)
+        );
+        assert!(bytes.len() <= MAX_INPUT_DATAGRAM_BYTES);
+    }
+
+    #[test]
+    fn quantization_is_exact_where_it_matters() {
+        let q = quantize_input(&PlayerInput {
+            movement: [0.0, 1.0],
+            yaw: -std::f32::consts::FRAC_PI_2,
+            ..input(0, 0)
+        });
+        assert_eq!(q.movement, [0.0, 1.0]);
+        assert!((q.yaw - 3.0 * std::f32::consts::FRAC_PI_2).abs() < 1e-6);
+        let nan = quantize_input(&PlayerInput {
+            movement: [f32::NAN, 7.0],
+            yaw: f32::INFINITY,
+            ..input(0, 0)
+        });
+        assert_eq!(nan.movement, [0.0, 1.0]);
+        assert_eq!(nan.yaw, 0.0);
+    }
+
+    #[test]
+    fn odd_steps_round_trip() {
+        let d = InputDatagram {
+            ack: None,
+            ack_bits: 0,
+            inputs: vec![input(5, 0), input(2, u64::MAX), input(u32::MAX - 100, 7)],
+        };
+        let back = InputDatagram::decode(&d.encode().unwrap()).unwrap();
+        let seqs: Vec<_> = back.inputs.iter().map(|i| (i.sequence, i.tick)).collect();
+        assert_eq!(seqs, vec![(5, 0), (2, u64::MAX), (u32::MAX - 100, 7)]);
+    }
+
+    #[test]
+    fn bad_datagrams_are_typed_errors() {
+        let bytes = datagram(10, 2).encode().unwrap();
+        let mut b = bytes.clone();
+        b[0] = 0x53;
+        assert_eq!(
+            InputDatagram::decode(&b),
+            Err(InputError::UnknownTag { tag: 0x53 })
+        );
+        let mut b = bytes.clone();
+        b.push(0);
+        assert!(matches!(
+            InputDatagram::decode(&b),
+            Err(InputError::NotCanonical { .. })
+        ));
+        for cut in 0..bytes.len() {
+            assert!(InputDatagram::decode(&bytes[..cut]).is_err());
+        }
+        let mut d = datagram(10, 1);
+        d.inputs[0].buttons = 0x80;
+        assert_eq!(
+            d.encode(),
+            Err(InputError::UnknownButtons { buttons: 0x80 })
+        );
+        let mut d = datagram(10, 2);
+        d.inputs[1].sequence = 10;
+        assert_eq!(d.encode(), Err(InputError::RepeatedSequence { index: 1 }));
+        assert!(matches!(
+            datagram(10, 9).encode(),
+            Err(InputError::TooManyInputs { count: 9, .. })
+        ));
+        let d = InputDatagram {
+            ack: None,
+            ack_bits: 1,
+            inputs: vec![],
+        };
+        assert_eq!(d.encode(), Err(InputError::AckBitsWithoutAck));
+    }
+
+    #[test]
+    fn buffer_yields_each_sequence_once_in_order() {
+        let mut b = InputBuffer::new(32);
+        let mut out = Vec::new();
+        // Datagrams for sequences 100..=130, each carrying the last 8;
+        // some lost, some duplicated, some reordered.
+        let mut sends: Vec<InputDatagram> = (100..=130)
+            .filter(|s| s % 5 != 0)
+            .map(|s| datagram(s, 8))
+            .collect();
+        sends.swap(3, 4);
+        let dup = sends[7].clone();
+        sends.insert(9, dup);
+        for (i, d) in sends.iter().enumerate() {
+            b.push_datagram(d);
+            if i % 2 == 0 {
+                out.extend(b.pop());
+            }
+        }
+        while let Some(i) = b.pop() {
+            out.push(i);
+        }
+        let seqs: Vec<u32> = out.iter().map(|i| i.sequence).collect();
+        assert_eq!(seqs, (94..=129).collect::<Vec<_>>());
+        assert_eq!(b.stats().skipped, 0);
+        assert!(b.stats().duplicates > 0);
+    }
+
+    #[test]
+    fn buffer_drops_old_skips_gaps_and_stays_bounded() {
+        let mut b = InputBuffer::new(4);
+        b.push(input(10, 0));
+        assert_eq!(b.pop().map(|i| i.sequence), Some(10));
+        b.push(input(9, 0));
+        b.push(input(10, 0));
+        assert_eq!(b.stats().too_old, 2);
+        for s in [14, 13, 12, 15, 16] {
+            b.push(input(s, 0));
+        }
+        assert_eq!(b.len(), 4);
+        assert_eq!(b.stats().overflowed, 1);
+        // An older input evicts the newest waiting one.
+        b.push(input(11, 0));
+        assert_eq!(b.stats().overflowed, 2);
+        let seqs: Vec<u32> = std::iter::from_fn(|| b.pop()).map(|i| i.sequence).collect();
+        assert_eq!(seqs, vec![11, 12, 13, 14]);
+        assert_eq!(b.next_sequence(), Some(15));
+    }
+
+    #[test]
+    fn buffer_follows_the_sequence_through_wraparound() {
+        let mut b = InputBuffer::new(16);
+        let mut seqs = Vec::new();
+        for s in 0..20u32 {
+            b.push_datagram(&datagram((u32::MAX - 10).wrapping_add(s), 3));
+            seqs.extend(b.pop().map(|i| i.sequence));
+        }
+        let expected: Vec<u32> = (0..20u32)
+            .map(|k| (u32::MAX - 12).wrapping_add(k))
+            .collect();
+        assert_eq!(seqs, expected);
+    }
+}
