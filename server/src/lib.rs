@@ -2,3 +2,4 @@
 //! fixed rate, and streams snapshots to clients over QUIC.
 
 pub mod config;
+pub mod scene;
