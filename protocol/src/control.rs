@@ -48,9 +48,9 @@ pub const MAX_EVENT_NAME_BYTES: usize = 64;
 pub const MAX_EVENT_DATA_BYTES: usize = 16 * 1024;
 /// Longest reason or description in a refusal or goodbye, bytes.
 pub const MAX_REASON_BYTES: usize = 256;
-/// Largest `position_bound / position_resolution` a welcome may announce:
-/// keeps a position axis within 33 bits.
-pub const MAX_POSITION_STEPS: f64 = (1u64 << 32) as f64;
+/// Most bits a position axis may take on the grid a welcome announces
+/// (the snapshot codec's limit).
+pub const MAX_POSITION_BITS: u32 = 32;
 
 /// What a client says on the control stream.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -446,7 +446,8 @@ impl ControlMessage for ServerControl {
                 check_finite("position grid", &[*position_resolution, *position_bound])?;
                 if *position_resolution <= 0.0
                     || *position_bound <= 0.0
-                    || *position_bound / *position_resolution > MAX_POSITION_STEPS
+                    || (2.0 * *position_bound / *position_resolution).ceil()
+                        >= (1u64 << MAX_POSITION_BITS) as f64
                 {
                     return Err(ControlError::OutOfRange {
                         what: "position grid",
@@ -893,7 +894,7 @@ mod tests {
             validate_entity(&named),
             Err(ControlError::TooLong { .. })
         ));
-        let welcome = ServerControl::Welcome {
+        let mut welcome = ServerControl::Welcome {
             client_id: 1,
             tick: 0,
             tick_hz: 0,
@@ -902,6 +903,24 @@ mod tests {
             position_bound: 1000.0,
             server_version: "0.1.0".into(),
         };
+        assert!(matches!(
+            encode_frame(&welcome),
+            Err(ControlError::OutOfRange { .. })
+        ));
+        let ServerControl::Welcome { tick_hz, .. } = &mut welcome else {
+            unreachable!()
+        };
+        *tick_hz = 60;
+        assert!(encode_frame(&welcome).is_ok());
+        // A grid finer than the snapshot codec's 32 bits an axis.
+        let ServerControl::Welcome {
+            position_resolution,
+            ..
+        } = &mut welcome
+        else {
+            unreachable!()
+        };
+        *position_resolution = 1e-9;
         assert!(matches!(
             encode_frame(&welcome),
             Err(ControlError::OutOfRange { .. })

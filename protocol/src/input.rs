@@ -389,6 +389,10 @@ impl InputDatagram {
     }
 }
 
+/// How far ahead of the next input due an [`InputBuffer`] accepts an
+/// input, sequences (18 minutes of inputs at 60 Hz).
+pub const INPUT_WINDOW: u32 = 1 << 16;
+
 /// What an [`InputBuffer`] did with the inputs it was given.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct InputBufferStats {
@@ -400,6 +404,8 @@ pub struct InputBufferStats {
     pub too_old: u64,
     /// Inputs dropped because the buffer was full.
     pub overflowed: u64,
+    /// Inputs at least [`INPUT_WINDOW`] ahead of the next one due.
+    pub too_far: u64,
     /// Sequences never received, passed over by [`InputBuffer::pop`].
     pub skipped: u64,
 }
@@ -408,8 +414,10 @@ pub struct InputBufferStats {
 /// input sequence once, and hands them on in sequence order, each exactly
 /// once. Bounded: at most `capacity` inputs wait.
 ///
-/// Sequences are compared with wrapping arithmetic: an input up to 2³¹
-/// ahead of the next one due is newer, anything else is older.
+/// Sequences are compared with wrapping arithmetic: an input less than
+/// 2³¹ behind the next one due is old and dropped; one at least
+/// [`INPUT_WINDOW`] ahead is refused too, so a client cannot make the
+/// server leap over most of the sequence space.
 #[derive(Debug, Clone)]
 pub struct InputBuffer {
     capacity: usize,
@@ -459,6 +467,10 @@ impl InputBuffer {
         let ahead = input.sequence.wrapping_sub(next as u32) as i32;
         if ahead < 0 {
             self.stats.too_old += 1;
+            return;
+        }
+        if ahead >= INPUT_WINDOW as i32 {
+            self.stats.too_far += 1;
             return;
         }
         let key = next + ahead as u64;
@@ -670,6 +682,9 @@ mod tests {
         let seqs: Vec<u32> = std::iter::from_fn(|| b.pop()).map(|i| i.sequence).collect();
         assert_eq!(seqs, vec![11, 12, 13, 14]);
         assert_eq!(b.next_sequence(), Some(15));
+        b.push(input(15 + INPUT_WINDOW, 0));
+        assert_eq!(b.stats().too_far, 1);
+        assert!(b.is_empty());
     }
 
     #[test]
