@@ -1,0 +1,27 @@
+//! Snapshot datagrams from the network, several in a row so that delta
+//! baselines come into play: the decoder never panics.
+#![no_main]
+
+use inertia_protocol::snapshot::{SnapshotConfig, SnapshotDecoder};
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    // The first byte picks the configuration, then datagrams follow, each
+    // prefixed by its length as a u16 little-endian.
+    let Some((&first, mut rest)) = data.split_first() else {
+        return;
+    };
+    let mut config = SnapshotConfig::default();
+    config.velocities = first & 1 != 0;
+    config.rotation_bits = 4 + u32::from(first >> 1) % 13;
+    let Ok(mut decoder) = SnapshotDecoder::new(config) else {
+        return;
+    };
+    while rest.len() >= 2 {
+        let len = usize::from(u16::from_le_bytes([rest[0], rest[1]])).min(rest.len() - 2);
+        let (datagram, tail) = rest[2..].split_at(len);
+        rest = tail;
+        let _ = decoder.decode(datagram);
+        let _ = decoder.ack_state();
+    }
+});
