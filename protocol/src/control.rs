@@ -23,6 +23,8 @@ use serde::{de::DeserializeOwned, Deserialize, Deserializer, Serialize};
 use thiserror::Error;
 
 use crate::entity::{EntityDesc, EntityId, EntityKind, ShapeDesc};
+use crate::quantize::PositionGrid;
+use crate::snapshot::SnapshotConfig;
 use crate::token::{self, OpenedToken, ReplayGuard, TokenError, TokenKey, MAX_TOKEN_BYTES};
 
 /// The version of the whole wire protocol (control, datagrams and tokens).
@@ -84,6 +86,8 @@ pub enum ServerControl {
         position_resolution: f64,
         /// Largest snapshot coordinate magnitude, m.
         position_bound: f64,
+        /// The rest of the snapshot coding.
+        snapshot: SnapshotParams,
         /// The server build, for logs (at most [`MAX_VERSION_BYTES`]).
         server_version: String,
     },
@@ -100,6 +104,58 @@ pub enum ServerControl {
     Event(GameEvent),
     /// The server is closing the connection.
     Goodbye(DisconnectReason),
+}
+
+/// How the server codes snapshots, beyond the position grid: what the
+/// client's [`SnapshotDecoder`](crate::snapshot::SnapshotDecoder) needs to
+/// read them.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SnapshotParams {
+    /// Bits per smallest-three rotation component.
+    pub rotation_bits: u8,
+    /// Velocity grid step, m/s, when velocities are sent.
+    pub velocity_resolution: Option<f64>,
+    /// Largest velocity component magnitude, m/s.
+    pub velocity_bound: f64,
+    /// The largest snapshot datagram, bytes.
+    pub max_datagram: u16,
+}
+
+impl Default for SnapshotParams {
+    fn default() -> Self {
+        Self::from_config(&SnapshotConfig::default())
+    }
+}
+
+impl SnapshotParams {
+    /// The parameters of `config` (its position grid travels separately).
+    pub fn from_config(config: &SnapshotConfig) -> Self {
+        Self {
+            rotation_bits: config.rotation_bits.min(255) as u8,
+            velocity_resolution: config.velocities.then_some(config.velocity_grid.resolution),
+            velocity_bound: config.velocity_grid.bound,
+            max_datagram: config.max_datagram.min(usize::from(u16::MAX)) as u16,
+        }
+    }
+
+    /// The full snapshot configuration with the position grid
+    /// `resolution` (m) and `bound` (m). Check it with
+    /// [`SnapshotConfig::validate`].
+    pub fn config(&self, resolution: f64, bound: f64) -> SnapshotConfig {
+        let default = SnapshotConfig::default();
+        SnapshotConfig {
+            grid: PositionGrid { resolution, bound },
+            rotation_bits: u32::from(self.rotation_bits),
+            velocities: self.velocity_resolution.is_some(),
+            velocity_grid: PositionGrid {
+                resolution: self
+                    .velocity_resolution
+                    .unwrap_or(default.velocity_grid.resolution),
+                bound: self.velocity_bound,
+            },
+            max_datagram: usize::from(self.max_datagram),
+        }
+    }
 }
 
 /// Why a hello was refused.
@@ -431,9 +487,16 @@ impl ControlMessage for ServerControl {
                 snapshot_hz,
                 position_resolution,
                 position_bound,
+                snapshot,
                 server_version,
                 ..
             } => {
+                snapshot
+                    .config(*position_resolution, *position_bound)
+                    .validate()
+                    .map_err(|_| ControlError::OutOfRange {
+                        what: "snapshot coding",
+                    })?;
                 check_len("server version", server_version.len(), MAX_VERSION_BYTES)?;
                 if *tick_hz == 0 {
                     return Err(ControlError::OutOfRange { what: "tick rate" });
@@ -901,6 +964,7 @@ mod tests {
             snapshot_hz: 30,
             position_resolution: 0.001,
             position_bound: 1000.0,
+            snapshot: SnapshotParams::default(),
             server_version: "0.1.0".into(),
         };
         assert!(matches!(
@@ -980,6 +1044,7 @@ mod tests {
                 snapshot_hz: 30,
                 position_resolution: 1.0 / 1024.0,
                 position_bound: 4096.0,
+                snapshot: SnapshotParams::default(),
                 server_version: "0.1.0".into(),
             },
             ServerControl::Refused(Refusal::VersionMismatch {

@@ -29,19 +29,19 @@ pub mod snapshot;
 pub mod token;
 
 pub use bits::{BitError, BitReader, BitWriter};
-pub use link::{LinkConfig, LinkError, LinkStats, SimLink};
-pub use quantize::{read_rotation, write_rotation, PositionGrid};
-pub use entity::{EntityDesc, EntityId, EntityKind, EntityState, PlayerInput, ShapeDesc};
 pub use control::{
     encode_frame, handshake, ClientControl, ControlError, ControlMessage, DisconnectReason,
-    FrameDecoder, GameEvent, Refusal, ServerControl, TokenRefusal, ALPN, MAX_CONTROL_FRAME,
-    PROTOCOL_VERSION,
+    FrameDecoder, GameEvent, Refusal, ServerControl, SnapshotParams, TokenRefusal, ALPN,
+    MAX_CONTROL_FRAME, PROTOCOL_VERSION,
 };
+pub use entity::{EntityDesc, EntityId, EntityKind, EntityState, PlayerInput, ShapeDesc};
 pub use input::{InputBuffer, InputDatagram, InputError, MAX_REDUNDANT_INPUTS};
-pub use token::{ConnectToken, OpenedToken, ReplayGuard, TokenError, TokenIssuer, TokenKey};
 pub use interest::Interest;
+pub use link::{LinkConfig, LinkError, LinkStats, SimLink};
 pub use priority::{PriorityAccumulator, PriorityWeights};
+pub use quantize::{read_rotation, write_rotation, PositionGrid};
 pub use snapshot::{
     DecodedSnapshot, SnapshotConfig, SnapshotDecoder, SnapshotEncoder, SnapshotError, View,
     ViewEntity,
 };
+pub use token::{ConnectToken, OpenedToken, ReplayGuard, TokenError, TokenIssuer, TokenKey};

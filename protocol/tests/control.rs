@@ -4,8 +4,8 @@
 
 use inertia_protocol::control::{
     decode_payload, encode_frame, handshake, ClientControl, ControlError, DisconnectReason,
-    FrameDecoder, GameEvent, Refusal, ServerControl, TokenRefusal, MAX_CONTROL_FRAME,
-    PROTOCOL_VERSION,
+    FrameDecoder, GameEvent, Refusal, ServerControl, SnapshotParams, TokenRefusal,
+    MAX_CONTROL_FRAME, PROTOCOL_VERSION,
 };
 use inertia_protocol::entity::{buttons, EntityDesc, EntityKind, PlayerInput, ShapeDesc};
 use inertia_protocol::input::{quantize_input, InputBuffer, InputDatagram, MAX_REDUNDANT_INPUTS};
@@ -172,6 +172,7 @@ fn server_control() -> impl Strategy<Value = ServerControl> {
                     snapshot_hz,
                     position_resolution,
                     position_bound,
+                    snapshot: SnapshotParams::default(),
                     server_version,
                 }
             ),
