@@ -551,10 +551,12 @@ impl ServerClock {
     ) -> Observation {
         let reach = self.config.tick_hz.max(self.tick_rate());
         let span = (reach * self.config.reorder_window_s).ceil() as u64 + 2;
+        // Packets sent just before the jump may carry ticks a little past
+        // the newest one seen.
         self.guard = Some((
             t + self.config.reorder_window_s,
             newest.saturating_sub(span),
-            newest,
+            newest.saturating_add(span),
             meta.seq,
         ));
         self.restart(t, meta, scale);

@@ -1,3 +1,4 @@
 //! The Inertia client SDK.
 
 pub mod clock;
+pub mod interp;
