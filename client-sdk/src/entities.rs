@@ -1,0 +1,242 @@
+//! The entities a client knows of: what each looks like (from the reliable
+//! spawn messages) and where it last was (from snapshots).
+//!
+//! Spawns travel on a reliable stream and snapshots as unreliable
+//! datagrams, so a snapshot may name an entity before its spawn has
+//! arrived: such states are held (a bounded number) and attached when the
+//! spawn comes. A despawn forgets the entity and any held state.
+
+use std::collections::BTreeMap;
+
+use glam::{DQuat, DVec3};
+use inertia_protocol::{EntityDesc, EntityId, EntityState};
+
+/// The newest state a snapshot gave for an entity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LatestState {
+    /// The tick of the snapshot it came from.
+    pub tick: u64,
+    /// The state: position m, rotation, velocities m/s and rad/s.
+    pub state: EntityState,
+}
+
+/// One known entity.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Entity {
+    /// What it is and looks like, as spawned.
+    pub desc: EntityDesc,
+    /// Its newest state from a snapshot, if one came since the spawn.
+    pub latest: Option<LatestState>,
+}
+
+impl Entity {
+    /// Its newest known position, m: from the latest snapshot, else as
+    /// spawned.
+    pub fn position(&self) -> DVec3 {
+        match &self.latest {
+            Some(l) => l.state.position,
+            None => DVec3::from_array(self.desc.position),
+        }
+    }
+
+    /// Its newest known orientation: from the latest snapshot, else as
+    /// spawned (normalised; identity if the spawn's was degenerate).
+    pub fn rotation(&self) -> DQuat {
+        match &self.latest {
+            Some(l) => l.state.rotation,
+            None => {
+                let q = DQuat::from_array(self.desc.rotation);
+                if q.is_finite() && q.length_squared() > 1e-12 {
+                    q.normalize()
+                } else {
+                    DQuat::IDENTITY
+                }
+            }
+        }
+    }
+}
+
+/// What [`EntityTable::update`] did with a state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Update {
+    /// Stored as the entity's newest state.
+    Applied,
+    /// Older than the state already held: ignored.
+    Older,
+    /// The entity has not been spawned (yet): held for its spawn.
+    Held,
+    /// Not spawned, and too many states are held already: dropped.
+    Dropped,
+}
+
+/// Entities by id, in id order. See the [module docs](self).
+#[derive(Debug, Clone, Default)]
+pub struct EntityTable {
+    entities: BTreeMap<EntityId, Entity>,
+    early: BTreeMap<EntityId, LatestState>,
+}
+
+impl EntityTable {
+    /// The most states held for entities not spawned yet.
+    pub const MAX_EARLY: usize = 4096;
+
+    /// An empty table.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Applies a spawn: adds the entity, or replaces its description if it
+    /// is known (its latest state kept). Returns true when it was new.
+    pub fn spawn(&mut self, desc: EntityDesc) -> bool {
+        let id = desc.id;
+        match self.entities.get_mut(&id) {
+            Some(e) => {
+                e.desc = desc;
+                false
+            }
+            None => {
+                let latest = self.early.remove(&id);
+                self.entities.insert(id, Entity { desc, latest });
+                true
+            }
+        }
+    }
+
+    /// Applies a despawn: forgets the entity (and any state held for it).
+    /// Returns its description if it was known.
+    pub fn despawn(&mut self, id: EntityId) -> Option<EntityDesc> {
+        self.early.remove(&id);
+        self.entities.remove(&id).map(|e| e.desc)
+    }
+
+    /// Records a state from the snapshot of `tick`, keeping only the
+    /// newest per entity.
+    pub fn update(&mut self, tick: u64, state: EntityState) -> Update {
+        let latest = LatestState { tick, state };
+        match self.entities.get_mut(&state.id) {
+            Some(e) => {
+                if e.latest.is_some_and(|l| l.tick > tick) {
+                    return Update::Older;
+                }
+                e.latest = Some(latest);
+                Update::Applied
+            }
+            None => {
+                if let Some(held) = self.early.get_mut(&state.id) {
+                    if held.tick > tick {
+                        return Update::Older;
+                    }
+                    *held = latest;
+                    return Update::Held;
+                }
+                if self.early.len() >= Self::MAX_EARLY {
+                    return Update::Dropped;
+                }
+                self.early.insert(state.id, latest);
+                Update::Held
+            }
+        }
+    }
+
+    /// Forgets every entity and held state (after a reconnect, or when the
+    /// server's timeline broke and it will spawn everything again).
+    pub fn clear(&mut self) {
+        self.entities.clear();
+        self.early.clear();
+    }
+
+    /// One entity.
+    pub fn get(&self, id: EntityId) -> Option<&Entity> {
+        self.entities.get(&id)
+    }
+
+    /// True when the entity is known.
+    pub fn contains(&self, id: EntityId) -> bool {
+        self.entities.contains_key(&id)
+    }
+
+    /// How many entities are known.
+    pub fn len(&self) -> usize {
+        self.entities.len()
+    }
+
+    /// True when no entity is known.
+    pub fn is_empty(&self) -> bool {
+        self.entities.is_empty()
+    }
+
+    /// How many states are held for entities not spawned yet.
+    pub fn held(&self) -> usize {
+        self.early.len()
+    }
+
+    /// The entities in id order.
+    pub fn iter(&self) -> impl Iterator<Item = (EntityId, &Entity)> + '_ {
+        self.entities.iter().map(|(&id, e)| (id, e))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use inertia_protocol::{EntityKind, ShapeDesc};
+
+    fn desc(id: EntityId, name: &str) -> EntityDesc {
+        EntityDesc {
+            id,
+            kind: EntityKind::Dynamic,
+            shape: ShapeDesc::Sphere { radius: 0.5 },
+            color: [255, 0, 0, 255],
+            owner: None,
+            name: name.into(),
+            position: [1.0, 2.0, 3.0],
+            rotation: [0.0, 0.0, 0.0, 1.0],
+        }
+    }
+
+    fn state(id: EntityId, x: f64) -> EntityState {
+        EntityState {
+            id,
+            position: DVec3::new(x, 0.0, 0.0),
+            rotation: DQuat::IDENTITY,
+            linear_velocity: DVec3::ZERO,
+            angular_velocity: DVec3::ZERO,
+            asleep: false,
+        }
+    }
+
+    #[test]
+    fn spawn_update_despawn_and_iterate_in_id_order() {
+        let mut table = EntityTable::new();
+        assert!(table.spawn(desc(5, "b")));
+        assert!(table.spawn(desc(2, "a")));
+        assert!(!table.spawn(desc(5, "b2")));
+        assert_eq!(table.get(5).unwrap().desc.name, "b2");
+        assert_eq!(table.get(2).unwrap().position(), DVec3::new(1.0, 2.0, 3.0));
+        assert_eq!(table.update(10, state(2, 4.0)), Update::Applied);
+        assert_eq!(table.update(9, state(2, 3.0)), Update::Older);
+        assert_eq!(table.get(2).unwrap().position().x, 4.0);
+        let ids: Vec<EntityId> = table.iter().map(|(id, _)| id).collect();
+        assert_eq!(ids, [2, 5]);
+        assert_eq!(table.despawn(2).unwrap().name, "a");
+        assert!(table.despawn(2).is_none());
+        assert_eq!(table.len(), 1);
+    }
+
+    #[test]
+    fn a_state_before_its_spawn_is_held_and_attached() {
+        let mut table = EntityTable::new();
+        assert_eq!(table.update(3, state(9, 7.0)), Update::Held);
+        assert_eq!(table.held(), 1);
+        table.spawn(desc(9, "late"));
+        assert_eq!(table.held(), 0);
+        assert_eq!(table.get(9).unwrap().latest.unwrap().tick, 3);
+        assert_eq!(table.get(9).unwrap().position().x, 7.0);
+        for id in 100..100 + EntityTable::MAX_EARLY as u32 {
+            table.update(1, state(id, 0.0));
+        }
+        assert_eq!(table.update(1, state(1, 0.0)), Update::Dropped);
+        table.clear();
+        assert!(table.is_empty() && table.held() == 0);
+    }
+}
