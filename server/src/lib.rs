@@ -1,5 +1,6 @@
 //! The Inertia server: owns one physics world, steps it on its own thread at a
 //! fixed rate, and streams snapshots to clients over QUIC.
 
+pub mod clock;
 pub mod config;
 pub mod scene;
