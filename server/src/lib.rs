@@ -4,4 +4,6 @@
 pub mod clock;
 pub mod config;
 pub mod metrics;
+pub mod rules;
 pub mod scene;
+pub mod sim;

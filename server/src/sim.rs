@@ -1,0 +1,716 @@
+//! The tick loop: one world stepped at a fixed rate on its own thread.
+//!
+//! The world lives on a dedicated `std::thread`, never on a tokio worker: a
+//! tick is milliseconds of CPU work that would stall every socket task
+//! sharing the worker. The network layer talks to it through a
+//! [`SimHandle`]:
+//!
+//! * **commands in** over two bounded channels, drained at the top of each
+//!   loop: control (join, leave, pause, time scale, step, shutdown; up to
+//!   [`SimConfig::max_control_per_loop`]) and inputs (up to
+//!   [`SimConfig::max_inputs_per_loop`]). Sending never blocks; a full
+//!   channel refuses the command (counted), so a flood cannot stall a tick;
+//! * **frames out**: after the ticks of a loop the thread publishes an
+//!   `Arc<Frame>` through a `tokio::sync::watch` channel. Readers clone the
+//!   `Arc` and let go, so a slow reader never holds up a tick and a slow
+//!   tick never blocks a reader (they keep the previous frame).
+//!
+//! Each loop: drain commands → ask the [`Clock`] how many ticks are due →
+//! per tick `before_tick` (rules turn inputs into forces) → `World::step` →
+//! remove what left the world or went non-finite → `after_tick` → publish
+//! one frame → sleep on the control channel until the next tick is due.
+//!
+//! [`Simulation`] is that loop's state without the thread, for tests and
+//! tools that want to drive ticks by hand.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TryRecvError, TrySendError};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use inertia_physics::glam::DVec3;
+use inertia_physics::World;
+use inertia_protocol::{EntityDesc, EntityId, EntityState, PlayerInput};
+use tokio::sync::{oneshot, watch};
+
+use crate::clock::{Clock, ClockError};
+use crate::config::ServerConfig;
+use crate::metrics::Metrics;
+use crate::rules::{
+    ClientId, ControlLimits, GameEvent, GameRules, InputError, Refusal, RemovalReason, SimContext,
+};
+use crate::scene::{BuiltScene, EntityTable};
+
+/// How the tick loop runs.
+#[derive(Debug, Clone)]
+pub struct SimConfig {
+    /// Ticks per simulation second, Hz.
+    pub tick_hz: u32,
+    /// Most ticks one loop runs to catch up.
+    pub max_catch_up_ticks: u32,
+    /// Most clients at once.
+    pub max_clients: u32,
+    /// Caps on what rules may do to bodies.
+    pub limits: ControlLimits,
+    /// Capacity of the control channel, commands.
+    pub control_capacity: usize,
+    /// Capacity of the input channel, inputs.
+    pub input_capacity: usize,
+    /// Most control commands handled per loop.
+    pub max_control_per_loop: usize,
+    /// Most inputs handled per loop.
+    pub max_inputs_per_loop: usize,
+    /// Where to report tick durations, overruns, bodies and clients.
+    pub metrics: Option<Metrics>,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self::from(&ServerConfig::default())
+    }
+}
+
+impl From<&ServerConfig> for SimConfig {
+    fn from(c: &ServerConfig) -> Self {
+        SimConfig {
+            tick_hz: c.tick_hz,
+            max_catch_up_ticks: c.max_catch_up_ticks,
+            max_clients: c.max_clients,
+            limits: ControlLimits::default(),
+            control_capacity: 256,
+            // Four seconds of 60 Hz inputs from every client.
+            input_capacity: (c.max_clients as usize * 240).max(1024),
+            max_control_per_loop: 64,
+            max_inputs_per_loop: (c.max_clients as usize * 8).max(256),
+            metrics: None,
+        }
+    }
+}
+
+/// What the world looked like after a loop's ticks: the latest state of
+/// every entity that can move, plus the catalog of all entities.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    /// Ticks completed (the world's tick).
+    pub tick: u64,
+    /// Simulation time, s (`tick × dt`).
+    pub sim_time: f64,
+    /// Simulation seconds per wall second now (0 while paused).
+    pub time_scale: f64,
+    /// Whether real-time ticking is paused.
+    pub paused: bool,
+    /// States of dynamic and kinematic bodies, free particles and anything
+    /// teleported, sorted by id.
+    pub entities: Vec<EntityState>,
+    /// Every live entity's description; the same `Arc` until it changes.
+    pub catalog: Arc<BTreeMap<EntityId, EntityDesc>>,
+    /// Changes whenever the catalog does (compare, don't diff).
+    pub catalog_version: u64,
+    /// Events since the previous frame, each with the tick it happened in.
+    pub events: Vec<(u64, GameEvent)>,
+    /// Wall time of the last tick.
+    pub tick_duration: Duration,
+    /// Loops that hit the catch-up cap so far.
+    pub overruns: u64,
+    /// Clients in the game.
+    pub clients: u32,
+}
+
+/// A command to the tick thread.
+#[derive(Debug)]
+pub enum Command {
+    /// A client joins; the reply carries its avatar or the refusal.
+    Join {
+        /// The client.
+        client: ClientId,
+        /// Where the answer goes.
+        reply: oneshot::Sender<Result<EntityId, Refusal>>,
+    },
+    /// A client left.
+    Leave {
+        /// The client.
+        client: ClientId,
+    },
+    /// A client's input (goes through the input channel).
+    Input {
+        /// The client.
+        client: ClientId,
+        /// What it asks.
+        input: PlayerInput,
+    },
+    /// Stop real-time ticking.
+    Pause,
+    /// Resume at the last non-zero time scale.
+    Resume,
+    /// Simulation seconds per wall second (0..=64; 0 pauses).
+    SetTimeScale(f64),
+    /// Run exactly this many ticks (while paused).
+    Step(u64),
+    /// Run up to this tick, then pause.
+    RunTo(u64),
+    /// Stop the thread after publishing a last frame.
+    Shutdown,
+}
+
+/// Why a command was not delivered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum CommandError {
+    /// The channel is full: the tick thread is behind. Dropped; retry later.
+    #[error("the simulation is busy; command dropped")]
+    Busy,
+    /// The tick thread has stopped.
+    #[error("the simulation has stopped")]
+    Stopped,
+}
+
+/// Counters shared with the tick thread (read at any time).
+#[derive(Debug, Default)]
+pub struct SimStats {
+    /// Ticks run.
+    pub ticks: AtomicU64,
+    /// Loops that hit the catch-up cap.
+    pub overruns: AtomicU64,
+    /// Simulation ticks dropped by overruns.
+    pub dropped_ticks: AtomicU64,
+    /// Wall time of the last tick, ns.
+    pub last_tick_ns: AtomicU64,
+    /// Inputs refused by the rules.
+    pub inputs_rejected: AtomicU64,
+    /// Commands refused because a channel was full.
+    pub commands_dropped: AtomicU64,
+    /// Rigid bodies in the world.
+    pub bodies: AtomicU64,
+    /// Clients in the game.
+    pub clients: AtomicU64,
+    /// Physics steps that returned an error (should stay 0).
+    pub step_errors: AtomicU64,
+}
+
+/// The tick loop's state, without the thread.
+pub struct Simulation {
+    world: World,
+    entities: EntityTable,
+    spawn_points: Vec<DVec3>,
+    rules: Box<dyn GameRules>,
+    clock: Clock,
+    config: SimConfig,
+    clients: BTreeSet<ClientId>,
+    catalog: Arc<BTreeMap<EntityId, EntityDesc>>,
+    catalog_version: u64,
+    ctx_events: Vec<GameEvent>,
+    pending_events: Vec<(u64, GameEvent)>,
+    last_tick: Duration,
+    stats: Arc<SimStats>,
+}
+
+impl std::fmt::Debug for Simulation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Simulation")
+            .field("tick", &self.world.tick())
+            .field("entities", &self.entities.len())
+            .field("clients", &self.clients.len())
+            .field("clock", &self.clock)
+            .finish()
+    }
+}
+
+impl Simulation {
+    /// A simulation of a built scene under `rules`.
+    pub fn new(scene: BuiltScene, rules: Box<dyn GameRules>, config: SimConfig) -> Self {
+        let clock =
+            Clock::new(config.tick_hz, config.max_catch_up_ticks).with_tick(scene.world.tick());
+        let catalog = Arc::new(scene.entities.catalog());
+        let catalog_version = scene.entities.version();
+        let sim = Simulation {
+            world: scene.world,
+            entities: scene.entities,
+            spawn_points: scene.spawn_points,
+            rules,
+            clock,
+            config,
+            clients: BTreeSet::new(),
+            catalog,
+            catalog_version,
+            ctx_events: Vec::new(),
+            pending_events: Vec::new(),
+            last_tick: Duration::ZERO,
+            stats: Arc::new(SimStats::default()),
+        };
+        sim.update_gauges();
+        sim
+    }
+
+    /// The world.
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// The entity table.
+    pub fn entities(&self) -> &EntityTable {
+        &self.entities
+    }
+
+    /// The clock.
+    pub fn clock(&self) -> &Clock {
+        &self.clock
+    }
+
+    /// The clock, to pause, scale or step it.
+    pub fn clock_mut(&mut self) -> &mut Clock {
+        &mut self.clock
+    }
+
+    /// The shared counters.
+    pub fn stats(&self) -> Arc<SimStats> {
+        self.stats.clone()
+    }
+
+    fn dt(&self) -> f64 {
+        self.clock.dt()
+    }
+
+    fn with_ctx<R>(&mut self, f: impl FnOnce(&mut dyn GameRules, &mut SimContext<'_>) -> R) -> R {
+        let tick = self.world.tick();
+        let dt = self.dt();
+        let mut ctx = SimContext::new(
+            &mut self.world,
+            &mut self.entities,
+            &self.spawn_points,
+            &mut self.ctx_events,
+            tick,
+            dt,
+            self.config.limits,
+        );
+        f(self.rules.as_mut(), &mut ctx)
+    }
+
+    fn collect_events(&mut self) {
+        let tick = self.world.tick();
+        let mut events = std::mem::take(&mut self.ctx_events);
+        events.extend(self.rules.events());
+        self.pending_events
+            .extend(events.into_iter().map(|e| (tick, e)));
+    }
+
+    /// A client joins (refused when full or already in).
+    pub fn join(&mut self, client: ClientId) -> Result<EntityId, Refusal> {
+        if self.clients.contains(&client) {
+            return Err(Refusal::AlreadyJoined(client));
+        }
+        if self.clients.len() >= self.config.max_clients as usize {
+            return Err(Refusal::Full {
+                max: self.config.max_clients,
+            });
+        }
+        let r = self.with_ctx(|rules, ctx| rules.on_connect(client, ctx));
+        if r.is_ok() {
+            self.clients.insert(client);
+        }
+        self.collect_events();
+        self.update_gauges();
+        r
+    }
+
+    /// A client leaves (unknown clients are ignored).
+    pub fn leave(&mut self, client: ClientId) {
+        if self.clients.remove(&client) {
+            self.with_ctx(|rules, ctx| rules.on_disconnect(client, ctx));
+            self.collect_events();
+            self.update_gauges();
+        }
+    }
+
+    /// A client's input, checked by the rules.
+    pub fn input(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputError> {
+        let r = if self.clients.contains(&client) {
+            self.with_ctx(|rules, ctx| rules.on_input(client, input, ctx))
+        } else {
+            Err(InputError::NotJoined(client))
+        };
+        if r.is_err() {
+            self.stats.inputs_rejected.fetch_add(1, Ordering::Relaxed);
+            if let Some(m) = &self.config.metrics {
+                m.inputs_rejected.inc();
+            }
+        }
+        r
+    }
+
+    /// Runs one tick: rules, physics step, clean-up, rules.
+    pub fn tick(&mut self) {
+        let t0 = Instant::now();
+        self.with_ctx(|rules, ctx| rules.before_tick(ctx));
+        let dt = self.dt();
+        match self.world.step(dt) {
+            Ok(report) => {
+                for h in report.removed_bodies {
+                    if let Some(id) = self.entities.remove_body(h) {
+                        self.ctx_events.push(GameEvent::Removed {
+                            entity: id,
+                            reason: RemovalReason::OutOfBounds,
+                        });
+                    }
+                }
+                for h in report.quarantined_bodies {
+                    let _ = self.world.remove_body(h);
+                    if let Some(id) = self.entities.remove_body(h) {
+                        self.ctx_events.push(GameEvent::Removed {
+                            entity: id,
+                            reason: RemovalReason::Quarantined,
+                        });
+                    }
+                }
+                for h in report.quarantined {
+                    let _ = self.world.remove_particle(h);
+                    if let Some(id) = self.entities.by_particle(h) {
+                        self.entities.remove(id);
+                        self.ctx_events.push(GameEvent::Removed {
+                            entity: id,
+                            reason: RemovalReason::Quarantined,
+                        });
+                    }
+                }
+            }
+            Err(e) => {
+                // Only a bad dt fails a step, and dt is fixed and checked.
+                self.stats.step_errors.fetch_add(1, Ordering::Relaxed);
+                tracing::error!(error = %e, "physics step failed");
+            }
+        }
+        self.with_ctx(|rules, ctx| rules.after_tick(ctx));
+        self.collect_events();
+        self.last_tick = t0.elapsed();
+        self.stats.ticks.fetch_add(1, Ordering::Relaxed);
+        self.stats
+            .last_tick_ns
+            .store(self.last_tick.as_nanos() as u64, Ordering::Relaxed);
+        if let Some(m) = &self.config.metrics {
+            m.tick_duration.observe(self.last_tick.as_secs_f64());
+        }
+    }
+
+    /// Runs `n` ticks now, whatever the clock says.
+    pub fn run_ticks(&mut self, n: u64) {
+        for _ in 0..n {
+            self.tick();
+        }
+        self.update_gauges();
+    }
+
+    /// Feeds `wall_elapsed` to the clock and runs the ticks it owes.
+    /// Returns how many ran.
+    pub fn advance(&mut self, wall_elapsed: Duration) -> u32 {
+        let before = self.clock.overruns();
+        let n = self.clock.advance(wall_elapsed);
+        for _ in 0..n {
+            self.tick();
+        }
+        let overruns = self.clock.overruns() - before;
+        if overruns > 0 {
+            self.stats.overruns.fetch_add(overruns, Ordering::Relaxed);
+            self.stats
+                .dropped_ticks
+                .store(self.clock.dropped_ticks(), Ordering::Relaxed);
+            if let Some(m) = &self.config.metrics {
+                m.tick_overruns.inc_by(overruns);
+            }
+        }
+        self.update_gauges();
+        n
+    }
+
+    fn update_gauges(&self) {
+        let bodies = self.world.bodies().count() as u64;
+        self.stats.bodies.store(bodies, Ordering::Relaxed);
+        self.stats
+            .clients
+            .store(self.clients.len() as u64, Ordering::Relaxed);
+        if let Some(m) = &self.config.metrics {
+            m.bodies.set(bodies as i64);
+            m.connected_clients.set(self.clients.len() as i64);
+        }
+    }
+
+    /// The frame of the current state; takes the events gathered since the
+    /// last frame.
+    pub fn frame(&mut self) -> Frame {
+        if self.entities.version() != self.catalog_version {
+            self.catalog = Arc::new(self.entities.catalog());
+            self.catalog_version = self.entities.version();
+        }
+        Frame {
+            tick: self.world.tick(),
+            sim_time: self.world.time(),
+            time_scale: self.clock.time_scale(),
+            paused: self.clock.paused(),
+            entities: self.entities.states(&self.world),
+            catalog: self.catalog.clone(),
+            catalog_version: self.catalog_version,
+            events: std::mem::take(&mut self.pending_events),
+            tick_duration: self.last_tick,
+            overruns: self.clock.overruns(),
+            clients: self.clients.len() as u32,
+        }
+    }
+
+    /// Applies one command; false for [`Command::Shutdown`].
+    pub fn apply(&mut self, cmd: Command) -> bool {
+        match cmd {
+            Command::Join { client, reply } => {
+                let r = self.join(client);
+                // The asker may have given up; the avatar stays until Leave.
+                let _ = reply.send(r);
+            }
+            Command::Leave { client } => self.leave(client),
+            Command::Input { client, input } => {
+                let _ = self.input(client, &input);
+            }
+            Command::Pause => self.clock.pause(),
+            Command::Resume => self.clock.resume(),
+            Command::SetTimeScale(s) => {
+                if let Err(e) = self.clock.set_time_scale(s) {
+                    tracing::warn!(error = %e, "time scale refused");
+                }
+            }
+            Command::Step(n) => self.clock.step(n),
+            Command::RunTo(t) => {
+                if let Err(e @ ClockError::InThePast { .. }) = self.clock.run_to(t) {
+                    tracing::warn!(error = %e, "run_to refused");
+                }
+            }
+            Command::Shutdown => return false,
+        }
+        true
+    }
+}
+
+/// The network layer's handle on the tick thread. Dropping it stops the
+/// thread (after its current loop); [`SimHandle::shutdown`] also waits.
+#[derive(Debug)]
+pub struct SimHandle {
+    control: SyncSender<Command>,
+    inputs: SyncSender<(ClientId, PlayerInput)>,
+    frames: watch::Receiver<Arc<Frame>>,
+    stats: Arc<SimStats>,
+    thread: Option<JoinHandle<()>>,
+}
+
+/// Starts the tick thread on `scene` under `rules`.
+pub fn spawn(
+    scene: BuiltScene,
+    rules: Box<dyn GameRules>,
+    config: SimConfig,
+) -> std::io::Result<SimHandle> {
+    SimHandle::spawn(scene, rules, config)
+}
+
+impl SimHandle {
+    /// Starts the tick thread (named `inertia-tick`) on `scene` under
+    /// `rules`. Fails only if the OS refuses a thread.
+    pub fn spawn(
+        scene: BuiltScene,
+        rules: Box<dyn GameRules>,
+        config: SimConfig,
+    ) -> std::io::Result<SimHandle> {
+        let (control_tx, control_rx) = mpsc::sync_channel(config.control_capacity.max(1));
+        let (input_tx, input_rx) = mpsc::sync_channel(config.input_capacity.max(1));
+        let mut sim = Simulation::new(scene, rules, config);
+        let stats = sim.stats();
+        let (frame_tx, frame_rx) = watch::channel(Arc::new(sim.frame()));
+        let thread = std::thread::Builder::new()
+            .name("inertia-tick".into())
+            .spawn(move || run(sim, control_rx, input_rx, frame_tx))?;
+        Ok(SimHandle {
+            control: control_tx,
+            inputs: input_tx,
+            frames: frame_rx,
+            stats,
+            thread: Some(thread),
+        })
+    }
+
+    fn send(&self, cmd: Command) -> Result<(), CommandError> {
+        self.control.try_send(cmd).map_err(|e| match e {
+            TrySendError::Full(_) => {
+                self.stats.commands_dropped.fetch_add(1, Ordering::Relaxed);
+                CommandError::Busy
+            }
+            TrySendError::Disconnected(_) => CommandError::Stopped,
+        })
+    }
+
+    /// Sends a control command without waiting (inputs go to the input
+    /// channel whichever way they are sent).
+    pub fn command(&self, cmd: Command) -> Result<(), CommandError> {
+        match cmd {
+            Command::Input { client, input } => self.input(client, input),
+            cmd => self.send(cmd),
+        }
+    }
+
+    /// Asks for a client to join; await the answer on the receiver.
+    pub fn request_join(
+        &self,
+        client: ClientId,
+    ) -> Result<oneshot::Receiver<Result<EntityId, Refusal>>, CommandError> {
+        let (reply, rx) = oneshot::channel();
+        self.send(Command::Join { client, reply })?;
+        Ok(rx)
+    }
+
+    /// A client joins: its avatar's entity id, or why not.
+    pub async fn join(&self, client: ClientId) -> Result<EntityId, Refusal> {
+        let rx = self
+            .request_join(client)
+            .map_err(|_| Refusal::Unavailable)?;
+        rx.await.unwrap_or(Err(Refusal::Unavailable))
+    }
+
+    /// [`SimHandle::join`] for threads outside an async runtime (panics
+    /// inside one, like `oneshot::Receiver::blocking_recv`).
+    pub fn join_blocking(&self, client: ClientId) -> Result<EntityId, Refusal> {
+        let rx = self
+            .request_join(client)
+            .map_err(|_| Refusal::Unavailable)?;
+        rx.blocking_recv().unwrap_or(Err(Refusal::Unavailable))
+    }
+
+    /// A client left.
+    pub fn leave(&self, client: ClientId) -> Result<(), CommandError> {
+        self.send(Command::Leave { client })
+    }
+
+    /// A client's input; dropped (and counted) when the channel is full.
+    pub fn input(&self, client: ClientId, input: PlayerInput) -> Result<(), CommandError> {
+        self.inputs.try_send((client, input)).map_err(|e| match e {
+            TrySendError::Full(_) => {
+                self.stats.commands_dropped.fetch_add(1, Ordering::Relaxed);
+                CommandError::Busy
+            }
+            TrySendError::Disconnected(_) => CommandError::Stopped,
+        })
+    }
+
+    /// Stops real-time ticking.
+    pub fn pause(&self) -> Result<(), CommandError> {
+        self.send(Command::Pause)
+    }
+
+    /// Resumes at the last non-zero time scale.
+    pub fn resume(&self) -> Result<(), CommandError> {
+        self.send(Command::Resume)
+    }
+
+    /// Simulation seconds per wall second (0..=64; 0 pauses).
+    pub fn set_time_scale(&self, scale: f64) -> Result<(), CommandError> {
+        self.send(Command::SetTimeScale(scale))
+    }
+
+    /// Runs exactly `n` ticks (use while paused).
+    pub fn step(&self, n: u64) -> Result<(), CommandError> {
+        self.send(Command::Step(n))
+    }
+
+    /// Runs up to `tick`, then pauses.
+    pub fn run_to(&self, tick: u64) -> Result<(), CommandError> {
+        self.send(Command::RunTo(tick))
+    }
+
+    /// The latest frame.
+    pub fn frame(&self) -> Arc<Frame> {
+        self.frames.borrow().clone()
+    }
+
+    /// A receiver that wakes on every new frame (`changed().await`).
+    pub fn subscribe(&self) -> watch::Receiver<Arc<Frame>> {
+        self.frames.clone()
+    }
+
+    /// The shared counters.
+    pub fn stats(&self) -> &SimStats {
+        &self.stats
+    }
+
+    /// Stops the thread and waits for it.
+    pub fn shutdown(mut self) {
+        let _ = self.control.try_send(Command::Shutdown);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for SimHandle {
+    fn drop(&mut self) {
+        // The thread also stops when it sees the channels closed.
+        let _ = self.control.try_send(Command::Shutdown);
+    }
+}
+
+/// Longest sleep between loops while paused, so the loop notices closed
+/// channels.
+const IDLE_WAIT: Duration = Duration::from_millis(50);
+
+fn run(
+    mut sim: Simulation,
+    control: Receiver<Command>,
+    inputs: Receiver<(ClientId, PlayerInput)>,
+    frames: watch::Sender<Arc<Frame>>,
+) {
+    let mut last = Instant::now();
+    let mut early: Option<Command> = None;
+    loop {
+        let mut changed = false;
+        let mut budget = sim.config.max_control_per_loop.max(1);
+        if let Some(cmd) = early.take() {
+            changed = true;
+            budget -= 1;
+            if !sim.apply(cmd) {
+                break;
+            }
+        }
+        while budget > 0 {
+            match control.try_recv() {
+                Ok(cmd) => {
+                    changed = true;
+                    budget -= 1;
+                    if !sim.apply(cmd) {
+                        frames.send_replace(Arc::new(sim.frame()));
+                        return;
+                    }
+                }
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => return,
+            }
+        }
+        for _ in 0..sim.config.max_inputs_per_loop {
+            match inputs.try_recv() {
+                Ok((client, input)) => {
+                    let _ = sim.input(client, &input);
+                }
+                Err(_) => break,
+            }
+        }
+        let now = Instant::now();
+        let ran = sim.advance(now - last);
+        last = now;
+        if ran > 0 || changed {
+            frames.send_replace(Arc::new(sim.frame()));
+        }
+        let wait = sim
+            .clock
+            .until_next_tick()
+            .unwrap_or(IDLE_WAIT)
+            .min(IDLE_WAIT);
+        if wait > Duration::ZERO {
+            match control.recv_timeout(wait) {
+                Ok(cmd) => early = Some(cmd),
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
+        }
+    }
+    frames.send_replace(Arc::new(sim.frame()));
+}
