@@ -3,7 +3,10 @@
 
 pub mod clock;
 pub mod config;
+pub mod credentials;
 pub mod metrics;
+pub mod net;
 pub mod rules;
 pub mod scene;
+pub mod server;
 pub mod sim;

@@ -1,0 +1,102 @@
+//! A blocking face on [`Client`], for games without an async runtime: it
+//! owns a small tokio runtime (one I/O thread) on which the connection
+//! runs, and every method returns at once except `connect` and `close`.
+
+use std::net::SocketAddr;
+
+use inertia_protocol::control::DisconnectReason;
+use inertia_protocol::token::ConnectToken;
+use inertia_protocol::EntityDesc;
+
+use crate::interp::Frame;
+use crate::net::{Client, ClientError, ClientEvent, ConnectOptions, ServerInfo};
+use crate::stats::ClientStats;
+
+/// A connected client driven by its own runtime thread.
+#[derive(Debug)]
+pub struct BlockingClient {
+    runtime: tokio::runtime::Runtime,
+    client: Option<Client>,
+}
+
+impl BlockingClient {
+    /// Connects to the server at `addr` with `token`; blocks until the
+    /// server welcomes or refuses us.
+    pub fn connect(addr: SocketAddr, token: &ConnectToken) -> Result<Self, ClientError> {
+        Self::connect_with(addr, token, ConnectOptions::default())
+    }
+
+    /// [`BlockingClient::connect`] with options.
+    pub fn connect_with(
+        addr: SocketAddr,
+        token: &ConnectToken,
+        options: ConnectOptions,
+    ) -> Result<Self, ClientError> {
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .thread_name("inertia-client")
+            .enable_all()
+            .build()?;
+        let client = runtime.block_on(Client::connect_with(addr, token, options))?;
+        Ok(Self {
+            runtime,
+            client: Some(client),
+        })
+    }
+
+    fn client(&self) -> &Client {
+        self.client.as_ref().expect("present until close")
+    }
+
+    /// See [`Client::server_info`].
+    pub fn server_info(&self) -> &ServerInfo {
+        self.client().server_info()
+    }
+
+    /// See [`Client::local_time`].
+    pub fn local_time(&self) -> f64 {
+        self.client().local_time()
+    }
+
+    /// See [`Client::set_input`].
+    pub fn set_input(&self, movement: [f32; 2], yaw: f32, buttons: u8) {
+        self.client().set_input(movement, yaw, buttons)
+    }
+
+    /// See [`Client::sample`].
+    pub fn sample(&self) -> Frame {
+        self.client().sample()
+    }
+
+    /// See [`Client::sample_at`].
+    pub fn sample_at(&self, local_time: f64) -> Frame {
+        self.client().sample_at(local_time)
+    }
+
+    /// See [`Client::entities`].
+    pub fn entities(&self) -> Vec<EntityDesc> {
+        self.client().entities()
+    }
+
+    /// See [`Client::stats`].
+    pub fn stats(&self) -> ClientStats {
+        self.client().stats()
+    }
+
+    /// See [`Client::poll_event`].
+    pub fn poll_event(&self) -> Option<ClientEvent> {
+        self.client().poll_event()
+    }
+
+    /// See [`Client::disconnected`].
+    pub fn disconnected(&self) -> Option<DisconnectReason> {
+        self.client().disconnected()
+    }
+
+    /// Says goodbye and closes; blocks up to about two seconds.
+    pub fn close(mut self) {
+        if let Some(client) = self.client.take() {
+            self.runtime.block_on(client.close());
+        }
+    }
+}

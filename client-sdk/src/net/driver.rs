@@ -1,0 +1,288 @@
+//! The connection's background task: one loop that reads snapshot
+//! datagrams and control frames, sends inputs on a timer, and obeys the
+//! [`super::Client`]'s commands. Everything it learns goes into [`State`],
+//! which the game reads under a short lock.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use inertia_protocol::control::{
+    encode_frame, ClientControl, DisconnectReason, FrameDecoder, GameEvent, ServerControl,
+};
+use inertia_protocol::input::{InputDatagram, MAX_REDUNDANT_INPUTS};
+use inertia_protocol::snapshot::{SnapshotDecoder, ViewEntity};
+use inertia_protocol::{EntityDesc, EntityId, PlayerInput};
+use tokio::sync::mpsc;
+
+use crate::clock::{Discontinuity, SnapshotMeta};
+use crate::interp::{EntityView, InterpEvent, InterpolationBuffer, Snapshot};
+use crate::stats::{ClientStats, StatsRecorder};
+
+use super::ServerInfo;
+
+/// The most events kept for the game to poll; older ones are dropped.
+const MAX_EVENTS: usize = 4096;
+
+/// Something that happened on the connection, for the game to react to.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ClientEvent {
+    /// An entity was described to us (its description is in
+    /// [`super::Client::entities`]).
+    Spawned(EntityId),
+    /// An entity left the world or our view.
+    Despawned(EntityId),
+    /// A game event from the server.
+    Game(GameEvent),
+    /// The server's timeline jumped (seek, rewind, replay): cut or fade.
+    Discontinuity(Discontinuity),
+    /// Rendering fell far behind after an outage and jumped forwards.
+    Resync {
+        /// Render tick before.
+        from_tick: f64,
+        /// Render tick after.
+        to_tick: f64,
+    },
+    /// The connection ended.
+    Disconnected(DisconnectReason),
+}
+
+/// What the connection knows, shared with the game.
+#[derive(Debug)]
+pub(crate) struct State {
+    pub decoder: SnapshotDecoder,
+    pub interp: InterpolationBuffer,
+    pub entities: BTreeMap<EntityId, EntityDesc>,
+    pub latest: Option<(u64, Vec<ViewEntity>)>,
+    pub events: VecDeque<ClientEvent>,
+    pub input: PlayerInput,
+    pub disconnected: Option<DisconnectReason>,
+    pub stats: StatsRecorder,
+    pub events_dropped: u64,
+}
+
+impl State {
+    pub fn new(info: &ServerInfo, decoder: SnapshotDecoder) -> Self {
+        Self {
+            decoder,
+            interp: InterpolationBuffer::new(f64::from(info.tick_hz)),
+            entities: BTreeMap::new(),
+            latest: None,
+            events: VecDeque::new(),
+            input: PlayerInput {
+                tick: info.tick,
+                ..PlayerInput::default()
+            },
+            disconnected: None,
+            stats: StatsRecorder::new(),
+            events_dropped: 0,
+        }
+    }
+
+    fn event(&mut self, e: ClientEvent) {
+        if self.events.len() >= MAX_EVENTS {
+            self.events.pop_front();
+            self.events_dropped += 1;
+        }
+        self.events.push_back(e);
+    }
+
+    /// The statistics as of `now` (s since connecting), with QUIC's
+    /// smoothed round trip `rtt` (s).
+    pub fn stats_at(&mut self, now: f64, rtt: f64) -> ClientStats {
+        self.stats.on_rtt(rtt);
+        self.stats.on_interp(self.interp.stats());
+        self.stats.stats(now)
+    }
+
+    fn on_datagram(&mut self, now: f64, bytes: &[u8]) {
+        match self.decoder.decode(bytes) {
+            Ok(snap) => {
+                self.stats.on_snapshot(now, snap.sequence, bytes.len());
+                let meta = SnapshotMeta {
+                    seq: Some(snap.sequence),
+                    tick: snap.tick,
+                    time_scale: snap.time_scale,
+                    paused: snap.paused,
+                };
+                let entities = snap.entities.iter().map(view_of).collect();
+                if snap.newest {
+                    for &id in &snap.removed {
+                        self.interp.remove(id);
+                    }
+                    self.latest = Some((snap.tick, snap.entities));
+                }
+                self.interp.push(now, Snapshot { meta, entities });
+                while let Some(e) = self.interp.poll_event() {
+                    let e = match e {
+                        InterpEvent::Discontinuity(d) => ClientEvent::Discontinuity(d),
+                        InterpEvent::Resync { from_tick, to_tick } => {
+                            ClientEvent::Resync { from_tick, to_tick }
+                        }
+                    };
+                    self.event(e);
+                }
+            }
+            Err(_) => self.stats.on_malformed(),
+        }
+    }
+
+    fn on_control(&mut self, msg: ServerControl) -> Result<(), String> {
+        match msg {
+            ServerControl::Spawn(desc) => {
+                let id = desc.id;
+                self.entities.insert(id, desc);
+                self.event(ClientEvent::Spawned(id));
+            }
+            ServerControl::Despawn { id } => {
+                self.entities.remove(&id);
+                self.interp.remove(id);
+                self.event(ClientEvent::Despawned(id));
+            }
+            ServerControl::Event(e) => self.event(ClientEvent::Game(e)),
+            ServerControl::Goodbye(reason) => {
+                self.disconnected = Some(reason.clone());
+                self.event(ClientEvent::Disconnected(reason));
+            }
+            other @ (ServerControl::Welcome { .. } | ServerControl::Refused(_)) => {
+                return Err(format!("unexpected after the welcome: {other:?}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn view_of(e: &ViewEntity) -> EntityView {
+    EntityView {
+        id: e.id,
+        position: e.position,
+        rotation: e.rotation,
+        linear_velocity: e.velocity,
+        angular_velocity: None,
+        at_rest: e.at_rest,
+    }
+}
+
+/// What the [`super::Client`] asks of its task.
+#[derive(Debug)]
+pub(crate) enum Command {
+    /// Say goodbye and close.
+    Close,
+}
+
+pub(crate) struct Driver {
+    pub connection: quinn::Connection,
+    pub send: quinn::SendStream,
+    pub recv: quinn::RecvStream,
+    pub frames: FrameDecoder,
+    pub state: Arc<Mutex<State>>,
+    pub commands: mpsc::UnboundedReceiver<Command>,
+    pub epoch: Instant,
+    pub input_hz: u32,
+}
+
+impl Driver {
+    fn lock(&self) -> std::sync::MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// Runs the connection until it ends.
+pub(crate) async fn run(mut d: Driver) {
+    let mut timer = tokio::time::interval(Duration::from_secs_f64(1.0 / f64::from(d.input_hz)));
+    timer.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let mut history: VecDeque<PlayerInput> = VecDeque::new();
+    let mut sequence: u32 = 0;
+    let mut buf = vec![0u8; 16 * 1024];
+    let reason = loop {
+        tokio::select! {
+            datagram = d.connection.read_datagram() => match datagram {
+                Ok(bytes) => {
+                    let now = d.epoch.elapsed().as_secs_f64();
+                    d.lock().on_datagram(now, &bytes);
+                }
+                Err(e) => break closed_reason(&e),
+            },
+            read = d.recv.read(&mut buf) => match read {
+                Ok(Some(n)) => {
+                    if let Err(e) = d.frames.push(&buf[..n]) {
+                        break protocol_error(&d.connection, e.to_string());
+                    }
+                    let mut failed = None;
+                    while let Some(msg) = d.frames.next::<ServerControl>() {
+                        let result = msg.map_err(|e| e.to_string()).and_then(|m| d.lock().on_control(m));
+                        if let Err(e) = result {
+                            failed = Some(e);
+                            break;
+                        }
+                    }
+                    if let Some(e) = failed {
+                        break protocol_error(&d.connection, e);
+                    }
+                }
+                Ok(None) | Err(_) => {
+                    let e = d.connection.closed().await;
+                    break closed_reason(&e);
+                }
+            },
+            _ = timer.tick() => {
+                let (datagram, _) = {
+                    let mut s = d.lock();
+                    let now = d.epoch.elapsed().as_secs_f64();
+                    sequence = sequence.wrapping_add(1);
+                    let rtt = d.connection.rtt().as_secs_f64();
+                    s.interp.clock_mut().rtt_sample(rtt);
+                    let tick = s.interp.clock().estimated_tick(now).map_or(s.input.tick, |t| t.max(0.0) as u64);
+                    let input = PlayerInput { sequence, tick, ..s.input };
+                    history.push_front(input);
+                    history.truncate(MAX_REDUNDANT_INPUTS);
+                    let (ack, ack_bits) = s.decoder.ack_state();
+                    (InputDatagram { ack, ack_bits, inputs: history.iter().copied().collect() }, ())
+                };
+                if let Ok(bytes) = datagram.encode() {
+                    let _ = d.connection.send_datagram(bytes.into());
+                }
+            },
+            command = d.commands.recv() => {
+                // A dropped client closes too.
+                let _ = command;
+                if let Ok(bytes) = encode_frame(&ClientControl::Goodbye) {
+                    let _ = d.send.write_all(&bytes).await;
+                }
+                let _ = d.send.finish();
+                // Give the goodbye a moment to arrive before closing.
+                let _ = tokio::time::timeout(Duration::from_millis(200), d.send.stopped()).await;
+                d.connection.close(0u32.into(), b"client left");
+                break DisconnectReason::ClientLeft;
+            },
+        }
+    };
+    let mut s = d.lock();
+    if s.disconnected.is_none() {
+        s.disconnected = Some(reason.clone());
+        s.event(ClientEvent::Disconnected(reason));
+    }
+}
+
+fn protocol_error(connection: &quinn::Connection, what: String) -> DisconnectReason {
+    connection.close(2u32.into(), b"protocol error");
+    DisconnectReason::ProtocolError { what }
+}
+
+fn closed_reason(e: &quinn::ConnectionError) -> DisconnectReason {
+    match e {
+        quinn::ConnectionError::TimedOut => DisconnectReason::Timeout,
+        quinn::ConnectionError::LocallyClosed => DisconnectReason::ClientLeft,
+        quinn::ConnectionError::ApplicationClosed(close) => {
+            let text = String::from_utf8_lossy(&close.reason).into_owned();
+            if text.contains("shut") {
+                DisconnectReason::ServerShutdown
+            } else {
+                DisconnectReason::Kicked { reason: text }
+            }
+        }
+        other => DisconnectReason::ProtocolError {
+            what: other.to_string(),
+        },
+    }
+}

@@ -1,0 +1,320 @@
+//! The connection to a server: QUIC with the certificate pinned by the
+//! connect token, the hello on the control stream, then a background task
+//! that decodes snapshots into the interpolation buffer, keeps the entity
+//! table, and sends inputs with acknowledgements.
+
+mod driver;
+pub mod tls;
+
+use std::net::SocketAddr;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use inertia_protocol::control::{
+    encode_frame, ClientControl, DisconnectReason, FrameDecoder, Refusal, ServerControl,
+    PROTOCOL_VERSION,
+};
+use inertia_protocol::snapshot::{SnapshotConfig, SnapshotDecoder};
+use inertia_protocol::token::ConnectToken;
+use inertia_protocol::PlayerInput;
+use tokio::sync::mpsc;
+
+pub use driver::ClientEvent;
+use driver::{Command, State};
+
+/// How long the handshake may take before [`ClientError::Timeout`].
+pub const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// Why a connection failed or ended.
+#[derive(Debug, thiserror::Error)]
+pub enum ClientError {
+    /// A local socket could not be opened.
+    #[error("local socket: {0}")]
+    Io(#[from] std::io::Error),
+    /// The TLS configuration could not be built.
+    #[error("TLS set-up: {0}")]
+    Tls(String),
+    /// QUIC refused to start the connection.
+    #[error("connect: {0}")]
+    Connect(#[from] quinn::ConnectError),
+    /// The connection failed or closed.
+    #[error("connection: {0}")]
+    Connection(#[from] quinn::ConnectionError),
+    /// The server speaks another protocol version.
+    #[error("protocol version mismatch: the server speaks {server}, this client {client}")]
+    VersionMismatch {
+        /// The server's version.
+        server: u16,
+        /// Ours.
+        client: u16,
+    },
+    /// The server refused the hello.
+    #[error("refused by the server: {0:?}")]
+    Refused(Refusal),
+    /// The server broke the protocol.
+    #[error("protocol error: {0}")]
+    Protocol(String),
+    /// The server did not answer in time.
+    #[error("the server did not answer within {0:?}")]
+    Timeout(Duration),
+}
+
+/// Options of [`Client::connect_with`].
+#[derive(Debug, Clone)]
+pub struct ConnectOptions {
+    /// The protocol version announced in the hello (tests of version
+    /// mismatch change it; games should not).
+    pub protocol_version: u16,
+    /// The local address to bind (default: any port on the unspecified
+    /// address of the server's family).
+    pub bind: Option<SocketAddr>,
+    /// Inputs sent per second, Hz (default: the server's tick rate).
+    pub input_hz: Option<u32>,
+}
+
+impl Default for ConnectOptions {
+    fn default() -> Self {
+        Self {
+            protocol_version: PROTOCOL_VERSION,
+            bind: None,
+            input_hz: None,
+        }
+    }
+}
+
+/// What the server said about itself when it welcomed us.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ServerInfo {
+    /// Our client id.
+    pub client_id: u64,
+    /// The server's tick when it welcomed us.
+    pub tick: u64,
+    /// Physics ticks per second of simulation time, Hz.
+    pub tick_hz: u32,
+    /// Snapshots per second, Hz.
+    pub snapshot_hz: u32,
+    /// The snapshot coding the server uses.
+    pub snapshot: SnapshotConfig,
+    /// The server's build.
+    pub server_version: String,
+}
+
+/// A connected client. Cheap to share across threads; every method locks a
+/// short-lived mutex. The connection runs on the tokio runtime that
+/// [`Client::connect`] was called on.
+#[derive(Debug)]
+pub struct Client {
+    state: Arc<Mutex<State>>,
+    commands: mpsc::UnboundedSender<Command>,
+    info: ServerInfo,
+    epoch: Instant,
+    connection: quinn::Connection,
+    endpoint: quinn::Endpoint,
+}
+
+async fn read_frame(
+    recv: &mut quinn::RecvStream,
+    frames: &mut FrameDecoder,
+) -> Result<ServerControl, ClientError> {
+    let mut buf = [0u8; 4096];
+    loop {
+        if let Some(msg) = frames.next::<ServerControl>() {
+            return msg.map_err(|e| ClientError::Protocol(e.to_string()));
+        }
+        match recv
+            .read(&mut buf)
+            .await
+            .map_err(|e| ClientError::Protocol(format!("control stream: {e}")))?
+        {
+            Some(n) => frames
+                .push(&buf[..n])
+                .map_err(|e| ClientError::Protocol(e.to_string()))?,
+            None => return Err(ClientError::Protocol("control stream closed".into())),
+        }
+    }
+}
+
+impl Client {
+    /// Connects to the server at `addr` with `token` (which names the
+    /// server and pins its certificate).
+    pub async fn connect(addr: SocketAddr, token: &ConnectToken) -> Result<Client, ClientError> {
+        Self::connect_with(addr, token, ConnectOptions::default()).await
+    }
+
+    /// [`Client::connect`] with options.
+    pub async fn connect_with(
+        addr: SocketAddr,
+        token: &ConnectToken,
+        options: ConnectOptions,
+    ) -> Result<Client, ClientError> {
+        let bind = options.bind.unwrap_or_else(|| match addr {
+            SocketAddr::V4(_) => "0.0.0.0:0".parse().expect("literal address"),
+            SocketAddr::V6(_) => "[::]:0".parse().expect("literal address"),
+        });
+        let mut endpoint = quinn::Endpoint::client(bind)?;
+        endpoint.set_default_client_config(
+            tls::client_config(token.public.cert_fingerprint).map_err(ClientError::Tls)?,
+        );
+        let handshake = async {
+            let connection = endpoint.connect(addr, "localhost")?.await?;
+            let (mut send, mut recv) = connection.open_bi().await?;
+            let hello = ClientControl::Hello {
+                version: options.protocol_version,
+                token: token.to_bytes(),
+            };
+            let bytes = encode_frame(&hello).map_err(|e| ClientError::Protocol(e.to_string()))?;
+            send.write_all(&bytes)
+                .await
+                .map_err(|e| ClientError::Protocol(format!("control stream: {e}")))?;
+            let mut frames = FrameDecoder::new();
+            match read_frame(&mut recv, &mut frames).await? {
+                ServerControl::Welcome {
+                    client_id,
+                    tick,
+                    tick_hz,
+                    snapshot_hz,
+                    position_resolution,
+                    position_bound,
+                    snapshot,
+                    server_version,
+                } => {
+                    let snapshot = snapshot.config(position_resolution, position_bound);
+                    let info = ServerInfo {
+                        client_id,
+                        tick,
+                        tick_hz,
+                        snapshot_hz,
+                        snapshot,
+                        server_version,
+                    };
+                    Ok((connection, send, recv, frames, info))
+                }
+                ServerControl::Refused(Refusal::VersionMismatch { server, client }) => {
+                    Err(ClientError::VersionMismatch { server, client })
+                }
+                ServerControl::Refused(r) => Err(ClientError::Refused(r)),
+                other => Err(ClientError::Protocol(format!(
+                    "expected a welcome, got {other:?}"
+                ))),
+            }
+        };
+        let (connection, send, recv, frames, info) =
+            match tokio::time::timeout(HANDSHAKE_TIMEOUT, handshake).await {
+                Ok(result) => result?,
+                Err(_) => return Err(ClientError::Timeout(HANDSHAKE_TIMEOUT)),
+            };
+        if info.tick_hz == 0 || info.snapshot_hz == 0 {
+            return Err(ClientError::Protocol(
+                "the server announced a zero rate".into(),
+            ));
+        }
+        let decoder = SnapshotDecoder::new(info.snapshot)
+            .map_err(|e| ClientError::Protocol(format!("snapshot settings: {e}")))?;
+        let epoch = Instant::now();
+        let state = Arc::new(Mutex::new(State::new(&info, decoder)));
+        let (commands, command_rx) = mpsc::unbounded_channel();
+        tokio::spawn(driver::run(driver::Driver {
+            connection: connection.clone(),
+            send,
+            recv,
+            frames,
+            state: state.clone(),
+            commands: command_rx,
+            epoch,
+            input_hz: options.input_hz.unwrap_or(info.tick_hz).clamp(1, 1000),
+        }));
+        Ok(Client {
+            state,
+            commands,
+            info,
+            epoch,
+            connection,
+            endpoint,
+        })
+    }
+
+    /// Seconds since the connection was made, on the clock that
+    /// [`Client::sample_at`] takes.
+    pub fn local_time(&self) -> f64 {
+        self.epoch.elapsed().as_secs_f64()
+    }
+
+    /// What the server said about itself.
+    pub fn server_info(&self) -> &ServerInfo {
+        &self.info
+    }
+
+    /// Our client id.
+    pub fn client_id(&self) -> u64 {
+        self.info.client_id
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Sets what the player wants from now on: movement in the horizontal
+    /// plane (each in [−1, 1]), facing angle (rad) and held buttons. It is
+    /// sent every input interval, with the last few inputs repeated in
+    /// every datagram against loss.
+    pub fn set_input(&self, movement: [f32; 2], yaw: f32, buttons: u8) {
+        let mut s = self.lock();
+        s.input = PlayerInput {
+            movement,
+            yaw,
+            buttons,
+            ..s.input
+        };
+    }
+
+    /// The world as it should be drawn now: interpolated behind the
+    /// server by the buffer's delay.
+    pub fn sample(&self) -> crate::interp::Frame {
+        self.sample_at(self.local_time())
+    }
+
+    /// The world as it should be drawn at `local_time` (s, see
+    /// [`Client::local_time`]).
+    pub fn sample_at(&self, local_time: f64) -> crate::interp::Frame {
+        self.lock().interp.sample(local_time).clone()
+    }
+
+    /// The newest snapshot received, exactly as decoded (no interpolation):
+    /// its tick and full view.
+    pub fn latest_view(&self) -> Option<(u64, Vec<inertia_protocol::snapshot::ViewEntity>)> {
+        self.lock().latest.clone()
+    }
+
+    /// Every entity the server has described to us, by id.
+    pub fn entities(&self) -> Vec<inertia_protocol::EntityDesc> {
+        self.lock().entities.values().cloned().collect()
+    }
+
+    /// Connection statistics.
+    pub fn stats(&self) -> crate::stats::ClientStats {
+        let mut s = self.lock();
+        let rtt = self.connection.rtt().as_secs_f64();
+        let now = self.epoch.elapsed().as_secs_f64();
+        s.stats_at(now, rtt)
+    }
+
+    /// The next event (spawns, despawns, game events, timeline breaks, the
+    /// disconnect), oldest first.
+    pub fn poll_event(&self) -> Option<ClientEvent> {
+        self.lock().events.pop_front()
+    }
+
+    /// Why the connection ended, once it has.
+    pub fn disconnected(&self) -> Option<DisconnectReason> {
+        self.lock().disconnected.clone()
+    }
+
+    /// Says goodbye and closes the connection, waiting briefly for the
+    /// server to hear it.
+    pub async fn close(self) {
+        let _ = self.commands.send(Command::Close);
+        let _ = tokio::time::timeout(Duration::from_secs(1), self.connection.closed()).await;
+        self.endpoint.close(0u32.into(), b"client left");
+        let _ = tokio::time::timeout(Duration::from_secs(1), self.endpoint.wait_idle()).await;
+    }
+}

@@ -1,0 +1,406 @@
+//! One client's connection: the hello and token check, then a single loop
+//! that sends snapshots at the snapshot rate (within the client's
+//! bandwidth budget), keeps the client's entity catalog in step over the
+//! reliable control stream, forwards its inputs to the simulation, and
+//! says goodbye on shutdown.
+
+use std::collections::BTreeSet;
+use std::sync::Arc;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use glam::DVec3;
+use inertia_protocol::control::{
+    encode_frame, handshake, ClientControl, DisconnectReason, FrameDecoder, Refusal, ServerControl,
+    SnapshotParams,
+};
+use inertia_protocol::input::{InputBuffer, InputDatagram};
+use inertia_protocol::interest::Interest;
+use inertia_protocol::priority::PriorityAccumulator;
+use inertia_protocol::snapshot::SnapshotEncoder;
+use inertia_protocol::EntityId;
+use tracing::{debug, info, info_span, warn, Instrument};
+
+use super::events::to_wire;
+use super::NetShared;
+use crate::rules;
+use crate::sim::Frame;
+
+/// How long a client has to say hello.
+pub const HELLO_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// QUIC close codes the server uses.
+pub mod close_code {
+    /// A normal goodbye.
+    pub const GOODBYE: u32 = 0;
+    /// The hello was refused.
+    pub const REFUSED: u32 = 1;
+    /// The client broke the protocol on its control stream.
+    pub const PROTOCOL: u32 = 2;
+    /// The server is shutting down.
+    pub const SHUTDOWN: u32 = 3;
+}
+
+/// Inputs remembered per client for reordering and de-duplication.
+const INPUT_BUFFER: usize = 128;
+
+fn unix_now() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+/// Why serving a client stopped.
+#[derive(Debug)]
+enum End {
+    /// The connection closed or failed.
+    Closed(quinn::ConnectionError),
+    /// The client said goodbye.
+    Goodbye,
+    /// The client broke the protocol on the control stream.
+    Protocol(String),
+    /// The server is shutting down.
+    Shutdown,
+}
+
+async fn write(send: &mut quinn::SendStream, msg: &ServerControl) -> Result<usize, String> {
+    let bytes = encode_frame(msg).map_err(|e| e.to_string())?;
+    send.write_all(&bytes).await.map_err(|e| e.to_string())?;
+    Ok(bytes.len())
+}
+
+/// Serves one incoming connection to its end.
+pub async fn serve(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>) {
+    let span = info_span!("connection", id, remote = %incoming.remote_address(), client = tracing::field::Empty);
+    async move {
+        let connection = match incoming.await {
+            Ok(c) => c,
+            Err(e) => {
+                debug!(error = %e, "handshake failed");
+                return;
+            }
+        };
+        match tokio::time::timeout(HELLO_TIMEOUT, hello(&connection, id, &shared)).await {
+            Ok(Some(admitted)) => run(connection, admitted, &shared).await,
+            Ok(None) => {}
+            Err(_) => {
+                debug!("no hello in time");
+                connection.close(close_code::REFUSED.into(), b"no hello in time");
+            }
+        }
+    }
+    .instrument(span)
+    .await
+}
+
+/// A client past its hello.
+struct Admitted {
+    client: u64,
+    avatar: EntityId,
+    send: quinn::SendStream,
+    recv: quinn::RecvStream,
+    frames: FrameDecoder,
+}
+
+/// Reads the hello and answers it; `None` when the client was refused or
+/// vanished.
+async fn hello(connection: &quinn::Connection, id: u64, shared: &NetShared) -> Option<Admitted> {
+    let (mut send, mut recv) = connection.accept_bi().await.ok()?;
+    let mut frames = FrameDecoder::new();
+    let mut buf = [0u8; 2048];
+    let msg = loop {
+        if let Some(msg) = frames.next::<ClientControl>() {
+            break msg.map_err(|e| e.to_string());
+        }
+        match recv.read(&mut buf).await {
+            Ok(Some(n)) => {
+                if let Err(e) = frames.push(&buf[..n]) {
+                    break Err(e.to_string());
+                }
+            }
+            _ => return None,
+        }
+    };
+    let result = match msg {
+        Ok(hello) => {
+            let mut guard = shared.guard.lock().unwrap_or_else(|e| e.into_inner());
+            handshake(
+                &hello,
+                unix_now(),
+                &shared.token_key,
+                &shared.public_addr,
+                id,
+                &mut guard,
+            )
+        }
+        Err(e) => {
+            debug!(error = %e, "malformed hello");
+            Err(Refusal::Malformed)
+        }
+    };
+    let result = match result {
+        Ok(_) if *shared.shutdown.borrow() => Err(Refusal::ShuttingDown),
+        Ok(token) => {
+            let client = token.client_id;
+            match shared.sim.request_join(client) {
+                Ok(rx) => match rx.await {
+                    Ok(Ok(avatar)) => Ok((client, avatar)),
+                    Ok(Err(rules::Refusal::Full { .. })) => Err(Refusal::ServerFull),
+                    Ok(Err(e)) => {
+                        info!(client, reason = %e, "join refused by the rules");
+                        Err(Refusal::ServerFull)
+                    }
+                    Err(_) => Err(Refusal::ShuttingDown),
+                },
+                Err(_) => Err(Refusal::ServerFull),
+            }
+        }
+        Err(r) => Err(r),
+    };
+    match result {
+        Ok((client, avatar)) => {
+            tracing::Span::current().record("client", client);
+            let frame = shared.sim.frame();
+            let welcome = ServerControl::Welcome {
+                client_id: client,
+                tick: frame.tick,
+                tick_hz: shared.tick_hz,
+                snapshot_hz: shared.snapshot_hz,
+                position_resolution: shared.snapshot.grid.resolution,
+                position_bound: shared.snapshot.grid.bound,
+                snapshot: SnapshotParams::from_config(&shared.snapshot),
+                server_version: env!("CARGO_PKG_VERSION").to_string(),
+            };
+            if write(&mut send, &welcome).await.is_err() {
+                let _ = shared.sim.leave(client);
+                return None;
+            }
+            info!(client, avatar, "client joined");
+            Some(Admitted {
+                client,
+                avatar,
+                send,
+                recv,
+                frames,
+            })
+        }
+        Err(refusal) => {
+            info!(?refusal, "hello refused");
+            shared.metrics.refused_connections.inc();
+            let _ = write(&mut send, &ServerControl::Refused(refusal)).await;
+            let _ = send.finish();
+            let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
+            connection.close(close_code::REFUSED.into(), b"refused");
+            None
+        }
+    }
+}
+
+/// What this client has been told about the world.
+struct ClientView {
+    /// Entities described to the client.
+    known: BTreeSet<EntityId>,
+    /// The catalog version last synchronised.
+    catalog_version: Option<u64>,
+    /// The newest tick whose events were sent.
+    events_up_to: u64,
+}
+
+async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShared) {
+    let Admitted {
+        client,
+        avatar,
+        mut send,
+        mut recv,
+        mut frames,
+    } = admitted;
+    let previous = shared
+        .connected
+        .lock()
+        .map(|mut c| c.insert(client, connection.stable_id() as u64))
+        .ok()
+        .flatten();
+    if previous.is_some() {
+        warn!(client, "client id connected twice");
+    }
+    let end = session(
+        &connection,
+        client,
+        avatar,
+        &mut send,
+        &mut recv,
+        &mut frames,
+        shared,
+    )
+    .await;
+    if let Ok(mut c) = shared.connected.lock() {
+        if c.get(&client) == Some(&(connection.stable_id() as u64)) {
+            c.remove(&client);
+        }
+    }
+    let _ = shared.sim.leave(client);
+    match end {
+        End::Shutdown => {
+            let _ = write(
+                &mut send,
+                &ServerControl::Goodbye(DisconnectReason::ServerShutdown),
+            )
+            .await;
+            let _ = send.finish();
+            let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
+            connection.close(close_code::SHUTDOWN.into(), b"server shutting down");
+            info!(client, "client told of shutdown");
+        }
+        End::Goodbye => {
+            connection.close(close_code::GOODBYE.into(), b"goodbye");
+            info!(client, "client left");
+        }
+        End::Protocol(what) => {
+            warn!(client, %what, "protocol error");
+            let reason = DisconnectReason::ProtocolError { what };
+            let _ = write(&mut send, &ServerControl::Goodbye(reason)).await;
+            connection.close(close_code::PROTOCOL.into(), b"protocol error");
+        }
+        End::Closed(e) => info!(client, reason = %e, "connection closed"),
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+async fn session(
+    connection: &quinn::Connection,
+    client: u64,
+    avatar: EntityId,
+    send: &mut quinn::SendStream,
+    recv: &mut quinn::RecvStream,
+    frames: &mut FrameDecoder,
+    shared: &NetShared,
+) -> End {
+    let mut encoder = SnapshotEncoder::new(shared.snapshot).expect("validated at start-up");
+    let mut interest = Interest::everything();
+    interest.always_relevant.insert(avatar);
+    let mut priorities = PriorityAccumulator::new(interest);
+    let mut inputs = InputBuffer::new(INPUT_BUFFER);
+    let mut view = ClientView {
+        known: BTreeSet::new(),
+        catalog_version: None,
+        events_up_to: shared.sim.frame().tick,
+    };
+    let period = Duration::from_secs_f64(1.0 / f64::from(shared.snapshot_hz.max(1)));
+    let mut timer = tokio::time::interval(period);
+    timer.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let budget = (shared.budget_bytes_per_sec / u64::from(shared.snapshot_hz.max(1))) as usize;
+    let mut shutdown = shared.shutdown.clone();
+    let mut buf = vec![0u8; 4096];
+    loop {
+        tokio::select! {
+            _ = timer.tick() => {
+                let frame = shared.sim.frame();
+                if let Err(e) = sync_catalog(send, &frame, &mut view, shared).await {
+                    return End::Protocol(format!("control stream: {e}"));
+                }
+                let max = connection.max_datagram_size().unwrap_or(1200);
+                let bytes = encoder.encode(
+                    frame.tick,
+                    frame.time_scale as f32,
+                    frame.paused,
+                    &frame.entities,
+                    &mut priorities,
+                    budget.min(max),
+                );
+                let len = bytes.len();
+                if connection.send_datagram(bytes.into()).is_ok() {
+                    shared.metrics.bytes_sent.inc_by(len as u64);
+                    shared.metrics.packets_sent.inc();
+                    shared.metrics.snapshot_size.observe(len as f64);
+                }
+            }
+            datagram = connection.read_datagram() => match datagram {
+                Ok(bytes) => {
+                    shared.metrics.bytes_received.inc_by(bytes.len() as u64);
+                    shared.metrics.packets_received.inc();
+                    match InputDatagram::decode(&bytes) {
+                        Ok(d) => {
+                            encoder.on_ack_state(d.ack, d.ack_bits);
+                            inputs.push_datagram(&d);
+                            while let Some(input) = inputs.pop() {
+                                if shared.sim.input(client, input).is_err() {
+                                    shared.metrics.inputs_rejected.inc();
+                                }
+                            }
+                        }
+                        Err(e) => {
+                            debug!(client, error = %e, "malformed datagram dropped");
+                            shared.metrics.malformed_datagrams.inc();
+                        }
+                    }
+                }
+                Err(e) => return End::Closed(e),
+            },
+            read = recv.read(&mut buf) => match read {
+                Ok(Some(n)) => {
+                    if let Err(e) = frames.push(&buf[..n]) {
+                        return End::Protocol(e.to_string());
+                    }
+                    // Every message a client may send after its hello ends
+                    // the session.
+                    if let Some(msg) = frames.next::<ClientControl>() {
+                        match msg {
+                            Ok(ClientControl::Goodbye) => return End::Goodbye,
+                            Ok(ClientControl::Hello { .. }) => {
+                                return End::Protocol("a second hello".into())
+                            }
+                            Err(e) => return End::Protocol(e.to_string()),
+                        }
+                    }
+                }
+                Ok(None) | Err(_) => return End::Closed(connection.closed().await),
+            },
+            _ = shutdown.changed() => return End::Shutdown,
+        }
+    }
+}
+
+/// Brings the client's catalog up to date (spawns and despawns, then the
+/// frame's events), reliably and in order on the control stream.
+async fn sync_catalog(
+    send: &mut quinn::SendStream,
+    frame: &Frame,
+    view: &mut ClientView,
+    shared: &NetShared,
+) -> Result<(), String> {
+    let mut sent = 0usize;
+    if view.catalog_version != Some(frame.catalog_version) {
+        let gone: Vec<EntityId> = view
+            .known
+            .iter()
+            .copied()
+            .filter(|id| !frame.catalog.contains_key(id))
+            .collect();
+        for id in gone {
+            sent += write(send, &ServerControl::Despawn { id }).await?;
+            view.known.remove(&id);
+        }
+        for (id, desc) in frame.catalog.iter() {
+            if view.known.insert(*id) {
+                sent += write(send, &ServerControl::Spawn(desc.clone())).await?;
+            }
+        }
+        view.catalog_version = Some(frame.catalog_version);
+    }
+    for (tick, event) in &frame.events {
+        if *tick > view.events_up_to {
+            sent += write(send, &ServerControl::Event(to_wire(event))).await?;
+        }
+    }
+    view.events_up_to = view.events_up_to.max(frame.tick);
+    shared.metrics.bytes_sent.inc_by(sent as u64);
+    Ok(())
+}
+
+/// The point of interest of a client: its avatar's position, if known.
+pub fn interest_point(frame: &Frame, avatar: EntityId) -> Option<DVec3> {
+    frame
+        .entities
+        .binary_search_by_key(&avatar, |e| e.id)
+        .ok()
+        .map(|i| frame.entities[i].position)
+}

@@ -1,0 +1,141 @@
+//! The game port: a quinn endpoint that accepts connections, checks each
+//! client's hello and connect token, and then serves it (see
+//! [`connection`]). Everything here runs on tokio's I/O workers; the
+//! physics runs on the simulation's own thread and is reached only through
+//! the [`SimHandle`]'s channels and published frames.
+
+pub mod connection;
+pub mod events;
+pub mod tls;
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+use inertia_protocol::snapshot::SnapshotConfig;
+use inertia_protocol::token::{ReplayGuard, TokenKey};
+use tokio::sync::watch;
+use tracing::{debug, info};
+
+use crate::metrics::Metrics;
+use crate::sim::{Frame, SimHandle};
+
+/// How many tokens the replay guard remembers at once.
+pub const REPLAY_GUARD_CAPACITY: usize = 65_536;
+
+/// What every connection shares.
+pub struct NetShared {
+    /// The simulation.
+    pub sim: SimHandle,
+    /// Metrics.
+    pub metrics: Metrics,
+    /// The key connect tokens are sealed with.
+    pub token_key: TokenKey,
+    /// The address tokens must name (the server's public `ip:port`).
+    pub public_addr: String,
+    /// Tokens already used, by connection.
+    pub guard: Mutex<ReplayGuard>,
+    /// How snapshots are coded.
+    pub snapshot: SnapshotConfig,
+    /// Snapshots per wall second, Hz.
+    pub snapshot_hz: u32,
+    /// Physics ticks per simulation second, Hz.
+    pub tick_hz: u32,
+    /// Per-client budget, bytes per second.
+    pub budget_bytes_per_sec: u64,
+    /// Becomes true when the server shuts down.
+    pub shutdown: watch::Receiver<bool>,
+    /// Recent frames by tick, so tests and tools can compare what clients
+    /// saw with the truth.
+    pub history: Mutex<BTreeMap<u64, Arc<Frame>>>,
+    /// Connections numbered from 1.
+    next_connection: AtomicU64,
+    /// Clients connected now, by client id, with their connection number.
+    pub connected: Mutex<BTreeMap<u64, u64>>,
+}
+
+impl std::fmt::Debug for NetShared {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NetShared")
+            .field("public_addr", &self.public_addr)
+            .field("snapshot_hz", &self.snapshot_hz)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Frames kept in [`NetShared::history`].
+pub const HISTORY_FRAMES: usize = 600;
+
+impl NetShared {
+    /// Shared state for a server.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        sim: SimHandle,
+        metrics: Metrics,
+        token_key: TokenKey,
+        public_addr: String,
+        snapshot: SnapshotConfig,
+        snapshot_hz: u32,
+        tick_hz: u32,
+        budget_bytes_per_sec: u64,
+        shutdown: watch::Receiver<bool>,
+    ) -> Self {
+        Self {
+            sim,
+            metrics,
+            token_key,
+            public_addr,
+            guard: Mutex::new(ReplayGuard::new(REPLAY_GUARD_CAPACITY)),
+            snapshot,
+            snapshot_hz,
+            tick_hz,
+            budget_bytes_per_sec,
+            shutdown,
+            history: Mutex::new(BTreeMap::new()),
+            next_connection: AtomicU64::new(1),
+            connected: Mutex::new(BTreeMap::new()),
+        }
+    }
+
+    /// The frame of `tick`, if still held.
+    pub fn frame_at(&self, tick: u64) -> Option<Arc<Frame>> {
+        self.history.lock().ok()?.get(&tick).cloned()
+    }
+
+    /// Records every new frame into the history until shutdown.
+    pub async fn record_history(self: Arc<Self>) {
+        let mut frames = self.sim.subscribe();
+        let mut shutdown = self.shutdown.clone();
+        loop {
+            let frame = frames.borrow_and_update().clone();
+            if let Ok(mut h) = self.history.lock() {
+                h.insert(frame.tick, frame);
+                while h.len() > HISTORY_FRAMES {
+                    h.pop_first();
+                }
+            }
+            tokio::select! {
+                changed = frames.changed() => if changed.is_err() { return },
+                _ = shutdown.changed() => return,
+            }
+        }
+    }
+}
+
+/// Accepts connections on `endpoint` until shutdown, serving each on its
+/// own task.
+pub async fn accept(endpoint: quinn::Endpoint, shared: Arc<NetShared>) {
+    let mut shutdown = shared.shutdown.clone();
+    loop {
+        tokio::select! {
+            incoming = endpoint.accept() => {
+                let Some(incoming) = incoming else { break };
+                let id = shared.next_connection.fetch_add(1, Ordering::Relaxed);
+                debug!(connection = id, remote = %incoming.remote_address(), "incoming");
+                tokio::spawn(connection::serve(incoming, id, shared.clone()));
+            }
+            _ = shutdown.changed() => break,
+        }
+    }
+    info!("no longer accepting connections");
+}

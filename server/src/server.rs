@@ -1,0 +1,290 @@
+//! Starting and stopping a whole server: credentials, scene, simulation
+//! thread, metrics endpoint and game port, in that order; and a clean stop
+//! that tells every client why.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use inertia_protocol::snapshot::SnapshotConfig;
+use inertia_protocol::token::TokenKey;
+use tokio::sync::watch;
+use tokio::task::JoinHandle;
+use tracing::{info, warn};
+
+use crate::config::ServerConfig;
+use crate::credentials::{self, CredentialFiles, CredentialsError};
+use crate::metrics::{self, Metrics};
+use crate::net::{self, NetShared};
+use crate::rules::{GameRules, SandboxRules, SandboxSettings};
+use crate::scene::{demo::demo_scene, Scene, SceneError};
+use crate::sim::{Frame, SimConfig, SimHandle};
+
+/// Why the server could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum StartError {
+    /// The configuration is invalid.
+    #[error("configuration: {0}")]
+    Config(#[from] crate::config::ConfigError),
+    /// Key, certificate or admin credential missing or unreadable.
+    #[error("credentials: {0}")]
+    Credentials(#[from] CredentialsError),
+    /// Dev mode was asked to listen beyond loopback.
+    #[error(
+        "dev mode (no --key-file / --cert-file) listens on loopback only, but --listen is {0}; \
+         give a key and certificate to listen there"
+    )]
+    DevModeNotLoopback(SocketAddr),
+    /// The scene file is bad.
+    #[error("scene: {0}")]
+    Scene(#[from] SceneError),
+    /// A socket could not be bound.
+    #[error("{what} {addr}: {source}")]
+    Bind {
+        /// Which socket.
+        what: &'static str,
+        /// Its address.
+        addr: SocketAddr,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// TLS could not be set up with the certificate.
+    #[error("TLS: {0}")]
+    Tls(String),
+    /// The simulation thread could not start.
+    #[error("simulation thread: {0}")]
+    Thread(std::io::Error),
+}
+
+/// A running server.
+pub struct RunningServer {
+    addr: SocketAddr,
+    metrics_addr: SocketAddr,
+    credentials_path: Option<PathBuf>,
+    admin_token: String,
+    shared: Arc<NetShared>,
+    shutdown: watch::Sender<bool>,
+    ready: Arc<AtomicBool>,
+    endpoint: quinn::Endpoint,
+    tasks: Vec<JoinHandle<()>>,
+}
+
+impl std::fmt::Debug for RunningServer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RunningServer")
+            .field("addr", &self.addr)
+            .field("metrics_addr", &self.metrics_addr)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Starts a server with the sandbox rules.
+pub async fn start(config: ServerConfig) -> Result<RunningServer, StartError> {
+    start_with_rules(
+        config,
+        Box::new(SandboxRules::new(SandboxSettings::default())),
+    )
+    .await
+}
+
+/// Starts a server with the game's own `rules`.
+pub async fn start_with_rules(
+    config: ServerConfig,
+    rules: Box<dyn GameRules>,
+) -> Result<RunningServer, StartError> {
+    config.validate()?;
+    let listen = config.listen_addr();
+    let dev = config.dev_mode();
+    if dev && !listen.ip().is_loopback() {
+        return Err(StartError::DevModeNotLoopback(listen));
+    }
+    let socket = std::net::UdpSocket::bind(listen).map_err(|source| StartError::Bind {
+        what: "game port",
+        addr: listen,
+        source,
+    })?;
+    let addr = socket.local_addr().map_err(|source| StartError::Bind {
+        what: "game port",
+        addr: listen,
+        source,
+    })?;
+    let (creds, credentials_path) = if dev {
+        let (creds, path) = credentials::make_dev(&config.data_dir, addr)?;
+        (creds, Some(path))
+    } else {
+        let files = CredentialFiles {
+            key_file: config.key_file.clone(),
+            cert_file: config.cert_file.clone(),
+            cert_key_file: config.cert_key_file.clone(),
+            admin_token_file: None,
+        };
+        (credentials::load(&files)?, None)
+    };
+
+    let scene = match &config.scene {
+        Some(path) => Scene::load(path)?,
+        None => demo_scene()?,
+    };
+    let built = scene.build()?;
+    info!(scene = %built.name, entities = built.entities.len(), "scene built");
+
+    let metrics = Metrics::new();
+    let sim_config = SimConfig {
+        metrics: Some(metrics.clone()),
+        ..SimConfig::from(&config)
+    };
+    let sim = SimHandle::spawn(built, rules, sim_config).map_err(StartError::Thread)?;
+
+    let ready = Arc::new(AtomicBool::new(false));
+    let metrics_listener = tokio::net::TcpListener::bind(config.metrics)
+        .await
+        .map_err(|source| StartError::Bind {
+            what: "metrics",
+            addr: config.metrics,
+            source,
+        })?;
+    let metrics_addr = metrics_listener
+        .local_addr()
+        .map_err(|source| StartError::Bind {
+            what: "metrics",
+            addr: config.metrics,
+            source,
+        })?;
+    let mut tasks = Vec::new();
+    {
+        let (metrics, ready) = (metrics.clone(), ready.clone());
+        tasks.push(tokio::spawn(async move {
+            if let Err(e) = metrics::serve_on(metrics_listener, metrics, ready).await {
+                warn!(error = %e, "metrics endpoint stopped");
+            }
+        }));
+    }
+
+    let server_config = net::tls::server_config(&creds).map_err(StartError::Tls)?;
+    let endpoint = quinn::Endpoint::new(
+        quinn::EndpointConfig::default(),
+        Some(server_config),
+        socket,
+        Arc::new(quinn::TokioRuntime),
+    )
+    .map_err(|source| StartError::Bind {
+        what: "game port",
+        addr,
+        source,
+    })?;
+    let (shutdown, shutdown_rx) = watch::channel(false);
+    let snapshot = SnapshotConfig::default();
+    let shared = Arc::new(NetShared::new(
+        sim,
+        metrics,
+        TokenKey::from_bytes(creds.token_key),
+        addr.to_string(),
+        snapshot,
+        config.snapshot_hz,
+        config.tick_hz,
+        config.client_budget_bytes_per_sec(),
+        shutdown_rx,
+    ));
+    tasks.push(tokio::spawn(shared.clone().record_history()));
+    tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone())));
+    ready.store(true, Ordering::SeqCst);
+    info!(
+        %addr,
+        %metrics_addr,
+        dev_mode = dev,
+        credentials = ?credentials_path,
+        tick_hz = config.tick_hz,
+        snapshot_hz = config.snapshot_hz,
+        "server ready"
+    );
+    Ok(RunningServer {
+        addr,
+        metrics_addr,
+        credentials_path,
+        admin_token: creds.admin_token,
+        shared,
+        shutdown,
+        ready,
+        endpoint,
+        tasks,
+    })
+}
+
+impl RunningServer {
+    /// The game port's address.
+    pub fn addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// The metrics and health endpoint's address.
+    pub fn metrics_addr(&self) -> SocketAddr {
+        self.metrics_addr
+    }
+
+    /// The dev credentials file, in dev mode.
+    pub fn credentials_path(&self) -> Option<&PathBuf> {
+        self.credentials_path.as_ref()
+    }
+
+    /// The admin credential.
+    pub fn admin_token(&self) -> &str {
+        &self.admin_token
+    }
+
+    /// The simulation.
+    pub fn sim(&self) -> &SimHandle {
+        &self.shared.sim
+    }
+
+    /// The latest frame.
+    pub fn frame(&self) -> Arc<Frame> {
+        self.shared.sim.frame()
+    }
+
+    /// The frame of `tick`, if it is among the last
+    /// [`net::HISTORY_FRAMES`].
+    pub fn frame_at(&self, tick: u64) -> Option<Arc<Frame>> {
+        self.shared.frame_at(tick)
+    }
+
+    /// Metrics handles.
+    pub fn metrics(&self) -> &Metrics {
+        &self.shared.metrics
+    }
+
+    /// Clients connected now.
+    pub fn clients(&self) -> usize {
+        self.shared.connected.lock().map_or(0, |c| c.len())
+    }
+
+    /// Stops accepting, tells every client the server is shutting down,
+    /// closes their connections, stops the simulation and waits (a few
+    /// seconds at most) for it all to finish.
+    pub async fn shutdown(self) {
+        info!("shutting down");
+        self.ready.store(false, Ordering::SeqCst);
+        let _ = self.shutdown.send(true);
+        let deadline = tokio::time::Instant::now() + Duration::from_secs(3);
+        while self.clients() > 0 && tokio::time::Instant::now() < deadline {
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        self.endpoint.close(
+            net::connection::close_code::SHUTDOWN.into(),
+            b"server shutting down",
+        );
+        let _ = tokio::time::timeout(Duration::from_secs(2), self.endpoint.wait_idle()).await;
+        for task in &self.tasks {
+            task.abort();
+        }
+        let shared = self.shared;
+        let _ = tokio::task::spawn_blocking(move || {
+            if let Ok(shared) = Arc::try_unwrap(shared) {
+                shared.sim.shutdown();
+            }
+        })
+        .await;
+        info!("stopped");
+    }
+}
