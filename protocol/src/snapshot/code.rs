@@ -42,13 +42,14 @@ pub(crate) const COUNT_CLASSES: [u32; 3] = [3, 6, 14];
 /// Tick distance from the baseline's tick.
 pub(crate) const TICK_CLASSES: [u32; 3] = [4, 8, 16];
 
-/// Position deltas (grid steps, signed bits an axis): the slight settling
-/// of a body going to sleep, a slow slide, then a push.
-pub(crate) const POSITION_CLASSES: [u32; 3] = [3, 7, 11];
+/// Position deltas, per axis (grid steps, signed bits; 0: unchanged):
+/// most bodies that move stay on the ground (their height unchanged), and
+/// a push moves one a few hundred millimetres between baselines.
+pub(crate) const POSITION_CLASSES: [u32; 4] = [0, 4, 7, 10];
 /// Rotation deltas of the three small components (steps, signed bits).
 pub(crate) const ROTATION_CLASSES: [u32; 3] = [3, 6, 9];
-/// Velocity deltas (grid steps, signed bits an axis).
-pub(crate) const VELOCITY_CLASSES: [u32; 3] = [4, 7, 10];
+/// Velocity deltas, per axis (grid steps, signed bits; 0: unchanged).
+pub(crate) const VELOCITY_CLASSES: [u32; 4] = [0, 4, 7, 10];
 
 /// Writes `value` in the first class of `classes` (bit widths) it fits:
 /// the class index in truncated unary (`i` ones then a zero, no zero after
@@ -132,9 +133,10 @@ fn read_class(r: &mut BitReader<'_>, n: usize) -> Result<usize, SnapshotError> {
     Ok(class)
 }
 
-/// Writes three indices against `base`: truncated-unary class (one more
-/// code than `classes` means absolute), then three signed deltas of the
-/// class's width, or three absolute indices of `abs_bits`.
+/// Writes three indices against `base`, each axis on its own: a
+/// truncated-unary class (one more code than `classes` means absolute),
+/// then the signed delta in the class's width (0: none, the axis is
+/// unchanged), or the absolute index in `abs_bits`.
 pub(crate) fn write_triple(
     s: &mut impl BitSink,
     cur: [u32; 3],
@@ -142,12 +144,25 @@ pub(crate) fn write_triple(
     classes: &[u32],
     abs_bits: u32,
 ) {
-    let class = delta_class(cur, base, classes);
-    write_class(s, class, classes.len());
-    if class < classes.len() {
-        write_deltas(s, cur, base, classes[class]);
-    } else {
-        write_absolute(s, cur, abs_bits);
+    for k in 0..3 {
+        let d = i64::from(cur[k]) - i64::from(base[k]);
+        let class = classes
+            .iter()
+            .position(|&bits| fits(d, bits))
+            .unwrap_or(classes.len());
+        write_class(s, class, classes.len());
+        match classes.get(class) {
+            Some(&bits) => s.put(d as u64, bits),
+            None => s.put(u64::from(cur[k]), abs_bits),
+        }
+    }
+}
+
+/// Whether `d` fits a signed field of `bits` (0 bits: only 0).
+fn fits(d: i64, bits: u32) -> bool {
+    match bits {
+        0 => d == 0,
+        _ => -(1i64 << (bits - 1)) <= d && d < 1i64 << (bits - 1),
     }
 }
 
@@ -166,12 +181,20 @@ pub(crate) fn read_triple(
     abs_bits: u32,
     max: u32,
 ) -> Result<[u32; 3], SnapshotError> {
-    let class = read_class(r, classes.len())?;
-    if class < classes.len() {
-        read_deltas(r, base, classes[class], max)
-    } else {
-        read_absolute(r, abs_bits, max)
+    let mut out = [0u32; 3];
+    for k in 0..3 {
+        let class = read_class(r, classes.len())?;
+        let v = match classes.get(class) {
+            Some(0) => i64::from(base[k]),
+            Some(&bits) => i64::from(base[k]) + r.read_signed(bits)?,
+            None => r.read(abs_bits)? as i64,
+        };
+        if !(0..=i64::from(max)).contains(&v) {
+            return Err(SnapshotError::Malformed("index outside its grid"));
+        }
+        out[k] = v as u32;
     }
+    Ok(out)
 }
 
 fn read_deltas(
@@ -350,14 +373,14 @@ mod tests {
     }
 
     #[test]
-    fn triples_take_the_smallest_class_that_fits() {
+    fn triples_take_the_smallest_class_of_each_axis() {
         let base = [2000, 2000, 2000];
         let cases = [
-            ([2000, 2000, 2000], 1 + 9),
-            ([2003, 1996, 2000], 1 + 9),
-            ([2004, 2000, 2000], 2 + 21),
-            ([2000, 2000, 2000 - 1024], 3 + 33),
-            ([2000, 2000, 2000 + 1024], 3 + 60),
+            ([2000, 2000, 2000], 3),
+            ([2003, 2000, 1992], 6 + 1 + 6),
+            ([2008, 2000, 2000], 10 + 1 + 1),
+            ([2000, 2000, 2000 - 512], 1 + 1 + 14),
+            ([2000, 2000 + 512, 2000], 1 + 4 + 20 + 1),
         ];
         let mut w = BitWriter::new();
         for (cur, bits) in cases {

@@ -52,9 +52,12 @@
 //! ```
 //!
 //! Ids ascend; each is coded as the gap from the previous one minus one.
-//! A position (or velocity) against a baseline is a truncated-unary class
-//! and three signed deltas of that class's width, the last class meaning
-//! absolute indices. Without a baseline it is absolute indices.
+//! A position (or velocity) against a baseline is coded axis by axis: a
+//! truncated-unary size class, then a signed delta of that class's width
+//! (the first class is "unchanged", no bits; the last is the absolute
+//! index). Without a baseline it is absolute indices. A changed rotation
+//! is a class and three deltas of the small components when the same
+//! component was dropped, else the dropped index and three levels.
 
 mod code;
 mod decoder;
