@@ -19,6 +19,9 @@ pub struct Opts {
     /// Run only the cases whose name contains this (case, integrator or
     /// method name); `None` runs everything.
     pub only: Option<String>,
+    /// Seconds to run for suites that stream over time (`bandwidth`);
+    /// `None` takes the suite's default.
+    pub seconds: Option<u32>,
 }
 
 impl Opts {

@@ -1,5 +1,6 @@
 //! One file per suite.
 
+pub mod bandwidth;
 pub mod integrators;
 pub mod nbody;
 pub mod particles;
@@ -19,15 +20,18 @@ pub enum Suite {
     Nbody,
     /// Our rigid-body engine against rapier3d on the same scenes.
     Physics,
+    /// Snapshot bandwidth and error of Fiedler's cube scene over a lossy link.
+    Bandwidth,
 }
 
 impl Suite {
     /// Every suite.
-    pub const ALL: [Suite; 4] = [
+    pub const ALL: [Suite; 5] = [
         Suite::Integrators,
         Suite::Particles,
         Suite::Nbody,
         Suite::Physics,
+        Suite::Bandwidth,
     ];
 
     /// The command-line name, also the `suite` field of every record.
@@ -37,6 +41,7 @@ impl Suite {
             Suite::Particles => "particles",
             Suite::Nbody => "nbody",
             Suite::Physics => "physics",
+            Suite::Bandwidth => "bandwidth",
         }
     }
 
@@ -47,6 +52,7 @@ impl Suite {
             Suite::Particles => particles::run(opts, sink),
             Suite::Nbody => nbody::run(opts, sink),
             Suite::Physics => physics::run(opts, sink),
+            Suite::Bandwidth => bandwidth::run(opts, sink),
         }
     }
 }
