@@ -246,7 +246,8 @@ pub enum ConfigError {
     /// Only one of `cert_file` and `cert_key_file` was given.
     #[error("cert_file and cert_key_file go together: give both or neither")]
     CertPair,
-    /// The game and metrics endpoints share an address.
+    /// The game and metrics endpoints share an address (an operator's
+    /// slip: one is UDP, the other TCP, but they would be confused).
     #[error("listen and metrics addresses are both {0}")]
     SameAddress(SocketAddr),
 }
@@ -349,7 +350,8 @@ impl ServerConfig {
             return Err(ConfigError::CertPair);
         }
         let listen = self.listen_addr();
-        if listen == self.metrics {
+        // Port 0 asks the system for any free port, so it never clashes.
+        if listen == self.metrics && listen.port() != 0 {
             return Err(ConfigError::SameAddress(listen));
         }
         Ok(())

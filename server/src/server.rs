@@ -175,7 +175,13 @@ pub async fn start_with_rules(
         source,
     })?;
     let (shutdown, shutdown_rx) = watch::channel(false);
-    let snapshot = SnapshotConfig::default();
+    // Velocities let clients interpolate with Hermite curves and
+    // extrapolate over a lost snapshot; they cost little for the bodies at
+    // rest, which send none.
+    let snapshot = SnapshotConfig {
+        velocities: true,
+        ..SnapshotConfig::default()
+    };
     let shared = Arc::new(NetShared::new(
         sim,
         metrics,

@@ -2,5 +2,6 @@
 //! loopback, with a link conditioner between them.
 
 pub mod conditioner;
+pub mod server;
 
 pub use conditioner::{BurstLoss, Conditioner, ConditionerStats, Impairment};

@@ -309,6 +309,12 @@ impl Client {
         self.lock().disconnected.clone()
     }
 
+    /// Sends `bytes` as one raw datagram, bypassing the input encoder: for
+    /// tools and tests that check how a server treats bad datagrams.
+    pub fn send_raw_datagram(&self, bytes: Vec<u8>) -> Result<(), quinn::SendDatagramError> {
+        self.connection.send_datagram(bytes.into())
+    }
+
     /// Says goodbye and closes the connection, waiting briefly for the
     /// server to hear it.
     pub async fn close(self) {
