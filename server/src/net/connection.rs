@@ -40,6 +40,13 @@ pub mod close_code {
     pub const SHUTDOWN: u32 = 3;
 }
 
+/// Within this distance of a client's avatar, m, entities are fully
+/// relevant; relevance then falls off to zero at [`INTEREST_MAX_M`].
+pub const INTEREST_FULL_M: f64 = 60.0;
+/// Beyond this distance of a client's avatar, m, entities are not sent
+/// (and leave the client's view) unless always relevant.
+pub const INTEREST_MAX_M: f64 = 250.0;
+
 /// Inputs remembered per client for reordering and de-duplication.
 const INPUT_BUFFER: usize = 128;
 
@@ -296,6 +303,11 @@ async fn session(
                 let frame = shared.sim.frame();
                 if let Err(e) = sync_catalog(send, &frame, &mut view, shared).await {
                     return End::Protocol(format!("control stream: {e}"));
+                }
+                if let Some(point) = interest_point(&frame, avatar) {
+                    let mut interest = Interest::around(point, INTEREST_FULL_M, INTEREST_MAX_M);
+                    interest.always_relevant.insert(avatar);
+                    priorities.set_interest(interest);
                 }
                 let max = connection.max_datagram_size().unwrap_or(1200);
                 let bytes = encoder.encode(
