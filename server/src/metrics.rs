@@ -45,6 +45,9 @@ pub struct Metrics {
     pub packets_received: Counter,
     /// Size of one encoded snapshot, bytes.
     pub snapshot_size: Histogram,
+    /// Wall time of encoding one snapshot for one client (priorities,
+    /// delta, bit packing), s.
+    pub snapshot_encode: Histogram,
     /// Datagrams dropped because they did not decode.
     pub malformed_datagrams: Counter,
     /// Inputs refused by validation (NaN, out of window, out of order).
@@ -68,6 +71,9 @@ impl Metrics {
         let tick_duration = Histogram::new(exponential_buckets(50e-6, 2.0, 14));
         // 16 B … 64 KiB: from an empty delta to a full keyframe.
         let snapshot_size = Histogram::new(exponential_buckets(16.0, 2.0, 13));
+        // 1 µs … ~33 ms: a delta of a few entities up to a full world on a
+        // loaded machine.
+        let snapshot_encode = Histogram::new(exponential_buckets(1e-6, 2.0, 16));
         let m = Metrics {
             tick_duration,
             tick_overruns: Counter::default(),
@@ -78,6 +84,7 @@ impl Metrics {
             packets_sent: Counter::default(),
             packets_received: Counter::default(),
             snapshot_size,
+            snapshot_encode,
             malformed_datagrams: Counter::default(),
             inputs_rejected: Counter::default(),
             refused_connections: Counter::default(),
@@ -124,6 +131,11 @@ impl Metrics {
             "snapshot_size_bytes",
             "Encoded size of one snapshot, bytes",
             m.snapshot_size.clone(),
+        );
+        r.register(
+            "snapshot_encode_seconds",
+            "Wall time of encoding one snapshot for one client, seconds",
+            m.snapshot_encode.clone(),
         );
         r.register(
             "malformed_datagrams_dropped",
@@ -248,6 +260,7 @@ mod tests {
         metrics.bodies.set(126);
         metrics.bytes_sent.inc_by(1500);
         metrics.snapshot_size.observe(900.0);
+        metrics.snapshot_encode.observe(40e-6);
         metrics.malformed_datagrams.inc();
         let (status, body) = get(addr, "/metrics").await;
         assert_eq!(status, 200);
@@ -261,6 +274,7 @@ mod tests {
             "inertia_sent_packets_total 0",
             "inertia_received_packets_total 0",
             "inertia_snapshot_size_bytes_count 1",
+            "inertia_snapshot_encode_seconds_count 1",
             "inertia_malformed_datagrams_dropped_total 1",
         ] {
             assert!(body.contains(needle), "missing {needle} in\n{body}");

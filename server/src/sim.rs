@@ -43,6 +43,10 @@ use crate::rules::{
 };
 use crate::scene::{BuiltScene, EntityTable};
 
+/// Events a [`Frame`] carries: the most recent ones, whatever frame they
+/// were first published in.
+pub const RECENT_EVENTS: usize = 1024;
+
 /// How the tick loop runs.
 #[derive(Debug, Clone)]
 pub struct SimConfig {
@@ -108,8 +112,10 @@ pub struct Frame {
     pub catalog: Arc<BTreeMap<EntityId, EntityDesc>>,
     /// Changes whenever the catalog does (compare, don't diff).
     pub catalog_version: u64,
-    /// Events since the previous frame, each with the tick it happened in.
-    pub events: Vec<(u64, GameEvent)>,
+    /// The most recent events (at most [`RECENT_EVENTS`]), oldest first,
+    /// each with the tick it happened in; the same `Arc` until one
+    /// happens.
+    pub events: Arc<Vec<(u64, GameEvent)>>,
     /// Wall time of the last tick.
     pub tick_duration: Duration,
     /// Loops that hit the catch-up cap so far.
@@ -201,6 +207,7 @@ pub struct Simulation {
     catalog_version: u64,
     ctx_events: Vec<GameEvent>,
     pending_events: Vec<(u64, GameEvent)>,
+    recent_events: Arc<Vec<(u64, GameEvent)>>,
     last_tick: Duration,
     stats: Arc<SimStats>,
 }
@@ -235,6 +242,7 @@ impl Simulation {
             catalog_version,
             ctx_events: Vec::new(),
             pending_events: Vec::new(),
+            recent_events: Arc::new(Vec::new()),
             last_tick: Duration::ZERO,
             stats: Arc::new(SimStats::default()),
         };
@@ -340,6 +348,7 @@ impl Simulation {
 
     /// Runs one tick: rules, physics step, clean-up, rules.
     pub fn tick(&mut self) {
+        let _span = tracing::debug_span!("tick", tick = self.clock.tick() + 1).entered();
         let t0 = Instant::now();
         self.with_ctx(|rules, ctx| rules.before_tick(ctx));
         let dt = self.dt();
@@ -433,9 +442,17 @@ impl Simulation {
         }
     }
 
-    /// The frame of the current state; takes the events gathered since the
-    /// last frame.
+    /// The frame of the current state, with the most recent
+    /// [`RECENT_EVENTS`] events (so a reader that skipped frames still sees
+    /// every event, as long as it keeps up within that many).
     pub fn frame(&mut self) -> Frame {
+        if !self.pending_events.is_empty() {
+            let mut recent: Vec<(u64, GameEvent)> = self.recent_events.as_ref().clone();
+            recent.append(&mut self.pending_events);
+            let excess = recent.len().saturating_sub(RECENT_EVENTS);
+            recent.drain(..excess);
+            self.recent_events = Arc::new(recent);
+        }
         if self.entities.version() != self.catalog_version {
             self.catalog = Arc::new(self.entities.catalog());
             self.catalog_version = self.entities.version();
@@ -448,7 +465,7 @@ impl Simulation {
             entities: self.entities.states(&self.world),
             catalog: self.catalog.clone(),
             catalog_version: self.catalog_version,
-            events: std::mem::take(&mut self.pending_events),
+            events: self.recent_events.clone(),
             tick_duration: self.last_tick,
             overruns: self.clock.overruns(),
             clients: self.clients.len() as u32,

@@ -126,6 +126,7 @@ fn jumps_once_when_grounded_and_cannot_fly() {
     p.send(&mut sim, [0.0, 0.0], 0.0, 0);
     settle(&mut sim);
     let mut peak = ground_y;
+    let spam_from = sim.frame().tick;
     for i in 0..180 {
         let b = if i % 2 == 0 { buttons::JUMP } else { 0 };
         p.send(&mut sim, [0.0, 0.0], 0.0, b);
@@ -141,7 +142,7 @@ fn jumps_once_when_grounded_and_cannot_fly() {
         .frame()
         .events
         .iter()
-        .filter(|(_, e)| matches!(e, GameEvent::Jumped { .. }))
+        .filter(|(tick, e)| *tick > spam_from && matches!(e, GameEvent::Jumped { .. }))
         .count();
     // Each jump takes about 1.1 s in the air: at most three in 3 s.
     assert!((1..=3).contains(&jumps), "{jumps} jumps, rise {rise}");
@@ -296,9 +297,9 @@ fn an_avatar_that_falls_off_the_world_comes_back() {
     for _ in 0..600 {
         p.send(&mut sim, [1.0, 0.0], 0.0, 0);
         sim.run_ticks(1);
-        for (_, e) in sim.frame().events {
+        for (_, e) in sim.frame().events.iter() {
             if let GameEvent::Respawned { avatar, .. } = e {
-                respawned = Some(avatar);
+                respawned = Some(*avatar);
             }
         }
         if respawned.is_some() {

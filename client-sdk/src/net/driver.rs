@@ -3,7 +3,7 @@
 //! [`super::Client`]'s commands. Everything it learns goes into [`State`],
 //! which the game reads under a short lock.
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -12,10 +12,11 @@ use inertia_protocol::control::{
 };
 use inertia_protocol::input::{InputDatagram, MAX_REDUNDANT_INPUTS};
 use inertia_protocol::snapshot::{SnapshotDecoder, ViewEntity};
-use inertia_protocol::{EntityDesc, EntityId, PlayerInput};
+use inertia_protocol::{EntityId, EntityState, PlayerInput};
 use tokio::sync::mpsc;
 
 use crate::clock::{Discontinuity, SnapshotMeta};
+use crate::entities::EntityTable;
 use crate::interp::{EntityView, InterpEvent, InterpolationBuffer, Snapshot};
 use crate::stats::{ClientStats, StatsRecorder};
 
@@ -52,7 +53,7 @@ pub enum ClientEvent {
 pub(crate) struct State {
     pub decoder: SnapshotDecoder,
     pub interp: InterpolationBuffer,
-    pub entities: BTreeMap<EntityId, EntityDesc>,
+    pub entities: EntityTable,
     pub latest: Option<(u64, Vec<ViewEntity>)>,
     pub events: VecDeque<ClientEvent>,
     pub input: PlayerInput,
@@ -66,7 +67,7 @@ impl State {
         Self {
             decoder,
             interp: InterpolationBuffer::new(f64::from(info.tick_hz)),
-            entities: BTreeMap::new(),
+            entities: EntityTable::new(),
             latest: None,
             events: VecDeque::new(),
             input: PlayerInput {
@@ -110,6 +111,11 @@ impl State {
                     for &id in &snap.removed {
                         self.interp.remove(id);
                     }
+                    for e in &snap.entities {
+                        if snap.changed.binary_search(&e.id).is_ok() {
+                            self.entities.update(snap.tick, state_of(e));
+                        }
+                    }
                     self.latest = Some((snap.tick, snap.entities));
                 }
                 self.interp.push(now, Snapshot { meta, entities });
@@ -131,11 +137,11 @@ impl State {
         match msg {
             ServerControl::Spawn(desc) => {
                 let id = desc.id;
-                self.entities.insert(id, desc);
+                self.entities.spawn(desc);
                 self.event(ClientEvent::Spawned(id));
             }
             ServerControl::Despawn { id } => {
-                self.entities.remove(&id);
+                self.entities.despawn(id);
                 self.interp.remove(id);
                 self.event(ClientEvent::Despawned(id));
             }
@@ -149,6 +155,17 @@ impl State {
             }
         }
         Ok(())
+    }
+}
+
+fn state_of(e: &ViewEntity) -> EntityState {
+    EntityState {
+        id: e.id,
+        position: e.position,
+        rotation: e.rotation,
+        linear_velocity: e.velocity.unwrap_or_default(),
+        angular_velocity: glam::DVec3::ZERO,
+        asleep: e.at_rest,
     }
 }
 

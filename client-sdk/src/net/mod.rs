@@ -287,7 +287,17 @@ impl Client {
 
     /// Every entity the server has described to us, by id.
     pub fn entities(&self) -> Vec<inertia_protocol::EntityDesc> {
-        self.lock().entities.values().cloned().collect()
+        self.lock()
+            .entities
+            .iter()
+            .map(|(_, e)| e.desc.clone())
+            .collect()
+    }
+
+    /// Runs `f` on the entity table: descriptions and the newest state each
+    /// entity's snapshots carried.
+    pub fn with_entities<R>(&self, f: impl FnOnce(&crate::entities::EntityTable) -> R) -> R {
+        f(&self.lock().entities)
     }
 
     /// Connection statistics.

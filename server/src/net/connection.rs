@@ -6,7 +6,7 @@
 
 use std::collections::BTreeSet;
 use std::sync::Arc;
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use glam::DVec3;
 use inertia_protocol::control::{
@@ -310,6 +310,7 @@ async fn session(
                     priorities.set_interest(interest);
                 }
                 let max = connection.max_datagram_size().unwrap_or(1200);
+                let encode_started = Instant::now();
                 let bytes = encoder.encode(
                     frame.tick,
                     frame.time_scale as f32,
@@ -318,6 +319,10 @@ async fn session(
                     &mut priorities,
                     budget.min(max),
                 );
+                shared
+                    .metrics
+                    .snapshot_encode
+                    .observe(encode_started.elapsed().as_secs_f64());
                 let len = bytes.len();
                 if connection.send_datagram(bytes.into()).is_ok() {
                     shared.metrics.bytes_sent.inc_by(len as u64);
@@ -398,7 +403,7 @@ async fn sync_catalog(
         }
         view.catalog_version = Some(frame.catalog_version);
     }
-    for (tick, event) in &frame.events {
+    for (tick, event) in frame.events.iter() {
         if *tick > view.events_up_to {
             sent += write(send, &ServerControl::Event(to_wire(event))).await?;
         }
