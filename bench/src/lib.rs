@@ -22,6 +22,9 @@ pub struct Opts {
     /// Seconds to run for suites that stream over time (`bandwidth`);
     /// `None` takes the suite's default.
     pub seconds: Option<u32>,
+    /// Client counts to step through (`capacity`); `None` takes the
+    /// suite's default.
+    pub clients: Option<Vec<u32>>,
 }
 
 impl Opts {

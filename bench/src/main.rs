@@ -26,6 +26,8 @@ enum SuiteArg {
     Physics,
     /// Snapshot bandwidth and error: Fiedler's 901 cubes at 60 Hz over a link with 5 % loss.
     Bandwidth,
+    /// Clients one server serves at 60 Hz ticks and 30 Hz snapshots (1000 moving bodies, bots as processes).
+    Capacity,
 }
 
 impl From<SuiteArg> for Suite {
@@ -36,6 +38,7 @@ impl From<SuiteArg> for Suite {
             SuiteArg::Nbody => Suite::Nbody,
             SuiteArg::Physics => Suite::Physics,
             SuiteArg::Bandwidth => Suite::Bandwidth,
+            SuiteArg::Capacity => Suite::Capacity,
         }
     }
 }
@@ -56,12 +59,28 @@ struct Cli {
     /// `rk4`, `nbody`, `pyramid_20`).
     #[arg(long, value_name = "SUBSTRING")]
     only: Option<String>,
-    /// Seconds to stream, for suites that run over time (`bandwidth`).
+    /// Seconds to stream, for suites that run over time (`bandwidth`;
+    /// `capacity`: seconds measured per client count).
     #[arg(long, value_name = "SECONDS")]
     seconds: Option<u32>,
+    /// Client counts to step through (`capacity`), e.g. `1,2,4`.
+    #[arg(long, value_name = "K,K,...", value_delimiter = ',')]
+    clients: Option<Vec<u32>>,
 }
 
 fn main() -> ExitCode {
+    // `inertia-bench bot …`: one bot client of the capacity suite, started
+    // by the suite itself (hidden from the help).
+    let args: Vec<String> = std::env::args().collect();
+    if args.get(1).map(String::as_str) == Some("bot") {
+        return match inertia_bench::suites::capacity::bot_main(&args[1..]) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("inertia-bench bot: {e}");
+                ExitCode::FAILURE
+            }
+        };
+    }
     let cli = Cli::parse();
     let suite = Suite::from(cli.suite);
     let mut reporter = Reporter::new(suite.name(), Machine::detect(), cli.json);
@@ -70,6 +89,7 @@ fn main() -> ExitCode {
             quick: cli.quick,
             only: cli.only,
             seconds: cli.seconds,
+            clients: cli.clients,
         },
         &mut reporter,
     ) {

@@ -1,6 +1,7 @@
 //! One file per suite.
 
 pub mod bandwidth;
+pub mod capacity;
 pub mod integrators;
 pub mod nbody;
 pub mod particles;
@@ -22,16 +23,19 @@ pub enum Suite {
     Physics,
     /// Snapshot bandwidth and error of Fiedler's cube scene over a lossy link.
     Bandwidth,
+    /// Clients one in-process server serves at 60 Hz, bots as processes.
+    Capacity,
 }
 
 impl Suite {
     /// Every suite.
-    pub const ALL: [Suite; 5] = [
+    pub const ALL: [Suite; 6] = [
         Suite::Integrators,
         Suite::Particles,
         Suite::Nbody,
         Suite::Physics,
         Suite::Bandwidth,
+        Suite::Capacity,
     ];
 
     /// The command-line name, also the `suite` field of every record.
@@ -42,6 +46,7 @@ impl Suite {
             Suite::Nbody => "nbody",
             Suite::Physics => "physics",
             Suite::Bandwidth => "bandwidth",
+            Suite::Capacity => "capacity",
         }
     }
 
@@ -53,6 +58,7 @@ impl Suite {
             Suite::Nbody => nbody::run(opts, sink),
             Suite::Physics => physics::run(opts, sink),
             Suite::Bandwidth => bandwidth::run(opts, sink),
+            Suite::Capacity => capacity::run(opts, sink),
         }
     }
 }

@@ -1,0 +1,830 @@
+//! `capacity`: how many clients one server process serves at 60 Hz.
+//!
+//! A whole dev-mode server runs in this process (tick thread, tokio, QUIC
+//! on loopback, ephemeral ports, data under the temporary folder) on
+//! `server/scenes/capacity.ron`: 1000 balls tumbling in a turning drum,
+//! so every body keeps moving. It ticks at 60 Hz and sends 30 snapshots a
+//! second to each client, under the default per-client budget.
+//!
+//! For each client count K (1, 2, 4, … 64 by default; `--clients`), K bot
+//! clients start as **separate processes** — this executable again, with
+//! the hidden `bot` subcommand — so their CPU time is not the server's.
+//! Each connects with [`BlockingClient`], walks its avatar with a
+//! changing stick, jumps and pushes now and then, and samples its
+//! interpolated picture at 60 Hz, like a game's frame loop. After a
+//! warm-up the bench tells every bot to start counting, measures the
+//! server for `--seconds`, tells them to stop, and each bot prints what it
+//! received as one JSON line.
+//!
+//! Measured per K:
+//!
+//! * `tick_ms_p50`, `tick_ms_p99`, `tick_ms_max`: the wall time of each
+//!   tick (rules and physics step), read from the frames the tick thread
+//!   publishes (`server.sim().subscribe()`, each frame's
+//!   `tick_duration`). A loop that runs more than one tick to catch up
+//!   publishes one frame, so `tick_samples` may be a little below `ticks`;
+//!   such loops are counted in `overruns` when they hit the cap.
+//! * `encode_us_per_client`: mean wall time to encode one snapshot for one
+//!   client (the server's `snapshot_encode_seconds` histogram).
+//! * `server_cpu_percent`: this process's user + system CPU time over the
+//!   step (`/proc/self/stat`) per wall second, × 100; the bots are other
+//!   processes and not in it. The machine's ceiling is 100 × cores.
+//! * `bots_cpu_percent`: the bots' own CPU over the same window, summed;
+//!   `machine_cpu_percent`: every process on the machine (`/proc/stat`).
+//! * `kbps_per_client`: mean over bots of the snapshot bytes each received
+//!   in the window, kbit/s; `snapshots_per_client_hz` (mean) and
+//!   `snapshots_min_client_hz` (worst bot): snapshots received per second.
+//!
+//! A K is served at 60 Hz when `tick_ms_p99 < 16.7` and every bot received
+//! at least 95 % of the snapshot rate. Steps go on while K is served; the
+//! last line gives the largest K served and what bounded it.
+
+use std::collections::BTreeSet;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use clap::Parser;
+use inertia_client::dev::dev_token;
+use inertia_client::BlockingClient;
+use inertia_protocol::entity::buttons;
+use inertia_protocol::{EntityId, EntityKind};
+use inertia_server::config::ServerConfig;
+use inertia_server::server::{start, RunningServer};
+use serde::{Deserialize, Serialize};
+
+use crate::report::{logical_cores, note, progress, Record, Sink, Suspended};
+use crate::{BenchError, Opts};
+
+/// Client counts stepped through by default (`--clients`).
+pub const DEFAULT_CLIENTS: [u32; 7] = [1, 2, 4, 8, 16, 32, 64];
+/// Seconds measured per step by default (`--seconds`).
+pub const DEFAULT_SECONDS: u32 = 10;
+/// Seconds each step runs before it is measured (joins, catalog, the
+/// first full view), not counted.
+pub const WARMUP_S: f64 = 3.0;
+/// Ticks per second.
+pub const TICK_HZ: u32 = 60;
+/// Snapshots per second per client.
+pub const SNAPSHOT_HZ: u32 = 30;
+/// A tick must take less than this at the 99th percentile, ms.
+pub const TICK_BUDGET_MS: f64 = 1000.0 / TICK_HZ as f64;
+/// A client is served at its rate when it receives at least this
+/// fraction of [`SNAPSHOT_HZ`].
+pub const SERVED_FRACTION: f64 = 0.95;
+/// How often a bot samples its picture and sends input, Hz.
+pub const BOT_FRAME_HZ: f64 = 60.0;
+/// How long every bot of a step has to connect, s.
+const CONNECT_TIMEOUT: Duration = Duration::from_secs(30);
+/// How long a bot has to report after being told to stop, s.
+const REPORT_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// The scene every step runs.
+pub fn scene_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../server/scenes/capacity.ron")
+}
+
+/// What a bot prints when told to stop: what it received between `start`
+/// and `stop`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct BotReport {
+    /// The bot's client id.
+    pub client_id: u64,
+    /// Wall seconds between `start` and `stop`.
+    pub seconds: f64,
+    /// Snapshots received in the window.
+    pub snapshots_received: u64,
+    /// Snapshots received per second.
+    pub snapshots_hz: f64,
+    /// Snapshot bytes received in the window, kbit/s.
+    pub kbps: f64,
+    /// Fraction of snapshot sequence numbers missed (last 256), 0 to 1.
+    pub loss: f64,
+    /// Times the picture held because snapshots ran out, in the window.
+    pub stalls: u64,
+    /// Extrapolations past the newest snapshot, in the window.
+    pub extrapolations: u64,
+    /// The bot's own CPU time per wall second in the window, × 100.
+    pub cpu_percent: f64,
+    /// Frames (samples) the bot rendered in the window.
+    pub frames: u64,
+    /// Whether the server said goodbye or dropped the bot.
+    pub disconnected: bool,
+}
+
+/// `inertia-bench bot …`: one bot client (started by the capacity suite).
+#[derive(Debug, Parser)]
+#[command(name = "inertia-bench bot")]
+pub struct BotArgs {
+    /// The dev-mode server's credentials file.
+    #[arg(long)]
+    pub credentials: PathBuf,
+    /// This bot's client id.
+    #[arg(long)]
+    pub client_id: u64,
+    /// Give up and exit after this many seconds whatever happens.
+    #[arg(long, default_value_t = 120.0)]
+    pub seconds: f64,
+}
+
+/// This process's user + system CPU time so far, s (`/proc/self/stat`).
+fn process_cpu_s() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
+    // Fields after the command name (which may hold spaces) in brackets.
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    // utime and stime are fields 14 and 15 of the file: 11 and 12 here.
+    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok());
+    match (ticks(11), ticks(12)) {
+        // USER_HZ is 100 on every Linux the bench runs on.
+        (Some(u), Some(s)) => (u + s) / 100.0,
+        _ => f64::NAN,
+    }
+}
+
+/// The machine's busy and total CPU time so far, s (`/proc/stat`).
+fn machine_cpu_s() -> (f64, f64) {
+    let Ok(stat) = std::fs::read_to_string("/proc/stat") else {
+        return (f64::NAN, f64::NAN);
+    };
+    let Some(line) = stat.lines().find(|l| l.starts_with("cpu ")) else {
+        return (f64::NAN, f64::NAN);
+    };
+    let v: Vec<f64> = line
+        .split_whitespace()
+        .skip(1)
+        .filter_map(|x| x.parse().ok())
+        .collect();
+    // user nice system idle iowait irq softirq steal (guest is in user).
+    let total: f64 = v.iter().take(8).sum();
+    let idle = v.get(3).copied().unwrap_or(0.0) + v.get(4).copied().unwrap_or(0.0);
+    ((total - idle) / 100.0, total / 100.0)
+}
+
+/// Runs one bot: connects, says `{"ready":…}`, plays until `stop` on
+/// stdin (counting from `start`), then prints a [`BotReport`].
+pub fn bot_main(args: &[String]) -> Result<(), BenchError> {
+    let args = BotArgs::try_parse_from(args)?;
+    let (addr, token, _) = dev_token(&args.credentials, Some(args.client_id))?;
+    let client = BlockingClient::connect(addr, &token)?;
+    let (tx, rx) = mpsc::channel::<String>();
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line.trim().to_string()).is_err() {
+                break;
+            }
+        }
+        // EOF: the bench went away.
+        let _ = tx.send("stop".into());
+    });
+    {
+        let mut out = std::io::stdout().lock();
+        writeln!(out, "{{\"ready\":{}}}", args.client_id)?;
+        out.flush()?;
+    }
+    let began = Instant::now();
+    let frame = Duration::from_secs_f64(1.0 / BOT_FRAME_HZ);
+    let mut next = Instant::now();
+    let mut frames = 0u64;
+    let mut from: Option<(Instant, inertia_client::stats::ClientStats, f64, u64)> = None;
+    // Each bot walks its own pattern.
+    let phase = (args.client_id % 97) as f32 * 0.37;
+    let report = loop {
+        let t = began.elapsed().as_secs_f32() + phase;
+        let movement = [(0.7 * t).sin(), (0.45 * t).cos()];
+        let yaw = (0.3 * t).sin() * std::f32::consts::PI;
+        let mut pressed = 0;
+        // Jump for a frame every 2 s, push every 1.5 s.
+        if (t * BOT_FRAME_HZ as f32) as u64 % 120 == 0 {
+            pressed |= buttons::JUMP;
+        }
+        if (t * BOT_FRAME_HZ as f32) as u64 % 90 == 45 {
+            pressed |= buttons::PUSH;
+        }
+        client.set_input(movement, yaw, pressed);
+        let picture = client.sample();
+        std::hint::black_box(picture.entities.len());
+        frames += 1;
+        let mut stop = began.elapsed().as_secs_f64() > args.seconds;
+        while let Ok(cmd) = rx.try_recv() {
+            match cmd.as_str() {
+                "start" => from = Some((Instant::now(), client.stats(), process_cpu_s(), frames)),
+                "stop" => stop = true,
+                _ => {}
+            }
+        }
+        if stop {
+            let now = Instant::now();
+            let s = client.stats();
+            let (t0, s0, cpu0, f0) = from.unwrap_or((began, Default::default(), 0.0, 0));
+            let seconds = (now - t0).as_secs_f64().max(1e-9);
+            let snapshots = s.snapshots_received - s0.snapshots_received;
+            break BotReport {
+                client_id: args.client_id,
+                seconds,
+                snapshots_received: snapshots,
+                snapshots_hz: snapshots as f64 / seconds,
+                kbps: (s.bytes_received - s0.bytes_received) as f64 * 8.0 / 1000.0 / seconds,
+                loss: s.loss,
+                stalls: s.stalls - s0.stalls,
+                extrapolations: s.extrapolations - s0.extrapolations,
+                cpu_percent: (process_cpu_s() - cpu0) / seconds * 100.0,
+                frames: frames - f0,
+                disconnected: client.disconnected().is_some(),
+            };
+        }
+        next += frame;
+        let now = Instant::now();
+        if next > now {
+            std::thread::sleep(next - now);
+        } else {
+            next = now;
+        }
+    };
+    {
+        let mut out = std::io::stdout().lock();
+        writeln!(out, "{}", serde_json::to_string(&report)?)?;
+        out.flush()?;
+    }
+    client.close();
+    Ok(())
+}
+
+/// A line from a bot, or its end.
+enum BotLine {
+    Line(usize, String),
+    Closed(usize),
+}
+
+/// The bots of one step; killed when dropped.
+struct Bots {
+    children: Vec<Child>,
+    stdins: Vec<Option<ChildStdin>>,
+    lines: Receiver<BotLine>,
+}
+
+impl Bots {
+    fn spawn(credentials: &Path, ids: &[u64], lifetime_s: f64) -> Result<Self, BenchError> {
+        let exe = std::env::current_exe()?;
+        let (tx, lines) = mpsc::channel();
+        let mut bots = Bots {
+            children: Vec::new(),
+            stdins: Vec::new(),
+            lines,
+        };
+        for (i, id) in ids.iter().enumerate() {
+            let mut child = Command::new(&exe)
+                .arg("bot")
+                .arg("--credentials")
+                .arg(credentials)
+                .arg("--client-id")
+                .arg(id.to_string())
+                .arg("--seconds")
+                .arg(format!("{lifetime_s:.0}"))
+                .stdin(Stdio::piped())
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()?;
+            let stdout = child.stdout.take().ok_or("bot stdout")?;
+            bots.stdins.push(child.stdin.take());
+            bots.children.push(child);
+            let tx = tx.clone();
+            std::thread::spawn(move || {
+                for line in BufReader::new(stdout).lines() {
+                    let Ok(line) = line else { break };
+                    if tx.send(BotLine::Line(i, line)).is_err() {
+                        return;
+                    }
+                }
+                let _ = tx.send(BotLine::Closed(i));
+            });
+        }
+        Ok(bots)
+    }
+
+    /// Sends a command line to every bot.
+    fn tell(&mut self, what: &str) {
+        for stdin in self.stdins.iter_mut().flatten() {
+            let _ = writeln!(stdin, "{what}");
+            let _ = stdin.flush();
+        }
+    }
+
+    /// What bot `i` wrote on stderr (after it ended or was killed).
+    fn stderr_of(&mut self, i: usize) -> String {
+        let mut s = String::new();
+        if let Some(e) = self.children.get_mut(i).and_then(|c| c.stderr.as_mut()) {
+            let _ = e.read_to_string(&mut s);
+        }
+        s.trim().to_string()
+    }
+
+    /// Waits until every bot said it is ready.
+    fn wait_ready(&mut self, timeout: Duration) -> Result<(), BenchError> {
+        let deadline = Instant::now() + timeout;
+        let mut ready = vec![false; self.children.len()];
+        while ready.iter().any(|r| !r) {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(BotLine::Line(i, l)) if l.starts_with("{\"ready\"") => ready[i] = true,
+                Ok(BotLine::Line(..)) => {}
+                Ok(BotLine::Closed(i)) => {
+                    self.kill();
+                    let why = self.stderr_of(i);
+                    return Err(format!("bot {i} ended before it connected: {why}").into());
+                }
+                Err(RecvTimeoutError::Timeout) => {
+                    let n = ready.iter().filter(|r| **r).count();
+                    return Err(format!(
+                        "only {n} of {} bots connected within {timeout:?}",
+                        ready.len()
+                    )
+                    .into());
+                }
+                Err(RecvTimeoutError::Disconnected) => return Err("bot readers ended".into()),
+            }
+        }
+        Ok(())
+    }
+
+    /// Tells every bot to stop and collects their reports.
+    fn stop(&mut self) -> Result<Vec<BotReport>, BenchError> {
+        self.tell("stop");
+        let deadline = Instant::now() + REPORT_TIMEOUT;
+        let mut reports: Vec<Option<BotReport>> = vec![None; self.children.len()];
+        while reports.iter().any(Option::is_none) {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(BotLine::Line(i, l)) => {
+                    if let Ok(r) = serde_json::from_str::<BotReport>(&l) {
+                        reports[i] = Some(r);
+                    }
+                }
+                Ok(BotLine::Closed(i)) if reports[i].is_none() => {
+                    let why = self.stderr_of(i);
+                    return Err(format!("bot {i} ended without a report: {why}").into());
+                }
+                Ok(BotLine::Closed(_)) => {}
+                Err(_) => {
+                    let n = reports.iter().filter(|r| r.is_some()).count();
+                    return Err(
+                        format!("only {n} of {} bots reported in time", reports.len()).into(),
+                    );
+                }
+            }
+        }
+        // Let them say goodbye; whoever lingers is killed on drop.
+        let deadline = Instant::now() + Duration::from_secs(5);
+        for c in &mut self.children {
+            while Instant::now() < deadline {
+                if let Ok(Some(_)) = c.try_wait() {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        }
+        Ok(reports.into_iter().flatten().collect())
+    }
+
+    fn kill(&mut self) {
+        for c in &mut self.children {
+            if let Ok(None) = c.try_wait() {
+                let _ = c.kill();
+            }
+            let _ = c.wait();
+        }
+    }
+}
+
+impl Drop for Bots {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+/// The server-side counters a step compares at its start and end.
+#[derive(Debug, Clone, Copy)]
+struct ServerMark {
+    at: Instant,
+    cpu_s: f64,
+    machine_busy_s: f64,
+    machine_total_s: f64,
+    encode_s: f64,
+    encodes: u64,
+    bytes_sent: u64,
+    ticks: u64,
+    overruns: u64,
+}
+
+impl ServerMark {
+    fn take(server: &RunningServer) -> Self {
+        let m = server.metrics();
+        let stats = server.sim().stats();
+        let (busy, total) = machine_cpu_s();
+        // The histogram's sum and count, as Prometheus reads them.
+        let text = m.encode();
+        let (encode_s, encodes) = (
+            exposed(&text, "inertia_snapshot_encode_seconds_sum").unwrap_or(f64::NAN),
+            exposed(&text, "inertia_snapshot_encode_seconds_count").unwrap_or(0.0) as u64,
+        );
+        Self {
+            at: Instant::now(),
+            cpu_s: process_cpu_s(),
+            machine_busy_s: busy,
+            machine_total_s: total,
+            encode_s,
+            encodes,
+            bytes_sent: m.bytes_sent.get(),
+            ticks: stats.ticks.load(std::sync::atomic::Ordering::Relaxed),
+            overruns: stats.overruns.load(std::sync::atomic::Ordering::Relaxed),
+        }
+    }
+}
+
+/// The value of the sample `name` in an OpenMetrics exposition.
+fn exposed(text: &str, name: &str) -> Option<f64> {
+    text.lines().find_map(|l| {
+        let (n, v) = l.split_once(' ')?;
+        (n == name).then(|| v.trim().parse().ok()).flatten()
+    })
+}
+
+/// The `p`-quantile of `xs` (sorted here), NaN for none.
+fn quantile(xs: &mut [f64], p: f64) -> f64 {
+    if xs.is_empty() {
+        return f64::NAN;
+    }
+    xs.sort_by(f64::total_cmp);
+    xs[((xs.len() - 1) as f64 * p).round() as usize]
+}
+
+/// One measured step.
+#[derive(Debug, Clone)]
+struct Step {
+    clients: u32,
+    tick_p99: f64,
+    min_hz: f64,
+    server_cpu: f64,
+    bots_cpu: f64,
+    machine_cpu: f64,
+    served: bool,
+}
+
+/// What the tick thread published: each frame's tick and tick time.
+type TickLog = Arc<Mutex<Vec<(u64, f64)>>>;
+
+/// Runs the steps and reports one record per K and the verdict.
+pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
+    if !opts.wants("capacity") {
+        return Ok(());
+    }
+    let mut ks: Vec<u32> = opts
+        .clients
+        .clone()
+        .unwrap_or_else(|| DEFAULT_CLIENTS.to_vec());
+    if opts.quick && opts.clients.is_none() {
+        ks = vec![1, 2];
+    }
+    if ks.is_empty() || ks.contains(&0) {
+        return Err("--clients takes client counts of at least 1".into());
+    }
+    let seconds = f64::from(
+        opts.seconds
+            .unwrap_or(if opts.quick { 2 } else { DEFAULT_SECONDS }),
+    );
+    let warmup = if opts.quick { 1.5 } else { WARMUP_S };
+    let max_k = ks.iter().copied().max().unwrap_or(1);
+
+    let data_dir =
+        std::env::temp_dir().join(format!("inertia-bench-capacity-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&data_dir);
+    let config = ServerConfig {
+        listen: Some("127.0.0.1:0".parse()?),
+        metrics: "127.0.0.1:0".parse()?,
+        scene: Some(scene_path()),
+        data_dir: data_dir.clone(),
+        tick_hz: TICK_HZ,
+        snapshot_hz: SNAPSHOT_HZ,
+        max_clients: max_k.max(64),
+        ..ServerConfig::default()
+    };
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .thread_name("inertia-bench-server")
+        .enable_all()
+        .build()?;
+    let server = runtime.block_on(start(config))?;
+    let result = steps(&runtime, &server, &ks, seconds, warmup, sink);
+    runtime.block_on(server.shutdown());
+    drop(runtime);
+    let _ = std::fs::remove_dir_all(&data_dir);
+    result
+}
+
+fn steps(
+    runtime: &tokio::runtime::Runtime,
+    server: &RunningServer,
+    ks: &[u32],
+    seconds: f64,
+    warmup: f64,
+    sink: &mut dyn Sink,
+) -> Result<(), BenchError> {
+    let credentials = server
+        .credentials_path()
+        .ok_or("the bench server runs in dev mode")?
+        .clone();
+    let first = server.frame();
+    let dynamic: BTreeSet<EntityId> = first
+        .catalog
+        .values()
+        .filter(|d| d.kind == EntityKind::Dynamic)
+        .map(|d| d.id)
+        .collect();
+    let bodies = dynamic.len();
+    // Scene bodies awake and faster than 0.1 m/s in the latest frame.
+    let moving = || {
+        server
+            .frame()
+            .entities
+            .iter()
+            .filter(|e| dynamic.contains(&e.id) && !e.asleep && e.linear_velocity.length() > 0.1)
+            .count()
+    };
+
+    // Every frame the tick thread publishes, with its last tick's time.
+    let log: TickLog = Arc::new(Mutex::new(Vec::new()));
+    let recorder = {
+        let log = log.clone();
+        let mut frames = server.sim().subscribe();
+        runtime.spawn(async move {
+            let mut last = 0u64;
+            while frames.changed().await.is_ok() {
+                let f = frames.borrow_and_update().clone();
+                if f.tick != last {
+                    last = f.tick;
+                    if let Ok(mut l) = log.lock() {
+                        l.push((f.tick, f.tick_duration.as_secs_f64() * 1e3));
+                    }
+                }
+            }
+        })
+    };
+
+    let per_step = warmup + seconds;
+    let pb = progress(ks.len() as u64, "capacity");
+    let mut out = Suspended::new(&pb, sink);
+    let mut served_max: Option<u32> = None;
+    let mut last: Option<Step> = None;
+    for (n, &k) in ks.iter().enumerate() {
+        pb.set_message(format!("K={k}: starting bots"));
+        let ids: Vec<u64> = (0..u64::from(k))
+            .map(|i| 1000 * (n as u64 + 1) + i)
+            .collect();
+        let mut bots = Bots::spawn(&credentials, &ids, per_step + 60.0)?;
+        bots.wait_ready(CONNECT_TIMEOUT)?;
+        pb.set_message(format!("K={k}: warm-up"));
+        std::thread::sleep(Duration::from_secs_f64(warmup));
+        let entities = server.frame().entities.len();
+
+        bots.tell("start");
+        if let Ok(mut l) = log.lock() {
+            l.clear();
+        }
+        let a = ServerMark::take(server);
+        pb.set_message(format!("K={k}: measuring {seconds:.0} s"));
+        let mut moving_counts = Vec::new();
+        let end = a.at + Duration::from_secs_f64(seconds);
+        loop {
+            moving_counts.push(moving() as f64);
+            let left = end.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                break;
+            }
+            std::thread::sleep(left.min(Duration::from_millis(500)));
+        }
+        let b = ServerMark::take(server);
+        let ticks_log = log.lock().map(|l| l.clone()).unwrap_or_default();
+        let reports = bots.stop()?;
+        drop(bots);
+        let connected_after = server.clients();
+        // Let the server see them go before the next step.
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while server.clients() > 0 && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+
+        let wall = (b.at - a.at).as_secs_f64();
+        let mut tick_ms: Vec<f64> = ticks_log.iter().map(|(_, ms)| *ms).collect();
+        let ticks = b.ticks - a.ticks;
+        let encodes = b.encodes - a.encodes;
+        let encode_us = if encodes > 0 {
+            (b.encode_s - a.encode_s) / encodes as f64 * 1e6
+        } else {
+            f64::NAN
+        };
+        let server_cpu = (b.cpu_s - a.cpu_s) / wall * 100.0;
+        let machine_cpu = (b.machine_busy_s - a.machine_busy_s)
+            / (b.machine_total_s - a.machine_total_s).max(1e-9)
+            * 100.0
+            * logical_cores() as f64;
+        let kf = f64::from(k);
+        let mean = |f: &dyn Fn(&BotReport) -> f64| {
+            reports.iter().map(f).sum::<f64>() / reports.len().max(1) as f64
+        };
+        let bots_cpu: f64 = reports.iter().map(|r| r.cpu_percent).sum();
+        let min_hz = reports
+            .iter()
+            .map(|r| r.snapshots_hz)
+            .fold(f64::INFINITY, f64::min);
+        let p50 = quantile(&mut tick_ms, 0.5);
+        let p99 = quantile(&mut tick_ms, 0.99);
+        let max_ms = tick_ms.last().copied().unwrap_or(f64::NAN);
+        let target_hz = SERVED_FRACTION * f64::from(SNAPSHOT_HZ);
+        let served = reports.len() == k as usize
+            && p99 < TICK_BUDGET_MS
+            && min_hz >= target_hz
+            && reports.iter().all(|r| !r.disconnected);
+        out.record(
+            Record::new()
+                .field("case", format!("capacity_{k}"))
+                .field("scene", "capacity")
+                .field("clients", k)
+                .field("bodies", bodies)
+                .field("entities", entities)
+                .num(
+                    "moving_mean",
+                    moving_counts.iter().sum::<f64>() / moving_counts.len() as f64,
+                )
+                .num(
+                    "moving_min",
+                    moving_counts.iter().copied().fold(f64::INFINITY, f64::min),
+                )
+                .field("tick_hz", TICK_HZ)
+                .field("snapshot_hz", SNAPSHOT_HZ)
+                .num("seconds", wall)
+                .num("tick_ms_p50", p50)
+                .num("tick_ms_p99", p99)
+                .num("tick_ms_max", max_ms)
+                .field("tick_samples", ticks_log.len())
+                .field("ticks", ticks)
+                .num("ticks_per_s", ticks as f64 / wall)
+                .field("overruns", b.overruns - a.overruns)
+                .num("encode_us_per_client", encode_us)
+                .num("snapshots_encoded_per_s", encodes as f64 / wall)
+                .num("server_cpu_percent", server_cpu)
+                .num("bots_cpu_percent", bots_cpu)
+                .num("machine_cpu_percent", machine_cpu)
+                .num("cpu_ceiling_percent", 100.0 * logical_cores() as f64)
+                .num("kbps_per_client", mean(&|r| r.kbps))
+                .num(
+                    "server_kbps_per_client",
+                    (b.bytes_sent - a.bytes_sent) as f64 * 8.0 / 1000.0 / wall / kf,
+                )
+                .num("snapshots_per_client_hz", mean(&|r| r.snapshots_hz))
+                .num("snapshots_min_client_hz", min_hz)
+                .num("loss_mean", mean(&|r| r.loss))
+                .field("stalls", reports.iter().map(|r| r.stalls).sum::<u64>())
+                .field(
+                    "bots_disconnected",
+                    reports.iter().filter(|r| r.disconnected).count(),
+                )
+                .field("clients_connected_at_end", connected_after)
+                .field("served", served)
+                .field(
+                    "tick_source",
+                    "per-frame tick_duration via server.sim().subscribe()",
+                )
+                .field("threads", logical_cores()),
+        );
+        pb.inc(1);
+        let step = Step {
+            clients: k,
+            tick_p99: p99,
+            min_hz,
+            server_cpu,
+            bots_cpu,
+            machine_cpu,
+            served,
+        };
+        last = Some(step);
+        if served {
+            served_max = Some(k);
+        } else {
+            break;
+        }
+    }
+    pb.finish_and_clear();
+    recorder.abort();
+    let Some(last) = last else {
+        return Ok(());
+    };
+    let bounded_by = verdict(&last);
+    note(&pb, &format!("capacity: {bounded_by}"));
+    sink.record(
+        Record::new()
+            .field("case", "capacity_max")
+            .field("scene", "capacity")
+            .field("max_clients_at_60hz", served_max.unwrap_or(0))
+            .field("bounded_by", bounded_by)
+            .num("tick_budget_ms", TICK_BUDGET_MS)
+            .num("min_snapshot_hz", SERVED_FRACTION * f64::from(SNAPSHOT_HZ))
+            .field("bots_on_same_machine", true)
+            .field("threads", logical_cores()),
+    );
+    Ok(())
+}
+
+/// In words: what stopped the steps (or that none did).
+fn verdict(last: &Step) -> String {
+    let ceiling = 100.0 * logical_cores() as f64;
+    let cpu = format!(
+        "machine CPU {:.0} % of {ceiling:.0} % (server {:.0} %, bots {:.0} %)",
+        last.machine_cpu, last.server_cpu, last.bots_cpu
+    );
+    let shared = "the bots run on the same cores as the server, so this is a lower bound \
+                  for a server with the machine to itself";
+    if last.served {
+        return format!(
+            "not reached: every step up to {} clients was served (at that step {cpu}); \
+             {shared}",
+            last.clients
+        );
+    }
+    let mut what = Vec::new();
+    if last.tick_p99.is_nan() || last.tick_p99 >= TICK_BUDGET_MS {
+        what.push(format!(
+            "tick time (p99 {:.1} ms >= {TICK_BUDGET_MS:.1} ms)",
+            last.tick_p99
+        ));
+    }
+    let target = SERVED_FRACTION * f64::from(SNAPSHOT_HZ);
+    if last.min_hz.is_nan() || last.min_hz < target {
+        what.push(format!(
+            "snapshot rate (worst client {:.1} Hz < {target:.1} Hz)",
+            last.min_hz
+        ));
+    }
+    if what.is_empty() {
+        what.push("a bot disconnected or failed to report".into());
+    }
+    let saturated = last.machine_cpu >= 0.9 * ceiling;
+    let cause = if saturated && last.bots_cpu >= 0.25 * last.machine_cpu {
+        format!("CPU: both cores saturated and shared with the bots; {cpu}; {shared}")
+    } else if saturated {
+        format!("CPU: both cores saturated, mostly by the server; {cpu}")
+    } else {
+        format!("not CPU-saturated ({cpu}): the server's own latency")
+    };
+    format!(
+        "{} at {} clients; {cause}",
+        what.join(" and "),
+        last.clients
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_scene_file_is_there() {
+        assert!(scene_path().is_file(), "{}", scene_path().display());
+    }
+
+    #[test]
+    fn cpu_counters_read() {
+        assert!(process_cpu_s() >= 0.0);
+        let (busy, total) = machine_cpu_s();
+        assert!(total > 0.0 && busy <= total);
+    }
+
+    #[test]
+    fn encode_timing_is_exposed() {
+        let m = inertia_server::metrics::Metrics::new();
+        m.snapshot_encode.observe(25e-6);
+        m.snapshot_encode.observe(35e-6);
+        let text = m.encode();
+        let sum = exposed(&text, "inertia_snapshot_encode_seconds_sum").unwrap();
+        assert!((sum - 60e-6).abs() < 1e-12, "{text}");
+        assert_eq!(
+            exposed(&text, "inertia_snapshot_encode_seconds_count"),
+            Some(2.0)
+        );
+    }
+
+    #[test]
+    fn bot_reports_round_trip() {
+        let r = BotReport {
+            client_id: 7,
+            snapshots_hz: 30.0,
+            ..BotReport::default()
+        };
+        let s = serde_json::to_string(&r).unwrap();
+        assert_eq!(serde_json::from_str::<BotReport>(&s).unwrap(), r);
+    }
+}
