@@ -1,0 +1,208 @@
+//! A whole session without sockets: a client and a server, each made of
+//! the protocol's pieces, talk through simulated links on a virtual clock.
+//! The hello and welcome go over a reliable, ordered byte stream cut into
+//! arbitrary pieces; snapshots and input datagrams go over lossy,
+//! jittered, reordering, duplicating links both ways. The client's view
+//! matches the server's at every snapshot it decodes, and every input the
+//! client made reaches the server exactly once and in order.
+
+use glam::{DQuat, DVec3};
+use inertia_protocol::control::{
+    encode_frame, handshake, ClientControl, FrameDecoder, Refusal, ServerControl, SnapshotParams,
+    TokenRefusal, PROTOCOL_VERSION,
+};
+use inertia_protocol::input::{InputBuffer, InputDatagram, MAX_REDUNDANT_INPUTS};
+use inertia_protocol::link::{LinkConfig, SimLink};
+use inertia_protocol::token::{mint, ReplayGuard, TokenKey};
+use inertia_protocol::{
+    EntityState, Interest, PlayerInput, PriorityAccumulator, SnapshotConfig, SnapshotDecoder,
+    SnapshotEncoder,
+};
+
+const SERVER: &str = "127.0.0.1:7777";
+const NOW: u64 = 1_800_000_000;
+
+/// Delivers `bytes` to a frame decoder in pieces of 1, 2, 3, ... bytes, as
+/// a stream may.
+fn deliver_in_pieces(bytes: &[u8], to: &mut FrameDecoder) {
+    let mut at = 0;
+    let mut piece = 1;
+    while at < bytes.len() {
+        let end = (at + piece).min(bytes.len());
+        to.push(&bytes[at..end]).expect("within bounds");
+        at = end;
+        piece = piece % 7 + 1;
+    }
+}
+
+/// A world of `n` bodies on circles, at `tick`.
+fn world(n: u32, tick: u64) -> Vec<EntityState> {
+    let t = tick as f64 / 60.0;
+    (1..=n)
+        .map(|id| {
+            let phase = f64::from(id) * 0.7 + t * (1.0 + f64::from(id % 3));
+            let moving = id % 4 != 0;
+            let position = if moving {
+                DVec3::new(
+                    phase.cos() * 5.0,
+                    1.0 + f64::from(id) * 0.1,
+                    phase.sin() * 5.0,
+                )
+            } else {
+                DVec3::new(f64::from(id), 0.5, -3.0)
+            };
+            EntityState {
+                id,
+                position,
+                rotation: DQuat::from_rotation_y(if moving { phase } else { 0.3 }),
+                linear_velocity: if moving {
+                    DVec3::new(-phase.sin(), 0.0, phase.cos()) * 5.0
+                } else {
+                    DVec3::ZERO
+                },
+                angular_velocity: DVec3::ZERO,
+                asleep: !moving,
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn a_session_over_bad_links_keeps_both_ends_in_step() {
+    // The hello, over the reliable stream.
+    let key = TokenKey::from_bytes([9; 32]);
+    let token = mint(&key, 42, SERVER, [1; 32], 60, b"team=blue", NOW).unwrap();
+    let hello = encode_frame(&ClientControl::Hello {
+        version: PROTOCOL_VERSION,
+        token: token.to_bytes(),
+    })
+    .unwrap();
+    let mut server_in = FrameDecoder::new();
+    deliver_in_pieces(&hello, &mut server_in);
+    let hello: ClientControl = server_in.next().unwrap().unwrap();
+    let mut guard = ReplayGuard::new(16);
+    let opened = handshake(&hello, NOW + 1, &key, SERVER, 1, &mut guard).unwrap();
+    assert_eq!(opened.client_id, 42);
+    assert_eq!(opened.user_data, b"team=blue");
+    // The same hello on another connection is a replay.
+    assert_eq!(
+        handshake(&hello, NOW + 1, &key, SERVER, 2, &mut guard).unwrap_err(),
+        Refusal::Token(TokenRefusal::Reused)
+    );
+
+    let config = SnapshotConfig {
+        velocities: true,
+        ..SnapshotConfig::default()
+    };
+    let welcome = encode_frame(&ServerControl::Welcome {
+        client_id: opened.client_id,
+        tick: 0,
+        tick_hz: 60,
+        snapshot_hz: 30,
+        position_resolution: config.grid.resolution,
+        position_bound: config.grid.bound,
+        snapshot: SnapshotParams::from_config(&config),
+        server_version: "test".into(),
+    })
+    .unwrap();
+    let mut client_in = FrameDecoder::new();
+    deliver_in_pieces(&welcome, &mut client_in);
+    let ServerControl::Welcome {
+        position_resolution,
+        position_bound,
+        snapshot,
+        ..
+    } = client_in.next().unwrap().unwrap()
+    else {
+        panic!("expected a welcome");
+    };
+    let client_config = snapshot.config(position_resolution, position_bound);
+    assert_eq!(client_config, config);
+
+    // Then datagrams, both ways, for 20 s of a 60 Hz world with 30 Hz
+    // snapshots and 60 Hz inputs.
+    let bad = LinkConfig {
+        delay: 0.05,
+        jitter: 0.02,
+        loss: 0.15,
+        duplicate: 0.05,
+    };
+    let mut down = SimLink::new(bad, 1).unwrap();
+    let mut up = SimLink::new(bad, 2).unwrap();
+    let mut encoder = SnapshotEncoder::new(config).unwrap();
+    let mut decoder = SnapshotDecoder::new(client_config).unwrap();
+    let mut priorities = PriorityAccumulator::new(Interest::everything());
+    let mut server_inputs = InputBuffer::new(128);
+    let mut sent_inputs: Vec<PlayerInput> = Vec::new();
+    let mut received_inputs: Vec<PlayerInput> = Vec::new();
+    let (mut decoded, mut compared) = (0, 0);
+    for tick in 1..=1200u64 {
+        let now = tick as f64 / 60.0;
+        // Server: a snapshot every other tick.
+        let truth = world(40, tick);
+        if tick % 2 == 0 {
+            let bytes = encoder.encode(tick, 1.0, false, &truth, &mut priorities, 1200);
+            assert!(bytes.len() <= 1200);
+            down.send(now, bytes);
+        }
+        // Client: decode what arrived and check it against what the
+        // server says it sent.
+        for bytes in down.receive(now) {
+            let Ok(snap) = decoder.decode(&bytes) else {
+                continue;
+            };
+            decoded += 1;
+            let sent = encoder
+                .view(snap.sequence)
+                .expect("the server still holds it");
+            assert_eq!(sent.len(), snap.entities.len());
+            for e in &snap.entities {
+                let q = sent.get(e.id).expect("same ids");
+                assert_eq!(q.dequantize(e.id, &config), *e);
+                compared += 1;
+            }
+        }
+        // Client: one input per tick, the last eight in every datagram.
+        let input = PlayerInput {
+            sequence: tick as u32,
+            tick,
+            movement: [((tick % 7) as f32 - 3.0) / 3.0, 0.5],
+            yaw: (tick % 100) as f32 * 0.06,
+            buttons: (tick % 4) as u8 & 3,
+        };
+        sent_inputs.push(inertia_protocol::input::quantize_input(&input));
+        let (ack, ack_bits) = decoder.ack_state();
+        let datagram = InputDatagram {
+            ack,
+            ack_bits,
+            inputs: sent_inputs
+                .iter()
+                .rev()
+                .take(MAX_REDUNDANT_INPUTS)
+                .copied()
+                .collect(),
+        };
+        up.send(now, datagram.encode().unwrap());
+        // Server: acks move the baseline; inputs come out once, in order.
+        for bytes in up.receive(now) {
+            let d = InputDatagram::decode(&bytes).unwrap();
+            encoder.on_ack_state(d.ack, d.ack_bits);
+            server_inputs.push_datagram(&d);
+            while let Some(i) = server_inputs.pop() {
+                received_inputs.push(i);
+            }
+        }
+    }
+    // The tail still in flight is not counted.
+    let got = received_inputs.len();
+    assert!(got > 1150, "{got} inputs arrived");
+    assert_eq!(
+        received_inputs,
+        sent_inputs[..got],
+        "inputs out of order or altered"
+    );
+    assert!(decoded > 450, "{decoded} snapshots decoded of 600");
+    assert!(compared > 15_000);
+    // The baseline followed the acks: most snapshots were deltas.
+    assert!(encoder.acked().is_some());
+}
