@@ -100,6 +100,15 @@ pub async fn start_with_rules(
     if dev && !listen.ip().is_loopback() {
         return Err(StartError::DevModeNotLoopback(listen));
     }
+    // The scene first: a bad file is refused before anything is bound or
+    // written.
+    let scene = match &config.scene {
+        Some(path) => Scene::load(path)?,
+        None => demo_scene()?,
+    };
+    let built = scene.build()?;
+    info!(scene = %built.name, entities = built.entities.len(), "scene built");
+
     let socket = std::net::UdpSocket::bind(listen).map_err(|source| StartError::Bind {
         what: "game port",
         addr: listen,
@@ -122,13 +131,6 @@ pub async fn start_with_rules(
         };
         (credentials::load(&files)?, None)
     };
-
-    let scene = match &config.scene {
-        Some(path) => Scene::load(path)?,
-        None => demo_scene()?,
-    };
-    let built = scene.build()?;
-    info!(scene = %built.name, entities = built.entities.len(), "scene built");
 
     let metrics = Metrics::new();
     let sim_config = SimConfig {
