@@ -36,6 +36,8 @@ pub const DEFAULT_SNAPSHOT_HZ: u32 = 30;
 /// Default per-client downstream budget, kbit/s (512 kbit/s = 64 kB/s: room
 /// for a few hundred moving entities at 30 Hz after delta compression).
 pub const DEFAULT_CLIENT_BUDGET_KBPS: u32 = 512;
+/// Default snapshot position grid step, mm.
+pub const DEFAULT_POSITION_RESOLUTION_MM: f64 = 1.0;
 /// Default most clients connected at once.
 pub const DEFAULT_MAX_CLIENTS: u32 = 64;
 /// Default most ticks run in one loop of the tick thread before it gives up
@@ -114,6 +116,10 @@ pub struct ConfigLayer {
     /// default 5); beyond it the backlog is dropped and an overrun counted.
     #[arg(long)]
     pub max_catch_up_ticks: Option<u32>,
+    /// Snapshot position grid step, mm (0.01..=100, default 1): positions
+    /// reach clients within half a step per axis.
+    #[arg(long)]
+    pub position_resolution_mm: Option<f64>,
 }
 
 /// The command line: a [`ConfigLayer`] plus `--config FILE`. `main` may
@@ -164,6 +170,8 @@ pub struct ServerConfig {
     pub log_format: LogFormat,
     /// Most ticks one loop of the tick thread may run to catch up.
     pub max_catch_up_ticks: u32,
+    /// Snapshot position grid step, mm.
+    pub position_resolution_mm: f64,
 }
 
 impl Default for ServerConfig {
@@ -182,6 +190,7 @@ impl Default for ServerConfig {
             cert_key_file: None,
             log_format: LogFormat::Text,
             max_catch_up_ticks: DEFAULT_MAX_CATCH_UP_TICKS,
+            position_resolution_mm: DEFAULT_POSITION_RESOLUTION_MM,
         }
     }
 }
@@ -234,6 +243,9 @@ pub enum ConfigError {
         /// The tick rate, Hz.
         tick_hz: u32,
     },
+    /// A snapshot grid step outside 0.01..=100 mm (or not a number).
+    #[error("position_resolution_mm must be in 0.01..=100, got {0}")]
+    PositionResolution(f64),
     /// A zero bandwidth budget.
     #[error("client_budget_kbps must be > 0")]
     ClientBudget,
@@ -323,6 +335,9 @@ impl ServerConfig {
             cert_key_file: layer.cert_key_file.or(self.cert_key_file),
             log_format: layer.log_format.unwrap_or(self.log_format),
             max_catch_up_ticks: layer.max_catch_up_ticks.unwrap_or(self.max_catch_up_ticks),
+            position_resolution_mm: layer
+                .position_resolution_mm
+                .unwrap_or(self.position_resolution_mm),
         }
     }
 
@@ -339,6 +354,9 @@ impl ServerConfig {
         }
         if self.client_budget_kbps == 0 {
             return Err(ConfigError::ClientBudget);
+        }
+        if !(0.01..=100.0).contains(&self.position_resolution_mm) {
+            return Err(ConfigError::PositionResolution(self.position_resolution_mm));
         }
         if !(1..=MAX_CLIENTS_LIMIT).contains(&self.max_clients) {
             return Err(ConfigError::MaxClients(self.max_clients));
@@ -405,6 +423,7 @@ impl ConfigLayer {
             cert_key_file: self.cert_key_file.or(lower.cert_key_file),
             log_format: self.log_format.or(lower.log_format),
             max_catch_up_ticks: self.max_catch_up_ticks.or(lower.max_catch_up_ticks),
+            position_resolution_mm: self.position_resolution_mm.or(lower.position_resolution_mm),
         }
     }
 }
@@ -458,6 +477,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         cert_file: get(env, "INERTIA_CERT_FILE")?,
         cert_key_file: get(env, "INERTIA_CERT_KEY_FILE")?,
         log_format: get(env, "INERTIA_LOG_FORMAT")?,
+        position_resolution_mm: get(env, "INERTIA_POSITION_RESOLUTION_MM")?,
         max_catch_up_ticks: get(env, "INERTIA_MAX_CATCH_UP_TICKS")?,
     })
 }
@@ -612,6 +632,18 @@ mod tests {
             run(&["--listen", "127.0.0.1:9100"]),
             Err(ConfigError::SameAddress(_))
         ));
+        for bad in ["0", "1000", "NaN"] {
+            assert!(matches!(
+                run(&["--position-resolution-mm", bad]),
+                Err(ConfigError::PositionResolution(_))
+            ));
+        }
+        assert_eq!(
+            run(&["--position-resolution-mm", "0.5"])
+                .unwrap()
+                .position_resolution_mm,
+            0.5
+        );
     }
 
     #[test]

@@ -180,9 +180,19 @@ pub async fn start_with_rules(
     // Velocities let clients interpolate with Hermite curves and
     // extrapolate over a lost snapshot; they cost little for the bodies at
     // rest, which send none.
+    let default = SnapshotConfig::default();
     let snapshot = SnapshotConfig {
         velocities: true,
-        ..SnapshotConfig::default()
+        grid: inertia_protocol::PositionGrid {
+            resolution: config.position_resolution_mm / 1000.0,
+            // Finer grids cover less ground within the codec's 32 bits an
+            // axis.
+            bound: default
+                .grid
+                .bound
+                .min(config.position_resolution_mm / 1000.0 * f64::from(u32::MAX) / 2.0 * 0.99),
+        },
+        ..default
     };
     let shared = Arc::new(NetShared::new(
         sim,
