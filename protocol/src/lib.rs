@@ -12,9 +12,12 @@
 //! - [`control`]: the reliable control channel (hello, spawns, events,
 //!   goodbyes) and its framing.
 //! - [`input`]: the client's input datagram and the server's input buffer.
+//! - [`admin`]: the admin protocol (an operator's requests to a running
+//!   server and its answers), framed like the control channel.
 //! - [`snapshot`]: the snapshot datagram, delta-coded against acknowledged
 //!   views and fitted to a budget by [`priority`] and [`interest`].
 
+pub mod admin;
 pub mod bits;
 pub mod control;
 pub mod credentials;
@@ -28,6 +31,10 @@ pub mod rng;
 pub mod snapshot;
 pub mod token;
 
+pub use admin::{
+    AdminCall, AdminError, AdminErrorKind, AdminHandshake, AdminHello, AdminRefusal, AdminReply,
+    AdminRequest, AdminResponse, AdminWelcome, StatusReport, ADMIN_ALPN, ADMIN_PROTOCOL_VERSION,
+};
 pub use bits::{BitError, BitReader, BitWriter};
 pub use control::{
     encode_frame, handshake, ClientControl, ControlError, ControlMessage, DisconnectReason,
