@@ -1,0 +1,42 @@
+//! An admin stream from the network, in pieces: the frame decoder never
+//! panics on any of the admin messages, never holds more than its bound,
+//! and everything it yields has passed validation (so it encodes again).
+#![no_main]
+
+use inertia_protocol::admin::{AdminCall, AdminHandshake, AdminHello, AdminReply};
+use inertia_protocol::control::{
+    encode_frame, ControlError, ControlMessage, FrameDecoder, MAX_DECODER_BUFFER,
+};
+use libfuzzer_sys::fuzz_target;
+
+fn drive<T: ControlMessage>(data: &[u8], chunk: usize) {
+    let mut decoder = FrameDecoder::new();
+    for piece in data.chunks(chunk) {
+        if decoder.push(piece).is_err() {
+            return;
+        }
+        assert!(decoder.buffered() <= MAX_DECODER_BUFFER);
+        loop {
+            match decoder.next::<T>() {
+                None => break,
+                Some(Ok(msg)) => {
+                    encode_frame(&msg).expect("a decoded message encodes");
+                }
+                Some(Err(ControlError::FrameTooLarge { .. })) => return,
+                Some(Err(_)) => {}
+            }
+        }
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    // The first byte picks the size of the pieces the stream arrives in.
+    let Some((&first, stream)) = data.split_first() else {
+        return;
+    };
+    let chunk = usize::from(first) + 1;
+    drive::<AdminHello>(stream, chunk);
+    drive::<AdminHandshake>(stream, chunk);
+    drive::<AdminCall>(stream, chunk);
+    drive::<AdminReply>(stream, chunk);
+});
