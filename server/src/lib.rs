@@ -6,6 +6,7 @@ pub mod config;
 pub mod credentials;
 pub mod metrics;
 pub mod net;
+pub mod record;
 pub mod rules;
 pub mod scene;
 pub mod server;

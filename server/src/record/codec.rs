@@ -1,0 +1,393 @@
+//! The [`Record`] type and its payload encoding (the bytes inside a frame;
+//! see the layout in the [module docs](super)).
+//!
+//! Payloads are written by hand, little-endian, fixed-width, rather than by a
+//! generic serializer: the layout is then documented byte by byte, stays put
+//! when a derive changes, and a float's exact bit pattern (NaN included) is
+//! what comes back — replays compare state hashes bit for bit.
+
+use inertia_protocol::PlayerInput;
+
+use super::error::{Corruption, RecordError};
+use super::MAX_RECORD_BYTES;
+
+/// Bytes of one `(client, PlayerInput)` entry in an `Inputs` payload.
+pub(crate) const INPUT_ENTRY_BYTES: usize = 8 + 4 + 8 + 4 + 4 + 4 + 1;
+
+/// One entry of a recording. Every record belongs to a tick; within a
+/// recording, ticks never decrease.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Record {
+    /// The server started (or resumed) recording: the tick rate and scene
+    /// the following ticks run with.
+    SessionStart {
+        /// The tick recording starts at.
+        tick: u64,
+        /// Simulation ticks per second of simulation time, Hz.
+        tick_hz: u32,
+        /// The scene's name or path, UTF-8.
+        scene: String,
+    },
+    /// The world's full saved state at `tick` (opaque here: the physics
+    /// crate's save bytes). Seeking restores the keyframe at or before the
+    /// target and re-simulates the recorded inputs.
+    Keyframe {
+        /// The tick the state belongs to.
+        tick: u64,
+        /// The saved state, bytes.
+        state: Vec<u8>,
+    },
+    /// Every player input applied at `tick`, in the order applied.
+    Inputs {
+        /// The tick the inputs were applied at.
+        tick: u64,
+        /// `(client id, input)` pairs.
+        inputs: Vec<(u64, PlayerInput)>,
+    },
+    /// The 64-bit state hash after `tick`, for checking a replay.
+    TickHash {
+        /// The tick hashed.
+        tick: u64,
+        /// The state hash.
+        hash: u64,
+    },
+    /// An administrator changed the world at `tick` (opaque here).
+    AdminEdit {
+        /// The tick the edit was applied at.
+        tick: u64,
+        /// Who made it (the admin credential's name), UTF-8.
+        who: String,
+        /// The edit, encoded by its owner.
+        what: Vec<u8>,
+    },
+}
+
+/// The kind byte that starts every frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum RecordKind {
+    /// [`Record::SessionStart`].
+    SessionStart = 1,
+    /// [`Record::Keyframe`].
+    Keyframe = 2,
+    /// [`Record::Inputs`].
+    Inputs = 3,
+    /// [`Record::TickHash`].
+    TickHash = 4,
+    /// [`Record::AdminEdit`].
+    AdminEdit = 5,
+}
+
+impl RecordKind {
+    /// The kind a frame's first byte names, if any.
+    pub fn from_byte(byte: u8) -> Option<Self> {
+        Some(match byte {
+            1 => Self::SessionStart,
+            2 => Self::Keyframe,
+            3 => Self::Inputs,
+            4 => Self::TickHash,
+            5 => Self::AdminEdit,
+            _ => return None,
+        })
+    }
+}
+
+impl Record {
+    /// The tick this record belongs to.
+    pub fn tick(&self) -> u64 {
+        match self {
+            Self::SessionStart { tick, .. }
+            | Self::Keyframe { tick, .. }
+            | Self::Inputs { tick, .. }
+            | Self::TickHash { tick, .. }
+            | Self::AdminEdit { tick, .. } => *tick,
+        }
+    }
+
+    /// Which kind of record this is.
+    pub fn kind(&self) -> RecordKind {
+        match self {
+            Self::SessionStart { .. } => RecordKind::SessionStart,
+            Self::Keyframe { .. } => RecordKind::Keyframe,
+            Self::Inputs { .. } => RecordKind::Inputs,
+            Self::TickHash { .. } => RecordKind::TickHash,
+            Self::AdminEdit { .. } => RecordKind::AdminEdit,
+        }
+    }
+
+    /// The payload's size, bytes (without the 9 bytes of framing). Computed
+    /// in `u64` so an absurd record cannot overflow before it is refused.
+    pub fn payload_len(&self) -> u64 {
+        let n = |len: usize| len as u64;
+        8 + match self {
+            Self::SessionStart { scene, .. } => 4 + 4 + n(scene.len()),
+            Self::Keyframe { state, .. } => n(state.len()),
+            Self::Inputs { inputs, .. } => 4 + n(inputs.len()) * n(INPUT_ENTRY_BYTES),
+            Self::TickHash { .. } => 8,
+            Self::AdminEdit { who, what, .. } => 4 + n(who.len()) + n(what.len()),
+        }
+    }
+
+    /// Appends the payload to `out`, or refuses a record over
+    /// [`MAX_RECORD_BYTES`] without writing anything.
+    pub(crate) fn encode_payload(&self, out: &mut Vec<u8>) -> Result<(), RecordError> {
+        let len = self.payload_len();
+        if len > u64::from(MAX_RECORD_BYTES) {
+            return Err(RecordError::TooLarge {
+                len,
+                max: u64::from(MAX_RECORD_BYTES),
+            });
+        }
+        out.reserve(len as usize);
+        out.extend_from_slice(&self.tick().to_le_bytes());
+        // Lengths below fit in u32: each is part of a payload ≤ MAX_RECORD_BYTES.
+        match self {
+            Self::SessionStart { tick_hz, scene, .. } => {
+                out.extend_from_slice(&tick_hz.to_le_bytes());
+                out.extend_from_slice(&(scene.len() as u32).to_le_bytes());
+                out.extend_from_slice(scene.as_bytes());
+            }
+            Self::Keyframe { state, .. } => out.extend_from_slice(state),
+            Self::Inputs { inputs, .. } => {
+                out.extend_from_slice(&(inputs.len() as u32).to_le_bytes());
+                for (client, input) in inputs {
+                    // Destructured so a new field in PlayerInput fails to
+                    // compile here instead of silently not being recorded.
+                    let PlayerInput {
+                        sequence,
+                        tick,
+                        movement,
+                        yaw,
+                        buttons,
+                    } = *input;
+                    out.extend_from_slice(&client.to_le_bytes());
+                    out.extend_from_slice(&sequence.to_le_bytes());
+                    out.extend_from_slice(&tick.to_le_bytes());
+                    out.extend_from_slice(&movement[0].to_bits().to_le_bytes());
+                    out.extend_from_slice(&movement[1].to_bits().to_le_bytes());
+                    out.extend_from_slice(&yaw.to_bits().to_le_bytes());
+                    out.push(buttons);
+                }
+            }
+            Self::TickHash { hash, .. } => out.extend_from_slice(&hash.to_le_bytes()),
+            Self::AdminEdit { who, what, .. } => {
+                out.extend_from_slice(&(who.len() as u32).to_le_bytes());
+                out.extend_from_slice(who.as_bytes());
+                out.extend_from_slice(what);
+            }
+        }
+        Ok(())
+    }
+
+    /// Decodes a payload of the given kind. Untrusted bytes: every length is
+    /// checked against what is left, trailing bytes are refused, nothing
+    /// panics.
+    pub(crate) fn decode(kind: RecordKind, payload: &[u8]) -> Result<Self, Corruption> {
+        let mut r = Cursor { rest: payload };
+        let tick = r.u64()?;
+        let record = match kind {
+            RecordKind::SessionStart => {
+                let tick_hz = r.u32()?;
+                let len = r.u32()?;
+                let scene = r.string(len)?;
+                Self::SessionStart {
+                    tick,
+                    tick_hz,
+                    scene,
+                }
+            }
+            RecordKind::Keyframe => Self::Keyframe {
+                tick,
+                state: r.take_rest().to_vec(),
+            },
+            RecordKind::Inputs => {
+                let count = r.u32()? as usize;
+                if r.rest.len() / INPUT_ENTRY_BYTES != count
+                    || r.rest.len() % INPUT_ENTRY_BYTES != 0
+                {
+                    return Err(Corruption::BadPayload("input count does not match length"));
+                }
+                let mut inputs = Vec::with_capacity(count);
+                for _ in 0..count {
+                    let client = r.u64()?;
+                    let input = PlayerInput {
+                        sequence: r.u32()?,
+                        tick: r.u64()?,
+                        movement: [f32::from_bits(r.u32()?), f32::from_bits(r.u32()?)],
+                        yaw: f32::from_bits(r.u32()?),
+                        buttons: r.u8()?,
+                    };
+                    inputs.push((client, input));
+                }
+                Self::Inputs { tick, inputs }
+            }
+            RecordKind::TickHash => Self::TickHash {
+                tick,
+                hash: r.u64()?,
+            },
+            RecordKind::AdminEdit => {
+                let len = r.u32()?;
+                let who = r.string(len)?;
+                Self::AdminEdit {
+                    tick,
+                    who,
+                    what: r.take_rest().to_vec(),
+                }
+            }
+        };
+        if r.rest.is_empty() {
+            Ok(record)
+        } else {
+            Err(Corruption::BadPayload("trailing bytes"))
+        }
+    }
+}
+
+/// Reads little-endian fields off the front of a byte slice.
+struct Cursor<'a> {
+    rest: &'a [u8],
+}
+
+impl<'a> Cursor<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], Corruption> {
+        if n > self.rest.len() {
+            return Err(Corruption::BadPayload("field runs past the payload"));
+        }
+        let (head, tail) = self.rest.split_at(n);
+        self.rest = tail;
+        Ok(head)
+    }
+
+    fn take_rest(&mut self) -> &'a [u8] {
+        std::mem::take(&mut self.rest)
+    }
+
+    fn array<const N: usize>(&mut self) -> Result<[u8; N], Corruption> {
+        let mut out = [0u8; N];
+        out.copy_from_slice(self.take(N)?);
+        Ok(out)
+    }
+
+    fn u8(&mut self) -> Result<u8, Corruption> {
+        Ok(self.array::<1>()?[0])
+    }
+
+    fn u32(&mut self) -> Result<u32, Corruption> {
+        self.array().map(u32::from_le_bytes)
+    }
+
+    fn u64(&mut self) -> Result<u64, Corruption> {
+        self.array().map(u64::from_le_bytes)
+    }
+
+    fn string(&mut self, len: u32) -> Result<String, Corruption> {
+        let bytes = self.take(len as usize)?;
+        String::from_utf8(bytes.to_vec()).map_err(|_| Corruption::BadPayload("string is not UTF-8"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn input(seed: u32) -> PlayerInput {
+        PlayerInput {
+            sequence: seed,
+            tick: u64::from(seed) * 3 + 1,
+            movement: [seed as f32 * 0.25 - 1.0, -0.5],
+            yaw: f32::from_bits(0x7FC0_0001), // a NaN with a payload
+            buttons: seed as u8,
+        }
+    }
+
+    fn round_trip(record: &Record) -> Record {
+        let mut bytes = Vec::new();
+        record.encode_payload(&mut bytes).unwrap();
+        assert_eq!(bytes.len() as u64, record.payload_len());
+        Record::decode(record.kind(), &bytes).unwrap()
+    }
+
+    #[test]
+    fn every_kind_round_trips() {
+        let records = [
+            Record::SessionStart {
+                tick: 7,
+                tick_hz: 60,
+                scene: "démo".into(),
+            },
+            Record::Keyframe {
+                tick: 8,
+                state: vec![1, 2, 3],
+            },
+            Record::Keyframe {
+                tick: 8,
+                state: vec![],
+            },
+            Record::Inputs {
+                tick: 9,
+                inputs: vec![(1, input(1)), (u64::MAX, input(2))],
+            },
+            Record::Inputs {
+                tick: 9,
+                inputs: vec![],
+            },
+            Record::TickHash {
+                tick: u64::MAX,
+                hash: 0xDEAD_BEEF,
+            },
+            Record::AdminEdit {
+                tick: 10,
+                who: "ops".into(),
+                what: vec![9; 100],
+            },
+        ];
+        for record in &records {
+            let back = round_trip(record);
+            // NaN yaw: compare the encodings, which hold the bit patterns.
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            record.encode_payload(&mut a).unwrap();
+            back.encode_payload(&mut b).unwrap();
+            assert_eq!(a, b);
+            assert_eq!(back.tick(), record.tick());
+            assert_eq!(back.kind(), record.kind());
+        }
+    }
+
+    #[test]
+    fn too_large_is_refused_without_writing() {
+        let record = Record::Keyframe {
+            tick: 1,
+            state: vec![0; MAX_RECORD_BYTES as usize],
+        };
+        let mut out = Vec::new();
+        assert!(matches!(
+            record.encode_payload(&mut out),
+            Err(RecordError::TooLarge { .. })
+        ));
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn malformed_payloads_are_refused() {
+        let kinds = [
+            RecordKind::SessionStart,
+            RecordKind::Inputs,
+            RecordKind::TickHash,
+            RecordKind::AdminEdit,
+        ];
+        for kind in kinds {
+            assert!(Record::decode(kind, &[0; 7]).is_err());
+        }
+        // A count claiming more inputs than the bytes hold.
+        let mut p = 5u64.to_le_bytes().to_vec();
+        p.extend_from_slice(&u32::MAX.to_le_bytes());
+        assert!(Record::decode(RecordKind::Inputs, &p).is_err());
+        // A string that is not UTF-8.
+        let mut p = 5u64.to_le_bytes().to_vec();
+        p.extend_from_slice(&2u32.to_le_bytes());
+        p.extend_from_slice(&[0xFF, 0xFE]);
+        assert!(Record::decode(RecordKind::AdminEdit, &p).is_err());
+        // Trailing bytes after a tick hash.
+        assert!(Record::decode(RecordKind::TickHash, &[0; 17]).is_err());
+    }
+}

@@ -1,0 +1,302 @@
+//! Framing: the segment header, and one checksummed frame per record.
+//!
+//! [`FrameReader`] walks a segment front to back and stops at the first
+//! damage, saying where and what; deciding whether that damage is a torn
+//! tail to cut or corruption to report is the caller's business.
+
+use std::io::{self, Read};
+
+use super::codec::{Record, RecordKind};
+use super::crc32::{crc32, Crc32};
+use super::error::{Corruption, RecordError};
+use super::MAX_RECORD_BYTES;
+
+/// The four bytes every segment file starts with.
+pub(crate) const SEGMENT_MAGIC: [u8; 4] = *b"IREC";
+/// The segment format version written after the magic.
+pub(crate) const FORMAT_VERSION: u32 = 1;
+/// Bytes of the segment header: magic and version.
+pub(crate) const HEADER_BYTES: u64 = 8;
+/// Bytes a frame adds around its payload: kind (1), length (4), CRC (4).
+pub(crate) const FRAME_OVERHEAD: u64 = 9;
+
+/// The segment header.
+pub(crate) fn segment_header() -> [u8; HEADER_BYTES as usize] {
+    let mut header = [0u8; HEADER_BYTES as usize];
+    header[..4].copy_from_slice(&SEGMENT_MAGIC);
+    header[4..].copy_from_slice(&FORMAT_VERSION.to_le_bytes());
+    header
+}
+
+/// Clears `out` and fills it with `record`'s whole frame.
+pub(crate) fn encode_frame(record: &Record, out: &mut Vec<u8>) -> Result<(), RecordError> {
+    out.clear();
+    out.push(record.kind() as u8);
+    out.extend_from_slice(&[0; 4]);
+    record.encode_payload(out)?;
+    // encode_payload refused anything over MAX_RECORD_BYTES, so this fits.
+    let len = (out.len() - 5) as u32;
+    out[1..5].copy_from_slice(&len.to_le_bytes());
+    let crc = crc32(out);
+    out.extend_from_slice(&crc.to_le_bytes());
+    Ok(())
+}
+
+/// One step of [`FrameReader`].
+#[derive(Debug)]
+pub(crate) enum Frame {
+    /// An intact record, `len` bytes long with framing.
+    Record {
+        /// Frame size, bytes.
+        len: u64,
+        /// The decoded record.
+        record: Record,
+    },
+    /// The end of the file, exactly at a frame boundary.
+    End,
+    /// The header or the frame at `offset` is damaged; reading stops here.
+    Damaged {
+        /// Byte offset of the damaged header or frame.
+        offset: u64,
+        /// What is wrong.
+        why: Corruption,
+    },
+}
+
+/// Reads frames from a segment of known length. Never allocates more than
+/// the smaller of [`MAX_RECORD_BYTES`] and what is left of the file.
+#[derive(Debug)]
+pub(crate) struct FrameReader<R> {
+    inner: R,
+    /// Byte offset of the next frame.
+    offset: u64,
+    /// File length, bytes, as of opening.
+    end: u64,
+    /// Set after `End` or `Damaged`: every later call repeats nothing.
+    done: bool,
+}
+
+impl<R: Read> FrameReader<R> {
+    /// Checks the header of a segment `end` bytes long; on success the
+    /// reader stands at the first frame, otherwise it returns the damage at
+    /// offset 0.
+    pub(crate) fn new(mut inner: R, end: u64) -> io::Result<Result<Self, Corruption>> {
+        if end < HEADER_BYTES {
+            return Ok(Err(Corruption::Truncated));
+        }
+        let mut header = [0u8; HEADER_BYTES as usize];
+        if let Some(damage) = read_or_truncated(&mut inner, &mut header)? {
+            return Ok(Err(damage));
+        }
+        if header[..4] != SEGMENT_MAGIC {
+            return Ok(Err(Corruption::BadMagic));
+        }
+        let version = u32::from_le_bytes([header[4], header[5], header[6], header[7]]);
+        if version != FORMAT_VERSION {
+            return Ok(Err(Corruption::UnsupportedVersion(version)));
+        }
+        Ok(Ok(Self {
+            inner,
+            offset: HEADER_BYTES,
+            end,
+            done: false,
+        }))
+    }
+
+    /// Byte offset of the next frame (after the last intact one).
+    pub(crate) fn offset(&self) -> u64 {
+        self.offset
+    }
+
+    /// Reads the next frame.
+    pub(crate) fn next_frame(&mut self) -> io::Result<Frame> {
+        if self.done {
+            return Ok(Frame::End);
+        }
+        let frame = self.read_frame()?;
+        match &frame {
+            Frame::Record { len, .. } => self.offset += len,
+            Frame::End | Frame::Damaged { .. } => self.done = true,
+        }
+        Ok(frame)
+    }
+
+    fn read_frame(&mut self) -> io::Result<Frame> {
+        let offset = self.offset;
+        let damaged = |why| Ok(Frame::Damaged { offset, why });
+        let left = self.end.saturating_sub(offset);
+        if left == 0 {
+            return Ok(Frame::End);
+        }
+        if left < FRAME_OVERHEAD {
+            return damaged(Corruption::Truncated);
+        }
+        let mut head = [0u8; 5];
+        if let Some(why) = read_or_truncated(&mut self.inner, &mut head)? {
+            return damaged(why);
+        }
+        let len = u32::from_le_bytes([head[1], head[2], head[3], head[4]]);
+        if len > MAX_RECORD_BYTES {
+            return damaged(Corruption::Oversized(len));
+        }
+        let frame_len = FRAME_OVERHEAD + u64::from(len);
+        if frame_len > left {
+            return damaged(Corruption::Truncated);
+        }
+        let mut payload = vec![0u8; len as usize];
+        if let Some(why) = read_or_truncated(&mut self.inner, &mut payload)? {
+            return damaged(why);
+        }
+        let mut stored = [0u8; 4];
+        if let Some(why) = read_or_truncated(&mut self.inner, &mut stored)? {
+            return damaged(why);
+        }
+        let stored = u32::from_le_bytes(stored);
+        let mut crc = Crc32::new();
+        crc.update(&head);
+        crc.update(&payload);
+        let computed = crc.finish();
+        if stored != computed {
+            return damaged(Corruption::BadChecksum { stored, computed });
+        }
+        let Some(kind) = RecordKind::from_byte(head[0]) else {
+            return damaged(Corruption::UnknownKind(head[0]));
+        };
+        match Record::decode(kind, &payload) {
+            Ok(record) => Ok(Frame::Record {
+                len: frame_len,
+                record,
+            }),
+            Err(why) => damaged(why),
+        }
+    }
+}
+
+/// `read_exact`, except that a file that ends early (it shrank since its
+/// length was taken) is damage, not an I/O error.
+fn read_or_truncated(r: &mut impl Read, buf: &mut [u8]) -> io::Result<Option<Corruption>> {
+    match r.read_exact(buf) {
+        Ok(()) => Ok(None),
+        Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => Ok(Some(Corruption::Truncated)),
+        Err(e) => Err(e),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn segment(records: &[Record]) -> Vec<u8> {
+        let mut bytes = segment_header().to_vec();
+        let mut frame = Vec::new();
+        for r in records {
+            encode_frame(r, &mut frame).unwrap();
+            bytes.extend_from_slice(&frame);
+        }
+        bytes
+    }
+
+    fn read_all(bytes: &[u8]) -> (Vec<Record>, Frame) {
+        let mut reader = match FrameReader::new(bytes, bytes.len() as u64).unwrap() {
+            Ok(r) => r,
+            Err(why) => return (vec![], Frame::Damaged { offset: 0, why }),
+        };
+        let mut out = Vec::new();
+        loop {
+            match reader.next_frame().unwrap() {
+                Frame::Record { record, .. } => out.push(record),
+                other => return (out, other),
+            }
+        }
+    }
+
+    #[test]
+    fn frame_layout_is_as_documented() {
+        let record = Record::TickHash {
+            tick: 0x0102,
+            hash: 0xAB,
+        };
+        let mut frame = Vec::new();
+        encode_frame(&record, &mut frame).unwrap();
+        assert_eq!(frame.len(), 9 + 16);
+        assert_eq!(frame[0], RecordKind::TickHash as u8);
+        assert_eq!(&frame[1..5], &16u32.to_le_bytes());
+        assert_eq!(&frame[5..13], &0x0102u64.to_le_bytes());
+        assert_eq!(&frame[13..21], &0xABu64.to_le_bytes());
+        assert_eq!(&frame[21..], &crc32(&frame[..21]).to_le_bytes());
+        assert_eq!(&segment_header(), b"IREC\x01\x00\x00\x00");
+    }
+
+    #[test]
+    fn reads_back_and_ends_at_a_boundary() {
+        let records = vec![
+            Record::TickHash { tick: 1, hash: 2 },
+            Record::Keyframe {
+                tick: 2,
+                state: vec![5; 300],
+            },
+        ];
+        let (got, end) = read_all(&segment(&records));
+        assert_eq!(got, records);
+        assert!(matches!(end, Frame::End));
+    }
+
+    #[test]
+    fn damage_is_located() {
+        let records = vec![
+            Record::TickHash { tick: 1, hash: 2 },
+            Record::TickHash { tick: 2, hash: 3 },
+        ];
+        let mut bytes = segment(&records);
+        let second = HEADER_BYTES + FRAME_OVERHEAD + 16;
+        bytes[second as usize + 7] ^= 1;
+        let (got, end) = read_all(&bytes);
+        assert_eq!(got, records[..1]);
+        assert!(matches!(
+            end,
+            Frame::Damaged {
+                offset,
+                why: Corruption::BadChecksum { .. }
+            } if offset == second
+        ));
+        let (_, end) = read_all(&bytes[..bytes.len() - 1]);
+        assert!(matches!(
+            end,
+            Frame::Damaged {
+                why: Corruption::Truncated,
+                ..
+            }
+        ));
+        let (_, end) = read_all(b"IREC\x02\x00\x00\x00");
+        assert!(matches!(
+            end,
+            Frame::Damaged {
+                why: Corruption::UnsupportedVersion(2),
+                ..
+            }
+        ));
+        let (_, end) = read_all(b"NOPE\x01\x00\x00\x00");
+        assert!(matches!(
+            end,
+            Frame::Damaged {
+                why: Corruption::BadMagic,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn valid_checksum_unknown_kind_is_not_a_torn_write() {
+        let mut frame = vec![77u8, 0, 0, 0, 0];
+        let crc = crc32(&frame);
+        frame.extend_from_slice(&crc.to_le_bytes());
+        let mut bytes = segment_header().to_vec();
+        bytes.extend_from_slice(&frame);
+        let (_, end) = read_all(&bytes);
+        let Frame::Damaged { why, .. } = end else {
+            panic!("expected damage, got {end:?}");
+        };
+        assert_eq!(why, Corruption::UnknownKind(77));
+        assert!(!why.is_torn_write());
+    }
+}

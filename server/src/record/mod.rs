@@ -1,0 +1,84 @@
+//! Recording: the append-only, checksummed store of everything needed to
+//! replay a session — keyframes (the world's full saved state) every K
+//! ticks, the inputs applied at each tick, admin edits and each tick's state
+//! hash. Seeking to tick T restores the keyframe at or before T and
+//! re-simulates the recorded inputs (see DESIGN.md, "The tick and the two
+//! clocks"). This module stores and finds bytes; it knows nothing of the
+//! world, the network or the clock.
+//!
+//! # On disk
+//!
+//! A recording is a directory of **segment files**, each named after the
+//! tick of its first record: `segment-<tick as 20 decimal digits>.irec`
+//! (`segment-00000000000000003600.irec`), so names sort by tick. Other files
+//! in the directory are ignored. Segments are only ever appended to. A new
+//! segment starts at a keyframe once the current one has reached
+//! [`RecordOptions::segment_bytes`], so every segment but a directory's
+//! first begins with a keyframe: a replay can start at any segment, and
+//! retention can delete the oldest whole.
+//!
+//! All integers are little-endian. A segment is an 8-byte header followed
+//! by frames, back to back:
+//!
+//! ```text
+//! header   0..4   magic  "IREC" (0x49 0x52 0x45 0x43)
+//!          4..8   u32    format version, 1
+//! frame    +0     u8     kind (1 SessionStart, 2 Keyframe, 3 Inputs,
+//!                        4 TickHash, 5 AdminEdit)
+//!          +1     u32    payload length n, bytes (≤ MAX_RECORD_BYTES)
+//!          +5     n      payload
+//!          +5+n   u32    CRC-32/IEEE of bytes +0 .. +5+n (kind, length
+//!                        and payload)
+//! ```
+//!
+//! Payloads, by kind (every one starts with the record's tick):
+//!
+//! ```text
+//! SessionStart  u64 tick, u32 tick_hz (Hz), u32 scene length s,
+//!               s bytes scene name (UTF-8)
+//! Keyframe      u64 tick, the rest: the world's saved state
+//! Inputs        u64 tick, u32 count c, then c entries of 33 bytes:
+//!               u64 client id, u32 input sequence, u64 input's tick,
+//!               f32 movement x, f32 movement z, f32 yaw (rad),
+//!               u8 buttons  (floats as their IEEE-754 bit patterns)
+//! TickHash      u64 tick, u64 state hash
+//! AdminEdit     u64 tick, u32 name length w, w bytes who (UTF-8),
+//!               the rest: the edit (opaque)
+//! ```
+//!
+//! A payload must be consumed exactly; trailing bytes are corruption.
+//! Within a recording ticks never decrease; several records may share one.
+//!
+//! # Crashes and damage
+//!
+//! Appends are buffered; [`RecordWriter::flush`] makes them durable (see
+//! [`writer`]'s docs). A crash can therefore leave the newest segment ending
+//! in a partial or garbled frame. [`RecordWriter::open`] reads the newest
+//! segment through and cuts it at the end of the last intact record,
+//! reporting the cut in an [`OpenReport`]. Damage anywhere else (a bad
+//! checksum in an older segment, a checksummed frame of unknown kind) is
+//! never skipped or cut: readers stop there with [`RecordError::Corrupt`],
+//! naming the file and byte offset. The reader's lengths are all bounded
+//! ([`MAX_RECORD_BYTES`], and the file's length), so hostile bytes cost at
+//! most one record's allocation and never a panic.
+
+mod codec;
+pub mod crc32;
+mod error;
+mod frame;
+mod reader;
+mod segment;
+pub mod writer;
+
+pub use codec::{Record, RecordKind};
+pub use error::{Corruption, RecordError};
+pub use reader::{RecordReader, Records, TickInputs};
+pub use segment::{parse_segment_file_name, segment_file_name, SegmentFile, SegmentInfo};
+pub use writer::{
+    OpenReport, RecordOptions, RecordWriter, TailCut, DEFAULT_SEGMENT_BYTES, WRITE_BUFFER_BYTES,
+};
+
+/// Largest payload a frame may carry, bytes (64 MiB). Bounds what a reader
+/// allocates for one record; a keyframe of a world larger than this cannot
+/// be recorded.
+pub const MAX_RECORD_BYTES: u32 = 64 * 1024 * 1024;

@@ -1,0 +1,290 @@
+//! [`RecordReader`]: read-only access to a recording directory (or one
+//! segment file): list segments, iterate records from a tick, find the
+//! keyframe to seek from, the hash of a tick, the inputs of a range.
+//!
+//! Lookups use the segment names to skip to the right file, then read it
+//! front to back (records are tick-ordered, so a lookup stops at the first
+//! record past its tick). Every frame's checksum is checked on the way.
+//!
+//! Damage: a frame cut short at the very end of the newest segment is a
+//! write in progress (or a crash not yet repaired by a writer) and ends the
+//! records cleanly; anything else — a bad checksum anywhere, a short frame
+//! in an older segment — is [`RecordError::Corrupt`] with the file and
+//! offset, and no record after it in that segment is delivered.
+
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+use inertia_protocol::PlayerInput;
+
+use super::codec::Record;
+use super::error::{Corruption, RecordError};
+use super::frame::{Frame, FrameReader};
+use super::segment::{
+    list_segments, parse_segment_file_name, scan_segment, SegmentFile, SegmentInfo,
+};
+
+/// The inputs applied at one tick: the tick and its `(client id, input)`
+/// pairs, in the order applied.
+pub type TickInputs = (u64, Vec<(u64, PlayerInput)>);
+
+/// Reads a recording. Holds the segment list as of
+/// [`open`](Self::open); open again to see segments added or removed since.
+#[derive(Debug, Clone)]
+pub struct RecordReader {
+    /// Oldest first.
+    segments: Vec<SegmentFile>,
+}
+
+impl RecordReader {
+    /// Opens a recording directory, or a single segment file (whatever its
+    /// name) for offline inspection. Reads only the directory listing.
+    pub fn open(path: impl AsRef<Path>) -> Result<Self, RecordError> {
+        let path = path.as_ref();
+        let meta = std::fs::metadata(path).map_err(|e| RecordError::io(path, e))?;
+        let segments = if meta.is_dir() {
+            list_segments(path)?
+        } else {
+            let first_tick = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .and_then(parse_segment_file_name)
+                .unwrap_or(0);
+            vec![SegmentFile {
+                path: path.to_path_buf(),
+                first_tick,
+                bytes: meta.len(),
+            }]
+        };
+        Ok(Self { segments })
+    }
+
+    /// The segment files, oldest first, as listed at open (no file read).
+    pub fn segment_files(&self) -> &[SegmentFile] {
+        &self.segments
+    }
+
+    /// Reads every segment through and reports its first and last tick and
+    /// record count. Damage is an error as described in the module docs.
+    pub fn segments(&self) -> Result<Vec<SegmentInfo>, RecordError> {
+        let mut out = Vec::with_capacity(self.segments.len());
+        for (i, segment) in self.segments.iter().enumerate() {
+            let scan = scan_segment(&segment.path)?;
+            if let Some((offset, why)) = scan.damage {
+                if !self.ends_cleanly(i, why) {
+                    return Err(RecordError::Corrupt {
+                        path: segment.path.clone(),
+                        offset,
+                        why,
+                    });
+                }
+            }
+            let first_tick = scan.first_tick.unwrap_or(segment.first_tick);
+            out.push(SegmentInfo {
+                path: segment.path.clone(),
+                first_tick,
+                last_tick: scan.last_tick.unwrap_or(first_tick),
+                records: scan.records,
+                bytes: scan.file_len,
+            });
+        }
+        Ok(out)
+    }
+
+    /// Every record, oldest first.
+    pub fn iter(&self) -> Records {
+        Records::new(self.segments.clone(), true)
+    }
+
+    /// Records from the start of the segment a replay to `tick` starts in —
+    /// the newest whose first record (a keyframe, for every segment but a
+    /// directory's first) is at or before `tick` — through the end of the
+    /// recording. Starts at the oldest segment when `tick` is before all.
+    pub fn iter_from(&self, tick: u64) -> Records {
+        let start = self
+            .segments
+            .iter()
+            .rposition(|s| s.first_tick <= tick)
+            .unwrap_or(0);
+        Records::new(self.segments[start..].to_vec(), true)
+    }
+
+    /// The newest keyframe at or before `tick`: its tick and saved state.
+    pub fn keyframe_at_or_before(&self, tick: u64) -> Result<Option<(u64, Vec<u8>)>, RecordError> {
+        let mut end = self.segments.len();
+        // Normally the first segment read holds the answer; step back only
+        // when it does not (a segment that does not start with a keyframe).
+        while end > 0 {
+            let start = self.segments[..end]
+                .iter()
+                .rposition(|s| s.first_tick <= tick)
+                .unwrap_or(0);
+            let mut found = None;
+            for record in Records::new(
+                self.segments[start..end].to_vec(),
+                end == self.segments.len(),
+            ) {
+                match record? {
+                    r if r.tick() > tick => break,
+                    Record::Keyframe { tick, state } => found = Some((tick, state)),
+                    _ => {}
+                }
+            }
+            if found.is_some() {
+                return Ok(found);
+            }
+            end = start;
+        }
+        Ok(None)
+    }
+
+    /// The state hash recorded for `tick`, if any.
+    pub fn hash_at(&self, tick: u64) -> Result<Option<u64>, RecordError> {
+        for record in self.records_from_tick(tick) {
+            match record? {
+                r if r.tick() > tick => break,
+                Record::TickHash { tick: t, hash } if t == tick => return Ok(Some(hash)),
+                _ => {}
+            }
+        }
+        Ok(None)
+    }
+
+    /// Every inputs record for ticks `first..=last`, in order. Ticks with
+    /// no inputs record are absent.
+    pub fn inputs_between(&self, first: u64, last: u64) -> Result<Vec<TickInputs>, RecordError> {
+        let mut out = Vec::new();
+        if first > last {
+            return Ok(out);
+        }
+        for record in self.records_from_tick(first) {
+            match record? {
+                r if r.tick() > last => break,
+                Record::Inputs { tick, inputs } if tick >= first => out.push((tick, inputs)),
+                _ => {}
+            }
+        }
+        Ok(out)
+    }
+
+    /// Records from a point at or before the first record of `tick`: a
+    /// segment named for `tick` may be preceded by records of the same tick
+    /// at the end of the previous segment, so start at the newest segment
+    /// named strictly before it.
+    fn records_from_tick(&self, tick: u64) -> Records {
+        let start = self
+            .segments
+            .iter()
+            .rposition(|s| s.first_tick < tick)
+            .unwrap_or(0);
+        Records::new(self.segments[start..].to_vec(), true)
+    }
+
+    fn ends_cleanly(&self, index: usize, why: Corruption) -> bool {
+        index + 1 == self.segments.len() && why == Corruption::Truncated
+    }
+}
+
+/// An iterator over records across segments, oldest first. Yields
+/// `Err` once on damage or an I/O error, then ends.
+#[derive(Debug)]
+pub struct Records {
+    /// Segments still to read, in order.
+    segments: std::vec::IntoIter<SegmentFile>,
+    /// Whether the last of `segments` is the recording's newest.
+    ends_at_newest: bool,
+    /// The segment being read: its path, whether it is the newest, and
+    /// the reader.
+    current: Option<(PathBuf, bool, FrameReader<BufReader<File>>)>,
+    /// Set once the iterator has ended or failed.
+    done: bool,
+}
+
+impl Records {
+    fn new(segments: Vec<SegmentFile>, ends_at_newest: bool) -> Self {
+        Self {
+            segments: segments.into_iter(),
+            ends_at_newest,
+            current: None,
+            done: false,
+        }
+    }
+
+    /// Opens the next segment; `Ok(false)` when there are none left or the
+    /// newest ends inside its header.
+    fn open_next(&mut self) -> Result<bool, RecordError> {
+        let Some(segment) = self.segments.next() else {
+            return Ok(false);
+        };
+        let newest = self.ends_at_newest && self.segments.len() == 0;
+        let path = segment.path;
+        let io = |e| RecordError::io(&path, e);
+        let file = File::open(&path).map_err(io)?;
+        let len = file.metadata().map_err(io)?.len();
+        match FrameReader::new(BufReader::new(file), len).map_err(io)? {
+            Ok(reader) => {
+                self.current = Some((path, newest, reader));
+                Ok(true)
+            }
+            Err(Corruption::Truncated) if newest => Ok(false),
+            Err(why) => Err(RecordError::Corrupt {
+                path,
+                offset: 0,
+                why,
+            }),
+        }
+    }
+
+    fn step(&mut self) -> Result<Option<Record>, RecordError> {
+        loop {
+            let Some((path, newest, reader)) = &mut self.current else {
+                if !self.open_next()? {
+                    return Ok(None);
+                }
+                continue;
+            };
+            match reader
+                .next_frame()
+                .map_err(|e| RecordError::io(&*path, e))?
+            {
+                Frame::Record { record, .. } => return Ok(Some(record)),
+                Frame::End => self.current = None,
+                Frame::Damaged {
+                    why: Corruption::Truncated,
+                    ..
+                } if *newest => return Ok(None),
+                Frame::Damaged { offset, why } => {
+                    return Err(RecordError::Corrupt {
+                        path: path.clone(),
+                        offset,
+                        why,
+                    })
+                }
+            }
+        }
+    }
+}
+
+impl Iterator for Records {
+    type Item = Result<Record, RecordError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        match self.step() {
+            Ok(Some(record)) => Some(Ok(record)),
+            Ok(None) => {
+                self.done = true;
+                None
+            }
+            Err(e) => {
+                self.done = true;
+                Some(Err(e))
+            }
+        }
+    }
+}
+
+impl std::iter::FusedIterator for Records {}
