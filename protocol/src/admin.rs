@@ -25,7 +25,7 @@
 //! it.
 
 use ring::hmac;
-use serde::{Deserialize, Deserializer, Serialize};
+use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::control::{
@@ -219,7 +219,7 @@ pub struct SpawnDesc {
     pub kind: EntityKind,
     /// Its shape (validated as a spawn on the control channel is; compounds
     /// do not nest).
-    #[serde(deserialize_with = "deserialize_shape")]
+    #[serde(deserialize_with = "crate::control::deserialize_shape")]
     pub shape: ShapeDesc,
     /// How heavy it is.
     pub mass: MassSpec,
@@ -717,106 +717,6 @@ pub fn admin_handshake(hello: &AdminHello, expected: &str) -> Result<(), AdminRe
         return Err(AdminRefusal::BadCredential);
     }
     Ok(())
-}
-
-// ---------------------------------------------------------------------------
-// The shape mirror: ShapeDesc as the decoder reads it, with at most one level
-// of compound. Variant and field order must match entity.rs exactly (postcard
-// encodes by position); the round-trip tests pin that, and the exhaustive
-// match in this file's tests fails to compile when ShapeDesc gains a variant.
-// (control.rs keeps the same mirror for EntityDesc, privately.)
-
-fn deserialize_shape<'de, D: Deserializer<'de>>(d: D) -> Result<ShapeDesc, D::Error> {
-    WireShape::<WireShape<NoNesting>>::deserialize(d).map(Into::into)
-}
-
-/// [`ShapeDesc`] with compound parts of type `P`.
-#[derive(Deserialize)]
-enum WireShape<P> {
-    Sphere {
-        radius: f32,
-    },
-    Cuboid {
-        half_extents: [f32; 3],
-    },
-    Capsule {
-        half_height: f32,
-        radius: f32,
-    },
-    Cylinder {
-        half_height: f32,
-        radius: f32,
-    },
-    ConvexHull {
-        points: Vec<[f32; 3]>,
-    },
-    TriMesh {
-        vertices: Vec<[f32; 3]>,
-        triangles: Vec<[u32; 3]>,
-    },
-    Compound {
-        parts: Vec<([f32; 3], [f32; 4], P)>,
-    },
-    Particle {
-        radius: f32,
-    },
-    Ground,
-}
-
-impl<P: Into<ShapeDesc>> From<WireShape<P>> for ShapeDesc {
-    fn from(w: WireShape<P>) -> Self {
-        match w {
-            WireShape::Sphere { radius } => ShapeDesc::Sphere { radius },
-            WireShape::Cuboid { half_extents } => ShapeDesc::Cuboid { half_extents },
-            WireShape::Capsule {
-                half_height,
-                radius,
-            } => ShapeDesc::Capsule {
-                half_height,
-                radius,
-            },
-            WireShape::Cylinder {
-                half_height,
-                radius,
-            } => ShapeDesc::Cylinder {
-                half_height,
-                radius,
-            },
-            WireShape::ConvexHull { points } => ShapeDesc::ConvexHull { points },
-            WireShape::TriMesh {
-                vertices,
-                triangles,
-            } => ShapeDesc::TriMesh {
-                vertices,
-                triangles,
-            },
-            WireShape::Compound { parts } => ShapeDesc::Compound {
-                parts: parts
-                    .into_iter()
-                    .map(|(offset, rotation, part)| (offset, rotation, part.into()))
-                    .collect(),
-            },
-            WireShape::Particle { radius } => ShapeDesc::Particle { radius },
-            WireShape::Ground => ShapeDesc::Ground,
-        }
-    }
-}
-
-/// The part of a nested compound: never decodes, so the grammar stops
-/// there. (An empty nested compound decodes, holding no parts, and is
-/// refused by validation.)
-enum NoNesting {}
-
-impl<'de> Deserialize<'de> for NoNesting {
-    fn deserialize<D: Deserializer<'de>>(_: D) -> Result<Self, D::Error> {
-        Err(serde::de::Error::custom("compound shapes may not nest"))
-    }
-}
-
-impl From<NoNesting> for ShapeDesc {
-    fn from(n: NoNesting) -> Self {
-        match n {}
-    }
 }
 
 #[cfg(test)]

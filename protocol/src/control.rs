@@ -714,6 +714,13 @@ fn deserialize_entity<'de, D: Deserializer<'de>>(d: D) -> Result<EntityDesc, D::
     WireEntityDesc::deserialize(d).map(Into::into)
 }
 
+/// Reads a [`ShapeDesc`] with at most one level of compound, without
+/// recursing further however the bytes nest: for every message that
+/// carries a shape (spawns here, the admin channel's live edits).
+pub(crate) fn deserialize_shape<'de, D: Deserializer<'de>>(d: D) -> Result<ShapeDesc, D::Error> {
+    WireShape::<WireShape<NoNesting>>::deserialize(d).map(Into::into)
+}
+
 #[derive(Deserialize)]
 struct WireEntityDesc {
     id: EntityId,

@@ -17,9 +17,10 @@ pub struct PositionGrid {
 }
 
 impl PositionGrid {
-    /// Bits per axis: enough for every step from `-bound` to `bound`.
+    /// Bits per axis: enough for every step from `-bound` to `bound` (64
+    /// for grids too fine to count, which validation then refuses).
     pub fn bits(&self) -> u32 {
-        let steps = (2.0 * self.bound / self.resolution).ceil() as u64 + 1;
+        let steps = ((2.0 * self.bound / self.resolution).ceil() as u64).saturating_add(1);
         (64 - (steps - 1).leading_zeros()).max(1)
     }
 
@@ -167,6 +168,18 @@ mod tests {
             worst = worst.max(angle.to_degrees());
         }
         assert!(worst < 0.5, "worst rotation error {worst} degrees");
+    }
+
+    #[test]
+    fn grids_too_fine_to_count_do_not_overflow() {
+        for (resolution, bound) in [(1e-300, 1e300), (f64::MIN_POSITIVE, 1.0), (1.0, f64::MAX)] {
+            assert_eq!(PositionGrid { resolution, bound }.bits(), 64);
+        }
+        let nan = PositionGrid {
+            resolution: f64::NAN,
+            bound: 1.0,
+        };
+        assert_eq!(nan.bits(), 1);
     }
 
     #[test]
