@@ -61,6 +61,27 @@
 //! naming the file and byte offset. The reader's lengths are all bounded
 //! ([`MAX_RECORD_BYTES`], and the file's length), so hostile bytes cost at
 //! most one record's allocation and never a panic.
+//!
+//! # Example
+//!
+//! ```
+//! use inertia_server::record::{Record, RecordOptions, RecordReader, RecordWriter};
+//!
+//! # fn main() -> Result<(), inertia_server::record::RecordError> {
+//! let dir = std::env::temp_dir().join(format!("inertia-record-doc-{}", std::process::id()));
+//! let mut writer = RecordWriter::open(&dir, RecordOptions::default())?;
+//! writer.append(&Record::Keyframe { tick: 0, state: vec![1, 2, 3] })?;
+//! writer.append(&Record::TickHash { tick: 1, hash: 0xFEED })?;
+//! writer.flush()?; // durable from here on
+//!
+//! let reader = RecordReader::open(&dir)?;
+//! assert_eq!(reader.keyframe_at_or_before(1)?, Some((0, vec![1, 2, 3])));
+//! assert_eq!(reader.hash_at(1)?, Some(0xFEED));
+//! # drop(writer);
+//! # std::fs::remove_dir_all(&dir).ok();
+//! # Ok(())
+//! # }
+//! ```
 
 mod codec;
 pub mod crc32;

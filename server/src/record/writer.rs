@@ -346,9 +346,10 @@ impl RecordWriter {
     }
 
     fn write_frame(&mut self, frame: &[u8]) -> Result<(), RecordError> {
-        // `append` starts a segment first when there is none.
+        // `append` starts a segment first when there is none, so this
+        // refusal is unreachable; it beats a panic or a lost record.
         let (Some(current), Some(entry)) = (&mut self.current, self.segments.last_mut()) else {
-            return Ok(());
+            return Err(RecordError::Poisoned);
         };
         current
             .file
