@@ -1,6 +1,7 @@
 //! The Inertia server: owns one physics world, steps it on its own thread at a
 //! fixed rate, and streams snapshots to clients over QUIC.
 
+pub mod admin;
 pub mod clock;
 pub mod config;
 pub mod credentials;

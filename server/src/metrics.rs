@@ -20,6 +20,7 @@ use axum::routing::get;
 use axum::Router;
 use prometheus_client::encoding::text::encode;
 use prometheus_client::metrics::counter::Counter;
+use prometheus_client::metrics::family::Family;
 use prometheus_client::metrics::gauge::Gauge;
 use prometheus_client::metrics::histogram::{exponential_buckets, Histogram};
 use prometheus_client::registry::Registry;
@@ -54,6 +55,9 @@ pub struct Metrics {
     pub inputs_rejected: Counter,
     /// Connection attempts refused (bad token, server full, handshake error).
     pub refused_connections: Counter,
+    /// Admin actions by `action` (the request, or `hello`) and `outcome`
+    /// (`ok`, an error kind, or why a hello was refused).
+    pub admin_actions: Family<Vec<(String, String)>, Counter>,
     registry: Arc<Registry>,
 }
 
@@ -88,6 +92,7 @@ impl Metrics {
             malformed_datagrams: Counter::default(),
             inputs_rejected: Counter::default(),
             refused_connections: Counter::default(),
+            admin_actions: Family::default(),
             registry: Arc::new(Registry::default()),
         };
         let mut r = Registry::with_prefix("inertia");
@@ -152,10 +157,29 @@ impl Metrics {
             "Connection attempts refused (bad token, full, failed handshake)",
             m.refused_connections.clone(),
         );
+        r.register(
+            "admin_actions",
+            "Admin channel actions by action and outcome, refused hellos included",
+            m.admin_actions.clone(),
+        );
         Metrics {
             registry: Arc::new(r),
             ..m
         }
+    }
+
+    /// Counts one admin action with its outcome.
+    pub fn admin_action(&self, action: &str, outcome: &str) {
+        self.admin_actions
+            .get_or_create(&admin_labels(action, outcome))
+            .inc();
+    }
+
+    /// Admin actions counted so far with this action and outcome.
+    pub fn admin_action_count(&self, action: &str, outcome: &str) -> u64 {
+        self.admin_actions
+            .get_or_create(&admin_labels(action, outcome))
+            .get()
     }
 
     /// The OpenMetrics text exposition of every metric.
@@ -165,6 +189,13 @@ impl Metrics {
         let _ = encode(&mut out, &self.registry);
         out
     }
+}
+
+fn admin_labels(action: &str, outcome: &str) -> Vec<(String, String)> {
+    vec![
+        ("action".to_string(), action.to_string()),
+        ("outcome".to_string(), outcome.to_string()),
+    ]
 }
 
 #[derive(Debug, Clone)]

@@ -194,17 +194,20 @@ pub async fn start_with_rules(
         },
         ..default
     };
-    let shared = Arc::new(NetShared::new(
-        sim,
-        metrics,
-        TokenKey::from_bytes(creds.token_key),
-        addr.to_string(),
-        snapshot,
-        config.snapshot_hz,
-        config.tick_hz,
-        config.client_budget_bytes_per_sec(),
-        shutdown_rx,
-    ));
+    let shared = Arc::new(
+        NetShared::new(
+            sim,
+            metrics,
+            TokenKey::from_bytes(creds.token_key),
+            addr.to_string(),
+            snapshot,
+            config.snapshot_hz,
+            config.tick_hz,
+            config.client_budget_bytes_per_sec(),
+            shutdown_rx,
+        )
+        .with_admin_token(creds.admin_token.clone()),
+    );
     tasks.push(tokio::spawn(shared.clone().record_history()));
     tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone())));
     ready.store(true, Ordering::SeqCst);

@@ -23,7 +23,7 @@
 //! [`Simulation`] is that loop's state without the thread, for tests and
 //! tools that want to drive ticks by hand.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TryRecvError, TrySendError};
 use std::sync::Arc;
@@ -156,9 +156,27 @@ pub enum Command {
     Step(u64),
     /// Run up to this tick, then pause.
     RunTo(u64),
+    /// Run a function on the tick thread, between ticks (the admin channel
+    /// reads and edits the world this way).
+    Call(SimCall),
     /// Stop the thread after publishing a last frame.
     Shutdown,
 }
+
+/// A function run on the tick thread with the [`Simulation`], between
+/// ticks ([`SimHandle::call`]).
+pub struct SimCall(pub Box<dyn FnOnce(&mut Simulation) + Send>);
+
+impl std::fmt::Debug for SimCall {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("SimCall")
+    }
+}
+
+/// Ticks whose durations [`Simulation::tick_p99`] looks at.
+pub const TICK_WINDOW: usize = 600;
+/// Wall time over which [`Simulation::achieved_rate`] counts ticks.
+pub const RATE_WINDOW: Duration = Duration::from_secs(1);
 
 /// Why a command was not delivered.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -210,6 +228,11 @@ pub struct Simulation {
     recent_events: Arc<Vec<(u64, GameEvent)>>,
     last_tick: Duration,
     stats: Arc<SimStats>,
+    /// Durations of the last [`TICK_WINDOW`] ticks.
+    recent_ticks: VecDeque<Duration>,
+    /// When ticks ran lately, with how many, within [`RATE_WINDOW`].
+    recent_runs: VecDeque<(Instant, u32)>,
+    started: Instant,
 }
 
 impl std::fmt::Debug for Simulation {
@@ -245,6 +268,9 @@ impl Simulation {
             recent_events: Arc::new(Vec::new()),
             last_tick: Duration::ZERO,
             stats: Arc::new(SimStats::default()),
+            recent_ticks: VecDeque::with_capacity(TICK_WINDOW),
+            recent_runs: VecDeque::new(),
+            started: Instant::now(),
         };
         sim.update_gauges();
         sim
@@ -391,6 +417,10 @@ impl Simulation {
         self.with_ctx(|rules, ctx| rules.after_tick(ctx));
         self.collect_events();
         self.last_tick = t0.elapsed();
+        if self.recent_ticks.len() == TICK_WINDOW {
+            self.recent_ticks.pop_front();
+        }
+        self.recent_ticks.push_back(self.last_tick);
         self.stats.ticks.fetch_add(1, Ordering::Relaxed);
         self.stats
             .last_tick_ns
@@ -416,6 +446,17 @@ impl Simulation {
         for _ in 0..n {
             self.tick();
         }
+        let now = Instant::now();
+        if n > 0 {
+            self.recent_runs.push_back((now, n));
+        }
+        while self
+            .recent_runs
+            .front()
+            .is_some_and(|(t, _)| now.duration_since(*t) > RATE_WINDOW)
+        {
+            self.recent_runs.pop_front();
+        }
         let overruns = self.clock.overruns() - before;
         if overruns > 0 {
             self.stats.overruns.fetch_add(overruns, Ordering::Relaxed);
@@ -428,6 +469,81 @@ impl Simulation {
         }
         self.update_gauges();
         n
+    }
+
+    /// The 64-bit state hash of the world now.
+    pub fn state_hash(&self) -> u64 {
+        self.world.state_hash()
+    }
+
+    /// The 99th percentile of the last [`TICK_WINDOW`] tick durations
+    /// (zero before the first tick).
+    pub fn tick_p99(&self) -> Duration {
+        let mut d: Vec<Duration> = self.recent_ticks.iter().copied().collect();
+        if d.is_empty() {
+            return Duration::ZERO;
+        }
+        d.sort_unstable();
+        let i = ((d.len() as f64 * 0.99).ceil() as usize).clamp(1, d.len()) - 1;
+        d[i]
+    }
+
+    /// Ticks run by the clock per wall second over the last
+    /// [`RATE_WINDOW`] (or since start, if shorter), Hz.
+    pub fn achieved_rate(&self) -> f64 {
+        let now = Instant::now();
+        let ran: u64 = self
+            .recent_runs
+            .iter()
+            .filter(|(t, _)| now.duration_since(*t) <= RATE_WINDOW)
+            .map(|(_, n)| u64::from(*n))
+            .sum();
+        let span = now.duration_since(self.started).min(RATE_WINDOW);
+        if span.is_zero() {
+            return 0.0;
+        }
+        ran as f64 / span.as_secs_f64()
+    }
+
+    /// Clients in the game.
+    pub fn client_count(&self) -> usize {
+        self.clients.len()
+    }
+
+    /// Removes an entity as the rules would ([`SimContext::despawn`]);
+    /// false if unknown.
+    pub fn despawn(&mut self, id: EntityId) -> bool {
+        let removed = self.with_ctx(|_, ctx| ctx.despawn(id));
+        if removed {
+            self.ctx_events.push(GameEvent::Removed {
+                entity: id,
+                reason: RemovalReason::Despawned,
+            });
+            self.collect_events();
+            self.update_gauges();
+        }
+        removed
+    }
+
+    /// Applies an impulse to an entity's body within the rules' limits
+    /// ([`SimContext::apply_impulse`]); `point` `None` is the centre of
+    /// mass. Returns the impulse applied.
+    pub fn apply_impulse(
+        &mut self,
+        id: EntityId,
+        impulse: DVec3,
+        point: Option<DVec3>,
+    ) -> Result<DVec3, crate::rules::ContextError> {
+        self.with_ctx(|_, ctx| {
+            let point = match point {
+                Some(p) => p,
+                None => ctx
+                    .body(id)
+                    .map(|b| b.center_of_mass())
+                    .ok_or(crate::rules::ContextError::UnknownEntity(id))?,
+            };
+            ctx.apply_impulse(id, impulse, point)
+        })
     }
 
     fn update_gauges(&self) {
@@ -497,6 +613,7 @@ impl Simulation {
                     tracing::warn!(error = %e, "run_to refused");
                 }
             }
+            Command::Call(SimCall(f)) => f(self),
             Command::Shutdown => return false,
         }
         true
@@ -633,6 +750,20 @@ impl SimHandle {
     /// Runs up to `tick`, then pauses.
     pub fn run_to(&self, tick: u64) -> Result<(), CommandError> {
         self.send(Command::RunTo(tick))
+    }
+
+    /// Runs `f` on the tick thread between ticks; its result arrives on
+    /// the receiver. Commands sent before it have been applied when it
+    /// runs.
+    pub fn call<R: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut Simulation) -> R + Send + 'static,
+    ) -> Result<oneshot::Receiver<R>, CommandError> {
+        let (tx, rx) = oneshot::channel();
+        self.send(Command::Call(SimCall(Box::new(move |sim| {
+            let _ = tx.send(f(sim));
+        }))))?;
+        Ok(rx)
     }
 
     /// The latest frame.

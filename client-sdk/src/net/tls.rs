@@ -33,8 +33,7 @@ impl ServerCertVerifier for PinnedCertificate {
             Ok(ServerCertVerified::assertion())
         } else {
             Err(rustls::Error::General(
-                "the server's certificate does not match the fingerprint pinned by the connect token"
-                    .into(),
+                "the server's certificate does not match the pinned fingerprint".into(),
             ))
         }
     }
@@ -76,6 +75,15 @@ impl ServerCertVerifier for PinnedCertificate {
 
 /// The quinn client configuration that pins `fingerprint`.
 pub fn client_config(fingerprint: [u8; 32]) -> Result<quinn::ClientConfig, String> {
+    client_config_for(fingerprint, ALPN)
+}
+
+/// [`client_config`] for another protocol on the same port, such as the
+/// admin channel's `ADMIN_ALPN`.
+pub fn client_config_for(
+    fingerprint: [u8; 32],
+    alpn: &[u8],
+) -> Result<quinn::ClientConfig, String> {
     let provider = Arc::new(rustls::crypto::ring::default_provider());
     let mut tls = rustls::ClientConfig::builder_with_provider(provider.clone())
         .with_protocol_versions(&[&rustls::version::TLS13])
@@ -86,7 +94,7 @@ pub fn client_config(fingerprint: [u8; 32]) -> Result<quinn::ClientConfig, Strin
             provider,
         }))
         .with_no_client_auth();
-    tls.alpn_protocols = vec![ALPN.to_vec()];
+    tls.alpn_protocols = vec![alpn.to_vec()];
     let crypto =
         quinn::crypto::rustls::QuicClientConfig::try_from(tls).map_err(|e| e.to_string())?;
     let mut config = quinn::ClientConfig::new(Arc::new(crypto));

@@ -38,6 +38,8 @@ pub mod close_code {
     pub const PROTOCOL: u32 = 2;
     /// The server is shutting down.
     pub const SHUTDOWN: u32 = 3;
+    /// An operator kicked the client.
+    pub const KICKED: u32 = 4;
 }
 
 /// Within this distance of a client's avatar, m, entities are fully
@@ -67,6 +69,8 @@ enum End {
     Protocol(String),
     /// The server is shutting down.
     Shutdown,
+    /// An operator kicked the client.
+    Kicked(String),
 }
 
 async fn write(send: &mut quinn::SendStream, msg: &ServerControl) -> Result<usize, String> {
@@ -75,17 +79,10 @@ async fn write(send: &mut quinn::SendStream, msg: &ServerControl) -> Result<usiz
     Ok(bytes.len())
 }
 
-/// Serves one incoming connection to its end.
-pub async fn serve(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>) {
-    let span = info_span!("connection", id, remote = %incoming.remote_address(), client = tracing::field::Empty);
+/// Serves one game connection to its end.
+pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared>) {
+    let span = info_span!("connection", id, remote = %connection.remote_address(), client = tracing::field::Empty);
     async move {
-        let connection = match incoming.await {
-            Ok(c) => c,
-            Err(e) => {
-                debug!(error = %e, "handshake failed");
-                return;
-            }
-        };
         match tokio::time::timeout(HELLO_TIMEOUT, hello(&connection, id, &shared)).await {
             Ok(Some(admitted)) => run(connection, admitted, &shared).await,
             Ok(None) => {}
@@ -229,6 +226,10 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
     if previous.is_some() {
         warn!(client, "client id connected twice");
     }
+    let (kick_tx, kick_rx) = tokio::sync::oneshot::channel();
+    if let Ok(mut k) = shared.kicks.lock() {
+        k.insert(client, (connection.stable_id() as u64, kick_tx));
+    }
     let end = session(
         &connection,
         client,
@@ -236,12 +237,18 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
         &mut send,
         &mut recv,
         &mut frames,
+        kick_rx,
         shared,
     )
     .await;
     if let Ok(mut c) = shared.connected.lock() {
         if c.get(&client) == Some(&(connection.stable_id() as u64)) {
             c.remove(&client);
+        }
+    }
+    if let Ok(mut k) = shared.kicks.lock() {
+        if k.get(&client).map(|(c, _)| *c) == Some(connection.stable_id() as u64) {
+            k.remove(&client);
         }
     }
     let _ = shared.sim.leave(client);
@@ -267,6 +274,19 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
             let _ = write(&mut send, &ServerControl::Goodbye(reason)).await;
             connection.close(close_code::PROTOCOL.into(), b"protocol error");
         }
+        End::Kicked(reason) => {
+            let _ = write(
+                &mut send,
+                &ServerControl::Goodbye(DisconnectReason::Kicked {
+                    reason: reason.clone(),
+                }),
+            )
+            .await;
+            let _ = send.finish();
+            let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
+            connection.close(close_code::KICKED.into(), b"kicked");
+            info!(client, %reason, "client kicked");
+        }
         End::Closed(e) => info!(client, reason = %e, "connection closed"),
     }
 }
@@ -279,6 +299,7 @@ async fn session(
     send: &mut quinn::SendStream,
     recv: &mut quinn::RecvStream,
     frames: &mut FrameDecoder,
+    mut kick: tokio::sync::oneshot::Receiver<String>,
     shared: &NetShared,
 ) -> End {
     let mut encoder = SnapshotEncoder::new(shared.snapshot).expect("validated at start-up");
@@ -297,6 +318,7 @@ async fn session(
     let budget = (shared.budget_bytes_per_sec / u64::from(shared.snapshot_hz.max(1))) as usize;
     let mut shutdown = shared.shutdown.clone();
     let mut buf = vec![0u8; 4096];
+    let mut kick_open = true;
     loop {
         tokio::select! {
             _ = timer.tick() => {
@@ -372,6 +394,11 @@ async fn session(
                 Ok(None) | Err(_) => return End::Closed(connection.closed().await),
             },
             _ = shutdown.changed() => return End::Shutdown,
+            reason = &mut kick, if kick_open => match reason {
+                Ok(reason) => return End::Kicked(reason),
+                // Another connection of the same client took the kick.
+                Err(_) => kick_open = false,
+            },
         }
     }
 }

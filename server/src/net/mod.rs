@@ -12,9 +12,10 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
+use inertia_protocol::admin::ADMIN_ALPN;
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::{ReplayGuard, TokenKey};
-use tokio::sync::watch;
+use tokio::sync::{oneshot, watch};
 use tracing::{debug, info};
 
 use crate::metrics::Metrics;
@@ -52,6 +53,11 @@ pub struct NetShared {
     next_connection: AtomicU64,
     /// Clients connected now, by client id, with their connection number.
     pub connected: Mutex<BTreeMap<u64, u64>>,
+    /// How to kick each connected client, by client id: its connection
+    /// number and where the reason goes.
+    pub kicks: Mutex<BTreeMap<u64, (u64, oneshot::Sender<String>)>>,
+    /// The admin credential (empty: the admin channel admits no one).
+    pub admin_token: String,
 }
 
 impl std::fmt::Debug for NetShared {
@@ -94,6 +100,24 @@ impl NetShared {
             history: Mutex::new(BTreeMap::new()),
             next_connection: AtomicU64::new(1),
             connected: Mutex::new(BTreeMap::new()),
+            kicks: Mutex::new(BTreeMap::new()),
+            admin_token: String::new(),
+        }
+    }
+
+    /// The same, admitting admin connections with `token`.
+    pub fn with_admin_token(mut self, token: String) -> Self {
+        self.admin_token = token;
+        self
+    }
+
+    /// Tells client `client` to leave with `reason`; false when it is not
+    /// connected.
+    pub fn kick(&self, client: u64, reason: String) -> bool {
+        let entry = self.kicks.lock().ok().and_then(|mut k| k.remove(&client));
+        match entry {
+            Some((_, tx)) => tx.send(reason).is_ok(),
+            None => false,
         }
     }
 
@@ -122,6 +146,33 @@ impl NetShared {
     }
 }
 
+/// The protocol a connection negotiated (its ALPN), if any.
+pub fn negotiated_alpn(connection: &quinn::Connection) -> Option<Vec<u8>> {
+    connection
+        .handshake_data()?
+        .downcast::<quinn::crypto::rustls::HandshakeData>()
+        .ok()?
+        .protocol
+}
+
+/// Finishes the QUIC handshake of one incoming connection and serves it
+/// as the protocol it chose: the admin channel or a game client.
+async fn route(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>) {
+    let remote = incoming.remote_address();
+    let connection = match incoming.await {
+        Ok(c) => c,
+        Err(e) => {
+            debug!(connection = id, %remote, error = %e, "handshake failed");
+            return;
+        }
+    };
+    if negotiated_alpn(&connection).as_deref() == Some(ADMIN_ALPN) {
+        crate::admin::serve(connection, id, shared).await;
+    } else {
+        connection::serve(connection, id, shared).await;
+    }
+}
+
 /// Accepts connections on `endpoint` until shutdown, serving each on its
 /// own task.
 pub async fn accept(endpoint: quinn::Endpoint, shared: Arc<NetShared>) {
@@ -132,7 +183,7 @@ pub async fn accept(endpoint: quinn::Endpoint, shared: Arc<NetShared>) {
                 let Some(incoming) = incoming else { break };
                 let id = shared.next_connection.fetch_add(1, Ordering::Relaxed);
                 debug!(connection = id, remote = %incoming.remote_address(), "incoming");
-                tokio::spawn(connection::serve(incoming, id, shared.clone()));
+                tokio::spawn(route(incoming, id, shared.clone()));
             }
             _ = shutdown.changed() => break,
         }

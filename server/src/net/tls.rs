@@ -1,10 +1,11 @@
 //! QUIC and TLS set-up for the game port: rustls with the ring provider,
-//! TLS 1.3 only, our ALPN, and transport limits sized for snapshot
+//! TLS 1.3 only, the game's and the admin channel's ALPNs, and transport limits sized for snapshot
 //! datagrams.
 
 use std::sync::Arc;
 use std::time::Duration;
 
+use inertia_protocol::admin::ADMIN_ALPN;
 use inertia_protocol::control::ALPN;
 
 use crate::credentials::Credentials;
@@ -21,7 +22,7 @@ pub fn server_config(creds: &Credentials) -> Result<quinn::ServerConfig, String>
         .with_no_client_auth()
         .with_single_cert(vec![creds.cert.clone()], creds.cert_key.clone_key())
         .map_err(|e| format!("certificate or key rejected: {e}"))?;
-    tls.alpn_protocols = vec![ALPN.to_vec()];
+    tls.alpn_protocols = vec![ALPN.to_vec(), ADMIN_ALPN.to_vec()];
     tls.max_early_data_size = 0;
     let crypto =
         quinn::crypto::rustls::QuicServerConfig::try_from(tls).map_err(|e| e.to_string())?;

@@ -1,0 +1,497 @@
+//! The admin channel's server side: connections that negotiated
+//! [`ADMIN_ALPN`](inertia_protocol::admin::ADMIN_ALPN) on the game port.
+//!
+//! The operator's tool opens one bidirectional stream and sends an
+//! [`AdminHello`]. Nothing is answered before it passes
+//! [`admin_handshake`]; a hello that fails gets an
+//! [`AdminHandshake::Refused`] and the connection is closed, and so does
+//! anything that is not a hello (garbage, a stream that ends early, no
+//! hello within [`HELLO_TIMEOUT`]). After the welcome each [`AdminCall`]
+//! is carried out on the simulation and answered with an [`AdminReply`]
+//! carrying its id; a call that does not decode or fails its checks is
+//! answered with an [`AdminErrorKind::Invalid`] error under id 0 and
+//! changes nothing.
+//!
+//! Every hello and every action is logged (target `inertia::admin`) with
+//! the operator, the remote address, the request and the outcome, and
+//! counted in [`Metrics::admin_actions`](crate::metrics::Metrics) by
+//! action and outcome.
+//!
+//! [`client::AdminClient`] is the tool's side.
+
+pub mod client;
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use glam::DVec3;
+use inertia_protocol::admin::{
+    admin_handshake, AdminCall, AdminError, AdminErrorKind, AdminHandshake, AdminHello,
+    AdminRefusal, AdminReply, AdminRequest, AdminResponse, AdminWelcome, StatusReport,
+    ADMIN_PROTOCOL_VERSION,
+};
+use inertia_protocol::control::{encode_frame, ControlMessage, FrameDecoder};
+use tracing::{debug, info, warn};
+
+use crate::net::NetShared;
+use crate::sim::{CommandError, Simulation};
+
+/// How long an admin tool has to say hello.
+pub const HELLO_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// QUIC close codes of the admin channel.
+pub mod close_code {
+    /// The tool said goodbye (closed its stream).
+    pub const DONE: u32 = 0;
+    /// The hello was refused.
+    pub const REFUSED: u32 = 1;
+    /// The stream broke the framing after the hello.
+    pub const PROTOCOL: u32 = 2;
+    /// The server is shutting down.
+    pub const SHUTDOWN: u32 = 3;
+}
+
+/// The audit log's target.
+const AUDIT: &str = "inertia::admin";
+
+/// The name an [`AdminRequest`] goes by in logs, metrics and the tool.
+pub fn action_name(request: &AdminRequest) -> &'static str {
+    match request {
+        AdminRequest::Status => "status",
+        AdminRequest::Pause => "pause",
+        AdminRequest::Resume => "resume",
+        AdminRequest::Step { .. } => "step",
+        AdminRequest::Speed { .. } => "speed",
+        AdminRequest::RunTo { .. } => "run_to",
+        AdminRequest::Seek { .. } => "seek",
+        AdminRequest::Reverse { .. } => "reverse",
+        AdminRequest::Replay { .. } => "replay",
+        AdminRequest::Save { .. } => "save",
+        AdminRequest::Load { .. } => "load",
+        AdminRequest::Record { .. } => "record",
+        AdminRequest::Spawn { .. } => "spawn",
+        AdminRequest::Despawn { .. } => "despawn",
+        AdminRequest::Impulse { .. } => "impulse",
+        AdminRequest::Kick { .. } => "kick",
+        AdminRequest::Hash { .. } => "hash",
+    }
+}
+
+/// The outcome label of a response: `ok`, or the error kind.
+pub fn outcome_name(response: &AdminResponse) -> &'static str {
+    match response {
+        AdminResponse::Error(e) => error_kind_name(e.kind),
+        _ => "ok",
+    }
+}
+
+/// The label of an error kind.
+pub fn error_kind_name(kind: AdminErrorKind) -> &'static str {
+    match kind {
+        AdminErrorKind::Invalid => "invalid",
+        AdminErrorKind::NotFound => "not_found",
+        AdminErrorKind::OutOfRange => "out_of_range",
+        AdminErrorKind::NotRecorded => "not_recorded",
+        AdminErrorKind::Busy => "busy",
+        AdminErrorKind::Io => "io",
+        AdminErrorKind::Unsupported => "unsupported",
+    }
+}
+
+/// The outcome label of a refused hello.
+pub fn refusal_name(refusal: &AdminRefusal) -> &'static str {
+    match refusal {
+        AdminRefusal::VersionMismatch { .. } => "refused_version",
+        AdminRefusal::BadCredential => "refused_credential",
+        AdminRefusal::Malformed => "refused_malformed",
+    }
+}
+
+async fn write<T: ControlMessage>(send: &mut quinn::SendStream, msg: &T) -> Result<(), String> {
+    let bytes = encode_frame(msg).map_err(|e| e.to_string())?;
+    send.write_all(&bytes).await.map_err(|e| e.to_string())
+}
+
+/// What a read of the next message found.
+enum Next<T> {
+    Message(T),
+    /// Bytes that are not a valid message; the stream is still in step
+    /// when `in_step`.
+    Bad {
+        what: String,
+        in_step: bool,
+    },
+    /// The stream ended (or the connection went away).
+    End,
+}
+
+async fn read_next<T: ControlMessage>(
+    recv: &mut quinn::RecvStream,
+    frames: &mut FrameDecoder,
+    buf: &mut [u8],
+) -> Next<T> {
+    loop {
+        match frames.next::<T>() {
+            Some(Ok(msg)) => return Next::Message(msg),
+            Some(Err(e)) => {
+                let in_step = !matches!(
+                    e,
+                    inertia_protocol::control::ControlError::FrameTooLarge { .. }
+                );
+                return Next::Bad {
+                    what: e.to_string(),
+                    in_step,
+                };
+            }
+            None => {}
+        }
+        match recv.read(buf).await {
+            Ok(Some(n)) => {
+                if let Err(e) = frames.push(&buf[..n]) {
+                    return Next::Bad {
+                        what: e.to_string(),
+                        in_step: false,
+                    };
+                }
+            }
+            Ok(None) if frames.buffered() > 0 => {
+                return Next::Bad {
+                    what: "the stream ended inside a frame".into(),
+                    in_step: false,
+                }
+            }
+            Ok(None) | Err(_) => return Next::End,
+        }
+    }
+}
+
+/// Serves one admin connection to its end.
+pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared>) {
+    let remote = connection.remote_address();
+    let (mut send, mut recv) = match tokio::time::timeout(HELLO_TIMEOUT, connection.accept_bi())
+        .await
+    {
+        Ok(Ok(pair)) => pair,
+        Ok(Err(e)) => {
+            debug!(target: AUDIT, connection = id, %remote, error = %e, "admin connection gone before a stream");
+            return;
+        }
+        Err(_) => {
+            refuse_silently(&connection, id, remote, &shared, "no stream in time");
+            return;
+        }
+    };
+    let mut frames = FrameDecoder::new();
+    let mut buf = vec![0u8; 4096];
+    let hello = tokio::time::timeout(
+        HELLO_TIMEOUT,
+        read_next::<AdminHello>(&mut recv, &mut frames, &mut buf),
+    )
+    .await;
+    let (operator, verdict) = match hello {
+        Err(_) => (String::new(), Err(AdminRefusal::Malformed)),
+        Ok(Next::End) => {
+            refuse_silently(&connection, id, remote, &shared, "closed before a hello");
+            return;
+        }
+        Ok(Next::Bad { what, .. }) => {
+            debug!(target: AUDIT, connection = id, %remote, error = %what, "admin hello does not decode");
+            (String::new(), Err(AdminRefusal::Malformed))
+        }
+        Ok(Next::Message(hello)) => {
+            let verdict = admin_handshake(&hello, &shared.admin_token);
+            (hello.operator, verdict)
+        }
+    };
+    if let Err(refusal) = verdict {
+        let outcome = refusal_name(&refusal);
+        warn!(target: AUDIT, connection = id, %remote, operator = %operator.escape_debug(), outcome, "admin hello refused");
+        shared.metrics.admin_action("hello", outcome);
+        shared.metrics.refused_connections.inc();
+        let _ = write(&mut send, &AdminHandshake::Refused(refusal)).await;
+        let _ = send.finish();
+        let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
+        connection.close(close_code::REFUSED.into(), b"refused");
+        return;
+    }
+    let welcome = AdminHandshake::Welcome(AdminWelcome {
+        version: ADMIN_PROTOCOL_VERSION,
+        server_version: env!("CARGO_PKG_VERSION").to_string(),
+        tick_hz: shared.tick_hz,
+    });
+    if write(&mut send, &welcome).await.is_err() {
+        return;
+    }
+    info!(target: AUDIT, connection = id, %remote, %operator, outcome = "ok", "admin hello accepted");
+    shared.metrics.admin_action("hello", "ok");
+    let session = Session {
+        operator,
+        remote,
+        connection: id,
+        shared: &shared,
+    };
+    let mut shutdown = shared.shutdown.clone();
+    loop {
+        let next = tokio::select! {
+            next = read_next::<AdminCall>(&mut recv, &mut frames, &mut buf) => next,
+            _ = shutdown.changed() => {
+                connection.close(close_code::SHUTDOWN.into(), b"server shutting down");
+                return;
+            }
+        };
+        match next {
+            Next::Message(call) => {
+                let response = session.answer(&call.request).await;
+                let reply = AdminReply {
+                    id: call.id,
+                    response,
+                };
+                if write(&mut send, &reply).await.is_err() {
+                    return;
+                }
+            }
+            Next::Bad { what, in_step } => {
+                warn!(target: AUDIT, connection = id, %remote, operator = %session.operator, error = %what, outcome = "invalid", "admin call malformed");
+                shared.metrics.admin_action("malformed", "invalid");
+                let reply = AdminReply {
+                    id: 0,
+                    response: AdminResponse::Error(AdminError::new(
+                        AdminErrorKind::Invalid,
+                        format!("malformed call: {what}"),
+                    )),
+                };
+                let _ = write(&mut send, &reply).await;
+                if !in_step {
+                    let _ = send.finish();
+                    let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
+                    connection.close(close_code::PROTOCOL.into(), b"malformed call");
+                    return;
+                }
+            }
+            Next::End => {
+                let _ = send.finish();
+                let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
+                connection.close(close_code::DONE.into(), b"done");
+                debug!(target: AUDIT, connection = id, %remote, "admin connection done");
+                return;
+            }
+        }
+    }
+}
+
+/// Closes a connection that never sent a hello (nothing is answered),
+/// logging and counting it as a malformed hello.
+fn refuse_silently(
+    connection: &quinn::Connection,
+    id: u64,
+    remote: SocketAddr,
+    shared: &NetShared,
+    why: &str,
+) {
+    warn!(target: AUDIT, connection = id, %remote, why, outcome = "refused_malformed", "admin connection without a hello");
+    shared.metrics.admin_action("hello", "refused_malformed");
+    shared.metrics.refused_connections.inc();
+    connection.close(close_code::REFUSED.into(), b"no hello");
+}
+
+/// One admitted operator's connection.
+struct Session<'a> {
+    operator: String,
+    remote: SocketAddr,
+    connection: u64,
+    shared: &'a NetShared,
+}
+
+fn unavailable(e: CommandError) -> AdminError {
+    match e {
+        CommandError::Busy => AdminError::new(AdminErrorKind::Busy, e.to_string()),
+        CommandError::Stopped => AdminError::new(AdminErrorKind::Unsupported, e.to_string()),
+    }
+}
+
+fn unsupported(what: &str) -> AdminError {
+    AdminError::new(
+        AdminErrorKind::Unsupported,
+        format!("{what} needs the recording, which this server does not keep yet"),
+    )
+}
+
+impl Session<'_> {
+    /// Carries out one request, logs it and counts it.
+    async fn answer(&self, request: &AdminRequest) -> AdminResponse {
+        let response = match request.check() {
+            Err(e) => AdminResponse::Error(e.into()),
+            Ok(()) => self
+                .carry_out(request)
+                .await
+                .unwrap_or_else(AdminResponse::Error),
+        };
+        let action = action_name(request);
+        let outcome = outcome_name(&response);
+        match &response {
+            AdminResponse::Error(e) => info!(
+                target: AUDIT,
+                connection = self.connection,
+                remote = %self.remote,
+                operator = %self.operator,
+                action,
+                ?request,
+                outcome,
+                error = %e.message,
+                "admin action"
+            ),
+            _ => info!(
+                target: AUDIT,
+                connection = self.connection,
+                remote = %self.remote,
+                operator = %self.operator,
+                action,
+                ?request,
+                outcome,
+                "admin action"
+            ),
+        }
+        self.shared.metrics.admin_action(action, outcome);
+        response
+    }
+
+    /// Runs `f` on the tick thread and waits for its answer.
+    async fn on_sim<R: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut Simulation) -> R + Send + 'static,
+    ) -> Result<R, AdminError> {
+        let rx = self.shared.sim.call(f).map_err(unavailable)?;
+        rx.await.map_err(|_| unavailable(CommandError::Stopped))
+    }
+
+    async fn carry_out(&self, request: &AdminRequest) -> Result<AdminResponse, AdminError> {
+        match request {
+            AdminRequest::Status => {
+                let report = self.on_sim(status_report).await?;
+                Ok(AdminResponse::Status(report))
+            }
+            AdminRequest::Pause => {
+                self.on_sim(|s| s.clock_mut().pause()).await?;
+                Ok(AdminResponse::Ok)
+            }
+            AdminRequest::Resume => {
+                self.on_sim(|s| s.clock_mut().resume()).await?;
+                Ok(AdminResponse::Ok)
+            }
+            AdminRequest::Step { ticks } => {
+                let ticks = *ticks;
+                self.on_sim(move |s| {
+                    s.clock_mut().pause();
+                    s.clock_mut().step(ticks);
+                })
+                .await?;
+                Ok(AdminResponse::Ok)
+            }
+            AdminRequest::Speed { scale } => {
+                let scale = *scale;
+                self.on_sim(move |s| s.clock_mut().set_time_scale(scale))
+                    .await?
+                    .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;
+                Ok(AdminResponse::Ok)
+            }
+            AdminRequest::RunTo { tick } => {
+                let tick = *tick;
+                self.on_sim(move |s| s.clock_mut().run_to(tick))
+                    .await?
+                    .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;
+                Ok(AdminResponse::Ok)
+            }
+            AdminRequest::Hash { tick } => {
+                let (now, state_hash) = self.on_sim(|s| (s.world().tick(), s.state_hash())).await?;
+                match tick {
+                    Some(t) if *t != now => Err(AdminError::new(
+                        AdminErrorKind::NotRecorded,
+                        format!(
+                            "tick {t} is not the current tick ({now}) and this server keeps no recording yet"
+                        ),
+                    )),
+                    _ => Ok(AdminResponse::Hash {
+                        tick: now,
+                        state_hash,
+                        recorded_hash: None,
+                    }),
+                }
+            }
+            AdminRequest::Kick { client, reason } => {
+                if self.shared.kick(*client, reason.clone()) {
+                    Ok(AdminResponse::Ok)
+                } else {
+                    Err(AdminError::new(
+                        AdminErrorKind::NotFound,
+                        format!("no client {client} is connected"),
+                    ))
+                }
+            }
+            AdminRequest::Despawn { id } => {
+                let id = *id;
+                if self.on_sim(move |s| s.despawn(id)).await? {
+                    Ok(AdminResponse::Ok)
+                } else {
+                    Err(AdminError::new(
+                        AdminErrorKind::NotFound,
+                        format!("no entity {id}"),
+                    ))
+                }
+            }
+            AdminRequest::Impulse { id, impulse, point } => {
+                let id = *id;
+                let impulse = DVec3::from_array(*impulse);
+                let point = point.map(DVec3::from_array);
+                self.on_sim(move |s| s.apply_impulse(id, impulse, point))
+                    .await?
+                    .map_err(|e| {
+                        let kind = match e {
+                            crate::rules::ContextError::UnknownEntity(_) => {
+                                AdminErrorKind::NotFound
+                            }
+                            _ => AdminErrorKind::Invalid,
+                        };
+                        AdminError::new(kind, e.to_string())
+                    })?;
+                Ok(AdminResponse::Ok)
+            }
+            AdminRequest::Seek { .. } => Err(unsupported("seeking")),
+            AdminRequest::Reverse { .. } => Err(unsupported("playing backwards")),
+            AdminRequest::Replay { .. } => Err(unsupported("replaying")),
+            AdminRequest::Record { .. } => Err(AdminError::new(
+                AdminErrorKind::Unsupported,
+                "this server does not record yet",
+            )),
+            AdminRequest::Save { .. } | AdminRequest::Load { .. } => Err(AdminError::new(
+                AdminErrorKind::Unsupported,
+                "this server does not save or load worlds yet",
+            )),
+            AdminRequest::Spawn { .. } => Err(AdminError::new(
+                AdminErrorKind::Unsupported,
+                "this server does not spawn bodies on request yet",
+            )),
+        }
+    }
+}
+
+/// The status of the simulation now, read on the tick thread.
+fn status_report(s: &mut Simulation) -> StatusReport {
+    let wall_time_unix = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64());
+    let clock = s.clock();
+    StatusReport {
+        tick: s.world().tick(),
+        sim_time: s.world().time().max(0.0),
+        wall_time_unix,
+        time_scale: clock.time_scale(),
+        achieved_rate: s.achieved_rate(),
+        paused: clock.paused(),
+        clients: s.client_count() as u32,
+        bodies: s.world().bodies().count() as u32,
+        tick_ms_p99: s.tick_p99().as_secs_f64() * 1000.0,
+        state_hash: s.state_hash(),
+        recording: false,
+    }
+}
