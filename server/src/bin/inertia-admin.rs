@@ -1,0 +1,367 @@
+//! `inertia-admin`: an operator's commands to a running server over the
+//! admin channel. Reads the dev credentials file by default; prints for
+//! people, or one JSON object per command with `--json`. Exits 0 when the
+//! server did what was asked, 1 when it answered with an error, 2 when it
+//! could not be reached or refused the credential.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::{Parser, Subcommand};
+use inertia_protocol::admin::{AdminRequest, AdminResponse, SpawnDesc, StatusReport};
+use inertia_protocol::credentials::DEV_CREDENTIALS_PATH;
+use inertia_server::admin::client::{AdminClient, AdminClientError};
+use inertia_server::admin::error_kind_name;
+use serde_json::json;
+
+/// Administer a running Inertia server.
+#[derive(Debug, Parser)]
+#[command(name = "inertia-admin", version)]
+struct Args {
+    /// The server's game port (default: the address in the credentials
+    /// file).
+    #[arg(long, value_name = "ADDR")]
+    server: Option<SocketAddr>,
+    /// The dev credentials file (server address, certificate fingerprint,
+    /// admin credential).
+    #[arg(long, value_name = "FILE", default_value = DEV_CREDENTIALS_PATH)]
+    credentials: PathBuf,
+    /// Who is acting, for the server's audit log (default: $USER).
+    #[arg(long)]
+    operator: Option<String>,
+    /// Print one JSON object instead of text.
+    #[arg(long, global = true)]
+    json: bool,
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Debug, Subcommand)]
+enum Cmd {
+    /// The server's tick, clocks, clients, bodies and state hash.
+    Status,
+    /// Stop running ticks.
+    Pause,
+    /// Run ticks again at the time scale before the pause.
+    Resume,
+    /// Run exactly N ticks, then stay paused.
+    Step {
+        /// How many ticks.
+        n: u64,
+    },
+    /// Run at X simulated seconds per wall second (0 < X ≤ 64); reports
+    /// the rate reached over the next second.
+    Speed {
+        /// The time scale.
+        x: f64,
+    },
+    /// Run until TICK, then pause.
+    RunTo {
+        /// The tick to stop at.
+        tick: u64,
+    },
+    /// Jump to a recorded tick and pause there.
+    Seek {
+        /// The tick.
+        tick: u64,
+    },
+    /// Play the recording backwards.
+    Reverse {
+        /// Time scale (1 is real time).
+        #[arg(long, default_value_t = 1.0)]
+        speed: f64,
+    },
+    /// Play recorded ticks FROM..=TO to the clients.
+    Replay {
+        /// The first tick.
+        from: u64,
+        /// The last tick.
+        to: u64,
+        /// Time scale (1 is real time).
+        #[arg(long, default_value_t = 1.0)]
+        speed: f64,
+    },
+    /// Save the world to a file on the server.
+    Save {
+        /// The path, on the server.
+        path: String,
+    },
+    /// Load the world from a file on the server.
+    Load {
+        /// The path, on the server.
+        path: String,
+    },
+    /// Start or stop recording.
+    Record {
+        /// `on` or `off`.
+        #[arg(value_parser = ["on", "off"])]
+        state: String,
+    },
+    /// Add a body, described as JSON (the admin protocol's `SpawnDesc`).
+    Spawn {
+        /// The body, as JSON.
+        desc: String,
+    },
+    /// Remove an entity.
+    Despawn {
+        /// The entity id.
+        id: u32,
+    },
+    /// Apply an impulse (N·s, world frame) to a body.
+    Impulse {
+        /// The entity id.
+        id: u32,
+        /// x component.
+        #[arg(allow_negative_numbers = true)]
+        x: f64,
+        /// y component.
+        #[arg(allow_negative_numbers = true)]
+        y: f64,
+        /// z component.
+        #[arg(allow_negative_numbers = true)]
+        z: f64,
+        /// Where it acts (m, world; default the centre of mass).
+        #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+        at: Option<Vec<f64>>,
+    },
+    /// Disconnect a client.
+    Kick {
+        /// The client id.
+        client: u64,
+        /// Why, shown to the player.
+        #[arg(long, default_value = "kicked by an operator")]
+        reason: String,
+    },
+    /// The state hash at TICK (default: now).
+    Hash {
+        /// The tick.
+        tick: Option<u64>,
+    },
+}
+
+/// A failure, with the exit code it gives.
+struct Failure {
+    code: u8,
+    kind: &'static str,
+    message: String,
+}
+
+impl From<AdminClientError> for Failure {
+    fn from(e: AdminClientError) -> Self {
+        let kind = match e {
+            AdminClientError::Refused(_) => "refused",
+            AdminClientError::Credentials { .. } => "credentials",
+            _ => "connection",
+        };
+        Failure {
+            code: 2,
+            kind,
+            message: e.to_string(),
+        }
+    }
+}
+
+fn request(cmd: &Cmd) -> Result<AdminRequest, Failure> {
+    let usage = |message: String| Failure {
+        code: 2,
+        kind: "usage",
+        message,
+    };
+    Ok(match cmd {
+        Cmd::Status => AdminRequest::Status,
+        Cmd::Pause => AdminRequest::Pause,
+        Cmd::Resume => AdminRequest::Resume,
+        Cmd::Step { n } => AdminRequest::Step { ticks: *n },
+        Cmd::Speed { x } => AdminRequest::Speed { scale: *x },
+        Cmd::RunTo { tick } => AdminRequest::RunTo { tick: *tick },
+        Cmd::Seek { tick } => AdminRequest::Seek { tick: *tick },
+        Cmd::Reverse { speed } => AdminRequest::Reverse { speed: *speed },
+        Cmd::Replay { from, to, speed } => AdminRequest::Replay {
+            from: *from,
+            to: *to,
+            speed: *speed,
+        },
+        Cmd::Save { path } => AdminRequest::Save { path: path.clone() },
+        Cmd::Load { path } => AdminRequest::Load { path: path.clone() },
+        Cmd::Record { state } => AdminRequest::Record { on: state == "on" },
+        Cmd::Spawn { desc } => {
+            let desc: SpawnDesc =
+                serde_json::from_str(desc).map_err(|e| usage(format!("spawn description: {e}")))?;
+            AdminRequest::Spawn { desc }
+        }
+        Cmd::Despawn { id } => AdminRequest::Despawn { id: *id },
+        Cmd::Impulse { id, x, y, z, at } => AdminRequest::Impulse {
+            id: *id,
+            impulse: [*x, *y, *z],
+            point: at.as_ref().map(|p| [p[0], p[1], p[2]]),
+        },
+        Cmd::Kick { client, reason } => AdminRequest::Kick {
+            client: *client,
+            reason: reason.clone(),
+        },
+        Cmd::Hash { tick } => AdminRequest::Hash { tick: *tick },
+    })
+}
+
+fn status_json(s: &StatusReport) -> serde_json::Value {
+    json!({
+        "tick": s.tick,
+        "sim_time": s.sim_time,
+        "wall_time_unix": s.wall_time_unix,
+        "time_scale": s.time_scale,
+        "achieved_rate": s.achieved_rate,
+        "paused": s.paused,
+        "clients": s.clients,
+        "bodies": s.bodies,
+        "tick_ms_p99": s.tick_ms_p99,
+        "state_hash": s.state_hash,
+        "recording": s.recording,
+    })
+}
+
+fn status_text(s: &StatusReport, tick_hz: u32) -> String {
+    format!(
+        "tick {} (sim time {:.3} s)\n\
+         time scale {} ({}), achieved {:.1} ticks/s ({:.2}×)\n\
+         clients {}, bodies {}\n\
+         tick p99 {:.3} ms\n\
+         state hash {:016x}\n\
+         recording {}",
+        s.tick,
+        s.sim_time,
+        s.time_scale,
+        if s.paused { "paused" } else { "running" },
+        s.achieved_rate,
+        s.achieved_rate / f64::from(tick_hz.max(1)),
+        s.clients,
+        s.bodies,
+        s.tick_ms_p99,
+        s.state_hash,
+        if s.recording { "on" } else { "off" },
+    )
+}
+
+/// Runs one command; the JSON object and the text to print.
+async fn run(args: &Args) -> Result<(serde_json::Value, String), Failure> {
+    let request = request(&args.command)?;
+    request.check().map_err(|e| Failure {
+        code: 2,
+        kind: "usage",
+        message: e.to_string(),
+    })?;
+    let operator = args
+        .operator
+        .clone()
+        .or_else(|| std::env::var("USER").ok())
+        .unwrap_or_else(|| "operator".into());
+    let mut client = AdminClient::connect_dev(&args.credentials, args.server, &operator).await?;
+    let tick_hz = client.welcome().tick_hz;
+    let response = client.call(request.clone()).await?;
+    let out = match response {
+        AdminResponse::Error(e) => {
+            client.close().await;
+            return Err(Failure {
+                code: 1,
+                kind: error_kind_name(e.kind),
+                message: e.message,
+            });
+        }
+        AdminResponse::Status(s) => (status_json(&s), status_text(&s, tick_hz)),
+        AdminResponse::Hash {
+            tick,
+            state_hash,
+            recorded_hash,
+        } => (
+            json!({ "tick": tick, "state_hash": state_hash, "recorded_hash": recorded_hash }),
+            match recorded_hash {
+                Some(r) => format!(
+                    "tick {tick}: state hash {state_hash:016x}, recorded {r:016x}{}",
+                    if r == state_hash { "" } else { " (differs)" }
+                ),
+                None => format!("tick {tick}: state hash {state_hash:016x}"),
+            },
+        ),
+        AdminResponse::Spawned { id } => (
+            json!({ "ok": true, "spawned": id }),
+            format!("spawned entity {id}"),
+        ),
+        AdminResponse::Ok => match &args.command {
+            Cmd::Speed { x } => {
+                // The rate is a second's average: give the new speed a
+                // second to show.
+                tokio::time::sleep(Duration::from_millis(1100)).await;
+                match client.call(AdminRequest::Status).await? {
+                    AdminResponse::Status(s) => {
+                        let achieved_scale = s.achieved_rate / f64::from(tick_hz.max(1));
+                        (
+                            json!({
+                                "ok": true,
+                                "time_scale": s.time_scale,
+                                "requested": x,
+                                "achieved_rate": s.achieved_rate,
+                                "achieved_scale": achieved_scale,
+                            }),
+                            format!(
+                                "time scale {}; achieved {:.1} ticks/s ({achieved_scale:.2}×)",
+                                s.time_scale, s.achieved_rate
+                            ),
+                        )
+                    }
+                    _ => (json!({ "ok": true }), format!("time scale {x}")),
+                }
+            }
+            cmd => (json!({ "ok": true }), done_text(cmd)),
+        },
+    };
+    client.close().await;
+    Ok(out)
+}
+
+fn done_text(cmd: &Cmd) -> String {
+    match cmd {
+        Cmd::Pause => "paused".into(),
+        Cmd::Resume => "resumed".into(),
+        Cmd::Step { n } => format!("stepping {n} ticks"),
+        Cmd::RunTo { tick } => format!("running to tick {tick}"),
+        Cmd::Despawn { id } => format!("despawned entity {id}"),
+        Cmd::Impulse { id, .. } => format!("impulse applied to entity {id}"),
+        Cmd::Kick { client, .. } => format!("kicked client {client}"),
+        _ => "done".into(),
+    }
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let runtime = match tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("inertia-admin: cannot start the runtime: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    match runtime.block_on(run(&args)) {
+        Ok((json, text)) => {
+            if args.json {
+                println!("{json}");
+            } else {
+                println!("{text}");
+            }
+            ExitCode::SUCCESS
+        }
+        Err(f) => {
+            if args.json {
+                println!(
+                    "{}",
+                    json!({ "error": { "kind": f.kind, "message": f.message } })
+                );
+            }
+            eprintln!("inertia-admin: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}

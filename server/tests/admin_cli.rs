@@ -1,0 +1,137 @@
+//! `inertia-admin` against the server process: `status --json` and
+//! `hash --json` print the fields scripts read, a paused world hashes the
+//! same twice, and a wrong credential or a bad argument exits non-zero
+//! with a message.
+
+#![cfg(unix)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn admin(credentials: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_inertia-admin"))
+        .arg("--credentials")
+        .arg(credentials)
+        .args(args)
+        .output()
+        .expect("inertia-admin runs")
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "exit {:?}: {}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout.clone()).expect("UTF-8");
+    assert_eq!(text.lines().count(), 1, "one object: {text}");
+    serde_json::from_str(&text).expect("JSON")
+}
+
+struct Server(std::process::Child, PathBuf);
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+        let _ = std::fs::remove_dir_all(&self.1);
+    }
+}
+
+#[test]
+fn status_pause_hash_and_refusals_from_the_command_line() {
+    let dir = std::env::temp_dir().join(format!("inertia-admin-cli-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/pyramid.json");
+    let child = Command::new(env!("CARGO_BIN_EXE_inertia-server"))
+        .args([
+            "--listen",
+            "127.0.0.1:0",
+            "--metrics",
+            "127.0.0.1:0",
+            "--data-dir",
+        ])
+        .arg(&dir)
+        .arg("--scene")
+        .arg(&scene)
+        .env("INERTIA_LOG", "warn")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("the server binary starts");
+    let _server = Server(child, dir.clone());
+    let credentials = dir.join("dev-credentials.json");
+    let start = Instant::now();
+    while !credentials.exists() {
+        assert!(start.elapsed() < Duration::from_secs(30), "no credentials");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // The file is written before the endpoint serves; retry briefly.
+    let mut status = admin(&credentials, &["status", "--json"]);
+    while !status.status.success() && start.elapsed() < Duration::from_secs(30) {
+        std::thread::sleep(Duration::from_millis(100));
+        status = admin(&credentials, &["status", "--json"]);
+    }
+    let s = json(&status);
+    for field in [
+        "tick",
+        "sim_time",
+        "time_scale",
+        "paused",
+        "clients",
+        "bodies",
+        "state_hash",
+        "achieved_rate",
+        "tick_ms_p99",
+    ] {
+        assert!(s.get(field).is_some(), "status lacks {field}: {s}");
+    }
+    assert_eq!(s["time_scale"], 1.0);
+    assert_eq!(s["paused"], false);
+    assert!(s["bodies"].as_u64().expect("a count") > 0);
+
+    assert_eq!(json(&admin(&credentials, &["pause", "--json"]))["ok"], true);
+    let h1 = json(&admin(&credentials, &["hash", "--json"]));
+    std::thread::sleep(Duration::from_millis(200));
+    let h2 = json(&admin(&credentials, &["hash", "--json"]));
+    assert_eq!(h1, h2, "paused, the hash stands still");
+    assert!(h1["state_hash"].as_u64().is_some());
+    assert!(h1.get("recorded_hash").is_some());
+    let s = json(&admin(&credentials, &["status", "--json"]));
+    assert_eq!(s["paused"], true);
+    assert_eq!(s["tick"], h1["tick"]);
+    assert_eq!(s["state_hash"], h1["state_hash"]);
+
+    // Human output by default.
+    let out = admin(&credentials, &["status"]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("state hash"));
+
+    // A bad argument, a server error and a wrong credential: non-zero,
+    // with a message.
+    let out = admin(&credentials, &["speed", "100"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("time scale"));
+    let out = admin(&credentials, &["seek", "1", "--json"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(json_error(&out), "unsupported");
+    let mut creds: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&credentials).expect("read")).expect("JSON");
+    creds["admin_token"] = "wrong".into();
+    let bad = dir.join("bad-credentials.json");
+    std::fs::write(&bad, creds.to_string()).expect("write");
+    let out = admin(&bad, &["pause", "--json"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(json_error(&out), "refused");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("credential"));
+}
+
+fn json_error(out: &Output) -> String {
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    v["error"]["kind"]
+        .as_str()
+        .expect("an error kind")
+        .to_string()
+}
