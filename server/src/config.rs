@@ -43,6 +43,14 @@ pub const DEFAULT_MAX_CLIENTS: u32 = 64;
 /// Default most ticks run in one loop of the tick thread before it gives up
 /// on catching up and counts an overrun.
 pub const DEFAULT_MAX_CATCH_UP_TICKS: u32 = 5;
+/// Default keyframe interval of the recording, ticks (10 s at 60 Hz).
+pub const DEFAULT_KEYFRAME_TICKS: u64 = crate::record::recorder::DEFAULT_KEYFRAME_TICKS;
+/// Default retention limit of the recording, bytes (2 GiB).
+pub const DEFAULT_RECORD_MAX_BYTES: u64 = crate::record::recorder::DEFAULT_RECORD_MAX_BYTES;
+/// Highest accepted keyframe interval, ticks.
+pub const MAX_KEYFRAME_TICKS: u64 = 1_000_000;
+/// Smallest accepted retention limit, bytes (1 MiB).
+pub const MIN_RECORD_MAX_BYTES: u64 = 1024 * 1024;
 /// Highest accepted tick rate, Hz.
 pub const MAX_TICK_HZ: u32 = 1000;
 /// Highest accepted client count.
@@ -120,6 +128,18 @@ pub struct ConfigLayer {
     /// reach clients within half a step per axis.
     #[arg(long)]
     pub position_resolution_mm: Option<f64>,
+    /// Record the session into <data-dir>/recording (default true;
+    /// `--record false` turns it off).
+    #[arg(long, value_name = "BOOL", num_args = 0..=1, default_missing_value = "true")]
+    pub record: Option<bool>,
+    /// A keyframe (the full saved world) every this many ticks
+    /// (1..=1000000, default 600).
+    #[arg(long)]
+    pub keyframe_ticks: Option<u64>,
+    /// Most bytes the recording keeps on disk; the oldest segments go
+    /// first (at least 1048576, default 2 GiB).
+    #[arg(long)]
+    pub record_max_bytes: Option<u64>,
 }
 
 /// The command line: a [`ConfigLayer`] plus `--config FILE`. `main` may
@@ -172,6 +192,12 @@ pub struct ServerConfig {
     pub max_catch_up_ticks: u32,
     /// Snapshot position grid step, mm.
     pub position_resolution_mm: f64,
+    /// Record the session into [`ServerConfig::recording_dir`].
+    pub record: bool,
+    /// A keyframe every this many ticks.
+    pub keyframe_ticks: u64,
+    /// Retention limit of the recording, bytes.
+    pub record_max_bytes: u64,
 }
 
 impl Default for ServerConfig {
@@ -191,6 +217,9 @@ impl Default for ServerConfig {
             log_format: LogFormat::Text,
             max_catch_up_ticks: DEFAULT_MAX_CATCH_UP_TICKS,
             position_resolution_mm: DEFAULT_POSITION_RESOLUTION_MM,
+            record: true,
+            keyframe_ticks: DEFAULT_KEYFRAME_TICKS,
+            record_max_bytes: DEFAULT_RECORD_MAX_BYTES,
         }
     }
 }
@@ -252,6 +281,12 @@ pub enum ConfigError {
     /// `max_clients` outside 1..=4096.
     #[error("max_clients must be in 1..={MAX_CLIENTS_LIMIT}, got {0}")]
     MaxClients(u32),
+    /// `keyframe_ticks` outside 1..=1000000.
+    #[error("keyframe_ticks must be in 1..={MAX_KEYFRAME_TICKS}, got {0}")]
+    KeyframeTicks(u64),
+    /// `record_max_bytes` under 1 MiB.
+    #[error("record_max_bytes must be at least {MIN_RECORD_MAX_BYTES}, got {0}")]
+    RecordMaxBytes(u64),
     /// `max_catch_up_ticks` outside 1..=1000.
     #[error("max_catch_up_ticks must be in 1..=1000, got {0}")]
     CatchUp(u32),
@@ -338,6 +373,9 @@ impl ServerConfig {
             position_resolution_mm: layer
                 .position_resolution_mm
                 .unwrap_or(self.position_resolution_mm),
+            record: layer.record.unwrap_or(self.record),
+            keyframe_ticks: layer.keyframe_ticks.unwrap_or(self.keyframe_ticks),
+            record_max_bytes: layer.record_max_bytes.unwrap_or(self.record_max_bytes),
         }
     }
 
@@ -363,6 +401,12 @@ impl ServerConfig {
         }
         if !(1..=1000).contains(&self.max_catch_up_ticks) {
             return Err(ConfigError::CatchUp(self.max_catch_up_ticks));
+        }
+        if !(1..=MAX_KEYFRAME_TICKS).contains(&self.keyframe_ticks) {
+            return Err(ConfigError::KeyframeTicks(self.keyframe_ticks));
+        }
+        if self.record_max_bytes < MIN_RECORD_MAX_BYTES {
+            return Err(ConfigError::RecordMaxBytes(self.record_max_bytes));
         }
         if self.cert_file.is_some() != self.cert_key_file.is_some() {
             return Err(ConfigError::CertPair);
@@ -395,6 +439,21 @@ impl ServerConfig {
         })
     }
 
+    /// Where the session is recorded: `<data_dir>/recording`.
+    pub fn recording_dir(&self) -> PathBuf {
+        self.data_dir.join("recording")
+    }
+
+    /// The recorder's settings (whether or not `record` is on: `record on`
+    /// can start it later).
+    pub fn recorder_config(&self) -> crate::record::RecorderConfig {
+        crate::record::RecorderConfig {
+            keyframe_ticks: self.keyframe_ticks,
+            max_bytes: self.record_max_bytes,
+            ..crate::record::RecorderConfig::new(self.recording_dir())
+        }
+    }
+
     /// Simulation time of one tick, s.
     pub fn dt(&self) -> f64 {
         1.0 / f64::from(self.tick_hz)
@@ -424,6 +483,9 @@ impl ConfigLayer {
             log_format: self.log_format.or(lower.log_format),
             max_catch_up_ticks: self.max_catch_up_ticks.or(lower.max_catch_up_ticks),
             position_resolution_mm: self.position_resolution_mm.or(lower.position_resolution_mm),
+            record: self.record.or(lower.record),
+            keyframe_ticks: self.keyframe_ticks.or(lower.keyframe_ticks),
+            record_max_bytes: self.record_max_bytes.or(lower.record_max_bytes),
         }
     }
 }
@@ -479,6 +541,9 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         log_format: get(env, "INERTIA_LOG_FORMAT")?,
         position_resolution_mm: get(env, "INERTIA_POSITION_RESOLUTION_MM")?,
         max_catch_up_ticks: get(env, "INERTIA_MAX_CATCH_UP_TICKS")?,
+        record: get(env, "INERTIA_RECORD")?,
+        keyframe_ticks: get(env, "INERTIA_KEYFRAME_TICKS")?,
+        record_max_bytes: get(env, "INERTIA_RECORD_MAX_BYTES")?,
     })
 }
 
@@ -644,6 +709,80 @@ mod tests {
                 .position_resolution_mm,
             0.5
         );
+    }
+
+    #[test]
+    fn recording_settings_come_from_every_layer() {
+        let c = ServerConfig::from_args(["s"], env_of(&[])).unwrap();
+        assert!(c.record);
+        assert_eq!(c.keyframe_ticks, DEFAULT_KEYFRAME_TICKS);
+        assert_eq!(c.record_max_bytes, DEFAULT_RECORD_MAX_BYTES);
+        assert_eq!(
+            c.recording_dir(),
+            PathBuf::from("./inertia-data").join("recording")
+        );
+        let c = ServerConfig::from_args(
+            [
+                "s",
+                "--record",
+                "false",
+                "--keyframe-ticks",
+                "120",
+                "--record-max-bytes",
+                "10000000",
+            ],
+            env_of(&[]),
+        )
+        .unwrap();
+        assert!(!c.record);
+        assert_eq!(c.keyframe_ticks, 120);
+        assert_eq!(c.record_max_bytes, 10_000_000);
+        assert_eq!(c.recorder_config().keyframe_ticks, 120);
+        assert_eq!(c.recorder_config().max_bytes, 10_000_000);
+        let c = ServerConfig::from_args(["s", "--record"], env_of(&[("INERTIA_RECORD", "false")]))
+            .unwrap();
+        assert!(
+            c.record,
+            "a bare --record means true and beats the environment"
+        );
+        let c = ServerConfig::from_args(
+            ["s"],
+            env_of(&[
+                ("INERTIA_RECORD", "false"),
+                ("INERTIA_KEYFRAME_TICKS", "30"),
+                ("INERTIA_RECORD_MAX_BYTES", "2000000"),
+            ]),
+        )
+        .unwrap();
+        assert_eq!(
+            (c.record, c.keyframe_ticks, c.record_max_bytes),
+            (false, 30, 2_000_000)
+        );
+        let file = temp_file(
+            "record.toml",
+            "record = false\nkeyframe_ticks = 60\nrecord_max_bytes = 5000000\n",
+        );
+        let c = ServerConfig::from_args(["s", "--config", file.to_str().unwrap()], env_of(&[]))
+            .unwrap();
+        assert_eq!(
+            (c.record, c.keyframe_ticks, c.record_max_bytes),
+            (false, 60, 5_000_000)
+        );
+        let e = ServerConfig::from_args(["s"], env_of(&[("INERTIA_RECORD", "maybe")])).unwrap_err();
+        assert!(
+            matches!(&e, ConfigError::Env { var, .. } if var == "INERTIA_RECORD"),
+            "{e}"
+        );
+        for bad in ["0", "1000001"] {
+            assert!(matches!(
+                ServerConfig::from_args(["s", "--keyframe-ticks", bad], env_of(&[])),
+                Err(ConfigError::KeyframeTicks(_))
+            ));
+        }
+        assert!(matches!(
+            ServerConfig::from_args(["s", "--record-max-bytes", "1000"], env_of(&[])),
+            Err(ConfigError::RecordMaxBytes(1000))
+        ));
     }
 
     #[test]

@@ -58,6 +58,10 @@ pub struct Metrics {
     /// Admin actions by `action` (the request, or `hello`) and `outcome`
     /// (`ok`, an error kind, or why a hello was refused).
     pub admin_actions: Family<Vec<(String, String)>, Counter>,
+    /// Records the recorder could not take (its channel was full); each
+    /// one stops the recording, since a recording with a gap cannot be
+    /// replayed.
+    pub record_dropped: Counter,
     registry: Arc<Registry>,
 }
 
@@ -93,6 +97,7 @@ impl Metrics {
             inputs_rejected: Counter::default(),
             refused_connections: Counter::default(),
             admin_actions: Family::default(),
+            record_dropped: Counter::default(),
             registry: Arc::new(Registry::default()),
         };
         let mut r = Registry::with_prefix("inertia");
@@ -161,6 +166,11 @@ impl Metrics {
             "admin_actions",
             "Admin channel actions by action and outcome, refused hellos included",
             m.admin_actions.clone(),
+        );
+        r.register(
+            "record_dropped",
+            "Records dropped because the recorder was behind (each stops the recording)",
+            m.record_dropped.clone(),
         );
         Metrics {
             registry: Arc::new(r),

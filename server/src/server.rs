@@ -135,6 +135,8 @@ pub async fn start_with_rules(
     let metrics = Metrics::new();
     let sim_config = SimConfig {
         metrics: Some(metrics.clone()),
+        recording: Some(config.recorder_config()),
+        record_at_start: config.record,
         ..SimConfig::from(&config)
     };
     let sim = SimHandle::spawn(built, rules, sim_config).map_err(StartError::Thread)?;
@@ -298,6 +300,11 @@ impl RunningServer {
         let _ = tokio::time::timeout(Duration::from_secs(2), self.endpoint.wait_idle()).await;
         for task in &self.tasks {
             task.abort();
+        }
+        // The recording ends with a keyframe of the last tick, on disk
+        // before the process exits.
+        if let Ok(done) = self.shared.sim.call(|s| s.finish_recording()) {
+            let _ = tokio::time::timeout(Duration::from_secs(5), done).await;
         }
         let shared = self.shared;
         let _ = tokio::task::spawn_blocking(move || {

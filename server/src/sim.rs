@@ -22,6 +22,15 @@
 //!
 //! [`Simulation`] is that loop's state without the thread, for tests and
 //! tools that want to drive ticks by hand.
+//!
+//! While recording (see [`crate::record::recorder`]), each tick hands the
+//! recorder thread the inputs the rules accepted since the tick before
+//! (`Inputs`, when there were any), the tick's state hash (`TickHash`) and,
+//! every [`RecorderConfig::keyframe_ticks`] ticks, the saved world
+//! (`Keyframe`); a session starts with `SessionStart` and a keyframe, and
+//! the thread's shutdown ends it with a keyframe of the last tick. The tick
+//! thread never waits on the disk: a record the recorder cannot take stops
+//! the recording (a gap would break replay).
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -38,6 +47,7 @@ use tokio::sync::{oneshot, watch};
 use crate::clock::{Clock, ClockError};
 use crate::config::ServerConfig;
 use crate::metrics::Metrics;
+use crate::record::{Record, Recorder, RecorderConfig};
 use crate::rules::{
     ClientId, ControlLimits, GameEvent, GameRules, InputError, Refusal, RemovalReason, SimContext,
 };
@@ -68,6 +78,10 @@ pub struct SimConfig {
     pub max_inputs_per_loop: usize,
     /// Where to report tick durations, overruns, bodies and clients.
     pub metrics: Option<Metrics>,
+    /// Where and how to record; `None`: this simulation cannot record.
+    pub recording: Option<RecorderConfig>,
+    /// Start recording as the simulation starts (needs `recording`).
+    pub record_at_start: bool,
 }
 
 impl Default for SimConfig {
@@ -89,6 +103,8 @@ impl From<&ServerConfig> for SimConfig {
             max_control_per_loop: 64,
             max_inputs_per_loop: (c.max_clients as usize * 8).max(256),
             metrics: None,
+            recording: None,
+            record_at_start: false,
         }
     }
 }
@@ -210,6 +226,8 @@ pub struct SimStats {
     pub clients: AtomicU64,
     /// Physics steps that returned an error (should stay 0).
     pub step_errors: AtomicU64,
+    /// Recordings stopped because the recorder dropped a record.
+    pub record_gaps: AtomicU64,
 }
 
 /// The tick loop's state, without the thread.
@@ -233,6 +251,17 @@ pub struct Simulation {
     /// When ticks ran lately, with how many, within [`RATE_WINDOW`].
     recent_runs: VecDeque<(Instant, u32)>,
     started: Instant,
+    scene_name: String,
+    recording: Option<Recording>,
+    /// A stopped recorder whose thread may still be writing out.
+    retired: Option<Recorder>,
+}
+
+/// A session being recorded.
+struct Recording {
+    recorder: Recorder,
+    /// Inputs accepted since the last tick, for the next tick's record.
+    inputs: Vec<(u64, PlayerInput)>,
 }
 
 impl std::fmt::Debug for Simulation {
@@ -253,7 +282,7 @@ impl Simulation {
             Clock::new(config.tick_hz, config.max_catch_up_ticks).with_tick(scene.world.tick());
         let catalog = Arc::new(scene.entities.catalog());
         let catalog_version = scene.entities.version();
-        let sim = Simulation {
+        let mut sim = Simulation {
             world: scene.world,
             entities: scene.entities,
             spawn_points: scene.spawn_points,
@@ -271,9 +300,148 @@ impl Simulation {
             recent_ticks: VecDeque::with_capacity(TICK_WINDOW),
             recent_runs: VecDeque::new(),
             started: Instant::now(),
+            scene_name: scene.name,
+            recording: None,
+            retired: None,
         };
         sim.update_gauges();
+        if sim.config.record_at_start {
+            if let Err(e) = sim.start_recording() {
+                tracing::error!(error = %e, "cannot record; running without a recording");
+            }
+        }
         sim
+    }
+
+    /// Whether this tick's state is being recorded.
+    pub fn recording(&self) -> bool {
+        self.recording.is_some()
+    }
+
+    /// The recorder, while recording.
+    pub fn recorder(&self) -> Option<&Recorder> {
+        self.recording.as_ref().map(|r| &r.recorder)
+    }
+
+    /// Where recordings go, if this simulation can record.
+    pub fn recording_config(&self) -> Option<&RecorderConfig> {
+        self.config.recording.as_ref()
+    }
+
+    /// Starts a recording session at the current tick: `SessionStart`,
+    /// then a keyframe. Nothing happens when already recording.
+    pub fn start_recording(&mut self) -> Result<(), String> {
+        if self.recording.is_some() {
+            return Ok(());
+        }
+        let Some(config) = self.config.recording.clone() else {
+            return Err("this server has no recording directory".into());
+        };
+        if let Some(old) = self.retired.take() {
+            old.stop();
+        }
+        let tick = self.world.tick();
+        let recorder = Recorder::start(config, tick, self.config.metrics.clone())
+            .map_err(|e| e.to_string())?;
+        let start = Record::SessionStart {
+            tick,
+            tick_hz: self.config.tick_hz,
+            scene: self.scene_name.clone(),
+        };
+        let keyframe = Record::Keyframe {
+            tick,
+            state: self.world.save(),
+        };
+        recorder
+            .send(start)
+            .and_then(|()| recorder.send(keyframe))
+            .map_err(|e| e.to_string())?;
+        self.recording = Some(Recording {
+            recorder,
+            inputs: Vec::new(),
+        });
+        Ok(())
+    }
+
+    /// Stops recording (the recorder thread writes out and syncs what it
+    /// has on its own; the tick thread does not wait for it).
+    pub fn stop_recording(&mut self) {
+        if let Some(mut rec) = self.recording.take() {
+            rec.recorder.close();
+            if let Some(old) = self.retired.replace(rec.recorder) {
+                old.stop();
+            }
+        }
+    }
+
+    /// Ends the recording with a keyframe of the current tick and waits
+    /// until everything is on disk (shutdown).
+    pub fn finish_recording(&mut self) {
+        if let Some(rec) = self.recording.take() {
+            let tick = self.world.tick();
+            rec.recorder.finish(Some(Record::Keyframe {
+                tick,
+                state: self.world.save(),
+            }));
+            tracing::info!(tick, "recording ended with a keyframe");
+        }
+        if let Some(old) = self.retired.take() {
+            old.stop();
+        }
+    }
+
+    /// Records an administrator's edit of the world at the current tick
+    /// (`who` the operator, `what` a short description).
+    pub fn record_admin_edit(&mut self, who: &str, what: &str) {
+        let tick = self.world.tick();
+        self.send_record(Record::AdminEdit {
+            tick,
+            who: who.to_string(),
+            what: what.as_bytes().to_vec(),
+        });
+    }
+
+    /// Hands a record to the recorder; a dropped one stops the recording.
+    fn send_record(&mut self, record: Record) -> bool {
+        let Some(rec) = &self.recording else {
+            return false;
+        };
+        match rec.recorder.send(record) {
+            Ok(()) => true,
+            Err(e) => {
+                self.stats.record_gaps.fetch_add(1, Ordering::Relaxed);
+                tracing::error!(
+                    error = %e,
+                    tick = self.world.tick(),
+                    "the recording has a gap and stops here; `record on` starts a new one"
+                );
+                self.stop_recording();
+                false
+            }
+        }
+    }
+
+    /// The records of the tick just run.
+    fn record_tick(&mut self) {
+        let Some(rec) = &mut self.recording else {
+            return;
+        };
+        let tick = self.world.tick();
+        let keyframe_ticks = rec.recorder.config().keyframe_ticks.max(1);
+        if !rec.inputs.is_empty() {
+            let inputs = std::mem::take(&mut rec.inputs);
+            if !self.send_record(Record::Inputs { tick, inputs }) {
+                return;
+            }
+        }
+        let hash = self.world.state_hash();
+        if !self.send_record(Record::TickHash { tick, hash }) {
+            return;
+        }
+        if tick % keyframe_ticks == 0 {
+            let state = self.world.save();
+            self.send_record(Record::Keyframe { tick, state });
+        }
     }
 
     /// The world.
@@ -363,6 +531,11 @@ impl Simulation {
         } else {
             Err(InputError::NotJoined(client))
         };
+        if r.is_ok() {
+            if let Some(rec) = &mut self.recording {
+                rec.inputs.push((client, *input));
+            }
+        }
         if r.is_err() {
             self.stats.inputs_rejected.fetch_add(1, Ordering::Relaxed);
             if let Some(m) = &self.config.metrics {
@@ -417,6 +590,7 @@ impl Simulation {
         self.with_ctx(|rules, ctx| rules.after_tick(ctx));
         self.collect_events();
         self.last_tick = t0.elapsed();
+        self.record_tick();
         if self.recent_ticks.len() == TICK_WINDOW {
             self.recent_ticks.pop_front();
         }
@@ -803,6 +977,16 @@ const IDLE_WAIT: Duration = Duration::from_millis(50);
 
 fn run(
     mut sim: Simulation,
+    control: Receiver<Command>,
+    inputs: Receiver<(ClientId, PlayerInput)>,
+    frames: watch::Sender<Arc<Frame>>,
+) {
+    run_loop(&mut sim, control, inputs, frames);
+    sim.finish_recording();
+}
+
+fn run_loop(
+    sim: &mut Simulation,
     control: Receiver<Command>,
     inputs: Receiver<(ClientId, PlayerInput)>,
     frames: watch::Sender<Arc<Frame>>,

@@ -88,12 +88,14 @@ pub mod crc32;
 mod error;
 mod frame;
 mod reader;
+pub mod recorder;
 mod segment;
 pub mod writer;
 
 pub use codec::{Record, RecordKind};
 pub use error::{Corruption, RecordError};
 pub use reader::{RecordReader, Records, TickInputs};
+pub use recorder::{Recorder, RecorderConfig, RecorderStats};
 pub use segment::{parse_segment_file_name, segment_file_name, SegmentFile, SegmentInfo};
 pub use writer::{
     OpenReport, RecordOptions, RecordWriter, TailCut, DEFAULT_SEGMENT_BYTES, WRITE_BUFFER_BYTES,
