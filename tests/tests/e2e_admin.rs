@@ -68,7 +68,11 @@ async fn hash(admin: &mut AdminClient, tick: Option<u64>) -> (u64, u64) {
             state_hash,
             recorded_hash,
         } => {
-            assert_eq!(recorded_hash, None);
+            // The recording's hash of a tick is the one the world had.
+            assert!(
+                recorded_hash.is_none() || recorded_hash == Some(state_hash),
+                "tick {tick}: live {state_hash:#x}, recorded {recorded_hash:?}"
+            );
             (tick, state_hash)
         }
         other => panic!("expected a hash, got {other:?}"),
@@ -112,7 +116,7 @@ async fn status_pause_step_resume_run_to_and_hash() {
     assert!(!s.paused);
     assert_eq!(s.clients, 0);
     assert_eq!(s.bodies, 9);
-    assert!(!s.recording);
+    assert!(s.recording, "recording is on by default");
     assert!(s.tick_ms_p99 >= 0.0 && s.tick_ms_p99 < 1000.0);
     assert!(s.achieved_rate > 20.0, "{s:?}");
     assert!(s.wall_time_unix > 1.6e9);
@@ -129,14 +133,21 @@ async fn status_pause_step_resume_run_to_and_hash() {
     assert_eq!(server.frame().tick, paused.tick);
 
     // The hash of the current tick, twice equal while paused; a past tick
-    // is not recorded.
+    // comes from the recording; a future one is out of range.
     let (t1, h1) = hash(&mut admin, None).await;
     let (t2, h2) = hash(&mut admin, Some(paused.tick)).await;
     assert_eq!((t1, h1), (paused.tick, paused.state_hash));
     assert_eq!((t2, h2), (t1, h1));
+    assert_eq!(hash(&mut admin, Some(1)).await.0, 1);
     assert_eq!(
-        error_kind(&mut admin, AdminRequest::Hash { tick: Some(1) }).await,
-        AdminErrorKind::NotRecorded
+        error_kind(
+            &mut admin,
+            AdminRequest::Hash {
+                tick: Some(paused.tick + 1000)
+            }
+        )
+        .await,
+        AdminErrorKind::OutOfRange
     );
 
     // Step 5: exactly five ticks, then still paused.
@@ -187,7 +198,7 @@ async fn status_pause_step_resume_run_to_and_hash() {
     assert_eq!(m.admin_action_count("step", "ok"), 1);
     assert_eq!(m.admin_action_count("resume", "ok"), 1);
     assert_eq!(m.admin_action_count("run_to", "out_of_range"), 1);
-    assert_eq!(m.admin_action_count("hash", "not_recorded"), 1);
+    assert_eq!(m.admin_action_count("hash", "out_of_range"), 1);
     assert!(m.encode().contains("inertia_admin_actions_total"));
     admin.close().await;
     server.shutdown().await;
@@ -494,7 +505,6 @@ async fn kick_despawn_impulse_and_what_is_not_supported_yet() {
         AdminRequest::Load {
             path: "/tmp/x".into(),
         },
-        AdminRequest::Record { on: true },
     ] {
         assert_eq!(
             error_kind(&mut admin, request).await,

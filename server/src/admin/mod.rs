@@ -403,20 +403,76 @@ impl Session<'_> {
                 Ok(AdminResponse::Ok)
             }
             AdminRequest::Hash { tick } => {
-                let (now, state_hash) = self.on_sim(|s| (s.world().tick(), s.state_hash())).await?;
-                match tick {
-                    Some(t) if *t != now => Err(AdminError::new(
-                        AdminErrorKind::NotRecorded,
-                        format!(
-                            "tick {t} is not the current tick ({now}) and this server keeps no recording yet"
-                        ),
-                    )),
-                    _ => Ok(AdminResponse::Hash {
-                        tick: now,
-                        state_hash,
-                        recorded_hash: None,
-                    }),
+                let (now, state_hash, flushed, dir) = self
+                    .on_sim(|s| {
+                        let flushed = s.recorder().map(|r| r.request_flush());
+                        let dir = s.recording_config().map(|c| c.dir.clone());
+                        (s.world().tick(), s.state_hash(), flushed, dir)
+                    })
+                    .await?;
+                let tick = tick.unwrap_or(now);
+                if tick > now {
+                    return Err(AdminError::new(
+                        AdminErrorKind::OutOfRange,
+                        format!("tick {tick} is in the future (the current tick is {now})"),
+                    ));
                 }
+                // Everything recorded so far is on disk before the lookup.
+                match flushed {
+                    Some(Ok(rx)) => {
+                        if let Ok(Err(e)) = rx.await {
+                            return Err(AdminError::new(AdminErrorKind::Io, e));
+                        }
+                    }
+                    Some(Err(e)) => {
+                        return Err(AdminError::new(AdminErrorKind::Busy, e.to_string()))
+                    }
+                    None => {}
+                }
+                let recorded_hash = match dir {
+                    Some(dir) => recorded_hash(dir, tick).await?,
+                    None => None,
+                };
+                if tick == now {
+                    return Ok(AdminResponse::Hash {
+                        tick,
+                        state_hash,
+                        recorded_hash,
+                    });
+                }
+                // A past tick: until seeking re-simulates it, the recorded
+                // hash is the only one there is.
+                match recorded_hash {
+                    Some(hash) => Ok(AdminResponse::Hash {
+                        tick,
+                        state_hash: hash,
+                        recorded_hash: Some(hash),
+                    }),
+                    None => Err(AdminError::new(
+                        AdminErrorKind::NotRecorded,
+                        format!("tick {tick} is not in the recording (the current tick is {now})"),
+                    )),
+                }
+            }
+            AdminRequest::Record { on } => {
+                let on = *on;
+                let operator = self.operator.clone();
+                self.on_sim(move |s| {
+                    if on {
+                        let was = s.recording();
+                        s.start_recording()?;
+                        if !was {
+                            s.record_admin_edit(&operator, "record on");
+                        }
+                    } else {
+                        s.record_admin_edit(&operator, "record off");
+                        s.stop_recording();
+                    }
+                    Ok::<(), String>(())
+                })
+                .await?
+                .map_err(|e| AdminError::new(AdminErrorKind::Io, e))?;
+                Ok(AdminResponse::Ok)
             }
             AdminRequest::Kick { client, reason } => {
                 if self.shared.kick(*client, reason.clone()) {
@@ -430,7 +486,17 @@ impl Session<'_> {
             }
             AdminRequest::Despawn { id } => {
                 let id = *id;
-                if self.on_sim(move |s| s.despawn(id)).await? {
+                let operator = self.operator.clone();
+                let despawned = self
+                    .on_sim(move |s| {
+                        let done = s.despawn(id);
+                        if done {
+                            s.record_admin_edit(&operator, &format!("despawn {id}"));
+                        }
+                        done
+                    })
+                    .await?;
+                if despawned {
                     Ok(AdminResponse::Ok)
                 } else {
                     Err(AdminError::new(
@@ -443,26 +509,30 @@ impl Session<'_> {
                 let id = *id;
                 let impulse = DVec3::from_array(*impulse);
                 let point = point.map(DVec3::from_array);
-                self.on_sim(move |s| s.apply_impulse(id, impulse, point))
-                    .await?
-                    .map_err(|e| {
-                        let kind = match e {
-                            crate::rules::ContextError::UnknownEntity(_) => {
-                                AdminErrorKind::NotFound
-                            }
-                            _ => AdminErrorKind::Invalid,
-                        };
-                        AdminError::new(kind, e.to_string())
-                    })?;
+                let operator = self.operator.clone();
+                self.on_sim(move |s| {
+                    let applied = s.apply_impulse(id, impulse, point);
+                    if let Ok(j) = &applied {
+                        s.record_admin_edit(
+                            &operator,
+                            &format!("impulse {id} [{}, {}, {}] at {point:?}", j.x, j.y, j.z),
+                        );
+                    }
+                    applied
+                })
+                .await?
+                .map_err(|e| {
+                    let kind = match e {
+                        crate::rules::ContextError::UnknownEntity(_) => AdminErrorKind::NotFound,
+                        _ => AdminErrorKind::Invalid,
+                    };
+                    AdminError::new(kind, e.to_string())
+                })?;
                 Ok(AdminResponse::Ok)
             }
             AdminRequest::Seek { .. } => Err(unsupported("seeking")),
             AdminRequest::Reverse { .. } => Err(unsupported("playing backwards")),
             AdminRequest::Replay { .. } => Err(unsupported("replaying")),
-            AdminRequest::Record { .. } => Err(AdminError::new(
-                AdminErrorKind::Unsupported,
-                "this server does not record yet",
-            )),
             AdminRequest::Save { .. } | AdminRequest::Load { .. } => Err(AdminError::new(
                 AdminErrorKind::Unsupported,
                 "this server does not save or load worlds yet",
@@ -473,6 +543,21 @@ impl Session<'_> {
             )),
         }
     }
+}
+
+/// The hash recorded for `tick` in the recording at `dir` (read on a
+/// blocking thread, not a tokio worker).
+async fn recorded_hash(dir: std::path::PathBuf, tick: u64) -> Result<Option<u64>, AdminError> {
+    let io = |e: String| AdminError::new(AdminErrorKind::Io, e);
+    tokio::task::spawn_blocking(move || {
+        if !dir.exists() {
+            return Ok(None);
+        }
+        crate::record::RecordReader::open(&dir)?.hash_at(tick)
+    })
+    .await
+    .map_err(|e| io(e.to_string()))?
+    .map_err(|e| io(e.to_string()))
 }
 
 /// The status of the simulation now, read on the tick thread.
@@ -492,6 +577,6 @@ fn status_report(s: &mut Simulation) -> StatusReport {
         bodies: s.world().bodies().count() as u32,
         tick_ms_p99: s.tick_p99().as_secs_f64() * 1000.0,
         state_hash: s.state_hash(),
-        recording: false,
+        recording: s.recording(),
     }
 }
