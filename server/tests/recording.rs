@@ -25,11 +25,7 @@ const FLAT: &str = r#"(
 )"#;
 
 fn temp_dir(what: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "inertia-recording-{what}-{}-{:?}",
-        std::process::id(),
-        Instant::now()
-    ));
+    let dir = std::env::temp_dir().join(format!("inertia-recording-{what}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     dir
 }
@@ -278,5 +274,65 @@ fn the_tick_thread_records_and_its_shutdown_ends_with_a_keyframe() {
     let inputs = reader.inputs_between(0, 45).unwrap();
     assert_eq!(inputs.len(), 1);
     assert_eq!(inputs[0].1[0].0, 3);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn records_reach_the_disk_within_a_second_unasked() {
+    let dir = temp_dir("synced");
+    let recorder = Recorder::start(RecorderConfig::new(&dir), 0, None).unwrap();
+    for tick in 0..10 {
+        recorder
+            .send(Record::TickHash { tick, hash: tick })
+            .unwrap();
+    }
+    let deadline = Instant::now() + Duration::from_secs(3);
+    loop {
+        let n = RecordReader::open(&dir).unwrap().iter().count();
+        if n == 10 && recorder.stats().flushes.load(Ordering::Relaxed) >= 1 {
+            break;
+        }
+        assert!(Instant::now() < deadline, "{n} of 10 records on disk");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    recorder.stop();
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn an_older_run_past_the_new_start_is_moved_aside() {
+    let dir = temp_dir("aside");
+    let mut s = sim(config(&dir, 1000));
+    s.run_ticks(30);
+    s.finish_recording();
+    // A new run of the server starts again at tick 0.
+    let mut s = sim(config(&dir, 1000));
+    s.run_ticks(5);
+    s.finish_recording();
+    let reader = RecordReader::open(&dir).unwrap();
+    assert_eq!(reader.hash_at(5).unwrap(), Some(s.state_hash()));
+    assert_eq!(
+        reader.hash_at(30).unwrap(),
+        None,
+        "the old run is elsewhere"
+    );
+    let parent = dir.parent().unwrap();
+    let name = dir.file_name().unwrap().to_str().unwrap().to_string();
+    let aside: Vec<PathBuf> = std::fs::read_dir(parent)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with(&format!("{name}.")))
+        })
+        .collect();
+    assert_eq!(aside.len(), 1, "{aside:?}");
+    assert!(RecordReader::open(&aside[0])
+        .unwrap()
+        .hash_at(30)
+        .unwrap()
+        .is_some());
+    std::fs::remove_dir_all(&aside[0]).ok();
     std::fs::remove_dir_all(&dir).ok();
 }
