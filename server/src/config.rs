@@ -445,11 +445,15 @@ impl ServerConfig {
     }
 
     /// The recorder's settings (whether or not `record` is on: `record on`
-    /// can start it later).
+    /// can start it later). Segments are at most an eighth of the
+    /// retention limit (and at most the store's default), so retention,
+    /// which deletes whole segments, can keep within a small limit.
     pub fn recorder_config(&self) -> crate::record::RecorderConfig {
         crate::record::RecorderConfig {
             keyframe_ticks: self.keyframe_ticks,
             max_bytes: self.record_max_bytes,
+            segment_bytes: (self.record_max_bytes / 8)
+                .clamp(64 * 1024, crate::record::DEFAULT_SEGMENT_BYTES),
             ..crate::record::RecorderConfig::new(self.recording_dir())
         }
     }
@@ -739,6 +743,11 @@ mod tests {
         assert_eq!(c.record_max_bytes, 10_000_000);
         assert_eq!(c.recorder_config().keyframe_ticks, 120);
         assert_eq!(c.recorder_config().max_bytes, 10_000_000);
+        assert_eq!(c.recorder_config().segment_bytes, 1_250_000);
+        assert_eq!(
+            ServerConfig::default().recorder_config().segment_bytes,
+            crate::record::DEFAULT_SEGMENT_BYTES
+        );
         let c = ServerConfig::from_args(["s", "--record"], env_of(&[("INERTIA_RECORD", "false")]))
             .unwrap();
         assert!(

@@ -1,5 +1,6 @@
 //! The server process stops cleanly on SIGTERM: it tells connected clients
-//! it is shutting down, closes their connections and exits 0.
+//! it is shutting down, closes their connections, ends the recording with
+//! a keyframe and exits 0.
 
 #![cfg(unix)]
 
@@ -9,6 +10,7 @@ use std::time::{Duration, Instant};
 
 use inertia_client::{dev, BlockingClient};
 use inertia_protocol::control::DisconnectReason;
+use inertia_server::record::{Record, RecordReader};
 
 fn wait_for(what: &str, timeout: Duration, mut done: impl FnMut() -> bool) {
     let start = Instant::now();
@@ -73,5 +75,27 @@ fn sigterm_says_goodbye_to_clients_and_exits_zero() {
         std::thread::sleep(Duration::from_millis(20));
     };
     assert!(exit.success(), "exit status {exit:?}");
+    // The recording ends with a keyframe of the last tick, after that
+    // tick's hash.
+    let records: Vec<Record> = RecordReader::open(dir.join("recording"))
+        .expect("the recording")
+        .iter()
+        .collect::<Result<_, _>>()
+        .expect("an intact recording");
+    assert!(matches!(records[0], Record::SessionStart { tick: 0, .. }));
+    let last_hashed = records
+        .iter()
+        .rev()
+        .find_map(|r| match r {
+            Record::TickHash { tick, .. } => Some(*tick),
+            _ => None,
+        })
+        .expect("ticks were hashed");
+    assert!(last_hashed > 0);
+    assert!(
+        matches!(records.last(), Some(Record::Keyframe { tick, .. }) if *tick == last_hashed),
+        "the recording ends with {:?}",
+        records.last()
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
