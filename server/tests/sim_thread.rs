@@ -144,11 +144,19 @@ async fn async_join_and_frame_subscription() {
     assert_eq!(h.join(6).await, Err(Refusal::Full { max: 1 }));
     let mut rx = h.subscribe();
     let before = rx.borrow_and_update().tick;
-    tokio::time::timeout(Duration::from_secs(2), rx.changed())
-        .await
-        .unwrap()
-        .unwrap();
-    let f = rx.borrow().clone();
+    // A frame is also published when only the catalog changed (the join's
+    // avatar), so wait for one that carries a new tick.
+    let f = tokio::time::timeout(Duration::from_secs(2), async {
+        loop {
+            rx.changed().await.unwrap();
+            let f = rx.borrow_and_update().clone();
+            if f.tick > before {
+                break f;
+            }
+        }
+    })
+    .await
+    .expect("a new tick within 2 s");
     assert!(f.tick > before);
     assert!(f.events.iter().all(|(tick, _)| *tick <= f.tick));
     assert!(f.catalog.contains_key(&a));
