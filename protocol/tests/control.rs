@@ -7,7 +7,7 @@ use inertia_protocol::control::{
     FrameDecoder, GameEvent, Refusal, ServerControl, SnapshotParams, TokenRefusal,
     MAX_CONTROL_FRAME, PROTOCOL_VERSION,
 };
-use inertia_protocol::entity::{buttons, EntityDesc, EntityKind, PlayerInput, ShapeDesc};
+use inertia_protocol::entity::{buttons, EntityDesc, EntityKind, PlayerInput};
 use inertia_protocol::input::{quantize_input, InputBuffer, InputDatagram, MAX_REDUNDANT_INPUTS};
 use inertia_protocol::token::{
     mint, open, ConnectToken, ReplayGuard, TokenError, TokenKey, MAX_SERVER_ADDR_BYTES,
@@ -16,55 +16,10 @@ use inertia_protocol::token::{
 use proptest::collection::vec;
 use proptest::prelude::*;
 
+mod common;
+use common::{shape, size};
+
 const NOW: u64 = 1_750_000_000;
-
-fn size() -> impl Strategy<Value = f32> {
-    0.0f32..100.0
-}
-
-fn coord() -> impl Strategy<Value = f32> {
-    -1000.0f32..1000.0
-}
-
-fn point() -> impl Strategy<Value = [f32; 3]> {
-    [coord(), coord(), coord()]
-}
-
-fn leaf_shape() -> impl Strategy<Value = ShapeDesc> {
-    prop_oneof![
-        size().prop_map(|radius| ShapeDesc::Sphere { radius }),
-        [size(), size(), size()].prop_map(|half_extents| ShapeDesc::Cuboid { half_extents }),
-        (size(), size()).prop_map(|(half_height, radius)| ShapeDesc::Capsule {
-            half_height,
-            radius
-        }),
-        (size(), size()).prop_map(|(half_height, radius)| ShapeDesc::Cylinder {
-            half_height,
-            radius
-        }),
-        vec(point(), 0..20).prop_map(|points| ShapeDesc::ConvexHull { points }),
-        vec(point(), 1..20).prop_flat_map(|vertices| {
-            let n = vertices.len() as u32;
-            vec([0..n, 0..n, 0..n], 0..20).prop_map(move |triangles| ShapeDesc::TriMesh {
-                vertices: vertices.clone(),
-                triangles,
-            })
-        }),
-        size().prop_map(|radius| ShapeDesc::Particle { radius }),
-        Just(ShapeDesc::Ground),
-    ]
-}
-
-fn shape() -> impl Strategy<Value = ShapeDesc> {
-    prop_oneof![
-        3 => leaf_shape(),
-        1 => vec(
-            (point(), [coord(), coord(), coord(), coord()], leaf_shape()),
-            0..6
-        )
-        .prop_map(|parts| ShapeDesc::Compound { parts }),
-    ]
-}
 
 fn entity() -> impl Strategy<Value = EntityDesc> {
     (
