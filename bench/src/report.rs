@@ -253,30 +253,8 @@ pub fn median(xs: &[f64]) -> f64 {
 }
 
 /// SplitMix64 (Steele, Lea & Flood 2014): a tiny, fixed-seed generator for
-/// reproducible scenes. Not for anything that needs real randomness.
-#[derive(Debug, Clone)]
-pub struct SplitMix64(pub u64);
-
-impl SplitMix64 {
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)`.
-    pub fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-
-    /// Uniform in `[lo, hi)`.
-    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
-}
+/// reproducible scenes, shared with the protocol's tests and link.
+pub use inertia_protocol::rng::SplitMix as SplitMix64;
 
 #[cfg(test)]
 mod tests {
@@ -292,8 +270,8 @@ mod tests {
     fn splitmix_is_reproducible_and_in_range() {
         let (mut a, mut b) = (SplitMix64(7), SplitMix64(7));
         for _ in 0..1000 {
-            let x = a.unit();
-            assert_eq!(x, b.unit());
+            let x = a.uniform();
+            assert_eq!(x, b.uniform());
             assert!((0.0..1.0).contains(&x));
         }
     }

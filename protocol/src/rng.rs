@@ -1,5 +1,5 @@
 //! SplitMix64: the small deterministic generator behind the simulated
-//! link and the tests' random inputs.
+//! link, the tests' random inputs and the benchmark scenes.
 
 /// A SplitMix64 stream.
 #[derive(Debug, Clone)]
@@ -18,5 +18,10 @@ impl SplitMix {
     /// Uniform in [0, 1).
     pub fn uniform(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in `[lo, hi)`.
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.uniform()
     }
 }

@@ -43,7 +43,7 @@ pub fn plummer(n: usize, seed: u64) -> Vec<DVec3> {
     let mut out = Vec::with_capacity(n);
     while out.len() < n {
         // Inverse of the cumulative mass M(r) = r³ / (1 + r²)^{3/2}.
-        let u = rng.unit().max(1e-12);
+        let u = rng.uniform().max(1e-12);
         let r = 1.0 / (u.powf(-2.0 / 3.0) - 1.0).sqrt();
         if !(r.is_finite() && r < 10.0) {
             continue;

@@ -352,7 +352,7 @@ pub fn balls(name: String, n: usize, steps: usize) -> Scene {
 
 /// A uniformly random rotation (Shoemake's method).
 fn random_rotation(rng: &mut SplitMix64) -> DQuat {
-    let (u1, u2, u3) = (rng.unit(), rng.unit(), rng.unit());
+    let (u1, u2, u3) = (rng.uniform(), rng.uniform(), rng.uniform());
     let tau = std::f64::consts::TAU;
     let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
     DQuat::from_xyzw(
