@@ -5,8 +5,12 @@
 
 #![cfg(unix)]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use common::DevServer;
 use std::time::{Duration, Instant};
 
 fn admin(credentials: &Path, args: &[&str]) -> Output {
@@ -30,44 +34,11 @@ fn json(out: &Output) -> serde_json::Value {
     serde_json::from_str(&text).expect("JSON")
 }
 
-struct Server(std::process::Child, PathBuf);
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-        let _ = std::fs::remove_dir_all(&self.1);
-    }
-}
-
 #[test]
 fn status_pause_hash_and_refusals_from_the_command_line() {
-    let dir = std::env::temp_dir().join(format!("inertia-admin-cli-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/pyramid.json");
-    let child = Command::new(env!("CARGO_BIN_EXE_inertia-server"))
-        .args([
-            "--listen",
-            "127.0.0.1:0",
-            "--metrics",
-            "127.0.0.1:0",
-            "--data-dir",
-        ])
-        .arg(&dir)
-        .arg("--scene")
-        .arg(&scene)
-        .env("INERTIA_LOG", "warn")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("the server binary starts");
-    let _server = Server(child, dir.clone());
-    let credentials = dir.join("dev-credentials.json");
+    let server = DevServer::start("admin-cli");
+    let (dir, credentials) = (server.dir.clone(), server.credentials.clone());
     let start = Instant::now();
-    while !credentials.exists() {
-        assert!(start.elapsed() < Duration::from_secs(30), "no credentials");
-        std::thread::sleep(Duration::from_millis(20));
-    }
     // The file is written before the endpoint serves; retry briefly.
     let mut status = admin(&credentials, &["status", "--json"]);
     while !status.status.success() && start.elapsed() < Duration::from_secs(30) {

@@ -1,0 +1,73 @@
+//! Running the `inertia-server` binary in dev mode for the process tests.
+
+#![allow(dead_code)] // each test file uses its own subset
+
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Polls `done` every 20 ms until it holds; fails the test after
+/// `timeout`, naming `what`.
+pub fn wait_for(what: &str, timeout: Duration, mut done: impl FnMut() -> bool) {
+    let start = Instant::now();
+    while !done() {
+        assert!(start.elapsed() < timeout, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A dev-mode server process on ephemeral loopback ports with the pyramid
+/// scene, its data directory under the system's temporary folder. Dropping
+/// it kills the process and removes the directory.
+pub struct DevServer {
+    /// The process.
+    pub child: Child,
+    /// Its data directory.
+    pub dir: PathBuf,
+    /// Its dev credentials file (written once it has started).
+    pub credentials: PathBuf,
+}
+
+impl DevServer {
+    /// Starts the server (data directory named after `what`) and waits for
+    /// its credentials file.
+    pub fn start(what: &str) -> DevServer {
+        let dir = std::env::temp_dir().join(format!("inertia-{what}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/pyramid.json");
+        let child = Command::new(env!("CARGO_BIN_EXE_inertia-server"))
+            .args([
+                "--listen",
+                "127.0.0.1:0",
+                "--metrics",
+                "127.0.0.1:0",
+                "--data-dir",
+            ])
+            .arg(&dir)
+            .arg("--scene")
+            .arg(&scene)
+            .env("INERTIA_LOG", "warn")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("the server binary starts");
+        let credentials = dir.join("dev-credentials.json");
+        let server = DevServer {
+            child,
+            dir,
+            credentials,
+        };
+        wait_for("the credentials file", Duration::from_secs(30), || {
+            server.credentials.exists()
+        });
+        server
+    }
+}
+
+impl Drop for DevServer {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
