@@ -38,6 +38,30 @@ impl ParticleHandle {
     pub fn system(self) -> SystemHandle {
         self.system
     }
+
+    /// The handle as `[system index, system generation, slot, generation]`,
+    /// for storing beside a saved world.
+    pub fn to_raw(self) -> [u32; 4] {
+        [
+            self.system.index,
+            self.system.generation,
+            self.slot,
+            self.generation,
+        ]
+    }
+
+    /// A handle from [`ParticleHandle::to_raw`]'s numbers. A made-up one is
+    /// harmless: it looks up to `None`.
+    pub fn from_raw([index, system_generation, slot, generation]: [u32; 4]) -> Self {
+        Self {
+            system: SystemHandle {
+                index,
+                generation: system_generation,
+            },
+            slot,
+            generation,
+        }
+    }
 }
 
 impl SpringHandle {
@@ -80,4 +104,18 @@ pub struct JointHandle {
 pub struct BodyHandle {
     pub(crate) index: u32,
     pub(crate) generation: u32,
+}
+
+impl BodyHandle {
+    /// The handle as `[slot index, generation]`, for storing beside a
+    /// saved world ([`World::save`](crate::World::save) keeps both).
+    pub fn to_raw(self) -> [u32; 2] {
+        [self.index, self.generation]
+    }
+
+    /// A handle from [`BodyHandle::to_raw`]'s numbers. A made-up one is
+    /// harmless: it looks up to `None`.
+    pub fn from_raw([index, generation]: [u32; 2]) -> Self {
+        Self { index, generation }
+    }
 }

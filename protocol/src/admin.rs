@@ -325,6 +325,40 @@ pub struct StatusReport {
     pub state_hash: u64,
     /// True while keyframes and inputs are being recorded.
     pub recording: bool,
+    /// The live world's tick (equal to `tick` unless history is shown).
+    pub live_tick: u64,
+    /// What is shown.
+    pub mode: TimeMode,
+}
+
+/// What a server shows its clients.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum TimeMode {
+    /// The live world.
+    #[default]
+    Live,
+    /// A recorded tick, paused.
+    History,
+    /// History playing forward (it becomes live at the live tick).
+    Forward,
+    /// History playing backwards.
+    Reverse,
+    /// A replay of a stretch of history, after which the live world comes
+    /// back where it was left.
+    Replay,
+}
+
+impl TimeMode {
+    /// Its name in tools and logs.
+    pub fn name(self) -> &'static str {
+        match self {
+            TimeMode::Live => "live",
+            TimeMode::History => "history",
+            TimeMode::Forward => "forward",
+            TimeMode::Reverse => "reverse",
+            TimeMode::Replay => "replay",
+        }
+    }
 }
 
 /// Why a request was not carried out.

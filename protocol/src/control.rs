@@ -710,7 +710,10 @@ pub fn handshake(
 // entity.rs exactly (postcard encodes by position); the round-trip tests
 // pin that.
 
-fn deserialize_entity<'de, D: Deserializer<'de>>(d: D) -> Result<EntityDesc, D::Error> {
+/// Reads an [`EntityDesc`] with at most one level of compound in its
+/// shape, without recursing further however the bytes nest (for stored
+/// entity tables as well as spawns).
+pub fn deserialize_entity<'de, D: Deserializer<'de>>(d: D) -> Result<EntityDesc, D::Error> {
     WireEntityDesc::deserialize(d).map(Into::into)
 }
 

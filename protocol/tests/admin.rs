@@ -6,9 +6,9 @@
 use inertia_protocol::admin::{
     admin_handshake, credential_matches, AdminCall, AdminError, AdminErrorKind, AdminHandshake,
     AdminHello, AdminRefusal, AdminReply, AdminRequest, AdminResponse, AdminValidationError,
-    AdminWelcome, MassSpec, SpawnDesc, StatusReport, ADMIN_PROTOCOL_VERSION, MAX_ADMIN_ERROR_BYTES,
-    MAX_CREDENTIAL_BYTES, MAX_KICK_REASON_BYTES, MAX_OPERATOR_BYTES, MAX_PATH_BYTES,
-    MAX_TIME_SCALE,
+    AdminWelcome, MassSpec, SpawnDesc, StatusReport, TimeMode, ADMIN_PROTOCOL_VERSION,
+    MAX_ADMIN_ERROR_BYTES, MAX_CREDENTIAL_BYTES, MAX_KICK_REASON_BYTES, MAX_OPERATOR_BYTES,
+    MAX_PATH_BYTES, MAX_TIME_SCALE,
 };
 use inertia_protocol::control::{
     decode_payload, encode_frame, ControlError, ControlMessage, FrameDecoder,
@@ -133,12 +133,20 @@ fn status() -> impl Strategy<Value = StatusReport> {
             0.0f64..1e4,
             any::<u64>(),
             any::<bool>(),
+            any::<u64>(),
+            prop_oneof![
+                Just(TimeMode::Live),
+                Just(TimeMode::History),
+                Just(TimeMode::Forward),
+                Just(TimeMode::Reverse),
+                Just(TimeMode::Replay),
+            ],
         ),
     )
         .prop_map(
             |(
                 (tick, sim_time, wall_time_unix, time_scale, achieved_rate, paused),
-                (clients, bodies, tick_ms_p99, state_hash, recording),
+                (clients, bodies, tick_ms_p99, state_hash, recording, live_tick, mode),
             )| StatusReport {
                 tick,
                 sim_time,
@@ -151,6 +159,8 @@ fn status() -> impl Strategy<Value = StatusReport> {
                 tick_ms_p99,
                 state_hash,
                 recording,
+                live_tick,
+                mode,
             },
         )
 }
@@ -621,6 +631,8 @@ fn replies_and_hellos_are_bounded() {
         tick_ms_p99: 2.5,
         state_hash: 0xdead_beef,
         recording: true,
+        live_tick: 600,
+        mode: TimeMode::Live,
     };
     assert!(AdminResponse::Status(report).check().is_ok());
     let paused = StatusReport {

@@ -8,6 +8,7 @@ pub mod credentials;
 pub mod metrics;
 pub mod net;
 pub mod record;
+pub mod replay;
 pub mod rules;
 pub mod scene;
 pub mod server;

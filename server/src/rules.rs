@@ -518,6 +518,28 @@ pub trait GameRules: Send {
     fn events(&mut self) -> Vec<GameEvent> {
         Vec::new()
     }
+
+    /// Everything the rules remember between ticks (players, their latest
+    /// inputs, cooldowns, scores), as bytes. Keyframes and checkpoints
+    /// carry it, and seeking, `--resume` and `load` re-simulate from it,
+    /// so state left out here makes re-simulation differ from the
+    /// recording. Rules that remember nothing keep the default (empty).
+    fn save_state(&self) -> Vec<u8> {
+        Vec::new()
+    }
+
+    /// Replaces the rules' state with one from [`GameRules::save_state`].
+    /// On error nothing changes.
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        if bytes.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "these rules keep no state, but {} bytes were given",
+                bytes.len()
+            ))
+        }
+    }
 }
 
 /// Tuning of [`SandboxRules`].
@@ -573,8 +595,9 @@ impl Default for SandboxSettings {
     }
 }
 
-/// One client in the sandbox.
-#[derive(Debug, Clone, PartialEq)]
+/// One client in the sandbox (saved with the rules' state: field order is
+/// the format).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 struct Player {
     avatar: EntityId,
     /// The latest accepted (clamped) input.
@@ -873,6 +896,18 @@ impl GameRules for SandboxRules {
 
     fn events(&mut self) -> Vec<GameEvent> {
         std::mem::take(&mut self.events)
+    }
+
+    fn save_state(&self) -> Vec<u8> {
+        postcard::to_allocvec(&self.players).unwrap_or_default()
+    }
+
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let players: BTreeMap<ClientId, Player> =
+            postcard::from_bytes(bytes).map_err(|e| format!("sandbox players: {e}"))?;
+        self.players = players;
+        self.events.clear();
+        Ok(())
     }
 }
 

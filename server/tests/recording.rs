@@ -11,6 +11,9 @@ use std::time::{Duration, Instant};
 
 use inertia_protocol::PlayerInput;
 use inertia_server::record::{Record, RecordReader, Recorder, RecorderConfig};
+use inertia_server::replay::journal::{self, JournalEntry};
+use inertia_server::replay::verify::verify;
+use inertia_server::replay::SimState;
 use inertia_server::rules::SandboxRules;
 use inertia_server::scene::{Scene, SceneFormat};
 use inertia_server::sim::{SimConfig, SimHandle, Simulation};
@@ -75,13 +78,14 @@ fn every_tick_is_recorded_with_its_hash_inputs_and_keyframes() {
             sequence += 1;
             let inp = input(sequence, s.world().tick(), (i as f32 / 100.0).min(1.0));
             s.input(7, &inp).unwrap();
-            sent.push((s.world().tick() + 1, inp));
+            sent.push((s.world().tick(), inp));
         }
         s.run_ticks(1);
         hashes.push((s.world().tick(), s.state_hash()));
     }
     let last_state = s.world().save();
     let last_tick = s.world().tick();
+    let last_hash = s.state_hash();
     s.finish_recording();
     assert!(!s.recording());
 
@@ -126,20 +130,33 @@ fn every_tick_is_recorded_with_its_hash_inputs_and_keyframes() {
     match records.last().unwrap() {
         Record::Keyframe { tick, state } => {
             assert_eq!(*tick, last_tick);
-            assert_eq!(state, &last_state, "the final keyframe is the saved world");
+            let state = SimState::decode(state).unwrap();
+            assert_eq!(
+                state.world, last_state,
+                "the final keyframe holds the saved world"
+            );
+            assert_eq!(state.clients, vec![7]);
+            assert!(!state.rules.is_empty(), "and the rules' players");
         }
         r => panic!("last record {r:?}"),
     }
 
-    let inputs: Vec<(u64, PlayerInput)> = records
-        .iter()
-        .filter_map(|r| match r {
-            Record::Inputs { tick, inputs } => {
-                assert_eq!(inputs.len(), 1);
-                assert_eq!(inputs[0].0, 7, "the client's id");
-                Some((*tick, inputs[0].1))
+    // The join, then each input in the journal of the tick it was applied
+    // at (before that tick's step).
+    let mut journal: Vec<(u64, JournalEntry)> = Vec::new();
+    for r in &records {
+        if let Record::Journal { tick, entries } = r {
+            for e in journal::decode(*tick, entries).unwrap() {
+                journal.push((*tick, e));
             }
-            _ => None,
+        }
+    }
+    assert_eq!(journal[0], (0, JournalEntry::Join(7)));
+    let inputs: Vec<(u64, PlayerInput)> = journal[1..]
+        .iter()
+        .map(|(tick, e)| match e {
+            JournalEntry::Input(7, input) => (*tick, *input),
+            e => panic!("{e:?}"),
         })
         .collect();
     assert_eq!(inputs, sent, "each input at the tick that applied it");
@@ -148,13 +165,21 @@ fn every_tick_is_recorded_with_its_hash_inputs_and_keyframes() {
     let reader = RecordReader::open(&dir).unwrap();
     let (t, state) = reader.keyframe_at_or_before(60).unwrap().unwrap();
     assert_eq!(t, 50);
-    let mut world = Scene::parse(FLAT, SceneFormat::Ron)
-        .unwrap()
-        .build()
-        .unwrap()
-        .world;
-    world.restore(&state).unwrap();
-    assert_eq!(Some(world.state_hash()), reader.hash_at(50).unwrap());
+    let state = SimState::decode(&state).unwrap();
+    let restored = Simulation::from_state(
+        &state,
+        Box::new(SandboxRules::default()),
+        SimConfig::default(),
+    )
+    .unwrap();
+    assert_eq!(Some(restored.state_hash()), reader.hash_at(50).unwrap());
+
+    // Re-simulating the whole recording reaches every recorded hash.
+    let report = verify(&dir, || Box::new(SandboxRules::default()), |_, _| {}).unwrap();
+    assert!(report.ok(), "{:?}", report.mismatches);
+    assert_eq!(report.hashes_checked, 100);
+    assert_eq!(report.last_tick, last_tick);
+    let _ = last_hash;
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -271,9 +296,17 @@ fn the_tick_thread_records_and_its_shutdown_ends_with_a_keyframe() {
     let reader = RecordReader::open(&dir).unwrap();
     assert_eq!(reader.hash_at(45).unwrap(), Some(hash));
     assert_eq!(reader.keyframe_at_or_before(45).unwrap().unwrap().0, 45);
-    let inputs = reader.inputs_between(0, 45).unwrap();
-    assert_eq!(inputs.len(), 1);
-    assert_eq!(inputs[0].1[0].0, 3);
+    let journals: Vec<Vec<JournalEntry>> = reader
+        .iter()
+        .filter_map(|r| match r.unwrap() {
+            Record::Journal { tick, entries } => Some(journal::decode(tick, &entries).unwrap()),
+            _ => None,
+        })
+        .collect();
+    let entries: Vec<JournalEntry> = journals.into_iter().flatten().collect();
+    assert_eq!(entries.len(), 2, "{entries:?}");
+    assert_eq!(entries[0], JournalEntry::Join(3));
+    assert!(matches!(entries[1], JournalEntry::Input(3, _)));
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -25,7 +25,6 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use glam::DVec3;
 use inertia_protocol::admin::{
     admin_handshake, AdminCall, AdminError, AdminErrorKind, AdminHandshake, AdminHello,
     AdminRefusal, AdminReply, AdminRequest, AdminResponse, AdminWelcome, StatusReport,
@@ -35,7 +34,10 @@ use inertia_protocol::control::{encode_frame, ControlMessage, FrameDecoder};
 use tracing::{debug, info, warn};
 
 use crate::net::NetShared;
-use crate::sim::{CommandError, Simulation};
+use crate::replay::WorldEdit;
+use crate::sim::edit::EditOutcome;
+use crate::sim::timeline::TimeError;
+use crate::sim::{CommandError, EditError, Simulation};
 
 /// How long an admin tool has to say hello.
 pub const HELLO_TIMEOUT: Duration = Duration::from_secs(5);
@@ -310,13 +312,6 @@ fn unavailable(e: CommandError) -> AdminError {
     }
 }
 
-fn unsupported(what: &str) -> AdminError {
-    AdminError::new(
-        AdminErrorKind::Unsupported,
-        format!("{what} needs the recording, which this server does not keep yet"),
-    )
-}
-
 impl Session<'_> {
     /// Carries out one request, logs it and counts it.
     async fn answer(&self, request: &AdminRequest) -> AdminResponse {
@@ -376,12 +371,17 @@ impl Session<'_> {
                 Ok(AdminResponse::Ok)
             }
             AdminRequest::Resume => {
-                self.on_sim(|s| s.clock_mut().resume()).await?;
+                self.on_sim(|s| {
+                    s.play_forward();
+                    s.clock_mut().resume();
+                })
+                .await?;
                 Ok(AdminResponse::Ok)
             }
             AdminRequest::Step { ticks } => {
                 let ticks = *ticks;
                 self.on_sim(move |s| {
+                    s.play_forward();
                     s.clock_mut().pause();
                     s.clock_mut().step(ticks);
                 })
@@ -390,69 +390,114 @@ impl Session<'_> {
             }
             AdminRequest::Speed { scale } => {
                 let scale = *scale;
-                self.on_sim(move |s| s.clock_mut().set_time_scale(scale))
-                    .await?
-                    .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;
+                self.on_sim(move |s| {
+                    s.play_forward();
+                    s.clock_mut().set_time_scale(scale)
+                })
+                .await?
+                .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;
                 Ok(AdminResponse::Ok)
             }
             AdminRequest::RunTo { tick } => {
                 let tick = *tick;
-                self.on_sim(move |s| s.clock_mut().run_to(tick))
-                    .await?
-                    .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;
+                self.on_sim(move |s| {
+                    s.play_forward();
+                    s.clock_mut().run_to(tick)
+                })
+                .await?
+                .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;
                 Ok(AdminResponse::Ok)
             }
             AdminRequest::Hash { tick } => {
-                let (now, state_hash, flushed, dir) = self
+                let tick = *tick;
+                let report = self
+                    .on_sim(move |s| {
+                        let tick = tick.unwrap_or(s.world().tick());
+                        s.hash_at(tick)
+                    })
+                    .await?
+                    .map_err(time_error)?;
+                Ok(AdminResponse::Hash {
+                    tick: report.tick,
+                    state_hash: report.state_hash,
+                    recorded_hash: report.recorded_hash,
+                })
+            }
+            AdminRequest::Seek { tick } => {
+                let tick = *tick;
+                let report = self
+                    .on_sim(move |s| s.seek(tick))
+                    .await?
+                    .map_err(time_error)?;
+                Ok(AdminResponse::Hash {
+                    tick: report.tick,
+                    state_hash: report.state_hash,
+                    recorded_hash: report.recorded_hash,
+                })
+            }
+            AdminRequest::Reverse { speed } => {
+                let speed = *speed;
+                self.on_sim(move |s| s.reverse(speed))
+                    .await?
+                    .map_err(time_error)?;
+                Ok(AdminResponse::Ok)
+            }
+            AdminRequest::Replay { from, to, speed } => {
+                let (from, to, speed) = (*from, *to, *speed);
+                let report = self
+                    .on_sim(move |s| s.replay(from, to, speed))
+                    .await?
+                    .map_err(time_error)?;
+                Ok(AdminResponse::Hash {
+                    tick: report.tick,
+                    state_hash: report.state_hash,
+                    recorded_hash: report.recorded_hash,
+                })
+            }
+            AdminRequest::Save { path } => {
+                let path = std::path::PathBuf::from(path);
+                let (tick, bytes) = self
                     .on_sim(|s| {
-                        let flushed = s.recorder().map(|r| r.request_flush());
-                        let dir = s.recording_config().map(|c| c.dir.clone());
-                        (s.world().tick(), s.state_hash(), flushed, dir)
+                        let state = s.checkpoint();
+                        (state.tick, state.encode())
                     })
                     .await?;
-                let tick = tick.unwrap_or(now);
-                if tick > now {
-                    return Err(AdminError::new(
-                        AdminErrorKind::OutOfRange,
-                        format!("tick {tick} is in the future (the current tick is {now})"),
-                    ));
-                }
-                // Everything recorded so far is on disk before the lookup.
-                match flushed {
-                    Some(Ok(rx)) => {
-                        if let Ok(Err(e)) = rx.await {
-                            return Err(AdminError::new(AdminErrorKind::Io, e));
-                        }
-                    }
-                    Some(Err(e)) => {
-                        return Err(AdminError::new(AdminErrorKind::Busy, e.to_string()))
-                    }
-                    None => {}
-                }
-                let recorded_hash = match dir {
-                    Some(dir) => recorded_hash(dir, tick).await?,
-                    None => None,
-                };
-                if tick == now {
-                    return Ok(AdminResponse::Hash {
-                        tick,
-                        state_hash,
-                        recorded_hash,
-                    });
-                }
-                // A past tick: until seeking re-simulates it, the recorded
-                // hash is the only one there is.
-                match recorded_hash {
-                    Some(hash) => Ok(AdminResponse::Hash {
-                        tick,
-                        state_hash: hash,
-                        recorded_hash: Some(hash),
-                    }),
-                    None => Err(AdminError::new(
-                        AdminErrorKind::NotRecorded,
-                        format!("tick {tick} is not in the recording (the current tick is {now})"),
-                    )),
-                }
+                let written = path.clone();
+                tokio::task::spawn_blocking(move || {
+                    crate::replay::checkpoint::write(&written, &bytes)
+                })
+                .await
+                .map_err(|e| AdminError::new(AdminErrorKind::Io, e.to_string()))?
+                .map_err(|e| AdminError::new(AdminErrorKind::Io, e.to_string()))?;
+                info!(target: AUDIT, operator = %self.operator, tick, path = %path.display(), "checkpoint saved");
+                Ok(AdminResponse::Ok)
+            }
+            AdminRequest::Load { path } => {
+                let path = std::path::PathBuf::from(path);
+                let state =
+                    tokio::task::spawn_blocking(move || crate::replay::checkpoint::read(&path))
+                        .await
+                        .map_err(|e| AdminError::new(AdminErrorKind::Io, e.to_string()))?
+                        .map_err(|e| {
+                            let kind = match e {
+                                crate::replay::checkpoint::CheckpointError::Io { .. } => {
+                                    AdminErrorKind::Io
+                                }
+                                _ => AdminErrorKind::Invalid,
+                            };
+                            AdminError::new(kind, e.to_string())
+                        })?;
+                let operator = self.operator.clone();
+                let tick = state.tick;
+                let state_hash = self
+                    .on_sim(move |s| s.load(&state, &operator))
+                    .await?
+                    .map_err(|e| AdminError::new(AdminErrorKind::Invalid, e.to_string()))?;
+                Ok(AdminResponse::Hash {
+                    tick,
+                    state_hash,
+                    recorded_hash: None,
+                })
             }
             AdminRequest::Record { on } => {
                 let on = *on;
@@ -485,79 +530,65 @@ impl Session<'_> {
                 }
             }
             AdminRequest::Despawn { id } => {
-                let id = *id;
-                let operator = self.operator.clone();
-                let despawned = self
-                    .on_sim(move |s| {
-                        let done = s.despawn(id);
-                        if done {
-                            s.record_admin_edit(&operator, &format!("despawn {id}"));
-                        }
-                        done
-                    })
-                    .await?;
-                if despawned {
-                    Ok(AdminResponse::Ok)
-                } else {
-                    Err(AdminError::new(
-                        AdminErrorKind::NotFound,
-                        format!("no entity {id}"),
-                    ))
-                }
-            }
-            AdminRequest::Impulse { id, impulse, point } => {
-                let id = *id;
-                let impulse = DVec3::from_array(*impulse);
-                let point = point.map(DVec3::from_array);
-                let operator = self.operator.clone();
-                self.on_sim(move |s| {
-                    let applied = s.apply_impulse(id, impulse, point);
-                    if let Ok(j) = &applied {
-                        s.record_admin_edit(
-                            &operator,
-                            &format!("impulse {id} [{}, {}, {}] at {point:?}", j.x, j.y, j.z),
-                        );
-                    }
-                    applied
-                })
-                .await?
-                .map_err(|e| {
-                    let kind = match e {
-                        crate::rules::ContextError::UnknownEntity(_) => AdminErrorKind::NotFound,
-                        _ => AdminErrorKind::Invalid,
-                    };
-                    AdminError::new(kind, e.to_string())
-                })?;
+                let edit = WorldEdit::Despawn { id: *id };
+                self.edit(edit, format!("despawn {id}")).await?;
                 Ok(AdminResponse::Ok)
             }
-            AdminRequest::Seek { .. } => Err(unsupported("seeking")),
-            AdminRequest::Reverse { .. } => Err(unsupported("playing backwards")),
-            AdminRequest::Replay { .. } => Err(unsupported("replaying")),
-            AdminRequest::Save { .. } | AdminRequest::Load { .. } => Err(AdminError::new(
-                AdminErrorKind::Unsupported,
-                "this server does not save or load worlds yet",
-            )),
-            AdminRequest::Spawn { .. } => Err(AdminError::new(
-                AdminErrorKind::Unsupported,
-                "this server does not spawn bodies on request yet",
-            )),
+            AdminRequest::Impulse { id, impulse, point } => {
+                let edit = WorldEdit::Impulse {
+                    id: *id,
+                    impulse: *impulse,
+                    point: *point,
+                };
+                self.edit(edit, format!("impulse {id} {impulse:?} at {point:?}"))
+                    .await?;
+                Ok(AdminResponse::Ok)
+            }
+            AdminRequest::Spawn { desc } => {
+                let what = format!(
+                    "spawn {:?} {:?} at {:?}",
+                    desc.kind, desc.name, desc.position
+                );
+                let edit = WorldEdit::Spawn { desc: desc.clone() };
+                match self.edit(edit, what).await? {
+                    EditOutcome::Spawned(id) => Ok(AdminResponse::Spawned { id }),
+                    _ => Ok(AdminResponse::Ok),
+                }
+            }
         }
+    }
+
+    /// Applies a live edit on the tick thread, journaled and noted in the
+    /// recording's audit trail.
+    async fn edit(&self, edit: WorldEdit, what: String) -> Result<EditOutcome, AdminError> {
+        let operator = self.operator.clone();
+        self.on_sim(move |s| {
+            let outcome = s.edit(edit);
+            if outcome.is_ok() {
+                s.record_admin_edit(&operator, &what);
+            }
+            outcome
+        })
+        .await?
+        .map_err(|e| {
+            let kind = match e {
+                EditError::UnknownEntity(_) => AdminErrorKind::NotFound,
+                EditError::NotLive { .. } => AdminErrorKind::Busy,
+                _ => AdminErrorKind::Invalid,
+            };
+            AdminError::new(kind, e.to_string())
+        })
     }
 }
 
-/// The hash recorded for `tick` in the recording at `dir` (read on a
-/// blocking thread, not a tokio worker).
-async fn recorded_hash(dir: std::path::PathBuf, tick: u64) -> Result<Option<u64>, AdminError> {
-    let io = |e: String| AdminError::new(AdminErrorKind::Io, e);
-    tokio::task::spawn_blocking(move || {
-        if !dir.exists() {
-            return Ok(None);
-        }
-        crate::record::RecordReader::open(&dir)?.hash_at(tick)
-    })
-    .await
-    .map_err(|e| io(e.to_string()))?
-    .map_err(|e| io(e.to_string()))
+/// The admin error for a refused time-travel request.
+fn time_error(e: TimeError) -> AdminError {
+    let kind = match e {
+        TimeError::NoHistory | TimeError::NotRecorded { .. } => AdminErrorKind::NotRecorded,
+        TimeError::InTheFuture { .. } | TimeError::BadRange { .. } => AdminErrorKind::OutOfRange,
+        TimeError::State(_) | TimeError::World(_) => AdminErrorKind::Invalid,
+    };
+    AdminError::new(kind, e.to_string())
 }
 
 /// The status of the simulation now, read on the tick thread.
@@ -578,5 +609,7 @@ fn status_report(s: &mut Simulation) -> StatusReport {
         tick_ms_p99: s.tick_p99().as_secs_f64() * 1000.0,
         state_hash: s.state_hash(),
         recording: s.recording(),
+        live_tick: s.live_tick(),
+        mode: s.mode(),
     }
 }

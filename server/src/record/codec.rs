@@ -51,6 +51,16 @@ pub enum Record {
         /// The state hash.
         hash: u64,
     },
+    /// What changed the simulation while the world stood at `tick` —
+    /// joins, leaves, inputs and live edits, in the order applied (opaque
+    /// here: [`crate::replay::journal`] encodes it). Several may share a
+    /// tick; they follow each other.
+    Journal {
+        /// The tick the world stood at.
+        tick: u64,
+        /// The encoded entries.
+        entries: Vec<u8>,
+    },
     /// An administrator changed the world at `tick` (opaque here).
     AdminEdit {
         /// The tick the edit was applied at.
@@ -76,6 +86,8 @@ pub enum RecordKind {
     TickHash = 4,
     /// [`Record::AdminEdit`].
     AdminEdit = 5,
+    /// [`Record::Journal`].
+    Journal = 6,
 }
 
 impl RecordKind {
@@ -87,6 +99,7 @@ impl RecordKind {
             3 => Self::Inputs,
             4 => Self::TickHash,
             5 => Self::AdminEdit,
+            6 => Self::Journal,
             _ => return None,
         })
     }
@@ -100,6 +113,7 @@ impl Record {
             | Self::Keyframe { tick, .. }
             | Self::Inputs { tick, .. }
             | Self::TickHash { tick, .. }
+            | Self::Journal { tick, .. }
             | Self::AdminEdit { tick, .. } => *tick,
         }
     }
@@ -112,6 +126,7 @@ impl Record {
             Self::Inputs { .. } => RecordKind::Inputs,
             Self::TickHash { .. } => RecordKind::TickHash,
             Self::AdminEdit { .. } => RecordKind::AdminEdit,
+            Self::Journal { .. } => RecordKind::Journal,
         }
     }
 
@@ -124,6 +139,7 @@ impl Record {
             Self::Keyframe { state, .. } => n(state.len()),
             Self::Inputs { inputs, .. } => 4 + n(inputs.len()) * n(INPUT_ENTRY_BYTES),
             Self::TickHash { .. } => 8,
+            Self::Journal { entries, .. } => n(entries.len()),
             Self::AdminEdit { who, what, .. } => 4 + n(who.len()) + n(what.len()),
         }
     }
@@ -170,6 +186,7 @@ impl Record {
                 }
             }
             Self::TickHash { hash, .. } => out.extend_from_slice(&hash.to_le_bytes()),
+            Self::Journal { entries, .. } => out.extend_from_slice(entries),
             Self::AdminEdit { who, what, .. } => {
                 out.extend_from_slice(&(who.len() as u32).to_le_bytes());
                 out.extend_from_slice(who.as_bytes());
@@ -224,6 +241,10 @@ impl Record {
             RecordKind::TickHash => Self::TickHash {
                 tick,
                 hash: r.u64()?,
+            },
+            RecordKind::Journal => Self::Journal {
+                tick,
+                entries: r.take_rest().to_vec(),
             },
             RecordKind::AdminEdit => {
                 let len = r.u32()?;

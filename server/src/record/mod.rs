@@ -24,7 +24,7 @@
 //! header   0..4   magic  "IREC" (0x49 0x52 0x45 0x43)
 //!          4..8   u32    format version, 1
 //! frame    +0     u8     kind (1 SessionStart, 2 Keyframe, 3 Inputs,
-//!                        4 TickHash, 5 AdminEdit)
+//!                        4 TickHash, 5 AdminEdit, 6 Journal)
 //!          +1     u32    payload length n, bytes (≤ MAX_RECORD_BYTES)
 //!          +5     n      payload
 //!          +5+n   u32    CRC-32/IEEE of bytes +0 .. +5+n (kind, length
@@ -43,8 +43,16 @@
 //!               u8 buttons  (floats as their IEEE-754 bit patterns)
 //! TickHash      u64 tick, u64 state hash
 //! AdminEdit     u64 tick, u32 name length w, w bytes who (UTF-8),
-//!               the rest: the edit (opaque)
+//!               the rest: the edit (opaque, for people: the audit trail)
+//! Journal       u64 tick, the rest: what changed the simulation while
+//!               the world stood at that tick (opaque here; see
+//!               crate::replay::journal)
 //! ```
+//!
+//! The server writes `Journal` records (inputs along with joins, leaves
+//! and edits, in the order applied); `Inputs` is inputs alone, for tools
+//! that record nothing else. A keyframe's state is a
+//! [`crate::replay::SimState`] when the server wrote it.
 //!
 //! A payload must be consumed exactly; trailing bytes are corruption.
 //! Within a recording ticks never decrease; several records may share one.

@@ -23,14 +23,18 @@
 //! [`Simulation`] is that loop's state without the thread, for tests and
 //! tools that want to drive ticks by hand.
 //!
-//! While recording (see [`crate::record::recorder`]), each tick hands the
-//! recorder thread the inputs the rules accepted since the tick before
-//! (`Inputs`, when there were any), the tick's state hash (`TickHash`) and,
-//! every [`RecorderConfig::keyframe_ticks`] ticks, the saved world
-//! (`Keyframe`); a session starts with `SessionStart` and a keyframe, and
-//! the thread's shutdown ends it with a keyframe of the last tick. The tick
-//! thread never waits on the disk: a record the recorder cannot take stops
-//! the recording (a gap would break replay).
+//! While recording (see [`crate::record::recorder`]), everything that
+//! changes the simulation between ticks — joins, leaves, accepted inputs,
+//! live edits — goes into the tick's journal (`Journal` records, written
+//! once a loop and before each tick); after each tick the recorder gets
+//! its state hash (`TickHash`) and, every
+//! [`RecorderConfig::keyframe_ticks`] ticks, the whole
+//! [`SimState`](crate::replay::SimState) (`Keyframe`). A session starts
+//! with `SessionStart` and a keyframe; the thread's shutdown ends it with a
+//! keyframe of the last tick. The same records go into an in-memory
+//! [`History`] that seeking uses (see [`timeline`]). The tick thread never
+//! waits on the disk: a record the recorder cannot take stops the
+//! recording (a gap would break replay).
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -48,10 +52,16 @@ use crate::clock::{Clock, ClockError};
 use crate::config::ServerConfig;
 use crate::metrics::Metrics;
 use crate::record::{Record, Recorder, RecorderConfig};
+use crate::replay::{History, JournalEntry, SimState, StateError};
 use crate::rules::{
     ClientId, ControlLimits, GameEvent, GameRules, InputError, Refusal, RemovalReason, SimContext,
 };
 use crate::scene::{BuiltScene, EntityTable};
+
+pub mod edit;
+pub mod timeline;
+
+pub use edit::EditError;
 
 /// Events a [`Frame`] carries: the most recent ones, whatever frame they
 /// were first published in.
@@ -82,6 +92,8 @@ pub struct SimConfig {
     pub recording: Option<RecorderConfig>,
     /// Start recording as the simulation starts (needs `recording`).
     pub record_at_start: bool,
+    /// Most bytes of keyframes held in memory for seeking.
+    pub history_budget: usize,
 }
 
 impl Default for SimConfig {
@@ -105,6 +117,7 @@ impl From<&ServerConfig> for SimConfig {
             metrics: None,
             recording: None,
             record_at_start: false,
+            history_budget: crate::replay::DEFAULT_KEYFRAME_BUDGET,
         }
     }
 }
@@ -136,9 +149,16 @@ pub struct Frame {
     pub tick_duration: Duration,
     /// Loops that hit the catch-up cap so far.
     pub overruns: u64,
-    /// Clients in the game.
+    /// Clients in the game (live).
     pub clients: u32,
+    /// The live world's tick (equal to `tick` unless history is shown).
+    pub live_tick: u64,
+    /// What the clock is showing: live, or which way through history.
+    pub mode: TimeMode,
 }
+
+/// What the simulation is showing.
+pub use inertia_protocol::admin::TimeMode;
 
 /// A command to the tick thread.
 #[derive(Debug)]
@@ -255,13 +275,24 @@ pub struct Simulation {
     recording: Option<Recording>,
     /// A stopped recorder whose thread may still be writing out.
     retired: Option<Recorder>,
+    /// Journal entries of the current tick not yet handed to the recorder.
+    journal: Vec<JournalEntry>,
+    /// Journal entries of the current tick handed over so far.
+    journal_at_tick: u32,
+    /// The recording held in memory for seeking (kept when recording
+    /// stops, until a recording that cannot follow it starts).
+    history: Option<History>,
+    /// While history is shown: the live state, put aside.
+    view: Option<timeline::View>,
+    /// The entity table version the catalog was last made from.
+    catalog_seen: u64,
+    /// The shown state was swapped: remake the catalog.
+    catalog_stale: bool,
 }
 
 /// A session being recorded.
 struct Recording {
     recorder: Recorder,
-    /// Inputs accepted since the last tick, for the next tick's record.
-    inputs: Vec<(u64, PlayerInput)>,
 }
 
 impl std::fmt::Debug for Simulation {
@@ -303,6 +334,12 @@ impl Simulation {
             scene_name: scene.name,
             recording: None,
             retired: None,
+            journal: Vec::new(),
+            journal_at_tick: 0,
+            history: None,
+            view: None,
+            catalog_seen: catalog_version,
+            catalog_stale: false,
         };
         sim.update_gauges();
         if sim.config.record_at_start {
@@ -311,6 +348,34 @@ impl Simulation {
             }
         }
         sim
+    }
+
+    /// A simulation of a saved state (a keyframe or checkpoint), with a
+    /// world of the default configuration.
+    pub fn from_state(
+        state: &SimState,
+        rules: Box<dyn GameRules>,
+        config: SimConfig,
+    ) -> Result<Self, StateError> {
+        let world = World::new(inertia_physics::WorldConfig::default())
+            .map_err(|e| StateError::World(e.to_string()))?;
+        let scene = BuiltScene {
+            world,
+            entities: EntityTable::new(),
+            bodies_by_name: BTreeMap::new(),
+            spawn_points: state.spawn_points.clone(),
+            name: String::from("saved state"),
+        };
+        let mut sim = Simulation::new(
+            scene,
+            rules,
+            SimConfig {
+                record_at_start: false,
+                ..config
+            },
+        );
+        sim.restore(state)?;
+        Ok(sim)
     }
 
     /// Whether this tick's state is being recorded.
@@ -340,9 +405,16 @@ impl Simulation {
         if let Some(old) = self.retired.take() {
             old.stop();
         }
+        if self.view.is_some() {
+            return Err("history is being shown; go back to the live tick first".into());
+        }
         let tick = self.world.tick();
         let recorder = Recorder::start(config, tick, self.config.metrics.clone())
             .map_err(|e| e.to_string())?;
+        // Entries of this tick from before the session are in its keyframe.
+        self.journal.clear();
+        self.journal_at_tick = 0;
+        let state = Arc::new(self.capture(0).encode());
         let start = Record::SessionStart {
             tick,
             tick_hz: self.config.tick_hz,
@@ -350,17 +422,34 @@ impl Simulation {
         };
         let keyframe = Record::Keyframe {
             tick,
-            state: self.world.save(),
+            state: state.as_ref().clone(),
         };
         recorder
             .send(start)
             .and_then(|()| recorder.send(keyframe))
             .map_err(|e| e.to_string())?;
-        self.recording = Some(Recording {
-            recorder,
-            inputs: Vec::new(),
-        });
+        // A history that runs past this tick belonged to a recording that
+        // was moved aside; start afresh.
+        let budget = self.config.history_budget;
+        let history = self.history.get_or_insert_with(|| History::new(budget));
+        if history.range().is_some_and(|(_, last)| last > tick) {
+            *history = History::new(budget);
+        }
+        history.start_session(tick);
+        history.add_keyframe(tick, 0, state);
+        self.recording = Some(Recording { recorder });
         Ok(())
+    }
+
+    /// Continues an existing recording (after `--resume`): its history is
+    /// kept for seeking, and a new session starts at the current tick.
+    pub fn adopt_history(&mut self, history: History) {
+        self.history = Some(history);
+    }
+
+    /// The recording held in memory for seeking, if any.
+    pub fn history(&self) -> Option<&History> {
+        self.history.as_ref()
     }
 
     /// Stops recording (the recorder thread writes out and syncs what it
@@ -377,12 +466,14 @@ impl Simulation {
     /// Ends the recording with a keyframe of the current tick and waits
     /// until everything is on disk (shutdown).
     pub fn finish_recording(&mut self) {
+        if self.view.is_some() {
+            self.go_live();
+        }
+        self.flush_journal();
         if let Some(rec) = self.recording.take() {
             let tick = self.world.tick();
-            rec.recorder.finish(Some(Record::Keyframe {
-                tick,
-                state: self.world.save(),
-            }));
+            let state = self.capture(self.journal_at_tick).encode();
+            rec.recorder.finish(Some(Record::Keyframe { tick, state }));
             tracing::info!(tick, "recording ended with a keyframe");
         }
         if let Some(old) = self.retired.take() {
@@ -421,26 +512,121 @@ impl Simulation {
         }
     }
 
+    /// Notes a change to the live simulation in the current tick's journal
+    /// (while recording).
+    fn journal_push(&mut self, entry: JournalEntry) {
+        if self.recording.is_some() && self.view.is_none() {
+            self.journal.push(entry);
+        }
+    }
+
+    /// Hands the current tick's journal entries so far to the recorder
+    /// and the history.
+    pub fn flush_journal(&mut self) {
+        if self.journal.is_empty() {
+            return;
+        }
+        let entries = std::mem::take(&mut self.journal);
+        let tick = self.world.tick();
+        let bytes = crate::replay::journal::encode(tick, &entries);
+        if self.send_record(Record::Journal {
+            tick,
+            entries: bytes,
+        }) {
+            self.journal_at_tick += entries.len() as u32;
+            if let Some(h) = &mut self.history {
+                h.add_journal(tick, &entries);
+            }
+        }
+    }
+
     /// The records of the tick just run.
     fn record_tick(&mut self) {
-        let Some(rec) = &mut self.recording else {
+        self.journal_at_tick = 0;
+        let Some(rec) = &self.recording else {
             return;
         };
         let tick = self.world.tick();
         let keyframe_ticks = rec.recorder.config().keyframe_ticks.max(1);
-        if !rec.inputs.is_empty() {
-            let inputs = std::mem::take(&mut rec.inputs);
-            if !self.send_record(Record::Inputs { tick, inputs }) {
-                return;
-            }
-        }
         let hash = self.world.state_hash();
         if !self.send_record(Record::TickHash { tick, hash }) {
             return;
         }
+        if let Some(h) = &mut self.history {
+            h.add_hash(tick, hash);
+        }
         if tick % keyframe_ticks == 0 {
-            let state = self.world.save();
-            self.send_record(Record::Keyframe { tick, state });
+            let state = Arc::new(self.capture(0).encode());
+            if self.send_record(Record::Keyframe {
+                tick,
+                state: state.as_ref().clone(),
+            }) {
+                if let Some(h) = &mut self.history {
+                    h.add_keyframe(tick, 0, state);
+                }
+            }
+        }
+    }
+
+    /// The whole state of what is shown now, with `applied` entries of
+    /// the current tick's journal in it.
+    pub fn capture(&self, applied: u32) -> SimState {
+        SimState {
+            tick: self.world.tick(),
+            applied,
+            world: self.world.save(),
+            entities: self.entities.clone(),
+            spawn_points: self.spawn_points.clone(),
+            clients: self.clients.iter().copied().collect(),
+            rules: self.rules.save_state(),
+        }
+    }
+
+    /// The state to save in a checkpoint: the shown state, with every
+    /// journal entry of its tick applied so far.
+    pub fn checkpoint(&self) -> SimState {
+        let applied = if self.view.is_some() {
+            0
+        } else {
+            self.journal_at_tick + self.journal.len() as u32
+        };
+        self.capture(applied)
+    }
+
+    /// Makes `state` the shown state (the world, entities, clients, spawn
+    /// points and rules). On error nothing changes.
+    pub fn restore(&mut self, state: &SimState) -> Result<(), StateError> {
+        let old_rules = self.rules.save_state();
+        self.rules
+            .restore_state(&state.rules)
+            .map_err(StateError::Rules)?;
+        if let Err(e) = self.world.restore(&state.world) {
+            let _ = self.rules.restore_state(&old_rules);
+            return Err(StateError::World(e.to_string()));
+        }
+        self.entities = state.entities.clone();
+        self.spawn_points = state.spawn_points.clone();
+        self.clients = state.clients.iter().copied().collect();
+        self.clock = self.clock.clone().with_tick(state.tick);
+        self.catalog_stale = true;
+        self.update_gauges();
+        Ok(())
+    }
+
+    /// Applies one journal entry to the shown state (as it was applied
+    /// when recorded).
+    pub fn apply_entry(&mut self, entry: &JournalEntry) {
+        match entry {
+            JournalEntry::Join(client) => {
+                let _ = self.join_here(*client);
+            }
+            JournalEntry::Leave(client) => self.leave_here(*client),
+            JournalEntry::Input(client, input) => {
+                let _ = self.input_here(*client, input);
+            }
+            JournalEntry::Edit(edit) => {
+                let _ = self.edit_here(edit);
+            }
         }
     }
 
@@ -496,8 +682,20 @@ impl Simulation {
             .extend(events.into_iter().map(|e| (tick, e)));
     }
 
-    /// A client joins (refused when full or already in).
+    /// A client joins (refused when full or already in). While history
+    /// is shown the client joins the live world.
     pub fn join(&mut self, client: ClientId) -> Result<EntityId, Refusal> {
+        if self.view.is_some() {
+            return self.with_live(|s| s.join(client));
+        }
+        let r = self.join_here(client);
+        if r.is_ok() {
+            self.journal_push(JournalEntry::Join(client));
+        }
+        r
+    }
+
+    fn join_here(&mut self, client: ClientId) -> Result<EntityId, Refusal> {
         if self.clients.contains(&client) {
             return Err(Refusal::AlreadyJoined(client));
         }
@@ -515,8 +713,19 @@ impl Simulation {
         r
     }
 
-    /// A client leaves (unknown clients are ignored).
+    /// A client leaves (unknown clients are ignored). While history is
+    /// shown the client leaves the live world.
     pub fn leave(&mut self, client: ClientId) {
+        if self.view.is_some() {
+            return self.with_live(|s| s.leave(client));
+        }
+        if self.clients.contains(&client) {
+            self.leave_here(client);
+            self.journal_push(JournalEntry::Leave(client));
+        }
+    }
+
+    fn leave_here(&mut self, client: ClientId) {
         if self.clients.remove(&client) {
             self.with_ctx(|rules, ctx| rules.on_disconnect(client, ctx));
             self.collect_events();
@@ -524,18 +733,25 @@ impl Simulation {
         }
     }
 
-    /// A client's input, checked by the rules.
+    /// A client's input, checked by the rules. Inputs that arrive while
+    /// history is shown are dropped (the live world is not running).
     pub fn input(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputError> {
+        if self.view.is_some() {
+            return Err(InputError::NotJoined(client));
+        }
+        let r = self.input_here(client, input);
+        if r.is_ok() {
+            self.journal_push(JournalEntry::Input(client, *input));
+        }
+        r
+    }
+
+    fn input_here(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputError> {
         let r = if self.clients.contains(&client) {
             self.with_ctx(|rules, ctx| rules.on_input(client, input, ctx))
         } else {
             Err(InputError::NotJoined(client))
         };
-        if r.is_ok() {
-            if let Some(rec) = &mut self.recording {
-                rec.inputs.push((client, *input));
-            }
-        }
         if r.is_err() {
             self.stats.inputs_rejected.fetch_add(1, Ordering::Relaxed);
             if let Some(m) = &self.config.metrics {
@@ -547,7 +763,8 @@ impl Simulation {
 
     /// Runs one tick: rules, physics step, clean-up, rules.
     pub fn tick(&mut self) {
-        let _span = tracing::debug_span!("tick", tick = self.clock.tick() + 1).entered();
+        let _span = tracing::debug_span!("tick", tick = self.world.tick() + 1).entered();
+        self.flush_journal();
         let t0 = Instant::now();
         self.with_ctx(|rules, ctx| rules.before_tick(ctx));
         let dt = self.dt();
@@ -590,7 +807,9 @@ impl Simulation {
         self.with_ctx(|rules, ctx| rules.after_tick(ctx));
         self.collect_events();
         self.last_tick = t0.elapsed();
-        self.record_tick();
+        if self.view.is_none() {
+            self.record_tick();
+        }
         if self.recent_ticks.len() == TICK_WINDOW {
             self.recent_ticks.pop_front();
         }
@@ -607,7 +826,7 @@ impl Simulation {
     /// Runs `n` ticks now, whatever the clock says.
     pub fn run_ticks(&mut self, n: u64) {
         for _ in 0..n {
-            self.tick();
+            self.run_due(1);
         }
         self.update_gauges();
     }
@@ -617,9 +836,7 @@ impl Simulation {
     pub fn advance(&mut self, wall_elapsed: Duration) -> u32 {
         let before = self.clock.overruns();
         let n = self.clock.advance(wall_elapsed);
-        for _ in 0..n {
-            self.tick();
-        }
+        self.run_due(n);
         let now = Instant::now();
         if n > 0 {
             self.recent_runs.push_back((now, n));
@@ -679,45 +896,9 @@ impl Simulation {
         ran as f64 / span.as_secs_f64()
     }
 
-    /// Clients in the game.
+    /// Clients in the live game.
     pub fn client_count(&self) -> usize {
-        self.clients.len()
-    }
-
-    /// Removes an entity as the rules would ([`SimContext::despawn`]);
-    /// false if unknown.
-    pub fn despawn(&mut self, id: EntityId) -> bool {
-        let removed = self.with_ctx(|_, ctx| ctx.despawn(id));
-        if removed {
-            self.ctx_events.push(GameEvent::Removed {
-                entity: id,
-                reason: RemovalReason::Despawned,
-            });
-            self.collect_events();
-            self.update_gauges();
-        }
-        removed
-    }
-
-    /// Applies an impulse to an entity's body within the rules' limits
-    /// ([`SimContext::apply_impulse`]); `point` `None` is the centre of
-    /// mass. Returns the impulse applied.
-    pub fn apply_impulse(
-        &mut self,
-        id: EntityId,
-        impulse: DVec3,
-        point: Option<DVec3>,
-    ) -> Result<DVec3, crate::rules::ContextError> {
-        self.with_ctx(|_, ctx| {
-            let point = match point {
-                Some(p) => p,
-                None => ctx
-                    .body(id)
-                    .map(|b| b.center_of_mass())
-                    .ok_or(crate::rules::ContextError::UnknownEntity(id))?,
-            };
-            ctx.apply_impulse(id, impulse, point)
-        })
+        self.live_clients()
     }
 
     fn update_gauges(&self) {
@@ -743,9 +924,11 @@ impl Simulation {
             recent.drain(..excess);
             self.recent_events = Arc::new(recent);
         }
-        if self.entities.version() != self.catalog_version {
+        if self.catalog_stale || self.entities.version() != self.catalog_seen {
             self.catalog = Arc::new(self.entities.catalog());
-            self.catalog_version = self.entities.version();
+            self.catalog_seen = self.entities.version();
+            self.catalog_version += 1;
+            self.catalog_stale = false;
         }
         Frame {
             tick: self.world.tick(),
@@ -758,7 +941,9 @@ impl Simulation {
             events: self.recent_events.clone(),
             tick_duration: self.last_tick,
             overruns: self.clock.overruns(),
-            clients: self.clients.len() as u32,
+            clients: self.live_clients() as u32,
+            live_tick: self.live_tick(),
+            mode: self.mode(),
         }
     }
 

@@ -1,0 +1,344 @@
+//! The journal: everything that changed a simulation between two ticks, in
+//! the order it was applied — joins, leaves, accepted inputs and live
+//! edits. Re-simulating a recording applies the journal of tick T (what
+//! happened while the world stood at T) and then steps to T + 1; with the
+//! same state and the same journal the step is the same, bit for bit.
+//!
+//! # Encoding
+//!
+//! A journal payload is a varint count followed by the entries, each a tag
+//! byte and its fields. Varints are LEB128 (7 bits a byte, least
+//! significant first, at most 10 bytes); `zigzag` maps signed to unsigned.
+//!
+//! ```text
+//! 1 Join      varint client
+//! 2 Leave     varint client
+//! 3 Input     varint client, varint sequence, varint zigzag(input tick −
+//!             journal tick), 5 bytes: movement, yaw and buttons as the
+//!             wire packs them (inputs that came over the wire)
+//! 4 RawInput  varint client, varint sequence, u64 tick, f32 movement x,
+//!             f32 movement z, f32 yaw, u8 buttons (anything else, exactly)
+//! 5 Edit      varint length n, n bytes: the WorldEdit (postcard)
+//! ```
+//!
+//! An input takes about 11 bytes this way, against 34 written out in full.
+
+use inertia_protocol::admin::SpawnDesc;
+use inertia_protocol::input::{pack_input_body, unpack_input_body, PACKED_INPUT_BODY_BYTES};
+use inertia_protocol::{EntityId, PlayerInput};
+use serde::{Deserialize, Serialize};
+
+use crate::rules::ClientId;
+
+/// Most entries one journal payload may hold.
+pub const MAX_JOURNAL_ENTRIES: u64 = 1 << 20;
+/// Largest encoded edit, bytes.
+pub const MAX_EDIT_BYTES: u64 = 1 << 20;
+
+/// One change applied to a simulation between ticks.
+#[derive(Debug, Clone, PartialEq)]
+pub enum JournalEntry {
+    /// A client joined (the rules made its avatar).
+    Join(ClientId),
+    /// A client left.
+    Leave(ClientId),
+    /// The rules accepted an input from a client.
+    Input(ClientId, PlayerInput),
+    /// An operator edited the world.
+    Edit(Box<WorldEdit>),
+}
+
+/// An operator's live edit of the world, as replay applies it again.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum WorldEdit {
+    /// Remove an entity.
+    Despawn {
+        /// The entity.
+        id: EntityId,
+    },
+    /// Push an entity's body.
+    Impulse {
+        /// The entity.
+        id: EntityId,
+        /// The impulse asked for, N·s (the rules' limits apply again).
+        impulse: [f64; 3],
+        /// Where it acts, m; `None` the centre of mass.
+        point: Option<[f64; 3]>,
+    },
+    /// Add a body.
+    Spawn {
+        /// What was added.
+        desc: SpawnDesc,
+    },
+}
+
+/// Why a journal payload was refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("journal: {0}")]
+pub struct JournalError(pub String);
+
+fn err(what: impl Into<String>) -> JournalError {
+    JournalError(what.into())
+}
+
+fn put_varint(out: &mut Vec<u8>, mut v: u64) {
+    loop {
+        let byte = (v & 0x7F) as u8;
+        v >>= 7;
+        if v == 0 {
+            out.push(byte);
+            return;
+        }
+        out.push(byte | 0x80);
+    }
+}
+
+fn zigzag(v: i64) -> u64 {
+    ((v << 1) ^ (v >> 63)) as u64
+}
+
+fn unzigzag(v: u64) -> i64 {
+    ((v >> 1) as i64) ^ -((v & 1) as i64)
+}
+
+/// Encodes the entries applied while the world stood at `tick`.
+pub fn encode(tick: u64, entries: &[JournalEntry]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(2 + entries.len() * 12);
+    put_varint(&mut out, entries.len() as u64);
+    for e in entries {
+        match e {
+            JournalEntry::Join(c) => {
+                out.push(1);
+                put_varint(&mut out, *c);
+            }
+            JournalEntry::Leave(c) => {
+                out.push(2);
+                put_varint(&mut out, *c);
+            }
+            JournalEntry::Input(c, input) => match pack_input_body(input) {
+                Some(body) => {
+                    out.push(3);
+                    put_varint(&mut out, *c);
+                    put_varint(&mut out, u64::from(input.sequence));
+                    put_varint(&mut out, zigzag(input.tick.wrapping_sub(tick) as i64));
+                    out.extend_from_slice(&body);
+                }
+                None => {
+                    out.push(4);
+                    put_varint(&mut out, *c);
+                    put_varint(&mut out, u64::from(input.sequence));
+                    out.extend_from_slice(&input.tick.to_le_bytes());
+                    out.extend_from_slice(&input.movement[0].to_bits().to_le_bytes());
+                    out.extend_from_slice(&input.movement[1].to_bits().to_le_bytes());
+                    out.extend_from_slice(&input.yaw.to_bits().to_le_bytes());
+                    out.push(input.buttons);
+                }
+            },
+            JournalEntry::Edit(edit) => {
+                out.push(5);
+                let bytes = postcard::to_allocvec(edit).unwrap_or_default();
+                put_varint(&mut out, bytes.len() as u64);
+                out.extend_from_slice(&bytes);
+            }
+        }
+    }
+    out
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], JournalError> {
+        let end = self
+            .at
+            .checked_add(n)
+            .filter(|&e| e <= self.bytes.len())
+            .ok_or_else(|| err(format!("ends early at byte {}", self.at)))?;
+        let s = &self.bytes[self.at..end];
+        self.at = end;
+        Ok(s)
+    }
+
+    fn u8(&mut self) -> Result<u8, JournalError> {
+        Ok(self.take(1)?[0])
+    }
+
+    fn array<const N: usize>(&mut self) -> Result<[u8; N], JournalError> {
+        let mut a = [0u8; N];
+        a.copy_from_slice(self.take(N)?);
+        Ok(a)
+    }
+
+    fn varint(&mut self) -> Result<u64, JournalError> {
+        let mut v = 0u64;
+        for shift in (0..70).step_by(7) {
+            let byte = self.u8()?;
+            let bits = u64::from(byte & 0x7F);
+            if shift == 63 && bits > 1 {
+                return Err(err("a varint overflows 64 bits"));
+            }
+            v |= bits << shift;
+            if byte & 0x80 == 0 {
+                return Ok(v);
+            }
+        }
+        Err(err("a varint runs past 10 bytes"))
+    }
+
+    fn u32_varint(&mut self) -> Result<u32, JournalError> {
+        u32::try_from(self.varint()?).map_err(|_| err("a sequence number passes 32 bits"))
+    }
+}
+
+/// Decodes a journal payload written for `tick`. Counts and lengths are
+/// bounded; trailing bytes are refused.
+pub fn decode(tick: u64, bytes: &[u8]) -> Result<Vec<JournalEntry>, JournalError> {
+    let mut r = Reader { bytes, at: 0 };
+    let count = r.varint()?;
+    if count > MAX_JOURNAL_ENTRIES || count > bytes.len() as u64 {
+        return Err(err(format!("{count} entries cannot fit")));
+    }
+    let mut out = Vec::with_capacity(count as usize);
+    for _ in 0..count {
+        let entry = match r.u8()? {
+            1 => JournalEntry::Join(r.varint()?),
+            2 => JournalEntry::Leave(r.varint()?),
+            3 => {
+                let client = r.varint()?;
+                let sequence = r.u32_varint()?;
+                let input_tick = tick.wrapping_add(unzigzag(r.varint()?) as u64);
+                let body = r.array::<PACKED_INPUT_BODY_BYTES>()?;
+                let input = unpack_input_body(body, sequence, input_tick)
+                    .map_err(|e| err(format!("input of client {client}: {e}")))?;
+                JournalEntry::Input(client, input)
+            }
+            4 => {
+                let client = r.varint()?;
+                let sequence = r.u32_varint()?;
+                let input_tick = u64::from_le_bytes(r.array()?);
+                let mx = f32::from_bits(u32::from_le_bytes(r.array()?));
+                let mz = f32::from_bits(u32::from_le_bytes(r.array()?));
+                let yaw = f32::from_bits(u32::from_le_bytes(r.array()?));
+                let buttons = r.u8()?;
+                JournalEntry::Input(
+                    client,
+                    PlayerInput {
+                        sequence,
+                        tick: input_tick,
+                        movement: [mx, mz],
+                        yaw,
+                        buttons,
+                    },
+                )
+            }
+            5 => {
+                let n = r.varint()?;
+                if n > MAX_EDIT_BYTES {
+                    return Err(err(format!("an edit of {n} bytes is too large")));
+                }
+                let bytes = r.take(n as usize)?;
+                let edit: WorldEdit =
+                    postcard::from_bytes(bytes).map_err(|e| err(format!("edit: {e}")))?;
+                JournalEntry::Edit(Box::new(edit))
+            }
+            tag => return Err(err(format!("unknown entry tag {tag}"))),
+        };
+        out.push(entry);
+    }
+    if r.at != bytes.len() {
+        return Err(err(format!("{} trailing bytes", bytes.len() - r.at)));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use inertia_protocol::admin::MassSpec;
+    use inertia_protocol::input::quantize_input;
+    use inertia_protocol::{EntityKind, ShapeDesc};
+
+    fn input(seq: u32, tick: u64, mx: f32, yaw: f32, buttons: u8) -> PlayerInput {
+        PlayerInput {
+            sequence: seq,
+            tick,
+            movement: [mx, -0.25],
+            yaw,
+            buttons,
+        }
+    }
+
+    #[test]
+    fn entries_round_trip_bit_for_bit() {
+        let wire = quantize_input(&input(70_000, 995, 0.5, 1.0, 1));
+        let odd = input(3, 1_000_000, f32::NAN, -7.0, 0xFF);
+        let entries = vec![
+            JournalEntry::Join(7),
+            JournalEntry::Input(7, wire),
+            JournalEntry::Input(u64::MAX, odd),
+            JournalEntry::Edit(Box::new(WorldEdit::Impulse {
+                id: 4,
+                impulse: [1.0, 2.0, -3.5],
+                point: None,
+            })),
+            JournalEntry::Edit(Box::new(WorldEdit::Spawn {
+                desc: SpawnDesc {
+                    kind: EntityKind::Dynamic,
+                    shape: ShapeDesc::Sphere { radius: 0.5 },
+                    mass: MassSpec::Mass(3.0),
+                    position: [0.0, 5.0, 0.0],
+                    rotation: [0.0, 0.0, 0.0, 1.0],
+                    velocity: [0.0; 3],
+                    angular_velocity: [0.0; 3],
+                    color: [1, 2, 3, 4],
+                    name: "crate".into(),
+                },
+            })),
+            JournalEntry::Leave(7),
+        ];
+        let bytes = encode(1000, &entries);
+        let back = decode(1000, &bytes).unwrap();
+        assert_eq!(back.len(), entries.len());
+        // Compare inputs by bits (NaN != NaN).
+        for (a, b) in entries.iter().zip(&back) {
+            match (a, b) {
+                (JournalEntry::Input(ca, ia), JournalEntry::Input(cb, ib)) => {
+                    assert_eq!(ca, cb);
+                    assert_eq!(ia.sequence, ib.sequence);
+                    assert_eq!(ia.tick, ib.tick);
+                    assert_eq!(ia.movement.map(f32::to_bits), ib.movement.map(f32::to_bits));
+                    assert_eq!(ia.yaw.to_bits(), ib.yaw.to_bits());
+                    assert_eq!(ia.buttons, ib.buttons);
+                }
+                _ => assert_eq!(a, b),
+            }
+        }
+        // A wire input is compact.
+        let one = encode(1000, &[JournalEntry::Input(7, wire)]);
+        assert!(one.len() <= 12, "{} bytes", one.len());
+    }
+
+    #[test]
+    fn garbage_is_refused_without_panic() {
+        let good = encode(5, &[JournalEntry::Join(1), JournalEntry::Leave(1)]);
+        for cut in 0..good.len() {
+            assert!(decode(5, &good[..cut]).is_err(), "cut at {cut}");
+        }
+        let mut extra = good.clone();
+        extra.push(0);
+        assert!(decode(5, &extra).is_err());
+        assert!(decode(5, &[0xFF; 11]).is_err());
+        assert!(decode(5, &[1, 9]).is_err());
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for _ in 0..2000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let bytes: Vec<u8> = (0..(x % 40)).map(|i| (x >> (i % 8 * 8)) as u8).collect();
+            let _ = decode(x, &bytes);
+        }
+    }
+}

@@ -1,0 +1,199 @@
+//! Re-simulating a recording directory from its first keyframe and
+//! checking every stored hash (and every keyframe against the state
+//! re-simulation reached), for tools and tests.
+
+use std::path::Path;
+use std::time::Instant;
+
+use super::journal;
+use super::state::SimState;
+use crate::record::{Record, RecordReader};
+use crate::rules::GameRules;
+use crate::sim::{SimConfig, Simulation};
+
+/// What [`verify`] found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct VerifyReport {
+    /// Recording sessions seen.
+    pub sessions: u64,
+    /// First and last tick re-simulated.
+    pub first_tick: u64,
+    /// The last tick reached.
+    pub last_tick: u64,
+    /// Ticks re-simulated.
+    pub ticks: u64,
+    /// Stored hashes compared.
+    pub hashes_checked: u64,
+    /// Keyframes compared with the re-simulated state.
+    pub keyframes_checked: u64,
+    /// Ticks whose hash differed (the first few).
+    pub mismatches: Vec<(u64, u64, u64)>,
+    /// How many hashes differed in all.
+    pub mismatch_count: u64,
+    /// Wall time, s.
+    pub seconds: f64,
+}
+
+impl VerifyReport {
+    /// Ticks re-simulated per wall second.
+    pub fn ticks_per_second(&self) -> f64 {
+        if self.seconds > 0.0 {
+            self.ticks as f64 / self.seconds
+        } else {
+            0.0
+        }
+    }
+
+    /// True when every hash matched.
+    pub fn ok(&self) -> bool {
+        self.mismatch_count == 0
+    }
+}
+
+/// Why a recording could not be verified at all.
+#[derive(Debug, thiserror::Error)]
+pub enum VerifyError {
+    /// The store refused.
+    #[error(transparent)]
+    Record(#[from] crate::record::RecordError),
+    /// A keyframe or journal does not decode.
+    #[error("tick {tick}: {what}")]
+    Bad {
+        /// Where.
+        tick: u64,
+        /// What.
+        what: String,
+    },
+    /// No keyframe to start from.
+    #[error("the recording holds no keyframe")]
+    NoKeyframe,
+}
+
+/// Re-simulates the recording at `dir` under fresh rules from
+/// `make_rules`, checking every stored hash; `progress(tick, last)` is
+/// called now and then (`last` the recording's last tick).
+pub fn verify(
+    dir: &Path,
+    mut make_rules: impl FnMut() -> Box<dyn GameRules>,
+    mut progress: impl FnMut(u64, u64),
+) -> Result<VerifyReport, VerifyError> {
+    let started = Instant::now();
+    let reader = RecordReader::open(dir)?;
+    let last = reader
+        .segments()?
+        .iter()
+        .map(|s| s.last_tick)
+        .max()
+        .unwrap_or(0);
+    let mut report = VerifyReport::default();
+    let mut sim: Option<Simulation> = None;
+    // A new session restarts from its keyframe.
+    let mut fresh_session = true;
+    let mut pending: Vec<journal::JournalEntry> = Vec::new();
+    let mut skip: usize = 0;
+    for record in reader.iter() {
+        let record = record?;
+        match record {
+            Record::SessionStart { .. } => {
+                report.sessions += 1;
+                fresh_session = true;
+            }
+            Record::Keyframe { tick, state } => {
+                let bad = |what: String| VerifyError::Bad { tick, what };
+                let state = SimState::decode(&state).map_err(|e| bad(e.to_string()))?;
+                match &mut sim {
+                    Some(s) if !fresh_session => {
+                        // Catch up to the keyframe, then compare worlds.
+                        advance(s, &mut pending, &mut skip, tick, &mut report);
+                        if s.world().tick() == tick && state.applied == 0 {
+                            let mut probe = inertia_physics::World::new(*s.world().config())
+                                .map_err(|e| bad(e.to_string()))?;
+                            probe
+                                .restore(&state.world)
+                                .map_err(|e| bad(e.to_string()))?;
+                            report.keyframes_checked += 1;
+                            let (want, got) = (probe.state_hash(), s.state_hash());
+                            if want != got {
+                                note_mismatch(&mut report, tick, want, got);
+                            }
+                        }
+                    }
+                    _ => {
+                        let mut s =
+                            Simulation::from_state(&state, make_rules(), SimConfig::default())
+                                .map_err(|e| bad(e.to_string()))?;
+                        s.clock_mut().pause();
+                        if sim.is_none() {
+                            report.first_tick = tick;
+                        }
+                        skip = state.applied as usize;
+                        pending.clear();
+                        sim = Some(s);
+                        fresh_session = false;
+                    }
+                }
+            }
+            Record::Journal { tick, entries } => {
+                let entries = journal::decode(tick, &entries).map_err(|e| VerifyError::Bad {
+                    tick,
+                    what: e.to_string(),
+                })?;
+                if let Some(s) = &mut sim {
+                    advance(s, &mut pending, &mut skip, tick, &mut report);
+                    if s.world().tick() == tick {
+                        pending.extend(entries);
+                    }
+                }
+            }
+            Record::TickHash { tick, hash } => {
+                if let Some(s) = &mut sim {
+                    advance(s, &mut pending, &mut skip, tick, &mut report);
+                    if s.world().tick() == tick {
+                        report.hashes_checked += 1;
+                        let got = s.state_hash();
+                        if got != hash {
+                            note_mismatch(&mut report, tick, hash, got);
+                        }
+                    }
+                    if tick % 600 == 0 {
+                        progress(tick, last);
+                    }
+                }
+            }
+            Record::Inputs { .. } | Record::AdminEdit { .. } => {}
+        }
+    }
+    if let Some(s) = &sim {
+        report.last_tick = s.world().tick();
+    } else {
+        return Err(VerifyError::NoKeyframe);
+    }
+    progress(report.last_tick, last);
+    report.seconds = started.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// Steps `sim` up to `tick`, applying each tick's pending journal first.
+fn advance(
+    sim: &mut Simulation,
+    pending: &mut Vec<journal::JournalEntry>,
+    skip: &mut usize,
+    tick: u64,
+    report: &mut VerifyReport,
+) {
+    while sim.world().tick() < tick {
+        for e in pending.drain(..).skip(*skip) {
+            sim.apply_entry(&e);
+        }
+        *skip = 0;
+        sim.run_ticks(1);
+        report.ticks += 1;
+    }
+}
+
+fn note_mismatch(report: &mut VerifyReport, tick: u64, want: u64, got: u64) {
+    report.mismatch_count += 1;
+    if report.mismatches.len() < 16 {
+        report.mismatches.push((tick, want, got));
+    }
+}
