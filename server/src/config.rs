@@ -140,6 +140,10 @@ pub struct ConfigLayer {
     /// first (at least 1048576, default 2 GiB).
     #[arg(long)]
     pub record_max_bytes: Option<u64>,
+    /// Carry on from the recording in <data-dir>/recording (after a crash:
+    /// its newest keyframe, re-simulated to the last tick on disk).
+    #[arg(long, value_name = "BOOL", num_args = 0..=1, default_missing_value = "true")]
+    pub resume: Option<bool>,
 }
 
 /// The command line: a [`ConfigLayer`] plus `--config FILE`. `main` may
@@ -198,6 +202,8 @@ pub struct ServerConfig {
     pub keyframe_ticks: u64,
     /// Retention limit of the recording, bytes.
     pub record_max_bytes: u64,
+    /// Start from the recording instead of the scene's initial state.
+    pub resume: bool,
 }
 
 impl Default for ServerConfig {
@@ -220,6 +226,7 @@ impl Default for ServerConfig {
             record: true,
             keyframe_ticks: DEFAULT_KEYFRAME_TICKS,
             record_max_bytes: DEFAULT_RECORD_MAX_BYTES,
+            resume: false,
         }
     }
 }
@@ -376,6 +383,7 @@ impl ServerConfig {
             record: layer.record.unwrap_or(self.record),
             keyframe_ticks: layer.keyframe_ticks.unwrap_or(self.keyframe_ticks),
             record_max_bytes: layer.record_max_bytes.unwrap_or(self.record_max_bytes),
+            resume: layer.resume.unwrap_or(self.resume),
         }
     }
 
@@ -490,6 +498,7 @@ impl ConfigLayer {
             record: self.record.or(lower.record),
             keyframe_ticks: self.keyframe_ticks.or(lower.keyframe_ticks),
             record_max_bytes: self.record_max_bytes.or(lower.record_max_bytes),
+            resume: self.resume.or(lower.resume),
         }
     }
 }
@@ -548,6 +557,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         record: get(env, "INERTIA_RECORD")?,
         keyframe_ticks: get(env, "INERTIA_KEYFRAME_TICKS")?,
         record_max_bytes: get(env, "INERTIA_RECORD_MAX_BYTES")?,
+        resume: get(env, "INERTIA_RESUME")?,
     })
 }
 

@@ -12,7 +12,7 @@ use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::TokenKey;
 use tokio::sync::watch;
 use tokio::task::JoinHandle;
-use tracing::{info, warn};
+use tracing::{error, info, warn};
 
 use crate::config::ServerConfig;
 use crate::credentials::{self, CredentialFiles, CredentialsError};
@@ -20,7 +20,8 @@ use crate::metrics::{self, Metrics};
 use crate::net::{self, NetShared};
 use crate::rules::{GameRules, SandboxRules, SandboxSettings};
 use crate::scene::{demo::demo_scene, Scene, SceneError};
-use crate::sim::{Frame, SimConfig, SimHandle};
+use crate::sim::resume::read_for_resume;
+use crate::sim::{Frame, SimConfig, SimHandle, Simulation};
 
 /// Why the server could not start.
 #[derive(Debug, thiserror::Error)]
@@ -56,6 +57,9 @@ pub enum StartError {
     /// The simulation thread could not start.
     #[error("simulation thread: {0}")]
     Thread(std::io::Error),
+    /// `--resume` found nothing usable to resume from.
+    #[error("resume: {0}")]
+    Resume(#[from] crate::sim::resume::ResumeError),
 }
 
 /// A running server.
@@ -136,10 +140,32 @@ pub async fn start_with_rules(
     let sim_config = SimConfig {
         metrics: Some(metrics.clone()),
         recording: Some(config.recorder_config()),
-        record_at_start: config.record,
+        record_at_start: config.record && !config.resume,
         ..SimConfig::from(&config)
     };
-    let sim = SimHandle::spawn(built, rules, sim_config).map_err(StartError::Thread)?;
+    let history_budget = sim_config.history_budget;
+    let mut simulation = Simulation::new(built, rules, sim_config);
+    if config.resume {
+        let (history, cut) = read_for_resume(&config.recording_dir(), history_budget)?;
+        let report = simulation.resume(history, cut)?;
+        info!(
+            keyframe = report.keyframe_tick,
+            tick = report.tick,
+            resimulated = report.resimulated,
+            hashes_checked = report.hashes_checked,
+            mismatches = report.mismatches,
+            bytes_cut = report.bytes_cut,
+            seconds = report.seconds,
+            "resumed from the recording"
+        );
+        if config.record {
+            if let Err(e) = simulation.start_recording() {
+                error!(error = %e, "cannot record; running without a recording");
+            }
+        }
+        simulation.leave_all_after_resume();
+    }
+    let sim = SimHandle::run(simulation).map_err(StartError::Thread)?;
 
     let ready = Arc::new(AtomicBool::new(false));
     let metrics_listener = tokio::net::TcpListener::bind(config.metrics)

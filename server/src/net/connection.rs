@@ -9,6 +9,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use glam::DVec3;
+use inertia_protocol::admin::TimeMode;
 use inertia_protocol::control::{
     encode_frame, handshake, ClientControl, DisconnectReason, FrameDecoder, Refusal, ServerControl,
     SnapshotParams,
@@ -17,7 +18,7 @@ use inertia_protocol::input::{InputBuffer, InputDatagram};
 use inertia_protocol::interest::Interest;
 use inertia_protocol::priority::PriorityAccumulator;
 use inertia_protocol::snapshot::SnapshotEncoder;
-use inertia_protocol::EntityId;
+use inertia_protocol::{EntityId, EntityKind};
 use tracing::{debug, info, info_span, warn, Instrument};
 
 use super::events::to_wire;
@@ -295,7 +296,7 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
 async fn session(
     connection: &quinn::Connection,
     client: u64,
-    avatar: EntityId,
+    mut avatar: EntityId,
     send: &mut quinn::SendStream,
     recv: &mut quinn::RecvStream,
     frames: &mut FrameDecoder,
@@ -325,6 +326,12 @@ async fn session(
                 let frame = shared.sim.frame();
                 if let Err(e) = sync_catalog(send, &frame, &mut view, shared).await {
                     return End::Protocol(format!("control stream: {e}"));
+                }
+                if !frame.catalog.contains_key(&avatar) && frame.mode == TimeMode::Live {
+                    // A loaded checkpoint gave the client a new avatar.
+                    if let Some(id) = avatar_of(&frame, client) {
+                        avatar = id;
+                    }
                 }
                 if let Some(point) = interest_point(&frame, avatar) {
                     let mut interest = Interest::around(point, INTEREST_FULL_M, INTEREST_MAX_M);
@@ -438,6 +445,15 @@ async fn sync_catalog(
     view.events_up_to = view.events_up_to.max(frame.tick);
     shared.metrics.bytes_sent.inc_by(sent as u64);
     Ok(())
+}
+
+/// The avatar a client owns in a frame's catalog, if any.
+pub fn avatar_of(frame: &Frame, client: u64) -> Option<EntityId> {
+    frame
+        .catalog
+        .iter()
+        .find(|(_, d)| d.kind == EntityKind::Avatar && d.owner == Some(client))
+        .map(|(&id, _)| id)
 }
 
 /// The point of interest of a client: its avatar's position, if known.

@@ -126,7 +126,9 @@ pub fn verify(
                         if sim.is_none() {
                             report.first_tick = tick;
                         }
-                        skip = state.applied as usize;
+                        // Entries recorded before this keyframe are in it
+                        // (its `applied`); those after it are not.
+                        skip = 0;
                         pending.clear();
                         sim = Some(s);
                         fresh_session = false;

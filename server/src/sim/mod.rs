@@ -59,6 +59,7 @@ use crate::rules::{
 use crate::scene::{BuiltScene, EntityTable};
 
 pub mod edit;
+pub mod resume;
 pub mod timeline;
 
 pub use edit::EditError;
@@ -130,7 +131,8 @@ pub struct Frame {
     pub tick: u64,
     /// Simulation time, s (`tick × dt`).
     pub sim_time: f64,
-    /// Simulation seconds per wall second now (0 while paused).
+    /// Simulation seconds per wall second now (0 while paused; negative
+    /// while history plays backwards).
     pub time_scale: f64,
     /// Whether real-time ticking is paused.
     pub paused: bool,
@@ -288,6 +290,8 @@ pub struct Simulation {
     catalog_seen: u64,
     /// The shown state was swapped: remake the catalog.
     catalog_stale: bool,
+    /// Clients of a resumed state, to leave once recording has restarted.
+    pending_leaves: Vec<ClientId>,
 }
 
 /// A session being recorded.
@@ -340,6 +344,7 @@ impl Simulation {
             view: None,
             catalog_seen: catalog_version,
             catalog_stale: false,
+            pending_leaves: Vec::new(),
         };
         sim.update_gauges();
         if sim.config.record_at_start {
@@ -412,9 +417,23 @@ impl Simulation {
         let recorder = Recorder::start(config, tick, self.config.metrics.clone())
             .map_err(|e| e.to_string())?;
         // Entries of this tick from before the session are in its keyframe.
+        // A session that continues the history held (after `--resume`)
+        // counts the ones already recorded for this tick.
         self.journal.clear();
-        self.journal_at_tick = 0;
-        let state = Arc::new(self.capture(0).encode());
+        let budget = self.config.history_budget;
+        let history = self.history.get_or_insert_with(|| History::new(budget));
+        let continues = history.range().is_some_and(|(_, last)| last == tick);
+        if history.range().is_some_and(|(_, last)| last > tick) {
+            // It belonged to a recording that was moved aside.
+            *history = History::new(budget);
+        }
+        self.journal_at_tick = if continues {
+            history.journal_at(tick).len() as u32
+        } else {
+            0
+        };
+        let applied = self.journal_at_tick;
+        let state = Arc::new(self.capture(applied).encode());
         let start = Record::SessionStart {
             tick,
             tick_hz: self.config.tick_hz,
@@ -428,15 +447,12 @@ impl Simulation {
             .send(start)
             .and_then(|()| recorder.send(keyframe))
             .map_err(|e| e.to_string())?;
-        // A history that runs past this tick belonged to a recording that
-        // was moved aside; start afresh.
-        let budget = self.config.history_budget;
-        let history = self.history.get_or_insert_with(|| History::new(budget));
-        if history.range().is_some_and(|(_, last)| last > tick) {
-            *history = History::new(budget);
+        if let Some(history) = &mut self.history {
+            if !continues {
+                history.start_session(tick);
+            }
+            history.add_keyframe(tick, applied, state);
         }
-        history.start_session(tick);
-        history.add_keyframe(tick, 0, state);
         self.recording = Some(Recording { recorder });
         Ok(())
     }
@@ -906,10 +922,10 @@ impl Simulation {
         self.stats.bodies.store(bodies, Ordering::Relaxed);
         self.stats
             .clients
-            .store(self.clients.len() as u64, Ordering::Relaxed);
+            .store(self.live_clients() as u64, Ordering::Relaxed);
         if let Some(m) = &self.config.metrics {
             m.bodies.set(bodies as i64);
-            m.connected_clients.set(self.clients.len() as i64);
+            m.connected_clients.set(self.live_clients() as i64);
         }
     }
 
@@ -933,7 +949,11 @@ impl Simulation {
         Frame {
             tick: self.world.tick(),
             sim_time: self.world.time(),
-            time_scale: self.clock.time_scale(),
+            time_scale: match self.mode() {
+                // Clients play backwards where the scale is negative.
+                TimeMode::Reverse => -self.clock.time_scale(),
+                _ => self.clock.time_scale(),
+            },
             paused: self.clock.paused(),
             entities: self.entities.states(&self.world),
             catalog: self.catalog.clone(),
@@ -1007,9 +1027,14 @@ impl SimHandle {
         rules: Box<dyn GameRules>,
         config: SimConfig,
     ) -> std::io::Result<SimHandle> {
-        let (control_tx, control_rx) = mpsc::sync_channel(config.control_capacity.max(1));
-        let (input_tx, input_rx) = mpsc::sync_channel(config.input_capacity.max(1));
-        let mut sim = Simulation::new(scene, rules, config);
+        Self::run(Simulation::new(scene, rules, config))
+    }
+
+    /// Starts the tick thread on a simulation already set up (resumed from
+    /// a recording, say).
+    pub fn run(mut sim: Simulation) -> std::io::Result<SimHandle> {
+        let (control_tx, control_rx) = mpsc::sync_channel(sim.config.control_capacity.max(1));
+        let (input_tx, input_rx) = mpsc::sync_channel(sim.config.input_capacity.max(1));
         let stats = sim.stats();
         let (frame_tx, frame_rx) = watch::channel(Arc::new(sim.frame()));
         let thread = std::thread::Builder::new()

@@ -34,6 +34,13 @@ impl DevServer {
     pub fn start(what: &str) -> DevServer {
         let dir = std::env::temp_dir().join(format!("inertia-{what}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
+        Self::start_in(dir, &[])
+    }
+
+    /// Starts the server on an existing data directory with `extra`
+    /// arguments (`--resume`, say) and waits for its credentials file.
+    pub fn start_in(dir: PathBuf, extra: &[&str]) -> DevServer {
+        let _ = std::fs::remove_file(dir.join("dev-credentials.json"));
         let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/pyramid.json");
         let child = Command::new(env!("CARGO_BIN_EXE_inertia-server"))
             .args([
@@ -46,6 +53,7 @@ impl DevServer {
             .arg(&dir)
             .arg("--scene")
             .arg(&scene)
+            .args(extra)
             .env("INERTIA_LOG", "warn")
             .stdout(Stdio::null())
             .stderr(Stdio::null())
