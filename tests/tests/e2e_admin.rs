@@ -1,6 +1,7 @@
 //! The admin channel against a real server: status, pause, step, resume,
-//! speed, run-to, hash, kick, despawn and impulse do what they say;
-//! hellos without the credential, with a wrong one or with garbage, and
+//! speed, run-to, hash, kick, despawn, impulse and spawn do what they say;
+//! loads of a missing or garbage file and seeks into the future are
+//! refused and change nothing; hellos without the credential, with a wrong one or with garbage, and
 //! malformed calls after a good hello, are refused, logged and counted,
 //! and change nothing.
 
@@ -9,10 +10,11 @@ use std::time::{Duration, Instant};
 
 use inertia_client::Client;
 use inertia_protocol::admin::{
-    AdminErrorKind, AdminHandshake, AdminRefusal, AdminRequest, AdminResponse, StatusReport,
+    AdminErrorKind, AdminHandshake, AdminRefusal, AdminRequest, AdminResponse, MassSpec, SpawnDesc,
+    StatusReport, TimeMode,
 };
 use inertia_protocol::control::{encode_frame, DisconnectReason, FrameDecoder};
-use inertia_protocol::EntityId;
+use inertia_protocol::{EntityId, EntityKind, ShapeDesc};
 use inertia_server::admin::client::{
     connect_quic, read_credentials, AdminClient, AdminClientError,
 };
@@ -413,7 +415,7 @@ async fn malformed_calls_after_a_good_hello_change_nothing() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn kick_despawn_impulse_and_what_is_not_supported_yet() {
+async fn kick_despawn_impulse_spawn_and_refused_loads() {
     let server = start_server(test_config(Some("moving.ron"), "admin-kick")).await;
     let mut admin = admin(&server).await;
 
@@ -491,26 +493,82 @@ async fn kick_despawn_impulse_and_what_is_not_supported_yet() {
         AdminErrorKind::NotFound
     );
 
-    for request in [
-        AdminRequest::Seek { tick: 1 },
-        AdminRequest::Reverse { speed: 1.0 },
-        AdminRequest::Replay {
-            from: 1,
-            to: 2,
-            speed: 1.0,
+    // A crate spawned by the operator: it is named in the reply, counted,
+    // and reaches the clients' catalog with its description.
+    let bodies = status(&mut admin).await.bodies;
+    let desc = SpawnDesc {
+        kind: EntityKind::Dynamic,
+        shape: ShapeDesc::Cuboid {
+            half_extents: [0.5; 3],
         },
-        AdminRequest::Save {
-            path: "/tmp/x".into(),
-        },
-        AdminRequest::Load {
-            path: "/tmp/x".into(),
-        },
-    ] {
-        assert_eq!(
-            error_kind(&mut admin, request).await,
-            AdminErrorKind::Unsupported
-        );
-    }
+        mass: MassSpec::Mass(10.0),
+        position: [3.0, 4.0, 0.0],
+        rotation: [0.0, 0.0, 0.0, 1.0],
+        velocity: [0.0; 3],
+        angular_velocity: [0.0; 3],
+        color: [200, 100, 50, 255],
+        name: "crate".into(),
+    };
+    let id = match admin
+        .call(AdminRequest::Spawn { desc: desc.clone() })
+        .await
+        .expect("an answer")
+    {
+        AdminResponse::Spawned { id } => id,
+        other => panic!("expected Spawned, got {other:?}"),
+    };
+    assert_eq!(status(&mut admin).await.bodies, bodies + 1);
+    assert!(
+        wait_for(Duration::from_secs(2), || async {
+            server
+                .frame()
+                .catalog
+                .get(&id)
+                .is_some_and(|d| d.name == "crate" && d.kind == EntityKind::Dynamic)
+        })
+        .await
+    );
+    // A shape the engine cannot make is refused and adds nothing.
+    let ground = SpawnDesc {
+        shape: ShapeDesc::Ground,
+        ..desc
+    };
+    assert_eq!(
+        error_kind(&mut admin, AdminRequest::Spawn { desc: ground }).await,
+        AdminErrorKind::Invalid
+    );
+    assert_eq!(status(&mut admin).await.bodies, bodies + 1);
+
+    // Loads of a missing file or of garbage, and seeks into the future,
+    // are refused and change nothing.
+    let garbage = std::env::temp_dir().join(format!("inertia-garbage-{}", std::process::id()));
+    std::fs::write(&garbage, b"not a checkpoint").expect("write");
+    assert_eq!(
+        error_kind(
+            &mut admin,
+            AdminRequest::Load {
+                path: "/nonexistent/inertia.ckpt".into(),
+            }
+        )
+        .await,
+        AdminErrorKind::Io
+    );
+    assert_eq!(
+        error_kind(
+            &mut admin,
+            AdminRequest::Load {
+                path: garbage.display().to_string(),
+            }
+        )
+        .await,
+        AdminErrorKind::Invalid
+    );
+    std::fs::remove_file(&garbage).ok();
+    assert_eq!(
+        error_kind(&mut admin, AdminRequest::Seek { tick: u64::MAX / 2 }).await,
+        AdminErrorKind::OutOfRange
+    );
+    assert_eq!(status(&mut admin).await.mode, TimeMode::Live);
     assert_unchanged(&server).await;
     client.close().await;
     admin.close().await;

@@ -499,24 +499,34 @@ impl Session<'_> {
                     recorded_hash: None,
                 })
             }
-            AdminRequest::Record { on } => {
-                let on = *on;
+            AdminRequest::Record { on: true } => {
+                let io = |e: String| AdminError::new(AdminErrorKind::Io, e);
+                let Some(opening) = self.on_sim(|s| s.prepare_recording()).await?.map_err(io)?
+                else {
+                    return Ok(AdminResponse::Ok);
+                };
+                // The directory is opened (a torn tail read and cut) off
+                // the tick thread.
+                let recorder = tokio::task::spawn_blocking(move || opening.open())
+                    .await
+                    .unwrap_or_else(|e| Err(e.to_string()));
                 let operator = self.operator.clone();
                 self.on_sim(move |s| {
-                    if on {
-                        let was = s.recording();
-                        s.start_recording()?;
-                        if !was {
-                            s.record_admin_edit(&operator, "record on");
-                        }
-                    } else {
-                        s.record_admin_edit(&operator, "record off");
-                        s.stop_recording();
-                    }
+                    s.adopt_recorder(recorder)?;
+                    s.record_admin_edit(&operator, "record on");
                     Ok::<(), String>(())
                 })
                 .await?
-                .map_err(|e| AdminError::new(AdminErrorKind::Io, e))?;
+                .map_err(io)?;
+                Ok(AdminResponse::Ok)
+            }
+            AdminRequest::Record { on: false } => {
+                let operator = self.operator.clone();
+                self.on_sim(move |s| {
+                    s.record_admin_edit(&operator, "record off");
+                    s.stop_recording();
+                })
+                .await?;
                 Ok(AdminResponse::Ok)
             }
             AdminRequest::Kick { client, reason } => {

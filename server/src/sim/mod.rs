@@ -292,6 +292,30 @@ pub struct Simulation {
     catalog_stale: bool,
     /// Clients of a resumed state, to leave once recording has restarted.
     pending_leaves: Vec<ClientId>,
+    /// A recorder is being opened off the tick thread.
+    opening_recorder: bool,
+}
+
+/// A recorder being opened off the tick thread
+/// ([`Simulation::prepare_recording`]).
+#[derive(Debug)]
+pub struct RecorderOpening {
+    config: RecorderConfig,
+    first_tick: u64,
+    retired: Option<Recorder>,
+    metrics: Option<Metrics>,
+}
+
+impl RecorderOpening {
+    /// Waits for an earlier recorder to write out, then opens the
+    /// recording directory and starts the recorder thread (disk work: not
+    /// on the tick thread).
+    pub fn open(self) -> Result<Recorder, String> {
+        if let Some(old) = self.retired {
+            old.stop();
+        }
+        Recorder::start(self.config, self.first_tick, self.metrics).map_err(|e| e.to_string())
+    }
 }
 
 /// A session being recorded.
@@ -345,6 +369,7 @@ impl Simulation {
             catalog_seen: catalog_version,
             catalog_stale: false,
             pending_leaves: Vec::new(),
+            opening_recorder: false,
         };
         sim.update_gauges();
         if sim.config.record_at_start {
@@ -401,21 +426,51 @@ impl Simulation {
     /// Starts a recording session at the current tick: `SessionStart`,
     /// then a keyframe. Nothing happens when already recording.
     pub fn start_recording(&mut self) -> Result<(), String> {
+        match self.prepare_recording()? {
+            None => Ok(()),
+            Some(opening) => {
+                let recorder = opening.open();
+                self.adopt_recorder(recorder)
+            }
+        }
+    }
+
+    /// The first half of starting a recording without touching the disk
+    /// on the tick thread: what [`RecorderOpening::open`] needs (run it
+    /// elsewhere, then [`Simulation::adopt_recorder`]). `None` when
+    /// already recording.
+    pub fn prepare_recording(&mut self) -> Result<Option<RecorderOpening>, String> {
         if self.recording.is_some() {
-            return Ok(());
+            return Ok(None);
+        }
+        if self.opening_recorder {
+            return Err("a recording is being started already".into());
         }
         let Some(config) = self.config.recording.clone() else {
             return Err("this server has no recording directory".into());
         };
-        if let Some(old) = self.retired.take() {
-            old.stop();
-        }
         if self.view.is_some() {
             return Err("history is being shown; go back to the live tick first".into());
         }
+        self.opening_recorder = true;
+        Ok(Some(RecorderOpening {
+            config,
+            first_tick: self.world.tick(),
+            retired: self.retired.take(),
+            metrics: self.config.metrics.clone(),
+        }))
+    }
+
+    /// The second half: starts the session on the recorder opened (or
+    /// reports why it could not be).
+    pub fn adopt_recorder(&mut self, recorder: Result<Recorder, String>) -> Result<(), String> {
+        self.opening_recorder = false;
+        let recorder = recorder?;
+        if self.recording.is_some() || self.view.is_some() {
+            recorder.stop();
+            return Err("the simulation changed while the recording was being opened".into());
+        }
         let tick = self.world.tick();
-        let recorder = Recorder::start(config, tick, self.config.metrics.clone())
-            .map_err(|e| e.to_string())?;
         // Entries of this tick from before the session are in its keyframe.
         // A session that continues the history held (after `--resume`)
         // counts the ones already recorded for this tick.
