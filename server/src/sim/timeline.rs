@@ -482,6 +482,8 @@ impl Simulation {
             self.restore(&state)?;
             (k.tick, k.applied as usize)
         };
+        // Events of the ticks passed over are not news to anyone.
+        let events_before = self.pending_events.len();
         let mut resimulated = 0;
         while self.world.tick() < target {
             let t = self.world.tick();
@@ -492,27 +494,25 @@ impl Simulation {
             self.tick();
             resimulated += 1;
             let now = self.world.tick();
-            if cache_from.is_some_and(|c| now >= c) {
+            // Reverse play keeps the block below the target, and an anchor
+            // every block on the way, so the next block starts near.
+            if cache_from.is_some_and(|c| now >= c || now % REVERSE_BLOCK == 0) {
                 let state = self.capture(0);
                 if let Some(v) = &mut self.view {
                     v.cache.insert(now, state);
                 }
             }
         }
+        self.pending_events.truncate(events_before);
+        self.ctx_events.clear();
         if let Some(v) = &mut self.view {
             v.clean = true;
-            while v.cache.len() > CACHE_STATES {
-                // Drop the state furthest from the target.
-                let (lo, hi) = (
-                    v.cache.first_key_value().map(|(&t, _)| t),
-                    v.cache.last_key_value().map(|(&t, _)| t),
-                );
-                let far = match (lo, hi) {
-                    (Some(lo), Some(hi)) if target.abs_diff(lo) >= target.abs_diff(hi) => lo,
-                    (_, Some(hi)) => hi,
-                    _ => break,
-                };
-                v.cache.remove(&far);
+            if cache_from.is_some() {
+                // Playing backwards: what is above the target was shown.
+                let _shown = v.cache.split_off(&(target + 1));
+                while v.cache.len() > CACHE_STATES {
+                    v.cache.pop_first();
+                }
             }
         }
         self.clock = self.clock.clone().with_tick(target);
