@@ -1,6 +1,7 @@
 //! `inertia-admin` against the server process: `status --json` and
 //! `hash --json` print the fields scripts read, a paused world hashes the
-//! same twice, and a wrong credential or a bad argument exits non-zero
+//! same twice, a seek says whether the hash it reached matches the
+//! recording, and a wrong credential or a bad argument exits non-zero
 //! with a message.
 
 #![cfg(unix)]
@@ -56,11 +57,14 @@ fn status_pause_hash_and_refusals_from_the_command_line() {
         "state_hash",
         "achieved_rate",
         "tick_ms_p99",
+        "live_tick",
+        "mode",
     ] {
         assert!(s.get(field).is_some(), "status lacks {field}: {s}");
     }
     assert_eq!(s["time_scale"], 1.0);
     assert_eq!(s["paused"], false);
+    assert_eq!(s["mode"], "live");
     assert!(s["bodies"].as_u64().expect("a count") > 0);
 
     assert_eq!(json(&admin(&credentials, &["pause", "--json"]))["ok"], true);
@@ -78,7 +82,27 @@ fn status_pause_hash_and_refusals_from_the_command_line() {
     // Human output by default.
     let out = admin(&credentials, &["status"]);
     assert!(out.status.success());
-    assert!(String::from_utf8_lossy(&out.stdout).contains("state hash"));
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(text.contains("state hash"), "{text}");
+    assert!(text.contains("mode live, live tick"), "{text}");
+
+    // A seek answers the hash reached and whether it matches the recording.
+    let live = h1["tick"].as_u64().expect("a tick");
+    let back = (live - 1).to_string();
+    let seek = json(&admin(&credentials, &["seek", &back, "--json"]));
+    assert_eq!(seek["tick"], live - 1);
+    assert_eq!(seek["matches"], true, "{seek}");
+    assert!(seek["recorded_hash"].as_u64().is_some());
+    let s = json(&admin(&credentials, &["status", "--json"]));
+    assert_eq!(s["mode"], "history");
+    assert_eq!(s["live_tick"], live);
+    let out = admin(&credentials, &["seek", &back]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        text.contains(&format!("tick {back}")) && text.contains("matches"),
+        "{text}"
+    );
 
     // A bad argument, a server error and a wrong credential: non-zero,
     // with a message.

@@ -1,8 +1,13 @@
 //! `inertia-admin`: an operator's commands to a running server over the
-//! admin channel. Reads the dev credentials file by default; prints for
-//! people, or one JSON object per command with `--json`. Exits 0 when the
-//! server did what was asked, 1 when it answered with an error, 2 when it
-//! could not be reached or refused the credential.
+//! admin channel, and offline tools for recording directories
+//! (`replay-file`, see [`replay_file`]). Reads the dev credentials file by
+//! default; prints for people, or one JSON object per command with
+//! `--json`. Exits 0 when the server did what was asked, 1 when it
+//! answered with an error (or a recording is damaged or does not
+//! re-simulate), 2 when it could not be reached, refused the credential or
+//! the command was misused.
+
+mod replay_file;
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -139,13 +144,35 @@ enum Cmd {
         /// The tick.
         tick: Option<u64>,
     },
+    /// Offline tools for a recording directory (no server needed).
+    #[command(subcommand)]
+    ReplayFile(replay_file::ReplayFileCmd),
 }
 
 /// A failure, with the exit code it gives.
 struct Failure {
+    /// The exit status: 1 for a server or data error, 2 for misuse or an
+    /// unreachable server.
     code: u8,
+    /// A short machine-readable name (`--json`'s `error.kind`).
     kind: &'static str,
+    /// What happened, for people.
     message: String,
+}
+
+impl Failure {
+    /// Reports the failure (a JSON error object on stdout with `--json`,
+    /// the message on stderr always) and gives its exit status.
+    fn report(&self, json: bool) -> ExitCode {
+        if json {
+            println!(
+                "{}",
+                json!({ "error": { "kind": self.kind, "message": self.message } })
+            );
+        }
+        eprintln!("inertia-admin: {}", self.message);
+        ExitCode::from(self.code)
+    }
 }
 
 impl From<AdminClientError> for Failure {
@@ -202,6 +229,9 @@ fn request(cmd: &Cmd) -> Result<AdminRequest, Failure> {
             reason: reason.clone(),
         },
         Cmd::Hash { tick } => AdminRequest::Hash { tick: *tick },
+        Cmd::ReplayFile(_) => {
+            return Err(usage("replay-file works offline, not on a server".into()))
+        }
     })
 }
 
@@ -218,12 +248,15 @@ fn status_json(s: &StatusReport) -> serde_json::Value {
         "tick_ms_p99": s.tick_ms_p99,
         "state_hash": s.state_hash,
         "recording": s.recording,
+        "live_tick": s.live_tick,
+        "mode": s.mode.name(),
     })
 }
 
 fn status_text(s: &StatusReport, tick_hz: u32) -> String {
     format!(
         "tick {} (sim time {:.3} s)\n\
+         mode {}, live tick {}\n\
          time scale {} ({}), achieved {:.1} ticks/s ({:.2}×)\n\
          clients {}, bodies {}\n\
          tick p99 {:.3} ms\n\
@@ -231,6 +264,8 @@ fn status_text(s: &StatusReport, tick_hz: u32) -> String {
          recording {}",
         s.tick,
         s.sim_time,
+        s.mode.name(),
+        s.live_tick,
         s.time_scale,
         if s.paused { "paused" } else { "running" },
         s.achieved_rate,
@@ -273,16 +308,7 @@ async fn run(args: &Args) -> Result<(serde_json::Value, String), Failure> {
             tick,
             state_hash,
             recorded_hash,
-        } => (
-            json!({ "tick": tick, "state_hash": state_hash, "recorded_hash": recorded_hash }),
-            match recorded_hash {
-                Some(r) => format!(
-                    "tick {tick}: state hash {state_hash:016x}, recorded {r:016x}{}",
-                    if r == state_hash { "" } else { " (differs)" }
-                ),
-                None => format!("tick {tick}: state hash {state_hash:016x}"),
-            },
-        ),
+        } => hash_output(&args.command, tick, state_hash, recorded_hash),
         AdminResponse::Spawned { id } => (
             json!({ "ok": true, "spawned": id }),
             format!("spawned entity {id}"),
@@ -319,6 +345,46 @@ async fn run(args: &Args) -> Result<(serde_json::Value, String), Failure> {
     Ok(out)
 }
 
+/// What a [`AdminResponse::Hash`] prints: for `hash`, the tick and its
+/// hashes; for `seek`, `replay` and `load` (which answer with the tick
+/// they reached), the same object plus `matches` (whether the state hash
+/// equals the recorded one; null when nothing was recorded for the tick).
+fn hash_output(
+    cmd: &Cmd,
+    tick: u64,
+    state_hash: u64,
+    recorded_hash: Option<u64>,
+) -> (serde_json::Value, String) {
+    let mut value =
+        json!({ "tick": tick, "state_hash": state_hash, "recorded_hash": recorded_hash });
+    let reached = match cmd {
+        Cmd::Seek { .. } => "at",
+        Cmd::Replay { .. } => "replaying from",
+        Cmd::Load { .. } => "loaded",
+        _ => {
+            let text = match recorded_hash {
+                Some(r) => format!(
+                    "tick {tick}: state hash {state_hash:016x}, recorded {r:016x}{}",
+                    if r == state_hash { "" } else { " (differs)" }
+                ),
+                None => format!("tick {tick}: state hash {state_hash:016x}"),
+            };
+            return (value, text);
+        }
+    };
+    let matches = recorded_hash.map(|r| r == state_hash);
+    value["matches"] = json!(matches);
+    let verdict = match (recorded_hash, matches) {
+        (Some(r), Some(true)) => format!("recorded {r:016x}: matches"),
+        (Some(r), _) => format!("recorded {r:016x}: DIFFERS"),
+        (None, _) => "no recorded hash to compare".to_string(),
+    };
+    (
+        value,
+        format!("{reached} tick {tick}: state hash {state_hash:016x}, {verdict}"),
+    )
+}
+
 fn done_text(cmd: &Cmd) -> String {
     match cmd {
         Cmd::Pause => "paused".into(),
@@ -334,6 +400,9 @@ fn done_text(cmd: &Cmd) -> String {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    if let Cmd::ReplayFile(cmd) = &args.command {
+        return replay_file::run(cmd, args.json);
+    }
     let runtime = match tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -353,15 +422,6 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Err(f) => {
-            if args.json {
-                println!(
-                    "{}",
-                    json!({ "error": { "kind": f.kind, "message": f.message } })
-                );
-            }
-            eprintln!("inertia-admin: {}", f.message);
-            ExitCode::from(f.code)
-        }
+        Err(f) => f.report(args.json),
     }
 }
