@@ -48,7 +48,7 @@ fn kill_9_then_resume_loses_at_most_a_second() {
     let dir = server.dir.clone();
     let credentials = server.credentials.clone();
     // Some history, with an edit in it (the pyramid's first box gets a shove).
-    let s = json(&credentials, &["status", "--json"]);
+    assert_eq!(json(&credentials, &["status", "--json"])["mode"], "live");
     let _ = admin(&credentials, &["impulse", "1", "0", "400", "0"]);
     wait_for("three seconds of ticks", Duration::from_secs(30), || {
         json(&credentials, &["status", "--json"])["tick"]

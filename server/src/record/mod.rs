@@ -36,7 +36,8 @@
 //! ```text
 //! SessionStart  u64 tick, u32 tick_hz (Hz), u32 scene length s,
 //!               s bytes scene name (UTF-8)
-//! Keyframe      u64 tick, the rest: the world's saved state
+//! Keyframe      u64 tick, the rest: the saved state (the server's: a
+//!               SimState packed with zstd, see [`compress`])
 //! Inputs        u64 tick, u32 count c, then c entries of 33 bytes:
 //!               u64 client id, u32 input sequence, u64 input's tick,
 //!               f32 movement x, f32 movement z, f32 yaw (rad),
@@ -92,6 +93,7 @@
 //! ```
 
 mod codec;
+pub mod compress;
 pub mod crc32;
 mod error;
 mod frame;

@@ -307,6 +307,17 @@ fn run(mut writer: RecordWriter, rx: Receiver<Msg>, stats: Arc<RecorderStats>, m
                 if broken {
                     continue;
                 }
+                // Keyframes are most of the bytes: packed here, off the
+                // tick thread.
+                let record = match record {
+                    Record::Keyframe { tick, state } if !super::compress::is_packed(&state) => {
+                        Record::Keyframe {
+                            tick,
+                            state: super::compress::pack(&state),
+                        }
+                    }
+                    r => r,
+                };
                 match writer.append(&record) {
                     Ok(()) => {
                         stats.appended.fetch_add(1, Ordering::Relaxed);

@@ -46,8 +46,11 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CheckpointError + '_ {
     }
 }
 
-/// Writes `bytes` (an encoded [`SimState`]) to `path`, durably.
+/// Writes `bytes` (an encoded [`SimState`]) to `path`, packed with zstd
+/// ([`crate::record::compress`]), durably.
 pub fn write(path: &Path, bytes: &[u8]) -> Result<(), CheckpointError> {
+    let packed = crate::record::compress::pack(bytes);
+    let bytes = packed.as_slice();
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".partial");
     let tmp = PathBuf::from(tmp);

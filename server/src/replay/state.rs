@@ -21,10 +21,13 @@
 //! ```
 //!
 //! Decoding bounds every length by what is left and refuses trailing
-//! bytes; the world and table are checked as they are restored.
+//! bytes; the world and table are checked as they are restored. Keyframes
+//! on disk and checkpoint files are these bytes packed with zstd
+//! ([`crate::record::compress`]); decoding unpacks them first.
 
 use inertia_physics::glam::DVec3;
 
+use crate::record::compress::unpack;
 use crate::rules::ClientId;
 use crate::scene::entities::{EntityTable, TableError};
 
@@ -102,15 +105,26 @@ impl SimState {
         out
     }
 
-    /// Reads the tick and applied count without decoding the rest.
+    /// Reads the tick and applied count without decoding the rest
+    /// (packed states are unpacked first).
     pub fn peek(bytes: &[u8]) -> Result<(u64, u32), StateError> {
-        let mut r = Reader { bytes, at: 0 };
+        let bytes = unpack(bytes).map_err(|e| StateError::Malformed(e.to_string()))?;
+        let mut r = Reader {
+            bytes: &bytes,
+            at: 0,
+        };
         r.header()?;
         Ok((r.u64()?, r.u32()?))
     }
 
-    /// A state from [`SimState::encode`]'s bytes.
+    /// A state from [`SimState::encode`]'s bytes, packed
+    /// ([`crate::record::compress`]) or not.
     pub fn decode(bytes: &[u8]) -> Result<SimState, StateError> {
+        let unpacked = unpack(bytes).map_err(|e| StateError::Malformed(e.to_string()))?;
+        Self::decode_raw(&unpacked)
+    }
+
+    fn decode_raw(bytes: &[u8]) -> Result<SimState, StateError> {
         let mut r = Reader { bytes, at: 0 };
         r.header()?;
         let tick = r.u64()?;
