@@ -8,20 +8,10 @@
 
 mod common;
 
-use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-use common::DevServer;
+use common::{admin, DevServer};
 use std::time::{Duration, Instant};
-
-fn admin(credentials: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_inertia-admin"))
-        .arg("--credentials")
-        .arg(credentials)
-        .args(args)
-        .output()
-        .expect("inertia-admin runs")
-}
 
 fn json(out: &Output) -> serde_json::Value {
     assert!(

@@ -8,22 +8,13 @@
 mod common;
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
-use common::{wait_for, DevServer};
+use common::{admin, wait_for, DevServer};
 use inertia_server::replay::verify::verify;
 use inertia_server::replay::{History, DEFAULT_KEYFRAME_BUDGET};
 use inertia_server::rules::SandboxRules;
-
-fn admin(credentials: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_inertia-admin"))
-        .arg("--credentials")
-        .arg(credentials)
-        .args(args)
-        .output()
-        .expect("inertia-admin runs")
-}
 
 /// `args` with `--json`, retried while the server is still starting.
 fn json(credentials: &Path, args: &[&str]) -> serde_json::Value {

@@ -36,7 +36,7 @@ use tracing::{debug, info, warn};
 use crate::net::NetShared;
 use crate::replay::WorldEdit;
 use crate::sim::edit::EditOutcome;
-use crate::sim::timeline::TimeError;
+use crate::sim::timeline::{SeekReport, TimeError};
 use crate::sim::{CommandError, EditError, Simulation};
 
 /// How long an admin tool has to say hello.
@@ -410,30 +410,15 @@ impl Session<'_> {
             }
             AdminRequest::Hash { tick } => {
                 let tick = *tick;
-                let report = self
-                    .on_sim(move |s| {
-                        let tick = tick.unwrap_or(s.world().tick());
-                        s.hash_at(tick)
-                    })
-                    .await?
-                    .map_err(time_error)?;
-                Ok(AdminResponse::Hash {
-                    tick: report.tick,
-                    state_hash: report.state_hash,
-                    recorded_hash: report.recorded_hash,
+                self.travel(move |s| {
+                    let tick = tick.unwrap_or(s.world().tick());
+                    s.hash_at(tick)
                 })
+                .await
             }
             AdminRequest::Seek { tick } => {
                 let tick = *tick;
-                let report = self
-                    .on_sim(move |s| s.seek(tick))
-                    .await?
-                    .map_err(time_error)?;
-                Ok(AdminResponse::Hash {
-                    tick: report.tick,
-                    state_hash: report.state_hash,
-                    recorded_hash: report.recorded_hash,
-                })
+                self.travel(move |s| s.seek(tick)).await
             }
             AdminRequest::Reverse { speed } => {
                 let speed = *speed;
@@ -444,15 +429,7 @@ impl Session<'_> {
             }
             AdminRequest::Replay { from, to, speed } => {
                 let (from, to, speed) = (*from, *to, *speed);
-                let report = self
-                    .on_sim(move |s| s.replay(from, to, speed))
-                    .await?
-                    .map_err(time_error)?;
-                Ok(AdminResponse::Hash {
-                    tick: report.tick,
-                    state_hash: report.state_hash,
-                    recorded_hash: report.recorded_hash,
-                })
+                self.travel(move |s| s.replay(from, to, speed)).await
             }
             AdminRequest::Save { path } => {
                 let path = std::path::PathBuf::from(path);
@@ -566,6 +543,20 @@ impl Session<'_> {
                 }
             }
         }
+    }
+
+    /// Runs a time-travel request on the tick thread; answers with the
+    /// tick reached, its hash and the recorded one.
+    async fn travel(
+        &self,
+        f: impl FnOnce(&mut Simulation) -> Result<SeekReport, TimeError> + Send + 'static,
+    ) -> Result<AdminResponse, AdminError> {
+        let report = self.on_sim(f).await?.map_err(time_error)?;
+        Ok(AdminResponse::Hash {
+            tick: report.tick,
+            state_hash: report.state_hash,
+            recorded_hash: report.recorded_hash,
+        })
     }
 
     /// Applies a live edit on the tick thread, journaled and noted in the

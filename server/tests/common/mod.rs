@@ -2,9 +2,19 @@
 
 #![allow(dead_code)] // each test file uses its own subset
 
-use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
+
+/// Runs `inertia-admin --credentials <credentials> <args>`.
+pub fn admin(credentials: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_inertia-admin"))
+        .arg("--credentials")
+        .arg(credentials)
+        .args(args)
+        .output()
+        .expect("inertia-admin runs")
+}
 
 /// Polls `done` every 20 ms until it holds; fails the test after
 /// `timeout`, naming `what`.
