@@ -12,7 +12,7 @@ pub mod suites;
 pub type BenchError = Box<dyn std::error::Error + Send + Sync>;
 
 /// How a suite runs.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Opts {
     /// Shrink sizes and repetitions to a smoke test of a few seconds.
     pub quick: bool,
@@ -25,6 +25,17 @@ pub struct Opts {
     /// Client counts to step through (`capacity`); `None` takes the
     /// suite's default.
     pub clients: Option<Vec<u32>>,
+    /// Minutes of play to record (`replay`); `None` takes the default.
+    pub minutes: Option<f64>,
+    /// Keyframe intervals to record with, ticks, one recording each
+    /// (`replay`); `None` takes the default.
+    pub keyframe_ticks: Option<Vec<u64>>,
+    /// Seeks to time per recording (`replay`).
+    pub seeks: Option<u32>,
+    /// Dynamic bodies in the scene (`replay`).
+    pub bodies: Option<u32>,
+    /// Clients playing (`replay`).
+    pub bots: Option<u32>,
 }
 
 impl Opts {

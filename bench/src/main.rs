@@ -28,6 +28,8 @@ enum SuiteArg {
     Bandwidth,
     /// Clients one server serves at 60 Hz ticks and 30 Hz snapshots (1000 moving bodies, bots as processes).
     Capacity,
+    /// Recording bytes per hour, seek time and verify speed of a recorded game (1000 bodies, 8 bots).
+    Replay,
 }
 
 impl From<SuiteArg> for Suite {
@@ -39,6 +41,7 @@ impl From<SuiteArg> for Suite {
             SuiteArg::Physics => Suite::Physics,
             SuiteArg::Bandwidth => Suite::Bandwidth,
             SuiteArg::Capacity => Suite::Capacity,
+            SuiteArg::Replay => Suite::Replay,
         }
     }
 }
@@ -66,6 +69,22 @@ struct Cli {
     /// Client counts to step through (`capacity`), e.g. `1,2,4`.
     #[arg(long, value_name = "K,K,...", value_delimiter = ',')]
     clients: Option<Vec<u32>>,
+    /// Minutes of play to record (`replay`; default 10).
+    #[arg(long, value_name = "M")]
+    minutes: Option<f64>,
+    /// Keyframe intervals, ticks, one recording each (`replay`; default
+    /// 600), e.g. `60,120,300,600`.
+    #[arg(long, value_name = "K,K,...", value_delimiter = ',')]
+    keyframe_ticks: Option<Vec<u64>>,
+    /// Seeks to time per recording (`replay`; default 100).
+    #[arg(long, value_name = "N")]
+    seeks: Option<u32>,
+    /// Dynamic bodies in the scene (`replay`; default 1000).
+    #[arg(long, value_name = "B")]
+    bodies: Option<u32>,
+    /// Clients playing (`replay`; default 8).
+    #[arg(long, value_name = "N")]
+    bots: Option<u32>,
 }
 
 fn main() -> ExitCode {
@@ -90,6 +109,11 @@ fn main() -> ExitCode {
             only: cli.only,
             seconds: cli.seconds,
             clients: cli.clients,
+            minutes: cli.minutes,
+            keyframe_ticks: cli.keyframe_ticks,
+            seeks: cli.seeks,
+            bodies: cli.bodies,
+            bots: cli.bots,
         },
         &mut reporter,
     ) {

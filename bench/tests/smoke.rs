@@ -251,3 +251,51 @@ fn physics_suite() {
         .collect();
     assert!(threads.contains(&1) && threads.contains(&2));
 }
+
+#[test]
+fn replay_suite() {
+    let lines = run("replay");
+    assert_eq!(lines.len(), 1, "one record per keyframe interval");
+    let m = &lines[0];
+    assert_eq!(m["case"], "replay_k120");
+    assert_eq!(num(m, "keyframe_ticks"), 120.0);
+    assert_eq!(num(m, "bodies"), 300.0);
+    assert_eq!(num(m, "bots"), 8.0);
+    assert_eq!(num(m, "ticks"), 720.0);
+    // Nothing re-simulated differed from what was recorded.
+    assert_eq!(num(m, "seek_hash_mismatches"), 0.0, "{m:?}");
+    assert_eq!(num(m, "verify_mismatches"), 0.0, "{m:?}");
+    assert_eq!(num(m, "verify_hashes_checked"), 720.0, "{m:?}");
+    assert_eq!(num(m, "inputs_rejected"), 0.0, "{m:?}");
+    // 720 ticks at K = 120: the session's keyframe, six more and the last.
+    assert_eq!(num(m, "keyframes"), 8.0, "{m:?}");
+    for k in [
+        "bytes",
+        "bytes_per_hour",
+        "keyframe_bytes_mean",
+        "keyframe_raw_bytes_mean",
+        "keyframe_world_bytes_mean",
+        "keyframe_table_bytes_mean",
+        "journal_bytes_per_hour",
+        "hash_bytes_per_hour",
+        "seek_ms_median",
+        "seek_ms_p99",
+        "seek_ms_max",
+        "verify_ticks_per_s",
+        "tick_ms_mean",
+    ] {
+        positive(m, k);
+    }
+    let parts = num(m, "keyframe_bytes_per_hour")
+        + num(m, "journal_bytes_per_hour")
+        + num(m, "hash_bytes_per_hour")
+        + num(m, "other_bytes_per_hour");
+    assert!(
+        (parts - num(m, "bytes_per_hour")).abs() < 1.0,
+        "the parts add up: {parts} in {m:?}"
+    );
+    assert!(num(m, "seek_ms_median") <= num(m, "seek_ms_p99"));
+    assert!(num(m, "seek_ms_p99") <= num(m, "seek_ms_max"));
+    // A seek never re-simulates more than one keyframe interval.
+    assert!(num(m, "seek_resimulated_max") < 120.0, "{m:?}");
+}

@@ -6,6 +6,7 @@ pub mod integrators;
 pub mod nbody;
 pub mod particles;
 pub mod physics;
+pub mod replay;
 
 use crate::report::Sink;
 use crate::{BenchError, Opts};
@@ -25,17 +26,20 @@ pub enum Suite {
     Bandwidth,
     /// Clients one in-process server serves at 60 Hz, bots as processes.
     Capacity,
+    /// Recording size, seek time and offline verification of a recorded game.
+    Replay,
 }
 
 impl Suite {
     /// Every suite.
-    pub const ALL: [Suite; 6] = [
+    pub const ALL: [Suite; 7] = [
         Suite::Integrators,
         Suite::Particles,
         Suite::Nbody,
         Suite::Physics,
         Suite::Bandwidth,
         Suite::Capacity,
+        Suite::Replay,
     ];
 
     /// The command-line name, also the `suite` field of every record.
@@ -47,6 +51,7 @@ impl Suite {
             Suite::Physics => "physics",
             Suite::Bandwidth => "bandwidth",
             Suite::Capacity => "capacity",
+            Suite::Replay => "replay",
         }
     }
 
@@ -59,6 +64,7 @@ impl Suite {
             Suite::Physics => physics::run(opts, sink),
             Suite::Bandwidth => bandwidth::run(opts, sink),
             Suite::Capacity => capacity::run(opts, sink),
+            Suite::Replay => replay::run(opts, sink),
         }
     }
 }
