@@ -16,13 +16,25 @@
 //! - Time scale and pause: a change of scale or pause state starts a new
 //!   segment, re-anchored at the arrival that announced it. While paused the
 //!   timeline holds the paused tick.
-//! - Reordering: with sequence numbers, a packet older than the newest one
-//!   is reported [`Observation::Late`]; without them, a small step back is
-//!   taken for reordering and a large one for a seek.
-//! - Discontinuities: a tick that goes backwards (a rewind or seek) or far
-//!   ahead of the estimate (a seek forwards) restarts the timeline and is
-//!   reported as [`Observation::Discontinuity`]. Packets of the old timeline
-//!   that straggle in afterwards are reported [`Observation::Stale`].
+//! - Reverse play: a negative time scale means the server plays recorded
+//!   history backwards; the segment's rate (`tick_hz × time_scale`) is then
+//!   negative and ticks that *decrease* in step with it are the normal flow.
+//!   Everything above holds in the direction of play (the envelope is the
+//!   lowest offset, the estimate runs down). A change of direction (forwards
+//!   or paused to reverse, or back) is a new segment like any change of
+//!   scale, not a discontinuity, as long as the tick carries on from near
+//!   the newest one (either way: the server may have moved on before it
+//!   turned).
+//! - Reordering: with sequence numbers (which always increase, whichever
+//!   way the ticks run), a packet older than the newest one is reported
+//!   [`Observation::Late`]; without them, a small step against the
+//!   direction of play is taken for reordering and a large one for a seek.
+//! - Discontinuities: a tick that goes against the direction of play (a
+//!   rewind or seek) or far ahead of the estimate along it (a seek
+//!   forwards), or a change of direction far from the newest tick, restarts
+//!   the timeline and is reported as [`Observation::Discontinuity`]. Packets
+//!   of the old timeline that straggle in afterwards are reported
+//!   [`Observation::Stale`].
 //!
 //! Everything is pure: times are passed in as seconds of the client's local
 //! monotonic clock.
@@ -84,13 +96,15 @@ pub struct SnapshotMeta {
     pub seq: Option<u16>,
     /// The tick the snapshot describes.
     pub tick: u64,
-    /// The server's time scale when it was sent (1 = real time; 0 = paused).
+    /// The server's time scale when it was sent (1 = real time; 0 = paused;
+    /// negative while history plays backwards, −1 = real time in reverse).
     pub time_scale: f32,
     /// True while the server is paused (ticks do not advance).
     pub paused: bool,
 }
 
-/// A break in the server's timeline: a seek, a rewind, or a jump forwards.
+/// A break in the server's timeline: a seek, a rewind, or a jump forwards
+/// (reverse play at a steady rate is not one).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Discontinuity {
     /// Local time of the arrival that revealed it, s.
@@ -102,7 +116,8 @@ pub struct Discontinuity {
 }
 
 impl Discontinuity {
-    /// True when the timeline went backwards (a rewind or a seek back).
+    /// True when the new timeline starts at a lower tick (a rewind or a
+    /// seek back).
     pub fn is_backwards(&self) -> bool {
         self.to_tick < self.from_tick
     }
@@ -123,6 +138,17 @@ pub enum Observation {
     Discontinuity(Discontinuity),
 }
 
+/// The direction ticks run under a header's `time_scale` and `paused`: −1
+/// while history plays backwards (a negative, finite scale, not paused),
+/// else +1 (a step taken while paused moves the tick forwards).
+pub fn direction_of(time_scale: f32, paused: bool) -> f64 {
+    if !paused && time_scale.is_finite() && time_scale < 0.0 {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
 /// True when sequence number `a` is older than `b` (wrapping, half range).
 pub fn seq_older(a: u16, b: u16) -> bool {
     a != b && b.wrapping_sub(a) < 0x8000
@@ -131,7 +157,7 @@ pub fn seq_older(a: u16, b: u16) -> bool {
 /// A stretch of constant tick rate.
 #[derive(Debug, Clone)]
 struct Segment {
-    /// Ticks per local second (0 while paused).
+    /// Ticks per local second (0 while paused, negative in reverse).
     rate: f64,
     /// Arrivals in this segment as (local time, offset `tick − rate·t`).
     samples: VecDeque<(f64, f64)>,
@@ -145,7 +171,7 @@ struct Segment {
 
 impl Segment {
     fn offset_at(&self, slew: f64, t: f64) -> f64 {
-        let reach = slew * self.rate * (t - self.t_u).max(0.0);
+        let reach = slew * self.rate.abs() * (t - self.t_u).max(0.0);
         self.offset + (self.target - self.offset).clamp(-reach, reach)
     }
 }
@@ -165,6 +191,12 @@ pub struct ServerClock {
     segment: Option<Segment>,
     time_scale: f32,
     paused: bool,
+    /// The direction of play of the current segment, ±1.
+    dir: f64,
+    /// After a change of direction (no sequence numbers): until when a
+    /// packet of the old direction near the newest tick is taken for
+    /// reordering, and the old direction.
+    turned: Option<(f64, f64)>,
     newest_tick: Option<u64>,
     newest_seq: Option<u16>,
     last_arrival: Option<f64>,
@@ -195,6 +227,8 @@ impl ServerClock {
             segment: None,
             time_scale: 1.0,
             paused: false,
+            dir: 1.0,
+            turned: None,
             newest_tick: None,
             newest_seq: None,
             last_arrival: None,
@@ -217,12 +251,13 @@ impl ServerClock {
     /// how it relates to the timeline so far.
     pub fn observe(&mut self, local_time: f64, meta: SnapshotMeta) -> Observation {
         let t = local_time;
-        let scale = if meta.paused || !(meta.time_scale.is_finite() && meta.time_scale > 0.0) {
+        let scale = if meta.paused || !meta.time_scale.is_finite() {
             0.0
         } else {
             meta.time_scale
         };
         let paused = scale == 0.0;
+        let dir = direction_of(scale, paused);
         let hz = self.config.tick_hz;
         let Some(newest) = self.newest_tick else {
             self.restart(t, meta, scale);
@@ -245,7 +280,7 @@ impl ServerClock {
         }
 
         let rate_now = self.tick_rate();
-        let reach = hz.max(rate_now).max(hz * f64::from(scale));
+        let reach = hz.max(rate_now.abs()).max(hz * f64::from(scale).abs());
         let late_by_seq = match (meta.seq, self.newest_seq) {
             (Some(s), Some(n)) => Some(seq_older(s, n) || s == n),
             _ => None,
@@ -254,27 +289,52 @@ impl ServerClock {
             self.note_excess(t, meta.tick);
             return Observation::Late;
         }
-        if meta.tick < newest {
-            let back = newest - meta.tick;
-            let tolerance = (reach * self.config.reorder_window_s).ceil() as u64 + 2;
-            // In sequence, a tick that goes back is a rewind, however small.
-            let seek = late_by_seq == Some(false) || back > tolerance || self.stale_run >= 2;
-            if !seek {
-                self.stale_run += 1;
-                self.note_excess(t, meta.tick);
-                return Observation::Late;
-            }
-            return self.discontinuity(t, newest, meta, scale);
-        }
-        self.stale_run = 0;
-        let predicted = self
-            .arrival_tick(t)
-            .unwrap_or(newest as f64)
-            .max(newest as f64);
+        let step = meta.tick as f64 - newest as f64;
         let since = self.last_arrival.map_or(0.0, |a| (t - a).max(0.0));
-        let forward_tolerance = reach * (self.config.jump_forward_s + since) + 2.0;
-        if meta.tick as f64 > predicted + forward_tolerance {
-            return self.discontinuity(t, newest, meta, scale);
+        let tolerance = (reach * self.config.reorder_window_s).ceil() + 2.0;
+        if dir != self.dir {
+            if late_by_seq.is_none() {
+                // Without sequence numbers, a packet of the old direction
+                // just after a turn was sent before it.
+                if let Some((until, old)) = self.turned {
+                    if t <= until && dir == old && step.abs() <= tolerance {
+                        self.note_excess(t, meta.tick);
+                        return Observation::Late;
+                    }
+                }
+            }
+            // A turn carries on from about the newest tick, either way: the
+            // old direction may have gone on a little before it turned.
+            let turn_tolerance = reach * (since + self.config.reorder_window_s) + 2.0;
+            if step.abs() > turn_tolerance {
+                return self.discontinuity(t, newest, meta, scale);
+            }
+            self.turned = Some((t + self.config.reorder_window_s, self.dir));
+            self.stale_run = 0;
+        } else {
+            // Ticks against the direction of play.
+            let back = -self.dir * step;
+            if back > 0.0 {
+                // In sequence, a tick that goes back is a rewind, however
+                // small.
+                let seek = late_by_seq == Some(false) || back > tolerance || self.stale_run >= 2;
+                if !seek {
+                    self.stale_run += 1;
+                    self.note_excess(t, meta.tick);
+                    return Observation::Late;
+                }
+                return self.discontinuity(t, newest, meta, scale);
+            }
+            self.stale_run = 0;
+            let d = self.dir;
+            let predicted = self
+                .arrival_tick(t)
+                .map_or(d * newest as f64, |e| d * e)
+                .max(d * newest as f64);
+            let forward_tolerance = reach * (self.config.jump_forward_s + since) + 2.0;
+            if d * meta.tick as f64 > predicted + forward_tolerance {
+                return self.discontinuity(t, newest, meta, scale);
+            }
         }
 
         // In order on the current timeline.
@@ -321,13 +381,16 @@ impl ServerClock {
                     seg.samples.pop_front();
                 }
                 let n = seg.samples.len() as f64;
-                let envelope = seg
+                // The freshest offsets: the highest going forwards, the
+                // lowest in reverse.
+                let d = seg.rate.signum();
+                let envelope = d * seg
                     .samples
                     .iter()
-                    .map(|&(_, o)| o)
+                    .map(|&(_, o)| d * o)
                     .fold(f64::NEG_INFINITY, f64::max);
                 seg.target = envelope + seg.rate * 2.0 * mean_excess / (n + 1.0);
-                if (seg.target - seg.offset).abs() > seg.rate * cfg.snap_s {
+                if (seg.target - seg.offset).abs() > seg.rate.abs() * cfg.snap_s {
                     seg.offset = seg.target;
                 }
             }
@@ -413,14 +476,24 @@ impl ServerClock {
     }
 
     /// The latest local time (s) at which the arrival timeline was at or
-    /// before `tick`, as seen at `now` (s): when `tick` arrived, on the
-    /// envelope. In the future when `tick` is ahead of the timeline; the
-    /// end of a pause for the paused tick. `None` before the first snapshot.
+    /// before `tick` in its direction of play (at or above it in reverse),
+    /// as seen at `now` (s): when `tick` arrived, on the envelope. In the
+    /// future when `tick` is ahead of the timeline; the end of a pause for
+    /// the paused tick. `None` before the first snapshot.
     pub fn local_time_of_tick(&self, tick: f64, now: f64) -> Option<f64> {
+        self.local_time_reached(tick, now, f64::NEG_INFINITY)
+    }
+
+    /// Like [`local_time_of_tick`](Self::local_time_of_tick), looking no
+    /// further back than `since` (s): the answer is at least `since`. Where
+    /// the timeline turned, `since` is when its current direction began, so
+    /// that a tick it passed the other way before is not taken.
+    pub fn local_time_reached(&self, tick: f64, now: f64, since: f64) -> Option<f64> {
+        let d = self.dir;
         let e_now = self.arrival_tick(now)?;
-        if e_now <= tick {
+        if d * e_now <= d * tick {
             let rate = self.tick_rate();
-            return Some(if rate > 0.0 {
+            return Some(if rate != 0.0 {
                 now + (tick - e_now) / rate
             } else {
                 now
@@ -432,21 +505,23 @@ impl ServerClock {
                 continue;
             }
             let (t1, e1) = later;
-            if e1 <= tick {
-                return Some(t1);
+            if d * e1 <= d * tick || t1 <= since {
+                return Some(t1.max(since));
             }
-            if e <= tick {
-                return Some(if e1 > e {
+            if d * e <= d * tick {
+                let at = if d * e1 > d * e {
                     t + (t1 - t) * (tick - e) / (e1 - e)
                 } else {
                     t1
-                });
+                };
+                return Some(at.max(since));
             }
             later = (t, e);
         }
         // Older than the history: at the nominal rate before it.
         let (t0, e0) = later;
-        Some(t0 - (e0 - tick) / self.config.tick_hz.max(self.tick_rate()))
+        let at = t0 - d * (e0 - tick) / self.config.tick_hz.max(self.tick_rate().abs());
+        Some(at.max(since))
     }
 
     /// The server's time scale as last announced (0 while paused).
@@ -459,9 +534,15 @@ impl ServerClock {
         self.paused
     }
 
-    /// The server's current tick rate, ticks/s (0 while paused).
+    /// The server's current tick rate, ticks/s (0 while paused, negative
+    /// while history plays backwards).
     pub fn tick_rate(&self) -> f64 {
         self.segment.as_ref().map_or(0.0, |s| s.rate)
+    }
+
+    /// The direction the timeline runs now: −1 in reverse play, else +1.
+    pub fn direction(&self) -> f64 {
+        self.dir
     }
 
     /// The newest tick received on the current timeline.
@@ -490,9 +571,10 @@ impl ServerClock {
         let Some(e) = self.arrival_tick(t) else {
             return;
         };
-        if rate <= 0.0 {
+        if rate == 0.0 {
             return;
         }
+        // How far the tick is behind the envelope, s (either direction).
         let excess = ((e - tick as f64) / rate).max(0.0);
         if excess > 2.0 {
             return;
@@ -520,6 +602,7 @@ impl ServerClock {
             let o = tick as f64 - rate * t;
             (o + rate * self.mean_excess, VecDeque::from([(t, o)]))
         };
+        self.dir = if rate < 0.0 { -1.0 } else { 1.0 };
         self.segment = Some(Segment {
             rate,
             samples,
@@ -536,6 +619,7 @@ impl ServerClock {
         self.newest_seq = meta.seq;
         self.last_arrival = Some(t);
         self.stale_run = 0;
+        self.turned = None;
         self.knots.clear();
         self.start_segment(t, meta.tick, f64::from(scale) * self.config.tick_hz);
         let e = self.arrival_tick(t).unwrap_or(meta.tick as f64);
@@ -549,7 +633,7 @@ impl ServerClock {
         meta: SnapshotMeta,
         scale: f32,
     ) -> Observation {
-        let reach = self.config.tick_hz.max(self.tick_rate());
+        let reach = self.config.tick_hz.max(self.tick_rate().abs());
         let span = (reach * self.config.reorder_window_s).ceil() as u64 + 2;
         // Packets sent just before the jump may carry ticks a little past
         // the newest one seen.
@@ -693,6 +777,141 @@ mod tests {
             clock.observe_tick(1.06, 10, 1.0, false),
             Observation::Discontinuity(_)
         ));
+    }
+
+    #[test]
+    fn reverse_play_runs_the_estimate_down_along_the_fastest_arrivals() {
+        let mut clock = ServerClock::new(60.0);
+        // Forwards for 2 s, then history backwards at speed 1 from tick
+        // 120: 30 Hz snapshots, 50 ms ± 20 ms late, sequence numbers still
+        // increasing.
+        for k in 0..300u64 {
+            let sent = k as f64 / 30.0;
+            let arrive = 1000.0 + sent + 0.03 + 0.04 * noise(k);
+            let (tick, scale) = if k <= 60 {
+                (10_000 + 2 * k, 1.0)
+            } else {
+                (10_120 - 2 * (k - 60), -1.0)
+            };
+            let obs = clock.observe(arrive, meta(k as u16, tick, scale, false));
+            assert_eq!(obs, Observation::InOrder, "k {k}");
+        }
+        assert_eq!(clock.direction(), -1.0);
+        assert_eq!(clock.tick_rate(), -60.0);
+        assert_eq!(clock.time_scale(), -1.0);
+        // At local 1000 + 9 + 0.03 the freshest tick in hand is the one
+        // sent at 9 s: 10 120 − 2 × (270 − 60) = 9700.
+        let e = clock.arrival_tick(1009.03).unwrap();
+        assert!((e - 9700.0).abs() < 0.3, "estimate {e}");
+        assert!(clock.jitter() > 0.03 && clock.jitter() < 0.045);
+        // Decreasing and smooth between arrivals.
+        let mut last = clock.arrival_tick(1008.0).unwrap();
+        for k in 1..100 {
+            let now = clock.arrival_tick(1008.0 + k as f64 * 0.01).unwrap();
+            assert!(now < last && last - now < 0.7);
+            last = now;
+        }
+        // The tick 9730 was reached (from above) half a second before 9700.
+        let at = clock.local_time_of_tick(9730.0, 1009.03).unwrap();
+        assert!((at - 1008.53).abs() < 0.01, "reached at {at}");
+        // Round trip puts the server further down.
+        clock.rtt_sample(0.1);
+        let ahead = clock.estimated_tick(1009.0).unwrap() - clock.arrival_tick(1009.0).unwrap();
+        assert!((ahead + 3.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn turning_is_a_new_segment_and_a_seek_in_reverse_a_discontinuity() {
+        let mut clock = ServerClock::new(60.0);
+        let mut seq = 0u16;
+        let mut send = |clock: &mut ServerClock, t: f64, tick: u64, scale: f32| {
+            seq += 1;
+            clock.observe(t, meta(seq, tick, scale, false))
+        };
+        for k in 0..30u64 {
+            assert_eq!(
+                send(&mut clock, k as f64 / 30.0, 1000 + 2 * k, 1.0),
+                Observation::InOrder
+            );
+        }
+        // The server played on a tick past the newest, then turned.
+        assert_eq!(send(&mut clock, 1.0, 1057, -1.0), Observation::InOrder);
+        assert_eq!(clock.direction(), -1.0);
+        for k in 1..30u64 {
+            let obs = send(&mut clock, 1.0 + k as f64 / 30.0, 1057 - 2 * k, -1.0);
+            assert_eq!(obs, Observation::InOrder);
+        }
+        // In sequence, a tick that goes up while reversing is a seek.
+        let obs = send(&mut clock, 2.0, 1010, -1.0);
+        let Observation::Discontinuity(d) = obs else {
+            panic!("expected a discontinuity, got {obs:?}");
+        };
+        assert_eq!((d.from_tick, d.to_tick), (999, 1010));
+        // So is a jump far down (a seek back while reversing).
+        for k in 1..10u64 {
+            send(&mut clock, 2.0 + k as f64 / 30.0, 1010 - 2 * k, -1.0);
+        }
+        assert!(matches!(
+            send(&mut clock, 2.34, 100, -1.0),
+            Observation::Discontinuity(d) if d.is_backwards()
+        ));
+        // Turning forwards again, or pausing, carries on.
+        assert_eq!(send(&mut clock, 2.37, 99, 2.0), Observation::InOrder);
+        assert_eq!(clock.tick_rate(), 120.0);
+        assert_eq!(send(&mut clock, 2.40, 103, -0.5), Observation::InOrder);
+        assert_eq!(clock.tick_rate(), -30.0);
+        assert_eq!(send(&mut clock, 2.43, 102, 0.0), Observation::InOrder);
+        assert!(clock.paused() && clock.direction() == 1.0);
+        assert_eq!(send(&mut clock, 2.46, 102, -1.0), Observation::InOrder);
+        // A turn far from the newest tick is a seek.
+        assert!(matches!(
+            send(&mut clock, 2.50, 900, 1.0),
+            Observation::Discontinuity(_)
+        ));
+    }
+
+    #[test]
+    fn without_sequence_numbers_reverse_play_tells_reordering_from_seeks() {
+        let mut clock = ServerClock::new(60.0);
+        for k in 0..30u64 {
+            clock.observe_tick(k as f64 / 30.0, 5000 - 2 * k, -1.0, false);
+        }
+        // A little above the newest (4942): reordered.
+        assert_eq!(
+            clock.observe_tick(1.0, 4946, -1.0, false),
+            Observation::Late
+        );
+        assert_eq!(
+            clock.observe_tick(1.0, 4940, -1.0, false),
+            Observation::InOrder
+        );
+        // Far above: a seek; far below: a seek too.
+        assert!(matches!(
+            clock.observe_tick(1.03, 9000, -1.0, false),
+            Observation::Discontinuity(_)
+        ));
+        assert!(matches!(
+            clock.observe_tick(1.06, 10, -1.0, false),
+            Observation::Discontinuity(_)
+        ));
+        // A turn, then a straggler from before it: late, not another turn.
+        let mut clock = ServerClock::new(60.0);
+        for k in 0..30u64 {
+            clock.observe_tick(k as f64 / 30.0, 1000 + 2 * k, 1.0, false);
+        }
+        assert_eq!(
+            clock.observe_tick(1.0, 1057, -1.0, false),
+            Observation::InOrder
+        );
+        assert_eq!(
+            clock.observe_tick(1.01, 1058, 1.0, false),
+            Observation::Late
+        );
+        assert_eq!(clock.direction(), -1.0);
+        assert_eq!(
+            clock.observe_tick(1.03, 1055, -1.0, false),
+            Observation::InOrder
+        );
     }
 
     #[test]

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use glam::{DQuat, DVec3};
 use inertia_protocol::link::{LinkConfig, SimLink};
 use inertia_protocol::rng::SplitMix;
-use inertia_protocol::snapshot::QuantizedEntity;
+use inertia_protocol::snapshot::{QuantizedEntity, MAX_TIME_SCALE};
 use inertia_protocol::{
     EntityState, Interest, PriorityAccumulator, SnapshotConfig, SnapshotDecoder, SnapshotEncoder,
     SnapshotError,
@@ -410,8 +410,127 @@ fn sequence_numbers_wrap_around() {
     assert!(with_baseline > 60_000, "{with_baseline}");
 }
 
+/// Overwrites `n` bits of `bytes` at bit `at` (least significant first).
+fn set_bits(bytes: &mut [u8], at: usize, value: u64, n: usize) {
+    for i in 0..n {
+        let (byte, bit) = ((at + i) / 8, (at + i) % 8);
+        if value >> i & 1 == 1 {
+            bytes[byte] |= 1 << bit;
+        } else {
+            bytes[byte] &= !(1 << bit);
+        }
+    }
+}
+
+/// Reads `n` bits of `bytes` at bit `at` (least significant first).
+fn get_bits(bytes: &[u8], at: usize, n: usize) -> u64 {
+    (0..n).fold(0, |v, i| {
+        let (byte, bit) = ((at + i) / 8, (at + i) % 8);
+        v | u64::from(bytes[byte] >> bit & 1) << i
+    })
+}
+
+/// Where the f32 time scale of a snapshot without a baseline sits: after
+/// tag 8, sequence 16, has_baseline 1, relative 1, tick 64 and is_one 1.
+const SCALE_BIT: usize = 8 + 16 + 1 + 1 + 64 + 1;
+
+/// A first snapshot (no baseline) whose header carries `time_scale` as
+/// an f32, whatever the encoder would have allowed.
+fn with_raw_scale(time_scale: f32) -> Vec<u8> {
+    let config = config(true);
+    let mut r = SplitMix(5);
+    let world = random_world(&mut r, 10);
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut pri = PriorityAccumulator::default();
+    let mut bytes = enc.encode(1000, 2.0, false, &world, &mut pri, usize::MAX);
+    assert_eq!(get_bits(&bytes, SCALE_BIT - 1, 1), 0, "is_one");
+    assert_eq!(get_bits(&bytes, SCALE_BIT, 32), u64::from(2.0f32.to_bits()));
+    set_bits(&mut bytes, SCALE_BIT, u64::from(time_scale.to_bits()), 32);
+    bytes
+}
+
+#[test]
+fn reverse_play_scales_are_carried_and_the_rest_refused() {
+    for ok in [-1.0f32, -0.25, -64.0, 64.0, 0.0, -0.0, 3.5] {
+        let got = SnapshotDecoder::new(config(true))
+            .unwrap()
+            .decode(&with_raw_scale(ok))
+            .unwrap_or_else(|e| panic!("scale {ok} refused: {e}"));
+        assert_eq!(got.time_scale.to_bits(), ok.to_bits());
+        assert_eq!(got.tick, 1000);
+    }
+    for bad in [
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        -64.001,
+        64.001,
+        -1e9,
+        1e9,
+    ] {
+        let got = SnapshotDecoder::new(config(true))
+            .unwrap()
+            .decode(&with_raw_scale(bad));
+        assert!(
+            matches!(got, Err(SnapshotError::Malformed(_))),
+            "scale {bad}: {got:?}"
+        );
+    }
+    assert_eq!(MAX_TIME_SCALE, 64.0);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    #[test]
+    fn time_scales_either_way_round_trip(
+        time_scale in prop_oneof![
+            -MAX_TIME_SCALE..=MAX_TIME_SCALE,
+            Just(-1.0f32),
+            Just(1.0f32),
+            Just(0.0f32),
+            Just(-MAX_TIME_SCALE),
+            Just(MAX_TIME_SCALE),
+        ],
+        paused in any::<bool>(),
+        tick in any::<u64>(),
+        baseline in any::<bool>(),
+    ) {
+        let config = config(false);
+        let mut r = SplitMix(tick);
+        let world = random_world(&mut r, 8);
+        let mut enc = SnapshotEncoder::new(config).unwrap();
+        let mut dec = SnapshotDecoder::new(config).unwrap();
+        let mut pri = PriorityAccumulator::default();
+        if baseline {
+            // A reverse-play step: the tick goes down against the baseline.
+            let first = enc.encode(tick, time_scale, paused, &world, &mut pri, 1200);
+            dec.decode(&first).unwrap();
+            enc.on_ack(0);
+        }
+        let tick = if baseline { tick.wrapping_sub(2) } else { tick };
+        let bytes = enc.encode(tick, time_scale, paused, &world, &mut pri, 1200);
+        let got = dec.decode(&bytes).unwrap();
+        prop_assert_eq!(got.tick, tick);
+        prop_assert_eq!(got.time_scale.to_bits(), time_scale.to_bits());
+        prop_assert_eq!(got.paused, paused);
+    }
+
+    #[test]
+    fn any_scale_given_to_the_encoder_decodes(time_scale in any::<f32>()) {
+        let config = config(false);
+        let world = random_world(&mut SplitMix(1), 4);
+        let mut enc = SnapshotEncoder::new(config).unwrap();
+        let mut pri = PriorityAccumulator::default();
+        let bytes = enc.encode(7, time_scale, false, &world, &mut pri, 1200);
+        let got = SnapshotDecoder::new(config).unwrap().decode(&bytes).unwrap();
+        let expected = if time_scale.is_finite() {
+            time_scale.clamp(-MAX_TIME_SCALE, MAX_TIME_SCALE)
+        } else {
+            0.0
+        };
+        prop_assert_eq!(got.time_scale.to_bits(), expected.to_bits());
+    }
 
     #[test]
     fn random_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..1500)) {
@@ -440,7 +559,8 @@ proptest! {
         dec.decode(&first).unwrap();
         enc.on_ack(0);
         mutate(&mut r, &mut world);
-        let mut bytes = enc.encode(seed + 1, 2.0, false, &world, &mut pri, 1200);
+        let scale = if seed % 3 == 0 { -1.0 } else { 2.0 };
+        let mut bytes = enc.encode(seed + 1, scale, false, &world, &mut pri, 1200);
         let clean = bytes.clone();
         for (at, x) in flips {
             let n = bytes.len();

@@ -7,7 +7,8 @@ use crate::entity::EntityId;
 use super::code::{read_body, read_varuint, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES};
 use super::view::{QuantizedEntity, Ring, View, ViewEntity};
 use super::{
-    sequence_newer, ConfigError, SnapshotConfig, SnapshotError, MAX_ENTITIES, RING, SNAPSHOT_TAG,
+    sequence_newer, ConfigError, SnapshotConfig, SnapshotError, MAX_ENTITIES, MAX_TIME_SCALE, RING,
+    SNAPSHOT_TAG,
 };
 
 /// The fewest bits one listed entity takes (id gap, at-rest bit, position
@@ -26,7 +27,8 @@ pub struct DecodedSnapshot {
     pub newest: bool,
     /// The tick it describes.
     pub tick: u64,
-    /// The server clock's time scale (1 = real time, 0 = stopped).
+    /// The server clock's time scale (1 = real time, 0 = stopped, negative
+    /// while history plays backwards), finite, |scale| ≤ [`MAX_TIME_SCALE`].
     pub time_scale: f32,
     /// Whether the server's clock is paused.
     pub paused: bool,
@@ -170,8 +172,10 @@ impl SnapshotDecoder {
         } else {
             f32::from_bits(r.read(32)? as u32)
         };
-        if !(time_scale.is_finite() && time_scale >= 0.0) {
-            return Err(SnapshotError::Malformed("time scale not finite and >= 0"));
+        if !(time_scale.is_finite() && time_scale.abs() <= MAX_TIME_SCALE) {
+            return Err(SnapshotError::Malformed(
+                "time scale not finite or beyond ±MAX_TIME_SCALE",
+            ));
         }
         let paused = r.read_bool()?;
 

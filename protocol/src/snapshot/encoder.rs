@@ -10,7 +10,9 @@ use super::code::{
     varuint_bits, write_body, write_varuint, BitCount, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES,
 };
 use super::view::{QuantizedEntity, Ring, View};
-use super::{sequence_newer, ConfigError, SnapshotConfig, MAX_ENTITIES, RING, SNAPSHOT_TAG};
+use super::{
+    sequence_newer, ConfigError, SnapshotConfig, MAX_ENTITIES, MAX_TIME_SCALE, RING, SNAPSHOT_TAG,
+};
 
 /// What the last [`SnapshotEncoder::encode`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -120,7 +122,9 @@ impl SnapshotEncoder {
 
     /// Codes the next snapshot of `entities` (ascending by id; an id
     /// repeated is taken once) at `tick`, with the clock's `time_scale`
-    /// (1 = real time) and `paused` flag. Entities are chosen by
+    /// (1 = real time; negative while history plays backwards, −1 = real
+    /// time in reverse; clamped to ±[`MAX_TIME_SCALE`], not finite is
+    /// sent as 0) and `paused` flag. Entities are chosen by
     /// `priorities` (which also decides relevance: weight 0 is out of view
     /// and removed from the client's view) until the datagram would exceed
     /// `min(budget_bytes, max_datagram)` bytes. The header and the counts
@@ -136,9 +140,10 @@ impl SnapshotEncoder {
         budget_bytes: usize,
     ) -> Vec<u8> {
         let config = self.config;
-        // The decoder refuses scales no clock produces.
-        let time_scale = if time_scale.is_finite() && time_scale >= 0.0 {
-            time_scale
+        // The decoder refuses scales no clock produces: not finite, or
+        // beyond ±MAX_TIME_SCALE (negative is reverse play).
+        let time_scale = if time_scale.is_finite() {
+            time_scale.clamp(-MAX_TIME_SCALE, MAX_TIME_SCALE)
         } else {
             0.0
         };

@@ -37,7 +37,8 @@
 //!   hide them.
 //! - **Untrusted bytes.** The decoder bounds every count by
 //!   [`MAX_ENTITIES`] and by the bits left, rejects indices outside the
-//!   grid, ids out of order and trailing bytes, and never panics.
+//!   grid, ids out of order, time scales not finite or beyond
+//!   ±[`MAX_TIME_SCALE`] and trailing bytes, and never panics.
 //!
 //! # Layout (bits, least significant first)
 //!
@@ -50,6 +51,13 @@
 //!   id delta varuint | at_rest 1 | position | [rotation_changed 1] rotation
 //!   | [velocity, when configured and not at rest]
 //! ```
+//!
+//! The time scale is the server clock's: 1 is real time, 0 stopped, and a
+//! negative scale means recorded history is playing backwards (−1 is real
+//! time in reverse): the ticks of successive snapshots then *decrease* by
+//! about `|time_scale| × tick rate` per second while sequence numbers keep
+//! increasing. It is finite and at most [`MAX_TIME_SCALE`] either way; the
+//! decoder refuses anything else and the encoder clamps to that range.
 //!
 //! Ids ascend; each is coded as the gap from the previous one minus one.
 //! A position (or velocity) against a baseline is coded axis by axis: a
@@ -83,6 +91,11 @@ pub const RING: usize = 64;
 
 /// The most entities one view may hold (and so one datagram may list).
 pub const MAX_ENTITIES: usize = 16_384;
+
+/// The largest time scale a snapshot header may carry, either way: the
+/// admin protocol's [`crate::admin::MAX_TIME_SCALE`]. Negative scales down
+/// to its negation mean history playing backwards.
+pub const MAX_TIME_SCALE: f32 = crate::admin::MAX_TIME_SCALE as f32;
 
 /// How snapshots are quantized and sized. Both ends must use the same.
 #[derive(Debug, Clone, Copy, PartialEq)]
