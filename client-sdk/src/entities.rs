@@ -61,8 +61,6 @@ impl Entity {
 pub enum Update {
     /// Stored as the entity's newest state.
     Applied,
-    /// Older than the state already held: ignored.
-    Older,
     /// The entity has not been spawned (yet): held for its spawn.
     Held,
     /// Not spawned, and too many states are held already: dropped.
@@ -109,23 +107,19 @@ impl EntityTable {
         self.entities.remove(&id).map(|e| e.desc)
     }
 
-    /// Records a state from the snapshot of `tick`, keeping only the
-    /// newest per entity.
+    /// Records a state from the snapshot of `tick` as the entity's
+    /// newest. Feed it the newest snapshot by sequence number only: its
+    /// tick may be lower than the one held when the server's timeline
+    /// went back (a seek, or reverse play).
     pub fn update(&mut self, tick: u64, state: EntityState) -> Update {
         let latest = LatestState { tick, state };
         match self.entities.get_mut(&state.id) {
             Some(e) => {
-                if e.latest.is_some_and(|l| l.tick > tick) {
-                    return Update::Older;
-                }
                 e.latest = Some(latest);
                 Update::Applied
             }
             None => {
                 if let Some(held) = self.early.get_mut(&state.id) {
-                    if held.tick > tick {
-                        return Update::Older;
-                    }
                     *held = latest;
                     return Update::Held;
                 }
@@ -214,8 +208,9 @@ mod tests {
         assert_eq!(table.get(5).unwrap().desc.name, "b2");
         assert_eq!(table.get(2).unwrap().position(), DVec3::new(1.0, 2.0, 3.0));
         assert_eq!(table.update(10, state(2, 4.0)), Update::Applied);
-        assert_eq!(table.update(9, state(2, 3.0)), Update::Older);
-        assert_eq!(table.get(2).unwrap().position().x, 4.0);
+        // A seek back: the newest snapshot has a lower tick.
+        assert_eq!(table.update(9, state(2, 3.0)), Update::Applied);
+        assert_eq!(table.get(2).unwrap().position().x, 3.0);
         let ids: Vec<EntityId> = table.iter().map(|(id, _)| id).collect();
         assert_eq!(ids, [2, 5]);
         assert_eq!(table.despawn(2).unwrap().name, "a");
