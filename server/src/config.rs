@@ -133,7 +133,7 @@ pub struct ConfigLayer {
     #[arg(long, value_name = "BOOL", num_args = 0..=1, default_missing_value = "true")]
     pub record: Option<bool>,
     /// A keyframe (the full saved world) every this many ticks
-    /// (1..=1000000, default 600).
+    /// (1..=1000000, default 900).
     #[arg(long)]
     pub keyframe_ticks: Option<u64>,
     /// Most bytes the recording keeps on disk; the oldest segments go

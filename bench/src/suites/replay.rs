@@ -12,7 +12,7 @@
 //! middle. Every random choice comes from [`SplitMix`] with fixed seeds, so
 //! every run plays the same game.
 //!
-//! For each keyframe interval K (`--keyframe-ticks`, a list; default 600,
+//! For each keyframe interval K (`--keyframe-ticks`, a list; default 900,
 //! the server's default) the suite:
 //!
 //! 1. records `--minutes` minutes (default 10) at 60 Hz into a fresh
@@ -498,6 +498,8 @@ fn run_one(scene: &Scene, plan: &Plan, k: u64, sink: &mut dyn Sink) -> Result<Ou
         .count();
     let (history_keyframes, history_keyframe_bytes) =
         sim.history().map_or((0, 0), |h| h.keyframe_stats());
+    let (history_checkpoints, history_checkpoint_bytes) =
+        sim.history().map_or((0, 0), |h| h.checkpoint_stats());
     let t0 = Instant::now();
     sim.finish_recording();
     let finish_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -638,6 +640,8 @@ fn run_one(scene: &Scene, plan: &Plan, k: u64, sink: &mut dyn Sink) -> Result<Ou
         .num("seek_ms_per_resimulated_tick", ms_per_tick)
         .field("history_keyframes", history_keyframes as u64)
         .field("history_keyframe_bytes", history_keyframe_bytes as u64)
+        .field("history_checkpoints", history_checkpoints as u64)
+        .field("history_checkpoint_bytes", history_checkpoint_bytes as u64)
         .num("verify_ticks_per_s", verified.ticks_per_second())
         .field("verify_ticks", verified.ticks)
         .field("verify_hashes_checked", verified.hashes_checked)

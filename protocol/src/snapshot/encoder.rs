@@ -232,7 +232,10 @@ impl SnapshotEncoder {
             let next = chosen.range(c.id..).next().copied();
             let mut cost = c.bits + id_bits(prev, c.id);
             if let Some(n) = next {
-                cost = cost + id_bits(Some(c.id), n) - id_bits(prev, n);
+                // Splitting a gap never costs less than nothing; saturate
+                // so an encoding of gaps that is not subadditive cannot
+                // underflow.
+                cost = (cost + id_bits(Some(c.id), n)).saturating_sub(id_bits(prev, n));
             }
             if used + cost <= budget {
                 used += cost;

@@ -31,8 +31,11 @@ use crate::metrics::Metrics;
 
 /// Longest time an appended record waits before it is synced to disk.
 pub const FLUSH_INTERVAL: Duration = Duration::from_secs(1);
-/// Default keyframe interval, ticks (10 s at 60 Hz).
-pub const DEFAULT_KEYFRAME_TICKS: u64 = 600;
+/// Default keyframe interval, ticks (15 s at 60 Hz). Seeks start from
+/// the in-memory checkpoints between keyframes, so keyframes on disk can
+/// be sparse: they serve `--resume` (at most this many ticks to
+/// re-simulate) and seeks past the memory budget.
+pub const DEFAULT_KEYFRAME_TICKS: u64 = 900;
 /// Default retention limit, bytes (2 GiB).
 pub const DEFAULT_RECORD_MAX_BYTES: u64 = 2 * 1024 * 1024 * 1024;
 /// Default capacity of the recorder's channel, records (a few seconds of

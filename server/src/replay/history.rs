@@ -3,9 +3,18 @@
 //!
 //! The live server builds one as it records (so a seek never waits on the
 //! disk), and `--resume` or a tool loads one from a recording directory.
-//! When the keyframes pass the budget every second one is dropped (never
-//! a session's first): seeks then re-simulate further, but every recorded
-//! tick stays reachable.
+//!
+//! Between keyframes the live server also holds **checkpoints**: the
+//! whole state every few ticks ([`crate::sim::SimConfig::checkpoint_ticks`]),
+//! in memory only, each packed with zstd against the keyframe before it
+//! (a raw-content dictionary: what did not change since the keyframe costs
+//! almost nothing). A seek then re-simulates at most that many ticks
+//! instead of up to a keyframe interval; the disk keeps only the sparse
+//! keyframes. When keyframes and checkpoints pass the memory budget every
+//! second checkpoint is dropped, oldest first, then every second keyframe
+//! (never a session's first) with the checkpoints packed against it:
+//! seeks then re-simulate further, but every recorded tick stays
+//! reachable.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -29,8 +38,21 @@ pub struct HeldKeyframe {
     pub bytes: Arc<Vec<u8>>,
 }
 
-/// A recording in memory. See the module docs.
+/// A checkpoint held in memory, packed against a keyframe.
 #[derive(Debug, Clone)]
+struct Checkpoint {
+    /// The key of the keyframe it is packed against.
+    base: (u64, u32),
+    /// Its length unpacked, bytes.
+    len: usize,
+    /// The zstd frame.
+    packed: Vec<u8>,
+}
+
+/// Level of checkpoint packing (fast: it runs on the tick thread).
+const CHECKPOINT_LEVEL: i32 = 1;
+
+/// A recording in memory. See the module docs.
 pub struct History {
     /// Ticks at which recording sessions started (a session's ticks can be
     /// re-simulated only from its own keyframes).
@@ -41,6 +63,21 @@ pub struct History {
     journal: BTreeMap<u64, Vec<JournalEntry>>,
     hashes: BTreeMap<u64, u64>,
     journal_entries: u64,
+    checkpoints: BTreeMap<u64, Checkpoint>,
+    checkpoint_bytes: usize,
+    /// The newest keyframe prepared as a packing dictionary.
+    dictionary: Option<((u64, u32), zstd::dict::EncoderDictionary<'static>)>,
+}
+
+impl std::fmt::Debug for History {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("History")
+            .field("range", &self.range())
+            .field("keyframes", &self.keyframes.len())
+            .field("checkpoints", &self.checkpoints.len())
+            .field("bytes", &(self.keyframe_bytes + self.checkpoint_bytes))
+            .finish()
+    }
 }
 
 /// Why a recording could not be loaded into a [`History`].
@@ -84,6 +121,9 @@ impl History {
             journal: BTreeMap::new(),
             hashes: BTreeMap::new(),
             journal_entries: 0,
+            checkpoints: BTreeMap::new(),
+            checkpoint_bytes: 0,
+            dictionary: None,
         }
     }
 
@@ -98,19 +138,77 @@ impl History {
         if let Some(old) = self.keyframes.insert((tick, applied), bytes) {
             self.keyframe_bytes -= old.len();
         }
-        if self.keyframe_bytes > self.budget {
-            self.thin();
-        }
+        self.thin();
     }
 
-    /// Drops every second keyframe that does not start a session, oldest
-    /// first, until under budget (the newest is always kept).
+    /// Holds a checkpoint of `tick` (`raw`: an encoded [`SimState`] with
+    /// nothing of its tick's journal applied), packed against the newest
+    /// keyframe before it in its session. Not held when there is none.
+    pub fn add_checkpoint(&mut self, tick: u64, raw: &[u8]) {
+        let Some(session) = self.session_of(tick) else {
+            return;
+        };
+        let Some((&key, bytes)) = self.keyframes.range((session, 0)..(tick, 0)).next_back() else {
+            return;
+        };
+        if self.dictionary.as_ref().map(|(k, _)| *k) != Some(key) {
+            let bytes = bytes.clone();
+            self.dictionary = Some((
+                key,
+                zstd::dict::EncoderDictionary::copy(&bytes, CHECKPOINT_LEVEL),
+            ));
+        }
+        let Some((_, dict)) = &self.dictionary else {
+            return;
+        };
+        let packed = zstd::bulk::Compressor::with_prepared_dictionary(dict)
+            .and_then(|mut c| c.compress(raw));
+        let Ok(packed) = packed else { return };
+        self.checkpoint_bytes += packed.len();
+        if let Some(old) = self.checkpoints.insert(
+            tick,
+            Checkpoint {
+                base: key,
+                len: raw.len(),
+                packed,
+            },
+        ) {
+            self.checkpoint_bytes -= old.packed.len();
+        }
+        self.thin();
+    }
+
+    fn bytes_held(&self) -> usize {
+        self.keyframe_bytes + self.checkpoint_bytes
+    }
+
+    /// Brings the memory held under budget: every second checkpoint
+    /// (oldest first), then every second keyframe that does not start a
+    /// session, with the checkpoints packed against it (the newest
+    /// keyframe always stays).
     fn thin(&mut self) {
+        if self.bytes_held() <= self.budget {
+            return;
+        }
+        let target = self.budget / 2;
+        let ticks: Vec<u64> = self.checkpoints.keys().copied().collect();
+        let mut drop = false;
+        for tick in ticks {
+            if self.bytes_held() <= target {
+                return;
+            }
+            if drop {
+                if let Some(c) = self.checkpoints.remove(&tick) {
+                    self.checkpoint_bytes -= c.packed.len();
+                }
+            }
+            drop = !drop;
+        }
         let keys: Vec<(u64, u32)> = self.keyframes.keys().copied().collect();
         let last = keys.last().copied();
         let mut drop = false;
         for key in keys {
-            if self.keyframe_bytes <= self.budget / 2 {
+            if self.bytes_held() <= target {
                 break;
             }
             if Some(key) == last || (self.sessions.contains(&key.0) && key.1 == 0) {
@@ -120,9 +218,28 @@ impl History {
                 if let Some(b) = self.keyframes.remove(&key) {
                     self.keyframe_bytes -= b.len();
                 }
+                let orphans: Vec<u64> = self
+                    .checkpoints
+                    .iter()
+                    .filter(|(_, c)| c.base == key)
+                    .map(|(&t, _)| t)
+                    .collect();
+                for t in orphans {
+                    if let Some(c) = self.checkpoints.remove(&t) {
+                        self.checkpoint_bytes -= c.packed.len();
+                    }
+                }
             }
             drop = !drop;
         }
+    }
+
+    /// The checkpoint of `tick` unpacked, if held.
+    fn checkpoint_state(&self, tick: u64) -> Option<Vec<u8>> {
+        let c = self.checkpoints.get(&tick)?;
+        let dict = self.keyframes.get(&c.base)?;
+        let mut d = zstd::bulk::Decompressor::with_dictionary(dict).ok()?;
+        d.decompress(&c.packed, c.len).ok()
     }
 
     /// Appends entries applied while the world stood at `tick`.
@@ -178,16 +295,34 @@ impl History {
     /// The keyframe to re-simulate `target` from: the newest of its
     /// session taken before `target`'s step was done with, i.e. at an
     /// earlier tick, or at `target` with nothing of its journal applied.
+    /// A checkpoint held in memory counts as a keyframe here.
     pub fn base_for(&self, target: u64) -> Option<HeldKeyframe> {
         let session = self.session_of(target)?;
-        self.keyframes
+        let keyframe = self
+            .keyframes
             .range((session, 0)..=(target, 0))
             .next_back()
             .map(|(&(tick, applied), bytes)| HeldKeyframe {
                 tick,
                 applied,
                 bytes: bytes.clone(),
-            })
+            });
+        let checkpoint = self
+            .checkpoints
+            .range(session..=target)
+            .next_back()
+            .map(|(&t, _)| t)
+            .filter(|&t| keyframe.as_ref().is_none_or(|k| t > k.tick));
+        if let Some(tick) = checkpoint {
+            if let Some(bytes) = self.checkpoint_state(tick) {
+                return Some(HeldKeyframe {
+                    tick,
+                    applied: 0,
+                    bytes: Arc::new(bytes),
+                });
+            }
+        }
+        keyframe
     }
 
     /// The newest keyframe (what `--resume` starts from).
@@ -214,6 +349,11 @@ impl History {
     /// Keyframes held, and their bytes.
     pub fn keyframe_stats(&self) -> (usize, usize) {
         (self.keyframes.len(), self.keyframe_bytes)
+    }
+
+    /// Checkpoints held, and their packed bytes.
+    pub fn checkpoint_stats(&self) -> (usize, usize) {
+        (self.checkpoints.len(), self.checkpoint_bytes)
     }
 
     /// Journal entries held.

@@ -64,6 +64,9 @@ pub mod timeline;
 
 pub use edit::EditError;
 
+/// Default interval of the in-memory checkpoints seeks start from, ticks.
+pub const DEFAULT_CHECKPOINT_TICKS: u64 = 10;
+
 /// Events a [`Frame`] carries: the most recent ones, whatever frame they
 /// were first published in.
 pub const RECENT_EVENTS: usize = 1024;
@@ -93,8 +96,12 @@ pub struct SimConfig {
     pub recording: Option<RecorderConfig>,
     /// Start recording as the simulation starts (needs `recording`).
     pub record_at_start: bool,
-    /// Most bytes of keyframes held in memory for seeking.
+    /// Most bytes of keyframes and checkpoints held in memory for seeking.
     pub history_budget: usize,
+    /// While recording, a checkpoint of the whole state is held in memory
+    /// every this many ticks (0: none), so a seek re-simulates at most
+    /// that many ticks.
+    pub checkpoint_ticks: u64,
 }
 
 impl Default for SimConfig {
@@ -119,6 +126,7 @@ impl From<&ServerConfig> for SimConfig {
             recording: None,
             record_at_start: false,
             history_budget: crate::replay::DEFAULT_KEYFRAME_BUDGET,
+            checkpoint_ticks: DEFAULT_CHECKPOINT_TICKS,
         }
     }
 }
@@ -626,6 +634,7 @@ impl Simulation {
         if let Some(h) = &mut self.history {
             h.add_hash(tick, hash);
         }
+        let checkpoint_ticks = self.config.checkpoint_ticks;
         if tick % keyframe_ticks == 0 {
             let state = Arc::new(self.capture(0).encode());
             if self.send_record(Record::Keyframe {
@@ -635,6 +644,11 @@ impl Simulation {
                 if let Some(h) = &mut self.history {
                     h.add_keyframe(tick, 0, state);
                 }
+            }
+        } else if checkpoint_ticks > 0 && tick % checkpoint_ticks == 0 {
+            let state = self.capture(0).encode();
+            if let Some(h) = &mut self.history {
+                h.add_checkpoint(tick, &state);
             }
         }
     }

@@ -353,7 +353,13 @@ impl Simulation {
                         _ => view.live.world.tick(),
                     };
                     if self.world.tick() >= end {
+                        let replay = matches!(view.play, Play::Replay { .. });
                         self.finish_forward();
+                        if replay {
+                            // The live world comes back as it was left:
+                            // what the replay's clock still owed is dropped.
+                            return;
+                        }
                         continue;
                     }
                     self.view_step();
