@@ -24,8 +24,10 @@ use super::journal::{self, JournalEntry};
 use super::state::SimState;
 use crate::record::{Record, RecordReader};
 
-/// Default memory budget for keyframes held for seeking, bytes (256 MiB).
-pub const DEFAULT_KEYFRAME_BUDGET: usize = 256 * 1024 * 1024;
+/// Default memory budget for keyframes and checkpoints held for seeking,
+/// bytes (1 GiB: ten minutes of a thousand moving bodies, checkpointed
+/// every 10 ticks).
+pub const DEFAULT_KEYFRAME_BUDGET: usize = 1024 * 1024 * 1024;
 
 /// A keyframe held in memory: the encoded [`SimState`].
 #[derive(Debug, Clone)]
@@ -65,8 +67,74 @@ pub struct History {
     journal_entries: u64,
     checkpoints: BTreeMap<u64, Checkpoint>,
     checkpoint_bytes: usize,
-    /// The newest keyframe prepared as a packing dictionary.
-    dictionary: Option<((u64, u32), zstd::dict::EncoderDictionary<'static>)>,
+    /// The thread that packs checkpoints (started with the first).
+    packer: Option<Packer>,
+}
+
+/// A checkpoint to pack against its keyframe.
+struct PackJob {
+    tick: u64,
+    base: (u64, u32),
+    dictionary: Arc<Vec<u8>>,
+    raw: Vec<u8>,
+}
+
+/// The checkpoint packer: a thread (`inertia-pack`) that zstd-packs each
+/// checkpoint against its keyframe, so the tick thread only captures the
+/// state. Packed checkpoints come back through `done` and are taken in on
+/// the next tick.
+struct Packer {
+    jobs: Option<std::sync::mpsc::SyncSender<PackJob>>,
+    done: std::sync::mpsc::Receiver<(u64, Checkpoint)>,
+}
+
+/// Checkpoints waiting to be packed; more are dropped (seeks then start a
+/// little further back).
+const PACK_QUEUE: usize = 16;
+
+impl Packer {
+    fn start() -> Packer {
+        let (jobs, rx) = std::sync::mpsc::sync_channel::<PackJob>(PACK_QUEUE);
+        let (tx, done) = std::sync::mpsc::channel();
+        let spawned = std::thread::Builder::new()
+            .name("inertia-pack".into())
+            .spawn(move || {
+                let mut prepared: Option<((u64, u32), zstd::dict::EncoderDictionary<'static>)> =
+                    None;
+                for job in rx {
+                    if prepared.as_ref().map(|(k, _)| *k) != Some(job.base) {
+                        prepared = Some((
+                            job.base,
+                            zstd::dict::EncoderDictionary::copy(&job.dictionary, CHECKPOINT_LEVEL),
+                        ));
+                    }
+                    let Some((_, dict)) = &prepared else { continue };
+                    let packed = zstd::bulk::Compressor::with_prepared_dictionary(dict)
+                        .and_then(|mut c| c.compress(&job.raw));
+                    if let Ok(packed) = packed {
+                        let checkpoint = Checkpoint {
+                            base: job.base,
+                            len: job.raw.len(),
+                            packed,
+                        };
+                        if tx.send((job.tick, checkpoint)).is_err() {
+                            return;
+                        }
+                    }
+                }
+            });
+        Packer {
+            jobs: spawned.ok().map(|_| jobs),
+            done,
+        }
+    }
+
+    /// Hands a job over without waiting; dropped when the queue is full.
+    fn send(&self, job: PackJob) {
+        if let Some(jobs) = &self.jobs {
+            let _ = jobs.try_send(job);
+        }
+    }
 }
 
 impl std::fmt::Debug for History {
@@ -123,7 +191,7 @@ impl History {
             journal_entries: 0,
             checkpoints: BTreeMap::new(),
             checkpoint_bytes: 0,
-            dictionary: None,
+            packer: None,
         }
     }
 
@@ -143,37 +211,38 @@ impl History {
 
     /// Holds a checkpoint of `tick` (`raw`: an encoded [`SimState`] with
     /// nothing of its tick's journal applied), packed against the newest
-    /// keyframe before it in its session. Not held when there is none.
-    pub fn add_checkpoint(&mut self, tick: u64, raw: &[u8]) {
+    /// keyframe before it in its session, on the packer thread: it can be
+    /// seeked from a tick or so later. Not held when there is no keyframe
+    /// before it (or the packer is behind).
+    pub fn add_checkpoint(&mut self, tick: u64, raw: Vec<u8>) {
+        self.collect_packed();
         let Some(session) = self.session_of(tick) else {
             return;
         };
         let Some((&key, bytes)) = self.keyframes.range((session, 0)..(tick, 0)).next_back() else {
             return;
         };
-        if self.dictionary.as_ref().map(|(k, _)| *k) != Some(key) {
-            let bytes = bytes.clone();
-            self.dictionary = Some((
-                key,
-                zstd::dict::EncoderDictionary::copy(&bytes, CHECKPOINT_LEVEL),
-            ));
-        }
-        let Some((_, dict)) = &self.dictionary else {
-            return;
-        };
-        let packed = zstd::bulk::Compressor::with_prepared_dictionary(dict)
-            .and_then(|mut c| c.compress(raw));
-        let Ok(packed) = packed else { return };
-        self.checkpoint_bytes += packed.len();
-        if let Some(old) = self.checkpoints.insert(
+        let packer = self.packer.get_or_insert_with(Packer::start);
+        packer.send(PackJob {
             tick,
-            Checkpoint {
-                base: key,
-                len: raw.len(),
-                packed,
-            },
-        ) {
-            self.checkpoint_bytes -= old.packed.len();
+            base: key,
+            dictionary: bytes.clone(),
+            raw,
+        });
+    }
+
+    /// Takes in what the packer thread has packed so far.
+    pub fn collect_packed(&mut self) {
+        let Some(packer) = &self.packer else { return };
+        let done: Vec<(u64, Checkpoint)> = packer.done.try_iter().collect();
+        for (tick, checkpoint) in done {
+            if !self.keyframes.contains_key(&checkpoint.base) {
+                continue; // its keyframe was thinned meanwhile
+            }
+            self.checkpoint_bytes += checkpoint.packed.len();
+            if let Some(old) = self.checkpoints.insert(tick, checkpoint) {
+                self.checkpoint_bytes -= old.packed.len();
+            }
         }
         self.thin();
     }
@@ -257,6 +326,7 @@ impl History {
     /// Notes the state hash after `tick`.
     pub fn add_hash(&mut self, tick: u64, hash: u64) {
         self.hashes.insert(tick, hash);
+        self.collect_packed();
     }
 
     /// The recorded state hash after `tick`.

@@ -648,7 +648,7 @@ impl Simulation {
         } else if checkpoint_ticks > 0 && tick % checkpoint_ticks == 0 {
             let state = self.capture(0).encode();
             if let Some(h) = &mut self.history {
-                h.add_checkpoint(tick, &state);
+                h.add_checkpoint(tick, state);
             }
         }
     }

@@ -262,13 +262,7 @@ impl Simulation {
         if tick == self.live_tick() {
             self.go_live();
             self.clock.pause();
-            return Ok(SeekReport {
-                tick,
-                state_hash: self.world.state_hash(),
-                recorded_hash: self.history.as_ref().and_then(|h| h.hash_at(tick)),
-                base_tick: tick,
-                resimulated: 0,
-            });
+            return Ok(self.report_shown());
         }
         self.enter_view()?;
         let report = self.show(tick, None)?;
@@ -446,7 +440,8 @@ impl Simulation {
     /// of the same session, re-simulating the journal. States at ticks
     /// from `cache_from` on are cached on the way.
     fn show(&mut self, target: u64, cache_from: Option<u64>) -> Result<SeekReport, TimeError> {
-        let history = self.history.take().ok_or(TimeError::NoHistory)?;
+        let mut history = self.history.take().ok_or(TimeError::NoHistory)?;
+        history.collect_packed();
         let r = self.show_with(&history, target, cache_from);
         self.history = Some(history);
         r
@@ -533,17 +528,24 @@ impl Simulation {
 }
 
 impl Simulation {
+    /// The tick shown, its hash and the recorded one (nothing
+    /// re-simulated).
+    fn report_shown(&self) -> SeekReport {
+        let tick = self.world.tick();
+        SeekReport {
+            tick,
+            state_hash: self.world.state_hash(),
+            recorded_hash: self.history.as_ref().and_then(|h| h.hash_at(tick)),
+            base_tick: tick,
+            resimulated: 0,
+        }
+    }
+
     /// The state hash at `tick` and the recorded one, re-simulating a past
     /// tick without changing what is shown.
     pub fn hash_at(&mut self, tick: u64) -> Result<SeekReport, TimeError> {
         if tick == self.world.tick() {
-            return Ok(SeekReport {
-                tick,
-                state_hash: self.world.state_hash(),
-                recorded_hash: self.history.as_ref().and_then(|h| h.hash_at(tick)),
-                base_tick: tick,
-                resimulated: 0,
-            });
+            return Ok(self.report_shown());
         }
         self.check_target(tick)?;
         let clock = self.clock.clone();
