@@ -1,6 +1,7 @@
 //! Helpers for Inertia's end-to-end tests: real servers and clients over
 //! loopback, with a link conditioner between them.
 
+pub mod admin;
 pub mod conditioner;
 pub mod server;
 

@@ -5,13 +5,12 @@
 //! malformed calls after a good hello, are refused, logged and counted,
 //! and change nothing.
 
-use std::future::Future;
 use std::time::{Duration, Instant};
 
 use inertia_client::Client;
 use inertia_protocol::admin::{
     AdminErrorKind, AdminHandshake, AdminRefusal, AdminRequest, AdminResponse, MassSpec, SpawnDesc,
-    StatusReport, TimeMode,
+    TimeMode,
 };
 use inertia_protocol::control::{encode_frame, DisconnectReason, FrameDecoder};
 use inertia_protocol::{EntityId, EntityKind, ShapeDesc};
@@ -19,6 +18,7 @@ use inertia_server::admin::client::{
     connect_quic, read_credentials, AdminClient, AdminClientError,
 };
 use inertia_server::server::RunningServer;
+use inertia_tests::admin::{error_kind, ok, status, wait_for};
 use inertia_tests::server::{start_server, test_config, token};
 
 fn fingerprint(server: &RunningServer) -> [u8; 32] {
@@ -42,27 +42,6 @@ async fn admin(server: &RunningServer) -> AdminClient {
         .expect("the admin credential is accepted")
 }
 
-async fn status(admin: &mut AdminClient) -> StatusReport {
-    match admin.call(AdminRequest::Status).await.expect("status") {
-        AdminResponse::Status(s) => s,
-        other => panic!("expected a status, got {other:?}"),
-    }
-}
-
-async fn ok(admin: &mut AdminClient, request: AdminRequest) {
-    let what = format!("{request:?}");
-    let r = admin.call(request).await.expect("an answer");
-    assert_eq!(r, AdminResponse::Ok, "{what}");
-}
-
-async fn error_kind(admin: &mut AdminClient, request: AdminRequest) -> AdminErrorKind {
-    let what = format!("{request:?}");
-    match admin.call(request).await.expect("an answer") {
-        AdminResponse::Error(e) => e.kind,
-        other => panic!("{what}: expected an error, got {other:?}"),
-    }
-}
-
 async fn hash(admin: &mut AdminClient, tick: Option<u64>) -> (u64, u64) {
     match admin.call(AdminRequest::Hash { tick }).await.expect("hash") {
         AdminResponse::Hash {
@@ -79,18 +58,6 @@ async fn hash(admin: &mut AdminClient, tick: Option<u64>) -> (u64, u64) {
         }
         other => panic!("expected a hash, got {other:?}"),
     }
-}
-
-/// Waits (up to `limit`) for `cond`.
-async fn wait_for<F: Future<Output = bool>>(limit: Duration, mut cond: impl FnMut() -> F) -> bool {
-    let deadline = Instant::now() + limit;
-    while Instant::now() < deadline {
-        if cond().await {
-            return true;
-        }
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
-    cond().await
 }
 
 fn entity_named(server: &RunningServer, name: &str) -> EntityId {

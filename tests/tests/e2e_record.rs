@@ -6,33 +6,13 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use inertia_protocol::admin::{AdminErrorKind, AdminRequest, AdminResponse, StatusReport};
-use inertia_server::admin::client::{read_credentials, AdminClient};
+use inertia_protocol::admin::{AdminErrorKind, AdminRequest, AdminResponse};
+use inertia_server::admin::client::AdminClient;
 use inertia_server::config::ServerConfig;
 use inertia_server::record::{Record, RecordReader};
 use inertia_server::server::RunningServer;
+use inertia_tests::admin::{admin, call, status};
 use inertia_tests::server::{start_server, test_config};
-
-async fn admin(server: &RunningServer) -> AdminClient {
-    let fingerprint = read_credentials(server.credentials_path().expect("dev mode"))
-        .expect("dev credentials")
-        .fingerprint()
-        .expect("fingerprint");
-    AdminClient::connect(server.addr(), fingerprint, server.admin_token(), "e2e")
-        .await
-        .expect("the admin credential is accepted")
-}
-
-async fn call(admin: &mut AdminClient, request: AdminRequest) -> AdminResponse {
-    admin.call(request).await.expect("an answer")
-}
-
-async fn status(admin: &mut AdminClient) -> StatusReport {
-    match call(admin, AdminRequest::Status).await {
-        AdminResponse::Status(s) => s,
-        other => panic!("expected a status, got {other:?}"),
-    }
-}
 
 /// `(tick, state_hash, recorded_hash)`.
 async fn hash(admin: &mut AdminClient, tick: Option<u64>) -> (u64, u64, Option<u64>) {

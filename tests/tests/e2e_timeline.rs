@@ -6,45 +6,16 @@
 //! checkpoint saved and loaded through the admin channel brings back the
 //! state it saved.
 
-use std::future::Future;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use inertia_client::{Client, ClientEvent};
-use inertia_protocol::admin::{
-    AdminErrorKind, AdminRequest, AdminResponse, StatusReport, TimeMode,
-};
+use inertia_protocol::admin::{AdminErrorKind, AdminRequest, AdminResponse, TimeMode};
 use inertia_protocol::EntityId;
-use inertia_server::admin::client::{read_credentials, AdminClient};
-use inertia_server::server::RunningServer;
+use inertia_server::admin::client::AdminClient;
+use inertia_tests::admin::{admin, call, error_kind, ids_named, ok, status, wait_for};
 use inertia_tests::server::{start_server, test_config, token};
-
-async fn admin(server: &RunningServer) -> AdminClient {
-    let fingerprint = read_credentials(server.credentials_path().expect("dev mode"))
-        .expect("dev credentials")
-        .fingerprint()
-        .expect("fingerprint");
-    AdminClient::connect(server.addr(), fingerprint, server.admin_token(), "e2e")
-        .await
-        .expect("the admin credential is accepted")
-}
-
-async fn call(admin: &mut AdminClient, request: AdminRequest) -> AdminResponse {
-    admin.call(request).await.expect("an answer")
-}
-
-async fn ok(admin: &mut AdminClient, request: AdminRequest) {
-    let what = format!("{request:?}");
-    assert_eq!(call(admin, request).await, AdminResponse::Ok, "{what}");
-}
-
-async fn status(admin: &mut AdminClient) -> StatusReport {
-    match call(admin, AdminRequest::Status).await {
-        AdminResponse::Status(s) => s,
-        other => panic!("expected a status, got {other:?}"),
-    }
-}
 
 /// `(tick, state_hash, recorded_hash)` of a hash, seek or load reply.
 async fn hash_reply(admin: &mut AdminClient, request: AdminRequest) -> (u64, u64, Option<u64>) {
@@ -57,40 +28,6 @@ async fn hash_reply(admin: &mut AdminClient, request: AdminRequest) -> (u64, u64
         } => (tick, state_hash, recorded_hash),
         other => panic!("{what}: expected a hash, got {other:?}"),
     }
-}
-
-async fn error_kind(admin: &mut AdminClient, request: AdminRequest) -> AdminErrorKind {
-    let what = format!("{request:?}");
-    match call(admin, request).await {
-        AdminResponse::Error(e) => e.kind,
-        other => panic!("{what}: expected an error, got {other:?}"),
-    }
-}
-
-/// Waits (up to `limit`) for `cond`.
-async fn wait_for<F: Future<Output = bool>>(limit: Duration, mut cond: impl FnMut() -> F) -> bool {
-    let deadline = Instant::now() + limit;
-    while Instant::now() < deadline {
-        if cond().await {
-            return true;
-        }
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
-    cond().await
-}
-
-fn ids_named(client: &Client, names: &[&str]) -> Vec<EntityId> {
-    let entities = client.entities();
-    names
-        .iter()
-        .map(|n| {
-            entities
-                .iter()
-                .find(|e| e.name == *n)
-                .unwrap_or_else(|| panic!("entity {n} was described"))
-                .id
-        })
-        .collect()
 }
 
 /// One drawn frame: local time, render tick, the positions of `ids`.

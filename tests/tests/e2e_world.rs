@@ -9,6 +9,7 @@ use glam::{DQuat, DVec3};
 use inertia_client::Client;
 use inertia_protocol::EntityId;
 use inertia_server::server::RunningServer;
+use inertia_tests::admin::ids_named;
 use inertia_tests::server::{start_server, test_config, token};
 use inertia_tests::{Conditioner, Impairment};
 
@@ -33,20 +34,6 @@ fn truth_at(server: &RunningServer, tick: f64, id: EntityId) -> Option<(DVec3, D
     }
     let (p1, q1) = state(lo + 1)?;
     Some((p0.lerp(p1, f), q0.slerp(q1, f)))
-}
-
-fn ids_named(client: &Client, names: &[&str]) -> Vec<EntityId> {
-    let entities = client.entities();
-    names
-        .iter()
-        .map(|n| {
-            entities
-                .iter()
-                .find(|e| e.name == *n)
-                .unwrap_or_else(|| panic!("entity {n} was described"))
-                .id
-        })
-        .collect()
 }
 
 fn percentile(mut v: Vec<f64>, p: f64) -> f64 {
