@@ -49,6 +49,12 @@ pub const DEFAULT_KEYFRAME_TICKS: u64 = crate::record::recorder::DEFAULT_KEYFRAM
 pub const DEFAULT_RECORD_MAX_BYTES: u64 = crate::record::recorder::DEFAULT_RECORD_MAX_BYTES;
 /// Highest accepted keyframe interval, ticks.
 pub const MAX_KEYFRAME_TICKS: u64 = 1_000_000;
+/// Default memory for seeking (keyframes and checkpoints held), MiB.
+pub const DEFAULT_SEEK_MEMORY_MB: u64 = (crate::replay::DEFAULT_KEYFRAME_BUDGET >> 20) as u64;
+/// Least and most memory for seeking, MiB.
+pub const SEEK_MEMORY_MB_RANGE: std::ops::RangeInclusive<u64> = 16..=1_048_576;
+/// Default interval of the in-memory checkpoints, ticks.
+pub const DEFAULT_CHECKPOINT_TICKS: u64 = crate::sim::DEFAULT_CHECKPOINT_TICKS;
 /// Smallest accepted retention limit, bytes (1 MiB).
 pub const MIN_RECORD_MAX_BYTES: u64 = 1024 * 1024;
 /// Highest accepted tick rate, Hz.
@@ -140,6 +146,15 @@ pub struct ConfigLayer {
     /// first (at least 1048576, default 2 GiB).
     #[arg(long)]
     pub record_max_bytes: Option<u64>,
+    /// Memory for seeking: keyframes and checkpoints held, MiB
+    /// (16..=1048576, default 1024); past it the oldest are thinned.
+    #[arg(long)]
+    pub seek_memory_mb: Option<u64>,
+    /// A checkpoint of the whole state in memory every this many ticks
+    /// while recording, so a seek re-simulates at most that many (0: none;
+    /// at most 1000000; default 10).
+    #[arg(long)]
+    pub checkpoint_ticks: Option<u64>,
     /// Carry on from the recording in <data-dir>/recording (after a crash:
     /// its newest keyframe, re-simulated to the last tick on disk).
     #[arg(long, value_name = "BOOL", num_args = 0..=1, default_missing_value = "true")]
@@ -204,6 +219,10 @@ pub struct ServerConfig {
     pub record_max_bytes: u64,
     /// Start from the recording instead of the scene's initial state.
     pub resume: bool,
+    /// Memory for seeking, MiB.
+    pub seek_memory_mb: u64,
+    /// In-memory checkpoint interval, ticks (0: none).
+    pub checkpoint_ticks: u64,
 }
 
 impl Default for ServerConfig {
@@ -227,6 +246,8 @@ impl Default for ServerConfig {
             keyframe_ticks: DEFAULT_KEYFRAME_TICKS,
             record_max_bytes: DEFAULT_RECORD_MAX_BYTES,
             resume: false,
+            seek_memory_mb: DEFAULT_SEEK_MEMORY_MB,
+            checkpoint_ticks: DEFAULT_CHECKPOINT_TICKS,
         }
     }
 }
@@ -288,6 +309,12 @@ pub enum ConfigError {
     /// `max_clients` outside 1..=4096.
     #[error("max_clients must be in 1..={MAX_CLIENTS_LIMIT}, got {0}")]
     MaxClients(u32),
+    /// `seek_memory_mb` outside 16..=1048576.
+    #[error("seek_memory_mb must be in 16..=1048576, got {0}")]
+    SeekMemory(u64),
+    /// `checkpoint_ticks` above 1000000.
+    #[error("checkpoint_ticks must be at most {MAX_KEYFRAME_TICKS}, got {0}")]
+    CheckpointTicks(u64),
     /// `keyframe_ticks` outside 1..=1000000.
     #[error("keyframe_ticks must be in 1..={MAX_KEYFRAME_TICKS}, got {0}")]
     KeyframeTicks(u64),
@@ -384,6 +411,8 @@ impl ServerConfig {
             keyframe_ticks: layer.keyframe_ticks.unwrap_or(self.keyframe_ticks),
             record_max_bytes: layer.record_max_bytes.unwrap_or(self.record_max_bytes),
             resume: layer.resume.unwrap_or(self.resume),
+            seek_memory_mb: layer.seek_memory_mb.unwrap_or(self.seek_memory_mb),
+            checkpoint_ticks: layer.checkpoint_ticks.unwrap_or(self.checkpoint_ticks),
         }
     }
 
@@ -409,6 +438,12 @@ impl ServerConfig {
         }
         if !(1..=1000).contains(&self.max_catch_up_ticks) {
             return Err(ConfigError::CatchUp(self.max_catch_up_ticks));
+        }
+        if !SEEK_MEMORY_MB_RANGE.contains(&self.seek_memory_mb) {
+            return Err(ConfigError::SeekMemory(self.seek_memory_mb));
+        }
+        if self.checkpoint_ticks > MAX_KEYFRAME_TICKS {
+            return Err(ConfigError::CheckpointTicks(self.checkpoint_ticks));
         }
         if !(1..=MAX_KEYFRAME_TICKS).contains(&self.keyframe_ticks) {
             return Err(ConfigError::KeyframeTicks(self.keyframe_ticks));
@@ -499,6 +534,8 @@ impl ConfigLayer {
             keyframe_ticks: self.keyframe_ticks.or(lower.keyframe_ticks),
             record_max_bytes: self.record_max_bytes.or(lower.record_max_bytes),
             resume: self.resume.or(lower.resume),
+            seek_memory_mb: self.seek_memory_mb.or(lower.seek_memory_mb),
+            checkpoint_ticks: self.checkpoint_ticks.or(lower.checkpoint_ticks),
         }
     }
 }
@@ -558,6 +595,8 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         keyframe_ticks: get(env, "INERTIA_KEYFRAME_TICKS")?,
         record_max_bytes: get(env, "INERTIA_RECORD_MAX_BYTES")?,
         resume: get(env, "INERTIA_RESUME")?,
+        seek_memory_mb: get(env, "INERTIA_SEEK_MEMORY_MB")?,
+        checkpoint_ticks: get(env, "INERTIA_CHECKPOINT_TICKS")?,
     })
 }
 
@@ -801,6 +840,23 @@ mod tests {
         assert!(matches!(
             ServerConfig::from_args(["s", "--record-max-bytes", "1000"], env_of(&[])),
             Err(ConfigError::RecordMaxBytes(1000))
+        ));
+        // Seeking's memory and checkpoints.
+        let c = ServerConfig::from_args(
+            ["s", "--seek-memory-mb", "64"],
+            env_of(&[("INERTIA_CHECKPOINT_TICKS", "30")]),
+        )
+        .unwrap();
+        assert_eq!((c.seek_memory_mb, c.checkpoint_ticks), (64, 30));
+        let sim = crate::sim::SimConfig::from(&c);
+        assert_eq!((sim.history_budget, sim.checkpoint_ticks), (64 << 20, 30));
+        assert!(matches!(
+            ServerConfig::from_args(["s", "--seek-memory-mb", "1"], env_of(&[])),
+            Err(ConfigError::SeekMemory(1))
+        ));
+        assert!(matches!(
+            ServerConfig::from_args(["s", "--checkpoint-ticks", "2000000"], env_of(&[])),
+            Err(ConfigError::CheckpointTicks(2_000_000))
         ));
     }
 

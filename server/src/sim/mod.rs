@@ -125,8 +125,8 @@ impl From<&ServerConfig> for SimConfig {
             metrics: None,
             recording: None,
             record_at_start: false,
-            history_budget: crate::replay::DEFAULT_KEYFRAME_BUDGET,
-            checkpoint_ticks: DEFAULT_CHECKPOINT_TICKS,
+            history_budget: usize::try_from(c.seek_memory_mb << 20).unwrap_or(usize::MAX),
+            checkpoint_ticks: c.checkpoint_ticks,
         }
     }
 }
