@@ -163,7 +163,10 @@ pub async fn start_with_rules(
                 error!(error = %e, "cannot record; running without a recording");
             }
         }
-        simulation.leave_all_after_resume();
+        // Nobody is connected after a restart.
+        for client in report.clients {
+            simulation.leave(client);
+        }
     }
     let sim = SimHandle::run(simulation).map_err(StartError::Thread)?;
 

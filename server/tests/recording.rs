@@ -5,6 +5,10 @@
 //! with a keyframe; a recorder that cannot keep up drops, counts and stops
 //! instead of blocking the tick.
 
+mod common;
+
+use common::FLAT;
+
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -17,15 +21,6 @@ use inertia_server::replay::SimState;
 use inertia_server::rules::SandboxRules;
 use inertia_server::scene::{Scene, SceneFormat};
 use inertia_server::sim::{SimConfig, SimHandle, Simulation};
-
-const FLAT: &str = r#"(
-    name: "flat",
-    spawn_points: [(0.0, 1.0, 0.0), (3.0, 1.0, 0.0)],
-    bodies: [
-        (name: "ground", kind: Static, shape: Cuboid(half_extents: (50.0, 0.5, 50.0)), position: (0.0, -0.5, 0.0)),
-        (name: "ball", shape: Sphere(radius: 0.3), position: (2.0, 3.0, 2.0)),
-    ],
-)"#;
 
 fn temp_dir(what: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("inertia-recording-{what}-{}", std::process::id()));

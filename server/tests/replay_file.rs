@@ -5,6 +5,10 @@
 //! fails `verify` with exit 1, a damaged one fails with a message, and a
 //! path that holds no recording is misuse (exit 2).
 
+mod common;
+
+use common::FLAT;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -14,15 +18,6 @@ use inertia_server::replay::WorldEdit;
 use inertia_server::rules::SandboxRules;
 use inertia_server::scene::{Scene, SceneFormat};
 use inertia_server::sim::{SimConfig, Simulation};
-
-const FLAT: &str = r#"(
-    name: "flat",
-    spawn_points: [(0.0, 1.0, 0.0), (3.0, 1.0, 0.0)],
-    bodies: [
-        (name: "ground", kind: Static, shape: Cuboid(half_extents: (50.0, 0.5, 50.0)), position: (0.0, -0.5, 0.0)),
-        (name: "ball", shape: Sphere(radius: 0.3), position: (2.0, 3.0, 2.0)),
-    ],
-)"#;
 
 /// Ticks recorded.
 const TICKS: u64 = 240;

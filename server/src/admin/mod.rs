@@ -371,42 +371,28 @@ impl Session<'_> {
                 Ok(AdminResponse::Ok)
             }
             AdminRequest::Resume => {
-                self.on_sim(|s| {
-                    s.play_forward();
-                    s.clock_mut().resume();
+                self.play(|c| {
+                    c.resume();
+                    Ok(())
                 })
-                .await?;
-                Ok(AdminResponse::Ok)
+                .await
             }
             AdminRequest::Step { ticks } => {
                 let ticks = *ticks;
-                self.on_sim(move |s| {
-                    s.play_forward();
-                    s.clock_mut().pause();
-                    s.clock_mut().step(ticks);
+                self.play(move |c| {
+                    c.pause();
+                    c.step(ticks);
+                    Ok(())
                 })
-                .await?;
-                Ok(AdminResponse::Ok)
+                .await
             }
             AdminRequest::Speed { scale } => {
                 let scale = *scale;
-                self.on_sim(move |s| {
-                    s.play_forward();
-                    s.clock_mut().set_time_scale(scale)
-                })
-                .await?
-                .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;
-                Ok(AdminResponse::Ok)
+                self.play(move |c| c.set_time_scale(scale)).await
             }
             AdminRequest::RunTo { tick } => {
                 let tick = *tick;
-                self.on_sim(move |s| {
-                    s.play_forward();
-                    s.clock_mut().run_to(tick)
-                })
-                .await?
-                .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;
-                Ok(AdminResponse::Ok)
+                self.play(move |c| c.run_to(tick)).await
             }
             AdminRequest::Hash { tick } => {
                 let tick = *tick;
@@ -543,6 +529,23 @@ impl Session<'_> {
                 }
             }
         }
+    }
+
+    /// Sets the clock going forward (history shown plays forward, never
+    /// backwards, once the operator steps, resumes or sets a speed).
+    async fn play(
+        &self,
+        f: impl FnOnce(&mut crate::clock::Clock) -> Result<(), crate::clock::ClockError>
+            + Send
+            + 'static,
+    ) -> Result<AdminResponse, AdminError> {
+        self.on_sim(move |s| {
+            s.play_forward();
+            f(s.clock_mut())
+        })
+        .await?
+        .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;
+        Ok(AdminResponse::Ok)
     }
 
     /// Runs a time-travel request on the tick thread; answers with the

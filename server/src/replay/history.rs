@@ -411,11 +411,6 @@ impl History {
         self.hashes.last_key_value().map(|(&t, _)| t)
     }
 
-    /// The last tick with journal entries, if any.
-    pub fn last_journal_tick(&self) -> Option<u64> {
-        self.journal.last_key_value().map(|(&t, _)| t)
-    }
-
     /// Keyframes held, and their bytes.
     pub fn keyframe_stats(&self) -> (usize, usize) {
         (self.keyframes.len(), self.keyframe_bytes)

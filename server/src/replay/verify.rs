@@ -89,8 +89,9 @@ pub fn verify(
     let mut sim: Option<Simulation> = None;
     // A new session restarts from its keyframe.
     let mut fresh_session = true;
+    // Entries of the current tick recorded after the state reached: a
+    // keyframe holds those recorded before it (its `applied`).
     let mut pending: Vec<journal::JournalEntry> = Vec::new();
-    let mut skip: usize = 0;
     for record in reader.iter() {
         let record = record?;
         match record {
@@ -104,7 +105,7 @@ pub fn verify(
                 match &mut sim {
                     Some(s) if !fresh_session => {
                         // Catch up to the keyframe, then compare worlds.
-                        advance(s, &mut pending, &mut skip, tick, &mut report);
+                        advance(s, &mut pending, tick, &mut report);
                         if s.world().tick() == tick && state.applied == 0 {
                             let mut probe = inertia_physics::World::new(*s.world().config())
                                 .map_err(|e| bad(e.to_string()))?;
@@ -126,9 +127,6 @@ pub fn verify(
                         if sim.is_none() {
                             report.first_tick = tick;
                         }
-                        // Entries recorded before this keyframe are in it
-                        // (its `applied`); those after it are not.
-                        skip = 0;
                         pending.clear();
                         sim = Some(s);
                         fresh_session = false;
@@ -141,7 +139,7 @@ pub fn verify(
                     what: e.to_string(),
                 })?;
                 if let Some(s) = &mut sim {
-                    advance(s, &mut pending, &mut skip, tick, &mut report);
+                    advance(s, &mut pending, tick, &mut report);
                     if s.world().tick() == tick {
                         pending.extend(entries);
                     }
@@ -149,7 +147,7 @@ pub fn verify(
             }
             Record::TickHash { tick, hash } => {
                 if let Some(s) = &mut sim {
-                    advance(s, &mut pending, &mut skip, tick, &mut report);
+                    advance(s, &mut pending, tick, &mut report);
                     if s.world().tick() == tick {
                         report.hashes_checked += 1;
                         let got = s.state_hash();
@@ -179,15 +177,13 @@ pub fn verify(
 fn advance(
     sim: &mut Simulation,
     pending: &mut Vec<journal::JournalEntry>,
-    skip: &mut usize,
     tick: u64,
     report: &mut VerifyReport,
 ) {
     while sim.world().tick() < tick {
-        for e in pending.drain(..).skip(*skip) {
+        for e in pending.drain(..) {
             sim.apply_entry(&e);
         }
-        *skip = 0;
         sim.run_ticks(1);
         report.ticks += 1;
     }

@@ -211,29 +211,4 @@ impl Simulation {
         self.update_gauges();
         Ok(outcome)
     }
-
-    /// Removes an entity as the rules would ([`crate::rules::SimContext::despawn`]),
-    /// journaled; false if unknown (or history is shown).
-    pub fn despawn(&mut self, id: EntityId) -> bool {
-        self.edit(WorldEdit::Despawn { id }).is_ok()
-    }
-
-    /// Applies an impulse to an entity's body within the rules' limits,
-    /// journaled; `point` `None` is the centre of mass. Returns the impulse
-    /// applied.
-    pub fn apply_impulse(
-        &mut self,
-        id: EntityId,
-        impulse: DVec3,
-        point: Option<DVec3>,
-    ) -> Result<DVec3, EditError> {
-        match self.edit(WorldEdit::Impulse {
-            id,
-            impulse: impulse.to_array(),
-            point: point.map(|p| p.to_array()),
-        })? {
-            EditOutcome::Impulse(j) => Ok(j),
-            _ => Ok(DVec3::ZERO),
-        }
-    }
 }

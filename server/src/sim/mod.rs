@@ -298,8 +298,6 @@ pub struct Simulation {
     catalog_seen: u64,
     /// The shown state was swapped: remake the catalog.
     catalog_stale: bool,
-    /// Clients of a resumed state, to leave once recording has restarted.
-    pending_leaves: Vec<ClientId>,
     /// A recorder is being opened off the tick thread.
     opening_recorder: bool,
 }
@@ -376,7 +374,6 @@ impl Simulation {
             view: None,
             catalog_seen: catalog_version,
             catalog_stale: false,
-            pending_leaves: Vec::new(),
             opening_recorder: false,
         };
         sim.update_gauges();
@@ -518,12 +515,6 @@ impl Simulation {
         }
         self.recording = Some(Recording { recorder });
         Ok(())
-    }
-
-    /// Continues an existing recording (after `--resume`): its history is
-    /// kept for seeking, and a new session starts at the current tick.
-    pub fn adopt_history(&mut self, history: History) {
-        self.history = Some(history);
     }
 
     /// The recording held in memory for seeking, if any.
@@ -1307,6 +1298,9 @@ fn run_loop(
         let now = Instant::now();
         let ran = sim.advance(now - last);
         last = now;
+        // What changed between ticks (joins, edits while paused) reaches
+        // the recording now, not at the next tick.
+        sim.flush_journal();
         if ran > 0 || changed {
             frames.send_replace(Arc::new(sim.frame()));
         }

@@ -18,7 +18,7 @@ use crate::record::{RecordOptions, RecordWriter};
 use crate::replay::{History, HistoryError, SimState, StateError};
 
 /// What resuming did.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ResumeReport {
     /// The keyframe restored.
     pub keyframe_tick: u64,
@@ -30,8 +30,10 @@ pub struct ResumeReport {
     pub hashes_checked: u64,
     /// Of those, how many differed (should be 0).
     pub mismatches: u64,
-    /// Clients who were in the game and left.
-    pub clients_left: usize,
+    /// Clients who were in the game: not connected any more, they must
+    /// leave ([`Simulation::leave`]) once recording has restarted, so the
+    /// leaves are journaled.
+    pub clients: Vec<crate::rules::ClientId>,
     /// Torn bytes cut off the recording's tail.
     pub bytes_cut: u64,
     /// Wall time, s.
@@ -119,7 +121,7 @@ impl Simulation {
             resimulated: 0,
             hashes_checked: 0,
             mismatches: 0,
-            clients_left: 0,
+            clients: Vec::new(),
             bytes_cut,
             seconds: 0.0,
         };
@@ -143,15 +145,9 @@ impl Simulation {
             }
         }
         self.history = Some(history);
-        // Nobody is connected after a restart.
-        let clients: Vec<_> = self.clients.iter().copied().collect();
-        report.clients_left = clients.len();
+        report.clients = self.clients.iter().copied().collect();
         self.clock = self.clock.clone().with_tick(self.world.tick());
         self.catalog_stale = true;
-        // The leaves happen after the recording restarts, so they are
-        // journaled; the caller starts recording, then calls
-        // `leave_all_after_resume`.
-        self.pending_leaves = clients;
         report.seconds = started.elapsed().as_secs_f64();
         if report.mismatches > 0 {
             tracing::error!(
@@ -161,13 +157,5 @@ impl Simulation {
             );
         }
         Ok(report)
-    }
-
-    /// Makes the clients of the resumed state who are not connected leave
-    /// (journaled when recording).
-    pub fn leave_all_after_resume(&mut self) {
-        for client in std::mem::take(&mut self.pending_leaves) {
-            self.leave(client);
-        }
     }
 }

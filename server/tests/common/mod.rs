@@ -6,6 +6,16 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+/// A flat ground and one ball: the smallest scene that records something.
+pub const FLAT: &str = r#"(
+    name: "flat",
+    spawn_points: [(0.0, 1.0, 0.0), (3.0, 1.0, 0.0)],
+    bodies: [
+        (name: "ground", kind: Static, shape: Cuboid(half_extents: (50.0, 0.5, 50.0)), position: (0.0, -0.5, 0.0)),
+        (name: "ball", shape: Sphere(radius: 0.3), position: (2.0, 3.0, 2.0)),
+    ],
+)"#;
+
 /// Runs `inertia-admin --credentials <credentials> <args>`.
 pub fn admin(credentials: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_inertia-admin"))
