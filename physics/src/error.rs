@@ -36,6 +36,19 @@ pub enum PhysicsError {
         /// The offending value.
         value: f64,
     },
+    /// A quantity outside the range the engine keeps finite (see
+    /// [`crate::limits`]).
+    #[error("{what} must be within {min}..={max}, got {value}")]
+    OutOfRange {
+        /// Which input was bad.
+        what: &'static str,
+        /// The offending value (a magnitude for vectors).
+        value: f64,
+        /// The least allowed.
+        min: f64,
+        /// The greatest allowed.
+        max: f64,
+    },
     /// A direction vector had zero (or non-finite) length.
     #[error("{0} must be a non-zero direction")]
     ZeroDirection(&'static str),

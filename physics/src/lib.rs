@@ -37,6 +37,7 @@ pub mod gpu;
 pub mod handle;
 pub mod hash;
 pub mod integrator;
+pub mod limits;
 mod parallel;
 pub mod particle_system;
 pub mod profile;

@@ -52,8 +52,14 @@ pub const MAX_KICK_REASON_BYTES: usize = MAX_REASON_BYTES;
 /// Longest message of an [`AdminError`], bytes.
 pub const MAX_ADMIN_ERROR_BYTES: usize = 1024;
 /// Largest time scale an operator may ask for (simulated seconds per wall
-/// second). The smallest is anything above zero; zero is pause.
+/// second).
 pub const MAX_TIME_SCALE: f64 = 64.0;
+/// Smallest time scale above zero an operator may ask for (simulated
+/// seconds per wall second; zero is pause): one tick of 60 Hz every 17 wall
+/// seconds. Slower than that is a pause with extra steps, and the wall time
+/// between ticks (`dt / scale`) must stay a representable `Duration`
+/// (`speed 1e-300` once asked for 10²⁹⁸ seconds).
+pub const MIN_TIME_SCALE: f64 = 1.0 / 1024.0;
 
 /// The first message on an admin stream, from the operator's tool.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -131,7 +137,7 @@ pub enum AdminRequest {
     /// cannot keep up the server runs as fast as it can and reports the
     /// rate it reaches in [`StatusReport::achieved_rate`].
     Speed {
-        /// Time scale, 0 < `scale` ≤ [`MAX_TIME_SCALE`].
+        /// Time scale, [`MIN_TIME_SCALE`] ≤ `scale` ≤ [`MAX_TIME_SCALE`].
         scale: f64,
     },
     /// Run until tick `tick`, then pause.
@@ -148,7 +154,7 @@ pub enum AdminRequest {
     /// Play the recording backwards from the current tick (by seeking,
     /// never by integrating backwards).
     Reverse {
-        /// Time scale, 0 < `speed` ≤ [`MAX_TIME_SCALE`] (1 is real time).
+        /// Time scale, [`MIN_TIME_SCALE`] ≤ `speed` ≤ [`MAX_TIME_SCALE`] (1 is real time).
         speed: f64,
     },
     /// Play the recorded ticks `from..=to` to the clients like a live
@@ -158,7 +164,7 @@ pub enum AdminRequest {
         from: u64,
         /// The last tick (not before `from`).
         to: u64,
-        /// Time scale, 0 < `speed` ≤ [`MAX_TIME_SCALE`] (1 is real time).
+        /// Time scale, [`MIN_TIME_SCALE`] ≤ `speed` ≤ [`MAX_TIME_SCALE`] (1 is real time).
         speed: f64,
     },
     /// Write the world's full state to a file on the server.
@@ -400,13 +406,15 @@ pub enum AdminValidationError {
         /// The field.
         what: &'static str,
     },
-    /// A time scale outside 0 < scale ≤ [`MAX_TIME_SCALE`].
-    #[error("{what} {scale} is outside (0, {max}]")]
+    /// A time scale outside [`MIN_TIME_SCALE`] ≤ scale ≤ [`MAX_TIME_SCALE`].
+    #[error("{what} {scale} is outside {min}..={max}")]
     TimeScale {
         /// The field.
         what: &'static str,
         /// The value asked for.
         scale: f64,
+        /// [`MIN_TIME_SCALE`].
+        min: f64,
         /// [`MAX_TIME_SCALE`].
         max: f64,
     },
@@ -533,10 +541,11 @@ fn check_non_negative(what: &'static str, v: f64) -> Checked {
 
 fn check_scale(what: &'static str, scale: f64) -> Checked {
     check_finite(what, &[scale])?;
-    if scale <= 0.0 || scale > MAX_TIME_SCALE {
+    if !(MIN_TIME_SCALE..=MAX_TIME_SCALE).contains(&scale) {
         return Err(AdminValidationError::TimeScale {
             what,
             scale,
+            min: MIN_TIME_SCALE,
             max: MAX_TIME_SCALE,
         });
     }
@@ -612,7 +621,7 @@ impl SpawnDesc {
 
 impl AdminRequest {
     /// Checks the request's bounds: finite numbers, time scales in
-    /// (0, [`MAX_TIME_SCALE`]], replays that run forwards, usable paths,
+    /// [`MIN_TIME_SCALE`]..=[`MAX_TIME_SCALE`], replays that run forwards, usable paths,
     /// bounded strings, valid spawns.
     pub fn check(&self) -> Checked {
         match self {
@@ -669,6 +678,7 @@ impl StatusReport {
             return Err(AdminValidationError::TimeScale {
                 what: "time scale",
                 scale: self.time_scale,
+                min: 0.0,
                 max: MAX_TIME_SCALE,
             });
         }

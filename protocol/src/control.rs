@@ -176,6 +176,19 @@ pub enum Refusal {
     ShuttingDown,
     /// The first message was not a well-formed hello.
     Malformed,
+    /// A connection with this client id is already in the game.
+    AlreadyConnected,
+    /// The server's simulation is too busy to take the join now; retry in
+    /// a moment.
+    Busy,
+    /// The server's simulation has stopped (it is about to restart).
+    SimulationStopped,
+    /// The game's rules refused the join, for their own reason (at most
+    /// [`MAX_REASON_BYTES`]).
+    Rejected {
+        /// Why, for the player.
+        reason: String,
+    },
 }
 
 /// Why a connect token was refused, as told to the client: the
@@ -239,6 +252,12 @@ pub enum DisconnectReason {
     ProtocolError {
         /// What it did (at most [`MAX_REASON_BYTES`]).
         what: String,
+    },
+    /// The server's simulation failed and stopped; the server restarts
+    /// (and resumes from its recording), so reconnecting later works.
+    SimulationStopped {
+        /// What failed, for logs (at most [`MAX_REASON_BYTES`]).
+        reason: String,
     },
 }
 
@@ -522,6 +541,9 @@ impl ControlMessage for ServerControl {
                 check_len("refused token address", token.len(), MAX_REASON_BYTES)?;
                 check_len("refused server address", ours.len(), MAX_REASON_BYTES)
             }
+            ServerControl::Refused(Refusal::Rejected { reason }) => {
+                check_len("refusal reason", reason.len(), MAX_REASON_BYTES)
+            }
             ServerControl::Refused(_) | ServerControl::Despawn { .. } => Ok(()),
             ServerControl::Spawn(e) => validate_entity(e),
             ServerControl::Event(event) => match event {
@@ -544,6 +566,9 @@ impl ControlMessage for ServerControl {
                 }
                 DisconnectReason::ProtocolError { what } => {
                     check_len("protocol error", what.len(), MAX_REASON_BYTES)
+                }
+                DisconnectReason::SimulationStopped { reason } => {
+                    check_len("failure reason", reason.len(), MAX_REASON_BYTES)
                 }
                 DisconnectReason::ServerShutdown
                 | DisconnectReason::Timeout

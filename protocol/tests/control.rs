@@ -72,6 +72,10 @@ fn refusal() -> impl Strategy<Value = Refusal> {
         Just(Refusal::ServerFull),
         Just(Refusal::ShuttingDown),
         Just(Refusal::Malformed),
+        Just(Refusal::AlreadyConnected),
+        Just(Refusal::Busy),
+        Just(Refusal::SimulationStopped),
+        "\\PC{0,40}".prop_map(|reason| Refusal::Rejected { reason }),
     ]
 }
 
@@ -97,6 +101,7 @@ fn reason() -> impl Strategy<Value = DisconnectReason> {
         Just(DisconnectReason::Timeout),
         Just(DisconnectReason::ClientLeft),
         "\\PC{0,40}".prop_map(|what| DisconnectReason::ProtocolError { what }),
+        "\\PC{0,40}".prop_map(|reason| DisconnectReason::SimulationStopped { reason }),
     ]
 }
 

@@ -21,14 +21,16 @@
 
 use std::time::Duration;
 
-/// Largest accepted time scale.
-pub const MAX_TIME_SCALE: f64 = 64.0;
+/// The accepted time scales above zero: the admin protocol's bounds, so
+/// a scale the wire accepts is one the clock runs.
+pub use inertia_protocol::admin::{MAX_TIME_SCALE, MIN_TIME_SCALE};
 
 /// Why a clock request was refused.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum ClockError {
-    /// The scale is NaN, negative or above [`MAX_TIME_SCALE`].
-    #[error("time scale must be in 0..={MAX_TIME_SCALE}, got {0}")]
+    /// The scale is NaN, negative, between zero and [`MIN_TIME_SCALE`]
+    /// or above [`MAX_TIME_SCALE`].
+    #[error("time scale must be 0 (pause) or within {MIN_TIME_SCALE}..={MAX_TIME_SCALE}, got {0}")]
     TimeScale(f64),
     /// `run_to` a tick already passed: going back is a replay seek.
     #[error("tick {target} is not after the current tick {current}; seek a recording to go back")]
@@ -130,7 +132,7 @@ impl Clock {
     /// Sets the time scale (0 pauses; the last non-zero scale is what
     /// [`Clock::resume`] returns to).
     pub fn set_time_scale(&mut self, scale: f64) -> Result<(), ClockError> {
-        if !(0.0..=MAX_TIME_SCALE).contains(&scale) {
+        if scale != 0.0 && !(MIN_TIME_SCALE..=MAX_TIME_SCALE).contains(&scale) {
             return Err(ClockError::TimeScale(scale));
         }
         if scale > 0.0 {
@@ -140,9 +142,12 @@ impl Clock {
         Ok(())
     }
 
-    /// Stops real-time ticking; the partial tick in the accumulator is kept.
+    /// Stops real-time ticking and drops any ticks still queued by
+    /// [`Clock::step`] or [`Clock::run_to`] (pause means no more ticks);
+    /// the partial tick in the accumulator is kept.
     pub fn pause(&mut self) {
         self.time_scale = 0.0;
+        self.queued = 0;
     }
 
     /// Resumes at the last non-zero scale, dropping any queued steps.
@@ -207,7 +212,8 @@ impl Clock {
             return None;
         }
         let wall = ((self.dt - self.accumulator) / self.time_scale).max(0.0);
-        Some(Duration::from_secs_f64(wall))
+        // Bounded scales keep this within a minute; never panic on it.
+        Some(Duration::try_from_secs_f64(wall).unwrap_or(Duration::MAX))
     }
 }
 
@@ -257,6 +263,46 @@ mod tests {
         assert!(c.set_time_scale(-1.0).is_err());
         assert!(c.set_time_scale(f64::NAN).is_err());
         assert!(c.set_time_scale(1000.0).is_err());
+    }
+
+    /// Pins issue 11 defect 1: `speed 1e-300` passed validation and then
+    /// panicked the tick thread converting the wall time to the next tick
+    /// into a `Duration`.
+    #[test]
+    fn issue_11_tiny_time_scale_is_refused_and_never_panics() {
+        let mut c = Clock::new(60, 5);
+        for s in [1e-300, 5e-324, MIN_TIME_SCALE / 2.0, -0.0001, f64::NAN] {
+            assert!(
+                matches!(c.set_time_scale(s), Err(ClockError::TimeScale(_))),
+                "{s}"
+            );
+        }
+        assert_eq!(c.time_scale(), 1.0, "a refused scale changes nothing");
+        c.set_time_scale(MIN_TIME_SCALE).unwrap();
+        let wait = c.until_next_tick().unwrap();
+        assert!(wait <= Duration::from_secs(18), "{wait:?}");
+        c.set_time_scale(0.0).unwrap();
+        assert!(c.paused());
+    }
+
+    /// Pins issue 11 defect 7: `pause` did not cancel a queued `step` or
+    /// `run-to`, so ticks ran on (about 900 a second) while status said
+    /// paused.
+    #[test]
+    fn issue_11_pause_cancels_queued_steps() {
+        let mut c = Clock::new(60, 5);
+        c.pause();
+        c.step(1_000_000);
+        assert_eq!(c.advance(Duration::ZERO), 5);
+        c.pause();
+        assert_eq!(c.queued(), 0);
+        assert_eq!(c.until_next_tick(), None, "nothing due while paused");
+        assert_eq!(c.advance(ms(100)), 0);
+        c.run_to(c.tick() + 1_000).unwrap();
+        assert!(c.advance(Duration::ZERO) > 0);
+        c.pause();
+        assert_eq!(c.advance(ms(100)), 0, "pause stops a run-to too");
+        assert_eq!(c.queued(), 0);
     }
 
     #[test]

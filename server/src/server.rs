@@ -4,10 +4,10 @@
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
+use inertia_protocol::control::{DisconnectReason, MAX_REASON_BYTES};
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::TokenKey;
 use tokio::sync::watch;
@@ -16,12 +16,13 @@ use tracing::{error, info, warn};
 
 use crate::config::ServerConfig;
 use crate::credentials::{self, CredentialFiles, CredentialsError};
+use crate::health::Health;
 use crate::metrics::{self, Metrics};
 use crate::net::{self, NetShared};
 use crate::rules::{GameRules, SandboxRules, SandboxSettings};
 use crate::scene::{demo::demo_scene, Scene, SceneError};
 use crate::sim::resume::read_for_resume;
-use crate::sim::{Frame, SimConfig, SimHandle, Simulation};
+use crate::sim::{Frame, SimConfig, SimExit, SimHandle, Simulation};
 
 /// Why the server could not start.
 #[derive(Debug, thiserror::Error)]
@@ -69,8 +70,9 @@ pub struct RunningServer {
     credentials_path: Option<PathBuf>,
     admin_token: String,
     shared: Arc<NetShared>,
-    shutdown: watch::Sender<bool>,
-    ready: Arc<AtomicBool>,
+    shutdown: Arc<watch::Sender<Option<DisconnectReason>>>,
+    health: Arc<Health>,
+    failure: watch::Receiver<Option<String>>,
     endpoint: quinn::Endpoint,
     tasks: Vec<JoinHandle<()>>,
 }
@@ -170,7 +172,7 @@ pub async fn start_with_rules(
     }
     let sim = SimHandle::run(simulation).map_err(StartError::Thread)?;
 
-    let ready = Arc::new(AtomicBool::new(false));
+    let health = Arc::new(Health::new());
     let metrics_listener = tokio::net::TcpListener::bind(config.metrics)
         .await
         .map_err(|source| StartError::Bind {
@@ -187,9 +189,9 @@ pub async fn start_with_rules(
         })?;
     let mut tasks = Vec::new();
     {
-        let (metrics, ready) = (metrics.clone(), ready.clone());
+        let (metrics, health) = (metrics.clone(), health.clone());
         tasks.push(tokio::spawn(async move {
-            if let Err(e) = metrics::serve_on(metrics_listener, metrics, ready).await {
+            if let Err(e) = metrics::serve_on(metrics_listener, metrics, health).await {
                 warn!(error = %e, "metrics endpoint stopped");
             }
         }));
@@ -207,7 +209,8 @@ pub async fn start_with_rules(
         addr,
         source,
     })?;
-    let (shutdown, shutdown_rx) = watch::channel(false);
+    let (shutdown, shutdown_rx) = watch::channel(None);
+    let shutdown = Arc::new(shutdown);
     // Velocities let clients interpolate with Hermite curves and
     // extrapolate over a lost snapshot; they cost little for the bodies at
     // rest, which send none.
@@ -241,7 +244,14 @@ pub async fn start_with_rules(
     );
     tasks.push(tokio::spawn(shared.clone().record_history()));
     tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone())));
-    ready.store(true, Ordering::SeqCst);
+    let (failed, failure) = watch::channel(None);
+    tasks.push(tokio::spawn(supervise(
+        shared.sim.watch_exit(),
+        health.clone(),
+        shutdown.clone(),
+        failed,
+    )));
+    health.set_ready(true);
     info!(
         %addr,
         %metrics_addr,
@@ -258,10 +268,54 @@ pub async fn start_with_rules(
         admin_token: creds.admin_token,
         shared,
         shutdown,
-        ready,
+        health,
+        failure,
         endpoint,
         tasks,
     })
+}
+
+/// Watches the tick thread. If it ever stops other than by a shutdown
+/// (a panic in a tick, a command or an admin call), the server fails at
+/// once: `/healthz` and `/readyz` answer 503 with the reason, every client
+/// gets a goodbye saying the simulation stopped, and `failed` carries the
+/// reason to [`RunningServer::failed`] (the process then exits non-zero so
+/// an orchestrator restarts it; `--resume` carries on from the recording).
+async fn supervise(
+    mut exit: watch::Receiver<Option<SimExit>>,
+    health: Arc<Health>,
+    shutdown: Arc<watch::Sender<Option<DisconnectReason>>>,
+    failed: watch::Sender<Option<String>>,
+) {
+    let outcome = match exit.wait_for(Option::is_some).await {
+        Ok(e) => e.clone(),
+        // The handle is gone: the server itself is being dropped.
+        Err(_) => return,
+    };
+    let Some(SimExit::Failed {
+        reason,
+        tick,
+        keyframe,
+    }) = outcome
+    else {
+        return;
+    };
+    let what = format!("the simulation stopped at tick {tick}: {reason}");
+    error!(%reason, tick, keyframe, "the simulation failed; failing health checks and stopping");
+    health.fail(what.clone());
+    let mut told = what.clone();
+    if told.len() > MAX_REASON_BYTES {
+        let mut end = MAX_REASON_BYTES;
+        while !told.is_char_boundary(end) {
+            end -= 1;
+        }
+        told.truncate(end);
+    }
+    shutdown.send_if_modified(|r| {
+        r.get_or_insert(DisconnectReason::SimulationStopped { reason: told });
+        true
+    });
+    let _ = failed.send(Some(what));
 }
 
 impl RunningServer {
@@ -306,6 +360,25 @@ impl RunningServer {
         &self.shared.metrics
     }
 
+    /// Whether the server has failed (the tick thread stopped), and why.
+    pub fn failure(&self) -> Option<String> {
+        self.health.failure()
+    }
+
+    /// Waits until the server fails (the tick thread stopped other than by
+    /// a shutdown) and returns why; never returns while it works.
+    pub async fn failed(&self) -> String {
+        let mut failure = self.failure.clone();
+        let why = match failure.wait_for(Option::is_some).await {
+            Ok(why) => why.clone(),
+            Err(_) => None,
+        };
+        match why {
+            Some(why) => why,
+            None => std::future::pending().await,
+        }
+    }
+
     /// Clients connected now.
     pub fn clients(&self) -> usize {
         self.shared.connected.lock().map_or(0, |c| c.len())
@@ -316,8 +389,15 @@ impl RunningServer {
     /// seconds at most) for it all to finish.
     pub async fn shutdown(self) {
         info!("shutting down");
-        self.ready.store(false, Ordering::SeqCst);
-        let _ = self.shutdown.send(true);
+        self.health.set_ready(false);
+        // A failure's reason, if one came first, is what clients are told.
+        self.shutdown.send_if_modified(|r| {
+            if r.is_some() {
+                return false;
+            }
+            *r = Some(DisconnectReason::ServerShutdown);
+            true
+        });
         let deadline = tokio::time::Instant::now() + Duration::from_secs(3);
         while self.clients() > 0 && tokio::time::Instant::now() < deadline {
             tokio::time::sleep(Duration::from_millis(20)).await;

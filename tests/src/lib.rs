@@ -3,6 +3,7 @@
 
 pub mod admin;
 pub mod conditioner;
+pub mod fault;
 pub mod server;
 
 pub use conditioner::{BurstLoss, Conditioner, ConditionerStats, Impairment};

@@ -292,7 +292,11 @@ fn closed_reason(e: &quinn::ConnectionError) -> DisconnectReason {
         quinn::ConnectionError::LocallyClosed => DisconnectReason::ClientLeft,
         quinn::ConnectionError::ApplicationClosed(close) => {
             let text = String::from_utf8_lossy(&close.reason).into_owned();
-            if text.contains("shut") {
+            if let Some(reason) = text.strip_prefix("simulation stopped: ") {
+                DisconnectReason::SimulationStopped {
+                    reason: reason.to_string(),
+                }
+            } else if text.contains("shut") {
                 DisconnectReason::ServerShutdown
             } else {
                 DisconnectReason::Kicked { reason: text }

@@ -19,6 +19,7 @@
 use glam::{DMat3, DQuat, DVec3};
 
 use crate::error::{finite, finite3, non_negative, PhysicsError};
+use crate::limits;
 use crate::rigid::mass::MassProperties;
 use crate::rigid::pose::Pose;
 use crate::rigid::shape::Shape;
@@ -160,6 +161,7 @@ pub struct RigidBodyDesc {
 impl RigidBodyDesc {
     /// A dynamic body of `shape` with uniform `density` (kg/m³) at `pose`.
     pub fn dynamic(shape: Shape, density: f64, pose: Pose) -> Result<Self, PhysicsError> {
+        crate::limits::density(density)?;
         let mass_properties =
             shape
                 .mass_properties(density)
@@ -226,12 +228,21 @@ impl RigidBodyDesc {
         self
     }
 
+    /// Checks every field as [`World::add_body`](crate::World::add_body)
+    /// will, against the engine's [`limits`], without adding anything.
+    pub fn validate(&self) -> Result<(), PhysicsError> {
+        self.build().map(drop)
+    }
+
     /// Checks every field and builds the body.
     pub(crate) fn build(&self) -> Result<RigidBody, PhysicsError> {
         finite3("body position", self.pose.translation)?;
+        limits::position("body position (m)", self.pose.translation)?;
         let rotation = checked_rotation(self.pose.rotation)?;
         finite3("body linear velocity", self.linear_velocity)?;
         finite3("body angular velocity", self.angular_velocity)?;
+        limits::velocity(self.linear_velocity)?;
+        limits::angular_velocity(self.angular_velocity)?;
         non_negative("linear damping", self.linear_damping)?;
         non_negative("angular damping", self.angular_damping)?;
         finite("gravity scale", self.gravity_scale)?;
@@ -285,6 +296,7 @@ impl RigidBodyDesc {
                 if !(mp.mass.is_finite() && mp.mass > 0.0) {
                     return Err(PhysicsError::NonPositiveMass(mp.mass));
                 }
+                limits::mass(mp.mass)?;
                 finite3("centre of mass", mp.center_of_mass)?;
                 for c in mp.inertia.to_cols_array() {
                     finite("inertia tensor", c)?;
@@ -295,6 +307,9 @@ impl RigidBodyDesc {
                         what: "inertia tensor",
                         why: format!("principal moments must be > 0 kg·m², got {moments}"),
                     });
+                }
+                for m in moments.to_array() {
+                    limits::inertia(m)?;
                 }
                 body.inv_mass = 1.0 / mp.mass;
                 body.local_com = mp.center_of_mass;

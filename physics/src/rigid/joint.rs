@@ -351,7 +351,7 @@ impl JointConstraint {
                 let cdot = axis.dot(vrel(a, b)) - speed;
                 let max = max_force * h;
                 let old = self.joint.motor_impulse;
-                self.joint.motor_impulse = (old - cdot / k).clamp(-max, max);
+                self.joint.motor_impulse = crate::limits::clamp_magnitude(old - cdot / k, max);
                 let p = axis * (self.joint.motor_impulse - old);
                 apply(a, b, ra_b, rb, p, DVec3::ZERO);
             }
@@ -494,7 +494,8 @@ impl JointConstraint {
                         let cdot = axis.dot(b.w - a.w) - speed;
                         let max = max_torque * h;
                         let old = self.joint.motor_impulse;
-                        self.joint.motor_impulse = (old - cdot / k).clamp(-max, max);
+                        self.joint.motor_impulse =
+                            crate::limits::clamp_magnitude(old - cdot / k, max);
                         apply(
                             a,
                             b,

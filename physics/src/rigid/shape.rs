@@ -60,6 +60,19 @@ pub enum ShapeError {
         /// The maximum.
         max: usize,
     },
+    /// A size or coordinate outside what the engine keeps finite (see
+    /// [`crate::limits`]).
+    #[error("{what} must be within {min}..={max}, got {value}")]
+    OutOfRange {
+        /// Which input was bad.
+        what: &'static str,
+        /// The offending value.
+        value: f64,
+        /// The least allowed.
+        min: f64,
+        /// The greatest allowed.
+        max: f64,
+    },
     /// A list that must not be empty was.
     #[error("{0} must not be empty")]
     Empty(&'static str),
@@ -124,6 +137,53 @@ fn finite(what: &'static str, v: f64) -> Result<f64, ShapeError> {
     } else {
         Err(ShapeError::NonFinite { what, value: v })
     }
+}
+
+/// Checks a size against [`crate::limits`] (radius, half extent, half
+/// height), m.
+fn length(what: &'static str, v: f64) -> Result<f64, ShapeError> {
+    finite(what, v)?;
+    if v <= 0.0 {
+        return Err(ShapeError::NotPositive { what, value: v });
+    }
+    crate::limits::length(what, v).map_err(|_| ShapeError::OutOfRange {
+        what,
+        value: v,
+        min: crate::limits::MIN_LENGTH,
+        max: crate::limits::MAX_LENGTH,
+    })
+}
+
+/// Checks a capsule's half height: above zero (a capsule of almost no
+/// length is a ball, which is fine) and at most [`crate::limits::MAX_LENGTH`].
+fn half_length(what: &'static str, v: f64) -> Result<f64, ShapeError> {
+    positive(what, v)?;
+    if v > crate::limits::MAX_LENGTH {
+        return Err(ShapeError::OutOfRange {
+            what,
+            value: v,
+            min: 0.0,
+            max: crate::limits::MAX_LENGTH,
+        });
+    }
+    Ok(v)
+}
+
+/// Checks every coordinate of `points` against [`crate::limits`], m.
+fn coordinates(what: &'static str, points: &[DVec3]) -> Result<(), ShapeError> {
+    let max = crate::limits::MAX_COORDINATE;
+    for c in points.iter().flat_map(|p| p.to_array()) {
+        finite(what, c)?;
+        if c.abs() > max {
+            return Err(ShapeError::OutOfRange {
+                what,
+                value: c,
+                min: -max,
+                max,
+            });
+        }
+    }
+    Ok(())
 }
 
 fn positive(what: &'static str, v: f64) -> Result<f64, ShapeError> {
@@ -396,14 +456,14 @@ impl Shape {
     /// A ball of `radius` m (> 0).
     pub fn sphere(radius: f64) -> Result<Shape, ShapeError> {
         Ok(Shape::Sphere {
-            radius: positive("sphere radius", radius)?,
+            radius: length("sphere radius", radius)?,
         })
     }
 
     /// A box with `half_extents` m (each > 0).
     pub fn cuboid(half_extents: DVec3) -> Result<Shape, ShapeError> {
         for c in half_extents.to_array() {
-            positive("cuboid half extent", c)?;
+            length("cuboid half extent", c)?;
         }
         Ok(Shape::Cuboid { half_extents })
     }
@@ -412,8 +472,8 @@ impl Shape {
     /// `radius` m (both > 0; for zero length use a sphere).
     pub fn capsule(half_height: f64, radius: f64) -> Result<Shape, ShapeError> {
         Ok(Shape::Capsule {
-            half_height: positive("capsule half height", half_height)?,
-            radius: positive("capsule radius", radius)?,
+            half_height: half_length("capsule half height", half_height)?,
+            radius: length("capsule radius", radius)?,
         })
     }
 
@@ -421,13 +481,14 @@ impl Shape {
     /// (both > 0).
     pub fn cylinder(half_height: f64, radius: f64) -> Result<Shape, ShapeError> {
         Ok(Shape::Cylinder {
-            half_height: positive("cylinder half height", half_height)?,
-            radius: positive("cylinder radius", radius)?,
+            half_height: length("cylinder half height", half_height)?,
+            radius: length("cylinder radius", radius)?,
         })
     }
 
     /// The convex hull of `points` (m); see [`ConvexHull::from_points`].
     pub fn convex_hull(points: &[DVec3]) -> Result<Shape, ShapeError> {
+        coordinates("convex hull point", points)?;
         Ok(Shape::ConvexHull(Arc::new(ConvexHull::from_points(
             points,
         )?)))
@@ -435,6 +496,7 @@ impl Shape {
 
     /// A triangle mesh; see [`TriMesh::new`].
     pub fn trimesh(vertices: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Result<Shape, ShapeError> {
+        coordinates("triangle mesh vertex", &vertices)?;
         Ok(Shape::TriMesh(Arc::new(TriMesh::new(vertices, triangles)?)))
     }
 

@@ -759,7 +759,7 @@ impl ContactConstraint {
         let twist_limit = limit * self.twist_radius;
         let tw = &mut self.twist;
         let spin = n.dot(b.w - a.w);
-        let total = (tw.impulse - tw.mass * spin).clamp(-twist_limit, twist_limit);
+        let total = crate::limits::clamp_magnitude(tw.impulse - tw.mass * spin, twist_limit);
         let applied = total - tw.impulse;
         tw.impulse = total;
         a.w -= tw.ang_a * applied;

@@ -380,7 +380,11 @@ impl Session<'_> {
             AdminRequest::Step { ticks } => {
                 let ticks = *ticks;
                 self.play(move |c| {
-                    c.pause();
+                    // Steps add up: on a paused clock the ticks still
+                    // queued stay (pause itself drops them).
+                    if !c.paused() {
+                        c.pause();
+                    }
                     c.step(ticks);
                     Ok(())
                 })

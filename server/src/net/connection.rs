@@ -24,7 +24,7 @@ use tracing::{debug, info, info_span, warn, Instrument};
 use super::events::to_wire;
 use super::NetShared;
 use crate::rules;
-use crate::sim::Frame;
+use crate::sim::{CommandError, Frame, SimExit};
 
 /// How long a client has to say hello.
 pub const HELLO_TIMEOUT: Duration = Duration::from_secs(5);
@@ -41,6 +41,8 @@ pub mod close_code {
     pub const SHUTDOWN: u32 = 3;
     /// An operator kicked the client.
     pub const KICKED: u32 = 4;
+    /// The simulation failed; the server is about to restart.
+    pub const SIMULATION_STOPPED: u32 = 5;
 }
 
 /// Within this distance of a client's avatar, m, entities are fully
@@ -68,8 +70,8 @@ enum End {
     Goodbye,
     /// The client broke the protocol on the control stream.
     Protocol(String),
-    /// The server is shutting down.
-    Shutdown,
+    /// The server is stopping, for this reason.
+    Shutdown(DisconnectReason),
     /// An operator kicked the client.
     Kicked(String),
 }
@@ -78,6 +80,42 @@ async fn write(send: &mut quinn::SendStream, msg: &ServerControl) -> Result<usiz
     let bytes = encode_frame(msg).map_err(|e| e.to_string())?;
     send.write_all(&bytes).await.map_err(|e| e.to_string())?;
     Ok(bytes.len())
+}
+
+/// What a client is told when the rules refuse its join: the real reason.
+fn join_refusal(client: u64, refusal: rules::Refusal) -> Refusal {
+    match refusal {
+        rules::Refusal::Full { .. } => Refusal::ServerFull,
+        rules::Refusal::AlreadyJoined(_) => Refusal::AlreadyConnected,
+        rules::Refusal::Unavailable => Refusal::Busy,
+        refusal @ (rules::Refusal::NoRoom | rules::Refusal::Rules(_)) => {
+            info!(client, reason = %refusal, "join refused by the rules");
+            let mut reason = refusal.to_string();
+            truncate_reason(&mut reason);
+            Refusal::Rejected { reason }
+        }
+    }
+}
+
+/// Cuts `s` to [`MAX_REASON_BYTES`] at a character boundary.
+fn truncate_reason(s: &mut String) {
+    let max = inertia_protocol::control::MAX_REASON_BYTES;
+    if s.len() > max {
+        let mut end = max;
+        while !s.is_char_boundary(end) {
+            end -= 1;
+        }
+        s.truncate(end);
+    }
+}
+
+/// Why a join cannot reach the tick thread: it failed, or the server is
+/// shutting down.
+fn stopped_refusal(shared: &NetShared) -> Refusal {
+    match shared.sim.exit() {
+        Some(SimExit::Failed { .. }) => Refusal::SimulationStopped,
+        _ => Refusal::ShuttingDown,
+    }
 }
 
 /// Serves one game connection to its end.
@@ -143,20 +181,21 @@ async fn hello(connection: &quinn::Connection, id: u64, shared: &NetShared) -> O
         }
     };
     let result = match result {
-        Ok(_) if *shared.shutdown.borrow() => Err(Refusal::ShuttingDown),
+        Ok(_) if shared.sim.exit().is_some_and(|e| e != SimExit::Shutdown) => {
+            Err(Refusal::SimulationStopped)
+        }
+        Ok(_) if shared.shutdown.borrow().is_some() => Err(Refusal::ShuttingDown),
         Ok(token) => {
             let client = token.client_id;
             match shared.sim.request_join(client) {
                 Ok(rx) => match rx.await {
                     Ok(Ok(avatar)) => Ok((client, avatar)),
-                    Ok(Err(rules::Refusal::Full { .. })) => Err(Refusal::ServerFull),
-                    Ok(Err(e)) => {
-                        info!(client, reason = %e, "join refused by the rules");
-                        Err(Refusal::ServerFull)
-                    }
-                    Err(_) => Err(Refusal::ShuttingDown),
+                    Ok(Err(refusal)) => Err(join_refusal(client, refusal)),
+                    // The tick thread dropped the question: it has stopped.
+                    Err(_) => Err(stopped_refusal(shared)),
                 },
-                Err(_) => Err(Refusal::ServerFull),
+                Err(CommandError::Busy) => Err(Refusal::Busy),
+                Err(CommandError::Stopped) => Err(stopped_refusal(shared)),
             }
         }
         Err(r) => Err(r),
@@ -254,15 +293,19 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
     }
     let _ = shared.sim.leave(client);
     match end {
-        End::Shutdown => {
-            let _ = write(
-                &mut send,
-                &ServerControl::Goodbye(DisconnectReason::ServerShutdown),
-            )
-            .await;
+        End::Shutdown(reason) => {
+            let _ = write(&mut send, &ServerControl::Goodbye(reason.clone())).await;
             let _ = send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
-            connection.close(close_code::SHUTDOWN.into(), b"server shutting down");
+            match reason {
+                // The close says it too, for a client that sees the close
+                // before the goodbye.
+                DisconnectReason::SimulationStopped { reason } => connection.close(
+                    close_code::SIMULATION_STOPPED.into(),
+                    format!("simulation stopped: {reason}").as_bytes(),
+                ),
+                _ => connection.close(close_code::SHUTDOWN.into(), b"server shutting down"),
+            }
             info!(client, "client told of shutdown");
         }
         End::Goodbye => {
@@ -400,7 +443,13 @@ async fn session(
                 }
                 Ok(None) | Err(_) => return End::Closed(connection.closed().await),
             },
-            _ = shutdown.changed() => return End::Shutdown,
+            _ = shutdown.changed() => {
+                let reason = shutdown
+                    .borrow()
+                    .clone()
+                    .unwrap_or(DisconnectReason::ServerShutdown);
+                return End::Shutdown(reason);
+            }
             reason = &mut kick, if kick_open => match reason {
                 Ok(reason) => return End::Kicked(reason),
                 // Another connection of the same client took the kick.

@@ -13,6 +13,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use inertia_protocol::admin::ADMIN_ALPN;
+use inertia_protocol::control::DisconnectReason;
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::{ReplayGuard, TokenKey};
 use tokio::sync::{oneshot, watch};
@@ -44,8 +45,9 @@ pub struct NetShared {
     pub tick_hz: u32,
     /// Per-client budget, bytes per second.
     pub budget_bytes_per_sec: u64,
-    /// Becomes true when the server shuts down.
-    pub shutdown: watch::Receiver<bool>,
+    /// Becomes the reason every client is given when the server stops
+    /// (a shutdown, or the simulation failing).
+    pub shutdown: watch::Receiver<Option<DisconnectReason>>,
     /// Recent frames by tick, so tests and tools can compare what clients
     /// saw with the truth.
     pub history: Mutex<BTreeMap<u64, Arc<Frame>>>,
@@ -84,7 +86,7 @@ impl NetShared {
         snapshot_hz: u32,
         tick_hz: u32,
         budget_bytes_per_sec: u64,
-        shutdown: watch::Receiver<bool>,
+        shutdown: watch::Receiver<Option<DisconnectReason>>,
     ) -> Self {
         Self {
             sim,
@@ -174,7 +176,8 @@ async fn route(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>) {
 }
 
 /// Accepts connections on `endpoint` until shutdown, serving each on its
-/// own task.
+/// own task. After a simulation failure it goes on accepting until the
+/// process stops, so a client that tries to join is told why it cannot.
 pub async fn accept(endpoint: quinn::Endpoint, shared: Arc<NetShared>) {
     let mut shutdown = shared.shutdown.clone();
     loop {
@@ -185,7 +188,12 @@ pub async fn accept(endpoint: quinn::Endpoint, shared: Arc<NetShared>) {
                 debug!(connection = id, remote = %incoming.remote_address(), "incoming");
                 tokio::spawn(route(incoming, id, shared.clone()));
             }
-            _ = shutdown.changed() => break,
+            changed = shutdown.changed() => {
+                let stopping = matches!(*shutdown.borrow(), Some(DisconnectReason::ServerShutdown));
+                if changed.is_err() || stopping {
+                    break;
+                }
+            }
         }
     }
     info!("no longer accepting connections");

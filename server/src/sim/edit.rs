@@ -145,6 +145,8 @@ pub fn body_from_spawn(desc: &SpawnDesc) -> Result<RigidBodyDesc, String> {
     };
     body.linear_velocity = velocity;
     body.angular_velocity = angular;
+    // The engine's bounds (mass, size, speed), the same a scene file meets.
+    body.validate().map_err(|e| e.to_string())?;
     Ok(body)
 }
 

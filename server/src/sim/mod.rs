@@ -37,6 +37,7 @@
 //! recording (a gap would break replay).
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::panic::{self, AssertUnwindSafe};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TryRecvError, TrySendError};
 use std::sync::Arc;
@@ -300,6 +301,9 @@ pub struct Simulation {
     catalog_stale: bool,
     /// A recorder is being opened off the tick thread.
     opening_recorder: bool,
+    /// A tick is under way (still set after a panic inside one: the state
+    /// is then half a tick and not worth a keyframe).
+    in_tick: bool,
 }
 
 /// A recorder being opened off the tick thread
@@ -375,6 +379,7 @@ impl Simulation {
             catalog_seen: catalog_version,
             catalog_stale: false,
             opening_recorder: false,
+            in_tick: false,
         };
         sim.update_gauges();
         if sim.config.record_at_start {
@@ -549,6 +554,40 @@ impl Simulation {
         if let Some(old) = self.retired.take() {
             old.stop();
         }
+    }
+
+    /// Whether the state shown is whole: no tick was cut short, and every
+    /// body's position and velocities are finite.
+    pub fn state_is_sound(&self) -> bool {
+        !self.in_tick
+            && self.world.bodies().all(|(_, b)| {
+                b.center_of_mass().is_finite()
+                    && b.linear_velocity().is_finite()
+                    && b.angular_velocity().is_finite()
+            })
+    }
+
+    /// Ends the recording after a failure: with a keyframe of the current
+    /// state if [it is sound](Self::state_is_sound), else with what the
+    /// recorder has (the last whole tick). Returns whether a keyframe was
+    /// written.
+    pub fn end_after_failure(&mut self) -> bool {
+        if self.state_is_sound() {
+            let recording = self.recording.is_some();
+            self.finish_recording();
+            return recording;
+        }
+        if let Some(rec) = self.recording.take() {
+            rec.recorder.finish(None);
+            tracing::warn!(
+                tick = self.world.tick(),
+                "recording ended without a keyframe: the failure cut a tick short"
+            );
+        }
+        if let Some(old) = self.retired.take() {
+            old.stop();
+        }
+        false
     }
 
     /// Records an administrator's edit of the world at the current tick
@@ -841,6 +880,7 @@ impl Simulation {
     pub fn tick(&mut self) {
         let _span = tracing::debug_span!("tick", tick = self.world.tick() + 1).entered();
         self.flush_journal();
+        self.in_tick = true;
         let t0 = Instant::now();
         self.with_ctx(|rules, ctx| rules.before_tick(ctx));
         let dt = self.dt();
@@ -882,6 +922,7 @@ impl Simulation {
         }
         self.with_ctx(|rules, ctx| rules.after_tick(ctx));
         self.collect_events();
+        self.in_tick = false;
         self.last_tick = t0.elapsed();
         if self.view.is_none() {
             self.record_tick();
@@ -1059,6 +1100,26 @@ impl Simulation {
     }
 }
 
+/// How the tick thread ended.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SimExit {
+    /// It was asked to stop ([`SimHandle::shutdown`], or every handle
+    /// dropped) and ended its recording with a keyframe.
+    Shutdown,
+    /// It failed: a panic in a tick, a command or an admin call. The world
+    /// is frozen at the tick it reached.
+    Failed {
+        /// The panic's message.
+        reason: String,
+        /// The tick reached.
+        tick: u64,
+        /// Whether the state was sound (the failure came between ticks)
+        /// and a final keyframe of it was written; otherwise the recording
+        /// ends at the last whole tick and `--resume` re-simulates to it.
+        keyframe: bool,
+    },
+}
+
 /// The network layer's handle on the tick thread. Dropping it stops the
 /// thread (after its current loop); [`SimHandle::shutdown`] also waits.
 #[derive(Debug)]
@@ -1066,6 +1127,7 @@ pub struct SimHandle {
     control: SyncSender<Command>,
     inputs: SyncSender<(ClientId, PlayerInput)>,
     frames: watch::Receiver<Arc<Frame>>,
+    exit: watch::Receiver<Option<SimExit>>,
     stats: Arc<SimStats>,
     thread: Option<JoinHandle<()>>,
 }
@@ -1097,13 +1159,15 @@ impl SimHandle {
         let (input_tx, input_rx) = mpsc::sync_channel(sim.config.input_capacity.max(1));
         let stats = sim.stats();
         let (frame_tx, frame_rx) = watch::channel(Arc::new(sim.frame()));
+        let (exit_tx, exit_rx) = watch::channel(None);
         let thread = std::thread::Builder::new()
             .name("inertia-tick".into())
-            .spawn(move || run(sim, control_rx, input_rx, frame_tx))?;
+            .spawn(move || run(sim, control_rx, input_rx, frame_tx, exit_tx))?;
         Ok(SimHandle {
             control: control_tx,
             inputs: input_tx,
             frames: frame_rx,
+            exit: exit_rx,
             stats,
             thread: Some(thread),
         })
@@ -1225,6 +1289,17 @@ impl SimHandle {
         &self.stats
     }
 
+    /// How the tick thread ended; `None` while it runs.
+    pub fn exit(&self) -> Option<SimExit> {
+        self.exit.borrow().clone()
+    }
+
+    /// A receiver that wakes when the tick thread ends, whatever the
+    /// reason (`wait_for(Option::is_some)`).
+    pub fn watch_exit(&self) -> watch::Receiver<Option<SimExit>> {
+        self.exit.clone()
+    }
+
     /// Stops the thread and waits for it.
     pub fn shutdown(mut self) {
         let _ = self.control.try_send(Command::Shutdown);
@@ -1245,21 +1320,66 @@ impl Drop for SimHandle {
 /// channels.
 const IDLE_WAIT: Duration = Duration::from_millis(50);
 
+/// The tick thread: the loop, then the end of the recording. A panic
+/// anywhere in the loop (a tick, a command, an admin call) is caught here
+/// and reported on `exit`, so the server can fail its health checks, tell
+/// the clients and exit for a restart instead of serving a frozen world.
 fn run(
     mut sim: Simulation,
     control: Receiver<Command>,
     inputs: Receiver<(ClientId, PlayerInput)>,
     frames: watch::Sender<Arc<Frame>>,
+    exit: watch::Sender<Option<SimExit>>,
 ) {
-    run_loop(&mut sim, control, inputs, frames);
-    sim.finish_recording();
+    let looped = panic::catch_unwind(AssertUnwindSafe(|| {
+        run_loop(&mut sim, control, inputs, &frames)
+    }));
+    let outcome = match looped {
+        Ok(()) => match panic::catch_unwind(AssertUnwindSafe(|| sim.finish_recording())) {
+            Ok(()) => SimExit::Shutdown,
+            Err(payload) => SimExit::Failed {
+                reason: panic_message(payload.as_ref()),
+                tick: sim.world.tick(),
+                keyframe: false,
+            },
+        },
+        Err(payload) => {
+            let reason = panic_message(payload.as_ref());
+            let tick = sim.world.tick();
+            let keyframe =
+                panic::catch_unwind(AssertUnwindSafe(|| sim.end_after_failure())).unwrap_or(false);
+            tracing::error!(
+                %reason,
+                tick,
+                keyframe,
+                "the simulation failed and has stopped"
+            );
+            SimExit::Failed {
+                reason,
+                tick,
+                keyframe,
+            }
+        }
+    };
+    exit.send_replace(Some(outcome));
+}
+
+/// The message a panic was raised with.
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "a panic without a message".to_string()
+    }
 }
 
 fn run_loop(
     sim: &mut Simulation,
     control: Receiver<Command>,
     inputs: Receiver<(ClientId, PlayerInput)>,
-    frames: watch::Sender<Arc<Frame>>,
+    frames: &watch::Sender<Arc<Frame>>,
 ) {
     let mut last = Instant::now();
     let mut early: Option<Command> = None;

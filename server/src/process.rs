@@ -1,0 +1,102 @@
+//! The `inertia-server` process around a [`GameRules`]: configuration from
+//! the command line, environment and TOML, logging, the I/O runtime, serving
+//! until SIGTERM or Ctrl-C, and the exit status an orchestrator acts on.
+//! A studio's own server binary is `fn main() -> ExitCode { run(my_rules) }`.
+//!
+//! Exit status: 0 after a requested stop; 1 when the server could not
+//! start; 2 for a bad configuration; 3 when the simulation failed while
+//! serving (health checks fail first and clients are told, then the
+//! process exits so an orchestrator restarts it, with `--resume` to carry
+//! on from the recording).
+
+use std::process::ExitCode;
+
+use tracing_subscriber::EnvFilter;
+
+use crate::config::{LogFormat, ServerConfig};
+use crate::rules::GameRules;
+
+/// Exit status after the simulation failed while serving.
+pub const EXIT_SIMULATION_FAILED: u8 = 3;
+
+/// Runs the server process with the rules `make_rules` builds (called once,
+/// after the configuration is read). See the module docs for the exit
+/// status.
+pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> ExitCode {
+    let config = match ServerConfig::from_process() {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("inertia-server: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let filter = EnvFilter::try_from_env("INERTIA_LOG").unwrap_or_else(|_| EnvFilter::new("info"));
+    match config.log_format {
+        LogFormat::Json => tracing_subscriber::fmt()
+            .json()
+            .with_env_filter(filter)
+            .init(),
+        LogFormat::Text => tracing_subscriber::fmt().with_env_filter(filter).init(),
+    }
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .thread_name("inertia-io")
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("inertia-server: cannot start the I/O runtime: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let rules = make_rules(&config);
+    runtime.block_on(async move {
+        let server = match crate::server::start_with_rules(config, rules).await {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("inertia-server: {e}");
+                return ExitCode::FAILURE;
+            }
+        };
+        if let Some(path) = server.credentials_path() {
+            eprintln!(
+                "inertia-server: dev mode on {} (metrics on http://{}); credentials in {}",
+                server.addr(),
+                server.metrics_addr(),
+                path.display()
+            );
+        }
+        let code = tokio::select! {
+            () = wait_for_stop() => ExitCode::SUCCESS,
+            why = server.failed() => {
+                eprintln!("inertia-server: {why}; exiting for a restart");
+                ExitCode::from(EXIT_SIMULATION_FAILED)
+            }
+        };
+        server.shutdown().await;
+        code
+    })
+}
+
+/// Waits for SIGTERM or Ctrl-C.
+async fn wait_for_stop() {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{signal, SignalKind};
+        match signal(SignalKind::terminate()) {
+            Ok(mut term) => {
+                tokio::select! {
+                    _ = term.recv() => {}
+                    _ = tokio::signal::ctrl_c() => {}
+                }
+            }
+            Err(_) => {
+                let _ = tokio::signal::ctrl_c().await;
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = tokio::signal::ctrl_c().await;
+    }
+}
