@@ -57,8 +57,15 @@ pub struct Metrics {
     pub malformed_datagrams: Counter,
     /// Inputs refused by validation (NaN, out of window, out of order).
     pub inputs_rejected: Counter,
-    /// Connection attempts refused (bad token, server full, handshake error).
-    pub refused_connections: Counter,
+    /// Connection attempts refused or failed before they were served, by
+    /// `reason`: `tls` (no common ALPN, bad certificate), `handshake`,
+    /// `handshake_timeout`, `handshake_limit`, `hello_timeout`,
+    /// `malformed_hello`, a hello's refusal (`token_forged`, `server_full`,
+    /// ...), or an admin hello's (`admin_<outcome>`).
+    pub refused_connections: Family<Vec<(String, String)>, Counter>,
+    /// Incoming connections answered with a QUIC Retry (address
+    /// validation under a handshake flood).
+    pub handshake_retries: Counter,
     /// Admin actions by `action` (the request, or `hello`) and `outcome`
     /// (`ok`, an error kind, or why a hello was refused).
     pub admin_actions: Family<Vec<(String, String)>, Counter>,
@@ -99,7 +106,8 @@ impl Metrics {
             snapshot_encode,
             malformed_datagrams: Counter::default(),
             inputs_rejected: Counter::default(),
-            refused_connections: Counter::default(),
+            refused_connections: Family::default(),
+            handshake_retries: Counter::default(),
             admin_actions: Family::default(),
             record_dropped: Counter::default(),
             registry: Arc::new(Registry::default()),
@@ -163,8 +171,13 @@ impl Metrics {
         );
         r.register(
             "refused_connections",
-            "Connection attempts refused (bad token, full, failed handshake)",
+            "Connection attempts refused or failed before being served, by reason",
             m.refused_connections.clone(),
+        );
+        r.register(
+            "handshake_retries",
+            "Incoming connections asked to validate their address (QUIC Retry)",
+            m.handshake_retries.clone(),
         );
         r.register(
             "admin_actions",
@@ -180,6 +193,20 @@ impl Metrics {
             registry: Arc::new(r),
             ..m
         }
+    }
+
+    /// Counts one refused or failed connection attempt.
+    pub fn refused(&self, reason: &str) {
+        self.refused_connections
+            .get_or_create(&vec![("reason".to_string(), reason.to_string())])
+            .inc();
+    }
+
+    /// Connection attempts refused so far for `reason`.
+    pub fn refused_count(&self, reason: &str) -> u64 {
+        self.refused_connections
+            .get_or_create(&vec![("reason".to_string(), reason.to_string())])
+            .get()
     }
 
     /// Counts one admin action with its outcome.

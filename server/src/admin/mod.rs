@@ -210,7 +210,7 @@ pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared
         let outcome = refusal_name(&refusal);
         warn!(target: AUDIT, connection = id, %remote, operator = %operator.escape_debug(), outcome, "admin hello refused");
         shared.metrics.admin_action("hello", outcome);
-        shared.metrics.refused_connections.inc();
+        shared.metrics.refused(&format!("admin_{outcome}"));
         let _ = write(&mut send, &AdminHandshake::Refused(refusal)).await;
         let _ = send.finish();
         let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
@@ -293,7 +293,7 @@ fn refuse_silently(
 ) {
     warn!(target: AUDIT, connection = id, %remote, why, outcome = "refused_malformed", "admin connection without a hello");
     shared.metrics.admin_action("hello", "refused_malformed");
-    shared.metrics.refused_connections.inc();
+    shared.metrics.refused("admin_refused_malformed");
     connection.close(close_code::REFUSED.into(), b"no hello");
 }
 

@@ -82,6 +82,26 @@ async fn write(send: &mut quinn::SendStream, msg: &ServerControl) -> Result<usiz
     Ok(bytes.len())
 }
 
+/// The `reason` label of a refused hello.
+fn refusal_reason(refusal: &Refusal) -> &'static str {
+    use inertia_protocol::control::TokenRefusal as T;
+    match refusal {
+        Refusal::VersionMismatch { .. } => "version_mismatch",
+        Refusal::Token(T::Malformed) => "token_malformed",
+        Refusal::Token(T::Forged) => "token_forged",
+        Refusal::Token(T::Expired { .. }) => "token_expired",
+        Refusal::Token(T::WrongServer { .. }) => "token_wrong_server",
+        Refusal::Token(T::Reused) => "token_reused",
+        Refusal::ServerFull => "server_full",
+        Refusal::ShuttingDown => "shutting_down",
+        Refusal::Malformed => "malformed_hello",
+        Refusal::AlreadyConnected => "already_connected",
+        Refusal::Busy => "busy",
+        Refusal::SimulationStopped => "simulation_stopped",
+        Refusal::Rejected { .. } => "rejected_by_rules",
+    }
+}
+
 /// What a client is told when the rules refuse its join: the real reason.
 fn join_refusal(client: u64, refusal: rules::Refusal) -> Refusal {
     match refusal {
@@ -127,6 +147,7 @@ pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared
             Ok(None) => {}
             Err(_) => {
                 debug!("no hello in time");
+                shared.metrics.refused("hello_timeout");
                 connection.close(close_code::REFUSED.into(), b"no hello in time");
             }
         }
@@ -229,7 +250,7 @@ async fn hello(connection: &quinn::Connection, id: u64, shared: &NetShared) -> O
         }
         Err(refusal) => {
             info!(?refusal, "hello refused");
-            shared.metrics.refused_connections.inc();
+            shared.metrics.refused(refusal_reason(&refusal));
             let _ = write(&mut send, &ServerControl::Refused(refusal)).await;
             let _ = send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;

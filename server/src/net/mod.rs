@@ -6,10 +6,11 @@
 
 pub mod connection;
 pub mod events;
+pub mod gate;
 pub mod tls;
 
 use std::collections::BTreeMap;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use inertia_protocol::admin::ADMIN_ALPN;
@@ -20,6 +21,7 @@ use tokio::sync::{oneshot, watch};
 use tracing::{debug, info};
 
 use crate::metrics::Metrics;
+use gate::{Admission, GateConfig, HandshakeGate};
 use crate::sim::{Frame, SimHandle};
 
 /// How many tokens the replay guard remembers at once.
@@ -148,6 +150,22 @@ impl NetShared {
     }
 }
 
+/// Longest a QUIC handshake may take before its state is dropped.
+pub const HANDSHAKE_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// The `reason` label of a failed handshake.
+fn handshake_failure(e: &quinn::ConnectionError) -> &'static str {
+    match e {
+        // TLS alerts (no common ALPN, a bad certificate) close the
+        // connection at the transport level.
+        quinn::ConnectionError::TransportError(_) | quinn::ConnectionError::ConnectionClosed(_) => {
+            "tls"
+        }
+        quinn::ConnectionError::TimedOut => "handshake_timeout",
+        _ => "handshake",
+    }
+}
+
 /// The protocol a connection negotiated (its ALPN), if any.
 pub fn negotiated_alpn(connection: &quinn::Connection) -> Option<Vec<u8>> {
     connection
@@ -157,17 +175,33 @@ pub fn negotiated_alpn(connection: &quinn::Connection) -> Option<Vec<u8>> {
         .protocol
 }
 
+/// One handshake in flight, counted until dropped.
+struct InFlight(Arc<AtomicUsize>);
+
+impl Drop for InFlight {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
 /// Finishes the QUIC handshake of one incoming connection and serves it
 /// as the protocol it chose: the admin channel or a game client.
-async fn route(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>) {
+async fn route(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>, handshake: InFlight) {
     let remote = incoming.remote_address();
-    let connection = match incoming.await {
-        Ok(c) => c,
-        Err(e) => {
+    let connection = match tokio::time::timeout(HANDSHAKE_TIMEOUT, incoming).await {
+        Ok(Ok(c)) => c,
+        Ok(Err(e)) => {
             debug!(connection = id, %remote, error = %e, "handshake failed");
+            shared.metrics.refused(handshake_failure(&e));
+            return;
+        }
+        Err(_) => {
+            debug!(connection = id, %remote, "handshake timed out");
+            shared.metrics.refused("handshake_timeout");
             return;
         }
     };
+    drop(handshake);
     if negotiated_alpn(&connection).as_deref() == Some(ADMIN_ALPN) {
         crate::admin::serve(connection, id, shared).await;
     } else {
@@ -180,13 +214,40 @@ async fn route(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>) {
 /// process stops, so a client that tries to join is told why it cannot.
 pub async fn accept(endpoint: quinn::Endpoint, shared: Arc<NetShared>) {
     let mut shutdown = shared.shutdown.clone();
+    let mut gate = HandshakeGate::new(GateConfig::default());
+    let in_flight = Arc::new(AtomicUsize::new(0));
     loop {
         tokio::select! {
             incoming = endpoint.accept() => {
                 let Some(incoming) = incoming else { break };
+                let remote = incoming.remote_address();
+                let admission = gate.admit(
+                    std::time::Instant::now(),
+                    incoming.remote_address_validated(),
+                    in_flight.load(Ordering::Relaxed),
+                );
+                match admission {
+                    Admission::Accept => {}
+                    Admission::Retry => {
+                        debug!(%remote, "handshake flood: asking for address validation");
+                        shared.metrics.handshake_retries.inc();
+                        if let Err(e) = incoming.retry() {
+                            // Cannot retry (already validated): refuse.
+                            e.into_incoming().refuse();
+                        }
+                        continue;
+                    }
+                    Admission::Refuse => {
+                        debug!(%remote, "too many handshakes in flight: refused");
+                        shared.metrics.refused("handshake_limit");
+                        incoming.refuse();
+                        continue;
+                    }
+                }
                 let id = shared.next_connection.fetch_add(1, Ordering::Relaxed);
-                debug!(connection = id, remote = %incoming.remote_address(), "incoming");
-                tokio::spawn(route(incoming, id, shared.clone()));
+                debug!(connection = id, %remote, "incoming");
+                in_flight.fetch_add(1, Ordering::Relaxed);
+                tokio::spawn(route(incoming, id, shared.clone(), InFlight(in_flight.clone())));
             }
             changed = shutdown.changed() => {
                 let stopping = matches!(*shutdown.borrow(), Some(DisconnectReason::ServerShutdown));

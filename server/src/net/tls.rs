@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use inertia_protocol::admin::ADMIN_ALPN;
-use inertia_protocol::control::ALPN;
+use inertia_protocol::control::{ALPN, MAX_CONTROL_FRAME};
 
 use crate::credentials::Credentials;
 
@@ -27,8 +27,26 @@ pub fn server_config(creds: &Credentials) -> Result<quinn::ServerConfig, String>
     let crypto =
         quinn::crypto::rustls::QuicServerConfig::try_from(tls).map_err(|e| e.to_string())?;
     let mut config = quinn::ServerConfig::with_crypto(Arc::new(crypto));
-    config.transport_config(Arc::new(transport()));
+    config.transport_config(Arc::new(server_transport()));
     Ok(config)
+}
+
+/// Stream data a peer may send ahead of the server reading it, bytes: one
+/// largest legal control or admin frame and its length prefix.
+pub const STREAM_WINDOW: u32 = MAX_CONTROL_FRAME as u32 + 4;
+
+/// The server's transport limits: [`transport`], with only the streams the
+/// protocol uses (one bidirectional control stream from the peer, which
+/// the game client and the admin tool each open once; no unidirectional
+/// streams) and receive windows of one largest legal frame. Streams the
+/// server would never read cannot be opened, so they hold no memory.
+pub fn server_transport() -> quinn::TransportConfig {
+    let mut t = transport();
+    t.max_concurrent_bidi_streams(1u32.into());
+    t.max_concurrent_uni_streams(0u32.into());
+    t.stream_receive_window(STREAM_WINDOW.into());
+    t.receive_window(STREAM_WINDOW.into());
+    t
 }
 
 /// Transport limits shared by both ends: a bounded idle time, keep-alives
