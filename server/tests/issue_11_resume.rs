@@ -352,6 +352,16 @@ fn issue_11_damage_in_an_older_segment_leaves_the_newest_untouched() {
     fs::write(first, &bytes).unwrap();
     let pristine = snapshot(&dir);
 
+    // Loading went on with the segment after the damage, from its
+    // keyframe, as a session of its own: nothing re-simulates across the
+    // records lost after the damage.
+    let plan = read_for_resume(&dir, DEFAULT_KEYFRAME_BUDGET).unwrap();
+    let second = fs::read(&files[1]).unwrap();
+    let second_start = frames(&second)[0].tick(&second);
+    assert_eq!(plan.history().session_of(second_start), Some(second_start));
+    assert_eq!(plan.damage().len(), 1, "{:?}", plan.damage());
+    drop(plan);
+
     // The newest segment intact: resume reads it, nothing changes.
     let newest_bytes = fs::read(newest).unwrap();
     let newest_keyframe = frames(&newest_bytes)
@@ -536,4 +546,54 @@ fn issue_11_a_keyframe_that_does_not_decode_is_damage_and_resume_uses_the_one_be
         );
         assert_same_files(&dir, &before, &format!("{what}: nothing on disk changed"));
     }
+}
+
+#[test]
+fn issue_11_damage_at_the_start_of_the_newest_segment_resumes_from_the_segment_before() {
+    // The keyframe that starts the newest segment fails its checksum: the
+    // resume comes from the segment before, and the recording cannot go on
+    // in a new segment of that same first tick, so it is moved aside whole
+    // (nothing in it changed) and a fresh one starts.
+    let scratch = Scratch::new("newest-start");
+    let dir = scratch.recording();
+    record(&dir, 600, 30, 6_000);
+    let files = segments(&dir);
+    assert!(files.len() >= 3, "{files:?}");
+    let newest = files.last().unwrap();
+    let mut bytes = fs::read(newest).unwrap();
+    let first = frames(&bytes)[0];
+    assert_eq!(first.kind, KEYFRAME);
+    let first_tick = first.tick(&bytes);
+    bytes[first.offset + 5 + first.len / 2] ^= 0x02;
+    fs::write(newest, &bytes).unwrap();
+    let before = snapshot(&dir);
+
+    let (mut sim, report) = resume(&dir).expect("resumes from the segment before");
+    assert!(report.keyframe_tick < first_tick, "{report:?}");
+    assert_eq!(report.mismatches, 0);
+    assert!(report.newest_damaged.is_some());
+    assert_same_files(&dir, &before, "nothing on disk changed");
+
+    sim.start_recording().unwrap();
+    let tick = sim.world().tick();
+    for client in report.clients.clone() {
+        sim.leave(client);
+    }
+    drive(&mut sim, 10);
+    sim.finish_recording();
+    let aside: Vec<PathBuf> = fs::read_dir(&scratch.0)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            p.file_name()
+                .unwrap()
+                .to_string_lossy()
+                .starts_with("recording.")
+        })
+        .collect();
+    assert_eq!(aside.len(), 1, "{aside:?}");
+    assert_same_files(&aside[0], &before, "the recording moved aside as it was");
+    let (_, again) = resume(&dir).expect("the fresh recording resumes");
+    assert_eq!(again.tick, tick + 10);
+    assert!(again.damage.is_empty(), "{:?}", again.damage);
 }

@@ -650,7 +650,11 @@ fn a_new_segment_never_takes_the_name_of_a_damaged_one() {
         tick: 9,
         state: vec![1; 20],
     };
-    let writer = write_all(dir.path(), &[first.clone()], RecordOptions::default());
+    let writer = write_all(
+        dir.path(),
+        std::slice::from_ref(&first),
+        RecordOptions::default(),
+    );
     let newest = writer.segments()[0].path.clone();
     drop(writer);
     let mut bytes = fs::read(&newest).unwrap();
