@@ -148,15 +148,39 @@ pub async fn start_with_rules(
     let history_budget = sim_config.history_budget;
     let mut simulation = Simulation::new(built, rules, sim_config);
     if config.resume {
-        let (history, cut) = read_for_resume(&config.recording_dir(), history_budget)?;
-        let report = simulation.resume(history, cut)?;
+        let plan = read_for_resume(&config.recording_dir(), history_budget)?;
+        let report = simulation.resume(plan)?;
+        for damage in &report.damage {
+            warn!(
+                file = %damage.path.display(),
+                offset = damage.offset,
+                why = %damage.why,
+                "the recording is damaged here; left as it is"
+            );
+        }
+        if let Some(cut) = &report.torn_tail {
+            warn!(
+                file = %cut.path.display(),
+                offset = cut.offset,
+                bytes_cut = cut.bytes_cut,
+                kept_at = %cut.kept_at.display(),
+                "cut a torn last record off the recording; its bytes are kept aside"
+            );
+        }
+        if let Some(newest) = &report.newest_damaged {
+            warn!(
+                file = %newest.path.display(),
+                "the newest segment is damaged; recording goes on in a new segment"
+            );
+        }
         info!(
             keyframe = report.keyframe_tick,
             tick = report.tick,
             resimulated = report.resimulated,
             hashes_checked = report.hashes_checked,
             mismatches = report.mismatches,
-            bytes_cut = report.bytes_cut,
+            bytes_cut = report.bytes_cut(),
+            damage = report.damage.len(),
             seconds = report.seconds,
             "resumed from the recording"
         );

@@ -1,7 +1,9 @@
 //! The recording store end to end on real files: every record kind round
-//! trips, segments roll over at keyframes, a torn tail is cut on open and
-//! appending continues, corruption in an older segment is reported where it
-//! is, retention drops the oldest segments, and random bytes never panic.
+//! trips, segments roll over at keyframes, a torn tail is cut on open (its
+//! bytes kept aside) and appending continues, damage is never cut — in the
+//! newest segment it is left alone and appending goes on in a new segment,
+//! in an older one it is reported where it is — retention drops the oldest
+//! segments, and random bytes never panic.
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -10,7 +12,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use inertia_protocol::PlayerInput;
 use inertia_server::record::{
     Corruption, OpenReport, Record, RecordError, RecordOptions, RecordReader, RecordWriter,
-    MAX_RECORD_BYTES,
+    Salvaged, SegmentDamage, MAX_RECORD_BYTES,
 };
 use proptest::prelude::*;
 
@@ -106,6 +108,18 @@ fn read_all(path: &Path) -> Vec<Record> {
         .iter()
         .collect::<Result<_, _>>()
         .unwrap()
+}
+
+/// Every record a salvaging read delivers (reading past damage).
+fn salvage_all(path: &Path) -> Vec<Record> {
+    RecordReader::open(path)
+        .unwrap()
+        .salvage()
+        .filter_map(|r| match r.unwrap() {
+            Salvaged::Record { record, .. } => Some(record),
+            Salvaged::Damaged(_) | Salvaged::TornTail(_) => None,
+        })
+        .collect()
 }
 
 /// Appends and syncs `record`; returns the newest segment and the byte
@@ -330,8 +344,11 @@ fn restore(dir: &Path, files: &[(PathBuf, Vec<u8>)]) {
 }
 
 /// Cuts the last frame short at each of its bytes, then garbles each of its
-/// bytes: the reader never panics or delivers it, the writer cuts exactly
-/// that frame, and appending continues after it.
+/// bytes. Cut short, it is a torn tail: the reader never panics or
+/// delivers it, the writer cuts exactly that frame, keeping its bytes
+/// aside, and appending continues after it. Garbled, it is damage (unless
+/// the garbling made it look cut short): the writer leaves the segment as
+/// it is and appends in a new segment.
 fn check_torn_tail(name: &str, base: Vec<Record>, last: Record) {
     let dir = TempDir::new(name);
     let (newest, start, end) = torn_fixture(dir.path(), &base, &last);
@@ -343,13 +360,19 @@ fn check_torn_tail(name: &str, base: Vec<Record>, last: Record) {
     let mut expected = base.clone();
     expected.push(next.clone());
 
-    // The newest segment is cut exactly at the start of the damaged frame.
-    let check_repaired = |report: &OpenReport, damaged_len: u64| {
+    // The newest segment is cut exactly at the start of the damaged frame,
+    // and what was cut is kept beside it.
+    let check_repaired = |report: &OpenReport, damaged: &[u8]| {
         let cut = report.cut.as_ref().expect("a torn tail is cut");
         assert_eq!(cut.path, newest);
         assert_eq!(cut.offset, start);
-        assert_eq!(cut.bytes_cut, damaged_len - start);
+        assert_eq!(cut.bytes_cut, damaged.len() as u64 - start);
         assert!(cut.why.is_torn_write(), "{:?}", cut.why);
+        let mut aside = newest.as_os_str().to_owned();
+        aside.push(format!(".torn-{start}"));
+        assert_eq!(cut.kept_at, PathBuf::from(aside));
+        assert_eq!(fs::read(&cut.kept_at).unwrap(), &damaged[start as usize..]);
+        assert_eq!(report.damaged, None);
         assert_eq!(report.last_tick, base.last().map(Record::tick));
     };
 
@@ -359,6 +382,7 @@ fn check_torn_tail(name: &str, base: Vec<Record>, last: Record) {
         let file = fs::OpenOptions::new().write(true).open(&newest).unwrap();
         file.set_len(cut_at).unwrap();
         drop(file);
+        let damaged = fs::read(&newest).unwrap();
 
         // Before repair a reader sees the intact records, then a clean end.
         assert_eq!(read_all(dir.path()), base, "cut at {cut_at}");
@@ -368,7 +392,7 @@ fn check_torn_tail(name: &str, base: Vec<Record>, last: Record) {
         if cut_at == start {
             assert_eq!(report.cut, None, "a cut at a frame boundary is intact");
         } else {
-            check_repaired(&report, cut_at);
+            check_repaired(&report, &damaged);
         }
         writer.append(&next).unwrap();
         writer.flush().unwrap();
@@ -394,11 +418,30 @@ fn check_torn_tail(name: &str, base: Vec<Record>, last: Record) {
 
         let mut writer = RecordWriter::open(dir.path(), small_segments()).unwrap();
         let report = writer.open_report().clone();
-        check_repaired(&report, end);
+        let segments = writer.segments().len();
+        if report.cut.is_some() {
+            // A length flipped upward: it now runs past the end, with
+            // nothing intact after it.
+            assert!((1..5).contains(&(at - start)), "flip at {at}");
+            check_repaired(&report, &bytes);
+        } else {
+            let damaged = report.damaged.clone().expect("damage is reported");
+            assert_eq!(damaged.path, newest, "flip at {at}");
+            assert_eq!(damaged.offset, start, "flip at {at}");
+            assert!(
+                !damaged.why.is_torn_write(),
+                "flip at {at}: {:?}",
+                damaged.why
+            );
+        }
         writer.append(&next).unwrap();
         writer.flush().unwrap();
+        if report.cut.is_none() {
+            assert_eq!(writer.segments().len(), segments + 1, "a new segment");
+            assert_eq!(fs::read(&newest).unwrap(), bytes, "left as it is");
+        }
         drop(writer);
-        assert_eq!(read_all(dir.path()), expected, "flip at {at}");
+        assert_eq!(salvage_all(dir.path()), expected, "flip at {at}");
     }
 }
 
@@ -547,9 +590,11 @@ fn corruption_in_an_older_segment_is_reported_with_its_offset() {
 #[test]
 fn checksummed_garbage_in_the_newest_segment_is_not_cut() {
     // A frame with a valid checksum but a kind this build does not know
-    // (a newer format?) is not a torn write: refuse rather than delete it.
+    // (a newer format?) is not a torn write: keep it, append after it in a
+    // new segment.
     let dir = TempDir::new("unknown-kind");
-    let writer = write_all(dir.path(), &session(5, 5, 10), RecordOptions::default());
+    let records = session(5, 5, 10);
+    let writer = write_all(dir.path(), &records, RecordOptions::default());
     let newest = writer.segments().last().unwrap().path.clone();
     drop(writer);
     let mut frame = vec![42u8, 0, 0, 0, 0];
@@ -559,15 +604,108 @@ fn checksummed_garbage_in_the_newest_segment_is_not_cut() {
     let offset = bytes.len() as u64;
     bytes.extend_from_slice(&frame);
     fs::write(&newest, &bytes).unwrap();
-    match RecordWriter::open(dir.path(), RecordOptions::default()) {
-        Err(RecordError::Corrupt {
-            offset: o,
+    let mut writer = RecordWriter::open(dir.path(), RecordOptions::default()).unwrap();
+    assert_eq!(
+        writer.open_report().damaged,
+        Some(SegmentDamage {
+            path: newest.clone(),
+            offset,
             why: Corruption::UnknownKind(42),
-            ..
-        }) => assert_eq!(o, offset),
-        other => panic!("expected Corrupt, got {other:?}"),
-    }
+        })
+    );
+    assert_eq!(writer.open_report().cut, None);
     assert_eq!(fs::read(&newest).unwrap(), bytes);
+    assert!(!writer.can_append_at(3), "before the last intact record");
+    let next = Record::TickHash { tick: 5, hash: 1 };
+    assert!(writer.can_append_at(5));
+    writer.append(&next).unwrap();
+    writer.flush().unwrap();
+    assert_eq!(writer.segments().len(), 2);
+    assert_eq!(
+        writer.segments()[1]
+            .path
+            .file_name()
+            .unwrap()
+            .to_string_lossy(),
+        "segment-00000000000000000005.irec"
+    );
+    drop(writer);
+    assert_eq!(fs::read(&newest).unwrap(), bytes);
+    let mut expected = records;
+    expected.push(next);
+    assert_eq!(salvage_all(dir.path()), expected);
+    // The strict reader reports the damage, now in an older segment.
+    assert!(matches!(
+        RecordReader::open(dir.path()).unwrap().iter().last(),
+        Some(Err(RecordError::Corrupt { offset: o, why: Corruption::UnknownKind(42), .. })) if o == offset
+    ));
+}
+
+#[test]
+fn a_new_segment_never_takes_the_name_of_a_damaged_one() {
+    // The damaged newest segment holds records of its first tick only: a
+    // segment for that tick would take its name. Refused, nothing written.
+    let dir = TempDir::new("name-taken");
+    let first = Record::Keyframe {
+        tick: 9,
+        state: vec![1; 20],
+    };
+    let writer = write_all(
+        dir.path(),
+        std::slice::from_ref(&first),
+        RecordOptions::default(),
+    );
+    let newest = writer.segments()[0].path.clone();
+    drop(writer);
+    let mut bytes = fs::read(&newest).unwrap();
+    bytes.extend_from_slice(&[3, 0, 0, 0, 0, 0, 0, 0, 0, 7]);
+    fs::write(&newest, &bytes).unwrap();
+    let mut writer = RecordWriter::open(dir.path(), RecordOptions::default()).unwrap();
+    assert!(writer.open_report().damaged.is_some());
+    assert!(!writer.can_append_at(9));
+    assert!(matches!(
+        writer.append(&Record::TickHash { tick: 9, hash: 1 }),
+        Err(RecordError::DamagedSegmentInTheWay { tick: 9, .. })
+    ));
+    let next = Record::TickHash { tick: 10, hash: 1 };
+    assert!(writer.can_append_at(10));
+    writer.append(&next).unwrap();
+    writer.flush().unwrap();
+    drop(writer);
+    assert_eq!(fs::read(&newest).unwrap(), bytes);
+    assert_eq!(salvage_all(dir.path()), vec![first, next]);
+}
+
+#[test]
+fn a_length_corrupted_past_the_end_with_records_after_it_is_damage() {
+    // A bit flipped in a record's length can make it run past the end of
+    // the file like a torn record; the intact records after it say it is
+    // damage, and nothing is cut.
+    let dir = TempDir::new("long-length");
+    let records = session(30, 10, 100);
+    let mut writer = RecordWriter::open(dir.path(), RecordOptions::default()).unwrap();
+    let mut frames = Vec::new();
+    for r in &records {
+        frames.push(append_tracked(&mut writer, r));
+    }
+    drop(writer);
+    let (path, start, _) = frames[frames.len() / 2].clone();
+    let mut bytes = fs::read(&path).unwrap();
+    bytes[start as usize + 3] ^= 0x01; // + 64 KiB
+    fs::write(&path, &bytes).unwrap();
+    let writer = RecordWriter::open(dir.path(), RecordOptions::default()).unwrap();
+    let damaged = writer.open_report().damaged.clone().expect("damage");
+    assert_eq!(
+        (damaged.offset, damaged.why),
+        (start, Corruption::Truncated)
+    );
+    assert_eq!(writer.open_report().cut, None);
+    drop(writer);
+    assert_eq!(fs::read(&path).unwrap(), bytes);
+    assert!(matches!(
+        RecordReader::open(dir.path()).unwrap().iter().last(),
+        Some(Err(RecordError::Corrupt { offset: o, why: Corruption::Truncated, .. })) if o == start
+    ));
 }
 
 #[test]
@@ -704,9 +842,12 @@ proptest! {
         fs::write(&path, &content).unwrap();
         exercise_reader(&path);
         exercise_reader(dir.path());
-        // The writer either repairs the file or refuses it; after a repair
-        // the file reads back without error.
-        if RecordWriter::open(dir.path(), RecordOptions::default()).is_ok() && path.exists() {
+        // The writer either repairs a torn tail, after which the file reads
+        // back without error, or leaves a damaged file exactly as it was.
+        let writer = RecordWriter::open(dir.path(), RecordOptions::default()).unwrap();
+        if writer.open_report().damaged.is_some() {
+            prop_assert_eq!(fs::read(&path).unwrap(), content);
+        } else if path.exists() {
             prop_assert!(RecordReader::open(&path).unwrap().iter().all(|r| r.is_ok()));
         }
     }

@@ -37,16 +37,26 @@ pub enum Corruption {
 }
 
 impl Corruption {
-    /// Whether this damage is what an interrupted append leaves at the end
-    /// of the newest segment: a frame cut short, a garbage length, or bytes
-    /// that never reached the disk intact. Such a tail is cut on open; any
-    /// other damage is reported and left alone.
+    /// Whether this damage can be a torn write: a header or frame that
+    /// runs past the end of the file. Whether it is one depends on where
+    /// it is (the end of the newest segment, nothing intact after it);
+    /// [`RecordWriter::open`](super::RecordWriter::open) decides. Every
+    /// other kind is damage to report, never to cut.
     pub fn is_torn_write(self) -> bool {
-        matches!(
-            self,
-            Self::Truncated | Self::Oversized(_) | Self::BadChecksum { .. }
-        )
+        self == Self::Truncated
     }
+}
+
+/// Damage found in a segment file: where it is and what is wrong there.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{}: damaged at byte {offset}: {why}", path.display())]
+pub struct SegmentDamage {
+    /// The segment file.
+    pub path: PathBuf,
+    /// Byte offset of the damaged header or frame in the file.
+    pub offset: u64,
+    /// What is wrong there.
+    pub why: Corruption,
 }
 
 /// Errors of [`RecordWriter`](super::RecordWriter) and
@@ -92,6 +102,19 @@ pub enum RecordError {
         last: u64,
         /// The record's tick.
         got: u64,
+    },
+    /// The newest segment is damaged, so appending goes on in a new
+    /// segment; one for `tick` would take the damaged segment's own name
+    /// (it starts at that tick). Nothing was written.
+    #[error(
+        "the newest segment {} is damaged and starts at tick {tick}: a new segment cannot start at that tick",
+        path.display()
+    )]
+    DamagedSegmentInTheWay {
+        /// The damaged segment.
+        path: PathBuf,
+        /// The tick refused.
+        tick: u64,
     },
     /// An earlier write or sync failed, so the newest segment may end in a
     /// partial frame. The writer refuses further work; open the directory

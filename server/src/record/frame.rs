@@ -1,8 +1,11 @@
 //! Framing: the segment header, and one checksummed frame per record.
 //!
 //! [`FrameReader`] walks a segment front to back and stops at the first
-//! damage, saying where and what; deciding whether that damage is a torn
-//! tail to cut or corruption to report is the caller's business.
+//! damage, saying where and what. [`is_torn_frame`] tells, from the bytes
+//! between a damaged frame and the end of the file, whether they have the
+//! shape an interrupted append leaves; whether that makes them a torn
+//! tail to cut (only at the end of the newest segment) is the caller's
+//! business.
 
 use std::io::{self, Read};
 
@@ -81,10 +84,19 @@ impl<R: Read> FrameReader<R> {
     /// reader stands at the first frame, otherwise it returns the damage at
     /// offset 0.
     pub(crate) fn new(mut inner: R, end: u64) -> io::Result<Result<Self, Corruption>> {
+        let mut header = [0u8; HEADER_BYTES as usize];
         if end < HEADER_BYTES {
+            // A header cut short is torn only if what there is of it is
+            // right.
+            let part = &mut header[..end as usize];
+            if let Some(damage) = read_or_truncated(&mut inner, part)? {
+                return Ok(Err(damage));
+            }
+            if *part != segment_header()[..end as usize] {
+                return Ok(Err(Corruption::BadMagic));
+            }
             return Ok(Err(Corruption::Truncated));
         }
-        let mut header = [0u8; HEADER_BYTES as usize];
         if let Some(damage) = read_or_truncated(&mut inner, &mut header)? {
             return Ok(Err(damage));
         }
@@ -170,6 +182,74 @@ impl<R: Read> FrameReader<R> {
             Err(why) => damaged(why),
         }
     }
+}
+
+/// Largest payload of a frame [`is_torn_frame`] looks for after a frame
+/// cut short, bytes. Most records (tick hashes, journals) are far smaller,
+/// so an intact one follows any damage within a few dozen bytes; looking
+/// only for these keeps the search cheap.
+const RESYNC_PAYLOAD_BYTES: usize = 64 * 1024;
+
+/// Most payload bytes [`is_torn_frame`] checksums while looking; past it
+/// the bytes are taken as damage (not cut), bytes.
+const RESYNC_CRC_BUDGET: usize = 64 * 1024 * 1024;
+
+/// Whether `tail`, the bytes from a frame's start to the end of the file
+/// (the frame [`FrameReader`] found cut short), is what an interrupted
+/// append leaves: the beginning of one frame and nothing else. Its kind
+/// must be a record kind, its length (when the header is whole) within
+/// [`MAX_RECORD_BYTES`] and past the end of the file, and no intact frame
+/// may start anywhere after its first byte: a length corrupted upward also
+/// runs past the end, but intact records follow it, and that is damage.
+/// Frames of payloads over [`RESYNC_PAYLOAD_BYTES`] are not looked for,
+/// and a search that would checksum more than [`RESYNC_CRC_BUDGET`] bytes
+/// gives up and calls it damage (never cut on a doubt).
+pub(crate) fn is_torn_frame(tail: &[u8]) -> bool {
+    let Some(&kind) = tail.first() else {
+        return false;
+    };
+    if RecordKind::from_byte(kind).is_none() {
+        return false;
+    }
+    if tail.len() >= 5 {
+        let len = u32::from_le_bytes([tail[1], tail[2], tail[3], tail[4]]);
+        if len > MAX_RECORD_BYTES || FRAME_OVERHEAD + u64::from(len) <= tail.len() as u64 {
+            return false;
+        }
+    }
+    !holds_intact_frame(&tail[1..])
+}
+
+/// Whether an intact frame (a record kind, a payload of at most
+/// [`RESYNC_PAYLOAD_BYTES`], its checksum right) starts anywhere in
+/// `bytes`; `true` as well when looking would cost more than
+/// [`RESYNC_CRC_BUDGET`].
+fn holds_intact_frame(bytes: &[u8]) -> bool {
+    let overhead = FRAME_OVERHEAD as usize;
+    let mut budget = RESYNC_CRC_BUDGET;
+    for start in 0..bytes.len() {
+        let rest = &bytes[start..];
+        if rest.len() < overhead {
+            break;
+        }
+        if RecordKind::from_byte(rest[0]).is_none() {
+            continue;
+        }
+        let len = u32::from_le_bytes([rest[1], rest[2], rest[3], rest[4]]) as usize;
+        if len > RESYNC_PAYLOAD_BYTES || overhead + len > rest.len() {
+            continue;
+        }
+        let Some(left) = budget.checked_sub(5 + len) else {
+            return true;
+        };
+        budget = left;
+        let body = &rest[..5 + len];
+        let stored = &rest[5 + len..overhead + len];
+        if crc32(body).to_le_bytes() == stored {
+            return true;
+        }
+    }
+    false
 }
 
 /// `read_exact`, except that a file that ends early (it shrank since its
@@ -276,6 +356,70 @@ mod tests {
             }
         ));
         let (_, end) = read_all(b"NOPE\x01\x00\x00\x00");
+        assert!(matches!(
+            end,
+            Frame::Damaged {
+                why: Corruption::BadMagic,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn only_the_start_of_one_frame_is_a_torn_frame() {
+        let records = vec![
+            Record::TickHash { tick: 1, hash: 2 },
+            Record::Keyframe {
+                tick: 2,
+                state: vec![5; 300],
+            },
+            Record::TickHash { tick: 2, hash: 3 },
+        ];
+        let mut frame = Vec::new();
+        encode_frame(&records[1], &mut frame).unwrap();
+        // Every prefix of a frame is what an interrupted append leaves.
+        for n in 1..frame.len() {
+            assert!(is_torn_frame(&frame[..n]), "{n} bytes");
+        }
+        // A whole frame is not cut short, whatever its checksum.
+        assert!(!is_torn_frame(&frame));
+        assert!(!is_torn_frame(&[]));
+        // Nor a kind no record has, or a length over the limit.
+        assert!(!is_torn_frame(&[0, 1, 0, 0, 0, 9]));
+        assert!(!is_torn_frame(&[2, 0xFF, 0xFF, 0xFF, 0xFF, 9]));
+        // A length corrupted upward runs past the end too, but the intact
+        // frames after it say it is damage.
+        let bytes = segment(&records);
+        let second = (HEADER_BYTES + FRAME_OVERHEAD + 16) as usize;
+        let mut tail = bytes[second..].to_vec();
+        tail[3] ^= 0x01;
+        assert!(!is_torn_frame(&tail));
+        let (_, end) = read_all(&[&bytes[..second], &tail[..]].concat());
+        assert!(matches!(
+            end,
+            Frame::Damaged {
+                why: Corruption::Truncated,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn a_short_header_is_truncated_only_if_right_so_far() {
+        for n in 0..HEADER_BYTES as usize {
+            let (_, end) = read_all(&segment_header()[..n]);
+            assert!(
+                matches!(
+                    end,
+                    Frame::Damaged {
+                        offset: 0,
+                        why: Corruption::Truncated
+                    }
+                ),
+                "{n}"
+            );
+        }
+        let (_, end) = read_all(b"IRX");
         assert!(matches!(
             end,
             Frame::Damaged {

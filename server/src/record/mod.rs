@@ -14,8 +14,9 @@
 //! in the directory are ignored. Segments are only ever appended to. A new
 //! segment starts at a keyframe once the current one has reached
 //! [`RecordOptions::segment_bytes`], so every segment but a directory's
-//! first begins with a keyframe: a replay can start at any segment, and
-//! retention can delete the oldest whole.
+//! first begins with a keyframe (or, where a writer started a new segment
+//! after a damaged one, a session start and its keyframe): a replay can
+//! start at any segment, and retention can delete the oldest whole.
 //!
 //! All integers are little-endian. A segment is an 8-byte header followed
 //! by frames, back to back:
@@ -61,15 +62,27 @@
 //! # Crashes and damage
 //!
 //! Appends are buffered; [`RecordWriter::flush`] makes them durable (see
-//! [`writer`]'s docs). A crash can therefore leave the newest segment ending
-//! in a partial or garbled frame. [`RecordWriter::open`] reads the newest
-//! segment through and cuts it at the end of the last intact record,
-//! reporting the cut in an [`OpenReport`]. Damage anywhere else (a bad
-//! checksum in an older segment, a checksummed frame of unknown kind) is
-//! never skipped or cut: readers stop there with [`RecordError::Corrupt`],
-//! naming the file and byte offset. The reader's lengths are all bounded
-//! ([`MAX_RECORD_BYTES`], and the file's length), so hostile bytes cost at
-//! most one record's allocation and never a panic.
+//! [`writer`]'s docs). A segment is synced before the next is started, so a
+//! crash can leave only the newest segment ending in a **torn tail**: its
+//! last frame cut short by the end of the file — the header, or the
+//! payload its length announces, runs past it — with nothing intact after
+//! it. That, and only that, is cut: [`RecordWriter::open`] first writes the
+//! bytes to `<segment file name>.torn-<offset>` beside the segment and
+//! syncs them, then cuts the segment at the end of the last intact record,
+//! reporting it in an [`OpenReport`] ([`TailCut`]).
+//!
+//! Everything else is **damage**, wherever it is: a checksum that fails, an
+//! impossible header (a length over the limit, a kind no record has), a
+//! checksummed frame of unknown kind or payload, a frame whose length runs
+//! past the end while intact frames follow it. Damage is never cut or
+//! skipped silently. Readers stop there with [`RecordError::Corrupt`],
+//! naming the file and byte offset; [`RecordReader::salvage`] reports it
+//! and goes on with the next segment (never with the rest of the damaged
+//! one: nothing says where its next frame begins); a writer that finds its
+//! newest segment damaged leaves it exactly as it is and appends in a new
+//! segment. The reader's lengths are all bounded ([`MAX_RECORD_BYTES`],
+//! and the file's length), so hostile bytes cost at most one record's
+//! allocation and never a panic.
 //!
 //! # Example
 //!
@@ -103,8 +116,8 @@ mod segment;
 pub mod writer;
 
 pub use codec::{Record, RecordKind};
-pub use error::{Corruption, RecordError};
-pub use reader::{RecordReader, Records, TickInputs};
+pub use error::{Corruption, RecordError, SegmentDamage};
+pub use reader::{RecordReader, Records, Salvage, Salvaged, TickInputs};
 pub use recorder::{Recorder, RecorderConfig, RecorderStats};
 pub use segment::{parse_segment_file_name, segment_file_name, SegmentFile, SegmentInfo};
 pub use writer::{

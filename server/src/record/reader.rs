@@ -6,11 +6,18 @@
 //! front to back (records are tick-ordered, so a lookup stops at the first
 //! record past its tick). Every frame's checksum is checked on the way.
 //!
-//! Damage: a frame cut short at the very end of the newest segment is a
-//! write in progress (or a crash not yet repaired by a writer) and ends the
-//! records cleanly; anything else — a bad checksum anywhere, a short frame
-//! in an older segment — is [`RecordError::Corrupt`] with the file and
-//! offset, and no record after it in that segment is delivered.
+//! Damage: a torn tail — a frame cut short by the end of the newest
+//! segment with nothing intact after it — is a write in progress (or a
+//! crash not yet repaired by a writer) and ends the records cleanly;
+//! anything else — a bad checksum anywhere, a short frame in an older
+//! segment — is [`RecordError::Corrupt`] with the file and offset, and no
+//! record after it in that segment is delivered.
+//!
+//! [`RecordReader::salvage`] reads a damaged recording as far as it can
+//! be trusted, for `--resume`: each segment up to its first damage (which
+//! it reports and reads past by going on with the next segment, which
+//! starts at a keyframe), never a record after damage in the same
+//! segment.
 
 use std::fs::File;
 use std::io::BufReader;
@@ -19,10 +26,10 @@ use std::path::{Path, PathBuf};
 use inertia_protocol::PlayerInput;
 
 use super::codec::Record;
-use super::error::{Corruption, RecordError};
+use super::error::{Corruption, RecordError, SegmentDamage};
 use super::frame::{Frame, FrameReader};
 use super::segment::{
-    list_segments, parse_segment_file_name, scan_segment, SegmentFile, SegmentInfo,
+    list_segments, parse_segment_file_name, scan_segment, torn_at, SegmentFile, SegmentInfo,
 };
 
 /// The inputs applied at one tick: the tick and its `(client id, input)`
@@ -72,7 +79,7 @@ impl RecordReader {
         for (i, segment) in self.segments.iter().enumerate() {
             let scan = scan_segment(&segment.path)?;
             if let Some((offset, why)) = scan.damage {
-                if !self.ends_cleanly(i, why) {
+                if !(i + 1 == self.segments.len() && scan.torn_tail) {
                     return Err(RecordError::Corrupt {
                         path: segment.path.clone(),
                         offset,
@@ -181,8 +188,15 @@ impl RecordReader {
         Records::new(self.segments[start..].to_vec(), true)
     }
 
-    fn ends_cleanly(&self, index: usize, why: Corruption) -> bool {
-        index + 1 == self.segments.len() && why == Corruption::Truncated
+    /// Every record that can be trusted, oldest first, reading past damage:
+    /// see [`Salvage`].
+    pub fn salvage(&self) -> Salvage {
+        Salvage {
+            segments: self.segments.clone(),
+            next: 0,
+            current: None,
+            done: false,
+        }
     }
 }
 
@@ -227,7 +241,7 @@ impl Records {
                 self.current = Some((path, newest, reader));
                 Ok(true)
             }
-            Err(Corruption::Truncated) if newest => Ok(false),
+            Err(why) if newest && torn_at(&path, 0, why)? => Ok(false),
             Err(why) => Err(RecordError::Corrupt {
                 path,
                 offset: 0,
@@ -250,10 +264,9 @@ impl Records {
             {
                 Frame::Record { record, .. } => return Ok(Some(record)),
                 Frame::End => self.current = None,
-                Frame::Damaged {
-                    why: Corruption::Truncated,
-                    ..
-                } if *newest => return Ok(None),
+                Frame::Damaged { offset, why } if *newest && torn_at(path, offset, why)? => {
+                    return Ok(None)
+                }
                 Frame::Damaged { offset, why } => {
                     return Err(RecordError::Corrupt {
                         path: path.clone(),
@@ -288,3 +301,129 @@ impl Iterator for Records {
 }
 
 impl std::iter::FusedIterator for Records {}
+
+/// One step of [`Salvage`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum Salvaged {
+    /// An intact record.
+    Record {
+        /// Index of its segment in [`RecordReader::segment_files`].
+        segment: usize,
+        /// Byte offset of its frame in that file.
+        offset: u64,
+        /// The record.
+        record: Record,
+    },
+    /// Damage: nothing after it in that segment is read (nothing there can
+    /// be trusted to be where its framing says); reading goes on with the
+    /// next segment.
+    Damaged(SegmentDamage),
+    /// The newest segment ends in a torn tail here (an append cut short by
+    /// a crash): the records end cleanly before it.
+    TornTail(SegmentDamage),
+}
+
+/// Reads a recording as far as it can be trusted: every segment from its
+/// start up to its first damage, reported as [`Salvaged::Damaged`], then
+/// on with the next segment (each segment after a directory's first starts
+/// at a keyframe, or a session start and its keyframe, so replay can start
+/// again there). Yields `Err` once on an I/O error, then ends. Made by
+/// [`RecordReader::salvage`].
+#[derive(Debug)]
+pub struct Salvage {
+    segments: Vec<SegmentFile>,
+    /// Index of the next segment to open.
+    next: usize,
+    /// The segment being read: its index and reader.
+    current: Option<(usize, FrameReader<BufReader<File>>)>,
+    done: bool,
+}
+
+impl Salvage {
+    /// Stops reading the current segment (its records after the last one
+    /// yielded are not trusted: a caller found one that does not decode)
+    /// and goes on with the next.
+    pub fn skip_rest_of_segment(&mut self) {
+        self.current = None;
+    }
+
+    fn step(&mut self) -> Result<Option<Salvaged>, RecordError> {
+        loop {
+            let Some((index, reader)) = &mut self.current else {
+                let Some(segment) = self.segments.get(self.next) else {
+                    return Ok(None);
+                };
+                let index = self.next;
+                self.next += 1;
+                let path = &segment.path;
+                let io = |e| RecordError::io(path, e);
+                let file = File::open(path).map_err(io)?;
+                let len = file.metadata().map_err(io)?.len();
+                match FrameReader::new(BufReader::new(file), len).map_err(io)? {
+                    Ok(reader) => self.current = Some((index, reader)),
+                    Err(why) => return self.damaged(index, 0, why).map(Some),
+                }
+                continue;
+            };
+            let index = *index;
+            let offset = reader.offset();
+            let path = &self.segments[index].path;
+            match reader.next_frame().map_err(|e| RecordError::io(path, e))? {
+                Frame::Record { record, .. } => {
+                    return Ok(Some(Salvaged::Record {
+                        segment: index,
+                        offset,
+                        record,
+                    }))
+                }
+                Frame::End => self.current = None,
+                Frame::Damaged { offset, why } => {
+                    self.current = None;
+                    return self.damaged(index, offset, why).map(Some);
+                }
+            }
+        }
+    }
+
+    /// What damage at `offset` of segment `index` is: a torn tail (the
+    /// end) or damage to read past.
+    fn damaged(
+        &mut self,
+        index: usize,
+        offset: u64,
+        why: Corruption,
+    ) -> Result<Salvaged, RecordError> {
+        let path = self.segments[index].path.clone();
+        let newest = index + 1 == self.segments.len();
+        let torn = newest && torn_at(&path, offset, why)?;
+        let damage = SegmentDamage { path, offset, why };
+        Ok(if torn {
+            Salvaged::TornTail(damage)
+        } else {
+            Salvaged::Damaged(damage)
+        })
+    }
+}
+
+impl Iterator for Salvage {
+    type Item = Result<Salvaged, RecordError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        match self.step() {
+            Ok(Some(item)) => Some(Ok(item)),
+            Ok(None) => {
+                self.done = true;
+                None
+            }
+            Err(e) => {
+                self.done = true;
+                Some(Err(e))
+            }
+        }
+    }
+}
+
+impl std::iter::FusedIterator for Salvage {}

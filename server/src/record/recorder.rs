@@ -113,14 +113,18 @@ pub struct Recorder {
     stats: Arc<RecorderStats>,
     config: RecorderConfig,
     metrics: Option<Metrics>,
+    moved_aside: Option<PathBuf>,
 }
 
 impl Recorder {
-    /// Opens the recording directory (cutting a torn tail, which is
-    /// logged) and starts the recorder thread. `first_tick` is the tick
-    /// the session starts at: a recording already there whose ticks run
-    /// past it (an earlier run of the server) is moved aside, to
-    /// `<dir>.<unix seconds>`, so ticks never go backwards in a directory.
+    /// Opens the recording directory (cutting a torn tail, kept aside, and
+    /// logging it; a damaged newest segment is left alone and logged, and
+    /// recording goes on in a new segment) and starts the recorder thread.
+    /// `first_tick` is the tick the session starts at: a recording already
+    /// there that cannot be continued at it — its ticks run past it (an
+    /// earlier run of the server), or its newest segment is damaged and
+    /// starts at it — is moved aside, to `<dir>.<unix seconds>`, so ticks
+    /// never go backwards in a directory.
     pub fn start(
         config: RecorderConfig,
         first_tick: u64,
@@ -130,20 +134,20 @@ impl Recorder {
             segment_bytes: config.segment_bytes,
         };
         let mut writer = RecordWriter::open(&config.dir, options.clone())?;
-        if writer.last_tick().is_some_and(|t| t > first_tick) {
+        log_open(&config.dir, &writer);
+        let mut moved_aside = None;
+        if !writer.can_append_at(first_tick) {
             drop(writer);
             let aside = aside_name(&config.dir);
             warn!(
                 dir = %config.dir.display(),
                 moved_to = %aside.display(),
-                "the recording there runs past this session's first tick; moving it aside"
+                "the recording there cannot go on at this session's first tick (it runs past it, \
+                 or its newest segment is damaged and starts there); moving it aside"
             );
             std::fs::rename(&config.dir, &aside).map_err(|e| RecordError::io(&config.dir, e))?;
             writer = RecordWriter::open(&config.dir, options)?;
-        }
-        let report = writer.open_report();
-        if report.bytes_cut() > 0 {
-            warn!(dir = %config.dir.display(), bytes_cut = report.bytes_cut(), "cut a torn tail off the recording");
+            moved_aside = Some(aside);
         }
         let (tx, rx) = mpsc::sync_channel(config.capacity.max(1));
         let stats = Arc::new(RecorderStats::default());
@@ -162,7 +166,15 @@ impl Recorder {
             stats,
             config,
             metrics,
+            moved_aside,
         })
+    }
+
+    /// Where the recording found in the directory was moved aside when it
+    /// could not be continued ([`Recorder::start`]); this session then
+    /// starts an empty one.
+    pub fn moved_aside(&self) -> Option<&Path> {
+        self.moved_aside.as_deref()
     }
 
     /// The configuration it records with.
@@ -249,6 +261,31 @@ impl Recorder {
     /// Stops sending and waits for the thread to write out what it has.
     pub fn stop(mut self) {
         self.join();
+    }
+}
+
+/// Logs what opening the recording found: a torn tail cut (and where its
+/// bytes were kept), a damaged newest segment left alone.
+fn log_open(dir: &Path, writer: &RecordWriter) {
+    let report = writer.open_report();
+    if let Some(cut) = &report.cut {
+        warn!(
+            dir = %dir.display(),
+            file = %cut.path.display(),
+            offset = cut.offset,
+            bytes_cut = cut.bytes_cut,
+            kept_at = %cut.kept_at.display(),
+            "cut a torn tail off the recording; its bytes are kept aside"
+        );
+    }
+    if let Some(damage) = &report.damaged {
+        warn!(
+            dir = %dir.display(),
+            file = %damage.path.display(),
+            offset = damage.offset,
+            why = %damage.why,
+            "the newest segment is damaged; left as it is, recording goes on in a new segment"
+        );
     }
 }
 

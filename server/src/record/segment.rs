@@ -6,11 +6,12 @@
 //! finding the segment that holds a tick needs no file opened.
 
 use std::fs::{self, File};
-use std::io::BufReader;
+use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 use super::error::{Corruption, RecordError};
-use super::frame::{Frame, FrameReader};
+use super::frame::{is_torn_frame, Frame, FrameReader, FRAME_OVERHEAD};
+use super::MAX_RECORD_BYTES;
 
 const PREFIX: &str = "segment-";
 const SUFFIX: &str = ".irec";
@@ -98,6 +99,11 @@ pub(crate) struct Scan {
     pub file_len: u64,
     /// The first damage: its offset and kind.
     pub damage: Option<(u64, Corruption)>,
+    /// Whether that damage has the shape of a torn write: a header or
+    /// frame cut short by the end of the file with nothing intact after
+    /// it (see [`torn_at`]). Only at the end of the newest segment is that
+    /// a torn tail; anywhere else it is damage like any other.
+    pub torn_tail: bool,
 }
 
 /// Reads every frame of the segment at `path`, checking each checksum.
@@ -112,11 +118,13 @@ pub(crate) fn scan_segment(path: &Path) -> Result<Scan, RecordError> {
         good_len: 0,
         file_len,
         damage: None,
+        torn_tail: false,
     };
     let mut reader = match FrameReader::new(BufReader::new(file), file_len).map_err(io)? {
         Ok(reader) => reader,
         Err(why) => {
             scan.damage = Some((0, why));
+            scan.torn_tail = torn_at(path, 0, why)?;
             return Ok(scan);
         }
     };
@@ -130,12 +138,45 @@ pub(crate) fn scan_segment(path: &Path) -> Result<Scan, RecordError> {
             Frame::End => break,
             Frame::Damaged { offset, why } => {
                 scan.damage = Some((offset, why));
+                scan.torn_tail = torn_at(path, offset, why)?;
                 break;
             }
         }
     }
     scan.good_len = reader.offset();
     Ok(scan)
+}
+
+/// Whether `why` at `offset` in the segment at `path` has the shape of a
+/// torn write: a header cut short whose bytes are right so far (offset
+/// 0), or a frame cut short by the end of the file with nothing intact
+/// after it ([`is_torn_frame`]).
+pub(crate) fn torn_at(path: &Path, offset: u64, why: Corruption) -> Result<bool, RecordError> {
+    if why != Corruption::Truncated {
+        return Ok(false);
+    }
+    if offset == 0 {
+        // FrameReader::new says Truncated only for a right partial header.
+        return Ok(true);
+    }
+    Ok(read_tail(path, offset)?.is_some_and(|tail| is_torn_frame(&tail)))
+}
+
+/// The bytes of the file at `path` from `offset` to its end, or `None`
+/// when there are more than one frame could hold (then they are not one
+/// frame cut short).
+pub(crate) fn read_tail(path: &Path, offset: u64) -> Result<Option<Vec<u8>>, RecordError> {
+    let io = |e| RecordError::io(path, e);
+    let mut file = File::open(path).map_err(io)?;
+    let len = file.metadata().map_err(io)?.len();
+    let left = len.saturating_sub(offset);
+    if left > FRAME_OVERHEAD + u64::from(MAX_RECORD_BYTES) {
+        return Ok(None);
+    }
+    file.seek(SeekFrom::Start(offset)).map_err(io)?;
+    let mut tail = Vec::with_capacity(left as usize);
+    file.take(left).read_to_end(&mut tail).map_err(io)?;
+    Ok(Some(tail))
 }
 
 #[cfg(test)]

@@ -10,9 +10,29 @@
 //! `sync_data` on the segment (and syncs the directory when a segment was
 //! created or removed since the last flush). A segment is also synced before
 //! the next one is started, so only the newest segment can ever end in a
-//! torn write; that is why open cuts damage in the newest segment but
-//! reports damage anywhere else. Dropping the writer writes the buffer out
-//! without syncing.
+//! torn write. Dropping the writer writes the buffer out without syncing.
+//!
+//! # Opening after a crash
+//!
+//! [`RecordWriter::open`] reads the newest segment through. What it finds
+//! at its end decides what happens:
+//!
+//! - **a torn tail**: the last frame is cut short by the end of the file
+//!   (its header or its payload runs past it) with nothing intact after
+//!   it — what an interrupted append leaves. Those bytes are first written
+//!   to `<segment file name>.torn-<offset>` beside it and synced, then the
+//!   segment is cut at `offset`, the end of the last intact record
+//!   ([`TailCut`]). A newest segment left with no record is removed (it
+//!   held a header only).
+//! - **damage**: anything else — a checksum that fails, an impossible
+//!   header, a frame of unknown kind, a length that runs past the end with
+//!   intact records after it. Nothing is cut or skipped: the segment stays
+//!   exactly as it is, the damage is reported
+//!   ([`OpenReport::damaged`]), and the next append starts a new segment
+//!   rather than writing after the damage.
+//!
+//! Older segments are not read on open; damage there is the readers' to
+//! report.
 //!
 //! One writer per directory: nothing stops a second process from opening
 //! the same directory, and two writers would interleave frames.
@@ -22,9 +42,9 @@ use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use super::codec::Record;
-use super::error::{Corruption, RecordError};
+use super::error::{Corruption, RecordError, SegmentDamage};
 use super::frame::{encode_frame, segment_header, HEADER_BYTES};
-use super::segment::{list_segments, scan_segment, segment_file_name, SegmentFile};
+use super::segment::{list_segments, read_tail, scan_segment, segment_file_name, SegmentFile};
 
 /// Bytes `append` buffers before writing to the operating system.
 pub const WRITE_BUFFER_BYTES: usize = 256 * 1024;
@@ -52,7 +72,8 @@ impl Default for RecordOptions {
     }
 }
 
-/// Where open cut a torn tail off the newest segment.
+/// Where open cut a torn tail off the newest segment, and where the bytes
+/// cut were kept.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct TailCut {
     /// The segment cut.
@@ -61,8 +82,12 @@ pub struct TailCut {
     pub offset: u64,
     /// Bytes removed from the end of the file.
     pub bytes_cut: u64,
-    /// What was wrong at `offset`.
+    /// What was wrong at `offset` (a frame cut short).
     pub why: Corruption,
+    /// The file, beside the segment, that holds exactly the bytes cut
+    /// (`<segment file name>.torn-<offset>`), written and synced before
+    /// the cut.
+    pub kept_at: PathBuf,
 }
 
 /// What [`RecordWriter::open`] found and repaired.
@@ -73,12 +98,17 @@ pub struct OpenReport {
     /// Tick of the last intact record; the next append must not be before
     /// it. `None` for an empty recording.
     pub last_tick: Option<u64>,
-    /// Records kept in the newest segment.
+    /// Records kept in the segment appended to (0 when appending starts a
+    /// new one).
     pub records_in_newest: u64,
     /// The torn tail cut off the newest segment, if there was one.
     pub cut: Option<TailCut>,
+    /// The newest segment's damage, if it is damaged: the segment is left
+    /// as it is and the next append starts a new segment.
+    pub damaged: Option<SegmentDamage>,
     /// Newest segments that held no intact record (a crash right after
-    /// starting them) and were removed.
+    /// starting them) and were removed (their torn bytes kept aside, see
+    /// `cut`).
     pub removed: Vec<PathBuf>,
 }
 
@@ -113,6 +143,9 @@ pub struct RecordWriter {
     dir_dirty: bool,
     /// An earlier write or sync failed.
     poisoned: bool,
+    /// The newest segment is damaged (left alone): its first tick, which a
+    /// new segment cannot take.
+    damaged_first_tick: Option<u64>,
     /// Reused frame buffer.
     scratch: Vec<u8>,
     /// What open found.
@@ -120,13 +153,11 @@ pub struct RecordWriter {
 }
 
 impl RecordWriter {
-    /// Opens (creating it if needed) the recording directory `dir`. Reads
-    /// the newest segment record by record; a torn tail (a frame cut short
-    /// or failing its checksum) is cut off at the end of the last intact
-    /// record and reported, and a newest segment left with no record is
-    /// removed. Any other damage in it, or damage in the segment before a
-    /// removed one, is an error: those bytes were synced, so they are not a
-    /// torn write and are left for a person to look at.
+    /// Opens (creating it if needed) the recording directory `dir` and
+    /// repairs a torn tail of the newest segment, keeping the bytes cut
+    /// aside; a newest segment that is damaged instead is left as it is and
+    /// appending goes on in a new segment (see the module docs). Errors only
+    /// when the file system refuses.
     pub fn open(dir: impl AsRef<Path>, options: RecordOptions) -> Result<Self, RecordError> {
         let dir = dir.as_ref().to_path_buf();
         fs::create_dir_all(&dir).map_err(|e| RecordError::io(&dir, e))?;
@@ -135,6 +166,7 @@ impl RecordWriter {
         let mut newest = true;
         let mut current = None;
         let mut last_tick = None;
+        let mut damaged_first_tick = None;
         let mut dir_dirty = false;
         while let Some(last) = segments.last_mut() {
             let path = last.path.clone();
@@ -142,22 +174,25 @@ impl RecordWriter {
             let scan = scan_segment(&path)?;
             let mut len = scan.file_len;
             if let Some((offset, why)) = scan.damage {
-                if !(newest && why.is_torn_write()) {
-                    return Err(RecordError::Corrupt { path, offset, why });
+                if !(newest && scan.torn_tail) {
+                    // Left exactly as it is; appending starts a new segment,
+                    // which must sort after this one and not go back past
+                    // its last intact record.
+                    last.bytes = scan.file_len;
+                    last_tick = Some(
+                        scan.last_tick
+                            .map_or(last.first_tick, |t| t.max(last.first_tick)),
+                    );
+                    damaged_first_tick = Some(last.first_tick);
+                    report.damaged = Some(SegmentDamage { path, offset, why });
+                    break;
                 }
-                let file = OpenOptions::new().write(true).open(&path).map_err(io)?;
-                file.set_len(scan.good_len).map_err(io)?;
-                file.sync_data().map_err(io)?;
-                report.cut = Some(TailCut {
-                    path: path.clone(),
-                    offset: scan.good_len,
-                    bytes_cut: scan.file_len - scan.good_len,
-                    why,
-                });
-                len = scan.good_len;
+                report.cut = Some(cut_torn_tail(&dir, &path, offset, why)?);
+                len = offset;
             }
             newest = false;
             if scan.records == 0 {
+                // A header at most is left: nothing of the recording.
                 fs::remove_file(&path).map_err(io)?;
                 dir_dirty = true;
                 report.removed.push(path);
@@ -187,13 +222,23 @@ impl RecordWriter {
             last_tick,
             dir_dirty,
             poisoned: false,
+            damaged_first_tick,
             scratch: Vec::new(),
             report,
         })
     }
 
-    /// What [`open`](Self::open) found and repaired: log it, a cut tail is
-    /// lost recording.
+    /// Whether a record for `tick` can be appended: it is not before the
+    /// last tick recorded, and when the newest segment is damaged (so the
+    /// next append starts a new segment) it is after that segment's first
+    /// tick, whose name the new segment would otherwise take.
+    pub fn can_append_at(&self, tick: u64) -> bool {
+        self.last_tick.is_none_or(|last| tick >= last)
+            && !(self.current.is_none() && self.damaged_first_tick == Some(tick))
+    }
+
+    /// What [`open`](Self::open) found and repaired: log it (a cut tail
+    /// was kept aside; a damaged newest segment was left alone).
     pub fn open_report(&self) -> &OpenReport {
         &self.report
     }
@@ -234,6 +279,14 @@ impl RecordWriter {
             if tick < last {
                 return Err(RecordError::TickBackwards { last, got: tick });
             }
+        }
+        if self.current.is_none() && self.damaged_first_tick == Some(tick) {
+            let path = self
+                .segments
+                .last()
+                .map(|s| s.path.clone())
+                .unwrap_or_default();
+            return Err(RecordError::DamagedSegmentInTheWay { path, tick });
         }
         let mut frame = std::mem::take(&mut self.scratch);
         let result = encode_frame(record, &mut frame).and_then(|()| {
@@ -359,6 +412,64 @@ impl RecordWriter {
         entry.bytes = current.len;
         Ok(())
     }
+}
+
+/// Cuts the torn tail of the segment at `path` at `offset`, first writing
+/// the bytes cut to `<segment file name>.torn-<offset>` beside it (a
+/// numbered name if that is taken) and syncing that file and the
+/// directory.
+fn cut_torn_tail(
+    dir: &Path,
+    path: &Path,
+    offset: u64,
+    why: Corruption,
+) -> Result<TailCut, RecordError> {
+    // The scan found a frame cut short: at most one frame's bytes.
+    let tail = read_tail(path, offset)?.ok_or_else(|| {
+        RecordError::io(
+            path,
+            std::io::Error::other("a torn tail longer than one record"),
+        )
+    })?;
+    let kept_at = keep_aside(path, offset, &tail)?;
+    sync_dir(dir)?;
+    let io = |e| RecordError::io(path, e);
+    let file = OpenOptions::new().write(true).open(path).map_err(io)?;
+    file.set_len(offset).map_err(io)?;
+    file.sync_data().map_err(io)?;
+    Ok(TailCut {
+        path: path.to_path_buf(),
+        offset,
+        bytes_cut: tail.len() as u64,
+        why,
+        kept_at,
+    })
+}
+
+/// Writes `bytes` to a new file `<path>.torn-<offset>` (or
+/// `<path>.torn-<offset>.<n>` if taken) and syncs it; returns its path.
+fn keep_aside(path: &Path, offset: u64, bytes: &[u8]) -> Result<PathBuf, RecordError> {
+    for n in 0..1000u32 {
+        let mut name = path.as_os_str().to_owned();
+        name.push(format!(".torn-{offset}"));
+        if n > 0 {
+            name.push(format!(".{n}"));
+        }
+        let aside = PathBuf::from(name);
+        let io = |e| RecordError::io(&aside, e);
+        let mut file = match OpenOptions::new().write(true).create_new(true).open(&aside) {
+            Ok(file) => file,
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(io(e)),
+        };
+        file.write_all(bytes).map_err(io)?;
+        file.sync_all().map_err(io)?;
+        return Ok(aside);
+    }
+    Err(RecordError::io(
+        path,
+        std::io::Error::other("no free name to keep a torn tail aside"),
+    ))
 }
 
 /// Writes out the buffer and syncs the segment's data.

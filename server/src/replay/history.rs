@@ -15,14 +15,33 @@
 //! (never a session's first) with the checkpoints packed against it:
 //! seeks then re-simulate further, but every recorded tick stays
 //! reachable.
+//!
+//! # Loading a damaged recording
+//!
+//! [`History::load`] refuses a damaged recording. [`History::salvage`]
+//! (what `--resume` uses) loads what can be trusted and reports the rest
+//! ([`Damage`]):
+//!
+//! - a damaged frame (a checksum that fails, an impossible header) or a
+//!   journal that does not decode ends what is read of its segment: the
+//!   records after it there are not used, since nothing says where they
+//!   begin or that none is missing. Loading goes on with the next segment,
+//!   but only from a point replay can start again at — a session start, or
+//!   a keyframe taken right after its tick's step (nothing of its tick's
+//!   journal in it), which then starts a session of its own — so no seek
+//!   or resume re-simulates across the gap;
+//! - a keyframe whose frame is intact but whose state does not unpack or
+//!   read is left out; everything around it is used;
+//! - a torn tail at the end of the newest segment ends the records.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::Path;
+use std::ops::Bound;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::journal::{self, JournalEntry};
-use super::state::SimState;
-use crate::record::{Record, RecordReader};
+use super::state::{SimState, StateError};
+use crate::record::{Corruption, Record, RecordReader, Salvaged, SegmentDamage};
 
 /// Default memory budget for keyframes and checkpoints held for seeking,
 /// bytes (1 GiB: ten minutes of a thousand moving bodies, checkpointed
@@ -170,6 +189,59 @@ pub enum HistoryError {
         /// What is wrong.
         error: super::state::StateError,
     },
+}
+
+/// Damage [`History::salvage`] found: where, and what it means for what
+/// was loaded (see [`DamageKind`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}: byte {offset}: {why}", path.display())]
+pub struct Damage {
+    /// The segment file.
+    pub path: PathBuf,
+    /// Byte offset of the damaged frame, or of the record that does not
+    /// decode, in the file.
+    pub offset: u64,
+    /// What is wrong there.
+    pub why: DamageKind,
+}
+
+/// What is wrong where a [`Damage`] is.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DamageKind {
+    /// The frame is damaged: nothing after it in that segment is used.
+    #[error(transparent)]
+    Frame(Corruption),
+    /// The frame is intact but the keyframe's state does not unpack, read
+    /// or restore: that keyframe is not used.
+    #[error("the keyframe of tick {tick} does not decode: {error}")]
+    Keyframe {
+        /// Its tick.
+        tick: u64,
+        /// Why.
+        error: StateError,
+    },
+    /// The frame is intact but the journal does not decode: nothing after
+    /// it in that segment is used.
+    #[error("the journal of tick {tick} does not decode: {error}")]
+    Journal {
+        /// Its tick.
+        tick: u64,
+        /// Why.
+        error: journal::JournalError,
+    },
+}
+
+/// What [`History::salvage`] found besides the history.
+#[derive(Debug, Clone, Default)]
+pub struct SalvageReport {
+    /// Damage, oldest first.
+    pub damage: Vec<Damage>,
+    /// The torn tail the newest segment ends in (a crash mid-append), if
+    /// any: the records end before it.
+    pub torn_tail: Option<SegmentDamage>,
+    /// Where each keyframe loaded is: its segment file and frame offset,
+    /// by its tick and applied count.
+    pub keyframes: BTreeMap<(u64, u32), (PathBuf, u64)>,
 }
 
 impl Default for History {
@@ -406,6 +478,56 @@ impl History {
             })
     }
 
+    /// Every keyframe held, newest first.
+    pub fn keyframes_newest_first(&self) -> Vec<HeldKeyframe> {
+        self.keyframes
+            .iter()
+            .rev()
+            .map(|(&(tick, applied), bytes)| HeldKeyframe {
+                tick,
+                applied,
+                bytes: bytes.clone(),
+            })
+            .collect()
+    }
+
+    /// Lets go of a keyframe (one that does not restore), and of the
+    /// checkpoints packed against it.
+    pub fn remove_keyframe(&mut self, tick: u64, applied: u32) {
+        let key = (tick, applied);
+        if let Some(bytes) = self.keyframes.remove(&key) {
+            self.keyframe_bytes -= bytes.len();
+        }
+        let orphans: Vec<u64> = self
+            .checkpoints
+            .iter()
+            .filter(|(_, c)| c.base == key)
+            .map(|(&t, _)| t)
+            .collect();
+        for t in orphans {
+            if let Some(c) = self.checkpoints.remove(&t) {
+                self.checkpoint_bytes -= c.packed.len();
+            }
+        }
+    }
+
+    /// The last tick hashed from `tick` on within the session `tick`
+    /// belongs to: up to the next session's start, inclusive (a session
+    /// that carries on from a resume starts at the tick the one before it
+    /// last hashed).
+    pub fn last_hashed_from(&self, tick: u64) -> Option<u64> {
+        let next = self
+            .sessions
+            .range((Bound::Excluded(tick), Bound::Unbounded))
+            .next()
+            .copied();
+        let end = next.map_or(Bound::Unbounded, Bound::Included);
+        self.hashes
+            .range((Bound::Included(tick), end))
+            .next_back()
+            .map(|(&t, _)| t)
+    }
+
     /// The last tick hashed, if any.
     pub fn last_hashed(&self) -> Option<u64> {
         self.hashes.last_key_value().map(|(&t, _)| t)
@@ -452,13 +574,94 @@ impl History {
                 Record::Inputs { .. } | Record::AdminEdit { .. } => {}
             }
         }
-        // A directory whose first segment retention removed starts at a
-        // keyframe without its session start: that keyframe starts one.
-        if let Some((&(tick, _), _)) = h.keyframes.first_key_value() {
-            if h.session_of(tick).is_none() {
-                h.start_session(tick);
+        h.start_orphan_session();
+        Ok(h)
+    }
+
+    /// Reads a recording directory into memory as far as it can be
+    /// trusted, reading past damage (see the module docs); fails only on
+    /// I/O errors. Returns the history and what was found.
+    pub fn salvage(dir: &Path, budget: usize) -> Result<(History, SalvageReport), HistoryError> {
+        let reader = RecordReader::open(dir)?;
+        let files = reader.segment_files();
+        let mut h = History::new(budget);
+        let mut report = SalvageReport::default();
+        // After damage, records are not used until replay can start again.
+        let mut resync = false;
+        let mut records = reader.salvage();
+        while let Some(item) = records.next() {
+            let (segment, offset, record) = match item? {
+                Salvaged::Record {
+                    segment,
+                    offset,
+                    record,
+                } => (segment, offset, record),
+                Salvaged::Damaged(d) => {
+                    report.damage.push(Damage {
+                        path: d.path,
+                        offset: d.offset,
+                        why: DamageKind::Frame(d.why),
+                    });
+                    resync = true;
+                    continue;
+                }
+                Salvaged::TornTail(d) => {
+                    report.torn_tail = Some(d);
+                    continue;
+                }
+            };
+            let path = || files[segment].path.clone();
+            match record {
+                Record::SessionStart { tick, .. } => {
+                    h.start_session(tick);
+                    resync = false;
+                }
+                Record::Keyframe { tick, state } => match SimState::peek(&state) {
+                    Ok((_, applied)) => {
+                        if resync {
+                            if applied != 0 {
+                                continue;
+                            }
+                            h.start_session(tick);
+                            resync = false;
+                        }
+                        report.keyframes.insert((tick, applied), (path(), offset));
+                        h.add_keyframe(tick, applied, Arc::new(state));
+                    }
+                    Err(error) => report.damage.push(Damage {
+                        path: path(),
+                        offset,
+                        why: DamageKind::Keyframe { tick, error },
+                    }),
+                },
+                _ if resync => {}
+                Record::Journal { tick, entries } => match journal::decode(tick, &entries) {
+                    Ok(entries) => h.add_journal(tick, &entries),
+                    Err(error) => {
+                        report.damage.push(Damage {
+                            path: path(),
+                            offset,
+                            why: DamageKind::Journal { tick, error },
+                        });
+                        records.skip_rest_of_segment();
+                        resync = true;
+                    }
+                },
+                Record::TickHash { tick, hash } => h.add_hash(tick, hash),
+                Record::Inputs { .. } | Record::AdminEdit { .. } => {}
             }
         }
-        Ok(h)
+        h.start_orphan_session();
+        Ok((h, report))
+    }
+
+    /// A directory whose first segment retention removed starts at a
+    /// keyframe without its session start: that keyframe starts one.
+    fn start_orphan_session(&mut self) {
+        if let Some((&(tick, _), _)) = self.keyframes.first_key_value() {
+            if self.session_of(tick).is_none() {
+                self.start_session(tick);
+            }
+        }
     }
 }

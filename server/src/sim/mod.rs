@@ -487,11 +487,12 @@ impl Simulation {
         self.journal.clear();
         let budget = self.config.history_budget;
         let history = self.history.get_or_insert_with(|| History::new(budget));
-        let continues = history.range().is_some_and(|(_, last)| last == tick);
-        if history.range().is_some_and(|(_, last)| last > tick) {
+        if recorder.moved_aside().is_some() || history.range().is_some_and(|(_, last)| last > tick)
+        {
             // It belonged to a recording that was moved aside.
             *history = History::new(budget);
         }
+        let continues = history.range().is_some_and(|(_, last)| last == tick);
         self.journal_at_tick = if continues {
             history.journal_at(tick).len() as u32
         } else {

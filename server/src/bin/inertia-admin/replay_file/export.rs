@@ -64,7 +64,7 @@ pub fn run(
     let mut damage: Option<Damage> = None;
     for (i, file) in files.iter().enumerate().skip(start) {
         let newest = i + 1 == files.len();
-        let scan = scan::scan_segment(file, newest, |record| {
+        let scan = scan::scan_segment(file, newest, |_, record| {
             let tick = record.tick();
             if tick > to {
                 return ControlFlow::Break(());

@@ -9,6 +9,7 @@ use std::process::ExitCode;
 
 use inertia_server::record::{Record, RecordKind};
 use inertia_server::replay::journal::{self, JournalEntry};
+use inertia_server::replay::SimState;
 use serde_json::json;
 
 use super::scan::{self, file_name, Damage};
@@ -324,10 +325,23 @@ pub fn run(dir: &Path, json: bool) -> Result<ExitCode, Failure> {
     let mut summary = Summary::default();
     for (i, file) in files.iter().enumerate() {
         let newest = i + 1 == files.len();
-        let scan = scan::scan_segment(file, newest, |record| {
+        let mut bad_keyframes = Vec::new();
+        let scan = scan::scan_segment(file, newest, |offset, record| {
+            if let Record::Keyframe { tick, state } = &record {
+                // A keyframe that does not decode is damage, checksum or
+                // not: resume and seeks cannot start from it.
+                if let Err(e) = SimState::decode(state) {
+                    bad_keyframes.push(Damage::bad_record(
+                        &file.path,
+                        offset,
+                        format!("the keyframe of tick {tick} does not decode: {e}"),
+                    ));
+                }
+            }
             summary.note(&record);
             ControlFlow::Continue(())
         });
+        summary.damage.extend(bad_keyframes);
         summary.total_bytes += scan.bytes;
         summary.segments.push(Segment {
             file: file_name(&file.path),

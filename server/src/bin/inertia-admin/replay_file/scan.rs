@@ -1,8 +1,9 @@
 //! Reading a recording segment by segment for the offline tools: every
 //! intact record of a segment, then what ends it — a clean end, a torn
-//! tail, or corruption with its file and byte offset. Damage is reported,
-//! never a panic, and one damaged segment does not hide the others (each
-//! segment after a directory's first starts at a keyframe).
+//! tail (a record cut short at the end of the newest segment with nothing
+//! intact after it), or corruption with its file and byte offset. Damage
+//! is reported, never a panic, and one damaged segment does not hide the
+//! others (each segment after a directory's first starts at a keyframe).
 
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -55,8 +56,13 @@ pub struct Damage {
     pub corruption: Option<Corruption>,
     /// A record cut short at the end of the newest segment: what a crash
     /// mid-append leaves. Readers stop there cleanly and a writer cuts it
-    /// when it opens the recording; nothing before it is lost.
+    /// (keeping the bytes aside) when it opens the recording; nothing
+    /// before it is lost.
     pub torn_tail: bool,
+    /// Whether the records after it in that segment cannot be read (the
+    /// framing itself is damaged) or only this record is bad (a checksummed
+    /// record whose content does not decode).
+    pub rest_unread: bool,
 }
 
 impl Damage {
@@ -74,11 +80,25 @@ impl Damage {
                  and the server cuts it when it reopens the recording)",
                 self.offset, self.why
             )
-        } else {
+        } else if self.rest_unread {
             format!(
                 "corrupt: {name} at byte {}: {}; nothing after it in that segment can be read",
                 self.offset, self.why
             )
+        } else {
+            format!("corrupt: {name} at byte {}: {}", self.offset, self.why)
+        }
+    }
+
+    /// A checksummed record at `offset` of `file` whose content is bad.
+    pub fn bad_record(file: &Path, offset: u64, why: String) -> Damage {
+        Damage {
+            file: file.to_path_buf(),
+            offset,
+            why,
+            corruption: None,
+            torn_tail: false,
+            rest_unread: false,
         }
     }
 
@@ -89,6 +109,7 @@ impl Damage {
             "offset": self.offset,
             "why": self.why,
             "torn_tail": self.torn_tail,
+            "rest_unread": self.rest_unread,
         })
     }
 }
@@ -110,14 +131,14 @@ pub struct SegmentScan {
     pub stopped: bool,
 }
 
-/// Reads `segment` front to back, handing each intact record to `each`
-/// (which may break off). `newest`: whether it is the recording's newest
+/// Reads `segment` front to back, handing each intact record and the
+/// byte offset of its frame to `each` (which may break off). `newest`: whether it is the recording's newest
 /// segment, the only one where a record cut short is a torn tail rather
 /// than corruption.
 pub fn scan_segment(
     segment: &SegmentFile,
     newest: bool,
-    mut each: impl FnMut(Record) -> ControlFlow<()>,
+    mut each: impl FnMut(u64, Record) -> ControlFlow<()>,
 ) -> SegmentScan {
     let mut scan = SegmentScan {
         first_tick: None,
@@ -133,6 +154,7 @@ pub fn scan_segment(
         why: e.to_string(),
         corruption: None,
         torn_tail: false,
+        rest_unread: true,
     };
     // Opened alone, a segment reads as a recording's newest: a record cut
     // short at its end ends the records cleanly. Whether that was a torn
@@ -152,8 +174,9 @@ pub fn scan_segment(
                 scan.first_tick.get_or_insert(tick);
                 scan.last_tick = Some(tick);
                 scan.records += 1;
+                let offset = intact;
                 intact += FRAME_BYTES + record.payload_len();
-                if each(record).is_break() {
+                if each(offset, record).is_break() {
                     scan.stopped = true;
                     return scan;
                 }
@@ -165,6 +188,7 @@ pub fn scan_segment(
                     why: why.to_string(),
                     corruption: Some(why),
                     torn_tail: false,
+                    rest_unread: true,
                 });
                 return scan;
             }
@@ -188,6 +212,7 @@ pub fn scan_segment(
             why: Corruption::Truncated.to_string(),
             corruption: Some(Corruption::Truncated),
             torn_tail: newest,
+            rest_unread: true,
         });
     }
     scan
