@@ -18,6 +18,7 @@ use crate::config::ServerConfig;
 use crate::credentials::{self, CredentialFiles, CredentialsError};
 use crate::metrics::{self, Metrics};
 use crate::net::{self, NetShared};
+use crate::replay::checkpoint::CheckpointDir;
 use crate::rules::{GameRules, SandboxRules, SandboxSettings};
 use crate::scene::{demo::demo_scene, Scene, SceneError};
 use crate::sim::resume::read_for_resume;
@@ -237,7 +238,8 @@ pub async fn start_with_rules(
             config.client_budget_bytes_per_sec(),
             shutdown_rx,
         )
-        .with_admin_token(creds.admin_token.clone()),
+        .with_admin_token(creds.admin_token.clone())
+        .with_checkpoint_dir(CheckpointDir::new(config.checkpoint_dir())),
     );
     tasks.push(tokio::spawn(shared.clone().record_history()));
     tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone())));
@@ -283,6 +285,11 @@ impl RunningServer {
     /// The admin credential.
     pub fn admin_token(&self) -> &str {
         &self.admin_token
+    }
+
+    /// Where `save` and `load` keep checkpoints.
+    pub fn checkpoints(&self) -> &CheckpointDir {
+        &self.shared.checkpoints
     }
 
     /// The simulation.

@@ -19,6 +19,7 @@ use tokio::sync::{oneshot, watch};
 use tracing::{debug, info};
 
 use crate::metrics::Metrics;
+use crate::replay::checkpoint::CheckpointDir;
 use crate::sim::{Frame, SimHandle};
 
 /// How many tokens the replay guard remembers at once.
@@ -58,6 +59,8 @@ pub struct NetShared {
     pub kicks: Mutex<BTreeMap<u64, (u64, oneshot::Sender<String>)>>,
     /// The admin credential (empty: the admin channel admits no one).
     pub admin_token: String,
+    /// Where `save` and `load` keep checkpoints.
+    pub checkpoints: CheckpointDir,
 }
 
 impl std::fmt::Debug for NetShared {
@@ -102,12 +105,21 @@ impl NetShared {
             connected: Mutex::new(BTreeMap::new()),
             kicks: Mutex::new(BTreeMap::new()),
             admin_token: String::new(),
+            checkpoints: CheckpointDir::new(
+                crate::config::ServerConfig::default().checkpoint_dir(),
+            ),
         }
     }
 
     /// The same, admitting admin connections with `token`.
     pub fn with_admin_token(mut self, token: String) -> Self {
         self.admin_token = token;
+        self
+    }
+
+    /// The same, keeping checkpoints in `dir`.
+    pub fn with_checkpoint_dir(mut self, dir: CheckpointDir) -> Self {
+        self.checkpoints = dir;
         self
     }
 
