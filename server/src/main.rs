@@ -1,6 +1,10 @@
-//! `inertia-server`: runs one world and serves it until SIGTERM or Ctrl-C.
+//! `inertia-server`: runs one world and serves it until SIGTERM or Ctrl-C,
+//! then shuts down within
+//! [`SHUTDOWN_DEADLINE`](inertia_server::server::SHUTDOWN_DEADLINE) and
+//! exits.
 
 use std::process::ExitCode;
+use std::time::Duration;
 
 use inertia_server::config::{LogFormat, ServerConfig};
 use tracing_subscriber::EnvFilter;
@@ -32,7 +36,7 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    runtime.block_on(async move {
+    let code = runtime.block_on(async move {
         let server = match inertia_server::server::start(config).await {
             Ok(s) => s,
             Err(e) => {
@@ -51,8 +55,15 @@ fn main() -> ExitCode {
         wait_for_stop().await;
         server.shutdown().await;
         ExitCode::SUCCESS
-    })
+    });
+    // Blocking work still running (a save's file, say) does not hold up
+    // the exit: shutdown has already had its deadline.
+    runtime.shutdown_timeout(EXIT_GRACE);
+    code
 }
+
+/// How long blocking tasks still running at exit are waited for.
+const EXIT_GRACE: Duration = Duration::from_secs(1);
 
 /// Waits for SIGTERM or Ctrl-C.
 async fn wait_for_stop() {

@@ -1,6 +1,7 @@
 //! Issue 11: `save` and `load` work inside one checkpoint directory, by
 //! name; reads are bounded and refuse what is not a regular file without
-//! blocking.
+//! blocking; and shutdown finishes within its deadline whatever an admin
+//! call or the tick thread is doing.
 //!
 //! The server processes run in their checkpoint directory, so a build
 //! that still took names as paths (relative to its working directory)
@@ -22,6 +23,7 @@ use inertia_protocol::admin::{
 use inertia_server::admin::client::{read_credentials, AdminClient};
 use inertia_server::config::ServerConfig;
 use inertia_server::replay::checkpoint::{CheckpointDir, CheckpointError, MAX_CHECKPOINT_BYTES};
+use inertia_server::server::SHUTDOWN_DEADLINE;
 
 /// A server whose working directory is its checkpoint directory, and a
 /// directory outside it that must stay untouched.
@@ -305,6 +307,46 @@ fn issue_11_huge_sparse_checkpoint_is_refused_by_size() {
     }
 }
 
+#[test]
+fn issue_11_sigterm_exits_while_a_load_waits_on_a_fifo() {
+    let mut f = Fixture::start("issue11-sigterm");
+    mkfifo(&f.checkpoints.join("pipe"));
+    let mut load = Command::new(env!("CARGO_BIN_EXE_inertia-admin"))
+        .arg("--credentials")
+        .arg(&f.server.credentials)
+        .args(["load", "pipe"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("inertia-admin runs");
+    // Give the load time to reach the FIFO (or be refused).
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_secs(2) && load.try_wait().expect("wait").is_none() {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+
+    let status = Command::new("kill")
+        .args(["-TERM", &f.server.child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success());
+    let start = Instant::now();
+    let exit = loop {
+        if let Some(exit) = f.server.child.try_wait().expect("wait") {
+            break Some(exit);
+        }
+        if start.elapsed() > Duration::from_secs(15) {
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let _ = load.kill();
+    let out = load.wait_with_output().expect("the load's output");
+    let exit = exit.expect("the server exits within 15 s of SIGTERM");
+    assert!(exit.success(), "exit status {exit:?}");
+    assert_refused(&out, "load of a FIFO");
+}
+
 /// A dev-mode server in this process, on ephemeral ports.
 async fn in_process(what: &str) -> (inertia_server::server::RunningServer, PathBuf) {
     let dir = std::env::temp_dir().join(format!("inertia-{what}-{}", std::process::id()));
@@ -329,6 +371,35 @@ async fn admin_of(server: &inertia_server::server::RunningServer) -> AdminClient
     AdminClient::connect(server.addr(), fingerprint, server.admin_token(), "issue11")
         .await
         .expect("admitted")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue_11_shutdown_returns_within_its_deadline_while_the_tick_thread_is_blocked() {
+    let (server, dir) = in_process("issue11-deadline").await;
+    let mut admin = admin_of(&server).await;
+    // The tick thread is stuck in a call for longer than any deadline,
+    // and an admin call waits on it.
+    let _stuck = server
+        .sim()
+        .call(|_| std::thread::sleep(Duration::from_secs(40)))
+        .expect("sent");
+    let waiting = tokio::spawn(async move { admin.call(AdminRequest::Status).await });
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let start = Instant::now();
+    let done = tokio::time::timeout(Duration::from_secs(20), server.shutdown()).await;
+    let took = start.elapsed();
+    assert!(done.is_ok(), "shutdown did not return in 20 s");
+    assert!(
+        took <= SHUTDOWN_DEADLINE + Duration::from_secs(1),
+        "shutdown took {took:?}"
+    );
+    // The admin call in flight was dropped with its connection.
+    let answer = tokio::time::timeout(Duration::from_secs(5), waiting)
+        .await
+        .expect("the admin call ends")
+        .expect("no panic");
+    assert!(answer.is_err(), "{answer:?}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

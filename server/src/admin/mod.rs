@@ -12,6 +12,13 @@
 //! answered with an [`AdminErrorKind::Invalid`] error under id 0 and
 //! changes nothing.
 //!
+//! `save` and `load` name checkpoints in the server's checkpoint
+//! directory and nowhere else ([`crate::replay::checkpoint`]); the file
+//! is written or read and decoded on tokio's blocking pool, and only the
+//! capture of the state, or the swap of the decoded one, runs on the tick
+//! thread. A call in flight when the server shuts down is dropped with
+//! its connection.
+//!
 //! Every hello and every action is logged (target `inertia::admin`) with
 //! the operator, the remote address, the request and the outcome, and
 //! counted in [`Metrics::admin_actions`](crate::metrics::Metrics) by
@@ -245,7 +252,15 @@ pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared
         };
         match next {
             Next::Message(call) => {
-                let response = session.answer(&call.request).await;
+                // A call in flight does not hold up shutdown: the
+                // connection closes and the answer is dropped.
+                let response = tokio::select! {
+                    response = session.answer(&call.request) => response,
+                    _ = shutdown.changed() => {
+                        connection.close(close_code::SHUTDOWN.into(), b"server shutting down");
+                        return;
+                    }
+                };
                 let reply = AdminReply {
                     id: call.id,
                     response,
