@@ -39,13 +39,14 @@ use crate::entity::{EntityDesc, EntityId, EntityKind, ShapeDesc};
 pub const ADMIN_ALPN: &[u8] = b"inertia-admin";
 /// The version of the admin protocol. A tool and a server speak only when
 /// theirs are equal.
-pub const ADMIN_PROTOCOL_VERSION: u16 = 1;
+pub const ADMIN_PROTOCOL_VERSION: u16 = 2;
 /// Longest admin credential in a hello, bytes.
 pub const MAX_CREDENTIAL_BYTES: usize = 256;
 /// Longest operator name in a hello, bytes of UTF-8.
 pub const MAX_OPERATOR_BYTES: usize = 64;
-/// Longest file path in a save or load request, bytes of UTF-8.
-pub const MAX_PATH_BYTES: usize = 4096;
+/// Longest checkpoint name in a save or load request, bytes (of
+/// [`CheckpointName`]'s ASCII alphabet).
+pub const MAX_CHECKPOINT_NAME_BYTES: usize = 128;
 /// Longest kick reason, bytes (the reason travels on to the player in a
 /// [`DisconnectReason::Kicked`](crate::control::DisconnectReason::Kicked)).
 pub const MAX_KICK_REASON_BYTES: usize = MAX_REASON_BYTES;
@@ -167,17 +168,20 @@ pub enum AdminRequest {
         /// Time scale, [`MIN_TIME_SCALE`] ≤ `speed` ≤ [`MAX_TIME_SCALE`] (1 is real time).
         speed: f64,
     },
-    /// Write the world's full state to a file on the server.
+    /// Write the world's full state to a checkpoint in the server's
+    /// checkpoint directory.
     Save {
-        /// The file, on the server's file system (not empty, at most
-        /// [`MAX_PATH_BYTES`], no NUL).
-        path: String,
+        /// The checkpoint's name (a name in that directory, never a path).
+        name: CheckpointName,
+        /// Replace a checkpoint already saved under `name`; without it an
+        /// existing one is kept and the save refused.
+        overwrite: bool,
     },
-    /// Replace the world's state with one saved to a file on the server.
+    /// Replace the world's state with a checkpoint from the server's
+    /// checkpoint directory.
     Load {
-        /// The file, on the server's file system (not empty, at most
-        /// [`MAX_PATH_BYTES`], no NUL).
-        path: String,
+        /// The checkpoint's name.
+        name: CheckpointName,
     },
     /// Start or stop recording keyframes and inputs.
     Record {
@@ -216,6 +220,67 @@ pub enum AdminRequest {
         /// re-simulated from the recording.
         tick: Option<u64>,
     },
+}
+
+/// The name of a checkpoint in the server's checkpoint directory: 1 to
+/// [`MAX_CHECKPOINT_NAME_BYTES`] characters of `A-Z a-z 0-9 . _ -`, not
+/// starting with `.`. So it is never a path: no `/`, no `..`, nothing
+/// absolute, no hidden file (the server keeps its temporary files under
+/// names starting with `.`).
+///
+/// [`CheckpointName::new`] checks a name. One decoded off the wire is
+/// checked after decoding, with the rest of the request
+/// ([`AdminRequest::check`], which the framing runs for every
+/// [`AdminCall`]); [`CheckpointName::check`] checks it again wherever it
+/// is about to name a file.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct CheckpointName(String);
+
+impl CheckpointName {
+    /// `name`, if it is a valid checkpoint name.
+    pub fn new(name: impl Into<String>) -> Result<CheckpointName, AdminValidationError> {
+        let name = CheckpointName(name.into());
+        name.check()?;
+        Ok(name)
+    }
+
+    /// Checks the name (see the type's docs).
+    pub fn check(&self) -> Checked {
+        let name = &self.0;
+        if name.is_empty() {
+            return Err(AdminValidationError::EmptyName);
+        }
+        check_len("checkpoint name", name.len(), MAX_CHECKPOINT_NAME_BYTES)?;
+        if let Some(c) = name
+            .chars()
+            .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-')))
+        {
+            return Err(AdminValidationError::NameCharacter(c));
+        }
+        if name.starts_with('.') {
+            return Err(AdminValidationError::NameStartsWithDot);
+        }
+        Ok(())
+    }
+
+    /// The name.
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+impl std::fmt::Display for CheckpointName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::str::FromStr for CheckpointName {
+    type Err = AdminValidationError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        CheckpointName::new(s)
+    }
 }
 
 /// A body for [`AdminRequest::Spawn`].
@@ -426,12 +491,19 @@ pub enum AdminValidationError {
         /// The last tick.
         to: u64,
     },
-    /// An empty file path.
-    #[error("the path is empty")]
-    EmptyPath,
-    /// A file path with a NUL byte (no file system takes one).
-    #[error("the path holds a NUL byte")]
-    NulInPath,
+    /// An empty checkpoint name.
+    #[error("the checkpoint name is empty")]
+    EmptyName,
+    /// A checkpoint name with a character outside `A-Z a-z 0-9 . _ -`
+    /// (a `/` among them: checkpoints are named, not found by path).
+    #[error(
+        "the checkpoint name holds {0:?}: a name is letters, digits, `.`, `_` and `-` \
+         (a name in the server's checkpoint directory, not a path)"
+    )]
+    NameCharacter(char),
+    /// A checkpoint name starting with `.` (`..`, or a hidden file).
+    #[error("the checkpoint name starts with `.`")]
+    NameStartsWithDot,
     /// A control character in the operator name (it goes to the audit log
     /// as is).
     #[error("the operator name holds a control character")]
@@ -468,9 +540,8 @@ impl From<AdminValidationError> for ControlError {
             E::ReplayBackwards { .. } => ControlError::OutOfRange {
                 what: "replay range",
             },
-            E::EmptyPath => ControlError::OutOfRange { what: "empty path" },
-            E::NulInPath => ControlError::OutOfRange {
-                what: "path with NUL",
+            E::EmptyName | E::NameCharacter(_) | E::NameStartsWithDot => ControlError::OutOfRange {
+                what: "checkpoint name",
             },
             E::ControlCharacter => ControlError::OutOfRange {
                 what: "operator name",
@@ -552,17 +623,6 @@ fn check_scale(what: &'static str, scale: f64) -> Checked {
     Ok(())
 }
 
-fn check_path(path: &str) -> Checked {
-    if path.is_empty() {
-        return Err(AdminValidationError::EmptyPath);
-    }
-    check_len("path", path.len(), MAX_PATH_BYTES)?;
-    if path.contains('\0') {
-        return Err(AdminValidationError::NulInPath);
-    }
-    Ok(())
-}
-
 impl AdminHello {
     /// Checks the credential's and operator name's bounds.
     pub fn check(&self) -> Checked {
@@ -621,8 +681,8 @@ impl SpawnDesc {
 
 impl AdminRequest {
     /// Checks the request's bounds: finite numbers, time scales in
-    /// [`MIN_TIME_SCALE`]..=[`MAX_TIME_SCALE`], replays that run forwards, usable paths,
-    /// bounded strings, valid spawns.
+    /// [`MIN_TIME_SCALE`]..=[`MAX_TIME_SCALE`], replays that run forwards,
+    /// valid checkpoint names, bounded strings, valid spawns.
     pub fn check(&self) -> Checked {
         match self {
             AdminRequest::Status
@@ -651,7 +711,7 @@ impl AdminRequest {
                 }
                 Ok(())
             }
-            AdminRequest::Save { path } | AdminRequest::Load { path } => check_path(path),
+            AdminRequest::Save { name, .. } | AdminRequest::Load { name } => name.check(),
             AdminRequest::Spawn { desc } => desc.check(),
             AdminRequest::Impulse { impulse, point, .. } => {
                 check_finite("impulse", impulse)?;
@@ -846,9 +906,9 @@ mod tests {
 
     #[test]
     fn validation_errors_become_invalid_admin_errors() {
-        let e = AdminError::from(AdminValidationError::EmptyPath);
+        let e = AdminError::from(AdminValidationError::EmptyName);
         assert_eq!(e.kind, AdminErrorKind::Invalid);
-        assert_eq!(e.message, "the path is empty");
+        assert_eq!(e.message, "the checkpoint name is empty");
         let long = AdminError::new(AdminErrorKind::Io, "é".repeat(MAX_ADMIN_ERROR_BYTES));
         assert!(long.message.len() <= MAX_ADMIN_ERROR_BYTES);
         assert!(AdminResponse::Error(long).check().is_ok());

@@ -33,7 +33,8 @@ pub mod token;
 
 pub use admin::{
     AdminCall, AdminError, AdminErrorKind, AdminHandshake, AdminHello, AdminRefusal, AdminReply,
-    AdminRequest, AdminResponse, AdminWelcome, StatusReport, ADMIN_ALPN, ADMIN_PROTOCOL_VERSION,
+    AdminRequest, AdminResponse, AdminWelcome, CheckpointName, StatusReport, ADMIN_ALPN,
+    ADMIN_PROTOCOL_VERSION,
 };
 pub use bits::{BitError, BitReader, BitWriter};
 pub use control::{

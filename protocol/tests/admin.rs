@@ -6,9 +6,9 @@
 use inertia_protocol::admin::{
     admin_handshake, credential_matches, AdminCall, AdminError, AdminErrorKind, AdminHandshake,
     AdminHello, AdminRefusal, AdminReply, AdminRequest, AdminResponse, AdminValidationError,
-    AdminWelcome, MassSpec, SpawnDesc, StatusReport, TimeMode, ADMIN_PROTOCOL_VERSION,
-    MAX_ADMIN_ERROR_BYTES, MAX_CREDENTIAL_BYTES, MAX_KICK_REASON_BYTES, MAX_OPERATOR_BYTES,
-    MAX_PATH_BYTES, MAX_TIME_SCALE,
+    AdminWelcome, CheckpointName, MassSpec, SpawnDesc, StatusReport, TimeMode,
+    ADMIN_PROTOCOL_VERSION, MAX_ADMIN_ERROR_BYTES, MAX_CHECKPOINT_NAME_BYTES, MAX_CREDENTIAL_BYTES,
+    MAX_KICK_REASON_BYTES, MAX_OPERATOR_BYTES, MAX_TIME_SCALE,
 };
 use inertia_protocol::control::{
     decode_payload, encode_frame, ControlError, ControlMessage, FrameDecoder,
@@ -79,8 +79,8 @@ fn spawn_desc() -> impl Strategy<Value = SpawnDesc> {
         )
 }
 
-fn path() -> impl Strategy<Value = String> {
-    "[^\\x00]{1,200}"
+fn checkpoint_name() -> impl Strategy<Value = CheckpointName> {
+    "[A-Za-z0-9_-][A-Za-z0-9._-]{0,127}".prop_map(|s| CheckpointName::new(s).expect("a valid name"))
 }
 
 fn request() -> impl Strategy<Value = AdminRequest> {
@@ -100,8 +100,9 @@ fn request() -> impl Strategy<Value = AdminRequest> {
                 speed,
             }
         }),
-        path().prop_map(|path| AdminRequest::Save { path }),
-        path().prop_map(|path| AdminRequest::Load { path }),
+        (checkpoint_name(), any::<bool>())
+            .prop_map(|(name, overwrite)| AdminRequest::Save { name, overwrite }),
+        checkpoint_name().prop_map(|name| AdminRequest::Load { name }),
         any::<bool>().prop_map(|on| AdminRequest::Record { on }),
         spawn_desc().prop_map(|desc| AdminRequest::Spawn { desc }),
         any::<u32>().prop_map(|id| AdminRequest::Despawn { id }),
@@ -481,28 +482,63 @@ fn requests_an_operator_may_not_make_are_refused_with_their_reason() {
         E::OutOfRange { what: "step ticks" },
     );
 
-    refused(AdminRequest::Save { path: "".into() }, E::EmptyPath);
+    // Checkpoints are names in the server's checkpoint directory, never
+    // paths; a name off the wire is checked after decoding.
+    let unchecked = |s: &str| -> CheckpointName {
+        postcard::from_bytes(&postcard::to_allocvec(s).unwrap()).unwrap()
+    };
+    for (bad, why) in [
+        ("", E::EmptyName),
+        ("/etc/passwd", E::NameCharacter('/')),
+        ("../escape", E::NameCharacter('/')),
+        ("..", E::NameStartsWithDot),
+        (".hidden", E::NameStartsWithDot),
+        ("a/b", E::NameCharacter('/')),
+        ("a\\b", E::NameCharacter('\\')),
+        ("world\0.bin", E::NameCharacter('\0')),
+        ("with space", E::NameCharacter(' ')),
+        ("café", E::NameCharacter('é')),
+    ] {
+        assert_eq!(CheckpointName::new(bad), Err(why.clone()), "{bad:?}");
+        refused(
+            AdminRequest::Save {
+                name: unchecked(bad),
+                overwrite: false,
+            },
+            why.clone(),
+        );
+        refused(
+            AdminRequest::Load {
+                name: unchecked(bad),
+            },
+            why,
+        );
+    }
     refused(
         AdminRequest::Load {
-            path: "world\0.bin".into(),
-        },
-        E::NulInPath,
-    );
-    refused(
-        AdminRequest::Save {
-            path: "a".repeat(MAX_PATH_BYTES + 1),
+            name: unchecked(&"a".repeat(MAX_CHECKPOINT_NAME_BYTES + 1)),
         },
         E::TooLong {
-            what: "path",
-            len: MAX_PATH_BYTES + 1,
-            max: MAX_PATH_BYTES,
+            what: "checkpoint name",
+            len: MAX_CHECKPOINT_NAME_BYTES + 1,
+            max: MAX_CHECKPOINT_NAME_BYTES,
         },
     );
-    assert!(AdminRequest::Save {
-        path: "a".repeat(MAX_PATH_BYTES)
+    for good in [
+        "a".repeat(MAX_CHECKPOINT_NAME_BYTES),
+        "before.ckpt".into(),
+        "run-2_final..isim".into(),
+        "0".into(),
+    ] {
+        let name = CheckpointName::new(good.clone()).expect("a valid name");
+        assert_eq!(name.as_str(), good);
+        assert!(AdminRequest::Save {
+            name,
+            overwrite: true
+        }
+        .check()
+        .is_ok());
     }
-    .check()
-    .is_ok());
     refused(
         AdminRequest::Kick {
             client: 1,

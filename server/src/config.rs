@@ -111,6 +111,11 @@ pub struct ConfigLayer {
     /// Directory for recordings and other data (default ./inertia-data).
     #[arg(long)]
     pub data_dir: Option<PathBuf>,
+    /// Directory of the admin channel's `save` and `load` checkpoints,
+    /// which name files in it and nowhere else (default
+    /// <data-dir>/checkpoints, made mode 0700 on the first save).
+    #[arg(long)]
+    pub checkpoint_dir: Option<PathBuf>,
     /// TCP address of /metrics, /healthz and /readyz (default 127.0.0.1:9100).
     #[arg(long)]
     pub metrics: Option<SocketAddr>,
@@ -197,6 +202,9 @@ pub struct ServerConfig {
     pub max_clients: u32,
     /// Directory for recordings and other data.
     pub data_dir: PathBuf,
+    /// Directory of `save` and `load` checkpoints as configured; `None` =
+    /// `<data_dir>/checkpoints` (see [`ServerConfig::checkpoint_dir`]).
+    pub checkpoint_dir: Option<PathBuf>,
     /// TCP address of the health and Prometheus endpoints.
     pub metrics: SocketAddr,
     /// Connect-token key file; `None` with no certificate = dev mode.
@@ -235,6 +243,7 @@ impl Default for ServerConfig {
             client_budget_kbps: DEFAULT_CLIENT_BUDGET_KBPS,
             max_clients: DEFAULT_MAX_CLIENTS,
             data_dir: PathBuf::from("./inertia-data"),
+            checkpoint_dir: None,
             metrics: SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), 9100),
             key_file: None,
             cert_file: None,
@@ -398,6 +407,7 @@ impl ServerConfig {
             client_budget_kbps: layer.client_budget_kbps.unwrap_or(self.client_budget_kbps),
             max_clients: layer.max_clients.unwrap_or(self.max_clients),
             data_dir: layer.data_dir.unwrap_or(self.data_dir),
+            checkpoint_dir: layer.checkpoint_dir.or(self.checkpoint_dir),
             metrics: layer.metrics.unwrap_or(self.metrics),
             key_file: layer.key_file.or(self.key_file),
             cert_file: layer.cert_file.or(self.cert_file),
@@ -487,6 +497,14 @@ impl ServerConfig {
         self.data_dir.join("recording")
     }
 
+    /// Where `save` and `load` keep checkpoints: as configured, else
+    /// `<data_dir>/checkpoints`.
+    pub fn checkpoint_dir(&self) -> PathBuf {
+        self.checkpoint_dir
+            .clone()
+            .unwrap_or_else(|| self.data_dir.join("checkpoints"))
+    }
+
     /// The recorder's settings (whether or not `record` is on: `record on`
     /// can start it later). Segments are at most an eighth of the
     /// retention limit (and at most the store's default), so retention,
@@ -523,6 +541,7 @@ impl ConfigLayer {
             client_budget_kbps: self.client_budget_kbps.or(lower.client_budget_kbps),
             max_clients: self.max_clients.or(lower.max_clients),
             data_dir: self.data_dir.or(lower.data_dir),
+            checkpoint_dir: self.checkpoint_dir.or(lower.checkpoint_dir),
             metrics: self.metrics.or(lower.metrics),
             key_file: self.key_file.or(lower.key_file),
             cert_file: self.cert_file.or(lower.cert_file),
@@ -584,6 +603,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         client_budget_kbps: get(env, "INERTIA_CLIENT_BUDGET_KBPS")?,
         max_clients: get(env, "INERTIA_MAX_CLIENTS")?,
         data_dir: get(env, "INERTIA_DATA_DIR")?,
+        checkpoint_dir: get(env, "INERTIA_CHECKPOINT_DIR")?,
         metrics: get(env, "INERTIA_METRICS")?,
         key_file: get(env, "INERTIA_KEY_FILE")?,
         cert_file: get(env, "INERTIA_CERT_FILE")?,
@@ -858,6 +878,30 @@ mod tests {
             ServerConfig::from_args(["s", "--checkpoint-ticks", "2000000"], env_of(&[])),
             Err(ConfigError::CheckpointTicks(2_000_000))
         ));
+    }
+
+    #[test]
+    fn issue_11_checkpoint_dir_comes_from_every_layer() {
+        let c = ServerConfig::from_args(["s", "--data-dir", "/srv/inertia"], env_of(&[])).unwrap();
+        assert_eq!(c.checkpoint_dir, None);
+        assert_eq!(
+            c.checkpoint_dir(),
+            PathBuf::from("/srv/inertia/checkpoints"),
+            "under the data directory by default"
+        );
+        let file = temp_file("checkpoints.toml", "checkpoint_dir = \"/from/file\"\n");
+        let file = file.to_str().unwrap();
+        let c = ServerConfig::from_args(["s", "--config", file], env_of(&[])).unwrap();
+        assert_eq!(c.checkpoint_dir(), PathBuf::from("/from/file"));
+        let env = || env_of(&[("INERTIA_CHECKPOINT_DIR", "/from/env")]);
+        let c = ServerConfig::from_args(["s", "--config", file], env()).unwrap();
+        assert_eq!(c.checkpoint_dir(), PathBuf::from("/from/env"));
+        let c = ServerConfig::from_args(
+            ["s", "--config", file, "--checkpoint-dir", "/from/cli"],
+            env(),
+        )
+        .unwrap();
+        assert_eq!(c.checkpoint_dir(), PathBuf::from("/from/cli"));
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! `inertia-server`: runs one world under the sandbox rules and serves it
-//! until SIGTERM or Ctrl-C (see [`inertia_server::process`] for the exit
-//! status).
+//! until SIGTERM or Ctrl-C, then shuts down within
+//! [`SHUTDOWN_DEADLINE`](inertia_server::server::SHUTDOWN_DEADLINE) (see
+//! [`inertia_server::process`] for the exit status).
 
 use std::process::ExitCode;
 

@@ -50,7 +50,7 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
         }
     };
     let rules = make_rules(&config);
-    runtime.block_on(async move {
+    let code = runtime.block_on(async move {
         let server = match crate::server::start_with_rules(config, rules).await {
             Ok(s) => s,
             Err(e) => {
@@ -75,8 +75,15 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
         };
         server.shutdown().await;
         code
-    })
+    });
+    // Blocking work still running (a save's file, say) does not hold up
+    // the exit: shutdown has already had its deadline.
+    runtime.shutdown_timeout(EXIT_GRACE);
+    code
 }
+
+/// How long blocking tasks still running at exit are waited for.
+const EXIT_GRACE: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// Waits for SIGTERM or Ctrl-C.
 async fn wait_for_stop() {

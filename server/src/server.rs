@@ -19,6 +19,7 @@ use crate::credentials::{self, CredentialFiles, CredentialsError};
 use crate::health::Health;
 use crate::metrics::{self, Metrics};
 use crate::net::{self, NetShared};
+use crate::replay::checkpoint::CheckpointDir;
 use crate::rules::{GameRules, SandboxRules, SandboxSettings};
 use crate::scene::{demo::demo_scene, Scene, SceneError};
 use crate::sim::resume::read_for_resume;
@@ -264,7 +265,8 @@ pub async fn start_with_rules(
             config.client_budget_bytes_per_sec(),
             shutdown_rx,
         )
-        .with_admin_token(creds.admin_token.clone()),
+        .with_admin_token(creds.admin_token.clone())
+        .with_checkpoint_dir(CheckpointDir::new(config.checkpoint_dir())),
     );
     tasks.push(tokio::spawn(shared.clone().record_history()));
     tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone())));
@@ -363,6 +365,11 @@ impl RunningServer {
         &self.admin_token
     }
 
+    /// Where `save` and `load` keep checkpoints.
+    pub fn checkpoints(&self) -> &CheckpointDir {
+        &self.shared.checkpoints
+    }
+
     /// The simulation.
     pub fn sim(&self) -> &SimHandle {
         &self.shared.sim
@@ -409,10 +416,15 @@ impl RunningServer {
     }
 
     /// Stops accepting, tells every client the server is shutting down,
-    /// closes their connections, stops the simulation and waits (a few
-    /// seconds at most) for it all to finish.
+    /// closes their connections (the admin channel's too, dropping any
+    /// call in flight), stops the simulation, which ends the recording
+    /// with a keyframe, and returns within [`SHUTDOWN_DEADLINE`] whatever
+    /// an admin call or the tick thread is doing: a tick thread that has
+    /// not stopped by then is left behind (logged) to end with the
+    /// process.
     pub async fn shutdown(self) {
         info!("shutting down");
+        let deadline = tokio::time::Instant::now() + SHUTDOWN_DEADLINE;
         self.health.set_ready(false);
         // A failure's reason, if one came first, is what clients are told.
         self.shutdown.send_if_modified(|r| {
@@ -422,30 +434,38 @@ impl RunningServer {
             *r = Some(DisconnectReason::ServerShutdown);
             true
         });
-        let deadline = tokio::time::Instant::now() + Duration::from_secs(3);
-        while self.clients() > 0 && tokio::time::Instant::now() < deadline {
+        let drained = tokio::time::Instant::now() + CLIENT_DRAIN;
+        while self.clients() > 0 && tokio::time::Instant::now() < drained {
             tokio::time::sleep(Duration::from_millis(20)).await;
         }
         self.endpoint.close(
             net::connection::close_code::SHUTDOWN.into(),
             b"server shutting down",
         );
-        let _ = tokio::time::timeout(Duration::from_secs(2), self.endpoint.wait_idle()).await;
+        let _ = tokio::time::timeout(ENDPOINT_IDLE, self.endpoint.wait_idle()).await;
         for task in &self.tasks {
             task.abort();
         }
-        // The recording ends with a keyframe of the last tick, on disk
-        // before the process exits.
-        if let Ok(done) = self.shared.sim.call(|s| s.finish_recording()) {
-            let _ = tokio::time::timeout(Duration::from_secs(5), done).await;
+        // The tick thread ends the recording with a keyframe of the last
+        // tick, on disk before the process exits; it has what is left of
+        // the deadline (at least SHUTDOWN_DEADLINE - CLIENT_DRAIN -
+        // ENDPOINT_IDLE).
+        let left = deadline.saturating_duration_since(tokio::time::Instant::now());
+        if !self.shared.sim.stop_within(left).await {
+            error!(
+                deadline_s = SHUTDOWN_DEADLINE.as_secs(),
+                "the tick thread did not stop within the shutdown deadline and is abandoned; \
+                 the recording may lack its last keyframe (a resume starts from the last one \
+                 on disk)"
+            );
         }
-        let shared = self.shared;
-        let _ = tokio::task::spawn_blocking(move || {
-            if let Ok(shared) = Arc::try_unwrap(shared) {
-                shared.sim.shutdown();
-            }
-        })
-        .await;
         info!("stopped");
     }
 }
+
+/// The longest [`RunningServer::shutdown`] takes.
+pub const SHUTDOWN_DEADLINE: Duration = Duration::from_secs(10);
+/// How long clients told of the shutdown have to leave.
+const CLIENT_DRAIN: Duration = Duration::from_secs(3);
+/// How long closed connections have to say goodbye.
+const ENDPOINT_IDLE: Duration = Duration::from_secs(2);

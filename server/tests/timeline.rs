@@ -16,7 +16,7 @@ use inertia_protocol::input::quantize_input;
 use inertia_protocol::rng::SplitMix;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput, ShapeDesc};
 use inertia_server::record::RecorderConfig;
-use inertia_server::replay::checkpoint::{self, CheckpointError};
+use inertia_server::replay::checkpoint::{CheckpointDir, CheckpointError, CheckpointName};
 use inertia_server::replay::{JournalEntry, SimState, StateError, WorldEdit};
 use inertia_server::rules::{ClientId, SandboxRules};
 use inertia_server::scene::{Scene, SceneFormat};
@@ -427,8 +427,12 @@ fn save_load_and_continue_give_identical_hashes() {
     assert_eq!(state.tick, N);
     assert_eq!(state.applied, BOTS as u32 - 1, "seven bots' inputs applied");
     let saved_hash = sim.state_hash();
-    let file = dir.join("save.isim");
-    checkpoint::write(&file, &state.encode()).expect("written");
+    let checkpoints = CheckpointDir::new(dir.join("checkpoints"));
+    let saved = name("save.isim");
+    checkpoints
+        .write(&saved, &state.encode(), false)
+        .expect("written");
+    let file = checkpoints.path().join("save.isim");
 
     let mut after = Vec::new();
     for t in N..N + M {
@@ -443,7 +447,7 @@ fn save_load_and_continue_give_identical_hashes() {
     // Bad files are refused with a typed error; loading nothing changes
     // nothing.
     let good = std::fs::read(&file).expect("the checkpoint");
-    refuses_bad_checkpoints(&dir, &good, &state.encode(), &sim);
+    refuses_bad_checkpoints(&dir, &checkpoints, &good, &state.encode(), &sim);
     let (tick, hash) = (sim.world().tick(), sim.state_hash());
     for bad in broken_states(&state) {
         let e = sim.load(&bad, "ops").expect_err("a broken state");
@@ -457,7 +461,7 @@ fn save_load_and_continue_give_identical_hashes() {
     }
 
     // Load the file and play the same inputs again: the same hashes.
-    let loaded = checkpoint::read(&file).expect("the checkpoint reads back");
+    let loaded = checkpoints.read(&saved).expect("the checkpoint reads back");
     assert_eq!(
         loaded.encode(),
         state.encode(),
@@ -513,22 +517,31 @@ fn broken_states(state: &SimState) -> Vec<SimState> {
     vec![cut, rules]
 }
 
+fn name(s: &str) -> CheckpointName {
+    CheckpointName::new(s).expect("a checkpoint name")
+}
+
 /// `good`: a checkpoint file as written; `raw`: the state it holds,
 /// encoded.
-fn refuses_bad_checkpoints(dir: &Path, good: &[u8], raw: &[u8], sim: &Simulation) {
-    let write = |name: &str, bytes: &[u8]| {
-        let p = dir.join(name);
-        std::fs::write(&p, bytes).expect("written");
-        p
+fn refuses_bad_checkpoints(
+    dir: &Path,
+    checkpoints: &CheckpointDir,
+    good: &[u8],
+    raw: &[u8],
+    sim: &Simulation,
+) {
+    let write = |n: &str, bytes: &[u8]| {
+        std::fs::write(checkpoints.path().join(n), bytes).expect("written");
+        (checkpoints.clone(), name(n))
     };
-    let state_error = |p: &Path| match checkpoint::read(p) {
+    let state_error = |(d, n): (CheckpointDir, CheckpointName)| match d.read(&n) {
         Err(CheckpointError::State { source, .. }) => source,
-        other => panic!("{}: expected a state error, got {other:?}", p.display()),
+        other => panic!("{n}: expected a state error, got {other:?}"),
     };
     let mut rng = SplitMix(17);
     let garbage: Vec<u8> = (0..4096).map(|_| rng.next_u64() as u8).collect();
     let p = write("garbage.isim", &garbage);
-    assert_eq!(state_error(&p), StateError::BadMagic);
+    assert_eq!(state_error(p), StateError::BadMagic);
     assert_eq!(
         SimState::decode(&garbage).unwrap_err(),
         StateError::BadMagic
@@ -541,7 +554,7 @@ fn refuses_bad_checkpoints(dir: &Path, good: &[u8], raw: &[u8], sim: &Simulation
     ] {
         for cut in cuts {
             let p = write("truncated.isim", &bytes[..cut]);
-            let e = state_error(&p);
+            let e = state_error(p);
             assert!(
                 matches!(e, StateError::Malformed(_)),
                 "{what}, {cut} bytes: {e:?}"
@@ -552,7 +565,7 @@ fn refuses_bad_checkpoints(dir: &Path, good: &[u8], raw: &[u8], sim: &Simulation
     let mut longer = raw.to_vec();
     longer.push(0);
     assert!(matches!(
-        state_error(&write("longer.isim", &longer)),
+        state_error(write("longer.isim", &longer)),
         StateError::Malformed(_)
     ));
 
@@ -560,7 +573,7 @@ fn refuses_bad_checkpoints(dir: &Path, good: &[u8], raw: &[u8], sim: &Simulation
     // nothing at all, a newer version of this one.
     let world = sim.world().save();
     assert_eq!(
-        state_error(&write("world.bin", &world)),
+        state_error(write("world.bin", &world)),
         StateError::BadMagic
     );
     let segment = std::fs::read_dir(dir.join("recording"))
@@ -568,24 +581,31 @@ fn refuses_bad_checkpoints(dir: &Path, good: &[u8], raw: &[u8], sim: &Simulation
         .map(|e| e.expect("an entry").path())
         .find(|p| p.is_file())
         .expect("a segment file");
-    assert_eq!(state_error(&segment), StateError::BadMagic);
+    let segment_name = name(segment.file_name().and_then(|n| n.to_str()).expect("UTF-8"));
     assert_eq!(
-        state_error(&write("x.json", br#"{"tick": 3}"#)),
+        state_error((CheckpointDir::new(dir.join("recording")), segment_name)),
         StateError::BadMagic
     );
-    assert_eq!(state_error(&write("empty", b"")), StateError::BadMagic);
+    assert_eq!(
+        state_error(write("x.json", br#"{"tick": 3}"#)),
+        StateError::BadMagic
+    );
+    assert_eq!(state_error(write("empty", b"")), StateError::BadMagic);
     let mut newer = raw.to_vec();
     newer[4..6].copy_from_slice(&2u16.to_le_bytes());
     assert_eq!(
-        state_error(&write("newer.isim", &newer)),
+        state_error(write("newer.isim", &newer)),
         StateError::Version(2)
     );
-    let p = dir.join("newer-packed.isim");
-    checkpoint::write(&p, &newer).expect("written");
-    assert_eq!(state_error(&p), StateError::Version(2));
+    let packed = name("newer-packed.isim");
+    checkpoints.write(&packed, &newer, false).expect("written");
+    assert_eq!(
+        state_error((checkpoints.clone(), packed)),
+        StateError::Version(2)
+    );
     assert!(matches!(
-        checkpoint::read(&dir.join("no such file")),
-        Err(CheckpointError::Io { .. })
+        checkpoints.read(&name("no-such-file")),
+        Err(CheckpointError::NotFound { .. })
     ));
 }
 

@@ -1,6 +1,6 @@
 //! The admin channel against a real server: status, pause, step, resume,
 //! speed, run-to, hash, kick, despawn, impulse and spawn do what they say;
-//! loads of a missing or garbage file and seeks into the future are
+//! loads of a missing or garbage checkpoint and seeks into the future are
 //! refused and change nothing; hellos without the credential, with a wrong one or with garbage, and
 //! malformed calls after a good hello, are refused, logged and counted,
 //! and change nothing.
@@ -9,8 +9,8 @@ use std::time::{Duration, Instant};
 
 use inertia_client::Client;
 use inertia_protocol::admin::{
-    AdminErrorKind, AdminHandshake, AdminRefusal, AdminRequest, AdminResponse, MassSpec, SpawnDesc,
-    TimeMode,
+    AdminErrorKind, AdminHandshake, AdminRefusal, AdminRequest, AdminResponse, CheckpointName,
+    MassSpec, SpawnDesc, TimeMode,
 };
 use inertia_protocol::control::{encode_frame, DisconnectReason, FrameDecoder};
 use inertia_protocol::{EntityId, EntityKind, ShapeDesc};
@@ -506,25 +506,27 @@ async fn kick_despawn_impulse_spawn_and_refused_loads() {
     );
     assert_eq!(status(&mut admin).await.bodies, bodies + 1);
 
-    // Loads of a missing file or of garbage, and seeks into the future,
-    // are refused and change nothing.
-    let garbage = std::env::temp_dir().join(format!("inertia-garbage-{}", std::process::id()));
+    // Loads of a missing checkpoint or of garbage, and seeks into the
+    // future, are refused and change nothing.
+    let checkpoints = server.checkpoints().clone();
+    std::fs::create_dir_all(checkpoints.path()).expect("the checkpoint directory");
+    let garbage = checkpoints.path().join("garbage.ckpt");
     std::fs::write(&garbage, b"not a checkpoint").expect("write");
     assert_eq!(
         error_kind(
             &mut admin,
             AdminRequest::Load {
-                path: "/nonexistent/inertia.ckpt".into(),
+                name: CheckpointName::new("missing.ckpt").expect("a name"),
             }
         )
         .await,
-        AdminErrorKind::Io
+        AdminErrorKind::NotFound
     );
     assert_eq!(
         error_kind(
             &mut admin,
             AdminRequest::Load {
-                path: garbage.display().to_string(),
+                name: CheckpointName::new("garbage.ckpt").expect("a name"),
             }
         )
         .await,

@@ -11,7 +11,9 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use inertia_client::{Client, ClientEvent};
-use inertia_protocol::admin::{AdminErrorKind, AdminRequest, AdminResponse, TimeMode};
+use inertia_protocol::admin::{
+    AdminErrorKind, AdminRequest, AdminResponse, CheckpointName, TimeMode,
+};
 use inertia_protocol::EntityId;
 use inertia_server::admin::client::AdminClient;
 use inertia_tests::admin::{admin, call, error_kind, ids_named, ok, status, wait_for};
@@ -412,9 +414,21 @@ async fn save_and_load_over_the_network_bring_back_the_saved_state() {
 
     ok(&mut admin, AdminRequest::Pause).await;
     let (t, h, _) = hash_reply(&mut admin, AdminRequest::Hash { tick: None }).await;
-    let file = data_dir.join("checkpoint.isim");
-    let path = file.to_str().expect("a UTF-8 path").to_string();
-    ok(&mut admin, AdminRequest::Save { path: path.clone() }).await;
+    let name = CheckpointName::new("checkpoint.isim").expect("a name");
+    let file = server.checkpoints().path().join("checkpoint.isim");
+    assert_eq!(
+        server.checkpoints().path(),
+        data_dir.join("checkpoints"),
+        "under the data directory by default"
+    );
+    ok(
+        &mut admin,
+        AdminRequest::Save {
+            name: name.clone(),
+            overwrite: false,
+        },
+    )
+    .await;
     assert!(file.is_file(), "the checkpoint is written");
     let s = status(&mut admin).await;
     assert_eq!((s.tick, s.state_hash), (t, h), "saving changes nothing");
@@ -431,7 +445,7 @@ async fn save_and_load_over_the_network_bring_back_the_saved_state() {
     let on = status(&mut admin).await;
     assert!(on.tick > t + 30, "{on:?}");
     let (tick, state_hash, _) =
-        hash_reply(&mut admin, AdminRequest::Load { path: path.clone() }).await;
+        hash_reply(&mut admin, AdminRequest::Load { name: name.clone() }).await;
     assert_eq!(
         (tick, state_hash),
         (t, h),
@@ -449,31 +463,18 @@ async fn save_and_load_over_the_network_bring_back_the_saved_state() {
 
     // A file that is no checkpoint, and one that is not there: refused,
     // nothing changes.
-    let garbage = data_dir.join("garbage.isim");
+    let garbage = server.checkpoints().path().join("garbage.isim");
     std::fs::write(&garbage, b"this is no checkpoint at all").expect("written");
+    let load = |n: &str| AdminRequest::Load {
+        name: CheckpointName::new(n).expect("a name"),
+    };
     assert_eq!(
-        error_kind(
-            &mut admin,
-            AdminRequest::Load {
-                path: garbage.to_str().expect("UTF-8").into()
-            }
-        )
-        .await,
+        error_kind(&mut admin, load("garbage.isim")).await,
         AdminErrorKind::Invalid
     );
     assert_eq!(
-        error_kind(
-            &mut admin,
-            AdminRequest::Load {
-                path: data_dir
-                    .join("missing.isim")
-                    .to_str()
-                    .expect("UTF-8")
-                    .into()
-            }
-        )
-        .await,
-        AdminErrorKind::Io
+        error_kind(&mut admin, load("missing.isim")).await,
+        AdminErrorKind::NotFound
     );
     let s = status(&mut admin).await;
     assert_eq!((s.tick, s.state_hash), (t1, h1));

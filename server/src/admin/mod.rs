@@ -12,6 +12,13 @@
 //! answered with an [`AdminErrorKind::Invalid`] error under id 0 and
 //! changes nothing.
 //!
+//! `save` and `load` name checkpoints in the server's checkpoint
+//! directory and nowhere else ([`crate::replay::checkpoint`]); the file
+//! is written or read and decoded on tokio's blocking pool, and only the
+//! capture of the state, or the swap of the decoded one, runs on the tick
+//! thread. A call in flight when the server shuts down is dropped with
+//! its connection.
+//!
 //! Every hello and every action is logged (target `inertia::admin`) with
 //! the operator, the remote address, the request and the outcome, and
 //! counted in [`Metrics::admin_actions`](crate::metrics::Metrics) by
@@ -34,6 +41,7 @@ use inertia_protocol::control::{encode_frame, ControlMessage, FrameDecoder};
 use tracing::{debug, info, warn};
 
 use crate::net::NetShared;
+use crate::replay::checkpoint::CheckpointError;
 use crate::replay::WorldEdit;
 use crate::sim::edit::EditOutcome;
 use crate::sim::timeline::{SeekReport, TimeError};
@@ -244,7 +252,15 @@ pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared
         };
         match next {
             Next::Message(call) => {
-                let response = session.answer(&call.request).await;
+                // A call in flight does not hold up shutdown: the
+                // connection closes and the answer is dropped.
+                let response = tokio::select! {
+                    response = session.answer(&call.request) => response,
+                    _ = shutdown.changed() => {
+                        connection.close(close_code::SHUTDOWN.into(), b"server shutting down");
+                        return;
+                    }
+                };
                 let reply = AdminReply {
                     id: call.id,
                     response,
@@ -421,39 +437,27 @@ impl Session<'_> {
                 let (from, to, speed) = (*from, *to, *speed);
                 self.travel(move |s| s.replay(from, to, speed)).await
             }
-            AdminRequest::Save { path } => {
-                let path = std::path::PathBuf::from(path);
-                let (tick, bytes) = self
-                    .on_sim(|s| {
-                        let state = s.checkpoint();
-                        (state.tick, state.encode())
-                    })
-                    .await?;
-                let written = path.clone();
-                tokio::task::spawn_blocking(move || {
-                    crate::replay::checkpoint::write(&written, &bytes)
-                })
-                .await
-                .map_err(|e| AdminError::new(AdminErrorKind::Io, e.to_string()))?
-                .map_err(|e| AdminError::new(AdminErrorKind::Io, e.to_string()))?;
-                info!(target: AUDIT, operator = %self.operator, tick, path = %path.display(), "checkpoint saved");
+            AdminRequest::Save { name, overwrite } => {
+                // The state is captured on the tick thread; encoded,
+                // packed and written off it.
+                let state = self.on_sim(|s| s.checkpoint()).await?;
+                let tick = state.tick;
+                let (dir, name, overwrite) =
+                    (self.shared.checkpoints.clone(), name.clone(), *overwrite);
+                let written = name.clone();
+                let bytes = blocking(move || dir.write(&written, &state.encode(), overwrite))
+                    .await?
+                    .map_err(checkpoint_error)?;
+                info!(target: AUDIT, operator = %self.operator, tick, checkpoint = %name, bytes, overwrite, "checkpoint saved");
                 Ok(AdminResponse::Ok)
             }
-            AdminRequest::Load { path } => {
-                let path = std::path::PathBuf::from(path);
-                let state =
-                    tokio::task::spawn_blocking(move || crate::replay::checkpoint::read(&path))
-                        .await
-                        .map_err(|e| AdminError::new(AdminErrorKind::Io, e.to_string()))?
-                        .map_err(|e| {
-                            let kind = match e {
-                                crate::replay::checkpoint::CheckpointError::Io { .. } => {
-                                    AdminErrorKind::Io
-                                }
-                                _ => AdminErrorKind::Invalid,
-                            };
-                            AdminError::new(kind, e.to_string())
-                        })?;
+            AdminRequest::Load { name } => {
+                // Read and decoded off the tick thread, which only swaps
+                // the decoded state in.
+                let (dir, name) = (self.shared.checkpoints.clone(), name.clone());
+                let state = blocking(move || dir.read(&name))
+                    .await?
+                    .map_err(checkpoint_error)?;
                 let operator = self.operator.clone();
                 let tick = state.tick;
                 let state_hash = self
@@ -587,6 +591,21 @@ impl Session<'_> {
             AdminError::new(kind, e.to_string())
         })
     }
+}
+
+/// Runs file work on tokio's blocking pool, off the tick thread and the
+/// I/O workers.
+async fn blocking<R: Send + 'static>(
+    f: impl FnOnce() -> R + Send + 'static,
+) -> Result<R, AdminError> {
+    tokio::task::spawn_blocking(f)
+        .await
+        .map_err(|e| AdminError::new(AdminErrorKind::Io, e.to_string()))
+}
+
+/// The admin error for a refused save or load.
+fn checkpoint_error(e: CheckpointError) -> AdminError {
+    AdminError::new(e.kind(), e.to_string())
 }
 
 /// The admin error for a refused time-travel request.

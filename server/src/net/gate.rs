@@ -114,9 +114,21 @@ mod tests {
             assert_eq!(gate.admit(t, false, 0), Admission::Accept);
         }
         let t = t0 + Duration::from_millis(50);
-        assert_eq!(gate.admit(t, false, 0), Admission::Retry, "the fifth in a second");
-        assert_eq!(gate.admit(t, true, 0), Admission::Accept, "a proven address");
-        assert_eq!(gate.admit(t, true, 10), Admission::Refuse, "the cap holds for all");
+        assert_eq!(
+            gate.admit(t, false, 0),
+            Admission::Retry,
+            "the fifth in a second"
+        );
+        assert_eq!(
+            gate.admit(t, true, 0),
+            Admission::Accept,
+            "a proven address"
+        );
+        assert_eq!(
+            gate.admit(t, true, 10),
+            Admission::Refuse,
+            "the cap holds for all"
+        );
         // A quiet second later, joins go straight through again.
         let later = t0 + Duration::from_secs(3);
         assert_eq!(gate.admit(later, false, 0), Admission::Accept);

@@ -21,8 +21,9 @@ use tokio::sync::{oneshot, watch};
 use tracing::{debug, info};
 
 use crate::metrics::Metrics;
-use gate::{Admission, GateConfig, HandshakeGate};
+use crate::replay::checkpoint::CheckpointDir;
 use crate::sim::{Frame, SimHandle};
+use gate::{Admission, GateConfig, HandshakeGate};
 
 /// How many tokens the replay guard remembers at once.
 pub const REPLAY_GUARD_CAPACITY: usize = 65_536;
@@ -62,6 +63,8 @@ pub struct NetShared {
     pub kicks: Mutex<BTreeMap<u64, (u64, oneshot::Sender<String>)>>,
     /// The admin credential (empty: the admin channel admits no one).
     pub admin_token: String,
+    /// Where `save` and `load` keep checkpoints.
+    pub checkpoints: CheckpointDir,
 }
 
 impl std::fmt::Debug for NetShared {
@@ -106,12 +109,21 @@ impl NetShared {
             connected: Mutex::new(BTreeMap::new()),
             kicks: Mutex::new(BTreeMap::new()),
             admin_token: String::new(),
+            checkpoints: CheckpointDir::new(
+                crate::config::ServerConfig::default().checkpoint_dir(),
+            ),
         }
     }
 
     /// The same, admitting admin connections with `token`.
     pub fn with_admin_token(mut self, token: String) -> Self {
         self.admin_token = token;
+        self
+    }
+
+    /// The same, keeping checkpoints in `dir`.
+    pub fn with_checkpoint_dir(mut self, dir: CheckpointDir) -> Self {
+        self.checkpoints = dir;
         self
     }
 

@@ -38,9 +38,9 @@
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::panic::{self, AssertUnwindSafe};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TryRecvError, TrySendError};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -1122,7 +1122,8 @@ pub enum SimExit {
 }
 
 /// The network layer's handle on the tick thread. Dropping it stops the
-/// thread (after its current loop); [`SimHandle::shutdown`] also waits.
+/// thread (after its current loop); [`SimHandle::shutdown`] also waits,
+/// and [`SimHandle::stop_within`] waits a bounded time.
 #[derive(Debug)]
 pub struct SimHandle {
     control: SyncSender<Command>,
@@ -1130,7 +1131,10 @@ pub struct SimHandle {
     frames: watch::Receiver<Arc<Frame>>,
     exit: watch::Receiver<Option<SimExit>>,
     stats: Arc<SimStats>,
-    thread: Option<JoinHandle<()>>,
+    /// Set to stop the thread at the top of its next loop when the
+    /// control channel is too full to take [`Command::Shutdown`].
+    stopping: Arc<AtomicBool>,
+    thread: Mutex<Option<JoinHandle<()>>>,
 }
 
 /// Starts the tick thread on `scene` under `rules`.
@@ -1161,16 +1165,19 @@ impl SimHandle {
         let stats = sim.stats();
         let (frame_tx, frame_rx) = watch::channel(Arc::new(sim.frame()));
         let (exit_tx, exit_rx) = watch::channel(None);
+        let stopping = Arc::new(AtomicBool::new(false));
+        let stop = stopping.clone();
         let thread = std::thread::Builder::new()
             .name("inertia-tick".into())
-            .spawn(move || run(sim, control_rx, input_rx, frame_tx, exit_tx))?;
+            .spawn(move || run(sim, control_rx, input_rx, frame_tx, exit_tx, &stop))?;
         Ok(SimHandle {
             control: control_tx,
             inputs: input_tx,
             frames: frame_rx,
             exit: exit_rx,
             stats,
-            thread: Some(thread),
+            stopping,
+            thread: Mutex::new(Some(thread)),
         })
     }
 
@@ -1301,10 +1308,48 @@ impl SimHandle {
         self.exit.clone()
     }
 
-    /// Stops the thread and waits for it.
-    pub fn shutdown(mut self) {
-        let _ = self.control.try_send(Command::Shutdown);
-        if let Some(t) = self.thread.take() {
+    /// Asks the thread to stop after what it is doing now (its loop, or
+    /// the call it is running), without waiting; it ends the recording
+    /// with a keyframe on its way out.
+    pub fn stop(&self) {
+        // In order after the commands sent before, when there is room;
+        // else at the top of the thread's next loop.
+        if let Err(TrySendError::Full(_)) = self.control.try_send(Command::Shutdown) {
+            self.stopping.store(true, Ordering::SeqCst);
+        }
+    }
+
+    /// True once the thread has ended.
+    pub fn is_finished(&self) -> bool {
+        self.thread
+            .lock()
+            .map_or(true, |t| t.as_ref().is_none_or(JoinHandle::is_finished))
+    }
+
+    /// Stops the thread and waits for it, at most `timeout`: true if it
+    /// ended. A thread stuck longer (in a call that never returns, say)
+    /// is left behind, to end with the process.
+    pub async fn stop_within(&self, timeout: Duration) -> bool {
+        self.stop();
+        let deadline = tokio::time::Instant::now() + timeout;
+        loop {
+            if self.is_finished() {
+                if let Some(t) = self.thread.lock().ok().and_then(|mut t| t.take()) {
+                    let _ = t.join();
+                }
+                return true;
+            }
+            if tokio::time::Instant::now() >= deadline {
+                return false;
+            }
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    }
+
+    /// Stops the thread and waits for it, however long it takes.
+    pub fn shutdown(self) {
+        self.stop();
+        if let Some(t) = self.thread.lock().ok().and_then(|mut t| t.take()) {
             let _ = t.join();
         }
     }
@@ -1313,7 +1358,7 @@ impl SimHandle {
 impl Drop for SimHandle {
     fn drop(&mut self) {
         // The thread also stops when it sees the channels closed.
-        let _ = self.control.try_send(Command::Shutdown);
+        self.stop();
     }
 }
 
@@ -1331,9 +1376,10 @@ fn run(
     inputs: Receiver<(ClientId, PlayerInput)>,
     frames: watch::Sender<Arc<Frame>>,
     exit: watch::Sender<Option<SimExit>>,
+    stopping: &AtomicBool,
 ) {
     let looped = panic::catch_unwind(AssertUnwindSafe(|| {
-        run_loop(&mut sim, control, inputs, &frames)
+        run_loop(&mut sim, control, inputs, &frames, stopping)
     }));
     let outcome = match looped {
         Ok(()) => match panic::catch_unwind(AssertUnwindSafe(|| sim.finish_recording())) {
@@ -1381,10 +1427,14 @@ fn run_loop(
     control: Receiver<Command>,
     inputs: Receiver<(ClientId, PlayerInput)>,
     frames: &watch::Sender<Arc<Frame>>,
+    stopping: &AtomicBool,
 ) {
     let mut last = Instant::now();
     let mut early: Option<Command> = None;
     loop {
+        if stopping.load(Ordering::SeqCst) {
+            break;
+        }
         let mut changed = false;
         let mut budget = sim.config.max_control_per_loop.max(1);
         if let Some(cmd) = early.take() {

@@ -60,9 +60,19 @@ impl DevServer {
     /// Starts the server on an existing data directory with `extra`
     /// arguments (`--resume`, say) and waits for its credentials file.
     pub fn start_in(dir: PathBuf, extra: &[&str]) -> DevServer {
+        Self::start_with(dir, extra, None)
+    }
+
+    /// [`DevServer::start_in`], the process running in `cwd` when given
+    /// (where relative paths it is handed would land).
+    pub fn start_with(dir: PathBuf, extra: &[&str], cwd: Option<&Path>) -> DevServer {
         let _ = std::fs::remove_file(dir.join("dev-credentials.json"));
         let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/pyramid.json");
-        let child = Command::new(env!("CARGO_BIN_EXE_inertia-server"))
+        let mut command = Command::new(env!("CARGO_BIN_EXE_inertia-server"));
+        if let Some(cwd) = cwd {
+            command.current_dir(cwd);
+        }
+        let child = command
             .args([
                 "--listen",
                 "127.0.0.1:0",

@@ -15,7 +15,9 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{Parser, Subcommand};
-use inertia_protocol::admin::{AdminRequest, AdminResponse, SpawnDesc, StatusReport};
+use inertia_protocol::admin::{
+    AdminRequest, AdminResponse, CheckpointName, SpawnDesc, StatusReport,
+};
 use inertia_protocol::credentials::DEV_CREDENTIALS_PATH;
 use inertia_server::admin::client::{AdminClient, AdminClientError};
 use inertia_server::admin::error_kind_name;
@@ -88,15 +90,21 @@ enum Cmd {
         #[arg(long, default_value_t = 1.0)]
         speed: f64,
     },
-    /// Save the world to a file on the server.
+    /// Save the world as a checkpoint in the server's checkpoint
+    /// directory (its --checkpoint-dir).
     Save {
-        /// The path, on the server.
-        path: String,
+        /// The checkpoint's name: letters, digits, `.`, `_` and `-`, not
+        /// starting with `.` (a name in that directory, not a path).
+        name: String,
+        /// Replace a checkpoint already saved under that name.
+        #[arg(long)]
+        overwrite: bool,
     },
-    /// Load the world from a file on the server.
+    /// Load the world from a checkpoint in the server's checkpoint
+    /// directory.
     Load {
-        /// The path, on the server.
-        path: String,
+        /// The checkpoint's name.
+        name: String,
     },
     /// Start or stop recording.
     Record {
@@ -210,8 +218,13 @@ fn request(cmd: &Cmd) -> Result<AdminRequest, Failure> {
             to: *to,
             speed: *speed,
         },
-        Cmd::Save { path } => AdminRequest::Save { path: path.clone() },
-        Cmd::Load { path } => AdminRequest::Load { path: path.clone() },
+        Cmd::Save { name, overwrite } => AdminRequest::Save {
+            name: checkpoint_name(name).map_err(usage)?,
+            overwrite: *overwrite,
+        },
+        Cmd::Load { name } => AdminRequest::Load {
+            name: checkpoint_name(name).map_err(usage)?,
+        },
         Cmd::Record { state } => AdminRequest::Record { on: state == "on" },
         Cmd::Spawn { desc } => {
             let desc: SpawnDesc =
@@ -233,6 +246,11 @@ fn request(cmd: &Cmd) -> Result<AdminRequest, Failure> {
             return Err(usage("replay-file works offline, not on a server".into()))
         }
     })
+}
+
+/// A checkpoint name, or why `name` is not one.
+fn checkpoint_name(name: &str) -> Result<CheckpointName, String> {
+    CheckpointName::new(name).map_err(|e| format!("checkpoint {name:?}: {e}"))
 }
 
 fn status_json(s: &StatusReport) -> serde_json::Value {
@@ -394,6 +412,7 @@ fn done_text(cmd: &Cmd) -> String {
         Cmd::Despawn { id } => format!("despawned entity {id}"),
         Cmd::Impulse { id, .. } => format!("impulse applied to entity {id}"),
         Cmd::Kick { client, .. } => format!("kicked client {client}"),
+        Cmd::Save { name, .. } => format!("saved checkpoint {name}"),
         _ => "done".into(),
     }
 }
