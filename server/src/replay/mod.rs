@@ -22,6 +22,6 @@ pub mod journal;
 pub mod state;
 pub mod verify;
 
-pub use history::{HeldKeyframe, History, HistoryError, DEFAULT_KEYFRAME_BUDGET};
+pub use history::{HeldBytes, HeldKeyframe, History, HistoryError, DEFAULT_KEYFRAME_BUDGET};
 pub use journal::{JournalEntry, JournalError, WorldEdit};
 pub use state::{SimState, StateError};
