@@ -73,6 +73,10 @@ pub struct Metrics {
     /// one stops the recording, since a recording with a gap cannot be
     /// replayed.
     pub record_dropped: Counter,
+    /// Memory held for seeking by `part`: `keyframes` and `checkpoints`
+    /// (within `--seek-memory-mb`), `hashes` and `journal` (every recorded
+    /// tick's, outside it), bytes.
+    pub seek_memory: Family<[(&'static str, &'static str); 1], Gauge>,
     registry: Arc<Registry>,
 }
 
@@ -110,6 +114,7 @@ impl Metrics {
             handshake_retries: Counter::default(),
             admin_actions: Family::default(),
             record_dropped: Counter::default(),
+            seek_memory: Family::default(),
             registry: Arc::new(Registry::default()),
         };
         let mut r = Registry::with_prefix("inertia");
@@ -189,6 +194,11 @@ impl Metrics {
             "Records dropped because the recorder was behind (each stops the recording)",
             m.record_dropped.clone(),
         );
+        r.register(
+            "seek_memory_bytes",
+            "Memory held for seeking by part, bytes: keyframes and checkpoints (within --seek-memory-mb), hashes and journal (every recorded tick's, outside it)",
+            m.seek_memory.clone(),
+        );
         Metrics {
             registry: Arc::new(r),
             ..m
@@ -221,6 +231,20 @@ impl Metrics {
         self.admin_actions
             .get_or_create(&admin_labels(action, outcome))
             .get()
+    }
+
+    /// Sets the memory held for seeking, by part.
+    pub fn set_seek_memory(&self, held: &crate::replay::HeldBytes) {
+        for (part, bytes) in [
+            ("keyframes", held.keyframes),
+            ("checkpoints", held.checkpoints),
+            ("hashes", held.hashes),
+            ("journal", held.journal),
+        ] {
+            self.seek_memory
+                .get_or_create(&[("part", part)])
+                .set(i64::try_from(bytes).unwrap_or(i64::MAX));
+        }
     }
 
     /// The OpenMetrics text exposition of every metric.
@@ -403,6 +427,12 @@ mod tests {
         metrics.snapshot_size.observe(900.0);
         metrics.snapshot_encode.observe(40e-6);
         metrics.malformed_datagrams.inc();
+        metrics.set_seek_memory(&crate::replay::HeldBytes {
+            keyframes: 4096,
+            checkpoints: 512,
+            hashes: 0,
+            journal: 64,
+        });
         let (status, body) = get(addr, "/metrics").await;
         assert_eq!(status, 200);
         for needle in [
@@ -417,6 +447,9 @@ mod tests {
             "inertia_snapshot_size_bytes_count 1",
             "inertia_snapshot_encode_seconds_count 1",
             "inertia_malformed_datagrams_dropped_total 1",
+            "inertia_seek_memory_bytes{part=\"keyframes\"} 4096",
+            "inertia_seek_memory_bytes{part=\"checkpoints\"} 512",
+            "inertia_seek_memory_bytes{part=\"journal\"} 64",
         ] {
             assert!(body.contains(needle), "missing {needle} in\n{body}");
         }

@@ -1,5 +1,6 @@
 //! [`History`]: a recording held in memory for seeking — every tick's
-//! hash, every journal entry, and keyframes within a memory budget.
+//! hash, every journal entry, and keyframes and checkpoints within a
+//! memory budget.
 //!
 //! The live server builds one as it records (so a seek never waits on the
 //! disk), and `--resume` or a tool loads one from a recording directory.
@@ -33,6 +34,32 @@
 //! - a keyframe whose frame is intact but whose state does not unpack or
 //!   read is left out; everything around it is used;
 //! - a torn tail at the end of the newest segment ends the records.
+//!
+//! # Memory
+//!
+//! Every buffer is counted by its capacity, not its length, and held
+//! exactly sized: a checkpoint is packed into a scratch buffer sized for
+//! the whole state (what zstd asks for) and copied out at its packed
+//! length, and a keyframe's spare capacity is given back as it is taken
+//! in. [`History::held`] reports the bytes by part.
+//!
+//! * **Within the budget:** keyframes and checkpoints. Thinning keeps
+//!   them under it, except that the newest keyframe and each session's
+//!   first are always held (a budget smaller than those is exceeded by
+//!   them).
+//! * **Outside it, growing with the recording:** every tick's hash
+//!   ([`HASH_BYTES_PER_TICK`] = 8 bytes, in runs of [`HASH_RUN`]: about
+//!   1.7 MB an hour at 60 Hz, idle or not) and every journal entry
+//!   ([`JOURNAL_BYTES_PER_ENTRY`] = 48 bytes, and
+//!   [`JOURNAL_BYTES_PER_TICK`] = 64 for each tick that has any: nothing
+//!   for an idle world; at 60 Hz about 14 MB an hour while anyone sends
+//!   inputs, and 10 MB an hour more for each client sending one every
+//!   tick). Seeking needs all of them, so they are not thinned; they are
+//!   counted in [`History::held`] (the map overheads are estimates).
+//! * **Outside it, fixed:** the packer's queue (at most [`PACK_QUEUE`]
+//!   unpacked states, plus the one being packed), its scratch buffer (one
+//!   state) and its prepared dictionary (in zstd's own heap: a copy of the
+//!   keyframe and its match tables).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::ops::Bound;
@@ -66,9 +93,54 @@ struct Checkpoint {
     base: (u64, u32),
     /// Its length unpacked, bytes.
     len: usize,
-    /// The zstd frame.
+    /// The zstd frame, exactly sized.
     packed: Vec<u8>,
 }
+
+/// What a [`History`] holds, by part, bytes (buffer capacities, and for
+/// the tables the per-entry figures below). See the module docs.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct HeldBytes {
+    /// Keyframes (within the budget).
+    pub keyframes: usize,
+    /// Packed checkpoints (within the budget).
+    pub checkpoints: usize,
+    /// Every tick's hash (outside the budget).
+    pub hashes: usize,
+    /// Every journal entry (outside the budget).
+    pub journal: usize,
+}
+
+impl HeldBytes {
+    /// The bytes the budget bounds: keyframes and checkpoints.
+    pub fn budgeted(&self) -> usize {
+        self.keyframes + self.checkpoints
+    }
+
+    /// Everything.
+    pub fn total(&self) -> usize {
+        self.budgeted() + self.hashes + self.journal
+    }
+}
+
+/// Hashes of consecutive ticks are held in runs of this many (each run's
+/// buffer is made at this capacity).
+pub const HASH_RUN: usize = 4096;
+
+/// Bytes held for each tick's hash (runs of [`HASH_RUN`] are made whole,
+/// and each also counts [`HASH_RUN_OVERHEAD`] for its map entry).
+pub const HASH_BYTES_PER_TICK: usize = std::mem::size_of::<u64>();
+
+/// Bytes counted for each hash run beyond its buffer (its map entry).
+pub const HASH_RUN_OVERHEAD: usize = 128;
+
+/// Bytes counted for each journal entry held (its size in memory; an
+/// operator edit's boxed details are counted at their inline size).
+pub const JOURNAL_BYTES_PER_ENTRY: usize = std::mem::size_of::<JournalEntry>();
+
+/// Bytes counted for each tick with journal entries beyond the entries
+/// themselves (its map entry and list header).
+pub const JOURNAL_BYTES_PER_TICK: usize = 64;
 
 /// Level of checkpoint packing (fast: it runs on the tick thread).
 const CHECKPOINT_LEVEL: i32 = 1;
@@ -79,12 +151,21 @@ pub struct History {
     /// re-simulated only from its own keyframes).
     sessions: BTreeSet<u64>,
     keyframes: BTreeMap<(u64, u32), Arc<Vec<u8>>>,
+    /// Capacity of the keyframes held, bytes.
     keyframe_bytes: usize,
     budget: usize,
     journal: BTreeMap<u64, Vec<JournalEntry>>,
-    hashes: BTreeMap<u64, u64>,
+    /// Bytes counted for the journal (see [`JOURNAL_BYTES_PER_ENTRY`]).
+    journal_bytes: usize,
+    /// Runs of consecutive ticks' hashes, by their first tick (never
+    /// empty, at most [`HASH_RUN`] long, made at that capacity).
+    hashes: BTreeMap<u64, Vec<u64>>,
+    /// Bytes of the hash runs (their capacity, and the overhead of each).
+    hash_bytes: usize,
+    hashed_ticks: usize,
     journal_entries: u64,
     checkpoints: BTreeMap<u64, Checkpoint>,
+    /// Capacity of the packed checkpoints held, bytes.
     checkpoint_bytes: usize,
     /// The thread that packs checkpoints (started with the first).
     packer: Option<Packer>,
@@ -109,7 +190,7 @@ struct Packer {
 
 /// Checkpoints waiting to be packed; more are dropped (seeks then start a
 /// little further back).
-const PACK_QUEUE: usize = 16;
+pub const PACK_QUEUE: usize = 16;
 
 impl Packer {
     fn start() -> Packer {
@@ -120,21 +201,30 @@ impl Packer {
             .spawn(move || {
                 let mut prepared: Option<((u64, u32), zstd::dict::EncoderDictionary<'static>)> =
                     None;
+                // zstd needs room for the worst case (a little more than
+                // the state) to pack into; a checkpoint is most often a
+                // tiny fraction of that, so it is copied out exactly sized.
+                let mut scratch: Vec<u8> = Vec::new();
                 for job in rx {
                     if prepared.as_ref().map(|(k, _)| *k) != Some(job.base) {
+                        // The old dictionary goes before the next is made.
+                        drop(prepared.take());
                         prepared = Some((
                             job.base,
                             zstd::dict::EncoderDictionary::copy(&job.dictionary, CHECKPOINT_LEVEL),
                         ));
                     }
+                    drop(job.dictionary);
                     let Some((_, dict)) = &prepared else { continue };
+                    scratch.clear();
+                    scratch.reserve(zstd::zstd_safe::compress_bound(job.raw.len()));
                     let packed = zstd::bulk::Compressor::with_prepared_dictionary(dict)
-                        .and_then(|mut c| c.compress(&job.raw));
-                    if let Ok(packed) = packed {
+                        .and_then(|mut c| c.compress_to_buffer(&job.raw, &mut scratch));
+                    if packed.is_ok() {
                         let checkpoint = Checkpoint {
                             base: job.base,
                             len: job.raw.len(),
-                            packed,
+                            packed: scratch.as_slice().to_vec(),
                         };
                         if tx.send((job.tick, checkpoint)).is_err() {
                             return;
@@ -162,7 +252,7 @@ impl std::fmt::Debug for History {
             .field("range", &self.range())
             .field("keyframes", &self.keyframes.len())
             .field("checkpoints", &self.checkpoints.len())
-            .field("bytes", &(self.keyframe_bytes + self.checkpoint_bytes))
+            .field("bytes", &self.held())
             .finish()
     }
 }
@@ -251,7 +341,8 @@ impl Default for History {
 }
 
 impl History {
-    /// An empty history holding at most `budget` bytes of keyframes.
+    /// An empty history holding at most `budget` bytes of keyframes and
+    /// checkpoints.
     pub fn new(budget: usize) -> Self {
         History {
             sessions: BTreeSet::new(),
@@ -259,7 +350,10 @@ impl History {
             keyframe_bytes: 0,
             budget: budget.max(1),
             journal: BTreeMap::new(),
+            journal_bytes: 0,
             hashes: BTreeMap::new(),
+            hash_bytes: 0,
+            hashed_ticks: 0,
             journal_entries: 0,
             checkpoints: BTreeMap::new(),
             checkpoint_bytes: 0,
@@ -272,11 +366,15 @@ impl History {
         self.sessions.insert(tick);
     }
 
-    /// Holds a keyframe (thinning older ones past the budget).
-    pub fn add_keyframe(&mut self, tick: u64, applied: u32, bytes: Arc<Vec<u8>>) {
-        self.keyframe_bytes += bytes.len();
+    /// Holds a keyframe (thinning older ones past the budget). Its spare
+    /// capacity is given back when no one else holds it.
+    pub fn add_keyframe(&mut self, tick: u64, applied: u32, mut bytes: Arc<Vec<u8>>) {
+        if let Some(v) = Arc::get_mut(&mut bytes) {
+            v.shrink_to_fit();
+        }
+        self.keyframe_bytes += bytes.capacity();
         if let Some(old) = self.keyframes.insert((tick, applied), bytes) {
-            self.keyframe_bytes -= old.len();
+            self.keyframe_bytes -= old.capacity();
         }
         self.thin();
     }
@@ -311,14 +409,30 @@ impl History {
             if !self.keyframes.contains_key(&checkpoint.base) {
                 continue; // its keyframe was thinned meanwhile
             }
-            self.checkpoint_bytes += checkpoint.packed.len();
+            self.checkpoint_bytes += checkpoint.packed.capacity();
             if let Some(old) = self.checkpoints.insert(tick, checkpoint) {
-                self.checkpoint_bytes -= old.packed.len();
+                self.checkpoint_bytes -= old.packed.capacity();
             }
         }
         self.thin();
     }
 
+    /// What is held, by part (see the module docs).
+    pub fn held(&self) -> HeldBytes {
+        HeldBytes {
+            keyframes: self.keyframe_bytes,
+            checkpoints: self.checkpoint_bytes,
+            hashes: self.hash_bytes,
+            journal: self.journal_bytes,
+        }
+    }
+
+    /// The most bytes of keyframes and checkpoints held.
+    pub fn budget(&self) -> usize {
+        self.budget
+    }
+
+    /// Bytes of keyframes and checkpoints held (what the budget bounds).
     fn bytes_held(&self) -> usize {
         self.keyframe_bytes + self.checkpoint_bytes
     }
@@ -340,7 +454,7 @@ impl History {
             }
             if drop {
                 if let Some(c) = self.checkpoints.remove(&tick) {
-                    self.checkpoint_bytes -= c.packed.len();
+                    self.checkpoint_bytes -= c.packed.capacity();
                 }
             }
             drop = !drop;
@@ -357,7 +471,7 @@ impl History {
             }
             if drop {
                 if let Some(b) = self.keyframes.remove(&key) {
-                    self.keyframe_bytes -= b.len();
+                    self.keyframe_bytes -= b.capacity();
                 }
                 let orphans: Vec<u64> = self
                     .checkpoints
@@ -367,7 +481,7 @@ impl History {
                     .collect();
                 for t in orphans {
                     if let Some(c) = self.checkpoints.remove(&t) {
-                        self.checkpoint_bytes -= c.packed.len();
+                        self.checkpoint_bytes -= c.packed.capacity();
                     }
                 }
             }
@@ -389,21 +503,49 @@ impl History {
             return;
         }
         self.journal_entries += entries.len() as u64;
-        self.journal
-            .entry(tick)
-            .or_default()
-            .extend_from_slice(entries);
+        let held = self.journal.entry(tick).or_default();
+        if held.is_empty() {
+            self.journal_bytes += JOURNAL_BYTES_PER_TICK;
+        }
+        self.journal_bytes -= held.capacity() * JOURNAL_BYTES_PER_ENTRY;
+        held.reserve_exact(entries.len());
+        held.extend_from_slice(entries);
+        self.journal_bytes += held.capacity() * JOURNAL_BYTES_PER_ENTRY;
     }
 
     /// Notes the state hash after `tick`.
     pub fn add_hash(&mut self, tick: u64, hash: u64) {
-        self.hashes.insert(tick, hash);
+        self.put_hash(tick, hash);
         self.collect_packed();
+    }
+
+    /// Puts `hash` in the run holding `tick`, at the end of the run before
+    /// it when it follows on and there is room, or in a new run. (Runs do
+    /// not overlap: a run starting at `tick` would be the one found.)
+    fn put_hash(&mut self, tick: u64, hash: u64) {
+        if let Some((&start, run)) = self.hashes.range_mut(..=tick).next_back() {
+            let i = (tick - start) as usize;
+            if let Some(held) = run.get_mut(i) {
+                *held = hash;
+                return;
+            }
+            if i == run.len() && run.len() < HASH_RUN {
+                run.push(hash);
+                self.hashed_ticks += 1;
+                return;
+            }
+        }
+        let mut run = Vec::with_capacity(HASH_RUN);
+        run.push(hash);
+        self.hash_bytes += run.capacity() * HASH_BYTES_PER_TICK + HASH_RUN_OVERHEAD;
+        self.hashes.insert(tick, run);
+        self.hashed_ticks += 1;
     }
 
     /// The recorded state hash after `tick`.
     pub fn hash_at(&self, tick: u64) -> Option<u64> {
-        self.hashes.get(&tick).copied()
+        let (&start, run) = self.hashes.range(..=tick).next_back()?;
+        run.get((tick - start) as usize).copied()
     }
 
     /// The journal of `tick` (empty when nothing happened).
@@ -416,9 +558,8 @@ impl History {
     pub fn range(&self) -> Option<(u64, u64)> {
         let first = *self.sessions.first()?;
         let last = self
-            .hashes
-            .last_key_value()
-            .map_or(first, |(&t, _)| t)
+            .last_hashed()
+            .unwrap_or(first)
             .max(self.keyframes.last_key_value().map_or(first, |(k, _)| k.0));
         Some((first, last))
     }
@@ -426,7 +567,7 @@ impl History {
     /// Whether `tick` can be shown: it was hashed, or a session started
     /// at it.
     pub fn reachable(&self, tick: u64) -> bool {
-        self.hashes.contains_key(&tick) || self.sessions.contains(&tick)
+        self.hash_at(tick).is_some() || self.sessions.contains(&tick)
     }
 
     /// The session `tick` belongs to: the newest start at or before it.
@@ -530,15 +671,17 @@ impl History {
 
     /// The last tick hashed, if any.
     pub fn last_hashed(&self) -> Option<u64> {
-        self.hashes.last_key_value().map(|(&t, _)| t)
+        self.hashes
+            .last_key_value()
+            .map(|(&start, run)| start + run.len() as u64 - 1)
     }
 
-    /// Keyframes held, and their bytes.
+    /// Keyframes held, and their bytes (capacity).
     pub fn keyframe_stats(&self) -> (usize, usize) {
         (self.keyframes.len(), self.keyframe_bytes)
     }
 
-    /// Checkpoints held, and their packed bytes.
+    /// Checkpoints held, and their packed bytes (capacity).
     pub fn checkpoint_stats(&self) -> (usize, usize) {
         (self.checkpoints.len(), self.checkpoint_bytes)
     }
@@ -550,7 +693,7 @@ impl History {
 
     /// Ticks hashed.
     pub fn hashed_ticks(&self) -> usize {
-        self.hashes.len()
+        self.hashed_ticks
     }
 
     /// Reads a recording directory into memory.
@@ -663,5 +806,144 @@ impl History {
                 self.start_session(tick);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::{Duration, Instant};
+
+    /// Bytes that pack poorly on their own (a simple generator).
+    fn noise(len: usize, seed: u64) -> Vec<u8> {
+        let mut x = seed | 1;
+        (0..len)
+            .map(|_| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                x as u8
+            })
+            .collect()
+    }
+
+    /// Takes in packed checkpoints until `n` are held (5 s at most).
+    fn wait_for_checkpoints(h: &mut History, n: usize) {
+        let start = Instant::now();
+        while h.checkpoint_stats().0 < n {
+            assert!(
+                start.elapsed() < Duration::from_secs(5),
+                "the packer is stuck"
+            );
+            std::thread::sleep(Duration::from_millis(5));
+            h.collect_packed();
+        }
+    }
+
+    #[test]
+    fn hashes_are_held_in_runs_with_gaps_and_overwrites() {
+        let mut h = History::new(1 << 20);
+        h.start_session(0);
+        for t in 0..5000 {
+            h.add_hash(t, t * 3);
+        }
+        for t in 6000..6010 {
+            h.add_hash(t, t * 3);
+        }
+        h.add_hash(3, 7);
+        h.add_hash(5500, 1);
+        h.add_hash(5999, 2);
+        h.add_hash(6000, 4);
+        assert_eq!(h.hash_at(3), Some(7));
+        assert_eq!(h.hash_at(4095), Some(4095 * 3));
+        assert_eq!(h.hash_at(4096), Some(4096 * 3));
+        assert_eq!(h.hash_at(4999), Some(4999 * 3));
+        assert_eq!(h.hash_at(5000), None);
+        assert_eq!(h.hash_at(5500), Some(1));
+        assert_eq!(h.hash_at(5501), None);
+        assert_eq!(h.hash_at(5999), Some(2));
+        assert_eq!(h.hash_at(6000), Some(4));
+        assert_eq!(h.hash_at(6009), Some(6009 * 3));
+        assert_eq!(h.hash_at(6010), None);
+        assert!(h.reachable(0) && h.reachable(5999) && !h.reachable(5998));
+        assert_eq!(h.last_hashed(), Some(6009));
+        assert_eq!(h.range(), Some((0, 6009)));
+        assert_eq!(h.hashed_ticks(), 5000 + 10 + 2);
+        // Runs: 0, 4096, 5500, 5999, 6000.
+        let run = HASH_RUN * HASH_BYTES_PER_TICK + HASH_RUN_OVERHEAD;
+        assert_eq!(h.held().hashes, 5 * run);
+    }
+
+    #[test]
+    fn journal_is_counted() {
+        let mut h = History::new(1 << 20);
+        h.add_journal(5, &[JournalEntry::Join(1), JournalEntry::Join(2)]);
+        h.add_journal(5, &[JournalEntry::Leave(1)]);
+        h.add_journal(9, &[JournalEntry::Join(3)]);
+        h.add_journal(10, &[]);
+        assert_eq!(h.journal_at(5).len(), 3);
+        assert_eq!(h.journal_entries(), 4);
+        assert_eq!(
+            h.held().journal,
+            2 * JOURNAL_BYTES_PER_TICK + 4 * JOURNAL_BYTES_PER_ENTRY
+        );
+    }
+
+    #[test]
+    fn keyframes_are_held_without_spare_capacity() {
+        let mut h = History::new(1 << 20);
+        h.start_session(0);
+        let mut bytes = Vec::with_capacity(20_000);
+        bytes.extend_from_slice(&noise(10_000, 1));
+        h.add_keyframe(0, 0, Arc::new(bytes));
+        assert_eq!(h.keyframe_stats(), (1, 10_000));
+        assert_eq!(h.held().keyframes, 10_000);
+    }
+
+    #[test]
+    fn checkpoints_are_held_exactly_sized_and_unpack() {
+        let mut h = History::new(1 << 20);
+        h.start_session(0);
+        let keyframe = noise(200_000, 2);
+        h.add_keyframe(0, 0, Arc::new(keyframe.clone()));
+        let mut raw = keyframe.clone();
+        raw[1000] ^= 0xff;
+        h.add_checkpoint(10, raw.clone());
+        wait_for_checkpoints(&mut h, 1);
+        let (_, packed) = h.checkpoint_stats();
+        // Nearly the keyframe: a few hundred bytes, not the ~200 kB zstd
+        // reserves to pack into.
+        assert!(packed < 2_000, "a checkpoint holds {packed} bytes");
+        let c = h.checkpoints.get(&10).expect("held");
+        assert_eq!(c.packed.capacity(), c.packed.len());
+        let base = h.base_for(12).expect("a base");
+        assert_eq!((base.tick, base.bytes.as_slice()), (10, raw.as_slice()));
+    }
+
+    #[test]
+    fn keyframes_and_checkpoints_stay_within_the_budget() {
+        const BUDGET: usize = 600_000;
+        let mut h = History::new(BUDGET);
+        h.start_session(0);
+        for k in 0..10u64 {
+            let keyframe = noise(100_000, k + 10);
+            h.add_keyframe(k * 100, 0, Arc::new(keyframe.clone()));
+            assert!(h.held().budgeted() <= BUDGET, "{:?}", h.held());
+            for c in 1..10u64 {
+                let mut raw = keyframe.clone();
+                raw[c as usize * 1000] ^= 0xff;
+                h.add_checkpoint(k * 100 + c * 10, raw);
+                std::thread::sleep(Duration::from_millis(2));
+                h.collect_packed();
+                assert!(h.held().budgeted() <= BUDGET, "{:?}", h.held());
+            }
+        }
+        wait_for_checkpoints(&mut h, 1);
+        // The first keyframe (a session's) and the newest stay.
+        assert!(h.keyframes.contains_key(&(0, 0)) && h.keyframes.contains_key(&(900, 0)));
+        assert_eq!(
+            h.held().budgeted(),
+            h.keyframe_stats().1 + h.checkpoint_stats().1
+        );
     }
 }

@@ -23,7 +23,8 @@ pub mod state;
 pub mod verify;
 
 pub use history::{
-    Damage, DamageKind, HeldKeyframe, History, HistoryError, SalvageReport, DEFAULT_KEYFRAME_BUDGET,
+    Damage, DamageKind, HeldBytes, HeldKeyframe, History, HistoryError, SalvageReport,
+    DEFAULT_KEYFRAME_BUDGET,
 };
 pub use journal::{JournalEntry, JournalError, WorldEdit};
 pub use state::{SimState, StateError};

@@ -82,9 +82,16 @@ impl SimState {
     /// The state as bytes (see the module docs).
     pub fn encode(&self) -> Vec<u8> {
         let table = self.entities.to_bytes();
-        let mut out = Vec::with_capacity(
-            64 + self.world.len() + table.len() + self.rules.len() + self.clients.len() * 8,
-        );
+        // Exactly what is written: the header (18), three length-prefixed
+        // byte strings and two counted arrays. Keyframes are held as they
+        // are, so no spare capacity.
+        let len = 18
+            + (4 + self.world.len())
+            + (4 + table.len())
+            + (4 + self.spawn_points.len() * 24)
+            + (4 + self.clients.len() * 8)
+            + (4 + self.rules.len());
+        let mut out = Vec::with_capacity(len);
         out.extend_from_slice(&STATE_MAGIC);
         out.extend_from_slice(&STATE_VERSION.to_le_bytes());
         out.extend_from_slice(&self.tick.to_le_bytes());
@@ -102,6 +109,7 @@ impl SimState {
             out.extend_from_slice(&c.to_le_bytes());
         }
         put_bytes(&mut out, &self.rules);
+        debug_assert_eq!(out.len(), len);
         out
     }
 

@@ -97,7 +97,9 @@ pub struct SimConfig {
     pub recording: Option<RecorderConfig>,
     /// Start recording as the simulation starts (needs `recording`).
     pub record_at_start: bool,
-    /// Most bytes of keyframes and checkpoints held in memory for seeking.
+    /// Most bytes of keyframes and checkpoints held in memory for seeking
+    /// (every tick's hash and journal entry are held beyond it; see
+    /// [`crate::replay::history`]).
     pub history_budget: usize,
     /// While recording, a checkpoint of the whole state is held in memory
     /// every this many ticks (0: none), so a seek re-simulates at most
@@ -1028,6 +1030,9 @@ impl Simulation {
         if let Some(m) = &self.config.metrics {
             m.bodies.set(bodies as i64);
             m.connected_clients.set(self.live_clients() as i64);
+            if let Some(h) = &self.history {
+                m.set_seek_memory(&h.held());
+            }
         }
     }
 
