@@ -54,10 +54,13 @@ async fn issue_11_failed_simulation_fails_health_tells_clients_and_refuses_joins
     // A failure between ticks (an admin call, a command): the state is
     // whole, so the recording gets a final keyframe of it.
     let tick = server.frame().tick;
-    let _ = server
-        .sim()
-        .call(|_| panic!("a call that fails on the tick thread"))
-        .expect("sent");
+    // The answer never comes: the receiver is dropped unread.
+    drop(
+        server
+            .sim()
+            .call(|_| panic!("a call that fails on the tick thread"))
+            .expect("sent"),
+    );
     let why = tokio::time::timeout(Duration::from_secs(5), server.failed())
         .await
         .expect("the failure is noticed within 5 s");
