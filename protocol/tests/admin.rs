@@ -8,7 +8,7 @@ use inertia_protocol::admin::{
     AdminHello, AdminRefusal, AdminReply, AdminRequest, AdminResponse, AdminValidationError,
     AdminWelcome, CheckpointName, MassSpec, SpawnDesc, StatusReport, TimeMode,
     ADMIN_PROTOCOL_VERSION, MAX_ADMIN_ERROR_BYTES, MAX_CHECKPOINT_NAME_BYTES, MAX_CREDENTIAL_BYTES,
-    MAX_KICK_REASON_BYTES, MAX_OPERATOR_BYTES, MAX_TIME_SCALE,
+    MAX_KICK_REASON_BYTES, MAX_OPERATOR_BYTES, MAX_TIME_SCALE, MIN_TIME_SCALE,
 };
 use inertia_protocol::control::{
     decode_payload, encode_frame, ControlError, ControlMessage, FrameDecoder,
@@ -41,9 +41,9 @@ fn rotation() -> impl Strategy<Value = [f64; 4]> {
 
 fn time_scale() -> impl Strategy<Value = f64> {
     prop_oneof![
-        1e-6f64..=MAX_TIME_SCALE,
+        MIN_TIME_SCALE..=MAX_TIME_SCALE,
         Just(MAX_TIME_SCALE),
-        Just(f64::MIN_POSITIVE),
+        Just(MIN_TIME_SCALE),
     ]
 }
 
@@ -438,6 +438,7 @@ fn requests_an_operator_may_not_make_are_refused_with_their_reason() {
     let scale = |what, scale| E::TimeScale {
         what,
         scale,
+        min: MIN_TIME_SCALE,
         max: MAX_TIME_SCALE,
     };
     refused(
@@ -702,6 +703,7 @@ fn replies_and_hellos_are_bounded() {
             E::TimeScale {
                 what: "time scale",
                 scale: 65.0,
+                min: 0.0,
                 max: MAX_TIME_SCALE,
             },
         ),
