@@ -662,11 +662,12 @@ impl History {
             .range((Bound::Excluded(tick), Bound::Unbounded))
             .next()
             .copied();
-        let end = next.map_or(Bound::Unbounded, Bound::Included);
-        self.hashes
-            .range((Bound::Included(tick), end))
-            .next_back()
-            .map(|(&t, _)| t)
+        // Hashes are held in runs of consecutive ticks: the last run that
+        // starts by the bound, cut at it.
+        let upper = next.unwrap_or(u64::MAX);
+        let (&start, run) = self.hashes.range(..=upper).next_back()?;
+        let last = (start + run.len() as u64 - 1).min(upper);
+        (last >= tick).then_some(last)
     }
 
     /// The last tick hashed, if any.
