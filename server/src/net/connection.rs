@@ -302,11 +302,6 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
         shared,
     )
     .await;
-    if let Ok(mut c) = shared.connected.lock() {
-        if c.get(&client) == Some(&(connection.stable_id() as u64)) {
-            c.remove(&client);
-        }
-    }
     if let Ok(mut k) = shared.kicks.lock() {
         if k.get(&client).map(|(c, _)| *c) == Some(connection.stable_id() as u64) {
             k.remove(&client);
@@ -353,6 +348,14 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
             info!(client, %reason, "client kicked");
         }
         End::Closed(e) => info!(client, reason = %e, "connection closed"),
+    }
+    // Connected until told why it ends: a shutdown drains clients by
+    // waiting for this, so the goodbye is on its way before the endpoint
+    // closes under it.
+    if let Ok(mut c) = shared.connected.lock() {
+        if c.get(&client) == Some(&(connection.stable_id() as u64)) {
+            c.remove(&client);
+        }
     }
 }
 
