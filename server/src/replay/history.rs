@@ -470,20 +470,7 @@ impl History {
                 continue;
             }
             if drop {
-                if let Some(b) = self.keyframes.remove(&key) {
-                    self.keyframe_bytes -= b.capacity();
-                }
-                let orphans: Vec<u64> = self
-                    .checkpoints
-                    .iter()
-                    .filter(|(_, c)| c.base == key)
-                    .map(|(&t, _)| t)
-                    .collect();
-                for t in orphans {
-                    if let Some(c) = self.checkpoints.remove(&t) {
-                        self.checkpoint_bytes -= c.packed.capacity();
-                    }
-                }
+                self.drop_keyframe(key);
             }
             drop = !drop;
         }
@@ -635,9 +622,14 @@ impl History {
     /// Lets go of a keyframe (one that does not restore), and of the
     /// checkpoints packed against it.
     pub fn remove_keyframe(&mut self, tick: u64, applied: u32) {
-        let key = (tick, applied);
+        self.drop_keyframe((tick, applied));
+    }
+
+    /// Lets go of the keyframe `key` and of the checkpoints packed against
+    /// it, counting their capacity back.
+    fn drop_keyframe(&mut self, key: (u64, u32)) {
         if let Some(bytes) = self.keyframes.remove(&key) {
-            self.keyframe_bytes -= bytes.len();
+            self.keyframe_bytes -= bytes.capacity();
         }
         let orphans: Vec<u64> = self
             .checkpoints
@@ -647,7 +639,7 @@ impl History {
             .collect();
         for t in orphans {
             if let Some(c) = self.checkpoints.remove(&t) {
-                self.checkpoint_bytes -= c.packed.len();
+                self.checkpoint_bytes -= c.packed.capacity();
             }
         }
     }
@@ -919,6 +911,21 @@ mod tests {
         assert_eq!(c.packed.capacity(), c.packed.len());
         let base = h.base_for(12).expect("a base");
         assert_eq!((base.tick, base.bytes.as_slice()), (10, raw.as_slice()));
+    }
+
+    #[test]
+    fn removing_a_keyframe_gives_back_what_it_counted() {
+        let mut h = History::new(1 << 20);
+        h.start_session(0);
+        let mut bytes = Vec::with_capacity(20_000);
+        bytes.extend_from_slice(&noise(10_000, 3));
+        let shared = Arc::new(bytes);
+        // Held elsewhere too (the recorder's copy): kept at its capacity.
+        h.add_keyframe(0, 0, shared.clone());
+        assert_eq!(h.held().keyframes, 20_000);
+        h.remove_keyframe(0, 0);
+        assert_eq!(h.held().keyframes, 0, "counted by capacity both ways");
+        drop(shared);
     }
 
     #[test]
