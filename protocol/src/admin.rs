@@ -29,8 +29,8 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::control::{
-    validate_entity, ControlError, ControlMessage, MAX_ENTITY_NAME_BYTES, MAX_REASON_BYTES,
-    MAX_VERSION_BYTES,
+    truncate_utf8, validate_entity, ControlError, ControlMessage, MAX_ENTITY_NAME_BYTES,
+    MAX_REASON_BYTES, MAX_VERSION_BYTES,
 };
 use crate::entity::{EntityDesc, EntityId, EntityKind, ShapeDesc};
 
@@ -571,16 +571,6 @@ impl AdminError {
         let mut message = message.into();
         truncate_utf8(&mut message, MAX_ADMIN_ERROR_BYTES);
         AdminError { kind, message }
-    }
-}
-
-fn truncate_utf8(s: &mut String, max: usize) {
-    if s.len() > max {
-        let mut end = max;
-        while !s.is_char_boundary(end) {
-            end -= 1;
-        }
-        s.truncate(end);
     }
 }
 

@@ -578,6 +578,19 @@ impl ControlMessage for ServerControl {
     }
 }
 
+/// Cuts `s` to at most `max` bytes at a character boundary: how a
+/// string too long for its wire bound (a reason, a name) is made to fit
+/// rather than refused.
+pub fn truncate_utf8(s: &mut String, max: usize) {
+    if s.len() > max {
+        let mut end = max;
+        while !s.is_char_boundary(end) {
+            end -= 1;
+        }
+        s.truncate(end);
+    }
+}
+
 /// Validates `msg` and encodes it as one frame: its postcard length as a
 /// `u32` little-endian, then the postcard bytes. Refuses messages that
 /// fail validation or exceed [`MAX_CONTROL_FRAME`] (a triangle mesh near

@@ -4,7 +4,8 @@
 //! share their values) and the registry they are exposed from. [`serve`]
 //! answers on TCP (default 127.0.0.1:9100):
 //!
-//! * `GET /metrics` — the OpenMetrics text exposition;
+//! * `GET /metrics` — the Prometheus text exposition, or OpenMetrics for a
+//!   scraper that asks for it (`Accept: application/openmetrics-text`);
 //! * `GET /healthz` — `200 ok` while the server works, `503` with the
 //!   reason once it has failed (the tick thread stopped; see
 //!   [`crate::health`]);

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-use inertia_protocol::control::{DisconnectReason, MAX_REASON_BYTES};
+use inertia_protocol::control::{truncate_utf8, DisconnectReason, MAX_REASON_BYTES};
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::TokenKey;
 use tokio::sync::watch;
@@ -73,7 +73,6 @@ pub struct RunningServer {
     shared: Arc<NetShared>,
     shutdown: Arc<watch::Sender<Option<DisconnectReason>>>,
     health: Arc<Health>,
-    failure: watch::Receiver<Option<String>>,
     endpoint: quinn::Endpoint,
     tasks: Vec<JoinHandle<()>>,
 }
@@ -270,12 +269,10 @@ pub async fn start_with_rules(
     );
     tasks.push(tokio::spawn(shared.clone().record_history()));
     tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone())));
-    let (failed, failure) = watch::channel(None);
     tasks.push(tokio::spawn(supervise(
         shared.sim.watch_exit(),
         health.clone(),
         shutdown.clone(),
-        failed,
     )));
     health.set_ready(true);
     info!(
@@ -295,7 +292,6 @@ pub async fn start_with_rules(
         shared,
         shutdown,
         health,
-        failure,
         endpoint,
         tasks,
     })
@@ -304,14 +300,14 @@ pub async fn start_with_rules(
 /// Watches the tick thread. If it ever stops other than by a shutdown
 /// (a panic in a tick, a command or an admin call), the server fails at
 /// once: `/healthz` and `/readyz` answer 503 with the reason, every client
-/// gets a goodbye saying the simulation stopped, and `failed` carries the
-/// reason to [`RunningServer::failed`] (the process then exits non-zero so
-/// an orchestrator restarts it; `--resume` carries on from the recording).
+/// gets a goodbye saying the simulation stopped, and
+/// [`RunningServer::failed`] returns the reason (the process then exits
+/// non-zero so an orchestrator restarts it; `--resume` carries on from the
+/// recording).
 async fn supervise(
     mut exit: watch::Receiver<Option<SimExit>>,
     health: Arc<Health>,
     shutdown: Arc<watch::Sender<Option<DisconnectReason>>>,
-    failed: watch::Sender<Option<String>>,
 ) {
     let outcome = match exit.wait_for(Option::is_some).await {
         Ok(e) => e.clone(),
@@ -328,20 +324,27 @@ async fn supervise(
     };
     let what = format!("the simulation stopped at tick {tick}: {reason}");
     error!(%reason, tick, keyframe, "the simulation failed; failing health checks and stopping");
-    health.fail(what.clone());
+    // Clients are told first: a failure makes the process shut down, and
+    // the shutdown tells them whatever reason is set by then.
     let mut told = what.clone();
-    if told.len() > MAX_REASON_BYTES {
-        let mut end = MAX_REASON_BYTES;
-        while !told.is_char_boundary(end) {
-            end -= 1;
-        }
-        told.truncate(end);
-    }
+    truncate_utf8(&mut told, MAX_REASON_BYTES);
+    stop_clients(
+        &shutdown,
+        DisconnectReason::SimulationStopped { reason: told },
+    );
+    health.fail(what);
+}
+
+/// Tells every connection to end with `reason`, unless one was given
+/// already (the first reason is what clients hear).
+fn stop_clients(shutdown: &watch::Sender<Option<DisconnectReason>>, reason: DisconnectReason) {
     shutdown.send_if_modified(|r| {
-        r.get_or_insert(DisconnectReason::SimulationStopped { reason: told });
+        if r.is_some() {
+            return false;
+        }
+        *r = Some(reason);
         true
     });
-    let _ = failed.send(Some(what));
 }
 
 impl RunningServer {
@@ -399,15 +402,7 @@ impl RunningServer {
     /// Waits until the server fails (the tick thread stopped other than by
     /// a shutdown) and returns why; never returns while it works.
     pub async fn failed(&self) -> String {
-        let mut failure = self.failure.clone();
-        let why = match failure.wait_for(Option::is_some).await {
-            Ok(why) => why.clone(),
-            Err(_) => None,
-        };
-        match why {
-            Some(why) => why,
-            None => std::future::pending().await,
-        }
+        self.health.failed().await
     }
 
     /// Clients connected now.
@@ -427,13 +422,7 @@ impl RunningServer {
         let deadline = tokio::time::Instant::now() + SHUTDOWN_DEADLINE;
         self.health.set_ready(false);
         // A failure's reason, if one came first, is what clients are told.
-        self.shutdown.send_if_modified(|r| {
-            if r.is_some() {
-                return false;
-            }
-            *r = Some(DisconnectReason::ServerShutdown);
-            true
-        });
+        stop_clients(&self.shutdown, DisconnectReason::ServerShutdown);
         let drained = tokio::time::Instant::now() + CLIENT_DRAIN;
         while self.clients() > 0 && tokio::time::Instant::now() < drained {
             tokio::time::sleep(Duration::from_millis(20)).await;

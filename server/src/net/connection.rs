@@ -11,8 +11,8 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use glam::DVec3;
 use inertia_protocol::admin::TimeMode;
 use inertia_protocol::control::{
-    encode_frame, handshake, ClientControl, DisconnectReason, FrameDecoder, Refusal, ServerControl,
-    SnapshotParams,
+    encode_frame, handshake, truncate_utf8, ClientControl, DisconnectReason, FrameDecoder, Refusal,
+    ServerControl, SnapshotParams, MAX_REASON_BYTES,
 };
 use inertia_protocol::input::{InputBuffer, InputDatagram};
 use inertia_protocol::interest::Interest;
@@ -111,30 +111,36 @@ fn join_refusal(client: u64, refusal: rules::Refusal) -> Refusal {
         refusal @ (rules::Refusal::NoRoom | rules::Refusal::Rules(_)) => {
             info!(client, reason = %refusal, "join refused by the rules");
             let mut reason = refusal.to_string();
-            truncate_reason(&mut reason);
+            truncate_utf8(&mut reason, MAX_REASON_BYTES);
             Refusal::Rejected { reason }
         }
     }
 }
 
-/// Cuts `s` to [`MAX_REASON_BYTES`] at a character boundary.
-fn truncate_reason(s: &mut String) {
-    let max = inertia_protocol::control::MAX_REASON_BYTES;
-    if s.len() > max {
-        let mut end = max;
-        while !s.is_char_boundary(end) {
-            end -= 1;
-        }
-        s.truncate(end);
+/// Asks the tick thread to let `client` join: its avatar, or the real
+/// reason it cannot.
+async fn join(shared: &NetShared, client: u64) -> Result<(u64, EntityId), Refusal> {
+    let stopped = || not_running(shared).unwrap_or(Refusal::ShuttingDown);
+    match shared.sim.request_join(client) {
+        Ok(rx) => match rx.await {
+            Ok(Ok(avatar)) => Ok((client, avatar)),
+            Ok(Err(refusal)) => Err(join_refusal(client, refusal)),
+            // The tick thread dropped the question: it has stopped.
+            Err(_) => Err(stopped()),
+        },
+        Err(CommandError::Busy) => Err(Refusal::Busy),
+        Err(CommandError::Stopped) => Err(stopped()),
     }
 }
 
-/// Why a join cannot reach the tick thread: it failed, or the server is
-/// shutting down.
-fn stopped_refusal(shared: &NetShared) -> Refusal {
+/// Why nobody can join now: the simulation failed, or the server is
+/// shutting down; `None` while it runs.
+fn not_running(shared: &NetShared) -> Option<Refusal> {
     match shared.sim.exit() {
-        Some(SimExit::Failed { .. }) => Refusal::SimulationStopped,
-        _ => Refusal::ShuttingDown,
+        Some(SimExit::Failed { .. }) => Some(Refusal::SimulationStopped),
+        Some(SimExit::Shutdown) => Some(Refusal::ShuttingDown),
+        None if shared.shutdown.borrow().is_some() => Some(Refusal::ShuttingDown),
+        None => None,
     }
 }
 
@@ -202,23 +208,10 @@ async fn hello(connection: &quinn::Connection, id: u64, shared: &NetShared) -> O
         }
     };
     let result = match result {
-        Ok(_) if shared.sim.exit().is_some_and(|e| e != SimExit::Shutdown) => {
-            Err(Refusal::SimulationStopped)
-        }
-        Ok(_) if shared.shutdown.borrow().is_some() => Err(Refusal::ShuttingDown),
-        Ok(token) => {
-            let client = token.client_id;
-            match shared.sim.request_join(client) {
-                Ok(rx) => match rx.await {
-                    Ok(Ok(avatar)) => Ok((client, avatar)),
-                    Ok(Err(refusal)) => Err(join_refusal(client, refusal)),
-                    // The tick thread dropped the question: it has stopped.
-                    Err(_) => Err(stopped_refusal(shared)),
-                },
-                Err(CommandError::Busy) => Err(Refusal::Busy),
-                Err(CommandError::Stopped) => Err(stopped_refusal(shared)),
-            }
-        }
+        Ok(token) => match not_running(shared) {
+            Some(refusal) => Err(refusal),
+            None => join(shared, token.client_id).await,
+        },
         Err(r) => Err(r),
     };
     match result {

@@ -43,13 +43,10 @@ pub fn to_wire(event: &GameEvent) -> WireEvent {
         }
         GameEvent::Custom { name, entity } => {
             let mut name = name.clone();
-            let mut cut = name
-                .len()
-                .min(inertia_protocol::control::MAX_EVENT_NAME_BYTES);
-            while !name.is_char_boundary(cut) {
-                cut -= 1;
-            }
-            name.truncate(cut);
+            inertia_protocol::control::truncate_utf8(
+                &mut name,
+                inertia_protocol::control::MAX_EVENT_NAME_BYTES,
+            );
             custom(&name, json!({ "entity": entity }))
         }
     }

@@ -187,8 +187,16 @@ pub fn negotiated_alpn(connection: &quinn::Connection) -> Option<Vec<u8>> {
         .protocol
 }
 
-/// One handshake in flight, counted until dropped.
+/// One handshake in flight, counted from [`InFlight::enter`] until
+/// dropped.
 struct InFlight(Arc<AtomicUsize>);
+
+impl InFlight {
+    fn enter(count: &Arc<AtomicUsize>) -> InFlight {
+        count.fetch_add(1, Ordering::Relaxed);
+        InFlight(count.clone())
+    }
+}
 
 impl Drop for InFlight {
     fn drop(&mut self) {
@@ -258,8 +266,7 @@ pub async fn accept(endpoint: quinn::Endpoint, shared: Arc<NetShared>) {
                 }
                 let id = shared.next_connection.fetch_add(1, Ordering::Relaxed);
                 debug!(connection = id, %remote, "incoming");
-                in_flight.fetch_add(1, Ordering::Relaxed);
-                tokio::spawn(route(incoming, id, shared.clone(), InFlight(in_flight.clone())));
+                tokio::spawn(route(incoming, id, shared.clone(), InFlight::enter(&in_flight)));
             }
             changed = shutdown.changed() => {
                 let stopping = matches!(*shutdown.borrow(), Some(DisconnectReason::ServerShutdown));

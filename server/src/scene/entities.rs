@@ -12,6 +12,7 @@ use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::BodyKind;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{BodyHandle, ParticleHandle, World};
+use inertia_protocol::control::truncate_utf8;
 use inertia_protocol::{EntityDesc, EntityId, EntityKind, EntityState, ShapeDesc};
 
 /// Longest entity name sent to clients, bytes.
@@ -72,7 +73,7 @@ impl EntityTable {
         let id = self.next_id;
         self.next_id = self.next_id.wrapping_add(1).max(1);
         desc.id = id;
-        truncate_name(&mut desc.name);
+        truncate_utf8(&mut desc.name, MAX_NAME_BYTES);
         match source {
             EntitySource::Body(h) => {
                 self.by_body.insert(h, id);
@@ -319,16 +320,6 @@ impl EntityTable {
             }
         }
         Ok(table)
-    }
-}
-
-fn truncate_name(name: &mut String) {
-    if name.len() > MAX_NAME_BYTES {
-        let mut cut = MAX_NAME_BYTES;
-        while !name.is_char_boundary(cut) {
-            cut -= 1;
-        }
-        name.truncate(cut);
     }
 }
 

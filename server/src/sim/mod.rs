@@ -40,7 +40,7 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::panic::{self, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TryRecvError, TrySendError};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -1139,7 +1139,7 @@ pub struct SimHandle {
     /// Set to stop the thread at the top of its next loop when the
     /// control channel is too full to take [`Command::Shutdown`].
     stopping: Arc<AtomicBool>,
-    thread: Mutex<Option<JoinHandle<()>>>,
+    thread: Option<JoinHandle<()>>,
 }
 
 /// Starts the tick thread on `scene` under `rules`.
@@ -1182,7 +1182,7 @@ impl SimHandle {
             exit: exit_rx,
             stats,
             stopping,
-            thread: Mutex::new(Some(thread)),
+            thread: Some(thread),
         })
     }
 
@@ -1324,37 +1324,22 @@ impl SimHandle {
         }
     }
 
-    /// True once the thread has ended.
-    pub fn is_finished(&self) -> bool {
-        self.thread
-            .lock()
-            .map_or(true, |t| t.as_ref().is_none_or(JoinHandle::is_finished))
-    }
-
-    /// Stops the thread and waits for it, at most `timeout`: true if it
-    /// ended. A thread stuck longer (in a call that never returns, say)
-    /// is left behind, to end with the process.
+    /// Stops the thread and waits, at most `timeout`, until it has ended
+    /// (its last act is to report its [`exit`](Self::exit), after the
+    /// recording's final keyframe): true if it did. A thread stuck longer
+    /// (in a call that never returns, say) is left behind, to end with the
+    /// process.
     pub async fn stop_within(&self, timeout: Duration) -> bool {
         self.stop();
-        let deadline = tokio::time::Instant::now() + timeout;
-        loop {
-            if self.is_finished() {
-                if let Some(t) = self.thread.lock().ok().and_then(|mut t| t.take()) {
-                    let _ = t.join();
-                }
-                return true;
-            }
-            if tokio::time::Instant::now() >= deadline {
-                return false;
-            }
-            tokio::time::sleep(Duration::from_millis(5)).await;
-        }
+        let mut exit = self.watch_exit();
+        let ended = tokio::time::timeout(timeout, exit.wait_for(Option::is_some)).await;
+        matches!(ended, Ok(Ok(_)))
     }
 
     /// Stops the thread and waits for it, however long it takes.
-    pub fn shutdown(self) {
+    pub fn shutdown(mut self) {
         self.stop();
-        if let Some(t) = self.thread.lock().ok().and_then(|mut t| t.take()) {
+        if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
     }
