@@ -142,31 +142,20 @@ fn finite(what: &'static str, v: f64) -> Result<f64, ShapeError> {
 /// Checks a size against [`crate::limits`] (radius, half extent, half
 /// height), m.
 fn length(what: &'static str, v: f64) -> Result<f64, ShapeError> {
-    finite(what, v)?;
-    if v <= 0.0 {
-        return Err(ShapeError::NotPositive { what, value: v });
-    }
-    crate::limits::length(what, v).map_err(|_| ShapeError::OutOfRange {
+    positive(what, v)?;
+    within(
         what,
-        value: v,
-        min: crate::limits::MIN_LENGTH,
-        max: crate::limits::MAX_LENGTH,
-    })
+        v,
+        crate::limits::MIN_LENGTH,
+        crate::limits::MAX_LENGTH,
+    )
 }
 
 /// Checks a capsule's half height: above zero (a capsule of almost no
 /// length is a ball, which is fine) and at most [`crate::limits::MAX_LENGTH`].
 fn half_length(what: &'static str, v: f64) -> Result<f64, ShapeError> {
     positive(what, v)?;
-    if v > crate::limits::MAX_LENGTH {
-        return Err(ShapeError::OutOfRange {
-            what,
-            value: v,
-            min: 0.0,
-            max: crate::limits::MAX_LENGTH,
-        });
-    }
-    Ok(v)
+    within(what, v, 0.0, crate::limits::MAX_LENGTH)
 }
 
 /// Checks every coordinate of `points` against [`crate::limits`], m.
@@ -174,16 +163,23 @@ fn coordinates(what: &'static str, points: &[DVec3]) -> Result<(), ShapeError> {
     let max = crate::limits::MAX_COORDINATE;
     for c in points.iter().flat_map(|p| p.to_array()) {
         finite(what, c)?;
-        if c.abs() > max {
-            return Err(ShapeError::OutOfRange {
-                what,
-                value: c,
-                min: -max,
-                max,
-            });
-        }
+        within(what, c, -max, max)?;
     }
     Ok(())
+}
+
+/// Checks that `v` lies within `min..=max`.
+fn within(what: &'static str, v: f64, min: f64, max: f64) -> Result<f64, ShapeError> {
+    if (min..=max).contains(&v) {
+        Ok(v)
+    } else {
+        Err(ShapeError::OutOfRange {
+            what,
+            value: v,
+            min,
+            max,
+        })
+    }
 }
 
 fn positive(what: &'static str, v: f64) -> Result<f64, ShapeError> {

@@ -233,8 +233,13 @@ impl RecordWriter {
     /// next append starts a new segment) it is after that segment's first
     /// tick, whose name the new segment would otherwise take.
     pub fn can_append_at(&self, tick: u64) -> bool {
-        self.last_tick.is_none_or(|last| tick >= last)
-            && !(self.current.is_none() && self.damaged_first_tick == Some(tick))
+        self.last_tick.is_none_or(|last| tick >= last) && !self.damaged_segment_in_the_way(tick)
+    }
+
+    /// Whether appending `tick` would start a new segment named like the
+    /// damaged newest one (which starts at `tick`).
+    fn damaged_segment_in_the_way(&self, tick: u64) -> bool {
+        self.current.is_none() && self.damaged_first_tick == Some(tick)
     }
 
     /// What [`open`](Self::open) found and repaired: log it (a cut tail
@@ -280,7 +285,7 @@ impl RecordWriter {
                 return Err(RecordError::TickBackwards { last, got: tick });
             }
         }
-        if self.current.is_none() && self.damaged_first_tick == Some(tick) {
+        if self.damaged_segment_in_the_way(tick) {
             let path = self
                 .segments
                 .last()
