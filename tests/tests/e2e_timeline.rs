@@ -237,7 +237,16 @@ async fn seek_over_the_network_shows_the_recorded_tick_to_clients_and_returns_to
     let mut admin = admin(&server).await;
     let (addr, token) = token(&server, 22);
     let client = Client::connect(addr, &token).await.expect("joins");
+    // Long enough for a recording to seek back into, and the scene
+    // described (a fixed sleep alone lost the race on a loaded machine).
     tokio::time::sleep(Duration::from_millis(2500)).await;
+    assert!(
+        wait_for(Duration::from_secs(10), || async {
+            client.entities().len() >= 9
+        })
+        .await,
+        "the scene is described"
+    );
     let bobs = ids_named(&client, &["bob_a", "bob_b", "bob_c"]);
     draw_for(&client, &bobs, Duration::from_millis(300)).await;
     discontinuities(&client);
