@@ -228,12 +228,6 @@ impl RigidBodyDesc {
         self
     }
 
-    /// Checks every field as [`World::add_body`](crate::World::add_body)
-    /// will, against the engine's [`limits`], without adding anything.
-    pub fn validate(&self) -> Result<(), PhysicsError> {
-        self.build().map(drop)
-    }
-
     /// Checks every field and builds the body.
     pub(crate) fn build(&self) -> Result<RigidBody, PhysicsError> {
         finite3("body position", self.pose.translation)?;

@@ -225,15 +225,11 @@ impl CheckpointDir {
         Ok(packed.len() as u64)
     }
 
-    /// The bytes of checkpoint `name`, at most [`MAX_CHECKPOINT_BYTES`].
-    pub fn read_bytes(&self, name: &CheckpointName) -> Result<Vec<u8>, CheckpointError> {
-        check_name(name)?;
-        imp::read(self, name)
-    }
-
-    /// Reads and decodes checkpoint `name`.
+    /// Reads (at most [`MAX_CHECKPOINT_BYTES`]) and decodes checkpoint
+    /// `name`.
     pub fn read(&self, name: &CheckpointName) -> Result<SimState, CheckpointError> {
-        let bytes = self.read_bytes(name)?;
+        check_name(name)?;
+        let bytes = imp::read(self, name)?;
         SimState::decode(&bytes).map_err(|source| CheckpointError::State {
             path: self.path.join(name.as_str()),
             source,

@@ -117,10 +117,6 @@ impl HeldBytes {
         self.keyframes + self.checkpoints
     }
 
-    /// Everything.
-    pub fn total(&self) -> usize {
-        self.budgeted() + self.hashes + self.journal
-    }
 }
 
 /// Hashes of consecutive ticks are held in runs of this many (each run's
@@ -425,11 +421,6 @@ impl History {
             hashes: self.hash_bytes,
             journal: self.journal_bytes,
         }
-    }
-
-    /// The most bytes of keyframes and checkpoints held.
-    pub fn budget(&self) -> usize {
-        self.budget
     }
 
     /// Bytes of keyframes and checkpoints held (what the budget bounds).

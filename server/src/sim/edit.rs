@@ -145,8 +145,6 @@ pub fn body_from_spawn(desc: &SpawnDesc) -> Result<RigidBodyDesc, String> {
     };
     body.linear_velocity = velocity;
     body.angular_velocity = angular;
-    // The engine's bounds (mass, size, speed), the same a scene file meets.
-    body.validate().map_err(|e| e.to_string())?;
     Ok(body)
 }
 
@@ -205,7 +203,13 @@ impl Simulation {
                     owner: None,
                     name: desc.name.clone(),
                 };
-                let id = self.with_ctx(|_, ctx| ctx.spawn(&body, look))?;
+                // The engine checks its bounds (mass, size, speed) as it
+                // adds the body, as for a scene file: out of them is a
+                // body it cannot make.
+                let id = self.with_ctx(|_, ctx| ctx.spawn(&body, look)).map_err(|e| match e {
+                    ContextError::Physics(e) => EditError::Invalid(e.to_string()),
+                    e => EditError::Context(e),
+                })?;
                 EditOutcome::Spawned(id)
             }
         };
