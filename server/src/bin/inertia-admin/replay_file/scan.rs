@@ -132,9 +132,9 @@ pub struct SegmentScan {
 }
 
 /// Reads `segment` front to back, handing each intact record and the
-/// byte offset of its frame to `each` (which may break off). `newest`: whether it is the recording's newest
-/// segment, the only one where a record cut short is a torn tail rather
-/// than corruption.
+/// byte offset of its frame to `each` (which may break off). `newest`:
+/// whether it is the recording's newest segment, the only one where a
+/// record cut short is a torn tail rather than corruption.
 pub fn scan_segment(
     segment: &SegmentFile,
     newest: bool,
