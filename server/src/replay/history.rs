@@ -116,7 +116,6 @@ impl HeldBytes {
     pub fn budgeted(&self) -> usize {
         self.keyframes + self.checkpoints
     }
-
 }
 
 /// Hashes of consecutive ticks are held in runs of this many (each run's

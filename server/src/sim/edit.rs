@@ -206,10 +206,12 @@ impl Simulation {
                 // The engine checks its bounds (mass, size, speed) as it
                 // adds the body, as for a scene file: out of them is a
                 // body it cannot make.
-                let id = self.with_ctx(|_, ctx| ctx.spawn(&body, look)).map_err(|e| match e {
-                    ContextError::Physics(e) => EditError::Invalid(e.to_string()),
-                    e => EditError::Context(e),
-                })?;
+                let id = self
+                    .with_ctx(|_, ctx| ctx.spawn(&body, look))
+                    .map_err(|e| match e {
+                        ContextError::Physics(e) => EditError::Invalid(e.to_string()),
+                        e => EditError::Context(e),
+                    })?;
                 EditOutcome::Spawned(id)
             }
         };
