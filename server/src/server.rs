@@ -158,21 +158,6 @@ pub async fn start_with_rules(
                 "the recording is damaged here; left as it is"
             );
         }
-        if let Some(cut) = &report.torn_tail {
-            warn!(
-                file = %cut.path.display(),
-                offset = cut.offset,
-                bytes_cut = cut.bytes_cut,
-                kept_at = %cut.kept_at.display(),
-                "cut a torn last record off the recording; its bytes are kept aside"
-            );
-        }
-        if let Some(newest) = &report.newest_damaged {
-            warn!(
-                file = %newest.path.display(),
-                "the newest segment is damaged; recording goes on in a new segment"
-            );
-        }
         info!(
             keyframe = report.keyframe_tick,
             tick = report.tick,

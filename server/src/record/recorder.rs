@@ -266,7 +266,7 @@ impl Recorder {
 
 /// Logs what opening the recording found: a torn tail cut (and where its
 /// bytes were kept), a damaged newest segment left alone.
-fn log_open(dir: &Path, writer: &RecordWriter) {
+pub(crate) fn log_open(dir: &Path, writer: &RecordWriter) {
     let report = writer.open_report();
     if let Some(cut) = &report.cut {
         warn!(

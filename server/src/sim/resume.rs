@@ -252,6 +252,7 @@ impl Simulation {
         // Only now touch the disk: cut a torn tail (kept aside).
         let writer = RecordWriter::open(&dir, RecordOptions::default())
             .map_err(|source| ResumeError::Open { dir: shown, source })?;
+        crate::record::recorder::log_open(&dir, &writer);
         let opened = writer.open_report().clone();
         drop(writer);
         report.torn_tail = opened.cut;
