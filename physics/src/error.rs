@@ -9,6 +9,13 @@ use crate::handle::{
 /// Why a call into the [`World`](crate::World) was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PhysicsError {
+    /// The world already holds [`crate::WorldConfig::max_bodies`] rigid
+    /// bodies.
+    #[error("the world already holds its limit of {max} rigid bodies")]
+    TooManyBodies {
+        /// The limit.
+        max: usize,
+    },
     /// A number that must be finite was NaN or infinite.
     #[error("{what} must be finite, got {value}")]
     NonFinite {

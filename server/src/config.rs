@@ -40,6 +40,11 @@ pub const DEFAULT_CLIENT_BUDGET_KBPS: u32 = 512;
 pub const DEFAULT_POSITION_RESOLUTION_MM: f64 = 1.0;
 /// Default most clients connected at once.
 pub const DEFAULT_MAX_CLIENTS: u32 = 64;
+/// Default most rigid bodies in the world at once: the scene, spawns,
+/// avatars and loaded states together.
+pub const DEFAULT_MAX_BODIES: usize = 20_000;
+/// Highest accepted body limit.
+pub const MAX_BODIES_LIMIT: usize = 10_000_000;
 /// Default most ticks run in one loop of the tick thread before it gives up
 /// on catching up and counts an overrun.
 pub const DEFAULT_MAX_CATCH_UP_TICKS: u32 = 5;
@@ -108,6 +113,11 @@ pub struct ConfigLayer {
     /// Most clients at once (1..=4096, default 64).
     #[arg(long)]
     pub max_clients: Option<u32>,
+    /// Most rigid bodies in the world at once: a scene with more is
+    /// refused at start, and spawns, avatars and loads beyond it are
+    /// refused (1..=10000000, default 20000).
+    #[arg(long)]
+    pub max_bodies: Option<usize>,
     /// Directory for recordings and other data (default ./inertia-data).
     #[arg(long)]
     pub data_dir: Option<PathBuf>,
@@ -205,6 +215,8 @@ pub struct ServerConfig {
     pub client_budget_kbps: u32,
     /// Most clients connected at once.
     pub max_clients: u32,
+    /// Most rigid bodies in the world at once.
+    pub max_bodies: usize,
     /// Directory for recordings and other data.
     pub data_dir: PathBuf,
     /// Directory of `save` and `load` checkpoints as configured; `None` =
@@ -247,6 +259,7 @@ impl Default for ServerConfig {
             snapshot_hz: DEFAULT_SNAPSHOT_HZ,
             client_budget_kbps: DEFAULT_CLIENT_BUDGET_KBPS,
             max_clients: DEFAULT_MAX_CLIENTS,
+            max_bodies: DEFAULT_MAX_BODIES,
             data_dir: PathBuf::from("./inertia-data"),
             checkpoint_dir: None,
             metrics: SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), 9100),
@@ -323,6 +336,9 @@ pub enum ConfigError {
     /// `max_clients` outside 1..=4096.
     #[error("max_clients must be in 1..={MAX_CLIENTS_LIMIT}, got {0}")]
     MaxClients(u32),
+    /// `max_bodies` outside 1..=10000000.
+    #[error("max_bodies must be in 1..={MAX_BODIES_LIMIT}, got {0}")]
+    MaxBodies(usize),
     /// `seek_memory_mb` outside 16..=1048576.
     #[error("seek_memory_mb must be in 16..=1048576, got {0}")]
     SeekMemory(u64),
@@ -411,6 +427,7 @@ impl ServerConfig {
             snapshot_hz: layer.snapshot_hz.unwrap_or(self.snapshot_hz),
             client_budget_kbps: layer.client_budget_kbps.unwrap_or(self.client_budget_kbps),
             max_clients: layer.max_clients.unwrap_or(self.max_clients),
+            max_bodies: layer.max_bodies.unwrap_or(self.max_bodies),
             data_dir: layer.data_dir.unwrap_or(self.data_dir),
             checkpoint_dir: layer.checkpoint_dir.or(self.checkpoint_dir),
             metrics: layer.metrics.unwrap_or(self.metrics),
@@ -450,6 +467,9 @@ impl ServerConfig {
         }
         if !(1..=MAX_CLIENTS_LIMIT).contains(&self.max_clients) {
             return Err(ConfigError::MaxClients(self.max_clients));
+        }
+        if !(1..=MAX_BODIES_LIMIT).contains(&self.max_bodies) {
+            return Err(ConfigError::MaxBodies(self.max_bodies));
         }
         if !(1..=1000).contains(&self.max_catch_up_ticks) {
             return Err(ConfigError::CatchUp(self.max_catch_up_ticks));
@@ -545,6 +565,7 @@ impl ConfigLayer {
             snapshot_hz: self.snapshot_hz.or(lower.snapshot_hz),
             client_budget_kbps: self.client_budget_kbps.or(lower.client_budget_kbps),
             max_clients: self.max_clients.or(lower.max_clients),
+            max_bodies: self.max_bodies.or(lower.max_bodies),
             data_dir: self.data_dir.or(lower.data_dir),
             checkpoint_dir: self.checkpoint_dir.or(lower.checkpoint_dir),
             metrics: self.metrics.or(lower.metrics),
@@ -607,6 +628,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         snapshot_hz: get(env, "INERTIA_SNAPSHOT_HZ")?,
         client_budget_kbps: get(env, "INERTIA_CLIENT_BUDGET_KBPS")?,
         max_clients: get(env, "INERTIA_MAX_CLIENTS")?,
+        max_bodies: get(env, "INERTIA_MAX_BODIES")?,
         data_dir: get(env, "INERTIA_DATA_DIR")?,
         checkpoint_dir: get(env, "INERTIA_CHECKPOINT_DIR")?,
         metrics: get(env, "INERTIA_METRICS")?,

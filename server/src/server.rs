@@ -43,6 +43,17 @@ pub enum StartError {
     /// The scene file is bad.
     #[error("scene: {0}")]
     Scene(#[from] SceneError),
+    /// The scene makes more rigid bodies than `--max-bodies`.
+    #[error(
+        "the scene makes {bodies} rigid bodies, more than --max-bodies {max}: raise the \
+         limit if the machine can step that many each tick"
+    )]
+    TooManyBodies {
+        /// Rigid bodies the scene makes.
+        bodies: usize,
+        /// The limit.
+        max: usize,
+    },
     /// A socket could not be bound.
     #[error("{what} {addr}: {source}")]
     Bind {
@@ -112,8 +123,15 @@ pub async fn start_with_rules(
         Some(path) => Scene::load(path)?,
         None => demo_scene()?,
     };
-    let built = scene.build()?;
-    info!(scene = %built.name, entities = built.entities.len(), "scene built");
+    let mut built = scene.build()?;
+    let bodies = built.world.bodies().count();
+    if built.world.set_max_bodies(config.max_bodies).is_err() {
+        return Err(StartError::TooManyBodies {
+            bodies,
+            max: config.max_bodies,
+        });
+    }
+    info!(scene = %built.name, entities = built.entities.len(), bodies, max_bodies = config.max_bodies, "scene built");
 
     let socket = std::net::UdpSocket::bind(listen).map_err(|source| StartError::Bind {
         what: "game port",

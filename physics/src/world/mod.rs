@@ -56,6 +56,10 @@ pub struct WorldConfig {
     /// Read GPU systems back to the CPU mirror after every step (feature
     /// `gpu`); without it, call [`World::sync_gpu`] before reading them.
     pub gpu_readback_every_step: bool,
+    /// Most rigid bodies the world holds at once. Adding one more is
+    /// refused ([`PhysicsError::TooManyBodies`]), and so is restoring a
+    /// saved state that holds more. [`usize::MAX`] (the default): no limit.
+    pub max_bodies: usize,
 }
 
 impl Default for WorldConfig {
@@ -64,6 +68,7 @@ impl Default for WorldConfig {
             threads: 0,
             energy_accounting: true,
             gpu_readback_every_step: true,
+            max_bodies: usize::MAX,
         }
     }
 }
@@ -174,6 +179,17 @@ impl World {
     /// The configuration.
     pub fn config(&self) -> &WorldConfig {
         &self.config
+    }
+
+    /// Sets [`WorldConfig::max_bodies`]; refused
+    /// ([`PhysicsError::TooManyBodies`], nothing changed) when the world
+    /// already holds more rigid bodies than `max`.
+    pub fn set_max_bodies(&mut self, max: usize) -> Result<(), PhysicsError> {
+        if self.bodies.len() > max {
+            return Err(PhysicsError::TooManyBodies { max });
+        }
+        self.config.max_bodies = max;
+        Ok(())
     }
 
     /// Ticks stepped so far.

@@ -14,6 +14,11 @@ use crate::rigid::solver::SolverConfig;
 impl World {
     /// Adds a rigid body.
     pub fn add_body(&mut self, desc: &RigidBodyDesc) -> Result<BodyHandle, PhysicsError> {
+        if self.bodies.len() >= self.config.max_bodies {
+            return Err(PhysicsError::TooManyBodies {
+                max: self.config.max_bodies,
+            });
+        }
         let body = desc.build()?;
         let (index, generation) = self.bodies.insert(body);
         Ok(BodyHandle { index, generation })

@@ -46,6 +46,13 @@ impl World {
     /// Replaces the whole state with a saved one. On error the world is untouched.
     pub fn restore(&mut self, bytes: &[u8]) -> Result<(), SnapshotError> {
         let decoded = load_world(bytes)?;
+        if decoded.bodies.len() > self.config.max_bodies {
+            return Err(SnapshotError::Invalid(format!(
+                "the state holds {} rigid bodies, more than this world's limit of {}",
+                decoded.bodies.len(),
+                self.config.max_bodies
+            )));
+        }
         #[cfg(feature = "gpu")]
         let mut decoded = decoded;
         #[cfg(feature = "gpu")]

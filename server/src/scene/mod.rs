@@ -175,6 +175,7 @@ impl Scene {
                 threads: 1,
                 energy_accounting: false,
                 gpu_readback_every_step: false,
+                ..WorldConfig::default()
             },
         )
         .map(|_| ())

@@ -61,6 +61,7 @@ use crate::scene::{BuiltScene, EntityTable};
 
 pub mod edit;
 pub mod resume;
+pub mod startup;
 pub mod timeline;
 
 pub use edit::EditError;
@@ -281,6 +282,8 @@ pub struct Simulation {
     stats: Arc<SimStats>,
     /// Durations of the last [`TICK_WINDOW`] ticks.
     recent_ticks: VecDeque<Duration>,
+    /// The first live ticks' cost against the budget, said once.
+    startup: startup::TickCostCheck,
     /// When ticks ran lately, with how many, within [`RATE_WINDOW`].
     recent_runs: VecDeque<(Instant, u32)>,
     started: Instant,
@@ -359,6 +362,7 @@ impl Simulation {
             spawn_points: scene.spawn_points,
             rules,
             clock,
+            startup: startup::TickCostCheck::new(config.tick_hz),
             config,
             clients: BTreeSet::new(),
             catalog,
@@ -929,6 +933,9 @@ impl Simulation {
         self.last_tick = t0.elapsed();
         if self.view.is_none() {
             self.record_tick();
+            if let Some(cost) = self.startup.observe(self.last_tick) {
+                self.say_startup_cost(cost);
+            }
         }
         if self.recent_ticks.len() == TICK_WINDOW {
             self.recent_ticks.pop_front();
@@ -941,6 +948,46 @@ impl Simulation {
         if let Some(m) = &self.config.metrics {
             m.tick_duration.observe(self.last_tick.as_secs_f64());
         }
+    }
+
+    /// Logs what the first live ticks cost against the tick budget: a
+    /// warning when the machine cannot keep the configured rate.
+    fn say_startup_cost(&self, cost: startup::TickCost) {
+        let bodies = self.world.bodies().count();
+        let median_ms = cost.median.as_secs_f64() * 1e3;
+        let budget_ms = cost.budget.as_secs_f64() * 1e3;
+        let percent = cost.share() * 100.0;
+        if cost.over_budget() {
+            tracing::warn!(
+                ticks = cost.ticks,
+                median_ms,
+                budget_ms,
+                bodies,
+                "the first {} ticks took {median_ms:.1} ms each (median), {percent:.0} % of the \
+                 {budget_ms:.1} ms tick budget: with {bodies} rigid bodies this machine steps \
+                 about {:.1} ticks a second, not {}, and the world runs slower than real time; \
+                 lower the body count (--max-bodies) or the tick rate, or give the server more CPU",
+                cost.ticks,
+                cost.sustainable_hz(),
+                self.config.tick_hz,
+            );
+        } else {
+            tracing::info!(
+                ticks = cost.ticks,
+                median_ms,
+                budget_ms,
+                bodies,
+                "the first {} ticks took {median_ms:.2} ms each (median), {percent:.0} % of the \
+                 {budget_ms:.1} ms tick budget",
+                cost.ticks,
+            );
+        }
+    }
+
+    /// What the first live ticks cost against the tick budget, once
+    /// [`startup::STARTUP_TICKS`] have run.
+    pub fn startup_cost(&self) -> Option<startup::TickCost> {
+        self.startup.verdict()
     }
 
     /// Runs `n` ticks now, whatever the clock says.
