@@ -119,7 +119,9 @@ pub use codec::{Record, RecordKind};
 pub use error::{Corruption, RecordError, SegmentDamage};
 pub use reader::{RecordReader, Records, Salvage, Salvaged, TickInputs};
 pub use recorder::{Recorder, RecorderConfig, RecorderStats};
-pub use segment::{parse_segment_file_name, segment_file_name, SegmentFile, SegmentInfo};
+pub use segment::{
+    parse_segment_file_name, scan_segment_bytes, segment_file_name, Scan, SegmentFile, SegmentInfo,
+};
 pub use writer::{
     OpenReport, RecordOptions, RecordWriter, TailCut, DEFAULT_SEGMENT_BYTES, WRITE_BUFFER_BYTES,
 };

@@ -85,7 +85,7 @@ pub(crate) fn list_segments(dir: &Path) -> Result<Vec<SegmentFile>, RecordError>
 
 /// What reading a whole segment found.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub(crate) struct Scan {
+pub struct Scan {
     /// Intact records before any damage.
     pub records: u64,
     /// Tick of the first intact record.
@@ -111,6 +111,38 @@ pub(crate) fn scan_segment(path: &Path) -> Result<Scan, RecordError> {
     let io = |e| RecordError::io(path, e);
     let file = File::open(path).map_err(io)?;
     let file_len = file.metadata().map_err(io)?.len();
+    scan_frames(BufReader::new(file), file_len, path, |offset, why| {
+        torn_at(path, offset, why)
+    })
+}
+
+/// [`scan_segment`] over a segment's bytes held in memory: the same frame
+/// reader, checksums and torn-tail test, with no file (what the fuzz
+/// targets drive).
+pub fn scan_segment_bytes(bytes: &[u8]) -> Scan {
+    let len = bytes.len() as u64;
+    let scan = scan_frames(bytes, len, Path::new("<memory>"), |offset, why| {
+        torn_shape(offset, why, || {
+            Ok(bytes
+                .get(offset as usize..)
+                .filter(|tail| tail.len() as u64 <= FRAME_OVERHEAD + u64::from(MAX_RECORD_BYTES))
+                .map(<[u8]>::to_vec))
+        })
+    });
+    // Reading a slice never fails.
+    scan.expect("reading bytes in memory")
+}
+
+/// Reads every frame from `inner` (`file_len` bytes), checking each
+/// checksum; `torn` says whether the damage found at an offset has the
+/// shape of a torn write.
+fn scan_frames<R: Read>(
+    inner: R,
+    file_len: u64,
+    path: &Path,
+    torn: impl FnOnce(u64, Corruption) -> Result<bool, RecordError>,
+) -> Result<Scan, RecordError> {
+    let io = |e| RecordError::io(path, e);
     let mut scan = Scan {
         records: 0,
         first_tick: None,
@@ -120,11 +152,11 @@ pub(crate) fn scan_segment(path: &Path) -> Result<Scan, RecordError> {
         damage: None,
         torn_tail: false,
     };
-    let mut reader = match FrameReader::new(BufReader::new(file), file_len).map_err(io)? {
+    let mut reader = match FrameReader::new(inner, file_len).map_err(io)? {
         Ok(reader) => reader,
         Err(why) => {
             scan.damage = Some((0, why));
-            scan.torn_tail = torn_at(path, 0, why)?;
+            scan.torn_tail = torn(0, why)?;
             return Ok(scan);
         }
     };
@@ -138,7 +170,7 @@ pub(crate) fn scan_segment(path: &Path) -> Result<Scan, RecordError> {
             Frame::End => break,
             Frame::Damaged { offset, why } => {
                 scan.damage = Some((offset, why));
-                scan.torn_tail = torn_at(path, offset, why)?;
+                scan.torn_tail = torn(offset, why)?;
                 break;
             }
         }
@@ -152,6 +184,16 @@ pub(crate) fn scan_segment(path: &Path) -> Result<Scan, RecordError> {
 /// 0), or a frame cut short by the end of the file with nothing intact
 /// after it ([`is_torn_frame`]).
 pub(crate) fn torn_at(path: &Path, offset: u64, why: Corruption) -> Result<bool, RecordError> {
+    torn_shape(offset, why, || read_tail(path, offset))
+}
+
+/// [`torn_at`] with the bytes from `offset` to the end (or `None` when
+/// more than one frame could hold) read by `tail`.
+fn torn_shape(
+    offset: u64,
+    why: Corruption,
+    tail: impl FnOnce() -> Result<Option<Vec<u8>>, RecordError>,
+) -> Result<bool, RecordError> {
     if why != Corruption::Truncated {
         return Ok(false);
     }
@@ -159,7 +201,7 @@ pub(crate) fn torn_at(path: &Path, offset: u64, why: Corruption) -> Result<bool,
         // FrameReader::new says Truncated only for a right partial header.
         return Ok(true);
     }
-    Ok(read_tail(path, offset)?.is_some_and(|tail| is_torn_frame(&tail)))
+    Ok(tail()?.is_some_and(|tail| is_torn_frame(&tail)))
 }
 
 /// The bytes of the file at `path` from `offset` to its end, or `None`

@@ -1,0 +1,119 @@
+//! What the fuzz targets share: driving a decoded scene, world or saved
+//! state the way the server goes on to use it, so that a decoder which
+//! accepts something the engine cannot run is found too.
+
+use std::cell::RefCell;
+
+use inertia_physics::{World, WorldConfig};
+use inertia_server::replay::SimState;
+use inertia_server::rules::SandboxRules;
+use inertia_server::scene::{Scene, SceneFormat};
+use inertia_server::sim::{SimConfig, Simulation};
+
+/// Ticks stepped after a successful decode.
+const TICKS: usize = 2;
+/// Most bodies a built scene may have for its ticks to be stepped (the
+/// fuzzer wants many short runs, not a few long ones).
+const STEP_BODIES: usize = 2_000;
+/// Tick length, s.
+const DT: f64 = 1.0 / 60.0;
+
+/// One thread: the fuzzer runs many processes, not wide steps.
+fn config() -> WorldConfig {
+    WorldConfig {
+        threads: 1,
+        ..WorldConfig::default()
+    }
+}
+
+/// Parses `data` as a scene file in `format`; a scene that parses is
+/// built, and a small one stepped.
+pub fn drive_scene(data: &[u8], format: SceneFormat) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(scene) = Scene::parse(text, format) else {
+        return;
+    };
+    let Ok(mut built) = scene.build_with(config()) else {
+        return;
+    };
+    if built.world.bodies().count() <= STEP_BODIES {
+        for _ in 0..TICKS {
+            let _ = built.world.step(DT);
+        }
+    }
+}
+
+/// Restores `data` as a world's saved bytes into an empty world: a refused
+/// restore leaves the world as it was; a restored world steps.
+pub fn drive_world(data: &[u8]) {
+    thread_local! {
+        /// One world for every run, emptied before each: making a world
+        /// costs more than most inputs take to refuse.
+        static WORLD: RefCell<(World, Vec<u8>)> = RefCell::new({
+            let world = World::new(config()).expect("an empty world");
+            let empty = world.save();
+            (world, empty)
+        });
+    }
+    WORLD.with_borrow_mut(|(world, empty)| {
+        world.restore(empty).expect("the empty world restores");
+        let before = world.state_hash();
+        // Past the checksum, or every mutation would stop there.
+        let mut sealed = data.to_vec();
+        inertia_physics::snapshot::reseal(&mut sealed);
+        if world.restore(&sealed).is_err() {
+            assert_eq!(
+                world.state_hash(),
+                before,
+                "a refused restore changed the world"
+            );
+            return;
+        }
+        for _ in 0..TICKS {
+            let _ = world.step(DT);
+        }
+    });
+}
+
+/// Decodes `data` as a saved simulation state, checks that `peek` agrees
+/// and that it encodes to bytes that decode the same, then restores it
+/// into a running simulation (the sandbox rules) and ticks it.
+pub fn drive_state(data: &[u8]) {
+    let peeked = SimState::peek(data);
+    let Ok(mut state) = SimState::decode(data) else {
+        return;
+    };
+    assert_eq!(peeked.ok(), Some((state.tick, state.applied)));
+    let encoded = state.encode();
+    let again = SimState::decode(&encoded).expect("an encoded state decodes");
+    assert_eq!(again.encode(), encoded);
+    // Past the world's checksum, or every mutation of it would stop there.
+    inertia_physics::snapshot::reseal(&mut state.world);
+
+    thread_local! {
+        /// One simulation for every run, put back to its first state
+        /// before each.
+        static SIM: RefCell<(Simulation, SimState)> = RefCell::new({
+            let empty = Scene::parse("(name: \"fuzz\")", SceneFormat::Ron)
+                .and_then(|scene| scene.build_with(config()))
+                .expect("an empty scene");
+            let sim = Simulation::new(
+                empty,
+                Box::new(SandboxRules::default()),
+                SimConfig::default(),
+            );
+            let first = sim.capture(0);
+            (sim, first)
+        });
+    }
+    SIM.with_borrow_mut(|(sim, first)| {
+        sim.restore(first).expect("the first state restores");
+        if sim.restore(&state).is_ok() {
+            for _ in 0..TICKS {
+                sim.tick();
+            }
+        }
+    });
+}
