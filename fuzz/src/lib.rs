@@ -117,3 +117,26 @@ pub fn drive_state(data: &[u8]) {
         }
     });
 }
+
+/// Bytes of a segment's header (magic and version).
+const SEGMENT_HEADER_BYTES: usize = 8;
+
+/// Rewrites the CRC-32 of every whole frame in a segment's bytes so that
+/// it matches the frame (kind, length and payload), for the fuzzer to
+/// reach the record decoders behind the checksums. Stops at the first
+/// frame whose length runs past the end.
+pub fn reseal_frames(bytes: &mut [u8]) {
+    let mut at = SEGMENT_HEADER_BYTES;
+    while let Some(head) = bytes.get(at..at + 5) {
+        let len = u32::from_le_bytes([head[1], head[2], head[3], head[4]]) as usize;
+        let Some(crc_at) = (at + 5).checked_add(len) else {
+            return;
+        };
+        if crc_at + 4 > bytes.len() {
+            return;
+        }
+        let crc = inertia_server::record::crc32::crc32(&bytes[at..crc_at]);
+        bytes[crc_at..crc_at + 4].copy_from_slice(&crc.to_le_bytes());
+        at = crc_at + 4;
+    }
+}

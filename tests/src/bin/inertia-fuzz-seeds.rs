@@ -94,7 +94,9 @@ fn main() {
         .collect();
     segments.sort();
     for (i, segment) in segments.iter().enumerate() {
-        let bytes = fs::read(segment).expect("a segment");
+        // The target's first byte: 1 = make the checksums right first.
+        let mut bytes = vec![1u8];
+        bytes.extend(fs::read(segment).expect("a segment"));
         write(&out, "fuzz_segment", &format!("segment-{i}"), &bytes);
     }
 
