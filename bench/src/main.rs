@@ -30,6 +30,8 @@ enum SuiteArg {
     Capacity,
     /// Recording bytes per hour, seek time and verify speed of a recorded game (1000 bodies, 8 bots).
     Replay,
+    /// An hour of simulated time at fast-forward with recording and client churn: memory and file handles bounded.
+    Soak,
 }
 
 impl From<SuiteArg> for Suite {
@@ -42,6 +44,7 @@ impl From<SuiteArg> for Suite {
             SuiteArg::Bandwidth => Suite::Bandwidth,
             SuiteArg::Capacity => Suite::Capacity,
             SuiteArg::Replay => Suite::Replay,
+            SuiteArg::Soak => Suite::Soak,
         }
     }
 }
@@ -69,7 +72,8 @@ struct Cli {
     /// Client counts to step through (`capacity`), e.g. `1,2,4`.
     #[arg(long, value_name = "K,K,...", value_delimiter = ',')]
     clients: Option<Vec<u32>>,
-    /// Minutes of play to record (`replay`; default 10).
+    /// Minutes of play to record (`replay`; default 10), or of simulated
+    /// time to soak (`soak`; default 60).
     #[arg(long, value_name = "M")]
     minutes: Option<f64>,
     /// Keyframe intervals, ticks, one recording each (`replay`; default
@@ -82,7 +86,8 @@ struct Cli {
     /// Dynamic bodies in the scene (`replay`; default 1000).
     #[arg(long, value_name = "B")]
     bodies: Option<u32>,
-    /// Clients playing (`replay`; default 8).
+    /// Clients playing (`replay`; default 8), or joining in each wave
+    /// (`soak`; default 4).
     #[arg(long, value_name = "N")]
     bots: Option<u32>,
 }

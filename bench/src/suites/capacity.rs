@@ -131,7 +131,7 @@ pub struct BotArgs {
 }
 
 /// This process's user + system CPU time so far, s (`/proc/self/stat`).
-fn process_cpu_s() -> f64 {
+pub(crate) fn process_cpu_s() -> f64 {
     let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
         return f64::NAN;
     };
@@ -263,14 +263,18 @@ enum BotLine {
 }
 
 /// The bots of one step; killed when dropped.
-struct Bots {
+pub(crate) struct Bots {
     children: Vec<Child>,
     stdins: Vec<Option<ChildStdin>>,
     lines: Receiver<BotLine>,
 }
 
 impl Bots {
-    fn spawn(credentials: &Path, ids: &[u64], lifetime_s: f64) -> Result<Self, BenchError> {
+    pub(crate) fn spawn(
+        credentials: &Path,
+        ids: &[u64],
+        lifetime_s: f64,
+    ) -> Result<Self, BenchError> {
         let exe = std::env::current_exe()?;
         let (tx, lines) = mpsc::channel();
         let mut bots = Bots {
@@ -448,7 +452,7 @@ impl ServerMark {
 }
 
 /// The value of the sample `name` in an OpenMetrics exposition.
-fn exposed(text: &str, name: &str) -> Option<f64> {
+pub(crate) fn exposed(text: &str, name: &str) -> Option<f64> {
     text.lines().find_map(|l| {
         let (n, v) = l.split_once(' ')?;
         (n == name).then(|| v.trim().parse().ok()).flatten()

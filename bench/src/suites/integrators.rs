@@ -77,6 +77,7 @@ fn world(
         threads: 0,
         energy_accounting: energy,
         gpu_readback_every_step: true,
+        ..WorldConfig::default()
     })?;
     // One pass per step: the method is measured at exactly `dt`, never
     // substepped.

@@ -7,6 +7,7 @@ pub mod nbody;
 pub mod particles;
 pub mod physics;
 pub mod replay;
+pub mod soak;
 
 use crate::report::Sink;
 use crate::{BenchError, Opts};
@@ -28,11 +29,13 @@ pub enum Suite {
     Capacity,
     /// Recording size, seek time and offline verification of a recorded game.
     Replay,
+    /// An hour of simulated time at fast-forward: memory and file handles bounded.
+    Soak,
 }
 
 impl Suite {
     /// Every suite.
-    pub const ALL: [Suite; 7] = [
+    pub const ALL: [Suite; 8] = [
         Suite::Integrators,
         Suite::Particles,
         Suite::Nbody,
@@ -40,6 +43,7 @@ impl Suite {
         Suite::Bandwidth,
         Suite::Capacity,
         Suite::Replay,
+        Suite::Soak,
     ];
 
     /// The command-line name, also the `suite` field of every record.
@@ -52,6 +56,7 @@ impl Suite {
             Suite::Bandwidth => "bandwidth",
             Suite::Capacity => "capacity",
             Suite::Replay => "replay",
+            Suite::Soak => "soak",
         }
     }
 
@@ -65,6 +70,7 @@ impl Suite {
             Suite::Bandwidth => bandwidth::run(opts, sink),
             Suite::Capacity => capacity::run(opts, sink),
             Suite::Replay => replay::run(opts, sink),
+            Suite::Soak => soak::run(opts, sink),
         }
     }
 }

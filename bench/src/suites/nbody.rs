@@ -93,6 +93,7 @@ fn time_steps(
         threads,
         energy_accounting: false,
         gpu_readback_every_step: true,
+        ..WorldConfig::default()
     })?;
     let sys = w.add_system(SystemDesc {
         integrator: Integrator::SymplecticEuler,

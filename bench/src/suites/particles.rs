@@ -384,6 +384,7 @@ fn config(threads: usize, energy: bool, gpu_readback_every_step: bool) -> WorldC
         threads,
         energy_accounting: energy,
         gpu_readback_every_step,
+        ..WorldConfig::default()
     }
 }
 

@@ -69,6 +69,7 @@ impl Ours {
             threads: if threads == 1 { 1 } else { 0 },
             energy_accounting: false,
             gpu_readback_every_step: true,
+            ..WorldConfig::default()
         })?;
         world.set_body_gravity(DVec3::new(0.0, GRAVITY, 0.0))?;
         let mut cfg = SolverConfig {
