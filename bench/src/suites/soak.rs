@@ -361,3 +361,47 @@ fn draw(path: &Path, samples: &[Sample], rss_bound: f64) -> Result<(), Box<dyn s
     root.present()?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(sim_minutes: f64, rss_mb: f64) -> Sample {
+        Sample {
+            wall_s: 0.0,
+            sim_minutes,
+            ticks: 0,
+            rss_mb,
+            fds: 0,
+            seek_budgeted_mb: 0.0,
+            seek_unbudgeted_mb: 0.0,
+            recording_mb: 0.0,
+            clients: 0,
+        }
+    }
+
+    #[test]
+    fn slope_is_mib_per_simulated_hour() {
+        let samples: Vec<Sample> = (0..=60)
+            .map(|m| at(f64::from(m), 100.0 + 0.5 * f64::from(m)))
+            .collect();
+        let refs: Vec<&Sample> = samples.iter().collect();
+        assert!((slope_mb_per_hour(&refs) - 30.0).abs() < 1e-9);
+        assert!(slope_mb_per_hour(&refs[..1]).is_nan());
+    }
+
+    #[test]
+    fn seek_memory_is_read_by_part() {
+        let text = "inertia_seek_memory_bytes{part=\"keyframes\"} 1048576\n\
+                    inertia_seek_memory_bytes{part=\"checkpoints\"} 1048576\n\
+                    inertia_seek_memory_bytes{part=\"hashes\"} 524288\n\
+                    inertia_seek_memory_bytes{part=\"journal\"} 524288\n";
+        assert_eq!(seek_mb(text), (2.0, 1.0));
+    }
+
+    #[test]
+    fn this_process_is_measured() {
+        assert!(rss_mb() > 1.0);
+        assert!(fds() >= 3);
+    }
+}
