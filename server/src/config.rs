@@ -131,7 +131,7 @@ pub struct ConfigLayer {
     /// Admin operators and their tokens: one `NAME TOKEN` a line (tokens of
     /// at least 32 characters; `#` comment lines), mode 0600. Re-read on
     /// SIGHUP. Without it, outside dev mode, the admin channel admits no
-    /// one.
+    /// one (see docs/admin.md).
     #[arg(long, value_name = "FILE")]
     pub admin_token_file: Option<PathBuf>,
     /// Log line format: text or json (default text).
