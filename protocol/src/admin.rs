@@ -38,8 +38,8 @@ use crate::entity::{EntityDesc, EntityId, EntityKind, ShapeDesc};
 /// beside [`crate::control::ALPN`]).
 pub const ADMIN_ALPN: &[u8] = b"inertia-admin";
 /// The version of the admin protocol. A tool and a server speak only when
-/// theirs are equal.
-pub const ADMIN_PROTOCOL_VERSION: u16 = 2;
+/// theirs are equal. Version 3 added [`AdminRefusal::Throttled`].
+pub const ADMIN_PROTOCOL_VERSION: u16 = 3;
 /// Longest admin credential in a hello, bytes.
 pub const MAX_CREDENTIAL_BYTES: usize = 256;
 /// Longest operator name in a hello, bytes of UTF-8.
@@ -109,6 +109,13 @@ pub enum AdminRefusal {
     BadCredential,
     /// The first message was not a well-formed hello.
     Malformed,
+    /// Too many hellos from this address had a wrong credential lately;
+    /// the server answers none from it until the back-off has passed.
+    Throttled {
+        /// How long until the server reads a hello from this address
+        /// again, ms.
+        retry_after_ms: u32,
+    },
 }
 
 /// One request with the id its answer will carry.
@@ -613,15 +620,22 @@ fn check_scale(what: &'static str, scale: f64) -> Checked {
     Ok(())
 }
 
+/// Checks an operator name: at most [`MAX_OPERATOR_BYTES`] of UTF-8, no
+/// control characters (the name goes to the audit log as is). The rule
+/// of [`AdminHello::check`], for anything else that names operators.
+pub fn check_operator_name(name: &str) -> Checked {
+    check_len("operator name", name.len(), MAX_OPERATOR_BYTES)?;
+    if name.chars().any(char::is_control) {
+        return Err(AdminValidationError::ControlCharacter);
+    }
+    Ok(())
+}
+
 impl AdminHello {
     /// Checks the credential's and operator name's bounds.
     pub fn check(&self) -> Checked {
         check_len("admin credential", self.token.len(), MAX_CREDENTIAL_BYTES)?;
-        check_len("operator name", self.operator.len(), MAX_OPERATOR_BYTES)?;
-        if self.operator.chars().any(char::is_control) {
-            return Err(AdminValidationError::ControlCharacter);
-        }
-        Ok(())
+        check_operator_name(&self.operator)
     }
 }
 
@@ -791,12 +805,14 @@ pub fn credential_matches(expected: &str, given: &str) -> bool {
     hmac::verify(&key, given.as_bytes(), tag.as_ref()).is_ok()
 }
 
-/// Answers an admin tool's first message, without I/O: checks the
-/// protocol version first (so an old tool learns it is old), then the
-/// hello's bounds, then its credential against `expected` with
-/// [`credential_matches`]. On success the server sends
+/// Answers an admin tool's first message against one credential, without
+/// I/O: checks the protocol version first (so an old tool learns it is
+/// old), then the hello's bounds, then its credential against `expected`
+/// with [`credential_matches`]. On success a server sends
 /// [`AdminHandshake::Welcome`] and logs `hello.operator`; on failure,
-/// [`AdminHandshake::Refused`] and it closes the connection.
+/// [`AdminHandshake::Refused`] and it closes the connection. (The
+/// Inertia server checks the same things in the same order against its
+/// table of operators, and throttles addresses that keep failing.)
 pub fn admin_handshake(hello: &AdminHello, expected: &str) -> Result<(), AdminRefusal> {
     if hello.version != ADMIN_PROTOCOL_VERSION {
         return Err(AdminRefusal::VersionMismatch {

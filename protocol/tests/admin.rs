@@ -226,6 +226,9 @@ fn handshake() -> impl Strategy<Value = AdminHandshake> {
         )),
         Just(AdminHandshake::Refused(AdminRefusal::BadCredential)),
         Just(AdminHandshake::Refused(AdminRefusal::Malformed)),
+        any::<u32>().prop_map(
+            |retry_after_ms| AdminHandshake::Refused(AdminRefusal::Throttled { retry_after_ms })
+        ),
     ]
 }
 
@@ -803,5 +806,28 @@ fn the_handshake_checks_version_then_credential() {
     assert_eq!(
         admin_handshake(&hello(ADMIN_PROTOCOL_VERSION, ""), ""),
         Err(AdminRefusal::BadCredential)
+    );
+}
+
+#[test]
+fn issue_11_throttled_refusals_round_trip_and_operator_names_have_one_rule() {
+    let refused = AdminHandshake::Refused(AdminRefusal::Throttled {
+        retry_after_ms: 60_000,
+    });
+    let frame = encode_frame(&refused).expect("encodes");
+    let mut frames = FrameDecoder::new();
+    frames.push(&frame).expect("fits");
+    assert_eq!(frames.next::<AdminHandshake>(), Some(Ok(refused)));
+    // Version 3 added the refusal: a version 2 tool is told it is old.
+    assert_eq!(ADMIN_PROTOCOL_VERSION, 3);
+    assert!(inertia_protocol::admin::check_operator_name("alice").is_ok());
+    assert!(inertia_protocol::admin::check_operator_name(&"o".repeat(MAX_OPERATOR_BYTES)).is_ok());
+    assert!(matches!(
+        inertia_protocol::admin::check_operator_name(&"o".repeat(MAX_OPERATOR_BYTES + 1)),
+        Err(AdminValidationError::TooLong { .. })
+    ));
+    assert_eq!(
+        inertia_protocol::admin::check_operator_name("a\u{7}b"),
+        Err(AdminValidationError::ControlCharacter)
     );
 }

@@ -138,6 +138,12 @@ pub struct ConfigLayer {
     /// TLS private key (PEM) of --cert-file.
     #[arg(long)]
     pub cert_key_file: Option<PathBuf>,
+    /// Admin operators and their tokens: one `NAME TOKEN` a line (tokens of
+    /// at least 32 characters; `#` comment lines), mode 0600. Re-read on
+    /// SIGHUP. Without it, outside dev mode, the admin channel admits no
+    /// one (see docs/admin.md).
+    #[arg(long, value_name = "FILE")]
+    pub admin_token_file: Option<PathBuf>,
     /// Log line format: text or json (default text).
     #[arg(long, value_enum)]
     pub log_format: Option<LogFormat>,
@@ -230,6 +236,9 @@ pub struct ServerConfig {
     pub cert_file: Option<PathBuf>,
     /// TLS private key (PEM) of `cert_file`.
     pub cert_key_file: Option<PathBuf>,
+    /// The admin token file (see [`crate::admin::tokens`]); `None`: outside
+    /// dev mode the admin channel admits no one.
+    pub admin_token_file: Option<PathBuf>,
     /// Log line format.
     pub log_format: LogFormat,
     /// Most ticks one loop of the tick thread may run to catch up.
@@ -266,6 +275,7 @@ impl Default for ServerConfig {
             key_file: None,
             cert_file: None,
             cert_key_file: None,
+            admin_token_file: None,
             log_format: LogFormat::Text,
             max_catch_up_ticks: DEFAULT_MAX_CATCH_UP_TICKS,
             position_resolution_mm: DEFAULT_POSITION_RESOLUTION_MM,
@@ -434,6 +444,7 @@ impl ServerConfig {
             key_file: layer.key_file.or(self.key_file),
             cert_file: layer.cert_file.or(self.cert_file),
             cert_key_file: layer.cert_key_file.or(self.cert_key_file),
+            admin_token_file: layer.admin_token_file.or(self.admin_token_file),
             log_format: layer.log_format.unwrap_or(self.log_format),
             max_catch_up_ticks: layer.max_catch_up_ticks.unwrap_or(self.max_catch_up_ticks),
             position_resolution_mm: layer
@@ -572,6 +583,7 @@ impl ConfigLayer {
             key_file: self.key_file.or(lower.key_file),
             cert_file: self.cert_file.or(lower.cert_file),
             cert_key_file: self.cert_key_file.or(lower.cert_key_file),
+            admin_token_file: self.admin_token_file.or(lower.admin_token_file),
             log_format: self.log_format.or(lower.log_format),
             max_catch_up_ticks: self.max_catch_up_ticks.or(lower.max_catch_up_ticks),
             position_resolution_mm: self.position_resolution_mm.or(lower.position_resolution_mm),
@@ -635,6 +647,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         key_file: get(env, "INERTIA_KEY_FILE")?,
         cert_file: get(env, "INERTIA_CERT_FILE")?,
         cert_key_file: get(env, "INERTIA_CERT_KEY_FILE")?,
+        admin_token_file: get(env, "INERTIA_ADMIN_TOKEN_FILE")?,
         log_format: get(env, "INERTIA_LOG_FORMAT")?,
         position_resolution_mm: get(env, "INERTIA_POSITION_RESOLUTION_MM")?,
         max_catch_up_ticks: get(env, "INERTIA_MAX_CATCH_UP_TICKS")?,
@@ -929,6 +942,25 @@ mod tests {
         )
         .unwrap();
         assert_eq!(c.checkpoint_dir(), PathBuf::from("/from/cli"));
+    }
+
+    #[test]
+    fn issue_11_admin_token_file_comes_from_every_layer() {
+        let c = ServerConfig::from_args(["s"], env_of(&[])).unwrap();
+        assert_eq!(c.admin_token_file, None);
+        let file = temp_file("admin.toml", "admin_token_file = \"/from/file\"\n");
+        let file = file.to_str().unwrap();
+        let c = ServerConfig::from_args(["s", "--config", file], env_of(&[])).unwrap();
+        assert_eq!(c.admin_token_file, Some(PathBuf::from("/from/file")));
+        let env = || env_of(&[("INERTIA_ADMIN_TOKEN_FILE", "/from/env")]);
+        let c = ServerConfig::from_args(["s", "--config", file], env()).unwrap();
+        assert_eq!(c.admin_token_file, Some(PathBuf::from("/from/env")));
+        let c = ServerConfig::from_args(
+            ["s", "--config", file, "--admin-token-file", "/from/cli"],
+            env(),
+        )
+        .unwrap();
+        assert_eq!(c.admin_token_file, Some(PathBuf::from("/from/cli")));
     }
 
     #[test]

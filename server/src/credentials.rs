@@ -1,10 +1,12 @@
 //! The server's secrets: the key connect tokens are sealed with, the TLS
-//! certificate and its private key, and the admin credential.
+//! certificate and its private key, and in dev mode the admin credential.
 //!
 //! In dev mode (no key configured) the server makes all of them at start-up
 //! and writes them to `<data-dir>/dev-credentials.json` with mode 0600 (see
-//! [`inertia_protocol::credentials`]). Outside dev mode every one must be
-//! given, and the server refuses to start without them.
+//! [`inertia_protocol::credentials`]). Outside dev mode the key and the
+//! certificate must be given, and the server refuses to start without
+//! them; operators' admin credentials come from the admin token file
+//! ([`crate::admin::tokens`]).
 
 use std::fs;
 use std::io::Write;
@@ -30,8 +32,9 @@ pub struct Credentials {
     pub cert_key: PrivateKeyDer<'static>,
     /// SHA-256 of the certificate's DER, which clients pin.
     pub fingerprint: [u8; 32],
-    /// The admin credential (hex).
-    pub admin_token: String,
+    /// The dev admin credential (hex), admitting any operator name; `None`
+    /// outside dev mode.
+    pub admin_token: Option<String>,
 }
 
 impl std::fmt::Debug for Credentials {
@@ -86,9 +89,6 @@ pub struct CredentialFiles {
     /// The certificate's private key, PEM (PKCS#8, PKCS#1 or SEC1) or DER
     /// (PKCS#8).
     pub cert_key_file: Option<PathBuf>,
-    /// The admin credential: a file holding the token (optional; without it
-    /// a fresh one is made and logged once).
-    pub admin_token_file: Option<PathBuf>,
 }
 
 impl CredentialFiles {
@@ -132,13 +132,13 @@ pub fn make_dev(
         fingerprint: fingerprint(&cert),
         cert,
         cert_key,
-        admin_token: to_hex(&random32()),
+        admin_token: Some(to_hex(&random32())),
     };
     let file = DevCredentials {
         server_addr: addr.to_string(),
         cert_fingerprint: to_hex(&creds.fingerprint),
         token_key: to_hex(&creds.token_key),
-        admin_token: creds.admin_token.clone(),
+        admin_token: creds.admin_token.clone().unwrap_or_default(),
         protocol_version: PROTOCOL_VERSION,
     };
     let path = data_dir.join(DEV_CREDENTIALS_FILE);
@@ -227,27 +227,12 @@ pub fn load(files: &CredentialFiles) -> Result<Credentials, CredentialsError> {
     } else {
         PrivateKeyDer::try_from(cert_key_bytes).map_err(|e| invalid(cert_key_file, e.into()))?
     };
-    let admin_token = match &files.admin_token_file {
-        Some(path) => {
-            let text =
-                String::from_utf8(read(path)?).map_err(|_| invalid(path, "not text".into()))?;
-            let token = text.trim().to_string();
-            if token.len() < 32 {
-                return Err(invalid(
-                    path,
-                    "an admin token needs at least 32 characters".into(),
-                ));
-            }
-            token
-        }
-        None => to_hex(&random32()),
-    };
     Ok(Credentials {
         token_key,
         fingerprint: fingerprint(&cert),
         cert,
         cert_key,
-        admin_token,
+        admin_token: None,
     })
 }
 
@@ -278,7 +263,7 @@ mod tests {
         assert_eq!(creds.fingerprint, fingerprint(&creds.cert));
         // Debug never shows the secrets.
         let shown = format!("{creds:?}");
-        assert!(!shown.contains(&creds.admin_token));
+        assert!(!shown.contains(creds.admin_token.as_deref().unwrap()));
         assert!(!shown.contains(&to_hex(&creds.token_key)));
         fs::remove_dir_all(&dir).unwrap();
     }
@@ -305,7 +290,6 @@ mod tests {
             key_file: Some(dir.join("token.key")),
             cert_file: Some(dir.join("cert.pem")),
             cert_key_file: Some(dir.join("key.pem")),
-            admin_token_file: None,
         };
         let creds = load(&files).unwrap();
         assert_eq!(creds.token_key, [7u8; 32]);

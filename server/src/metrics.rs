@@ -62,7 +62,8 @@ pub struct Metrics {
     /// `reason`: `tls` (no common ALPN, bad certificate), `handshake`,
     /// `handshake_timeout`, `handshake_limit`, `hello_timeout`,
     /// `malformed_hello`, a hello's refusal (`token_forged`, `server_full`,
-    /// ...), or an admin hello's (`admin_<outcome>`).
+    /// ...), or an admin hello's (`admin_<outcome>`:
+    /// `admin_refused_credential`, `admin_refused_throttled`, ...).
     pub refused_connections: Family<Vec<(String, String)>, Counter>,
     /// Incoming connections answered with a QUIC Retry (address
     /// validation under a handshake flood).
@@ -70,6 +71,12 @@ pub struct Metrics {
     /// Admin actions by `action` (the request, or `hello`) and `outcome`
     /// (`ok`, an error kind, or why a hello was refused).
     pub admin_actions: Family<Vec<(String, String)>, Counter>,
+    /// Reloads of the admin token file by `outcome`: `ok` (the new set
+    /// replaced the old) or `error` (the old set was kept).
+    pub admin_token_reloads: Family<[(&'static str, &'static str); 1], Counter>,
+    /// Entries in the admin token set now (operators, and the shared dev
+    /// or bare token if there is one).
+    pub admin_operators: Gauge,
     /// Records the recorder could not take (its channel was full); each
     /// one stops the recording, since a recording with a gap cannot be
     /// replayed.
@@ -114,6 +121,8 @@ impl Metrics {
             refused_connections: Family::default(),
             handshake_retries: Counter::default(),
             admin_actions: Family::default(),
+            admin_token_reloads: Family::default(),
+            admin_operators: Gauge::default(),
             record_dropped: Counter::default(),
             seek_memory: Family::default(),
             registry: Arc::new(Registry::default()),
@@ -191,6 +200,16 @@ impl Metrics {
             m.admin_actions.clone(),
         );
         r.register(
+            "admin_token_reloads",
+            "Reloads of the admin token file by outcome (ok: replaced; error: the old set kept)",
+            m.admin_token_reloads.clone(),
+        );
+        r.register(
+            "admin_operators",
+            "Entries in the admin token set now",
+            m.admin_operators.clone(),
+        );
+        r.register(
             "record_dropped",
             "Records dropped because the recorder was behind (each stops the recording)",
             m.record_dropped.clone(),
@@ -231,6 +250,20 @@ impl Metrics {
     pub fn admin_action_count(&self, action: &str, outcome: &str) -> u64 {
         self.admin_actions
             .get_or_create(&admin_labels(action, outcome))
+            .get()
+    }
+
+    /// Counts one reload of the admin token file (`ok` or `error`).
+    pub fn admin_token_reload(&self, outcome: &'static str) {
+        self.admin_token_reloads
+            .get_or_create(&[("outcome", outcome)])
+            .inc();
+    }
+
+    /// Reloads of the admin token file counted so far with `outcome`.
+    pub fn admin_token_reload_count(&self, outcome: &'static str) -> u64 {
+        self.admin_token_reloads
+            .get_or_create(&[("outcome", outcome)])
             .get()
     }
 

@@ -1,6 +1,8 @@
 //! The `inertia-server` process around a [`GameRules`]: configuration from
 //! the command line, environment and TOML, logging, the I/O runtime, serving
-//! until SIGTERM or Ctrl-C, and the exit status an orchestrator acts on.
+//! until SIGTERM or Ctrl-C, re-reading the admin token file on SIGHUP
+//! ([`AdminTokenStore::reload`]), and the exit status an orchestrator acts
+//! on.
 //! A studio's own server binary is `fn main() -> ExitCode { run(my_rules) }`.
 //!
 //! Exit status: 0 after a requested stop; 1 when the server could not
@@ -13,6 +15,7 @@ use std::process::ExitCode;
 
 use tracing_subscriber::EnvFilter;
 
+use crate::admin::tokens::AdminTokenStore;
 use crate::config::{LogFormat, ServerConfig};
 use crate::rules::GameRules;
 
@@ -51,6 +54,9 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
     };
     let rules = make_rules(&config);
     let code = runtime.block_on(async move {
+        // Listened for before the server starts, so a SIGHUP that comes
+        // once it serves never falls to the default action (ending it).
+        let hangups = hangups();
         let server = match crate::server::start_with_rules(config, rules).await {
             Ok(s) => s,
             Err(e) => {
@@ -66,6 +72,7 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
                 path.display()
             );
         }
+        let reloads = tokio::spawn(reload_on_hangup(hangups, server.admin_tokens()));
         let code = tokio::select! {
             () = wait_for_stop() => ExitCode::SUCCESS,
             why = server.failed() => {
@@ -73,6 +80,7 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
                 ExitCode::from(EXIT_SIMULATION_FAILED)
             }
         };
+        reloads.abort();
         server.shutdown().await;
         code
     });
@@ -84,6 +92,48 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
 
 /// How long blocking tasks still running at exit are waited for.
 const EXIT_GRACE: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// The stream of SIGHUPs, where there is one.
+#[cfg(unix)]
+type Hangups = Option<tokio::signal::unix::Signal>;
+#[cfg(not(unix))]
+type Hangups = Option<()>;
+
+fn hangups() -> Hangups {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{signal, SignalKind};
+        match signal(SignalKind::hangup()) {
+            Ok(s) => Some(s),
+            Err(e) => {
+                tracing::warn!(error = %e, "cannot listen for SIGHUP; the admin token file will not be reloaded");
+                None
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
+}
+
+/// Reloads the admin token file at each SIGHUP (the reload logs and
+/// counts its outcome), on the blocking pool.
+async fn reload_on_hangup(hangups: Hangups, tokens: std::sync::Arc<AdminTokenStore>) {
+    #[cfg(unix)]
+    {
+        let Some(mut hangups) = hangups else { return };
+        while hangups.recv().await.is_some() {
+            tracing::info!(target: "inertia::admin", "SIGHUP: reloading the admin token file");
+            let tokens = tokens.clone();
+            let _ = tokio::task::spawn_blocking(move || tokens.reload()).await;
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (hangups, tokens);
+    }
+}
 
 /// Waits for SIGTERM or Ctrl-C.
 async fn wait_for_stop() {

@@ -14,6 +14,7 @@ use tokio::sync::watch;
 use tokio::task::JoinHandle;
 use tracing::{error, info, warn};
 
+use crate::admin::tokens::{AdminTokenStore, TokenFileError};
 use crate::config::ServerConfig;
 use crate::credentials::{self, CredentialFiles, CredentialsError};
 use crate::health::Health;
@@ -31,9 +32,12 @@ pub enum StartError {
     /// The configuration is invalid.
     #[error("configuration: {0}")]
     Config(#[from] crate::config::ConfigError),
-    /// Key, certificate or admin credential missing or unreadable.
+    /// Key or certificate missing or unreadable.
     #[error("credentials: {0}")]
     Credentials(#[from] CredentialsError),
+    /// The admin token file is missing or wrong.
+    #[error("{0}")]
+    AdminTokens(#[from] TokenFileError),
     /// Dev mode was asked to listen beyond loopback.
     #[error(
         "dev mode (no --key-file / --cert-file) listens on loopback only, but --listen is {0}; \
@@ -151,12 +155,22 @@ pub async fn start_with_rules(
             key_file: config.key_file.clone(),
             cert_file: config.cert_file.clone(),
             cert_key_file: config.cert_key_file.clone(),
-            admin_token_file: None,
         };
         (credentials::load(&files)?, None)
     };
 
     let metrics = Metrics::new();
+    let admin_tokens = Arc::new(AdminTokenStore::open(
+        config.admin_token_file.clone(),
+        creds.admin_token.clone(),
+        metrics.clone(),
+    )?);
+    if admin_tokens.current().is_empty() {
+        warn!(
+            target: "inertia::admin",
+            "the admin channel admits no one: give --admin-token-file to name its operators"
+        );
+    }
     let sim_config = SimConfig {
         metrics: Some(metrics.clone()),
         recording: Some(config.recorder_config()),
@@ -267,7 +281,7 @@ pub async fn start_with_rules(
             config.client_budget_bytes_per_sec(),
             shutdown_rx,
         )
-        .with_admin_token(creds.admin_token.clone())
+        .with_admin_tokens(admin_tokens)
         .with_checkpoint_dir(CheckpointDir::new(config.checkpoint_dir())),
     );
     tasks.push(tokio::spawn(shared.clone().record_history()));
@@ -291,7 +305,7 @@ pub async fn start_with_rules(
         addr,
         metrics_addr,
         credentials_path,
-        admin_token: creds.admin_token,
+        admin_token: creds.admin_token.unwrap_or_default(),
         shared,
         shutdown,
         health,
@@ -366,9 +380,25 @@ impl RunningServer {
         self.credentials_path.as_ref()
     }
 
-    /// The admin credential.
+    /// The dev admin credential, which admits any operator name (empty
+    /// outside dev mode, where operators' tokens come from the admin token
+    /// file).
     pub fn admin_token(&self) -> &str {
         &self.admin_token
+    }
+
+    /// The admin credentials in use (a handle the process's SIGHUP
+    /// handler keeps to reload them).
+    pub fn admin_tokens(&self) -> Arc<AdminTokenStore> {
+        self.shared.admin_tokens.clone()
+    }
+
+    /// Reads the admin token file again: a good file replaces the
+    /// operators for every hello from now on (admitted sessions stay); a
+    /// bad one is logged and the operators in use stay. What SIGHUP does.
+    /// Blocking (it reads a file).
+    pub fn reload_admin_tokens(&self) -> Result<usize, TokenFileError> {
+        self.shared.admin_tokens.reload()
     }
 
     /// Where `save` and `load` keep checkpoints.

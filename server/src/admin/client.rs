@@ -1,6 +1,12 @@
 //! The operator's side of the admin channel: connect with the admin
 //! credential (the server's certificate pinned by its fingerprint), then
 //! one call at a time. `inertia-admin` and the tests use it.
+//!
+//! Against a dev-mode server everything comes from its dev credentials
+//! file ([`AdminClient::connect_dev`]). Against any other the operator
+//! gives the address, the certificate (or its fingerprint) and their own
+//! token, from a file in the server's token-file format
+//! ([`read_token_file`]).
 
 use std::net::SocketAddr;
 use std::path::Path;
@@ -53,7 +59,82 @@ fn describe_refusal(r: &AdminRefusal) -> String {
         }
         AdminRefusal::BadCredential => "the admin credential is wrong".into(),
         AdminRefusal::Malformed => "the hello was malformed".into(),
+        AdminRefusal::Throttled { retry_after_ms } => format!(
+            "too many wrong admin credentials from this address; try again in {:.1} s",
+            f64::from(*retry_after_ms) / 1000.0
+        ),
     }
+}
+
+/// An operator's credential as read from a token file: the token, and
+/// the operator's name when the file gives one.
+#[derive(Clone, PartialEq, Eq)]
+pub struct OperatorToken {
+    /// The operator's name, if the line was `NAME TOKEN`.
+    pub operator: Option<String>,
+    /// The admin token.
+    pub token: String,
+}
+
+impl std::fmt::Debug for OperatorToken {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("OperatorToken")
+            .field("operator", &self.operator)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Parses an operator's token file: its first line that is neither blank
+/// nor a `#` comment, either `NAME TOKEN` (a line of the server's admin
+/// token file) or a token alone. Errors never show the token.
+pub fn parse_token_file(text: &str) -> Result<OperatorToken, String> {
+    let line = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .ok_or_else(|| "no token in the file".to_string())?;
+    let mut fields = line.split_whitespace();
+    match (fields.next(), fields.next(), fields.next()) {
+        (Some(token), None, _) => Ok(OperatorToken {
+            operator: None,
+            token: token.to_string(),
+        }),
+        (Some(name), Some(token), None) => Ok(OperatorToken {
+            operator: Some(name.to_string()),
+            token: token.to_string(),
+        }),
+        _ => Err("expected `OPERATOR TOKEN` or a token alone on the first line".into()),
+    }
+}
+
+/// Reads an operator's token file (see [`parse_token_file`]).
+pub fn read_token_file(path: &Path) -> Result<OperatorToken, AdminClientError> {
+    let err = |why: String| AdminClientError::Credentials {
+        path: path.display().to_string(),
+        why,
+    };
+    let bytes = std::fs::read(path).map_err(|e| err(e.to_string()))?;
+    let text = String::from_utf8(bytes).map_err(|_| err("not UTF-8 text".into()))?;
+    parse_token_file(&text).map_err(err)
+}
+
+/// The SHA-256 fingerprint of the certificate in `path` (PEM or DER): what
+/// the admin client pins.
+pub fn cert_file_fingerprint(path: &Path) -> Result<[u8; 32], AdminClientError> {
+    use rustls::pki_types::pem::PemObject;
+    use rustls::pki_types::CertificateDer;
+    let err = |why: String| AdminClientError::Credentials {
+        path: path.display().to_string(),
+        why,
+    };
+    let bytes = std::fs::read(path).map_err(|e| err(e.to_string()))?;
+    let der = if bytes.starts_with(b"-----") {
+        CertificateDer::from_pem_slice(&bytes)
+            .map_err(|e| err(format!("no PEM certificate: {e}")))?
+    } else {
+        CertificateDer::from(bytes)
+    };
+    Ok(crate::credentials::fingerprint(&der))
 }
 
 /// The quinn client configuration for the admin channel, pinning the
@@ -83,6 +164,16 @@ pub async fn connect_quic(
     } else {
         "[::]:0".parse().expect("literal")
     };
+    connect_quic_from(local, addr, fingerprint).await
+}
+
+/// [`connect_quic`] from the local address `local` (a port of 0 is any
+/// free port).
+pub async fn connect_quic_from(
+    local: SocketAddr,
+    addr: SocketAddr,
+    fingerprint: [u8; 32],
+) -> Result<(quinn::Endpoint, quinn::Connection), AdminClientError> {
     let mut endpoint =
         quinn::Endpoint::client(local).map_err(|e| AdminClientError::Setup(e.to_string()))?;
     endpoint
@@ -119,6 +210,27 @@ impl AdminClient {
         operator: &str,
     ) -> Result<AdminClient, AdminClientError> {
         let (endpoint, connection) = connect_quic(addr, fingerprint).await?;
+        Self::hello(endpoint, connection, credential, operator).await
+    }
+
+    /// [`AdminClient::connect`] from the local address `local`.
+    pub async fn connect_from(
+        local: SocketAddr,
+        addr: SocketAddr,
+        fingerprint: [u8; 32],
+        credential: &str,
+        operator: &str,
+    ) -> Result<AdminClient, AdminClientError> {
+        let (endpoint, connection) = connect_quic_from(local, addr, fingerprint).await?;
+        Self::hello(endpoint, connection, credential, operator).await
+    }
+
+    async fn hello(
+        endpoint: quinn::Endpoint,
+        connection: quinn::Connection,
+        credential: &str,
+        operator: &str,
+    ) -> Result<AdminClient, AdminClientError> {
         let (mut send, recv) = connection
             .open_bi()
             .await

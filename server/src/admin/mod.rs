@@ -2,8 +2,11 @@
 //! [`ADMIN_ALPN`](inertia_protocol::admin::ADMIN_ALPN) on the game port.
 //!
 //! The operator's tool opens one bidirectional stream and sends an
-//! [`AdminHello`]. Nothing is answered before it passes
-//! [`admin_handshake`]; a hello that fails gets an
+//! [`AdminHello`]. Nothing is answered before it passes [`judge_hello`]:
+//! the protocol version, then the [`throttle`] on the tool's address, then
+//! the hello's bounds, then its operator name and token against the
+//! server's [`tokens`] (the operators of `--admin-token-file`, and the
+//! dev token in dev mode). A hello that fails gets an
 //! [`AdminHandshake::Refused`] and the connection is closed, and so does
 //! anything that is not a hello (garbage, a stream that ends early, no
 //! hello within [`HELLO_TIMEOUT`]). After the welcome each [`AdminCall`]
@@ -20,22 +23,24 @@
 //! its connection.
 //!
 //! Every hello and every action is logged (target `inertia::admin`) with
-//! the operator, the remote address, the request and the outcome, and
-//! counted in [`Metrics::admin_actions`](crate::metrics::Metrics) by
-//! action and outcome.
+//! the operator (for an admitted hello, the name its token belongs to),
+//! the remote address, the request and the outcome, and counted in
+//! [`Metrics::admin_actions`](crate::metrics::Metrics) by action and
+//! outcome. No token is ever logged.
 //!
 //! [`client::AdminClient`] is the tool's side.
 
 pub mod client;
+pub mod throttle;
+pub mod tokens;
 
-use std::net::SocketAddr;
+use std::net::{IpAddr, SocketAddr};
 use std::sync::Arc;
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use inertia_protocol::admin::{
-    admin_handshake, AdminCall, AdminError, AdminErrorKind, AdminHandshake, AdminHello,
-    AdminRefusal, AdminReply, AdminRequest, AdminResponse, AdminWelcome, StatusReport,
-    ADMIN_PROTOCOL_VERSION,
+    AdminCall, AdminError, AdminErrorKind, AdminHandshake, AdminHello, AdminRefusal, AdminReply,
+    AdminRequest, AdminResponse, AdminWelcome, StatusReport, ADMIN_PROTOCOL_VERSION,
 };
 use inertia_protocol::control::{encode_frame, ControlMessage, FrameDecoder};
 use tracing::{debug, info, warn};
@@ -115,6 +120,61 @@ pub fn refusal_name(refusal: &AdminRefusal) -> &'static str {
         AdminRefusal::VersionMismatch { .. } => "refused_version",
         AdminRefusal::BadCredential => "refused_credential",
         AdminRefusal::Malformed => "refused_malformed",
+        AdminRefusal::Throttled { .. } => "refused_throttled",
+    }
+}
+
+/// Answers a hello from `ip` at `now`, without I/O: the protocol version
+/// first (so an old tool learns it is old), then the throttle (an address
+/// blocked for failing too often is refused whatever it sends), then the
+/// hello's bounds, then its operator and token against `shared`'s admin
+/// tokens. A wrong credential counts against the address in the
+/// throttle; an admitted hello clears it.
+pub fn judge_hello(
+    hello: &AdminHello,
+    ip: IpAddr,
+    now: Instant,
+    shared: &NetShared,
+) -> Result<tokens::Admitted, AdminRefusal> {
+    if hello.version != ADMIN_PROTOCOL_VERSION {
+        return Err(AdminRefusal::VersionMismatch {
+            server: ADMIN_PROTOCOL_VERSION,
+            client: hello.version,
+        });
+    }
+    let throttle = || {
+        shared
+            .admin_throttle
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+    };
+    if let Err(wait) = throttle().check(ip, now) {
+        let retry_after_ms = u32::try_from(wait.as_nanos().div_ceil(1_000_000)).unwrap_or(u32::MAX);
+        return Err(AdminRefusal::Throttled { retry_after_ms });
+    }
+    if hello.check().is_err() {
+        return Err(AdminRefusal::Malformed);
+    }
+    match shared
+        .admin_tokens
+        .current()
+        .admit(&hello.operator, &hello.token)
+    {
+        Some(admitted) => {
+            throttle().success(ip);
+            Ok(admitted)
+        }
+        None => {
+            if let Some(backoff) = throttle().failure(ip, now) {
+                warn!(
+                    target: AUDIT,
+                    %ip,
+                    backoff_ms = backoff.as_millis() as u64,
+                    "too many wrong admin credentials from this address: its hellos are refused for a while"
+                );
+            }
+            Err(AdminRefusal::BadCredential)
+        }
     }
 }
 
@@ -210,21 +270,24 @@ pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared
             (String::new(), Err(AdminRefusal::Malformed))
         }
         Ok(Next::Message(hello)) => {
-            let verdict = admin_handshake(&hello, &shared.admin_token);
+            let verdict = judge_hello(&hello, remote.ip(), Instant::now(), &shared);
             (hello.operator, verdict)
         }
     };
-    if let Err(refusal) = verdict {
-        let outcome = refusal_name(&refusal);
-        warn!(target: AUDIT, connection = id, %remote, operator = %operator.escape_debug(), outcome, "admin hello refused");
-        shared.metrics.admin_action("hello", outcome);
-        shared.metrics.refused(&format!("admin_{outcome}"));
-        let _ = write(&mut send, &AdminHandshake::Refused(refusal)).await;
-        let _ = send.finish();
-        let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
-        connection.close(close_code::REFUSED.into(), b"refused");
-        return;
-    }
+    let admitted = match verdict {
+        Ok(admitted) => admitted,
+        Err(refusal) => {
+            let outcome = refusal_name(&refusal);
+            warn!(target: AUDIT, connection = id, %remote, operator = %operator.escape_debug(), outcome, "admin hello refused");
+            shared.metrics.admin_action("hello", outcome);
+            shared.metrics.refused(&format!("admin_{outcome}"));
+            let _ = write(&mut send, &AdminHandshake::Refused(refusal)).await;
+            let _ = send.finish();
+            let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
+            connection.close(close_code::REFUSED.into(), b"refused");
+            return;
+        }
+    };
     let welcome = AdminHandshake::Welcome(AdminWelcome {
         version: ADMIN_PROTOCOL_VERSION,
         server_version: env!("CARGO_PKG_VERSION").to_string(),
@@ -233,10 +296,18 @@ pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared
     if write(&mut send, &welcome).await.is_err() {
         return;
     }
-    info!(target: AUDIT, connection = id, %remote, %operator, outcome = "ok", "admin hello accepted");
+    info!(
+        target: AUDIT,
+        connection = id,
+        %remote,
+        operator = %admitted.operator,
+        credential = if admitted.shared { "shared" } else { "operator" },
+        outcome = "ok",
+        "admin hello accepted"
+    );
     shared.metrics.admin_action("hello", "ok");
     let session = Session {
-        operator,
+        operator: admitted.operator,
         remote,
         connection: id,
         shared: &shared,

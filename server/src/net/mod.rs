@@ -20,6 +20,8 @@ use inertia_protocol::token::{ReplayGuard, TokenKey};
 use tokio::sync::{oneshot, watch};
 use tracing::{debug, info};
 
+use crate::admin::throttle::{HelloThrottle, ThrottleConfig};
+use crate::admin::tokens::AdminTokenStore;
 use crate::metrics::Metrics;
 use crate::replay::checkpoint::CheckpointDir;
 use crate::sim::{Frame, SimHandle};
@@ -61,8 +63,10 @@ pub struct NetShared {
     /// How to kick each connected client, by client id: its connection
     /// number and where the reason goes.
     pub kicks: Mutex<BTreeMap<u64, (u64, oneshot::Sender<String>)>>,
-    /// The admin credential (empty: the admin channel admits no one).
-    pub admin_token: String,
+    /// Who the admin channel admits (none by default).
+    pub admin_tokens: Arc<AdminTokenStore>,
+    /// Failed admin hellos by source address.
+    pub admin_throttle: Mutex<HelloThrottle>,
     /// Where `save` and `load` keep checkpoints.
     pub checkpoints: CheckpointDir,
 }
@@ -95,6 +99,8 @@ impl NetShared {
     ) -> Self {
         Self {
             sim,
+            admin_tokens: Arc::new(AdminTokenStore::none(metrics.clone())),
+            admin_throttle: Mutex::new(HelloThrottle::default()),
             metrics,
             token_key,
             public_addr,
@@ -108,16 +114,22 @@ impl NetShared {
             next_connection: AtomicU64::new(1),
             connected: Mutex::new(BTreeMap::new()),
             kicks: Mutex::new(BTreeMap::new()),
-            admin_token: String::new(),
             checkpoints: CheckpointDir::new(
                 crate::config::ServerConfig::default().checkpoint_dir(),
             ),
         }
     }
 
-    /// The same, admitting admin connections with `token`.
-    pub fn with_admin_token(mut self, token: String) -> Self {
-        self.admin_token = token;
+    /// The same, admitting admin connections with the credentials of
+    /// `tokens`.
+    pub fn with_admin_tokens(mut self, tokens: Arc<AdminTokenStore>) -> Self {
+        self.admin_tokens = tokens;
+        self
+    }
+
+    /// The same, throttling failed admin hellos with `config`.
+    pub fn with_admin_throttle(mut self, config: ThrottleConfig) -> Self {
+        self.admin_throttle = Mutex::new(HelloThrottle::new(config));
         self
     }
 

@@ -1,8 +1,12 @@
 //! `inertia-admin`: an operator's commands to a running server over the
 //! admin channel, and offline tools for recording directories
-//! (`replay-file`, see [`replay_file`]). Reads the dev credentials file by
-//! default; prints for people, or one JSON object per command with
-//! `--json`. Exits 0 when the server did what was asked, 1 when it
+//! (`replay-file`, see [`replay_file`]). Against a dev-mode server it
+//! reads the dev credentials file; against any other it takes the
+//! server's address (`--server`), its certificate (`--cert-file` or
+//! `--fingerprint`) and the operator's token (`--token-file`, or
+//! `INERTIA_ADMIN_TOKEN`), reading the credentials file only for what
+//! these do not give. Prints for people, or one JSON object per command
+//! with `--json`. Exits 0 when the server did what was asked, 1 when it
 //! answered with an error (or a recording is damaged or does not
 //! re-simulate), 2 when it could not be reached, refused the credential or
 //! the command was misused.
@@ -18,8 +22,10 @@ use clap::{Parser, Subcommand};
 use inertia_protocol::admin::{
     AdminRequest, AdminResponse, CheckpointName, SpawnDesc, StatusReport,
 };
-use inertia_protocol::credentials::DEV_CREDENTIALS_PATH;
-use inertia_server::admin::client::{AdminClient, AdminClientError};
+use inertia_protocol::credentials::{hex32, DevCredentials, DEV_CREDENTIALS_PATH};
+use inertia_server::admin::client::{
+    cert_file_fingerprint, read_credentials, read_token_file, AdminClient, AdminClientError,
+};
 use inertia_server::admin::error_kind_name;
 use serde_json::json;
 
@@ -32,10 +38,27 @@ struct Args {
     #[arg(long, value_name = "ADDR")]
     server: Option<SocketAddr>,
     /// The dev credentials file (server address, certificate fingerprint,
-    /// admin credential).
+    /// admin credential), read for whatever --server, --cert-file or
+    /// --fingerprint, and --token-file do not give.
     #[arg(long, value_name = "FILE", default_value = DEV_CREDENTIALS_PATH)]
     credentials: PathBuf,
-    /// Who is acting, for the server's audit log (default: $USER).
+    /// The server's TLS certificate (PEM or DER), pinned by its SHA-256
+    /// (default: the fingerprint in the credentials file).
+    #[arg(long, value_name = "FILE", conflicts_with = "fingerprint")]
+    cert_file: Option<PathBuf>,
+    /// The SHA-256 of the server certificate's DER, 64 hex digits.
+    #[arg(long, value_name = "HEX")]
+    fingerprint: Option<String>,
+    /// This operator's admin token: a file whose first line is
+    /// `OPERATOR TOKEN` (the operator's line of the server's
+    /// --admin-token-file; it also gives the name) or the token alone.
+    /// Without it, the token in INERTIA_ADMIN_TOKEN, else the credentials
+    /// file's.
+    #[arg(long, value_name = "FILE")]
+    token_file: Option<PathBuf>,
+    /// Who is acting: the operator name the token belongs to, and what the
+    /// server's audit log records (default: the token file's name, else
+    /// $USER).
     #[arg(long)]
     operator: Option<String>,
     /// Print one JSON object instead of text.
@@ -304,12 +327,7 @@ async fn run(args: &Args) -> Result<(serde_json::Value, String), Failure> {
         kind: "usage",
         message: e.to_string(),
     })?;
-    let operator = args
-        .operator
-        .clone()
-        .or_else(|| std::env::var("USER").ok())
-        .unwrap_or_else(|| "operator".into());
-    let mut client = AdminClient::connect_dev(&args.credentials, args.server, &operator).await?;
+    let mut client = connect(args).await?;
     let tick_hz = client.welcome().tick_hz;
     let response = client.call(request.clone()).await?;
     let out = match response {
@@ -361,6 +379,64 @@ async fn run(args: &Args) -> Result<(serde_json::Value, String), Failure> {
     };
     client.close().await;
     Ok(out)
+}
+
+/// The environment variable that may hold the operator's admin token.
+const TOKEN_ENV: &str = "INERTIA_ADMIN_TOKEN";
+
+/// Connects as the options say: each of the address, the fingerprint and
+/// the token from its option, else from the dev credentials file (read
+/// only when one is missing).
+async fn connect(args: &Args) -> Result<AdminClient, Failure> {
+    let mut dev: Option<DevCredentials> = None;
+    let mut dev_file = || -> Result<DevCredentials, AdminClientError> {
+        if dev.is_none() {
+            dev = Some(read_credentials(&args.credentials)?);
+        }
+        Ok(dev.clone().expect("just read"))
+    };
+    let bad = |path: &std::path::Path, why: String| AdminClientError::Credentials {
+        path: path.display().to_string(),
+        why,
+    };
+    let mut operator = args.operator.clone();
+    let token = match (&args.token_file, std::env::var(TOKEN_ENV)) {
+        (Some(path), _) => {
+            let file = read_token_file(path)?;
+            operator = operator.or(file.operator);
+            file.token
+        }
+        (None, Ok(token)) if !token.trim().is_empty() => token.trim().to_string(),
+        _ => dev_file()?.admin_token,
+    };
+    let fingerprint = match (&args.cert_file, &args.fingerprint) {
+        (Some(path), _) => cert_file_fingerprint(path)?,
+        (None, Some(hex)) => hex32("fingerprint", hex).map_err(|e| Failure {
+            code: 2,
+            kind: "usage",
+            message: format!("--fingerprint: {e}"),
+        })?,
+        (None, None) => {
+            let creds = dev_file()?;
+            creds
+                .fingerprint()
+                .map_err(|e| bad(&args.credentials, e.to_string()))?
+        }
+    };
+    let addr = match args.server {
+        Some(a) => a,
+        None => {
+            let creds = dev_file()?;
+            creds
+                .server_addr
+                .parse()
+                .map_err(|e| bad(&args.credentials, format!("server_addr: {e}")))?
+        }
+    };
+    let operator = operator
+        .or_else(|| std::env::var("USER").ok())
+        .unwrap_or_else(|| "operator".into());
+    Ok(AdminClient::connect(addr, fingerprint, &token, &operator).await?)
 }
 
 /// What a [`AdminResponse::Hash`] prints: for `hash`, the tick and its
