@@ -259,19 +259,19 @@ pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared
         read_next::<AdminHello>(&mut recv, &mut frames, &mut buf),
     )
     .await;
-    let (operator, verdict) = match hello {
-        Err(_) => (String::new(), Err(AdminRefusal::Malformed)),
+    let (operator, token, verdict) = match hello {
+        Err(_) => (String::new(), String::new(), Err(AdminRefusal::Malformed)),
         Ok(Next::End) => {
             refuse_silently(&connection, id, remote, &shared, "closed before a hello");
             return;
         }
         Ok(Next::Bad { what, .. }) => {
             debug!(target: AUDIT, connection = id, %remote, error = %what, "admin hello does not decode");
-            (String::new(), Err(AdminRefusal::Malformed))
+            (String::new(), String::new(), Err(AdminRefusal::Malformed))
         }
         Ok(Next::Message(hello)) => {
             let verdict = judge_hello(&hello, remote.ip(), Instant::now(), &shared);
-            (hello.operator, verdict)
+            (hello.operator, hello.token, verdict)
         }
     };
     let admitted = match verdict {
@@ -323,6 +323,20 @@ pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared
         };
         match next {
             Next::Message(call) => {
+                // Every call is checked against the operators as they are
+                // now: one removed from the token file by a reload is
+                // refused here, and their session ends.
+                if shared
+                    .admin_tokens
+                    .current()
+                    .admit(&operator, &token)
+                    .is_none()
+                {
+                    warn!(target: AUDIT, connection = id, %remote, operator = %operator.escape_debug(), "admin credential revoked by a reload: session ended");
+                    shared.metrics.admin_action("call", "revoked");
+                    connection.close(close_code::REFUSED.into(), b"admin credential revoked");
+                    return;
+                }
                 // A call in flight does not hold up shutdown: the
                 // connection closes and the answer is dropped.
                 let response = tokio::select! {
