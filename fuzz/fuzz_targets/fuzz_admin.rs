@@ -3,31 +3,9 @@
 //! and everything it yields has passed validation (so it encodes again).
 #![no_main]
 
+use inertia_fuzz::drive_frames;
 use inertia_protocol::admin::{AdminCall, AdminHandshake, AdminHello, AdminReply};
-use inertia_protocol::control::{
-    encode_frame, ControlError, ControlMessage, FrameDecoder, MAX_DECODER_BUFFER,
-};
 use libfuzzer_sys::fuzz_target;
-
-fn drive<T: ControlMessage>(data: &[u8], chunk: usize) {
-    let mut decoder = FrameDecoder::new();
-    for piece in data.chunks(chunk) {
-        if decoder.push(piece).is_err() {
-            return;
-        }
-        assert!(decoder.buffered() <= MAX_DECODER_BUFFER);
-        loop {
-            match decoder.next::<T>() {
-                None => break,
-                Some(Ok(msg)) => {
-                    encode_frame(&msg).expect("a decoded message encodes");
-                }
-                Some(Err(ControlError::FrameTooLarge { .. })) => return,
-                Some(Err(_)) => {}
-            }
-        }
-    }
-}
 
 fuzz_target!(|data: &[u8]| {
     // The first byte picks the size of the pieces the stream arrives in.
@@ -35,8 +13,8 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let chunk = usize::from(first) + 1;
-    drive::<AdminHello>(stream, chunk);
-    drive::<AdminHandshake>(stream, chunk);
-    drive::<AdminCall>(stream, chunk);
-    drive::<AdminReply>(stream, chunk);
+    drive_frames::<AdminHello>(stream, chunk);
+    drive_frames::<AdminHandshake>(stream, chunk);
+    drive_frames::<AdminCall>(stream, chunk);
+    drive_frames::<AdminReply>(stream, chunk);
 });

@@ -3,31 +3,9 @@
 //! passed validation (so it encodes again).
 #![no_main]
 
-use inertia_protocol::control::{
-    encode_frame, ClientControl, ControlError, ControlMessage, FrameDecoder, ServerControl,
-    MAX_DECODER_BUFFER,
-};
+use inertia_fuzz::drive_frames;
+use inertia_protocol::control::{ClientControl, ServerControl};
 use libfuzzer_sys::fuzz_target;
-
-fn drive<T: ControlMessage>(data: &[u8], chunk: usize) {
-    let mut decoder = FrameDecoder::new();
-    for piece in data.chunks(chunk) {
-        if decoder.push(piece).is_err() {
-            return;
-        }
-        assert!(decoder.buffered() <= MAX_DECODER_BUFFER);
-        loop {
-            match decoder.next::<T>() {
-                None => break,
-                Some(Ok(msg)) => {
-                    encode_frame(&msg).expect("a decoded message encodes");
-                }
-                Some(Err(ControlError::FrameTooLarge { .. })) => return,
-                Some(Err(_)) => {}
-            }
-        }
-    }
-}
 
 fuzz_target!(|data: &[u8]| {
     // The first byte picks the size of the pieces the stream arrives in.
@@ -35,6 +13,6 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let chunk = usize::from(first) + 1;
-    drive::<ServerControl>(stream, chunk);
-    drive::<ClientControl>(stream, chunk);
+    drive_frames::<ServerControl>(stream, chunk);
+    drive_frames::<ClientControl>(stream, chunk);
 });

@@ -5,6 +5,9 @@
 use std::cell::RefCell;
 
 use inertia_physics::{World, WorldConfig};
+use inertia_protocol::control::{
+    encode_frame, ControlError, ControlMessage, FrameDecoder, MAX_DECODER_BUFFER,
+};
 use inertia_server::replay::SimState;
 use inertia_server::rules::SandboxRules;
 use inertia_server::scene::{Scene, SceneFormat};
@@ -138,5 +141,29 @@ pub fn reseal_frames(bytes: &mut [u8]) {
         let crc = inertia_server::record::crc32::crc32(&bytes[at..crc_at]);
         bytes[crc_at..crc_at + 4].copy_from_slice(&crc.to_le_bytes());
         at = crc_at + 4;
+    }
+}
+
+/// Feeds a stream of framed control messages of type `T` to a
+/// [`FrameDecoder`] in pieces of `chunk` bytes: the decoder never holds
+/// more than its bound, and everything it yields has passed validation
+/// (so it encodes again).
+pub fn drive_frames<T: ControlMessage>(stream: &[u8], chunk: usize) {
+    let mut decoder = FrameDecoder::new();
+    for piece in stream.chunks(chunk.max(1)) {
+        if decoder.push(piece).is_err() {
+            return;
+        }
+        assert!(decoder.buffered() <= MAX_DECODER_BUFFER);
+        loop {
+            match decoder.next::<T>() {
+                None => break,
+                Some(Ok(msg)) => {
+                    encode_frame(&msg).expect("a decoded message encodes");
+                }
+                Some(Err(ControlError::FrameTooLarge { .. })) => return,
+                Some(Err(_)) => {}
+            }
+        }
     }
 }
