@@ -56,7 +56,7 @@ pub const TICK_HZ: u32 = 60;
 /// Time scale asked for: simulated seconds per wall second.
 pub const TIME_SCALE: f64 = 64.0;
 /// Retention limit of the recording, MiB.
-pub const RECORD_MAX_MB: u64 = 64;
+pub const RECORD_MAX_MB: u64 = 8;
 /// Memory for seeking, MiB.
 pub const SEEK_MEMORY_MB: u64 = 64;
 /// Wall seconds between waves of bots.
