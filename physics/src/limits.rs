@@ -56,6 +56,15 @@ pub const MIN_INERTIA: f64 = 1e-16;
 /// rod has about 10¹⁹).
 pub const MAX_INERTIA: f64 = 1e20;
 
+/// Greatest tick count a world may be saved or restored at: 2⁴⁸, almost
+/// nine thousand years at 1000 ticks a second. A saved state past it is
+/// refused as malformed, so stepping never overflows the count.
+pub const MAX_TICK: u64 = 1 << 48;
+/// Greatest simulation time a world may be saved or restored at, s (about
+/// 31 700 years): past it, adding a tick's length no longer changes the
+/// time in f64.
+pub const MAX_TIME: f64 = 1e12;
+
 /// Checks that `value` is finite and within `min..=max`.
 pub fn in_range(what: &'static str, value: f64, min: f64, max: f64) -> Result<f64, PhysicsError> {
     if value.is_finite() && (min..=max).contains(&value) {

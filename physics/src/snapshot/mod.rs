@@ -627,7 +627,19 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         return Err(SnapshotError::Checksum { stored, computed });
     }
     let tick = r.u64()?;
+    if tick > crate::limits::MAX_TICK {
+        return invalid(format!(
+            "tick {tick} is past the last a world reaches ({})",
+            crate::limits::MAX_TICK
+        ));
+    }
     let time = r.finite("time")?;
+    if !(0.0..=crate::limits::MAX_TIME).contains(&time) {
+        return invalid(format!(
+            "time {time} s is outside 0..={} s",
+            crate::limits::MAX_TIME
+        ));
+    }
     let n = r.count(5)?;
     let mut entries = Vec::with_capacity(n);
     for index in 0..n {

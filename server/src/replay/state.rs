@@ -136,6 +136,12 @@ impl SimState {
         let mut r = Reader { bytes, at: 0 };
         r.header()?;
         let tick = r.u64()?;
+        if tick > inertia_physics::limits::MAX_TICK {
+            return Err(StateError::Malformed(format!(
+                "tick {tick} is past the last a world reaches ({})",
+                inertia_physics::limits::MAX_TICK
+            )));
+        }
         let applied = r.u32()?;
         let world = r.bytes()?.to_vec();
         let entities = EntityTable::from_bytes(r.bytes()?)?;
