@@ -65,7 +65,7 @@ pub struct Metrics {
     /// ...), or an admin hello's (`admin_<outcome>`).
     pub refused_connections: Family<Vec<(String, String)>, Counter>,
     /// Incoming connections answered with a QUIC Retry (address
-    /// validation under a handshake flood).
+    /// validation, before any handshake work; see [`crate::net::gate`]).
     pub handshake_retries: Counter,
     /// Admin actions by `action` (the request, or `hello`) and `outcome`
     /// (`ok`, an error kind, or why a hello was refused).

@@ -570,11 +570,12 @@ fn custom_token(
 
 /// Pins issue 11's abuse suite, handshake floods: 120 Initials a second
 /// that never finish their handshake, and 40 a second that finish it and
-/// never say hello, for 4 s. Above 32 a second the gate answers with a
-/// Retry; real clients get through it (the attackers that finish, and a
-/// second player who joins in the middle of it); the handshakes that were
-/// started are dropped at 5 s and the hello-less connections closed at 5 s,
-/// each counted by reason; the player keeps its rate.
+/// never say hello, for 4 s. The gate answers unproven addresses with a
+/// Retry (every one by default; with a threshold, those above it); real
+/// clients get through it (the attackers that finish, and a second player
+/// who joins in the middle of it); a handshake let through unproven is
+/// dropped at 5 s and a hello-less connection closed at 5 s, each counted
+/// by reason; the player keeps its rate.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn issue_11_handshake_flood_is_retried_counted_and_the_player_keeps_its_rate() {
     let _serial = SERIAL.lock().await;
