@@ -60,7 +60,8 @@ pub struct Metrics {
     pub inputs_rejected: Counter,
     /// Connection attempts refused or failed before they were served, by
     /// `reason`: `tls` (no common ALPN, bad certificate), `handshake`,
-    /// `handshake_timeout`, `handshake_limit`, `hello_timeout`,
+    /// `handshake_timeout`, `handshake_limit`, `hello_timeout` (no hello,
+    /// or the welcome not taken, in time),
     /// `malformed_hello`, a hello's refusal (`token_forged`, `server_full`,
     /// ...), or an admin hello's (`admin_<outcome>`).
     pub refused_connections: Family<Vec<(String, String)>, Counter>,
