@@ -1451,7 +1451,7 @@ async fn issue_11_absurd_admin_calls_and_hostile_paths_get_typed_errors() {
     let probe = bench.probe();
     let mut answered: BTreeMap<String, AdminErrorKind> = BTreeMap::new();
 
-    // Calls the tool will not send: the server refuses them on decoding,
+    // Calls `AdminClient` will not send: the server refuses them on decoding,
     // as invalid, under call id 0.
     let mut raw: Vec<(String, Vec<u8>)> = Vec::new();
     for scale in [1e-300, 5e-324, -0.0, f64::NAN, f64::INFINITY, 1e308, -1e308] {
