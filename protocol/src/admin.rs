@@ -138,7 +138,8 @@ pub enum AdminRequest {
     Resume,
     /// Run exactly `ticks` ticks, then stay paused.
     Step {
-        /// How many ticks (at least 1).
+        /// How many ticks (at least 1; a server refuses, as out of range,
+        /// more than an hour of simulation queued).
         ticks: u64,
     },
     /// Run at `scale` simulated seconds per wall second. When the machine
@@ -150,7 +151,8 @@ pub enum AdminRequest {
     },
     /// Run until tick `tick`, then pause.
     RunTo {
-        /// The tick to stop at.
+        /// The tick to stop at (ahead, by at most an hour of simulation;
+        /// a server refuses more as out of range).
         tick: u64,
     },
     /// Jump to tick `tick` of the recording (restore the keyframe at or

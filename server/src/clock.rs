@@ -25,6 +25,13 @@ use std::time::Duration;
 /// a scale the wire accepts is one the clock runs.
 pub use inertia_protocol::admin::{MAX_TIME_SCALE, MIN_TIME_SCALE};
 
+/// The most simulation time [`Clock::step`] and [`Clock::run_to`] may
+/// queue, s: an hour. Queued ticks run as fast as the machine allows (some
+/// 30 000 a second for a small world), pegging the tick thread's core and
+/// flooding the recording for as long as they last, so `step u64::MAX`
+/// or `run-to u64::MAX` would do that for ever; more than this is refused.
+pub const MAX_QUEUED_SECONDS: f64 = 3600.0;
+
 /// Why a clock request was refused.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum ClockError {
@@ -39,6 +46,17 @@ pub enum ClockError {
         target: u64,
         /// The current tick.
         current: u64,
+    },
+    /// `step` or `run_to` would queue more than [`MAX_QUEUED_SECONDS`].
+    #[error(
+        "{ticks} ticks is more than step and run-to may queue ({max}, an hour of simulation); \
+         ask for less, or set a speed"
+    )]
+    TooFar {
+        /// The ticks that would be queued.
+        ticks: u64,
+        /// The most that may be.
+        max: u64,
     },
 }
 
@@ -156,12 +174,33 @@ impl Clock {
         self.queued = 0;
     }
 
-    /// Queues exactly `n` more ticks, run even while paused.
-    pub fn step(&mut self, n: u64) {
-        self.queued = self.queued.saturating_add(n);
+    /// The most ticks that may be queued: [`MAX_QUEUED_SECONDS`] of them.
+    pub fn max_queued(&self) -> u64 {
+        (MAX_QUEUED_SECONDS / self.dt).round() as u64
     }
 
-    /// Pauses and queues the ticks up to `target`, which must lie ahead.
+    /// Refuses a queue of `ticks` beyond [`Clock::max_queued`].
+    pub fn check_queue(&self, ticks: u64) -> Result<(), ClockError> {
+        let max = self.max_queued();
+        if ticks > max {
+            return Err(ClockError::TooFar { ticks, max });
+        }
+        Ok(())
+    }
+
+    /// Queues exactly `n` more ticks, run even while paused; refused,
+    /// changing nothing, when that would queue more than
+    /// [`Clock::max_queued`].
+    pub fn step(&mut self, n: u64) -> Result<(), ClockError> {
+        let queued = self.queued.saturating_add(n);
+        self.check_queue(queued)?;
+        self.queued = queued;
+        Ok(())
+    }
+
+    /// Pauses and queues the ticks up to `target`, which must lie ahead
+    /// and within [`Clock::max_queued`]; refused, changing nothing,
+    /// otherwise.
     pub fn run_to(&mut self, target: u64) -> Result<(), ClockError> {
         if target <= self.tick {
             return Err(ClockError::InThePast {
@@ -169,6 +208,7 @@ impl Clock {
                 current: self.tick,
             });
         }
+        self.check_queue(target - self.tick)?;
         self.pause();
         self.queued = target - self.tick;
         Ok(())
@@ -292,7 +332,7 @@ mod tests {
     fn issue_11_pause_cancels_queued_steps() {
         let mut c = Clock::new(60, 5);
         c.pause();
-        c.step(1_000_000);
+        c.step(100_000).unwrap();
         assert_eq!(c.advance(Duration::ZERO), 5);
         c.pause();
         assert_eq!(c.queued(), 0);
@@ -317,7 +357,7 @@ mod tests {
             assert_eq!(c.advance(ms(100)), 0);
         }
         assert_eq!(c.tick(), t0);
-        c.step(12);
+        c.step(12).unwrap();
         assert_eq!(c.until_next_tick(), Some(Duration::ZERO));
         let mut run = 0;
         while c.queued() > 0 {
@@ -331,6 +371,44 @@ mod tests {
         c.resume();
         assert_eq!(c.time_scale(), 1.0);
         assert!(c.advance(ms(20)) >= 1);
+    }
+
+    /// Pins issue 11's abuse suite finding: `step u64::MAX` and `run-to
+    /// u64::MAX` were accepted and ran ticks flat out for ever (some
+    /// 30 000 a second), pegging a core and flooding the recording.
+    #[test]
+    fn issue_11_steps_and_runs_beyond_an_hour_are_refused_and_change_nothing() {
+        let mut c = Clock::new(60, 5);
+        assert_eq!(c.max_queued(), 216_000);
+        c.pause();
+        for n in [u64::MAX, 216_001] {
+            assert_eq!(
+                c.step(n),
+                Err(ClockError::TooFar {
+                    ticks: n,
+                    max: 216_000
+                })
+            );
+        }
+        assert_eq!(c.queued(), 0, "a refused step queues nothing");
+        c.step(200_000).unwrap();
+        assert!(
+            matches!(c.step(16_001), Err(ClockError::TooFar { .. })),
+            "steps add up to the limit"
+        );
+        c.step(16_000).unwrap();
+        assert_eq!(c.queued(), 216_000);
+        c.resume();
+        assert_eq!(c.queued(), 0);
+        for target in [u64::MAX, c.tick() + 216_001] {
+            assert!(matches!(c.run_to(target), Err(ClockError::TooFar { .. })));
+        }
+        assert!(!c.paused(), "a refused run-to does not pause");
+        assert_eq!(c.queued(), 0);
+        c.run_to(c.tick() + 216_000).unwrap();
+        assert!(c.paused());
+        // At 1000 Hz an hour is more ticks.
+        assert_eq!(Clock::new(1000, 5).max_queued(), 3_600_000);
     }
 
     #[test]

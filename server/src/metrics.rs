@@ -60,13 +60,14 @@ pub struct Metrics {
     pub inputs_rejected: Counter,
     /// Connection attempts refused or failed before they were served, by
     /// `reason`: `tls` (no common ALPN, bad certificate), `handshake`,
-    /// `handshake_timeout`, `handshake_limit`, `hello_timeout`,
+    /// `handshake_timeout`, `handshake_limit`, `hello_timeout` (no hello,
+    /// or the welcome not taken, in time),
     /// `malformed_hello`, a hello's refusal (`token_forged`, `server_full`,
     /// ...), or an admin hello's (`admin_<outcome>`:
     /// `admin_refused_credential`, `admin_refused_throttled`, ...).
     pub refused_connections: Family<Vec<(String, String)>, Counter>,
     /// Incoming connections answered with a QUIC Retry (address
-    /// validation under a handshake flood).
+    /// validation, before any handshake work; see [`crate::net::gate`]).
     pub handshake_retries: Counter,
     /// Admin actions by `action` (the request, or `hello`) and `outcome`
     /// (`ok`, an error kind, or why a hello was refused).

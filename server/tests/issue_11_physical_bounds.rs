@@ -109,6 +109,46 @@ fn issue_11_spawn_of_an_absurd_mass_is_refused() {
     assert!(sim.state_is_sound());
 }
 
+/// Pins issue 11's abuse suite finding: an operator's impulse is capped in
+/// size, but one of 1 N·s applied 10²⁰⁰ m away spun the body past any
+/// bound, and the body was quarantined and removed a tick later. An
+/// impulse outside the world's coordinates, or one that would leave the
+/// body beyond its speed limits, is refused and changes nothing.
+#[test]
+fn issue_11_an_impulse_far_off_is_refused_and_changes_nothing() {
+    let mut sim = sim();
+    let pebble = sim
+        .entities()
+        .catalog()
+        .into_iter()
+        .find(|(_, d)| d.name == "pebble")
+        .map(|(id, _)| id)
+        .expect("the pebble");
+    let hash = sim.state_hash();
+    for point in [[0.0, 1e200, 0.0], [0.0, 1e8, 0.0], [0.0, 1e7, 0.0]] {
+        let edit = WorldEdit::Impulse {
+            id: pebble,
+            impulse: [1.0, 0.0, 0.0],
+            point: Some(point),
+        };
+        assert!(
+            matches!(sim.edit(edit), Err(EditError::Context(_))),
+            "an impulse at {point:?}"
+        );
+    }
+    assert_eq!(sim.state_hash(), hash, "nothing changed");
+    // An ordinary one, at the body's surface, still acts.
+    let edit = WorldEdit::Impulse {
+        id: pebble,
+        impulse: [0.0, 0.01, 0.0],
+        point: Some([0.05, 0.05, 0.0]),
+    };
+    assert!(matches!(sim.edit(edit), Ok(EditOutcome::Impulse(_))));
+    sim.run_ticks(60);
+    assert!(sim.state_is_sound());
+    assert!(sim.entities().get(pebble).is_some(), "the pebble is there");
+}
+
 #[test]
 fn issue_11_scene_masses_use_the_same_bounds() {
     for mass in ["1e308", "2e307", "1e10"] {

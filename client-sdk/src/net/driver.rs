@@ -204,6 +204,15 @@ impl Driver {
     }
 }
 
+/// Hands every whole control frame received so far to the state.
+fn take_frames(d: &mut Driver) -> Result<(), String> {
+    while let Some(msg) = d.frames.next::<ServerControl>() {
+        msg.map_err(|e| e.to_string())
+            .and_then(|m| d.lock().on_control(m))?;
+    }
+    Ok(())
+}
+
 /// Runs the connection until it ends.
 pub(crate) async fn run(mut d: Driver) {
     let mut timer = tokio::time::interval(Duration::from_secs_f64(1.0 / f64::from(d.input_hz)));
@@ -211,67 +220,67 @@ pub(crate) async fn run(mut d: Driver) {
     let mut history: VecDeque<PlayerInput> = VecDeque::new();
     let mut sequence: u32 = 0;
     let mut buf = vec![0u8; 16 * 1024];
-    let reason = loop {
-        tokio::select! {
-            datagram = d.connection.read_datagram() => match datagram {
-                Ok(bytes) => {
-                    let now = d.epoch.elapsed().as_secs_f64();
-                    d.lock().on_datagram(now, &bytes);
-                }
-                Err(e) => break closed_reason(&e),
-            },
-            read = d.recv.read(&mut buf) => match read {
-                Ok(Some(n)) => {
-                    if let Err(e) = d.frames.push(&buf[..n]) {
-                        break protocol_error(&d.connection, e.to_string());
+    // The read that brought the welcome may have brought what followed it
+    // too (the catalog, when the two arrive together): it is not left
+    // waiting for the next read, which may never come.
+    let reason = 'run: {
+        if let Err(e) = take_frames(&mut d) {
+            break 'run protocol_error(&d.connection, e);
+        }
+        loop {
+            tokio::select! {
+                datagram = d.connection.read_datagram() => match datagram {
+                    Ok(bytes) => {
+                        let now = d.epoch.elapsed().as_secs_f64();
+                        d.lock().on_datagram(now, &bytes);
                     }
-                    let mut failed = None;
-                    while let Some(msg) = d.frames.next::<ServerControl>() {
-                        let result = msg.map_err(|e| e.to_string()).and_then(|m| d.lock().on_control(m));
-                        if let Err(e) = result {
-                            failed = Some(e);
-                            break;
+                    Err(e) => break closed_reason(&e),
+                },
+                read = d.recv.read(&mut buf) => match read {
+                    Ok(Some(n)) => {
+                        if let Err(e) = d.frames.push(&buf[..n]) {
+                            break protocol_error(&d.connection, e.to_string());
+                        }
+                        if let Err(e) = take_frames(&mut d) {
+                            break protocol_error(&d.connection, e);
                         }
                     }
-                    if let Some(e) = failed {
-                        break protocol_error(&d.connection, e);
+                    Ok(None) | Err(_) => {
+                        let e = d.connection.closed().await;
+                        break closed_reason(&e);
                     }
-                }
-                Ok(None) | Err(_) => {
-                    let e = d.connection.closed().await;
-                    break closed_reason(&e);
-                }
-            },
-            _ = timer.tick() => {
-                let (datagram, _) = {
-                    let mut s = d.lock();
-                    let now = d.epoch.elapsed().as_secs_f64();
-                    sequence = sequence.wrapping_add(1);
-                    let rtt = d.connection.rtt().as_secs_f64();
-                    s.interp.clock_mut().rtt_sample(rtt);
-                    let tick = s.interp.clock().estimated_tick(now).map_or(s.input.tick, |t| t.max(0.0) as u64);
-                    let input = PlayerInput { sequence, tick, ..s.input };
-                    history.push_front(input);
-                    history.truncate(MAX_REDUNDANT_INPUTS);
-                    let (ack, ack_bits) = s.decoder.ack_state();
-                    (InputDatagram { ack, ack_bits, inputs: history.iter().copied().collect() }, ())
-                };
-                if let Ok(bytes) = datagram.encode() {
-                    let _ = d.connection.send_datagram(bytes.into());
-                }
-            },
-            command = d.commands.recv() => {
-                // A dropped client closes too.
-                let _ = command;
-                if let Ok(bytes) = encode_frame(&ClientControl::Goodbye) {
-                    let _ = d.send.write_all(&bytes).await;
-                }
-                let _ = d.send.finish();
-                // Give the goodbye a moment to arrive before closing.
-                let _ = tokio::time::timeout(Duration::from_millis(200), d.send.stopped()).await;
-                d.connection.close(0u32.into(), b"client left");
-                break DisconnectReason::ClientLeft;
-            },
+                },
+                _ = timer.tick() => {
+                    let (datagram, _) = {
+                        let mut s = d.lock();
+                        let now = d.epoch.elapsed().as_secs_f64();
+                        sequence = sequence.wrapping_add(1);
+                        let rtt = d.connection.rtt().as_secs_f64();
+                        s.interp.clock_mut().rtt_sample(rtt);
+                        let tick = s.interp.clock().estimated_tick(now).map_or(s.input.tick, |t| t.max(0.0) as u64);
+                        let input = PlayerInput { sequence, tick, ..s.input };
+                        history.push_front(input);
+                        history.truncate(MAX_REDUNDANT_INPUTS);
+                        let (ack, ack_bits) = s.decoder.ack_state();
+                        (InputDatagram { ack, ack_bits, inputs: history.iter().copied().collect() }, ())
+                    };
+                    if let Ok(bytes) = datagram.encode() {
+                        let _ = d.connection.send_datagram(bytes.into());
+                    }
+                },
+                command = d.commands.recv() => {
+                    // A dropped client closes too.
+                    let _ = command;
+                    if let Ok(bytes) = encode_frame(&ClientControl::Goodbye) {
+                        let _ = d.send.write_all(&bytes).await;
+                    }
+                    let _ = d.send.finish();
+                    // Give the goodbye a moment to arrive before closing.
+                    let _ = tokio::time::timeout(Duration::from_millis(200), d.send.stopped()).await;
+                    d.connection.close(0u32.into(), b"client left");
+                    break DisconnectReason::ClientLeft;
+                },
+            }
         }
     };
     let mut s = d.lock();

@@ -108,7 +108,12 @@ impl World {
     }
 
     /// Applies an impulse (N·s) at a world point to a dynamic body: its
-    /// momentum changes at once. Wakes it.
+    /// momentum changes at once. Wakes it. The point must lie within the
+    /// world's coordinates and the body's speeds stay within
+    /// [`limits`](crate::limits) after it; otherwise it is refused and
+    /// nothing changes (a small impulse far off spins a body past any
+    /// bound: at 10²⁰⁰ m it was a body quarantined and removed a tick
+    /// later).
     pub fn apply_body_impulse(
         &mut self,
         h: BodyHandle,
@@ -116,7 +121,7 @@ impl World {
         point: DVec3,
     ) -> Result<(), PhysicsError> {
         finite3("impulse", impulse)?;
-        finite3("impulse point", point)?;
+        crate::limits::position("impulse point (m)", point)?;
         let b = self.body_mut(h)?;
         if b.kind != BodyKind::Dynamic {
             return Ok(());
@@ -129,8 +134,10 @@ impl World {
                 value: f64::INFINITY,
             });
         }
-        b.linvel += dv;
-        b.angvel += dw;
+        let linvel = crate::limits::velocity(b.linvel + dv)?;
+        let angvel = crate::limits::angular_velocity(b.angvel + dw)?;
+        b.linvel = linvel;
+        b.angvel = angvel;
         b.wake();
         Ok(())
     }

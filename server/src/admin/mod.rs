@@ -482,12 +482,13 @@ impl Session<'_> {
                 let ticks = *ticks;
                 self.play(move |c| {
                     // Steps add up: on a paused clock the ticks still
-                    // queued stay (pause itself drops them).
+                    // queued stay (pause itself drops them). One the clock
+                    // refuses is refused before the pause.
                     if !c.paused() {
+                        c.check_queue(ticks)?;
                         c.pause();
                     }
-                    c.step(ticks);
-                    Ok(())
+                    c.step(ticks)
                 })
                 .await
             }
@@ -633,8 +634,10 @@ impl Session<'_> {
             + 'static,
     ) -> Result<AdminResponse, AdminError> {
         self.on_sim(move |s| {
+            // A request the clock refuses changes nothing.
+            f(s.clock_mut())?;
             s.play_forward();
-            f(s.clock_mut())
+            Ok::<(), crate::clock::ClockError>(())
         })
         .await?
         .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;

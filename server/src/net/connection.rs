@@ -3,6 +3,16 @@
 //! bandwidth budget), keeps the client's entity catalog in step over the
 //! reliable control stream, forwards its inputs to the simulation, and
 //! says goodbye on shutdown.
+//!
+//! Nothing here waits on a client without a deadline. The client has
+//! [`HELLO_TIMEOUT`] to say hello and as long again to take its welcome;
+//! a client that does not is let go, and leaves the world if it had
+//! joined. After the welcome, control messages go through an [`Outbox`]
+//! that the loop writes from as the client's flow-control window allows,
+//! so a client that stops reading still gets snapshots, is still read,
+//! kicked and told of a shutdown, and is dropped once its control stream
+//! has not moved for [`CONTROL_STALL`] (or more than [`OUTBOX_LIMIT`]
+//! bytes wait for it). Goodbyes wait at most [`GOODBYE_WAIT`].
 
 use std::collections::BTreeSet;
 use std::sync::Arc;
@@ -26,8 +36,19 @@ use super::NetShared;
 use crate::rules;
 use crate::sim::{CommandError, Frame, SimExit};
 
-/// How long a client has to say hello.
+/// How long a client has to open its control stream and say hello, and
+/// then again to take the answer.
 pub const HELLO_TIMEOUT: Duration = Duration::from_secs(5);
+/// Longest a client may leave its control stream unread while the server
+/// has something for it (the connection's idle timeout).
+pub const CONTROL_STALL: Duration = super::tls::IDLE_TIMEOUT;
+/// Most control-stream bytes that may wait for a client; beyond, it is
+/// dropped as too far behind (a full catalog of `--max-bodies` bodies is
+/// well under this).
+pub const OUTBOX_LIMIT: usize = 16 << 20;
+/// Longest a goodbye (and what is queued before it) waits for the
+/// client's window.
+pub const GOODBYE_WAIT: Duration = Duration::from_secs(1);
 
 /// QUIC close codes the server uses.
 pub mod close_code {
@@ -148,18 +169,20 @@ fn not_running(shared: &NetShared) -> Option<Refusal> {
 pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared>) {
     let span = info_span!("connection", id, remote = %connection.remote_address(), client = tracing::field::Empty);
     async move {
-        match tokio::time::timeout(HELLO_TIMEOUT, hello(&connection, id, &shared)).await {
-            Ok(Some(admitted)) => run(connection, admitted, &shared).await,
-            Ok(None) => {}
-            Err(_) => {
-                debug!("no hello in time");
-                shared.metrics.refused("hello_timeout");
-                connection.close(close_code::REFUSED.into(), b"no hello in time");
-            }
+        if let Some(admitted) = hello(&connection, id, &shared).await {
+            run(connection, admitted, &shared).await
         }
     }
     .instrument(span)
     .await
+}
+
+/// Lets go of a client that did not say hello, or take the answer, in
+/// time.
+fn too_slow(connection: &quinn::Connection, shared: &NetShared) {
+    debug!("no hello in time");
+    shared.metrics.refused("hello_timeout");
+    connection.close(close_code::REFUSED.into(), b"no hello in time");
 }
 
 /// A client past its hello.
@@ -171,23 +194,37 @@ struct Admitted {
     frames: FrameDecoder,
 }
 
-/// Reads the hello and answers it; `None` when the client was refused or
-/// vanished.
+/// Reads the hello and answers it; `None` when the client was refused,
+/// too slow or vanished. The client's part (opening the stream, the
+/// hello, taking the answer) is bounded by [`HELLO_TIMEOUT`]; the join,
+/// the tick thread's part, is not. A client that joined but did not take
+/// its welcome leaves again.
 async fn hello(connection: &quinn::Connection, id: u64, shared: &NetShared) -> Option<Admitted> {
-    let (mut send, mut recv) = connection.accept_bi().await.ok()?;
-    let mut frames = FrameDecoder::new();
-    let mut buf = [0u8; 2048];
-    let msg = loop {
-        if let Some(msg) = frames.next::<ClientControl>() {
-            break msg.map_err(|e| e.to_string());
-        }
-        match recv.read(&mut buf).await {
-            Ok(Some(n)) => {
-                if let Err(e) = frames.push(&buf[..n]) {
-                    break Err(e.to_string());
-                }
+    let read = async {
+        let (send, mut recv) = connection.accept_bi().await.ok()?;
+        let mut frames = FrameDecoder::new();
+        let mut buf = [0u8; 2048];
+        let msg = loop {
+            if let Some(msg) = frames.next::<ClientControl>() {
+                break msg.map_err(|e| e.to_string());
             }
-            _ => return None,
+            match recv.read(&mut buf).await {
+                Ok(Some(n)) => {
+                    if let Err(e) = frames.push(&buf[..n]) {
+                        break Err(e.to_string());
+                    }
+                }
+                _ => return None,
+            }
+        };
+        Some((send, recv, frames, msg))
+    };
+    let (mut send, recv, frames, msg) = match tokio::time::timeout(HELLO_TIMEOUT, read).await {
+        Ok(Some(read)) => read,
+        Ok(None) => return None,
+        Err(_) => {
+            too_slow(connection, shared);
+            return None;
         }
     };
     let result = match msg {
@@ -228,9 +265,18 @@ async fn hello(connection: &quinn::Connection, id: u64, shared: &NetShared) -> O
                 snapshot: SnapshotParams::from_config(&shared.snapshot),
                 server_version: env!("CARGO_PKG_VERSION").to_string(),
             };
-            if write(&mut send, &welcome).await.is_err() {
-                let _ = shared.sim.leave(client);
-                return None;
+            match tokio::time::timeout(HELLO_TIMEOUT, write(&mut send, &welcome)).await {
+                Ok(Ok(_)) => {}
+                Ok(Err(_)) => {
+                    let _ = shared.sim.leave(client);
+                    return None;
+                }
+                Err(_) => {
+                    // Joined, but the welcome never went: the avatar goes.
+                    let _ = shared.sim.leave(client);
+                    too_slow(connection, shared);
+                    return None;
+                }
             }
             info!(client, avatar, "client joined");
             Some(Admitted {
@@ -244,12 +290,99 @@ async fn hello(connection: &quinn::Connection, id: u64, shared: &NetShared) -> O
         Err(refusal) => {
             info!(?refusal, "hello refused");
             shared.metrics.refused(refusal_reason(&refusal));
-            let _ = write(&mut send, &ServerControl::Refused(refusal)).await;
+            let refused = ServerControl::Refused(refusal);
+            let _ = tokio::time::timeout(GOODBYE_WAIT, write(&mut send, &refused)).await;
             let _ = send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
             connection.close(close_code::REFUSED.into(), b"refused");
             None
         }
+    }
+}
+
+/// Control messages on their way to a client, whole frames in order,
+/// written as its flow-control window allows (see the module docs).
+#[derive(Debug)]
+struct Outbox {
+    bytes: Vec<u8>,
+    /// Where the unwritten bytes start.
+    start: usize,
+    /// When the stream last moved, or the first bytes came to wait.
+    moved: tokio::time::Instant,
+}
+
+impl Outbox {
+    fn new() -> Outbox {
+        Outbox {
+            bytes: Vec::new(),
+            start: 0,
+            moved: tokio::time::Instant::now(),
+        }
+    }
+
+    /// Queues `msg`; its framed length.
+    fn push(&mut self, msg: &ServerControl) -> Result<usize, String> {
+        let frame = encode_frame(msg).map_err(|e| e.to_string())?;
+        if self.is_empty() {
+            self.moved = tokio::time::Instant::now();
+        }
+        self.bytes.extend_from_slice(&frame);
+        Ok(frame.len())
+    }
+
+    /// The bytes still to write.
+    fn pending(&self) -> &[u8] {
+        &self.bytes[self.start..]
+    }
+
+    fn len(&self) -> usize {
+        self.bytes.len() - self.start
+    }
+
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// `n` bytes were written.
+    fn advance(&mut self, n: usize) {
+        self.start += n;
+        if self.start == self.bytes.len() {
+            self.bytes.clear();
+            self.start = 0;
+        } else if self.start > (64 << 10) && self.start * 2 > self.bytes.len() {
+            self.bytes.drain(..self.start);
+            self.start = 0;
+        }
+        self.moved = tokio::time::Instant::now();
+    }
+
+    /// When the client will have left its stream unread too long, while
+    /// something waits for it.
+    fn stall_deadline(&self) -> Option<tokio::time::Instant> {
+        (!self.is_empty()).then(|| self.moved + CONTROL_STALL)
+    }
+
+    /// Writes everything queued; false when the stream failed.
+    async fn flush(&mut self, send: &mut quinn::SendStream) -> bool {
+        while !self.is_empty() {
+            match send.write(self.pending()).await {
+                Ok(n) => self.advance(n),
+                Err(_) => return false,
+            }
+        }
+        true
+    }
+
+    /// Queues `msg` and writes it out behind whatever waits, within
+    /// [`GOODBYE_WAIT`]; whether it all went.
+    async fn say_last(&mut self, send: &mut quinn::SendStream, msg: &ServerControl) -> bool {
+        if self.push(msg).is_err() {
+            return false;
+        }
+        matches!(
+            tokio::time::timeout(GOODBYE_WAIT, self.flush(send)).await,
+            Ok(true)
+        )
     }
 }
 
@@ -284,11 +417,13 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
     if let Ok(mut k) = shared.kicks.lock() {
         k.insert(client, (connection.stable_id() as u64, kick_tx));
     }
+    let mut outbox = Outbox::new();
     let end = session(
         &connection,
         client,
         avatar,
         &mut send,
+        &mut outbox,
         &mut recv,
         &mut frames,
         kick_rx,
@@ -303,7 +438,8 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
     let _ = shared.sim.leave(client);
     match end {
         End::Shutdown(reason) => {
-            let _ = write(&mut send, &ServerControl::Goodbye(reason.clone())).await;
+            let goodbye = ServerControl::Goodbye(reason.clone());
+            outbox.say_last(&mut send, &goodbye).await;
             let _ = send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
             match reason {
@@ -324,17 +460,16 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
         End::Protocol(what) => {
             warn!(client, %what, "protocol error");
             let reason = DisconnectReason::ProtocolError { what };
-            let _ = write(&mut send, &ServerControl::Goodbye(reason)).await;
+            outbox
+                .say_last(&mut send, &ServerControl::Goodbye(reason))
+                .await;
             connection.close(close_code::PROTOCOL.into(), b"protocol error");
         }
         End::Kicked(reason) => {
-            let _ = write(
-                &mut send,
-                &ServerControl::Goodbye(DisconnectReason::Kicked {
-                    reason: reason.clone(),
-                }),
-            )
-            .await;
+            let goodbye = ServerControl::Goodbye(DisconnectReason::Kicked {
+                reason: reason.clone(),
+            });
+            outbox.say_last(&mut send, &goodbye).await;
             let _ = send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
             connection.close(close_code::KICKED.into(), b"kicked");
@@ -358,6 +493,7 @@ async fn session(
     client: u64,
     mut avatar: EntityId,
     send: &mut quinn::SendStream,
+    outbox: &mut Outbox,
     recv: &mut quinn::RecvStream,
     frames: &mut FrameDecoder,
     mut kick: tokio::sync::oneshot::Receiver<String>,
@@ -381,10 +517,11 @@ async fn session(
     let mut buf = vec![0u8; 4096];
     let mut kick_open = true;
     loop {
+        let stall = outbox.stall_deadline();
         tokio::select! {
             _ = timer.tick() => {
                 let frame = shared.sim.frame();
-                if let Err(e) = sync_catalog(send, &frame, &mut view, shared).await {
+                if let Err(e) = sync_catalog(outbox, &frame, &mut view, shared) {
                     return End::Protocol(format!("control stream: {e}"));
                 }
                 if !frame.catalog.contains_key(&avatar) && frame.mode == TimeMode::Live {
@@ -458,8 +595,24 @@ async fn session(
                         }
                     }
                 }
-                Ok(None) | Err(_) => return End::Closed(connection.closed().await),
+                // The client will send nothing more, not even a goodbye:
+                // it has left.
+                Ok(None) => return End::Goodbye,
+                Err(quinn::ReadError::ConnectionLost(e)) => return End::Closed(e),
+                Err(e) => return End::Protocol(format!("control stream: {e}")),
             },
+            written = send.write(outbox.pending()), if !outbox.is_empty() => match written {
+                Ok(n) => outbox.advance(n),
+                Err(quinn::WriteError::ConnectionLost(e)) => return End::Closed(e),
+                Err(e) => return End::Protocol(format!("control stream: {e}")),
+            },
+            _ = tokio::time::sleep_until(stall.unwrap_or_else(tokio::time::Instant::now)), if stall.is_some() => {
+                return End::Protocol(format!(
+                    "the control stream was not read for {} s ({} bytes waiting)",
+                    CONTROL_STALL.as_secs(),
+                    outbox.len()
+                ));
+            }
             _ = shutdown.changed() => {
                 let reason = shutdown
                     .borrow()
@@ -477,9 +630,10 @@ async fn session(
 }
 
 /// Brings the client's catalog up to date (spawns and despawns, then the
-/// frame's events), reliably and in order on the control stream.
-async fn sync_catalog(
-    send: &mut quinn::SendStream,
+/// frame's events), reliably and in order on the control stream, through
+/// its outbox; refuses a client more than [`OUTBOX_LIMIT`] bytes behind.
+fn sync_catalog(
+    outbox: &mut Outbox,
     frame: &Frame,
     view: &mut ClientView,
     shared: &NetShared,
@@ -493,23 +647,29 @@ async fn sync_catalog(
             .filter(|id| !frame.catalog.contains_key(id))
             .collect();
         for id in gone {
-            sent += write(send, &ServerControl::Despawn { id }).await?;
+            sent += outbox.push(&ServerControl::Despawn { id })?;
             view.known.remove(&id);
         }
         for (id, desc) in frame.catalog.iter() {
             if view.known.insert(*id) {
-                sent += write(send, &ServerControl::Spawn(desc.clone())).await?;
+                sent += outbox.push(&ServerControl::Spawn(desc.clone()))?;
             }
         }
         view.catalog_version = Some(frame.catalog_version);
     }
     for (tick, event) in frame.events.iter() {
         if *tick > view.events_up_to {
-            sent += write(send, &ServerControl::Event(to_wire(event))).await?;
+            sent += outbox.push(&ServerControl::Event(to_wire(event)))?;
         }
     }
     view.events_up_to = view.events_up_to.max(frame.tick);
     shared.metrics.bytes_sent.inc_by(sent as u64);
+    if outbox.len() > OUTBOX_LIMIT {
+        return Err(format!(
+            "{} bytes wait for the client, more than {OUTBOX_LIMIT}",
+            outbox.len()
+        ));
+    }
     Ok(())
 }
 
@@ -529,4 +689,44 @@ pub fn interest_point(frame: &Frame, avatar: EntityId) -> Option<DVec3> {
         .binary_search_by_key(&avatar, |e| e.id)
         .ok()
         .map(|i| frame.entities[i].position)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn despawn(id: EntityId) -> ServerControl {
+        ServerControl::Despawn { id }
+    }
+
+    #[test]
+    fn the_outbox_keeps_frames_in_order_and_knows_when_it_stalled() {
+        let mut outbox = Outbox::new();
+        assert!(outbox.is_empty());
+        assert_eq!(outbox.stall_deadline(), None, "nothing waits: no stall");
+        let mut expected = Vec::new();
+        for id in 0..20_000 {
+            let n = outbox.push(&despawn(id)).expect("encodes");
+            expected.extend(encode_frame(&despawn(id)).expect("encodes"));
+            assert!(n > 4);
+        }
+        let queued_at = tokio::time::Instant::now();
+        let deadline = outbox.stall_deadline().expect("bytes wait");
+        assert!(deadline <= queued_at + CONTROL_STALL);
+        assert!(deadline + Duration::from_secs(1) > queued_at + CONTROL_STALL);
+        // Written a little at a time, compacted on the way: the same
+        // bytes in the same order.
+        let mut written = Vec::new();
+        while !outbox.is_empty() {
+            let n = outbox.pending().len().min(7_001);
+            written.extend_from_slice(&outbox.pending()[..n]);
+            outbox.advance(n);
+            if !outbox.is_empty() {
+                assert!(outbox.stall_deadline().expect("waits") >= deadline);
+            }
+        }
+        assert_eq!(written, expected);
+        assert_eq!(outbox.stall_deadline(), None);
+        assert!(outbox.bytes.is_empty(), "nothing kept once written");
+    }
 }

@@ -261,7 +261,7 @@ pub async fn accept(endpoint: quinn::Endpoint, shared: Arc<NetShared>) {
                 match admission {
                     Admission::Accept => {}
                     Admission::Retry => {
-                        debug!(%remote, "handshake flood: asking for address validation");
+                        debug!(%remote, "unproven address: asking for address validation (Retry)");
                         shared.metrics.handshake_retries.inc();
                         if let Err(e) = incoming.retry() {
                             // Cannot retry (already validated): refuse.

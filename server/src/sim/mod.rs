@@ -49,7 +49,7 @@ use inertia_physics::World;
 use inertia_protocol::{EntityDesc, EntityId, EntityState, PlayerInput};
 use tokio::sync::{oneshot, watch};
 
-use crate::clock::{Clock, ClockError};
+use crate::clock::Clock;
 use crate::config::ServerConfig;
 use crate::metrics::Metrics;
 use crate::record::{Record, Recorder, RecorderConfig};
@@ -1140,9 +1140,13 @@ impl Simulation {
                     tracing::warn!(error = %e, "time scale refused");
                 }
             }
-            Command::Step(n) => self.clock.step(n),
+            Command::Step(n) => {
+                if let Err(e) = self.clock.step(n) {
+                    tracing::warn!(error = %e, "step refused");
+                }
+            }
             Command::RunTo(t) => {
-                if let Err(e @ ClockError::InThePast { .. }) = self.clock.run_to(t) {
+                if let Err(e) = self.clock.run_to(t) {
                     tracing::warn!(error = %e, "run_to refused");
                 }
             }

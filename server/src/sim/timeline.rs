@@ -390,7 +390,8 @@ impl Simulation {
                 } else {
                     self.clock.pause();
                 }
-                self.clock.step(queued);
+                // What was queued fits in the queue again.
+                let _ = self.clock.step(queued);
             }
         }
     }

@@ -76,7 +76,8 @@ enum Cmd {
     Pause,
     /// Run ticks again at the time scale before the pause.
     Resume,
-    /// Run exactly N ticks, then stay paused.
+    /// Run exactly N ticks (at most an hour of simulation), then stay
+    /// paused.
     Step {
         /// How many ticks.
         n: u64,
@@ -87,7 +88,7 @@ enum Cmd {
         /// The time scale.
         x: f64,
     },
-    /// Run until TICK, then pause.
+    /// Run until TICK (at most an hour of simulation ahead), then pause.
     RunTo {
         /// The tick to stop at.
         tick: u64,
