@@ -51,3 +51,25 @@ pub fn token(server: &RunningServer, client_id: u64) -> (SocketAddr, ConnectToke
     let (addr, token, _) = dev_token(path, Some(client_id)).expect("dev credentials");
     (addr, token)
 }
+
+/// A plain HTTP/1.1 GET of `path` from `addr` (the metrics and health
+/// server): the status code (0 when the answer has none) and the body.
+pub async fn http_get(addr: SocketAddr, path: &str) -> (u16, String) {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let mut s = tokio::net::TcpStream::connect(addr)
+        .await
+        .expect("connects");
+    let req = format!("GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n");
+    s.write_all(req.as_bytes()).await.expect("writes");
+    let mut buf = String::new();
+    s.read_to_string(&mut buf).await.expect("reads");
+    let status = buf
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    (
+        status,
+        buf.split("\r\n\r\n").nth(1).unwrap_or("").to_string(),
+    )
+}

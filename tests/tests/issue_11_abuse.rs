@@ -32,8 +32,7 @@ use inertia_server::admin::client::read_credentials;
 use inertia_server::net::tls::STREAM_WINDOW;
 use inertia_server::server::RunningServer;
 use inertia_tests::admin::{admin, call, ok, status};
-use inertia_tests::server::{start_server, temp_data_dir, test_config, token};
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use inertia_tests::server::{http_get, start_server, temp_data_dir, test_config, token};
 
 /// One attack at a time: each test's server, player and attacker share
 /// the machine's CPUs, and two attacks at once would measure each other.
@@ -169,25 +168,6 @@ impl Bench {
         self.player.close().await;
         self.server.shutdown().await;
     }
-}
-
-async fn http_get(addr: SocketAddr, path: &str) -> (u16, String) {
-    let mut s = tokio::net::TcpStream::connect(addr)
-        .await
-        .expect("connects");
-    let req = format!("GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n");
-    s.write_all(req.as_bytes()).await.expect("writes");
-    let mut buf = String::new();
-    s.read_to_string(&mut buf).await.expect("reads");
-    let status = buf
-        .split_whitespace()
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(0);
-    (
-        status,
-        buf.split("\r\n\r\n").nth(1).unwrap_or("").to_string(),
-    )
 }
 
 fn fingerprint(server: &RunningServer) -> [u8; 32] {

@@ -13,27 +13,9 @@ use inertia_client::{dev, BlockingClient, Client, ClientError};
 use inertia_protocol::control::{DisconnectReason, Refusal};
 use inertia_server::record::{Record, RecordReader};
 use inertia_server::sim::SimExit;
-use inertia_tests::server::{scene_path, start_server, temp_data_dir, test_config, token};
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
-
-async fn http_get(addr: std::net::SocketAddr, path: &str) -> (u16, String) {
-    let mut s = tokio::net::TcpStream::connect(addr)
-        .await
-        .expect("connects");
-    let req = format!("GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n");
-    s.write_all(req.as_bytes()).await.expect("writes");
-    let mut buf = String::new();
-    s.read_to_string(&mut buf).await.expect("reads");
-    let status = buf
-        .split_whitespace()
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(0);
-    (
-        status,
-        buf.split("\r\n\r\n").nth(1).unwrap_or("").to_string(),
-    )
-}
+use inertia_tests::server::{
+    http_get, scene_path, start_server, temp_data_dir, test_config, token,
+};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn issue_11_failed_simulation_fails_health_tells_clients_and_refuses_joins() {
