@@ -15,22 +15,26 @@ use inertia_server::sim::{SimConfig, Simulation};
 
 /// Ticks stepped after a successful decode.
 const TICKS: usize = 2;
-/// Most bodies a built scene may have for its ticks to be stepped (the
-/// fuzzer wants many short runs, not a few long ones).
-const STEP_BODIES: usize = 200;
+/// Most rigid bodies a fuzzed world may hold ([`WorldConfig::max_bodies`]):
+/// a scene or a state with more is refused as the server refuses one past
+/// `--max-bodies`, at the body past the limit, so the fuzzer makes many
+/// short runs rather than a few long ones and reaches that refusal too.
+const MAX_BODIES: usize = 200;
 /// Tick length, s.
 const DT: f64 = 1.0 / 60.0;
 
-/// One thread: the fuzzer runs many processes, not wide steps.
+/// One thread (the fuzzer runs many processes, not wide steps), and at
+/// most [`MAX_BODIES`] bodies.
 fn config() -> WorldConfig {
     WorldConfig {
         threads: 1,
+        max_bodies: MAX_BODIES,
         ..WorldConfig::default()
     }
 }
 
 /// Parses `data` as a scene file in `format`; a scene that parses is
-/// built, and a small one stepped.
+/// built (or refused past [`MAX_BODIES`]) and stepped.
 pub fn drive_scene(data: &[u8], format: SceneFormat) {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
@@ -41,10 +45,9 @@ pub fn drive_scene(data: &[u8], format: SceneFormat) {
     let Ok(mut built) = scene.build_with(config()) else {
         return;
     };
-    if built.world.bodies().count() <= STEP_BODIES {
-        for _ in 0..TICKS {
-            let _ = built.world.step(DT);
-        }
+    assert!(built.world.bodies().count() <= MAX_BODIES);
+    for _ in 0..TICKS {
+        let _ = built.world.step(DT);
     }
 }
 

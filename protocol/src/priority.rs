@@ -11,7 +11,9 @@
 
 use std::collections::HashMap;
 
-use crate::entity::{EntityId, EntityState};
+use glam::DVec3;
+
+use crate::entity::EntityId;
 use crate::interest::Interest;
 
 /// Per-snapshot priority by kind of motion (dimensionless; only ratios
@@ -71,22 +73,24 @@ impl PriorityAccumulator {
         self.interest = interest;
     }
 
-    /// How much `e` matters to this client, 0 (not sent) to 1.
-    pub fn relevance(&self, e: &EntityState) -> f64 {
-        self.interest.weight(e.id, e.position)
+    /// How much entity `id` at `position` (m) matters to this client, 0
+    /// (not sent) to 1.
+    pub fn relevance(&self, id: EntityId, position: DVec3) -> f64 {
+        self.interest.weight(id, position)
     }
 
-    /// Adds one snapshot's priority of `e` (whose relevance is
-    /// `relevance`) and returns its accumulated priority.
-    pub fn accumulate(&mut self, e: &EntityState, relevance: f64) -> f64 {
-        let base = if self.interest.always_relevant.contains(&e.id) {
+    /// Adds one snapshot's priority of entity `id` (sleeping when
+    /// `asleep`, of relevance `relevance`) and returns its accumulated
+    /// priority.
+    pub fn accumulate(&mut self, id: EntityId, asleep: bool, relevance: f64) -> f64 {
+        let base = if self.interest.always_relevant.contains(&id) {
             self.weights.always_relevant
-        } else if e.asleep {
+        } else if asleep {
             self.weights.at_rest
         } else {
             self.weights.moving
         };
-        let p = self.accumulated.entry(e.id).or_insert(0.0);
+        let p = self.accumulated.entry(id).or_insert(0.0);
         *p += base * relevance;
         *p
     }
@@ -116,7 +120,8 @@ impl PriorityAccumulator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::{DQuat, DVec3};
+    use crate::entity::EntityState;
+    use glam::DQuat;
 
     fn state(id: EntityId, asleep: bool) -> EntityState {
         EntityState {
@@ -136,8 +141,8 @@ mod tests {
         // One slot a snapshot: the resting body gets it within ten or so.
         let mut resting_sent_after = None;
         for k in 0..20 {
-            let a = p.accumulate(&moving, 1.0);
-            let b = p.accumulate(&resting, 1.0);
+            let a = p.accumulate(moving.id, moving.asleep, 1.0);
+            let b = p.accumulate(resting.id, resting.asleep, 1.0);
             if b > a {
                 p.sent(2);
                 resting_sent_after = Some(k);

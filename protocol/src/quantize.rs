@@ -63,9 +63,12 @@ impl PositionGrid {
 /// Largest magnitude of the three smaller components of a unit quaternion.
 const SMALL_BOUND: f64 = std::f64::consts::FRAC_1_SQRT_2;
 
-/// Writes unit quaternion `q` (`[x, y, z, w]`; normalised here, and `-q`
-/// is the same rotation) as smallest three with `bits` per component.
-pub fn write_rotation(w: &mut BitWriter, q: [f64; 4], bits: u32) {
+/// Unit quaternion `q` (`[x, y, z, w]`; normalised here, and `-q` is the
+/// same rotation) as smallest three with `bits` per component: the index
+/// of the dropped (largest) component and the other three as levels
+/// `0 ..= 2^bits - 1` spanning `[-1/√2, 1/√2]`, in order. Not finite or
+/// zero length is the identity.
+pub fn rotation_levels(q: [f64; 4], bits: u32) -> (u8, [u16; 3]) {
     let len = q.iter().map(|c| c * c).sum::<f64>().sqrt();
     let q = if len > 0.0 && len.is_finite() {
         q.map(|c| c / len)
@@ -76,36 +79,55 @@ pub fn write_rotation(w: &mut BitWriter, q: [f64; 4], bits: u32) {
         .max_by(|&a, &b| q[a].abs().total_cmp(&q[b].abs()))
         .unwrap_or(3);
     let sign = if q[largest] < 0.0 { -1.0 } else { 1.0 };
-    w.write(largest as u64, 2);
-    let levels = (1u64 << bits) - 1;
-    for (i, &c) in q.iter().enumerate() {
-        if i == largest {
-            continue;
-        }
+    let levels = ((1u64 << bits) - 1) as f64;
+    let mut small = [0u16; 3];
+    let others = (0..4).filter(|&i| i != largest);
+    for (level, i) in small.iter_mut().zip(others) {
         let unit =
-            ((c * sign).clamp(-SMALL_BOUND, SMALL_BOUND) + SMALL_BOUND) / (2.0 * SMALL_BOUND);
-        w.write((unit * levels as f64).round() as u64, bits);
+            ((q[i] * sign).clamp(-SMALL_BOUND, SMALL_BOUND) + SMALL_BOUND) / (2.0 * SMALL_BOUND);
+        *level = (unit * levels).round() as u16;
+    }
+    (largest as u8, small)
+}
+
+/// The unit quaternion (largest component positive) that
+/// [`rotation_levels`] levels stand for; levels above `2^bits - 1` are
+/// taken as the top level.
+pub fn rotation_from_levels(largest: u8, small: [u16; 3], bits: u32) -> [f64; 4] {
+    let largest = usize::from(largest & 3);
+    let levels = ((1u64 << bits) - 1) as f64;
+    let mut q = [0.0; 4];
+    let mut sum = 0.0;
+    let others = (0..4).filter(|&i| i != largest);
+    for (&level, i) in small.iter().zip(others) {
+        let unit = (f64::from(level) / levels).min(1.0);
+        q[i] = unit * 2.0 * SMALL_BOUND - SMALL_BOUND;
+        sum += q[i] * q[i];
+    }
+    q[largest] = (1.0 - sum).max(0.0).sqrt();
+    let len = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+    q.map(|c| c / len)
+}
+
+/// Writes unit quaternion `q` as [`rotation_levels`] gives it: the
+/// dropped index in 2 bits, then the three levels, `bits` each.
+pub fn write_rotation(w: &mut BitWriter, q: [f64; 4], bits: u32) {
+    let (largest, small) = rotation_levels(q, bits);
+    w.write(u64::from(largest), 2);
+    for level in small {
+        w.write(u64::from(level), bits);
     }
 }
 
 /// Reads a quaternion written by [`write_rotation`] (unit, largest
 /// component positive).
 pub fn read_rotation(r: &mut BitReader<'_>, bits: u32) -> Result<[f64; 4], BitError> {
-    let largest = r.read(2)? as usize;
-    let levels = (1u64 << bits) - 1;
-    let mut q = [0.0; 4];
-    let mut sum = 0.0;
-    for (i, c) in q.iter_mut().enumerate() {
-        if i == largest {
-            continue;
-        }
-        let unit = r.read(bits)? as f64 / levels as f64;
-        *c = unit * 2.0 * SMALL_BOUND - SMALL_BOUND;
-        sum += *c * *c;
+    let largest = r.read(2)? as u8;
+    let mut small = [0u16; 3];
+    for level in &mut small {
+        *level = r.read(bits)? as u16;
     }
-    q[largest] = (1.0 - sum).max(0.0).sqrt();
-    let len = q.iter().map(|c| c * c).sum::<f64>().sqrt();
-    Ok(q.map(|c| c / len))
+    Ok(rotation_from_levels(largest, small, bits))
 }
 
 #[cfg(test)]

@@ -6,9 +6,9 @@ use crate::bits::BitWriter;
 use crate::entity::{EntityId, EntityState};
 use crate::priority::PriorityAccumulator;
 
-use super::code::{
-    varuint_bits, write_body, write_varuint, BitCount, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES,
-};
+use super::code::{varuint_bits, write_varuint, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES};
+use super::frame::QuantizedFrame;
+use super::shared::{DeltaRef, SharedDeltas};
 use super::view::{QuantizedEntity, Ring, View};
 use super::{
     sequence_newer, ConfigError, SnapshotConfig, MAX_ENTITIES, MAX_TIME_SCALE, RING, SNAPSHOT_TAG,
@@ -45,13 +45,19 @@ pub struct SnapshotEncoder {
     next: u16,
     acked: Option<u16>,
     last: EncodeReport,
+    /// The deltas of [`Self::encode_frame`], which shares them with no
+    /// other client (kept for their memory).
+    own: SharedDeltas,
 }
 
 /// An entity that differs from the baseline.
 struct Candidate {
     priority: f64,
     id: EntityId,
-    state: QuantizedEntity,
+    /// Its index in the frame.
+    index: usize,
+    /// Its delta against the baseline.
+    delta: DeltaRef,
     /// The entity's size without its id, bits.
     bits: usize,
 }
@@ -75,6 +81,7 @@ impl SnapshotEncoder {
             next: 0,
             acked: None,
             last: EncodeReport::default(),
+            own: SharedDeltas::new(),
         })
     }
 
@@ -120,16 +127,11 @@ impl SnapshotEncoder {
         self.last
     }
 
-    /// Codes the next snapshot of `entities` (ascending by id; an id
+    /// Codes the next snapshot of `entities` (in any order; an id
     /// repeated is taken once) at `tick`, with the clock's `time_scale`
-    /// (1 = real time; negative while history plays backwards, −1 = real
-    /// time in reverse; clamped to ±[`MAX_TIME_SCALE`], not finite is
-    /// sent as 0) and `paused` flag. Entities are chosen by
-    /// `priorities` (which also decides relevance: weight 0 is out of view
-    /// and removed from the client's view) until the datagram would exceed
-    /// `min(budget_bytes, max_datagram)` bytes. The header and the counts
-    /// are always written, so a budget below about 20 bytes still sends
-    /// them; a budget that does not fit the top entity sends none.
+    /// and `paused` flag: [`QuantizedFrame::new`] then
+    /// [`Self::encode_frame`]. A server with many clients quantizes each
+    /// frame once and calls [`Self::encode_frame`] for each.
     pub fn encode(
         &mut self,
         tick: u64,
@@ -139,11 +141,48 @@ impl SnapshotEncoder {
         priorities: &mut PriorityAccumulator,
         budget_bytes: usize,
     ) -> Vec<u8> {
+        let frame = QuantizedFrame::new(tick, time_scale, paused, entities, &self.config);
+        self.encode_frame(&frame, priorities, budget_bytes)
+    }
+
+    /// Codes the next snapshot of `frame` (quantized under this encoder's
+    /// config) against the newest view the client acknowledged. Entities
+    /// are chosen by `priorities` (which also decides relevance: weight 0
+    /// is out of view and removed from the client's view) until the
+    /// datagram would exceed `min(budget_bytes, max_datagram)` bytes. The
+    /// header and the counts are always written, so a budget below about
+    /// 20 bytes still sends them; a budget that does not fit the top
+    /// entity sends none.
+    pub fn encode_frame(
+        &mut self,
+        frame: &QuantizedFrame,
+        priorities: &mut PriorityAccumulator,
+        budget_bytes: usize,
+    ) -> Vec<u8> {
+        let mut own = std::mem::take(&mut self.own);
+        let bytes = self.encode_shared(frame, &mut own, priorities, budget_bytes);
+        self.own = own;
+        bytes
+    }
+
+    /// [`Self::encode_frame`], taking each entity's delta from `shared`
+    /// where another client's encoder of the same frame coded it against
+    /// the same baseline state (and leaving there the ones coded here).
+    /// The datagram is the same byte for byte as without sharing.
+    pub fn encode_shared(
+        &mut self,
+        frame: &QuantizedFrame,
+        shared: &mut SharedDeltas,
+        priorities: &mut PriorityAccumulator,
+        budget_bytes: usize,
+    ) -> Vec<u8> {
         let config = self.config;
-        // The decoder refuses scales no clock produces: not finite, or
-        // beyond ±MAX_TIME_SCALE (negative is reverse play).
-        let time_scale = if time_scale.is_finite() {
-            time_scale.clamp(-MAX_TIME_SCALE, MAX_TIME_SCALE)
+        shared.start(frame);
+        let (tick, paused) = (frame.tick, frame.paused);
+        // The decoder refuses scales no clock produces (the frame's field
+        // is public, so it is checked here too).
+        let time_scale = if frame.time_scale.is_finite() {
+            frame.time_scale.clamp(-MAX_TIME_SCALE, MAX_TIME_SCALE)
         } else {
             0.0
         };
@@ -152,45 +191,38 @@ impl SnapshotEncoder {
         let empty = View::default();
         let base = baseline.and_then(|b| self.sent.get(b)).unwrap_or(&empty);
 
-        // Walk the entities and the baseline together, by id.
-        let mut order: Vec<usize> = (0..entities.len()).collect();
-        if !entities.windows(2).all(|w| w[0].id < w[1].id) {
-            order.sort_by_key(|&i| entities[i].id);
-            order.dedup_by_key(|i| entities[*i].id);
-        }
+        // Walk the frame and the baseline together, by id.
         let mut removed = Vec::new();
         let mut candidates = Vec::new();
         let base_entities = base.entities();
         let mut b = 0;
-        for &i in &order {
-            let e = &entities[i];
-            while b < base_entities.len() && base_entities[b].0 < e.id {
+        for (i, &id) in frame.ids().iter().enumerate() {
+            while b < base_entities.len() && base_entities[b].0 < id {
                 removed.push(base_entities[b].0);
                 b += 1;
             }
-            let in_base = (b < base_entities.len() && base_entities[b].0 == e.id)
-                .then(|| &base_entities[b].1);
+            let in_base =
+                (b < base_entities.len() && base_entities[b].0 == id).then(|| &base_entities[b].1);
             if in_base.is_some() {
                 b += 1;
             }
-            let relevance = priorities.relevance(e);
+            let relevance = priorities.relevance(id, frame.position(i));
             if relevance <= 0.0 {
                 if in_base.is_some() {
-                    removed.push(e.id);
+                    removed.push(id);
                 }
                 continue;
             }
-            let q = QuantizedEntity::new(e, &config);
-            if in_base == Some(&q) {
+            if in_base.is_some_and(|q| frame.same_as(i, q)) {
                 continue;
             }
-            let mut bits = BitCount::default();
-            write_body(&mut bits, &q, in_base, &config);
+            let (delta, bits) = shared.delta(frame, i, in_base, &config);
             candidates.push(Candidate {
-                priority: priorities.accumulate(e, relevance),
-                id: e.id,
-                state: q,
-                bits: bits.0,
+                priority: priorities.accumulate(id, frame.at_rest(i), relevance),
+                id,
+                index: i,
+                delta,
+                bits,
             });
         }
         removed.extend(base_entities[b..].iter().map(|e| e.0));
@@ -249,8 +281,8 @@ impl SnapshotEncoder {
             .filter(|c| chosen.contains(&c.id))
             .collect();
         by_id.sort_by_key(|c| c.id);
-        for c in by_id {
-            updated.push((c.id, c.state));
+        for c in &by_id {
+            updated.push((c.id, frame.state(c.index)));
             priorities.sent(c.id);
         }
 
@@ -280,10 +312,10 @@ impl SnapshotEncoder {
         }
         write_varuint(&mut w, updated.len() as u64, &COUNT_CLASSES);
         let mut prev = None;
-        for (id, q) in &updated {
-            write_varuint(&mut w, id_gap(prev, *id), &ID_CLASSES);
-            write_body(&mut w, q, base.get(*id), &config);
-            prev = Some(*id);
+        for c in &by_id {
+            write_varuint(&mut w, id_gap(prev, c.id), &ID_CLASSES);
+            shared.write(c.delta, &mut w);
+            prev = Some(c.id);
         }
         debug_assert!(
             w.bit_len() <= budget.max(used),

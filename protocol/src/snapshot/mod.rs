@@ -70,10 +70,14 @@
 mod code;
 mod decoder;
 mod encoder;
+mod frame;
+mod shared;
 mod view;
 
 pub use decoder::{DecodeStats, DecodedSnapshot, SnapshotDecoder};
 pub use encoder::{EncodeReport, SnapshotEncoder};
+pub use frame::QuantizedFrame;
+pub use shared::SharedDeltas;
 pub use view::{QuantizedEntity, QuantizedRotation, View, ViewEntity};
 
 use thiserror::Error;

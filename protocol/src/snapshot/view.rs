@@ -4,9 +4,8 @@
 
 use glam::{DQuat, DVec3};
 
-use crate::bits::{BitReader, BitWriter};
 use crate::entity::{EntityId, EntityState};
-use crate::quantize::{read_rotation, write_rotation};
+use crate::quantize::{rotation_from_levels, rotation_levels};
 
 use super::{SnapshotConfig, RING};
 
@@ -22,30 +21,19 @@ pub struct QuantizedRotation {
 }
 
 impl QuantizedRotation {
-    /// Quantizes `q` with `bits` a component. Goes through
-    /// [`write_rotation`] itself, so every user of the shared quantizer
-    /// agrees bit for bit.
+    /// Quantizes `q` with `bits` a component, by the shared quantizer
+    /// ([`rotation_levels`]), so every user of it agrees bit for bit.
     pub fn new(q: DQuat, bits: u32) -> Self {
-        let mut w = BitWriter::new();
-        write_rotation(&mut w, q.to_array(), bits);
-        let bytes = w.finish();
-        let mut r = BitReader::new(&bytes);
-        // Both reads stay within what was just written.
-        let largest = r.read(2).unwrap_or(3) as u8;
-        let small = [0; 3].map(|_| r.read(bits).unwrap_or(0) as u16);
+        let (largest, small) = rotation_levels(q.to_array(), bits);
         Self { largest, small }
     }
 
     /// The unit quaternion these levels stand for (as [`read_rotation`]
     /// rebuilds it).
+    ///
+    /// [`read_rotation`]: crate::quantize::read_rotation
     pub fn to_quat(self, bits: u32) -> DQuat {
-        let mut w = BitWriter::new();
-        w.write(u64::from(self.largest & 3), 2);
-        for c in self.small {
-            w.write(u64::from(c), bits);
-        }
-        let bytes = w.finish();
-        read_rotation(&mut BitReader::new(&bytes), bits).map_or(DQuat::IDENTITY, DQuat::from_array)
+        DQuat::from_array(rotation_from_levels(self.largest, self.small, bits))
     }
 }
 

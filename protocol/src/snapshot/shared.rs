@@ -1,0 +1,148 @@
+//! Entity deltas coded once per frame and reused by every client that
+//! needs the same one.
+//!
+//! How an entity is coded depends only on its state in the frame and its
+//! state in the client's baseline (or on there being none). Clients that
+//! received the same update of an entity hold the same baseline state of
+//! it, so their deltas of it are the same bits: [`SharedDeltas`] keeps,
+//! for one [`QuantizedFrame`], each delta coded so far (as the writes that
+//! make it up, in one buffer, with a range per delta) and hands it to the
+//! next client with the same baseline state. In the spirit of
+//! bevy_replicon's serialized data (one buffer for a tick's replication
+//! messages, with each client's ranges into it). A client's datagram is
+//! the same byte for byte whether its deltas were coded for it or reused.
+
+use crate::bits::BitWriter;
+
+use super::code::{write_body, BitSink};
+use super::frame::QuantizedFrame;
+use super::view::QuantizedEntity;
+use super::SnapshotConfig;
+
+/// No delta (the end of an entity's list).
+const NONE: u32 = u32::MAX;
+
+/// One coded delta of one entity.
+#[derive(Debug, Clone, Copy)]
+struct Delta {
+    /// The baseline state it was coded against (`None`: no baseline).
+    base: Option<QuantizedEntity>,
+    /// Its writes, a range of [`SharedDeltas::writes`].
+    start: u32,
+    end: u32,
+    /// Its size, bits.
+    bits: u32,
+    /// The entity's previous delta (a list per entity), or [`NONE`].
+    next: u32,
+}
+
+/// The deltas of one frame's entities coded so far, for every client's
+/// encoder of that frame (see the module docs). Made once and kept: it
+/// empties itself when handed a different frame.
+#[derive(Debug, Clone, Default)]
+pub struct SharedDeltas {
+    /// The frame the deltas are of ([`QuantizedFrame::serial`]).
+    frame: Option<u64>,
+    /// Each entity's newest delta, by index into the frame, or [`NONE`].
+    heads: Vec<u32>,
+    deltas: Vec<Delta>,
+    /// Every delta's writes (value, bits), back to back.
+    writes: Vec<(u64, u32)>,
+    /// Lookups answered from a delta coded before.
+    reused: u64,
+}
+
+/// A handle to one coded delta.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct DeltaRef(u32);
+
+/// Records writes instead of making bits.
+struct Recorder<'a> {
+    writes: &'a mut Vec<(u64, u32)>,
+    bits: u32,
+}
+
+impl BitSink for Recorder<'_> {
+    fn put(&mut self, value: u64, bits: u32) {
+        if bits > 0 {
+            self.writes.push((value, bits));
+            self.bits += bits;
+        }
+    }
+}
+
+impl SharedDeltas {
+    /// Holds nothing yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Deltas handed out that had been coded before (for another client
+    /// with the same baseline state), since this was made.
+    pub fn reused(&self) -> u64 {
+        self.reused
+    }
+
+    /// Deltas coded for the current frame.
+    pub fn coded(&self) -> usize {
+        self.deltas.len()
+    }
+
+    /// Makes the deltas those of `frame`, emptying them if they were of
+    /// another.
+    pub(crate) fn start(&mut self, frame: &QuantizedFrame) {
+        if self.frame != Some(frame.serial()) {
+            self.frame = Some(frame.serial());
+            self.heads.clear();
+            self.heads.resize(frame.len(), NONE);
+            self.deltas.clear();
+            self.writes.clear();
+        }
+    }
+
+    /// The delta of entity `i` of the frame against `base`, coded now if
+    /// no client needed it before; with its size in bits. Call
+    /// [`Self::start`] with the frame first.
+    pub(crate) fn delta(
+        &mut self,
+        frame: &QuantizedFrame,
+        i: usize,
+        base: Option<&QuantizedEntity>,
+        config: &SnapshotConfig,
+    ) -> (DeltaRef, usize) {
+        let mut at = self.heads[i];
+        while at != NONE {
+            let d = &self.deltas[at as usize];
+            if d.base.as_ref() == base {
+                self.reused += 1;
+                return (DeltaRef(at), d.bits as usize);
+            }
+            at = d.next;
+        }
+        let start = self.writes.len() as u32;
+        let mut recorder = Recorder {
+            writes: &mut self.writes,
+            bits: 0,
+        };
+        write_body(&mut recorder, &frame.state(i), base, config);
+        let bits = recorder.bits;
+        let index = self.deltas.len() as u32;
+        self.deltas.push(Delta {
+            base: base.copied(),
+            start,
+            end: self.writes.len() as u32,
+            bits,
+            next: self.heads[i],
+        });
+        self.heads[i] = index;
+        (DeltaRef(index), bits as usize)
+    }
+
+    /// Writes delta `d` into `w`.
+    pub(crate) fn write(&self, d: DeltaRef, w: &mut BitWriter) {
+        let d = &self.deltas[d.0 as usize];
+        for &(value, bits) in &self.writes[d.start as usize..d.end as usize] {
+            w.write(value, bits);
+        }
+    }
+}
