@@ -257,6 +257,11 @@ pub struct ServerConfig {
     pub seek_memory_mb: u64,
     /// In-memory checkpoint interval, ticks (0: none).
     pub checkpoint_ticks: u64,
+    /// Published frames kept by tick for [`crate::RunningServer::frame_at`]
+    /// (tests and tools comparing what clients saw with the truth); 0,
+    /// the default, keeps none. Not a command-line setting: each frame
+    /// holds every entity's state (about 120 KB at 1000 bodies).
+    pub frame_history: usize,
 }
 
 impl Default for ServerConfig {
@@ -285,6 +290,7 @@ impl Default for ServerConfig {
             resume: false,
             seek_memory_mb: DEFAULT_SEEK_MEMORY_MB,
             checkpoint_ticks: DEFAULT_CHECKPOINT_TICKS,
+            frame_history: 0,
         }
     }
 }
@@ -456,6 +462,7 @@ impl ServerConfig {
             resume: layer.resume.unwrap_or(self.resume),
             seek_memory_mb: layer.seek_memory_mb.unwrap_or(self.seek_memory_mb),
             checkpoint_ticks: layer.checkpoint_ticks.unwrap_or(self.checkpoint_ticks),
+            frame_history: self.frame_history,
         }
     }
 

@@ -282,9 +282,12 @@ pub async fn start_with_rules(
             shutdown_rx,
         )
         .with_admin_tokens(admin_tokens)
-        .with_checkpoint_dir(CheckpointDir::new(config.checkpoint_dir())),
+        .with_checkpoint_dir(CheckpointDir::new(config.checkpoint_dir()))
+        .with_frame_history(config.frame_history),
     );
-    tasks.push(tokio::spawn(shared.clone().record_history()));
+    if config.frame_history > 0 {
+        tasks.push(tokio::spawn(shared.clone().record_history()));
+    }
     tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone())));
     tasks.push(tokio::spawn(supervise(
         shared.sim.watch_exit(),
@@ -417,7 +420,7 @@ impl RunningServer {
     }
 
     /// The frame of `tick`, if it is among the last
-    /// [`net::HISTORY_FRAMES`].
+    /// [`ServerConfig::frame_history`] (none are kept by default).
     pub fn frame_at(&self, tick: u64) -> Option<Arc<Frame>> {
         self.shared.frame_at(tick)
     }

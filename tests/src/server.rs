@@ -27,14 +27,19 @@ pub fn temp_data_dir(what: &str) -> PathBuf {
     dir
 }
 
+/// Frames a test server keeps for [`RunningServer::frame_at`].
+pub const TEST_FRAME_HISTORY: usize = 600;
+
 /// A dev-mode server's configuration on ephemeral loopback ports, with
-/// `scene` (a file under `tests/scenes`, or the demo when `None`).
+/// `scene` (a file under `tests/scenes`, or the demo when `None`), keeping
+/// the last [`TEST_FRAME_HISTORY`] frames.
 pub fn test_config(scene: Option<&str>, what: &str) -> ServerConfig {
     ServerConfig {
         listen: Some("127.0.0.1:0".parse().expect("literal")),
         metrics: "127.0.0.1:0".parse().expect("literal"),
         scene: scene.map(scene_path),
         data_dir: temp_data_dir(what),
+        frame_history: TEST_FRAME_HISTORY,
         ..ServerConfig::default()
     }
 }

@@ -164,3 +164,29 @@ async fn interpolation_stays_close_at_100ms_rtt_jitter_and_loss() {
     client.close().await;
     server.shutdown().await;
 }
+
+/// Production servers keep no frame history (it held about 72 MB at 1000
+/// bodies): only a server configured with one answers `frame_at`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue_12_frame_history_is_off_unless_configured() {
+    let config = inertia_server::config::ServerConfig {
+        frame_history: 0,
+        ..test_config(Some("moving.ron"), "no-history")
+    };
+    let server = start_server(config).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let tick = server.frame().tick;
+    assert!(tick > 0, "the server ticks");
+    assert!(
+        (tick.saturating_sub(10)..=tick).all(|t| server.frame_at(t).is_none()),
+        "no frame kept"
+    );
+    server.shutdown().await;
+
+    let server = start_server(test_config(Some("moving.ron"), "history")).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let tick = server.frame().tick;
+    let held = (tick.saturating_sub(10)..tick).filter(|&t| server.frame_at(t).is_some());
+    assert!(held.count() >= 5, "the test server keeps its frames");
+    server.shutdown().await;
+}

@@ -537,14 +537,9 @@ async fn session(
                 }
                 let max = connection.max_datagram_size().unwrap_or(1200);
                 let encode_started = Instant::now();
-                let bytes = encoder.encode(
-                    frame.tick,
-                    frame.time_scale as f32,
-                    frame.paused,
-                    &frame.entities,
-                    &mut priorities,
-                    budget.min(max),
-                );
+                // Quantized once per frame for every client.
+                let quantized = frame.quantized(&shared.snapshot);
+                let bytes = encoder.encode_frame(quantized, &mut priorities, budget.min(max));
                 shared
                     .metrics
                     .snapshot_encode

@@ -54,8 +54,10 @@ pub struct NetShared {
     /// (a shutdown, or the simulation failing).
     pub shutdown: watch::Receiver<Option<DisconnectReason>>,
     /// Recent frames by tick, so tests and tools can compare what clients
-    /// saw with the truth.
+    /// saw with the truth (at most `history_len`; none by default).
     pub history: Mutex<BTreeMap<u64, Arc<Frame>>>,
+    /// Frames kept in `history` ([`crate::config::ServerConfig::frame_history`]).
+    history_len: usize,
     /// Connections numbered from 1.
     next_connection: AtomicU64,
     /// Clients connected now, by client id, with their connection number.
@@ -79,9 +81,6 @@ impl std::fmt::Debug for NetShared {
             .finish_non_exhaustive()
     }
 }
-
-/// Frames kept in [`NetShared::history`].
-pub const HISTORY_FRAMES: usize = 600;
 
 impl NetShared {
     /// Shared state for a server.
@@ -111,6 +110,7 @@ impl NetShared {
             budget_bytes_per_sec,
             shutdown,
             history: Mutex::new(BTreeMap::new()),
+            history_len: 0,
             next_connection: AtomicU64::new(1),
             connected: Mutex::new(BTreeMap::new()),
             kicks: Mutex::new(BTreeMap::new()),
@@ -130,6 +130,13 @@ impl NetShared {
     /// The same, throttling failed admin hellos with `config`.
     pub fn with_admin_throttle(mut self, config: ThrottleConfig) -> Self {
         self.admin_throttle = Mutex::new(HelloThrottle::new(config));
+        self
+    }
+
+    /// The same, keeping the last `frames` frames by tick (see
+    /// [`Self::record_history`]).
+    pub fn with_frame_history(mut self, frames: usize) -> Self {
+        self.history_len = frames;
         self
     }
 
@@ -154,15 +161,19 @@ impl NetShared {
         self.history.lock().ok()?.get(&tick).cloned()
     }
 
-    /// Records every new frame into the history until shutdown.
+    /// Records every new frame into the history until shutdown; returns
+    /// at once when no history is kept.
     pub async fn record_history(self: Arc<Self>) {
+        if self.history_len == 0 {
+            return;
+        }
         let mut frames = self.sim.subscribe();
         let mut shutdown = self.shutdown.clone();
         loop {
             let frame = frames.borrow_and_update().clone();
             if let Ok(mut h) = self.history.lock() {
                 h.insert(frame.tick, frame);
-                while h.len() > HISTORY_FRAMES {
+                while h.len() > self.history_len {
                     h.pop_first();
                 }
             }

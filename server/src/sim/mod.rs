@@ -40,12 +40,13 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::panic::{self, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TryRecvError, TrySendError};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use inertia_physics::glam::DVec3;
 use inertia_physics::World;
+use inertia_protocol::snapshot::{QuantizedFrame, SnapshotConfig};
 use inertia_protocol::{EntityDesc, EntityId, EntityState, PlayerInput};
 use tokio::sync::{oneshot, watch};
 
@@ -169,6 +170,27 @@ pub struct Frame {
     pub live_tick: u64,
     /// What the clock is showing: live, or which way through history.
     pub mode: TimeMode,
+    /// `entities` quantized for snapshots, made by the first connection
+    /// that codes this frame and shared by every other (see
+    /// [`Frame::quantized`]).
+    quantized: OnceLock<QuantizedFrame>,
+}
+
+impl Frame {
+    /// This frame's entities and clock quantized under `config`, once for
+    /// every client: the first caller quantizes, the rest share it. Every
+    /// caller must pass the same config (the server has one).
+    pub fn quantized(&self, config: &SnapshotConfig) -> &QuantizedFrame {
+        self.quantized.get_or_init(|| {
+            QuantizedFrame::new(
+                self.tick,
+                self.time_scale as f32,
+                self.paused,
+                &self.entities,
+                config,
+            )
+        })
+    }
 }
 
 /// What the simulation is showing.
@@ -1118,6 +1140,7 @@ impl Simulation {
             clients: self.live_clients() as u32,
             live_tick: self.live_tick(),
             mode: self.mode(),
+            quantized: OnceLock::new(),
         }
     }
 
