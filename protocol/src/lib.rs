@@ -28,6 +28,7 @@ pub mod link;
 pub mod priority;
 pub mod quantize;
 pub mod rng;
+pub mod session;
 pub mod snapshot;
 pub mod token;
 
@@ -48,6 +49,7 @@ pub use interest::Interest;
 pub use link::{LinkConfig, LinkError, LinkStats, SimLink};
 pub use priority::{PriorityAccumulator, PriorityWeights};
 pub use quantize::{read_rotation, write_rotation, PositionGrid};
+pub use session::{ServerSession, SessionConfig};
 pub use snapshot::{
     DecodedSnapshot, SnapshotConfig, SnapshotDecoder, SnapshotEncoder, SnapshotError, View,
     ViewEntity,

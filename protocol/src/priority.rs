@@ -68,6 +68,11 @@ impl PriorityAccumulator {
         &self.interest
     }
 
+    /// The client's interest, to change in place.
+    pub fn interest_mut(&mut self) -> &mut Interest {
+        &mut self.interest
+    }
+
     /// Changes the client's interest (its camera moved).
     pub fn set_interest(&mut self, interest: Interest) {
         self.interest = interest;

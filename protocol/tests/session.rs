@@ -1,5 +1,6 @@
-//! A whole session without sockets: a client and a server, each made of
-//! the protocol's pieces, talk through simulated links on a virtual clock.
+//! A whole session without sockets: a client (made of the protocol's
+//! pieces) and the server's [`ServerSession`] talk through simulated links
+//! on a virtual clock.
 //! The hello and welcome go over a reliable, ordered byte stream cut into
 //! arbitrary pieces; snapshots and input datagrams go over lossy,
 //! jittered, reordering, duplicating links both ways. The client's view
@@ -11,12 +12,12 @@ use inertia_protocol::control::{
     encode_frame, handshake, ClientControl, FrameDecoder, Refusal, ServerControl, SnapshotParams,
     TokenRefusal, PROTOCOL_VERSION,
 };
-use inertia_protocol::input::{InputBuffer, InputDatagram, MAX_REDUNDANT_INPUTS};
+use inertia_protocol::input::{InputDatagram, MAX_REDUNDANT_INPUTS};
 use inertia_protocol::link::{LinkConfig, SimLink};
+use inertia_protocol::snapshot::{QuantizedFrame, SharedDeltas};
 use inertia_protocol::token::{mint, ReplayGuard, TokenKey};
 use inertia_protocol::{
-    EntityState, Interest, PlayerInput, PriorityAccumulator, SnapshotConfig, SnapshotDecoder,
-    SnapshotEncoder,
+    EntityState, PlayerInput, ServerSession, SessionConfig, SnapshotConfig, SnapshotDecoder,
 };
 
 const SERVER: &str = "127.0.0.1:7777";
@@ -129,19 +130,21 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
     };
     let mut down = SimLink::new(bad, 1).unwrap();
     let mut up = SimLink::new(bad, 2).unwrap();
-    let mut encoder = SnapshotEncoder::new(config).unwrap();
+    // The server's half is the session the server runs.
+    let mut session = ServerSession::new(SessionConfig::new(config, 1200)).unwrap();
+    let mut deltas = SharedDeltas::new();
     let mut decoder = SnapshotDecoder::new(client_config).unwrap();
-    let mut priorities = PriorityAccumulator::new(Interest::everything());
-    let mut server_inputs = InputBuffer::new(128);
     let mut sent_inputs: Vec<PlayerInput> = Vec::new();
     let mut received_inputs: Vec<PlayerInput> = Vec::new();
     let (mut decoded, mut compared) = (0, 0);
     for tick in 1..=1200u64 {
         let now = tick as f64 / 60.0;
-        // Server: a snapshot every other tick.
-        let truth = world(40, tick);
+        // Server: a snapshot slot every other tick, on its frame.
         if tick % 2 == 0 {
-            let bytes = encoder.encode(tick, 1.0, false, &truth, &mut priorities, 1200);
+            let frame = QuantizedFrame::new(tick, 1.0, false, &world(40, tick), &config);
+            let bytes = session
+                .poll_snapshot(&frame, &mut deltas, tick / 2, 1200)
+                .expect("every slot is served");
             assert!(bytes.len() <= 1200);
             down.send(now, bytes);
         }
@@ -152,7 +155,8 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
                 continue;
             };
             decoded += 1;
-            let sent = encoder
+            let sent = session
+                .encoder()
                 .view(snap.sequence)
                 .expect("the server still holds it");
             assert_eq!(sent.len(), snap.entities.len());
@@ -185,10 +189,8 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
         up.send(now, datagram.encode().unwrap());
         // Server: acks move the baseline; inputs come out once, in order.
         for bytes in up.receive(now) {
-            let d = InputDatagram::decode(&bytes).unwrap();
-            encoder.on_ack_state(d.ack, d.ack_bits);
-            server_inputs.push_datagram(&d);
-            while let Some(i) = server_inputs.pop() {
+            session.on_datagram(&bytes).unwrap();
+            while let Some(i) = session.poll_input() {
                 received_inputs.push(i);
             }
         }
@@ -204,5 +206,30 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
     assert!(decoded > 450, "{decoded} snapshots decoded of 600");
     assert!(compared > 15_000);
     // The baseline followed the acks: most snapshots were deltas.
-    assert!(encoder.acked().is_some());
+    assert!(session.encoder().acked().is_some());
+}
+
+/// A client served every third slot is served in exactly those, and a
+/// datagram that does not decode changes nothing.
+#[test]
+fn a_slower_client_skips_slots_deterministically() {
+    let config = SnapshotConfig::default();
+    let mut session = ServerSession::new(SessionConfig {
+        every_slots: 3,
+        ..SessionConfig::new(config, 1200)
+    })
+    .unwrap();
+    let mut deltas = SharedDeltas::new();
+    let served: Vec<u64> = (0..10u64)
+        .filter(|&slot| {
+            let frame = QuantizedFrame::new(slot, 1.0, false, &world(10, slot), &config);
+            session
+                .poll_snapshot(&frame, &mut deltas, slot, 1200)
+                .is_some()
+        })
+        .collect();
+    assert_eq!(served, [0, 3, 6, 9]);
+    assert!(session.on_datagram(&[0x49, 0xff]).is_err());
+    assert_eq!(session.poll_input(), None);
+    assert_eq!(session.encoder().acked(), None);
 }

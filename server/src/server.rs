@@ -288,6 +288,7 @@ pub async fn start_with_rules(
     if config.frame_history > 0 {
         tasks.push(tokio::spawn(shared.clone().record_history()));
     }
+    tasks.push(tokio::spawn(net::snapshots::run(shared.clone())));
     tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone())));
     tasks.push(tokio::spawn(supervise(
         shared.sim.watch_exit(),

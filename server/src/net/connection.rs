@@ -15,8 +15,8 @@
 //! bytes wait for it). Goodbyes wait at most [`GOODBYE_WAIT`].
 
 use std::collections::BTreeSet;
-use std::sync::Arc;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use glam::DVec3;
 use inertia_protocol::admin::TimeMode;
@@ -24,14 +24,11 @@ use inertia_protocol::control::{
     encode_frame, handshake, truncate_utf8, ClientControl, DisconnectReason, FrameDecoder, Refusal,
     ServerControl, SnapshotParams, MAX_REASON_BYTES,
 };
-use inertia_protocol::input::{InputBuffer, InputDatagram};
-use inertia_protocol::interest::Interest;
-use inertia_protocol::priority::PriorityAccumulator;
-use inertia_protocol::snapshot::SnapshotEncoder;
-use inertia_protocol::{EntityId, EntityKind};
+use inertia_protocol::{EntityId, EntityKind, ServerSession, SessionConfig};
 use tracing::{debug, info, info_span, warn, Instrument};
 
 use super::events::to_wire;
+use super::snapshots::Served;
 use super::NetShared;
 use crate::rules;
 use crate::sim::{CommandError, Frame, SimExit};
@@ -499,67 +496,68 @@ async fn session(
     mut kick: tokio::sync::oneshot::Receiver<String>,
     shared: &NetShared,
 ) -> End {
-    let mut encoder = SnapshotEncoder::new(shared.snapshot).expect("validated at start-up");
-    let mut interest = Interest::everything();
-    interest.always_relevant.insert(avatar);
-    let mut priorities = PriorityAccumulator::new(interest);
-    let mut inputs = InputBuffer::new(INPUT_BUFFER);
+    let budget = (shared.budget_bytes_per_sec / u64::from(shared.snapshot_hz.max(1))) as usize;
+    let mut config = SessionConfig::new(shared.snapshot, budget);
+    config.interest_full_m = INTEREST_FULL_M;
+    config.interest_max_m = INTEREST_MAX_M;
+    config.input_buffer = INPUT_BUFFER;
+    let mut game_session = ServerSession::new(config).expect("validated at start-up");
+    game_session.set_avatar(avatar);
+    // The snapshot stage codes this client's snapshots from here on.
+    let served = Arc::new(Served {
+        connection: connection.clone(),
+        session: Mutex::new(game_session),
+    });
+    let _serving = shared
+        .served
+        .add(connection.stable_id() as u64, served.clone());
+    let mut published = shared.sim.subscribe();
     let mut view = ClientView {
         known: BTreeSet::new(),
         catalog_version: None,
-        events_up_to: shared.sim.frame().tick,
+        events_up_to: published.borrow().tick,
     };
-    let period = Duration::from_secs_f64(1.0 / f64::from(shared.snapshot_hz.max(1)));
-    let mut timer = tokio::time::interval(period);
-    timer.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    let budget = (shared.budget_bytes_per_sec / u64::from(shared.snapshot_hz.max(1))) as usize;
     let mut shutdown = shared.shutdown.clone();
     let mut buf = vec![0u8; 4096];
     let mut kick_open = true;
+    // The catalog as it is now, then at every frame published.
+    let mut catalog_due = true;
+    let mut frames_open = true;
     loop {
-        let stall = outbox.stall_deadline();
-        tokio::select! {
-            _ = timer.tick() => {
-                let frame = shared.sim.frame();
-                if let Err(e) = sync_catalog(outbox, &frame, &mut view, shared) {
-                    return End::Protocol(format!("control stream: {e}"));
-                }
-                if !frame.catalog.contains_key(&avatar) && frame.mode == TimeMode::Live {
-                    // A loaded checkpoint gave the client a new avatar.
-                    if let Some(id) = avatar_of(&frame, client) {
-                        avatar = id;
+        if catalog_due {
+            catalog_due = false;
+            let frame = published.borrow_and_update().clone();
+            if let Err(e) = sync_catalog(outbox, &frame, &mut view, shared) {
+                return End::Protocol(format!("control stream: {e}"));
+            }
+            if !frame.catalog.contains_key(&avatar) && frame.mode == TimeMode::Live {
+                // A loaded checkpoint gave the client a new avatar.
+                if let Some(id) = avatar_of(&frame, client) {
+                    avatar = id;
+                    if let Ok(mut session) = served.session.lock() {
+                        session.set_avatar(id);
                     }
                 }
-                if let Some(point) = interest_point(&frame, avatar) {
-                    let mut interest = Interest::around(point, INTEREST_FULL_M, INTEREST_MAX_M);
-                    interest.always_relevant.insert(avatar);
-                    priorities.set_interest(interest);
-                }
-                let max = connection.max_datagram_size().unwrap_or(1200);
-                let encode_started = Instant::now();
-                // Quantized once per frame for every client.
-                let quantized = frame.quantized(&shared.snapshot);
-                let bytes = encoder.encode_frame(quantized, &mut priorities, budget.min(max));
-                shared
-                    .metrics
-                    .snapshot_encode
-                    .observe(encode_started.elapsed().as_secs_f64());
-                let len = bytes.len();
-                if connection.send_datagram(bytes.into()).is_ok() {
-                    shared.metrics.bytes_sent.inc_by(len as u64);
-                    shared.metrics.packets_sent.inc();
-                    shared.metrics.snapshot_size.observe(len as f64);
-                }
             }
+        }
+        let stall = outbox.stall_deadline();
+        tokio::select! {
+            changed = published.changed(), if frames_open => match changed {
+                Ok(()) => catalog_due = true,
+                // The tick thread has stopped: the shutdown that follows
+                // says why.
+                Err(_) => frames_open = false,
+            },
             datagram = connection.read_datagram() => match datagram {
                 Ok(bytes) => {
                     shared.metrics.bytes_received.inc_by(bytes.len() as u64);
                     shared.metrics.packets_received.inc();
-                    match InputDatagram::decode(&bytes) {
-                        Ok(d) => {
-                            encoder.on_ack_state(d.ack, d.ack_bits);
-                            inputs.push_datagram(&d);
-                            while let Some(input) = inputs.pop() {
+                    let Ok(mut session) = served.session.lock() else {
+                        return End::Protocol("session state lost".into());
+                    };
+                    match session.on_datagram(&bytes) {
+                        Ok(()) => {
+                            while let Some(input) = session.poll_input() {
                                 if shared.sim.input(client, input).is_err() {
                                     shared.metrics.inputs_rejected.inc();
                                 }

@@ -7,6 +7,7 @@
 pub mod connection;
 pub mod events;
 pub mod gate;
+pub mod snapshots;
 pub mod tls;
 
 use std::collections::BTreeMap;
@@ -71,6 +72,8 @@ pub struct NetShared {
     pub admin_throttle: Mutex<HelloThrottle>,
     /// Where `save` and `load` keep checkpoints.
     pub checkpoints: CheckpointDir,
+    /// The clients the snapshot stage serves ([`snapshots::run`]).
+    pub served: Arc<snapshots::ServedClients>,
 }
 
 impl std::fmt::Debug for NetShared {
@@ -117,6 +120,7 @@ impl NetShared {
             checkpoints: CheckpointDir::new(
                 crate::config::ServerConfig::default().checkpoint_dir(),
             ),
+            served: Arc::default(),
         }
     }
 

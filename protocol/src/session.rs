@@ -1,0 +1,164 @@
+//! The server's half of one client's game session, without sockets: what
+//! comes in as datagrams (acknowledgements and inputs) and what goes out
+//! as snapshots. The server's connection code only moves bytes between
+//! the network and a [`ServerSession`]; the tests drive the very same
+//! type through simulated links.
+//!
+//! Snapshots are coded from published frames ([`QuantizedFrame`], one per
+//! frame for every client) at the server's snapshot slots: every client
+//! is served the same frame in the same slot, and one whose rate is lower
+//! takes every `n`-th slot, the same slots on every run.
+
+use crate::entity::{EntityId, PlayerInput};
+use crate::input::{InputBuffer, InputDatagram, InputError};
+use crate::interest::Interest;
+use crate::priority::PriorityAccumulator;
+use crate::snapshot::{
+    ConfigError, EncodeReport, QuantizedFrame, SharedDeltas, SnapshotConfig, SnapshotEncoder,
+};
+
+/// How a [`ServerSession`] serves its client.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SessionConfig {
+    /// How snapshots are coded (the same for every client of a server).
+    pub snapshot: SnapshotConfig,
+    /// The client's budget for one snapshot, bytes (its bandwidth budget
+    /// over the snapshot rate); the datagram size bounds it too.
+    pub budget_bytes: usize,
+    /// Serve one snapshot slot in this many (1: every slot).
+    pub every_slots: u32,
+    /// Within this distance of the avatar entities are fully relevant, m.
+    pub interest_full_m: f64,
+    /// Beyond this distance of the avatar entities are not sent, m.
+    pub interest_max_m: f64,
+    /// Inputs remembered for reordering and de-duplication.
+    pub input_buffer: usize,
+}
+
+impl SessionConfig {
+    /// `snapshot` coding within `budget_bytes` a snapshot, every slot, with
+    /// interest 60 m full and 250 m at most, and 128 inputs remembered.
+    pub fn new(snapshot: SnapshotConfig, budget_bytes: usize) -> Self {
+        Self {
+            snapshot,
+            budget_bytes,
+            every_slots: 1,
+            interest_full_m: 60.0,
+            interest_max_m: 250.0,
+            input_buffer: 128,
+        }
+    }
+}
+
+/// One client's session on the server: its snapshot encoder (views sent,
+/// acknowledgements), priorities and interest, and its input buffer.
+#[derive(Debug, Clone)]
+pub struct ServerSession {
+    config: SessionConfig,
+    encoder: SnapshotEncoder,
+    priorities: PriorityAccumulator,
+    inputs: InputBuffer,
+    avatar: Option<EntityId>,
+}
+
+impl ServerSession {
+    /// A session that has sent nothing and received nothing.
+    pub fn new(config: SessionConfig) -> Result<Self, ConfigError> {
+        let encoder = SnapshotEncoder::new(config.snapshot)?;
+        Ok(Self {
+            priorities: PriorityAccumulator::new(Interest::everything()),
+            inputs: InputBuffer::new(config.input_buffer.max(1)),
+            encoder,
+            config,
+            avatar: None,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SessionConfig {
+        &self.config
+    }
+
+    /// The client's avatar: always relevant, and where its interest is
+    /// centred once a frame holds it.
+    pub fn set_avatar(&mut self, avatar: EntityId) {
+        if let Some(old) = self.avatar.replace(avatar) {
+            self.priorities.interest_mut().always_relevant.remove(&old);
+        }
+        self.priorities
+            .interest_mut()
+            .always_relevant
+            .insert(avatar);
+    }
+
+    /// The client's avatar, if it has one.
+    pub fn avatar(&self) -> Option<EntityId> {
+        self.avatar
+    }
+
+    /// A datagram from the client: its acknowledgements go to the
+    /// encoder, its inputs to the buffer (take them with
+    /// [`Self::poll_input`]). A datagram that does not decode changes
+    /// nothing.
+    pub fn on_datagram(&mut self, bytes: &[u8]) -> Result<(), InputError> {
+        let datagram = InputDatagram::decode(bytes)?;
+        self.encoder.on_ack_state(datagram.ack, datagram.ack_bits);
+        self.inputs.push_datagram(&datagram);
+        Ok(())
+    }
+
+    /// The client's next input in sequence order, each exactly once.
+    pub fn poll_input(&mut self) -> Option<PlayerInput> {
+        self.inputs.pop()
+    }
+
+    /// Whether snapshot slot `slot` (counted by the server from its
+    /// start) is one this client is served in.
+    pub fn serves_slot(&self, slot: u64) -> bool {
+        slot % u64::from(self.config.every_slots.max(1)) == 0
+    }
+
+    /// The snapshot of `frame` for this client in slot `slot`, at most
+    /// `max_datagram` bytes (the path's datagram size), taking entity
+    /// deltas from `shared` (the frame's, shared by every client); `None`
+    /// in a slot the client skips. Interest centres on the avatar where
+    /// the frame holds it.
+    pub fn poll_snapshot(
+        &mut self,
+        frame: &QuantizedFrame,
+        shared: &mut SharedDeltas,
+        slot: u64,
+        max_datagram: usize,
+    ) -> Option<Vec<u8>> {
+        if !self.serves_slot(slot) {
+            return None;
+        }
+        let point = self
+            .avatar
+            .and_then(|a| frame.index_of(a))
+            .map(|i| frame.position(i));
+        // Until the frame holds the avatar, the interest stays as it was
+        // (everything, everywhere, at first).
+        if let Some(p) = point {
+            let interest = self.priorities.interest_mut();
+            interest.point = p;
+            interest.radius_full = self.config.interest_full_m;
+            interest.radius_max = self.config.interest_max_m;
+        }
+        let budget = self.config.budget_bytes.min(max_datagram);
+        Some(
+            self.encoder
+                .encode_shared(frame, shared, &mut self.priorities, budget),
+        )
+    }
+
+    /// What the last snapshot did.
+    pub fn last_report(&self) -> EncodeReport {
+        self.encoder.last_report()
+    }
+
+    /// The snapshot encoder (views sent, the newest acknowledged).
+    pub fn encoder(&self) -> &SnapshotEncoder {
+        &self.encoder
+    }
+}

@@ -1,0 +1,144 @@
+//! The snapshot stage: one task codes the snapshots of every client, on
+//! published frames, in the server's snapshot slots.
+//!
+//! A slot opens every `1 / snapshot_hz` s of wall time. It is served on
+//! the first frame the tick thread publishes after it opens, so snapshots
+//! are aligned with ticks and every client of a slot is served the same
+//! frame: quantized once ([`Frame::quantized`]), with each entity's delta
+//! coded once per baseline state and shared by every client that needs it
+//! ([`SharedDeltas`]). While no frame comes (the clock is paused), a slot
+//! is served from the latest frame half a period after it opened, so
+//! deferred entities still arrive and clients keep acknowledging.
+//!
+//! Each client's [`ServerSession`] sits behind a lock it shares with its
+//! connection task, which feeds it the client's datagrams (acks and
+//! inputs); the stage holds one client's lock at a time, for one encode.
+//! Datagrams go out through quinn's `send_datagram`, which only queues.
+//!
+//! [`Frame::quantized`]: crate::sim::Frame::quantized
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use inertia_protocol::snapshot::SharedDeltas;
+use inertia_protocol::ServerSession;
+
+use super::NetShared;
+
+/// One connected client as the stage serves it.
+#[derive(Debug)]
+pub struct Served {
+    /// Its connection, for `send_datagram` and the path's datagram size.
+    pub connection: quinn::Connection,
+    /// Its session (encoder, priorities, inputs), shared with its
+    /// connection task.
+    pub session: Mutex<ServerSession>,
+}
+
+/// The clients the stage serves, by connection number.
+#[derive(Debug, Default)]
+pub struct ServedClients {
+    clients: Mutex<BTreeMap<u64, Arc<Served>>>,
+}
+
+impl ServedClients {
+    /// Serves `served` as connection `id` until the returned guard drops.
+    pub fn add(self: &Arc<Self>, id: u64, served: Arc<Served>) -> ServedGuard {
+        if let Ok(mut c) = self.clients.lock() {
+            c.insert(id, served);
+        }
+        ServedGuard {
+            clients: self.clone(),
+            id,
+        }
+    }
+
+    /// Clients served now.
+    pub fn len(&self) -> usize {
+        self.clients.lock().map_or(0, |c| c.len())
+    }
+
+    /// Whether no client is served.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Puts every client served now into `out` (emptied first).
+    fn snapshot_into(&self, out: &mut Vec<Arc<Served>>) {
+        out.clear();
+        if let Ok(c) = self.clients.lock() {
+            out.extend(c.values().cloned());
+        }
+    }
+}
+
+/// Stops serving a client when dropped.
+#[derive(Debug)]
+pub struct ServedGuard {
+    clients: Arc<ServedClients>,
+    id: u64,
+}
+
+impl Drop for ServedGuard {
+    fn drop(&mut self) {
+        if let Ok(mut c) = self.clients.clients.lock() {
+            c.remove(&self.id);
+        }
+    }
+}
+
+/// Runs the stage until shutdown or until the simulation is gone.
+pub async fn run(shared: Arc<NetShared>) {
+    let mut frames = shared.sim.subscribe();
+    let mut shutdown = shared.shutdown.clone();
+    let period = Duration::from_secs_f64(1.0 / f64::from(shared.snapshot_hz.max(1)));
+    let mut opens = tokio::time::Instant::now();
+    let mut slot: u64 = 0;
+    let mut deltas = SharedDeltas::new();
+    let mut clients = Vec::new();
+    loop {
+        tokio::select! {
+            changed = frames.changed() => if changed.is_err() { return },
+            _ = tokio::time::sleep_until(opens + period / 2) => {}
+            _ = shutdown.changed() => return,
+        }
+        // Marks the frame seen whichever branch woke the stage.
+        let frame = frames.borrow_and_update().clone();
+        let now = tokio::time::Instant::now();
+        if now < opens {
+            continue;
+        }
+        shared.served.snapshot_into(&mut clients);
+        if !clients.is_empty() {
+            let quantized = frame.quantized(&shared.snapshot);
+            for served in &clients {
+                let max = served.connection.max_datagram_size().unwrap_or(1200);
+                let started = Instant::now();
+                let bytes = match served.session.lock() {
+                    Ok(mut session) => session.poll_snapshot(quantized, &mut deltas, slot, max),
+                    Err(_) => None,
+                };
+                let Some(bytes) = bytes else { continue };
+                shared
+                    .metrics
+                    .snapshot_encode
+                    .observe(started.elapsed().as_secs_f64());
+                let len = bytes.len();
+                if served.connection.send_datagram(bytes.into()).is_ok() {
+                    shared.metrics.bytes_sent.inc_by(len as u64);
+                    shared.metrics.packets_sent.inc();
+                    shared.metrics.snapshot_size.observe(len as f64);
+                }
+            }
+            clients.clear();
+        }
+        slot += 1;
+        opens += period;
+        // Slots missed while the stage was behind are skipped, not run in
+        // a burst.
+        if opens <= now {
+            opens = now + period;
+        }
+    }
+}
