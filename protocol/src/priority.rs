@@ -9,9 +9,8 @@
 //! relevant highest, moving bodies high, resting ones low) times the
 //! entity's [`Interest`] weight.
 
-use std::collections::HashMap;
-
 use glam::DVec3;
+use rustc_hash::FxHashMap;
 
 use crate::entity::EntityId;
 use crate::interest::Interest;
@@ -45,7 +44,7 @@ impl Default for PriorityWeights {
 pub struct PriorityAccumulator {
     weights: PriorityWeights,
     interest: Interest,
-    accumulated: HashMap<EntityId, f64>,
+    accumulated: FxHashMap<EntityId, f64>,
 }
 
 impl PriorityAccumulator {
@@ -59,7 +58,7 @@ impl PriorityAccumulator {
         Self {
             weights,
             interest,
-            accumulated: HashMap::new(),
+            accumulated: FxHashMap::default(),
         }
     }
 

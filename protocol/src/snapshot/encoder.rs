@@ -1,7 +1,5 @@
 //! The server's half: one [`SnapshotEncoder`] per client.
 
-use std::collections::BTreeSet;
-
 use crate::bits::BitWriter;
 use crate::entity::{EntityId, EntityState};
 use crate::priority::PriorityAccumulator;
@@ -58,6 +56,8 @@ struct Candidate {
     index: usize,
     /// Its delta against the baseline.
     delta: DeltaRef,
+    /// The baseline view holds it.
+    in_base: bool,
     /// The entity's size without its id, bits.
     bits: usize,
 }
@@ -222,12 +222,17 @@ impl SnapshotEncoder {
                 id,
                 index: i,
                 delta,
+                in_base: in_base.is_some(),
                 bits,
             });
         }
         removed.extend(base_entities[b..].iter().map(|e| e.0));
         // Only entities still waiting keep an accumulated priority.
-        priorities.retain(|id| candidates.binary_search_by_key(&id, |c| c.id).is_ok());
+        // Every candidate was just accumulated, so the table holds them all;
+        // when it holds no more, it holds exactly them.
+        if priorities.waiting() != candidates.len() {
+            priorities.retain(|id| candidates.binary_search_by_key(&id, |c| c.id).is_ok());
+        }
 
         // Fill the budget: the header with both counts at their widest,
         // then removals in id order, then entities by priority.
@@ -250,18 +255,22 @@ impl SnapshotEncoder {
             removed_sent.push(id);
         }
 
-        candidates.sort_by(|a, b| b.priority.total_cmp(&a.priority).then(a.id.cmp(&b.id)));
+        // Ids are unique, so the order is total and need not be stable.
+        candidates.sort_unstable_by(|a, b| b.priority.total_cmp(&a.priority).then(a.id.cmp(&b.id)));
         // A view never grows past MAX_ENTITIES: new entities beyond its
         // room wait.
         let mut room = MAX_ENTITIES.saturating_sub(base.len());
-        let mut chosen = BTreeSet::new();
+        // The chosen, as a set of frame indices (index order is id order).
+        let mut chosen = IndexSet::new(frame.len());
+        let mut picked: Vec<&Candidate> = Vec::new();
         for c in &candidates {
-            let new = base.get(c.id).is_none();
+            let new = !c.in_base;
             if new && room == 0 {
                 continue;
             }
-            let prev = chosen.range(..c.id).next_back().copied();
-            let next = chosen.range(c.id..).next().copied();
+            let id_at = |j: usize| frame.ids()[j];
+            let prev = chosen.before(c.index).map(id_at);
+            let next = chosen.after(c.index).map(id_at);
             let mut cost = c.bits + id_bits(prev, c.id);
             if let Some(n) = next {
                 // Splitting a gap never costs less than nothing; saturate
@@ -271,16 +280,14 @@ impl SnapshotEncoder {
             }
             if used + cost <= budget {
                 used += cost;
-                chosen.insert(c.id);
+                chosen.insert(c.index);
+                picked.push(c);
                 room -= usize::from(new);
             }
         }
-        let mut updated: Vec<(EntityId, QuantizedEntity)> = Vec::with_capacity(chosen.len());
-        let mut by_id: Vec<&Candidate> = candidates
-            .iter()
-            .filter(|c| chosen.contains(&c.id))
-            .collect();
-        by_id.sort_by_key(|c| c.id);
+        picked.sort_unstable_by_key(|c| c.index);
+        let by_id = picked;
+        let mut updated: Vec<(EntityId, QuantizedEntity)> = Vec::with_capacity(by_id.len());
         for c in &by_id {
             updated.push((c.id, frame.state(c.index)));
             priorities.sent(c.id);
@@ -338,5 +345,72 @@ impl SnapshotEncoder {
         self.sent.insert(sequence, view);
         self.next = sequence.wrapping_add(1);
         bytes
+    }
+}
+
+/// A set of frame indices, as bits, that finds the nearest member either
+/// side of an index.
+struct IndexSet {
+    words: Vec<u64>,
+}
+
+impl IndexSet {
+    /// Holds none of `0..len`.
+    fn new(len: usize) -> Self {
+        Self {
+            words: vec![0; len.div_ceil(64)],
+        }
+    }
+
+    fn insert(&mut self, i: usize) {
+        self.words[i / 64] |= 1 << (i % 64);
+    }
+
+    /// The largest member below `i`.
+    fn before(&self, i: usize) -> Option<usize> {
+        let (w, b) = (i / 64, i % 64);
+        let below = self.words[w] & ((1u64 << b) - 1);
+        if below != 0 {
+            return Some(w * 64 + 63 - below.leading_zeros() as usize);
+        }
+        (0..w)
+            .rev()
+            .find(|&k| self.words[k] != 0)
+            .map(|k| k * 64 + 63 - self.words[k].leading_zeros() as usize)
+    }
+
+    /// The smallest member above `i`.
+    fn after(&self, i: usize) -> Option<usize> {
+        let (w, b) = (i / 64, i % 64);
+        let above = if b == 63 {
+            0
+        } else {
+            self.words[w] & !((1u64 << (b + 1)) - 1)
+        };
+        if above != 0 {
+            return Some(w * 64 + above.trailing_zeros() as usize);
+        }
+        (w + 1..self.words.len())
+            .find(|&k| self.words[k] != 0)
+            .map(|k| k * 64 + self.words[k].trailing_zeros() as usize)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::IndexSet;
+
+    #[test]
+    fn index_sets_find_the_nearest_members_either_side() {
+        let mut set = IndexSet::new(300);
+        assert_eq!((set.before(150), set.after(150)), (None, None));
+        for i in [0, 63, 64, 130, 299] {
+            set.insert(i);
+        }
+        assert_eq!((set.before(0), set.after(0)), (None, Some(63)));
+        assert_eq!((set.before(63), set.after(63)), (Some(0), Some(64)));
+        assert_eq!((set.before(100), set.after(100)), (Some(64), Some(130)));
+        assert_eq!((set.before(299), set.after(299)), (Some(130), None));
+        assert_eq!((set.before(200), set.after(131)), (Some(130), Some(299)));
     }
 }
