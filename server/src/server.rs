@@ -74,6 +74,9 @@ pub enum StartError {
     /// The simulation thread could not start.
     #[error("simulation thread: {0}")]
     Thread(std::io::Error),
+    /// The snapshot stage's thread could not start.
+    #[error("snapshot thread: {0}")]
+    SnapshotThread(std::io::Error),
     /// `--resume` found nothing usable to resume from.
     #[error("resume: {0}")]
     Resume(#[from] crate::sim::resume::ResumeError),
@@ -288,7 +291,9 @@ pub async fn start_with_rules(
     if config.frame_history > 0 {
         tasks.push(tokio::spawn(shared.clone().record_history()));
     }
-    tasks.push(tokio::spawn(net::snapshots::run(shared.clone())));
+    // Its own thread, below the tick thread's priority; it ends with the
+    // shutdown.
+    net::snapshots::spawn(shared.clone()).map_err(StartError::SnapshotThread)?;
     tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone())));
     tasks.push(tokio::spawn(supervise(
         shared.sim.watch_exit(),

@@ -321,7 +321,7 @@ impl SnapshotEncoder {
         let mut prev = None;
         for c in &by_id {
             write_varuint(&mut w, id_gap(prev, c.id), &ID_CLASSES);
-            shared.write(c.delta, &mut w);
+            shared.write(frame, c.delta, &config, &mut w);
             prev = Some(c.id);
         }
         debug_assert!(

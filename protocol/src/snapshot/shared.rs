@@ -5,16 +5,18 @@
 //! state in the client's baseline (or on there being none). Clients that
 //! received the same update of an entity hold the same baseline state of
 //! it, so their deltas of it are the same bits: [`SharedDeltas`] keeps,
-//! for one [`QuantizedFrame`], each delta coded so far (as the writes that
-//! make it up, in one buffer, with a range per delta) and hands it to the
-//! next client with the same baseline state. In the spirit of
-//! bevy_replicon's serialized data (one buffer for a tick's replication
-//! messages, with each client's ranges into it). A client's datagram is
-//! the same byte for byte whether its deltas were coded for it or reused.
+//! for one [`QuantizedFrame`], each delta sized so far (every client sizes
+//! every changed entity to fill its budget) and, once some client sends
+//! it, the writes that make it up (in one buffer, with a range per delta),
+//! and hands both to the next client with the same baseline state. In the
+//! spirit of bevy_replicon's serialized data (one buffer for a tick's
+//! replication messages, with each client's ranges into it). A client's
+//! datagram is the same byte for byte whether its deltas were coded for
+//! it or reused.
 
 use crate::bits::BitWriter;
 
-use super::code::{write_body, BitSink};
+use super::code::{write_body, BitCount, BitSink};
 use super::frame::QuantizedFrame;
 use super::view::QuantizedEntity;
 use super::SnapshotConfig;
@@ -27,7 +29,11 @@ const NONE: u32 = u32::MAX;
 struct Delta {
     /// The baseline state it was coded against (`None`: no baseline).
     base: Option<QuantizedEntity>,
-    /// Its writes, a range of [`SharedDeltas::writes`].
+    /// The entity's index in the frame.
+    index: u32,
+    /// Its writes, a range of [`SharedDeltas::writes`]; [`NONE`] until a
+    /// client first writes it (most deltas are sized, for the budget, by
+    /// far more clients than send them).
     start: u32,
     end: u32,
     /// Its size, bits.
@@ -119,18 +125,15 @@ impl SharedDeltas {
             }
             at = d.next;
         }
-        let start = self.writes.len() as u32;
-        let mut recorder = Recorder {
-            writes: &mut self.writes,
-            bits: 0,
-        };
-        write_body(&mut recorder, &frame.state(i), base, config);
-        let bits = recorder.bits;
+        let mut size = BitCount::default();
+        write_body(&mut size, &frame.state(i), base, config);
+        let bits = size.0 as u32;
         let index = self.deltas.len() as u32;
         self.deltas.push(Delta {
             base: base.copied(),
-            start,
-            end: self.writes.len() as u32,
+            index: i as u32,
+            start: NONE,
+            end: NONE,
             bits,
             next: self.heads[i],
         });
@@ -138,10 +141,33 @@ impl SharedDeltas {
         (DeltaRef(index), bits as usize)
     }
 
-    /// Writes delta `d` into `w`.
-    pub(crate) fn write(&self, d: DeltaRef, w: &mut BitWriter) {
-        let d = &self.deltas[d.0 as usize];
-        for &(value, bits) in &self.writes[d.start as usize..d.end as usize] {
+    /// Writes delta `d` of `frame` into `w`, coding its bits the first
+    /// time a client sends it and copying them after.
+    pub(crate) fn write(
+        &mut self,
+        frame: &QuantizedFrame,
+        d: DeltaRef,
+        config: &SnapshotConfig,
+        w: &mut BitWriter,
+    ) {
+        let delta = self.deltas[d.0 as usize];
+        let (start, end) = if delta.start == NONE {
+            let start = self.writes.len();
+            let mut recorder = Recorder {
+                writes: &mut self.writes,
+                bits: 0,
+            };
+            let q = frame.state(delta.index as usize);
+            write_body(&mut recorder, &q, delta.base.as_ref(), config);
+            debug_assert_eq!(recorder.bits, delta.bits);
+            let end = self.writes.len();
+            let slot = &mut self.deltas[d.0 as usize];
+            (slot.start, slot.end) = (start as u32, end as u32);
+            (start, end)
+        } else {
+            (delta.start as usize, delta.end as usize)
+        };
+        for &(value, bits) in &self.writes[start..end] {
             w.write(value, bits);
         }
     }

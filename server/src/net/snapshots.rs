@@ -10,6 +10,11 @@
 //! is served from the latest frame half a period after it opened, so
 //! deferred entities still arrive and clients keep acknowledging.
 //!
+//! The stage has its own thread ([`spawn`]), at a lower scheduling
+//! priority than the tick thread (nice +5 where the platform has it), so
+//! that on a machine short of cores the encoders wait for the tick, never
+//! the tick for the encoders.
+//!
 //! Each client's [`ServerSession`] sits behind a lock it shares with its
 //! connection task, which feeds it the client's datagrams (acks and
 //! inputs); the stage holds one client's lock at a time, for one encode.
@@ -84,6 +89,42 @@ impl Drop for ServedGuard {
     fn drop(&mut self) {
         if let Ok(mut c) = self.clients.clients.lock() {
             c.remove(&self.id);
+        }
+    }
+}
+
+/// How much less urgent the stage's thread is than the rest of the
+/// process (added to its nice value).
+pub const STAGE_NICE: i32 = 5;
+
+/// Starts the stage on its own thread, named `inertia-snapshots`, with its
+/// own single-threaded runtime, at [`STAGE_NICE`] below the process's
+/// priority; it ends when [`run`] does.
+pub fn spawn(shared: Arc<NetShared>) -> std::io::Result<std::thread::JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("inertia-snapshots".into())
+        .spawn(move || {
+            lower_priority();
+            match tokio::runtime::Builder::new_current_thread()
+                .enable_time()
+                .build()
+            {
+                Ok(runtime) => runtime.block_on(run(shared)),
+                Err(e) => tracing::error!(error = %e, "the snapshot stage could not start"),
+            }
+        })
+}
+
+/// Makes the calling thread [`STAGE_NICE`] less urgent (best effort: a
+/// platform without per-thread priorities keeps it as it is).
+fn lower_priority() {
+    #[cfg(target_os = "linux")]
+    {
+        use rustix::process::{getpriority_process, setpriority_process};
+        let tid = Some(rustix::thread::gettid());
+        let now = getpriority_process(tid).unwrap_or(0);
+        if let Err(e) = setpriority_process(tid, (now + STAGE_NICE).min(19)) {
+            tracing::debug!(error = %e, "the snapshot stage keeps its priority");
         }
     }
 }
