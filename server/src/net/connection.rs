@@ -1,8 +1,10 @@
 //! One client's connection: the hello and token check, then a single loop
-//! that sends snapshots at the snapshot rate (within the client's
-//! bandwidth budget), keeps the client's entity catalog in step over the
-//! reliable control stream, forwards its inputs to the simulation, and
-//! says goodbye on shutdown.
+//! that keeps the client's entity catalog in step over the reliable
+//! control stream (at every published frame), feeds the client's
+//! datagrams (acks and inputs) into its [`ServerSession`] and the inputs
+//! on to the simulation, and says goodbye on shutdown. Its snapshots are
+//! coded and sent by the snapshot stage ([`super::snapshots`]), which
+//! shares the session.
 //!
 //! Nothing here waits on a client without a deadline. The client has
 //! [`HELLO_TIMEOUT`] to say hello and as long again to take its welcome;

@@ -1,6 +1,7 @@
 //! The game port: a quinn endpoint that accepts connections, checks each
 //! client's hello and connect token, and then serves it (see
-//! [`connection`]). Everything here runs on tokio's I/O workers; the
+//! [`connection`]; its snapshots come from the one stage for every client,
+//! [`snapshots`]). Everything here runs on tokio's I/O workers; the
 //! physics runs on the simulation's own thread and is reached only through
 //! the [`SimHandle`]'s channels and published frames.
 
