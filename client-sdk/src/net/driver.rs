@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use inertia_protocol::control::{
     encode_frame, ClientControl, DisconnectReason, FrameDecoder, GameEvent, ServerControl,
 };
-use inertia_protocol::input::{InputDatagram, MAX_REDUNDANT_INPUTS};
+use inertia_protocol::input::InputDatagram;
 use inertia_protocol::snapshot::{SnapshotDecoder, ViewEntity};
 use inertia_protocol::{EntityId, EntityState, PlayerInput};
 use tokio::sync::mpsc;
@@ -196,6 +196,9 @@ pub(crate) struct Driver {
     pub commands: mpsc::UnboundedReceiver<Command>,
     pub epoch: Instant,
     pub input_hz: u32,
+    /// Inputs per datagram, 1 to
+    /// [`inertia_protocol::input::MAX_REDUNDANT_INPUTS`].
+    pub input_redundancy: usize,
 }
 
 impl Driver {
@@ -260,7 +263,7 @@ pub(crate) async fn run(mut d: Driver) {
                         let tick = s.interp.clock().estimated_tick(now).map_or(s.input.tick, |t| t.max(0.0) as u64);
                         let input = PlayerInput { sequence, tick, ..s.input };
                         history.push_front(input);
-                        history.truncate(MAX_REDUNDANT_INPUTS);
+                        history.truncate(d.input_redundancy);
                         let (ack, ack_bits) = s.decoder.ack_state();
                         (InputDatagram { ack, ack_bits, inputs: history.iter().copied().collect() }, ())
                     };

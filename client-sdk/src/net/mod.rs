@@ -14,6 +14,7 @@ use inertia_protocol::control::{
     encode_frame, ClientControl, DisconnectReason, FrameDecoder, Refusal, ServerControl,
     PROTOCOL_VERSION,
 };
+use inertia_protocol::input::MAX_REDUNDANT_INPUTS;
 use inertia_protocol::snapshot::{SnapshotConfig, SnapshotDecoder};
 use inertia_protocol::token::ConnectToken;
 use inertia_protocol::PlayerInput;
@@ -70,6 +71,10 @@ pub struct ConnectOptions {
     pub bind: Option<SocketAddr>,
     /// Inputs sent per second, Hz (default: the server's tick rate).
     pub input_hz: Option<u32>,
+    /// How many of the latest inputs each input datagram carries, 1 to
+    /// [`MAX_REDUNDANT_INPUTS`] (default: all 8): an input is lost only
+    /// when that many datagrams in a row are.
+    pub input_redundancy: Option<usize>,
 }
 
 impl Default for ConnectOptions {
@@ -78,6 +83,7 @@ impl Default for ConnectOptions {
             protocol_version: PROTOCOL_VERSION,
             bind: None,
             input_hz: None,
+            input_redundancy: None,
         }
     }
 }
@@ -222,6 +228,10 @@ impl Client {
             commands: command_rx,
             epoch,
             input_hz: options.input_hz.unwrap_or(info.tick_hz).clamp(1, 1000),
+            input_redundancy: options
+                .input_redundancy
+                .unwrap_or(MAX_REDUNDANT_INPUTS)
+                .clamp(1, MAX_REDUNDANT_INPUTS),
         }));
         Ok(Client {
             state,
