@@ -29,11 +29,21 @@
 //! * `server_cpu_percent`: this process's user + system CPU time over the
 //!   step (`/proc/self/stat`) per wall second, × 100; the bots are other
 //!   processes and not in it. The machine's ceiling is 100 × cores.
+//! * `server_idle_cpu_percent`: the same for the server alone, measured
+//!   once before the first step (the tick, with no client);
+//!   `server_cpu_us_per_client_snapshot`: the server's CPU beyond that,
+//!   per client snapshot sent, µs.
+//! * `rss_mb`: this process's resident set at the end of the step;
+//!   `rss_kb_per_client`: beyond the idle server's, per client, KiB.
 //! * `bots_cpu_percent`: the bots' own CPU over the same window, summed;
 //!   `machine_cpu_percent`: every process on the machine (`/proc/stat`).
 //! * `kbps_per_client`: mean over bots of the snapshot bytes each received
 //!   in the window, kbit/s; `snapshots_per_client_hz` (mean) and
 //!   `snapshots_min_client_hz` (worst bot): snapshots received per second.
+//!
+//! The last line adds `projected_max_clients`: the machine's cores (as
+//! CPU %) less the idle server's, over the server's CPU per client at the
+//! largest step served.
 //!
 //! A K is served at 60 Hz when `tick_ms_p99 < 16.7` and every bot received
 //! at least 95 % of the snapshot rate. Steps go on while K is served; the
@@ -472,6 +482,8 @@ fn quantile(xs: &mut [f64], p: f64) -> f64 {
 #[derive(Debug, Clone)]
 struct Step {
     clients: u32,
+    /// Server CPU per client beyond the idle server's, % of one core.
+    cpu_percent_per_client: f64,
     tick_p99: f64,
     min_hz: f64,
     server_cpu: f64,
@@ -579,11 +591,22 @@ fn steps(
         })
     };
 
+    // The server alone first: what it spends with no client, and its
+    // resident set, for the figures per client.
+    let idle_s = seconds.min(5.0);
+    let idle_a = ServerMark::take(server);
+    std::thread::sleep(Duration::from_secs_f64(idle_s));
+    let idle_b = ServerMark::take(server);
+    let idle_cpu = (idle_b.cpu_s - idle_a.cpu_s) / (idle_b.at - idle_a.at).as_secs_f64() * 100.0;
+    let idle_rss_mb = super::soak::rss_mb();
+
     let per_step = warmup + seconds;
     let pb = progress(ks.len() as u64, "capacity");
     let mut out = Suspended::new(&pb, sink);
     let mut served_max: Option<u32> = None;
     let mut last: Option<Step> = None;
+    // The largest step served, for the projection.
+    let mut best: Option<Step> = None;
     for (n, &k) in ks.iter().enumerate() {
         pb.set_message(format!("K={k}: starting bots"));
         let ids: Vec<u64> = (0..u64::from(k))
@@ -632,6 +655,14 @@ fn steps(
             f64::NAN
         };
         let server_cpu = (b.cpu_s - a.cpu_s) / wall * 100.0;
+        let rss_mb = super::soak::rss_mb();
+        // The server's CPU beyond what it spends with no client, per
+        // snapshot sent.
+        let cpu_us_per_snapshot = if encodes > 0 {
+            ((server_cpu - idle_cpu) / 100.0 * wall).max(0.0) / encodes as f64 * 1e6
+        } else {
+            f64::NAN
+        };
         let machine_cpu = (b.machine_busy_s - a.machine_busy_s)
             / (b.machine_total_s - a.machine_total_s).max(1e-9)
             * 100.0
@@ -681,6 +712,10 @@ fn steps(
                 .num("encode_us_per_client", encode_us)
                 .num("snapshots_encoded_per_s", encodes as f64 / wall)
                 .num("server_cpu_percent", server_cpu)
+                .num("server_idle_cpu_percent", idle_cpu)
+                .num("server_cpu_us_per_client_snapshot", cpu_us_per_snapshot)
+                .num("rss_mb", rss_mb)
+                .num("rss_kb_per_client", (rss_mb - idle_rss_mb) * 1024.0 / kf)
                 .num("bots_cpu_percent", bots_cpu)
                 .num("machine_cpu_percent", machine_cpu)
                 .num("cpu_ceiling_percent", 100.0 * logical_cores() as f64)
@@ -708,6 +743,7 @@ fn steps(
         pb.inc(1);
         let step = Step {
             clients: k,
+            cpu_percent_per_client: (server_cpu - idle_cpu) / kf,
             tick_p99: p99,
             min_hz,
             server_cpu,
@@ -715,6 +751,9 @@ fn steps(
             machine_cpu,
             served,
         };
+        if served {
+            best = Some(step.clone());
+        }
         last = Some(step);
         if served {
             served_max = Some(k);
@@ -734,6 +773,16 @@ fn steps(
             .field("case", "capacity_max")
             .field("scene", "capacity")
             .field("max_clients_at_60hz", served_max.unwrap_or(0))
+            // The machine's cores, less what the server spends with no
+            // client (the tick), over its CPU per client at the largest
+            // step served.
+            .num(
+                "projected_max_clients",
+                best.as_ref().map_or(f64::NAN, |b| {
+                    (100.0 * logical_cores() as f64 - idle_cpu) / b.cpu_percent_per_client
+                }),
+            )
+            .num("server_idle_cpu_percent", idle_cpu)
             .field("bounded_by", bounded_by)
             .num("tick_budget_ms", TICK_BUDGET_MS)
             .num("min_snapshot_hz", SERVED_FRACTION * f64::from(SNAPSHOT_HZ))

@@ -83,7 +83,7 @@ struct Sample {
 }
 
 /// The process's resident set, MiB (`VmRSS` in `/proc/self/status`).
-fn rss_mb() -> f64 {
+pub(crate) fn rss_mb() -> f64 {
     std::fs::read_to_string("/proc/self/status")
         .ok()
         .and_then(|s| {
