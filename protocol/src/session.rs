@@ -17,6 +17,15 @@ use crate::snapshot::{
     ConfigError, EncodeReport, QuantizedFrame, SharedDeltas, SnapshotConfig, SnapshotEncoder,
 };
 
+/// Within this distance of a client's avatar, m, entities are fully
+/// relevant; relevance then falls off to zero at [`INTEREST_MAX_M`].
+pub const INTEREST_FULL_M: f64 = 60.0;
+/// Beyond this distance of a client's avatar, m, entities are not sent
+/// (and leave the client's view) unless always relevant.
+pub const INTEREST_MAX_M: f64 = 250.0;
+/// Inputs a session remembers for reordering and de-duplication.
+pub const INPUT_BUFFER: usize = 128;
+
 /// How a [`ServerSession`] serves its client.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SessionConfig {
@@ -37,15 +46,16 @@ pub struct SessionConfig {
 
 impl SessionConfig {
     /// `snapshot` coding within `budget_bytes` a snapshot, every slot, with
-    /// interest 60 m full and 250 m at most, and 128 inputs remembered.
+    /// interest [`INTEREST_FULL_M`] full and [`INTEREST_MAX_M`] at most,
+    /// and [`INPUT_BUFFER`] inputs remembered.
     pub fn new(snapshot: SnapshotConfig, budget_bytes: usize) -> Self {
         Self {
             snapshot,
             budget_bytes,
             every_slots: 1,
-            interest_full_m: 60.0,
-            interest_max_m: 250.0,
-            input_buffer: 128,
+            interest_full_m: INTEREST_FULL_M,
+            interest_max_m: INTEREST_MAX_M,
+            input_buffer: INPUT_BUFFER,
         }
     }
 }

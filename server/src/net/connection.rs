@@ -65,16 +65,6 @@ pub mod close_code {
     pub const SIMULATION_STOPPED: u32 = 5;
 }
 
-/// Within this distance of a client's avatar, m, entities are fully
-/// relevant; relevance then falls off to zero at [`INTEREST_MAX_M`].
-pub const INTEREST_FULL_M: f64 = 60.0;
-/// Beyond this distance of a client's avatar, m, entities are not sent
-/// (and leave the client's view) unless always relevant.
-pub const INTEREST_MAX_M: f64 = 250.0;
-
-/// Inputs remembered per client for reordering and de-duplication.
-const INPUT_BUFFER: usize = 128;
-
 fn unix_now() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
@@ -499,10 +489,7 @@ async fn session(
     shared: &NetShared,
 ) -> End {
     let budget = (shared.budget_bytes_per_sec / u64::from(shared.snapshot_hz.max(1))) as usize;
-    let mut config = SessionConfig::new(shared.snapshot, budget);
-    config.interest_full_m = INTEREST_FULL_M;
-    config.interest_max_m = INTEREST_MAX_M;
-    config.input_buffer = INPUT_BUFFER;
+    let config = SessionConfig::new(shared.snapshot, budget);
     let mut game_session = ServerSession::new(config).expect("validated at start-up");
     game_session.set_avatar(avatar);
     // The snapshot stage codes this client's snapshots from here on.

@@ -59,16 +59,6 @@ impl ServedClients {
         }
     }
 
-    /// Clients served now.
-    pub fn len(&self) -> usize {
-        self.clients.lock().map_or(0, |c| c.len())
-    }
-
-    /// Whether no client is served.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
     /// Puts every client served now into `out` (emptied first).
     fn snapshot_into(&self, out: &mut Vec<Arc<Served>>) {
         out.clear();
