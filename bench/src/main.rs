@@ -26,7 +26,7 @@ enum SuiteArg {
     Physics,
     /// Snapshot bandwidth and error: Fiedler's 901 cubes at 60 Hz over a link with 5 % loss.
     Bandwidth,
-    /// Clients one server serves at 60 Hz ticks and 30 Hz snapshots (1000 moving bodies, bots as processes).
+    /// Clients one server serves at 60 Hz ticks and 30 Hz snapshots (1000 moving bodies, many bots to a process).
     Capacity,
     /// Recording bytes per hour, seek time and verify speed of a recorded game (1000 bodies, 8 bots).
     Replay,
@@ -93,11 +93,11 @@ struct Cli {
 }
 
 fn main() -> ExitCode {
-    // `inertia-bench bot …`: one bot client of the capacity suite, started
+    // `inertia-bench bot …`: one bot process of the capacity and soak suites, started
     // by the suite itself (hidden from the help).
     let args: Vec<String> = std::env::args().collect();
     if args.get(1).map(String::as_str) == Some("bot") {
-        return match inertia_bench::suites::capacity::bot_main(&args[1..]) {
+        return match inertia_bench::suites::bots::bot_main(&args[1..]) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("inertia-bench bot: {e}");

@@ -67,4 +67,4 @@ pub use profile::{ProfileTotals, RigidProfile, StepProfile};
 pub use snapshot::SnapshotError;
 pub use soft_body::{build_cloth, build_rope, Cloth, ClothDesc, Rope, RopeDesc, SpringStiffness};
 pub use spring::SpringParams;
-pub use world::{StepReport, World, WorldConfig};
+pub use world::{QueryIndex, StepReport, World, WorldConfig};

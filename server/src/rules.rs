@@ -24,7 +24,7 @@ use inertia_physics::rigid::body::{BodyKind, CombineRule, RigidBody, RigidBodyDe
 use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::query::RayHit;
 use inertia_physics::rigid::shape::Shape;
-use inertia_physics::{PhysicsError, World};
+use inertia_physics::{PhysicsError, QueryIndex, World};
 use inertia_protocol::entity::buttons;
 use inertia_protocol::{EntityDesc, EntityId, EntityKind, PlayerInput};
 
@@ -280,6 +280,9 @@ pub struct SimContext<'a> {
     tick: u64,
     dt: f64,
     limits: ControlLimits,
+    /// The bodies in a tree for ray casts, built by the first cast and
+    /// dropped whenever a body is added, removed or moved.
+    query: std::cell::OnceCell<QueryIndex>,
 }
 
 impl<'a> SimContext<'a> {
@@ -301,6 +304,7 @@ impl<'a> SimContext<'a> {
             tick,
             dt,
             limits,
+            query: std::cell::OnceCell::new(),
         }
     }
 
@@ -352,6 +356,7 @@ impl<'a> SimContext<'a> {
         look: EntityLook,
     ) -> Result<EntityId, ContextError> {
         let h = self.world.add_body(desc)?;
+        self.query.take();
         let shape = desc
             .shape
             .as_ref()
@@ -377,6 +382,7 @@ impl<'a> SimContext<'a> {
         let Some(e) = self.entities.remove(id) else {
             return false;
         };
+        self.query.take();
         // Already gone from the world is fine: the table was stale.
         let _ = match e.source {
             EntitySource::Body(h) => self.world.remove_body(h),
@@ -435,6 +441,7 @@ impl<'a> SimContext<'a> {
     /// from now on even if static.
     pub fn set_pose(&mut self, id: EntityId, pose: Pose) -> Result<(), ContextError> {
         let h = self.body_handle(id)?;
+        self.query.take();
         self.world.set_body_pose(h, pose)?;
         self.entities.set_always_stream(id);
         Ok(())
@@ -442,7 +449,9 @@ impl<'a> SimContext<'a> {
 
     /// The nearest hit of a ray (`dir` need not be unit; `max_t` in units of
     /// `|dir|`) on solid bodies, skipping `ignore`. Returns the entity hit
-    /// (`None` for a body without one) and the hit.
+    /// (`None` for a body without one) and the hit. The answer is
+    /// [`World::cast_ray`]'s, from a [`QueryIndex`] that the casts of one
+    /// call share, so a rule may cast rays for every player every tick.
     pub fn cast_ray(
         &self,
         origin: DVec3,
@@ -451,9 +460,11 @@ impl<'a> SimContext<'a> {
         ignore: Option<EntityId>,
     ) -> Option<(Option<EntityId>, RayHit)> {
         let skip = ignore.and_then(|id| self.entities.body(id));
-        let (h, hit) = self
-            .world
-            .cast_ray(origin, dir, max_t, |h, b| Some(h) != skip && !b.is_sensor())
+        let index = self.query.get_or_init(|| QueryIndex::build(self.world));
+        let (h, hit) = index
+            .cast_ray(self.world, origin, dir, max_t, |h, b| {
+                Some(h) != skip && !b.is_sensor()
+            })
             .ok()??;
         Some((self.entities.by_body(h), hit))
     }

@@ -6,15 +6,14 @@
 //! so every body keeps moving. It ticks at 60 Hz and sends 30 snapshots a
 //! second to each client, under the default per-client budget.
 //!
-//! For each client count K (1, 2, 4, … 64 by default; `--clients`), K bot
-//! clients start as **separate processes** — this executable again, with
-//! the hidden `bot` subcommand — so their CPU time is not the server's.
-//! Each connects with [`BlockingClient`], walks its avatar with a
-//! changing stick, jumps and pushes now and then, and samples its
-//! interpolated picture at 60 Hz, like a game's frame loop. After a
-//! warm-up the bench tells every bot to start counting, measures the
-//! server for `--seconds`, tells them to stop, and each bot prints what it
-//! received as one JSON line.
+//! For each client count K (1, 10, 50, 100, 200, 300, 500, 700, 1000
+//! by default; `--clients`), K bot clients start in bot processes of
+//! their own ([`super::bots`]: up to 128 QUIC connections to a process,
+//! on one runtime), so their CPU time is not the server's. Every bot
+//! decodes every snapshot and sends inputs at the tick rate, as a game
+//! does, and does not render. After a warm-up the bench tells every bot
+//! to start counting, measures the server for `--seconds`, tells them to
+//! stop, and each bot reports what it received as one JSON line.
 //!
 //! Measured per K:
 //!
@@ -50,27 +49,20 @@
 //! last line gives the largest K served and what bounded it.
 
 use std::collections::BTreeSet;
-use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use clap::Parser;
-use inertia_client::dev::dev_token;
-use inertia_client::BlockingClient;
-use inertia_protocol::entity::buttons;
 use inertia_protocol::{EntityId, EntityKind};
 use inertia_server::config::ServerConfig;
 use inertia_server::server::{start, RunningServer};
-use serde::{Deserialize, Serialize};
 
+use super::bots::{process_cpu_s, BotReport, Bots};
 use crate::report::{logical_cores, note, progress, Record, Sink, Suspended};
 use crate::{BenchError, Opts};
 
 /// Client counts stepped through by default (`--clients`).
-pub const DEFAULT_CLIENTS: [u32; 7] = [1, 2, 4, 8, 16, 32, 64];
+pub const DEFAULT_CLIENTS: [u32; 9] = [1, 10, 50, 100, 200, 300, 500, 700, 1000];
 /// Seconds measured per step by default (`--seconds`).
 pub const DEFAULT_SECONDS: u32 = 10;
 /// Seconds each step runs before it is measured (joins, catalog, the
@@ -85,76 +77,12 @@ pub const TICK_BUDGET_MS: f64 = 1000.0 / TICK_HZ as f64;
 /// A client is served at its rate when it receives at least this
 /// fraction of [`SNAPSHOT_HZ`].
 pub const SERVED_FRACTION: f64 = 0.95;
-/// How often a bot samples its picture and sends input, Hz.
-pub const BOT_FRAME_HZ: f64 = 60.0;
 /// How long every bot of a step has to connect, s.
-const CONNECT_TIMEOUT: Duration = Duration::from_secs(30);
-/// How long a bot has to report after being told to stop, s.
-const REPORT_TIMEOUT: Duration = Duration::from_secs(10);
+const CONNECT_TIMEOUT: Duration = Duration::from_secs(60);
 
 /// The scene every step runs.
 pub fn scene_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../server/scenes/capacity.ron")
-}
-
-/// What a bot prints when told to stop: what it received between `start`
-/// and `stop`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
-pub struct BotReport {
-    /// The bot's client id.
-    pub client_id: u64,
-    /// Wall seconds between `start` and `stop`.
-    pub seconds: f64,
-    /// Snapshots received in the window.
-    pub snapshots_received: u64,
-    /// Snapshots received per second.
-    pub snapshots_hz: f64,
-    /// Snapshot bytes received in the window, kbit/s.
-    pub kbps: f64,
-    /// Fraction of snapshot sequence numbers missed (last 256), 0 to 1.
-    pub loss: f64,
-    /// Times the picture held because snapshots ran out, in the window.
-    pub stalls: u64,
-    /// Extrapolations past the newest snapshot, in the window.
-    pub extrapolations: u64,
-    /// The bot's own CPU time per wall second in the window, × 100.
-    pub cpu_percent: f64,
-    /// Frames (samples) the bot rendered in the window.
-    pub frames: u64,
-    /// Whether the server said goodbye or dropped the bot.
-    pub disconnected: bool,
-}
-
-/// `inertia-bench bot …`: one bot client (started by the capacity suite).
-#[derive(Debug, Parser)]
-#[command(name = "inertia-bench bot")]
-pub struct BotArgs {
-    /// The dev-mode server's credentials file.
-    #[arg(long)]
-    pub credentials: PathBuf,
-    /// This bot's client id.
-    #[arg(long)]
-    pub client_id: u64,
-    /// Give up and exit after this many seconds whatever happens.
-    #[arg(long, default_value_t = 120.0)]
-    pub seconds: f64,
-}
-
-/// This process's user + system CPU time so far, s (`/proc/self/stat`).
-pub(crate) fn process_cpu_s() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
-        return f64::NAN;
-    };
-    // Fields after the command name (which may hold spaces) in brackets.
-    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    // utime and stime are fields 14 and 15 of the file: 11 and 12 here.
-    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok());
-    match (ticks(11), ticks(12)) {
-        // USER_HZ is 100 on every Linux the bench runs on.
-        (Some(u), Some(s)) => (u + s) / 100.0,
-        _ => f64::NAN,
-    }
 }
 
 /// The machine's busy and total CPU time so far, s (`/proc/stat`).
@@ -174,252 +102,6 @@ fn machine_cpu_s() -> (f64, f64) {
     let total: f64 = v.iter().take(8).sum();
     let idle = v.get(3).copied().unwrap_or(0.0) + v.get(4).copied().unwrap_or(0.0);
     ((total - idle) / 100.0, total / 100.0)
-}
-
-/// Runs one bot: connects, says `{"ready":…}`, plays until `stop` on
-/// stdin (counting from `start`), then prints a [`BotReport`].
-pub fn bot_main(args: &[String]) -> Result<(), BenchError> {
-    let args = BotArgs::try_parse_from(args)?;
-    let (addr, token, _) = dev_token(&args.credentials, Some(args.client_id))?;
-    let client = BlockingClient::connect(addr, &token)?;
-    let (tx, rx) = mpsc::channel::<String>();
-    std::thread::spawn(move || {
-        for line in std::io::stdin().lock().lines() {
-            let Ok(line) = line else { break };
-            if tx.send(line.trim().to_string()).is_err() {
-                break;
-            }
-        }
-        // EOF: the bench went away.
-        let _ = tx.send("stop".into());
-    });
-    {
-        let mut out = std::io::stdout().lock();
-        writeln!(out, "{{\"ready\":{}}}", args.client_id)?;
-        out.flush()?;
-    }
-    let began = Instant::now();
-    let frame = Duration::from_secs_f64(1.0 / BOT_FRAME_HZ);
-    let mut next = Instant::now();
-    let mut frames = 0u64;
-    let mut from: Option<(Instant, inertia_client::stats::ClientStats, f64, u64)> = None;
-    // Each bot walks its own pattern.
-    let phase = (args.client_id % 97) as f32 * 0.37;
-    let report = loop {
-        let t = began.elapsed().as_secs_f32() + phase;
-        let movement = [(0.7 * t).sin(), (0.45 * t).cos()];
-        let yaw = (0.3 * t).sin() * std::f32::consts::PI;
-        let mut pressed = 0;
-        // Jump for a frame every 2 s, push every 1.5 s.
-        if (t * BOT_FRAME_HZ as f32) as u64 % 120 == 0 {
-            pressed |= buttons::JUMP;
-        }
-        if (t * BOT_FRAME_HZ as f32) as u64 % 90 == 45 {
-            pressed |= buttons::PUSH;
-        }
-        client.set_input(movement, yaw, pressed);
-        let picture = client.sample();
-        std::hint::black_box(picture.entities.len());
-        frames += 1;
-        let mut stop = began.elapsed().as_secs_f64() > args.seconds;
-        while let Ok(cmd) = rx.try_recv() {
-            match cmd.as_str() {
-                "start" => from = Some((Instant::now(), client.stats(), process_cpu_s(), frames)),
-                "stop" => stop = true,
-                _ => {}
-            }
-        }
-        if stop {
-            let now = Instant::now();
-            let s = client.stats();
-            let (t0, s0, cpu0, f0) = from.unwrap_or((began, Default::default(), 0.0, 0));
-            let seconds = (now - t0).as_secs_f64().max(1e-9);
-            let snapshots = s.snapshots_received - s0.snapshots_received;
-            break BotReport {
-                client_id: args.client_id,
-                seconds,
-                snapshots_received: snapshots,
-                snapshots_hz: snapshots as f64 / seconds,
-                kbps: (s.bytes_received - s0.bytes_received) as f64 * 8.0 / 1000.0 / seconds,
-                loss: s.loss,
-                stalls: s.stalls - s0.stalls,
-                extrapolations: s.extrapolations - s0.extrapolations,
-                cpu_percent: (process_cpu_s() - cpu0) / seconds * 100.0,
-                frames: frames - f0,
-                disconnected: client.disconnected().is_some(),
-            };
-        }
-        next += frame;
-        let now = Instant::now();
-        if next > now {
-            std::thread::sleep(next - now);
-        } else {
-            next = now;
-        }
-    };
-    {
-        let mut out = std::io::stdout().lock();
-        writeln!(out, "{}", serde_json::to_string(&report)?)?;
-        out.flush()?;
-    }
-    client.close();
-    Ok(())
-}
-
-/// A line from a bot, or its end.
-enum BotLine {
-    Line(usize, String),
-    Closed(usize),
-}
-
-/// The bots of one step; killed when dropped.
-pub(crate) struct Bots {
-    children: Vec<Child>,
-    stdins: Vec<Option<ChildStdin>>,
-    lines: Receiver<BotLine>,
-}
-
-impl Bots {
-    pub(crate) fn spawn(
-        credentials: &Path,
-        ids: &[u64],
-        lifetime_s: f64,
-    ) -> Result<Self, BenchError> {
-        let exe = std::env::current_exe()?;
-        let (tx, lines) = mpsc::channel();
-        let mut bots = Bots {
-            children: Vec::new(),
-            stdins: Vec::new(),
-            lines,
-        };
-        for (i, id) in ids.iter().enumerate() {
-            let mut child = Command::new(&exe)
-                .arg("bot")
-                .arg("--credentials")
-                .arg(credentials)
-                .arg("--client-id")
-                .arg(id.to_string())
-                .arg("--seconds")
-                .arg(format!("{lifetime_s:.0}"))
-                .stdin(Stdio::piped())
-                .stdout(Stdio::piped())
-                .stderr(Stdio::piped())
-                .spawn()?;
-            let stdout = child.stdout.take().ok_or("bot stdout")?;
-            bots.stdins.push(child.stdin.take());
-            bots.children.push(child);
-            let tx = tx.clone();
-            std::thread::spawn(move || {
-                for line in BufReader::new(stdout).lines() {
-                    let Ok(line) = line else { break };
-                    if tx.send(BotLine::Line(i, line)).is_err() {
-                        return;
-                    }
-                }
-                let _ = tx.send(BotLine::Closed(i));
-            });
-        }
-        Ok(bots)
-    }
-
-    /// Sends a command line to every bot.
-    fn tell(&mut self, what: &str) {
-        for stdin in self.stdins.iter_mut().flatten() {
-            let _ = writeln!(stdin, "{what}");
-            let _ = stdin.flush();
-        }
-    }
-
-    /// What bot `i` wrote on stderr (after it ended or was killed).
-    fn stderr_of(&mut self, i: usize) -> String {
-        let mut s = String::new();
-        if let Some(e) = self.children.get_mut(i).and_then(|c| c.stderr.as_mut()) {
-            let _ = e.read_to_string(&mut s);
-        }
-        s.trim().to_string()
-    }
-
-    /// Waits until every bot said it is ready.
-    fn wait_ready(&mut self, timeout: Duration) -> Result<(), BenchError> {
-        let deadline = Instant::now() + timeout;
-        let mut ready = vec![false; self.children.len()];
-        while ready.iter().any(|r| !r) {
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.lines.recv_timeout(left) {
-                Ok(BotLine::Line(i, l)) if l.starts_with("{\"ready\"") => ready[i] = true,
-                Ok(BotLine::Line(..)) => {}
-                Ok(BotLine::Closed(i)) => {
-                    self.kill();
-                    let why = self.stderr_of(i);
-                    return Err(format!("bot {i} ended before it connected: {why}").into());
-                }
-                Err(RecvTimeoutError::Timeout) => {
-                    let n = ready.iter().filter(|r| **r).count();
-                    return Err(format!(
-                        "only {n} of {} bots connected within {timeout:?}",
-                        ready.len()
-                    )
-                    .into());
-                }
-                Err(RecvTimeoutError::Disconnected) => return Err("bot readers ended".into()),
-            }
-        }
-        Ok(())
-    }
-
-    /// Tells every bot to stop and collects their reports.
-    fn stop(&mut self) -> Result<Vec<BotReport>, BenchError> {
-        self.tell("stop");
-        let deadline = Instant::now() + REPORT_TIMEOUT;
-        let mut reports: Vec<Option<BotReport>> = vec![None; self.children.len()];
-        while reports.iter().any(Option::is_none) {
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.lines.recv_timeout(left) {
-                Ok(BotLine::Line(i, l)) => {
-                    if let Ok(r) = serde_json::from_str::<BotReport>(&l) {
-                        reports[i] = Some(r);
-                    }
-                }
-                Ok(BotLine::Closed(i)) if reports[i].is_none() => {
-                    let why = self.stderr_of(i);
-                    return Err(format!("bot {i} ended without a report: {why}").into());
-                }
-                Ok(BotLine::Closed(_)) => {}
-                Err(_) => {
-                    let n = reports.iter().filter(|r| r.is_some()).count();
-                    return Err(
-                        format!("only {n} of {} bots reported in time", reports.len()).into(),
-                    );
-                }
-            }
-        }
-        // Let them say goodbye; whoever lingers is killed on drop.
-        let deadline = Instant::now() + Duration::from_secs(5);
-        for c in &mut self.children {
-            while Instant::now() < deadline {
-                if let Ok(Some(_)) = c.try_wait() {
-                    break;
-                }
-                std::thread::sleep(Duration::from_millis(20));
-            }
-        }
-        Ok(reports.into_iter().flatten().collect())
-    }
-
-    fn kill(&mut self) {
-        for c in &mut self.children {
-            if let Ok(None) = c.try_wait() {
-                let _ = c.kill();
-            }
-            let _ = c.wait();
-        }
-    }
-}
-
-impl Drop for Bots {
-    fn drop(&mut self) {
-        self.kill();
-    }
 }
 
 /// The server-side counters a step compares at its start and end.
@@ -610,10 +292,11 @@ fn steps(
     for (n, &k) in ks.iter().enumerate() {
         pb.set_message(format!("K={k}: starting bots"));
         let ids: Vec<u64> = (0..u64::from(k))
-            .map(|i| 1000 * (n as u64 + 1) + i)
+            .map(|i| 100_000 * (n as u64 + 1) + i)
             .collect();
         let mut bots = Bots::spawn(&credentials, &ids, per_step + 60.0)?;
         bots.wait_ready(CONNECT_TIMEOUT)?;
+        let bot_processes = bots.processes();
         pb.set_message(format!("K={k}: warm-up"));
         std::thread::sleep(Duration::from_secs_f64(warmup));
         let entities = server.frame().entities.len();
@@ -717,6 +400,7 @@ fn steps(
                 .num("rss_mb", rss_mb)
                 .num("rss_kb_per_client", (rss_mb - idle_rss_mb) * 1024.0 / kf)
                 .num("bots_cpu_percent", bots_cpu)
+                .field("bot_processes", bot_processes)
                 .num("machine_cpu_percent", machine_cpu)
                 .num("cpu_ceiling_percent", 100.0 * logical_cores() as f64)
                 .num("kbps_per_client", mean(&|r| r.kbps))
@@ -851,7 +535,6 @@ mod tests {
 
     #[test]
     fn cpu_counters_read() {
-        assert!(process_cpu_s() >= 0.0);
         let (busy, total) = machine_cpu_s();
         assert!(total > 0.0 && busy <= total);
     }
@@ -868,16 +551,5 @@ mod tests {
             exposed(&text, "inertia_snapshot_encode_seconds_count"),
             Some(2.0)
         );
-    }
-
-    #[test]
-    fn bot_reports_round_trip() {
-        let r = BotReport {
-            client_id: 7,
-            snapshots_hz: 30.0,
-            ..BotReport::default()
-        };
-        let s = serde_json::to_string(&r).unwrap();
-        assert_eq!(serde_json::from_str::<BotReport>(&s).unwrap(), r);
     }
 }

@@ -1,6 +1,7 @@
 //! One file per suite.
 
 pub mod bandwidth;
+pub mod bots;
 pub mod capacity;
 pub mod integrators;
 pub mod nbody;
@@ -25,7 +26,7 @@ pub enum Suite {
     Physics,
     /// Snapshot bandwidth and error of Fiedler's cube scene over a lossy link.
     Bandwidth,
-    /// Clients one in-process server serves at 60 Hz, bots as processes.
+    /// Clients one in-process server serves at 60 Hz, bots in processes of their own.
     Capacity,
     /// Recording size, seek time and offline verification of a recorded game.
     Replay,

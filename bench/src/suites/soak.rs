@@ -43,7 +43,8 @@ use inertia_server::config::ServerConfig;
 use inertia_server::server::start;
 use plotters::prelude::*;
 
-use super::capacity::{exposed, Bots};
+use super::bots::Bots;
+use super::capacity::exposed;
 use crate::report::{note, progress, Record, Sink};
 use crate::{BenchError, Opts};
 

@@ -106,16 +106,28 @@ impl State {
                     time_scale: snap.time_scale,
                     paused: snap.paused,
                 };
-                let entities = snap.entities.iter().map(view_of).collect();
+                // The states this snapshot carried: the rest of the view
+                // is what earlier snapshots said, and is no news of this
+                // tick (an entity not sent keeps its last state in the
+                // buffer, extrapolated and then held).
+                let carried: Vec<&ViewEntity> = snap
+                    .changed
+                    .iter()
+                    .filter_map(|id| {
+                        let i = snap.entities.binary_search_by_key(id, |e| e.id).ok()?;
+                        snap.entities.get(i)
+                    })
+                    .collect();
+                let entities = carried.iter().map(|e| view_of(e)).collect();
                 if snap.newest {
                     for &id in &snap.removed {
                         self.interp.remove(id);
                     }
-                    for e in &snap.entities {
-                        if snap.changed.binary_search(&e.id).is_ok() {
-                            self.entities.update(snap.tick, state_of(e));
-                        }
+                    for e in &carried {
+                        self.entities.update(snap.tick, state_of(e));
                     }
+                }
+                if snap.newest {
                     self.latest = Some((snap.tick, snap.entities));
                 }
                 self.interp.push(now, Snapshot { meta, entities });

@@ -20,8 +20,11 @@ mod backend;
 mod joints;
 mod particles;
 mod query;
+mod query_index;
 mod rigid;
 mod state;
+
+pub use query_index::QueryIndex;
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};

@@ -24,7 +24,7 @@ use crate::rigid::shape::Shape;
 
 /// Checks a ray's input: finite origin, finite non-zero direction,
 /// finite `max_t >= 0`.
-fn check_ray(origin: DVec3, dir: DVec3, max_t: f64) -> Result<(), PhysicsError> {
+pub(super) fn check_ray(origin: DVec3, dir: DVec3, max_t: f64) -> Result<(), PhysicsError> {
     finite3("ray origin", origin)?;
     direction("ray direction", dir)?;
     non_negative("ray max_t", max_t)?;

@@ -54,12 +54,22 @@ struct Candidate {
     id: EntityId,
     /// Its index in the frame.
     index: usize,
-    /// Its delta against the baseline.
-    delta: DeltaRef,
-    /// The baseline view holds it.
-    in_base: bool,
-    /// The entity's size without its id, bits.
-    bits: usize,
+    /// Its index in the baseline view, if the view holds it.
+    in_base: Option<usize>,
+}
+
+/// Candidates are put in priority order this many at a time: a snapshot
+/// fills its budget long before the last of a thousand, so the rest need
+/// not be sorted.
+const SORT_CHUNK: usize = 256;
+/// Once this many candidates in a row did not fit, the snapshot is full:
+/// the rest are not sized (entities of one kind code to much the same
+/// size, so one that fits after this many misses is rare).
+const MISSES_WHEN_FULL: usize = 16;
+
+/// Highest priority first, ties by id: a total order (ids are unique).
+fn by_priority(a: &Candidate, b: &Candidate) -> std::cmp::Ordering {
+    b.priority.total_cmp(&a.priority).then(a.id.cmp(&b.id))
 }
 
 /// The id gap code's size when `id` follows `prev` (`None`: first).
@@ -216,14 +226,11 @@ impl SnapshotEncoder {
             if in_base.is_some_and(|q| frame.same_as(i, q)) {
                 continue;
             }
-            let (delta, bits) = shared.delta(frame, i, in_base, &config);
             candidates.push(Candidate {
                 priority: priorities.accumulate(id, frame.at_rest(i), relevance),
                 id,
                 index: i,
-                delta,
-                in_base: in_base.is_some(),
-                bits,
+                in_base: in_base.is_some().then(|| b - 1),
             });
         }
         removed.extend(base_entities[b..].iter().map(|e| e.0));
@@ -255,23 +262,38 @@ impl SnapshotEncoder {
             removed_sent.push(id);
         }
 
-        // Ids are unique, so the order is total and need not be stable.
-        candidates.sort_unstable_by(|a, b| b.priority.total_cmp(&a.priority).then(a.id.cmp(&b.id)));
         // A view never grows past MAX_ENTITIES: new entities beyond its
         // room wait.
         let mut room = MAX_ENTITIES.saturating_sub(base.len());
         // The chosen, as a set of frame indices (index order is id order).
         let mut chosen = IndexSet::new(frame.len());
-        let mut picked: Vec<&Candidate> = Vec::new();
-        for c in &candidates {
-            let new = !c.in_base;
+        let mut picked: Vec<(EntityId, usize, DeltaRef)> = Vec::new();
+        let (mut sorted, mut misses) = (0, 0);
+        for k in 0..candidates.len() {
+            if misses == MISSES_WHEN_FULL {
+                break;
+            }
+            if k == sorted {
+                // The next chunk in priority order.
+                let rest = &mut candidates[sorted..];
+                let n = SORT_CHUNK.min(rest.len());
+                if n < rest.len() {
+                    rest.select_nth_unstable_by(n - 1, by_priority);
+                }
+                rest[..n].sort_unstable_by(by_priority);
+                sorted += n;
+            }
+            let c = &candidates[k];
+            let new = c.in_base.is_none();
             if new && room == 0 {
                 continue;
             }
+            let base_state = c.in_base.map(|j| &base_entities[j].1);
+            let (delta, bits) = shared.delta(frame, c.index, base_state, &config);
             let id_at = |j: usize| frame.ids()[j];
             let prev = chosen.before(c.index).map(id_at);
             let next = chosen.after(c.index).map(id_at);
-            let mut cost = c.bits + id_bits(prev, c.id);
+            let mut cost = bits + id_bits(prev, c.id);
             if let Some(n) = next {
                 // Splitting a gap never costs less than nothing; saturate
                 // so an encoding of gaps that is not subadditive cannot
@@ -281,16 +303,19 @@ impl SnapshotEncoder {
             if used + cost <= budget {
                 used += cost;
                 chosen.insert(c.index);
-                picked.push(c);
+                picked.push((c.id, c.index, delta));
                 room -= usize::from(new);
+                misses = 0;
+            } else {
+                misses += 1;
             }
         }
-        picked.sort_unstable_by_key(|c| c.index);
+        picked.sort_unstable_by_key(|&(_, index, _)| index);
         let by_id = picked;
         let mut updated: Vec<(EntityId, QuantizedEntity)> = Vec::with_capacity(by_id.len());
-        for c in &by_id {
-            updated.push((c.id, frame.state(c.index)));
-            priorities.sent(c.id);
+        for &(id, index, _) in &by_id {
+            updated.push((id, frame.state(index)));
+            priorities.sent(id);
         }
 
         // Write it.
@@ -319,10 +344,10 @@ impl SnapshotEncoder {
         }
         write_varuint(&mut w, updated.len() as u64, &COUNT_CLASSES);
         let mut prev = None;
-        for c in &by_id {
-            write_varuint(&mut w, id_gap(prev, c.id), &ID_CLASSES);
-            shared.write(frame, c.delta, &config, &mut w);
-            prev = Some(c.id);
+        for &(id, _, delta) in &by_id {
+            write_varuint(&mut w, id_gap(prev, id), &ID_CLASSES);
+            shared.write(frame, delta, &config, &mut w);
+            prev = Some(id);
         }
         debug_assert!(
             w.bit_len() <= budget.max(used),

@@ -16,7 +16,6 @@
 //! has not moved for [`CONTROL_STALL`] (or more than [`OUTBOX_LIMIT`]
 //! bytes wait for it). Goodbyes wait at most [`GOODBYE_WAIT`].
 
-use std::collections::BTreeSet;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -377,8 +376,8 @@ impl Outbox {
 
 /// What this client has been told about the world.
 struct ClientView {
-    /// Entities described to the client.
-    known: BTreeSet<EntityId>,
+    /// Entities described to the client, ascending.
+    known: Vec<EntityId>,
     /// The catalog version last synchronised.
     catalog_version: Option<u64>,
     /// The newest tick whose events were sent.
@@ -500,22 +499,24 @@ async fn session(
     let _serving = shared
         .served
         .add(connection.stable_id() as u64, served.clone());
-    let mut published = shared.sim.subscribe();
+    // Wakes when the catalog or the events change, not at every frame.
+    let mut published = shared.sim.subscribe_catalog();
     let mut view = ClientView {
-        known: BTreeSet::new(),
+        known: Vec::new(),
         catalog_version: None,
-        events_up_to: published.borrow().tick,
+        events_up_to: shared.sim.frame().tick,
     };
     let mut shutdown = shared.shutdown.clone();
     let mut buf = vec![0u8; 4096];
     let mut kick_open = true;
-    // The catalog as it is now, then at every frame published.
+    // The catalog as it is now, then whenever it or the events change.
     let mut catalog_due = true;
     let mut frames_open = true;
     loop {
         if catalog_due {
             catalog_due = false;
-            let frame = published.borrow_and_update().clone();
+            published.borrow_and_update();
+            let frame = shared.sim.frame();
             if let Err(e) = sync_catalog(outbox, &frame, &mut view, shared) {
                 return End::Protocol(format!("control stream: {e}"));
             }
@@ -622,21 +623,24 @@ fn sync_catalog(
 ) -> Result<(), String> {
     let mut sent = 0usize;
     if view.catalog_version != Some(frame.catalog_version) {
-        let gone: Vec<EntityId> = view
-            .known
-            .iter()
-            .copied()
-            .filter(|id| !frame.catalog.contains_key(id))
-            .collect();
-        for id in gone {
-            sent += outbox.push(&ServerControl::Despawn { id })?;
-            view.known.remove(&id);
+        // Both in id order: walks side by side find what left, then
+        // what came (despawns first, then spawns).
+        let mut now = frame.catalog.keys().copied().peekable();
+        for &id in &view.known {
+            while now.next_if(|&n| n < id).is_some() {}
+            if now.next_if_eq(&id).is_none() {
+                sent += outbox.push(&ServerControl::Despawn { id })?;
+            }
         }
-        for (id, desc) in frame.catalog.iter() {
-            if view.known.insert(*id) {
+        let mut known = view.known.iter().copied().peekable();
+        for (&id, desc) in frame.catalog.iter() {
+            while known.next_if(|&k| k < id).is_some() {}
+            if known.next_if_eq(&id).is_none() {
                 sent += outbox.push(&ServerControl::Spawn(desc.clone()))?;
             }
         }
+        view.known.clear();
+        view.known.extend(frame.catalog.keys().copied());
         view.catalog_version = Some(frame.catalog_version);
     }
     for (tick, event) in frame.events.iter() {

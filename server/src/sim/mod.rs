@@ -1208,6 +1208,7 @@ pub struct SimHandle {
     control: SyncSender<Command>,
     inputs: SyncSender<(ClientId, PlayerInput)>,
     frames: watch::Receiver<Arc<Frame>>,
+    catalog: watch::Receiver<u64>,
     exit: watch::Receiver<Option<SimExit>>,
     stats: Arc<SimStats>,
     /// Set to stop the thread at the top of its next loop when the
@@ -1243,16 +1244,22 @@ impl SimHandle {
         let (input_tx, input_rx) = mpsc::sync_channel(sim.config.input_capacity.max(1));
         let stats = sim.stats();
         let (frame_tx, frame_rx) = watch::channel(Arc::new(sim.frame()));
+        let (catalog_tx, catalog_rx) = watch::channel(0);
         let (exit_tx, exit_rx) = watch::channel(None);
         let stopping = Arc::new(AtomicBool::new(false));
         let stop = stopping.clone();
+        let publisher = Publisher {
+            frames: frame_tx,
+            catalog: catalog_tx,
+        };
         let thread = std::thread::Builder::new()
             .name("inertia-tick".into())
-            .spawn(move || run(sim, control_rx, input_rx, frame_tx, exit_tx, &stop))?;
+            .spawn(move || run(sim, control_rx, input_rx, publisher, exit_tx, &stop))?;
         Ok(SimHandle {
             control: control_tx,
             inputs: input_tx,
             frames: frame_rx,
+            catalog: catalog_rx,
             exit: exit_rx,
             stats,
             stopping,
@@ -1371,6 +1378,14 @@ impl SimHandle {
         self.frames.clone()
     }
 
+    /// A receiver that wakes only when a frame's catalog or events differ
+    /// from the frame before (read the frame with [`SimHandle::frame`]):
+    /// for a task per client that keeps the client's catalog, which would
+    /// otherwise wake at every tick for nothing.
+    pub fn subscribe_catalog(&self) -> watch::Receiver<u64> {
+        self.catalog.clone()
+    }
+
     /// The shared counters.
     pub fn stats(&self) -> &SimStats {
         &self.stats
@@ -1438,7 +1453,7 @@ fn run(
     mut sim: Simulation,
     control: Receiver<Command>,
     inputs: Receiver<(ClientId, PlayerInput)>,
-    frames: watch::Sender<Arc<Frame>>,
+    frames: Publisher,
     exit: watch::Sender<Option<SimExit>>,
     stopping: &AtomicBool,
 ) {
@@ -1475,6 +1490,25 @@ fn run(
     exit.send_replace(Some(outcome));
 }
 
+/// Where the tick thread's frames go: every frame to `frames`, and a
+/// count in `catalog` that moves only when a frame's catalog or events
+/// differ from the frame before.
+struct Publisher {
+    frames: watch::Sender<Arc<Frame>>,
+    catalog: watch::Sender<u64>,
+}
+
+impl Publisher {
+    fn publish(&self, frame: Frame) {
+        let frame = Arc::new(frame);
+        let old = self.frames.send_replace(frame.clone());
+        if old.catalog_version != frame.catalog_version || !Arc::ptr_eq(&old.events, &frame.events)
+        {
+            self.catalog.send_modify(|n| *n = n.wrapping_add(1));
+        }
+    }
+}
+
 /// The message a panic was raised with.
 fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     if let Some(s) = payload.downcast_ref::<&str>() {
@@ -1490,7 +1524,7 @@ fn run_loop(
     sim: &mut Simulation,
     control: Receiver<Command>,
     inputs: Receiver<(ClientId, PlayerInput)>,
-    frames: &watch::Sender<Arc<Frame>>,
+    frames: &Publisher,
     stopping: &AtomicBool,
 ) {
     let mut last = Instant::now();
@@ -1514,7 +1548,7 @@ fn run_loop(
                     changed = true;
                     budget -= 1;
                     if !sim.apply(cmd) {
-                        frames.send_replace(Arc::new(sim.frame()));
+                        frames.publish(sim.frame());
                         return;
                     }
                 }
@@ -1537,7 +1571,7 @@ fn run_loop(
         // the recording now, not at the next tick.
         sim.flush_journal();
         if ran > 0 || changed {
-            frames.send_replace(Arc::new(sim.frame()));
+            frames.publish(sim.frame());
         }
         let wait = sim
             .clock
@@ -1552,5 +1586,5 @@ fn run_loop(
             }
         }
     }
-    frames.send_replace(Arc::new(sim.frame()));
+    frames.publish(sim.frame());
 }
