@@ -460,6 +460,7 @@ impl InterpolationBuffer {
         }
         self.primed |= self.legs.iter().map(|l| l.snaps.len()).sum::<usize>() >= 2;
         let render = self.render_tick;
+        let pushed: Vec<EntityId> = snapshot.entities.iter().map(|v| v.id).collect();
         for view in snapshot.entities {
             let samples = self.entities.entry(view.id).or_default();
             let at = samples.partition_point(|&(t, _)| t < meta.tick);
@@ -479,7 +480,9 @@ impl InterpolationBuffer {
                 }
             }
         }
-        self.prune();
+        // Only what this snapshot touched: the rest is trimmed when the
+        // picture is next drawn.
+        self.prune_entities(Some(&pushed));
         observation
     }
 
@@ -736,6 +739,12 @@ impl InterpolationBuffer {
     /// the size bound. Entity states are kept over the ticks any leg still
     /// to play spans.
     fn prune(&mut self) {
+        self.prune_entities(None);
+    }
+
+    /// [`Self::prune`], trimming the samples of `only` these entities
+    /// (all with `None`).
+    fn prune_entities(&mut self, only: Option<&[EntityId]>) {
         let max = self.config.max_snapshots.max(2);
         for leg in &mut self.legs {
             while leg.snaps.len() > max {
@@ -767,12 +776,22 @@ impl InterpolationBuffer {
                 hi = hi.max(tick);
             }
         }
-        for samples in self.entities.values_mut() {
+        let trim = |samples: &mut VecDeque<(u64, EntityView)>| {
             while samples.len() >= 2 && samples[1].0 as f64 <= lo {
                 samples.pop_front();
             }
             while samples.len() >= 2 && samples[samples.len() - 2].0 as f64 >= hi {
                 samples.pop_back();
+            }
+        };
+        match only {
+            None => self.entities.values_mut().for_each(trim),
+            Some(ids) => {
+                for id in ids {
+                    if let Some(samples) = self.entities.get_mut(id) {
+                        trim(samples);
+                    }
+                }
             }
         }
     }

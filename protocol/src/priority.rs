@@ -10,7 +10,6 @@
 //! entity's [`Interest`] weight.
 
 use glam::DVec3;
-use rustc_hash::FxHashMap;
 
 use crate::entity::EntityId;
 use crate::interest::Interest;
@@ -40,11 +39,25 @@ impl Default for PriorityWeights {
 }
 
 /// Accumulated priority of every entity waiting to be sent to one client.
+///
+/// One snapshot is one *round*: the encoder accumulates the entities that
+/// differ from the client's view in ascending id order (each step a walk
+/// forwards, no lookup), ends the round, and marks what it sent. Entities
+/// not accumulated in a round stop waiting (they are in sync, out of view
+/// or gone).
 #[derive(Debug, Clone, Default)]
 pub struct PriorityAccumulator {
     weights: PriorityWeights,
     interest: Interest,
-    accumulated: FxHashMap<EntityId, f64>,
+    /// Waiting entities and what they have accumulated, ascending by id
+    /// (a sent one holds 0 until the next round drops or restarts it).
+    waiting: Vec<(EntityId, f64)>,
+    /// The round being accumulated, ascending by id.
+    round: Vec<(EntityId, f64)>,
+    /// How far the round's walk through `waiting` has come.
+    cursor: usize,
+    /// A round is being accumulated.
+    open: bool,
 }
 
 impl PriorityAccumulator {
@@ -58,7 +71,7 @@ impl PriorityAccumulator {
         Self {
             weights,
             interest,
-            accumulated: FxHashMap::default(),
+            ..Self::default()
         }
     }
 
@@ -83,9 +96,10 @@ impl PriorityAccumulator {
         self.interest.weight(id, position)
     }
 
-    /// Adds one snapshot's priority of entity `id` (sleeping when
-    /// `asleep`, of relevance `relevance`) and returns its accumulated
-    /// priority.
+    /// Adds this round's priority of entity `id` (sleeping when `asleep`,
+    /// of relevance `relevance`) and returns its accumulated priority.
+    /// Called in ascending id order within a round it is a step forwards;
+    /// out of order, a search.
     pub fn accumulate(&mut self, id: EntityId, asleep: bool, relevance: f64) -> f64 {
         let base = if self.interest.always_relevant.contains(&id) {
             self.weights.always_relevant
@@ -94,30 +108,87 @@ impl PriorityAccumulator {
         } else {
             self.weights.moving
         };
-        let p = self.accumulated.entry(id).or_insert(0.0);
-        *p += base * relevance;
-        *p
+        let add = base * relevance;
+        if !self.open {
+            self.open = true;
+            self.round.clear();
+            self.cursor = 0;
+        }
+        if self.round.last().is_some_and(|&(last, _)| last >= id) {
+            return match self.round.binary_search_by_key(&id, |e| e.0) {
+                Ok(i) => {
+                    self.round[i].1 += add;
+                    self.round[i].1
+                }
+                Err(i) => {
+                    let p = self.waiting_value(id) + add;
+                    self.round.insert(i, (id, p));
+                    p
+                }
+            };
+        }
+        while self.waiting.get(self.cursor).is_some_and(|&(w, _)| w < id) {
+            self.cursor += 1;
+        }
+        let old = match self.waiting.get(self.cursor) {
+            Some(&(w, p)) if w == id => p,
+            _ => 0.0,
+        };
+        self.round.push((id, old + add));
+        old + add
+    }
+
+    /// Ends the round: the entities accumulated in it are the ones
+    /// waiting now; the rest stop waiting. (Without a round since the
+    /// last, nothing waits.)
+    pub fn end_round(&mut self) {
+        if !self.open {
+            self.round.clear();
+        }
+        std::mem::swap(&mut self.waiting, &mut self.round);
+        self.round.clear();
+        self.open = false;
     }
 
     /// `id` was sent: it starts again from zero.
     pub fn sent(&mut self, id: EntityId) {
-        self.accumulated.remove(&id);
+        let table = if self.open {
+            &mut self.round
+        } else {
+            &mut self.waiting
+        };
+        if let Ok(i) = table.binary_search_by_key(&id, |e| e.0) {
+            table[i].1 = 0.0;
+        }
     }
 
-    /// The accumulated priority of `id` (0 when not waiting).
+    fn waiting_value(&self, id: EntityId) -> f64 {
+        self.waiting
+            .binary_search_by_key(&id, |e| e.0)
+            .map_or(0.0, |i| self.waiting[i].1)
+    }
+
+    /// The accumulated priority of `id` (0 when not waiting), as of the
+    /// round being accumulated if one is.
     pub fn accumulated(&self, id: EntityId) -> f64 {
-        self.accumulated.get(&id).copied().unwrap_or(0.0)
+        let table = if self.open {
+            &self.round
+        } else {
+            &self.waiting
+        };
+        table
+            .binary_search_by_key(&id, |e| e.0)
+            .map_or(0.0, |i| table[i].1)
     }
 
-    /// Keeps only the entities for which `keep` holds (the others are in
-    /// sync, out of view or gone).
-    pub fn retain(&mut self, mut keep: impl FnMut(EntityId) -> bool) {
-        self.accumulated.retain(|&id, _| keep(id));
-    }
-
-    /// Entities waiting.
+    /// Entities waiting (with a priority above zero).
     pub fn waiting(&self) -> usize {
-        self.accumulated.len()
+        let table = if self.open {
+            &self.round
+        } else {
+            &self.waiting
+        };
+        table.iter().filter(|e| e.1 > 0.0).count()
     }
 }
 
@@ -147,6 +218,7 @@ mod tests {
         for k in 0..20 {
             let a = p.accumulate(moving.id, moving.asleep, 1.0);
             let b = p.accumulate(resting.id, resting.asleep, 1.0);
+            p.end_round();
             if b > a {
                 p.sent(2);
                 resting_sent_after = Some(k);
@@ -156,7 +228,31 @@ mod tests {
         }
         assert_eq!(resting_sent_after, Some(10));
         assert_eq!(p.accumulated(2), 0.0);
-        p.retain(|id| id == 2);
-        assert_eq!(p.waiting(), 0);
+        assert_eq!(p.waiting(), 1, "the moving body still waits");
+        // A round without it: it is in sync and waits no more.
+        p.accumulate(2, true, 1.0);
+        p.end_round();
+        assert_eq!(p.accumulated(1), 0.0);
+        assert_eq!(p.waiting(), 1);
+    }
+
+    #[test]
+    fn out_of_order_accumulation_gives_the_same_totals() {
+        let mut a = PriorityAccumulator::new(Interest::everything());
+        let mut b = PriorityAccumulator::new(Interest::everything());
+        for _ in 0..3 {
+            for id in [1, 4, 9] {
+                a.accumulate(id, false, 0.5);
+            }
+            for id in [9, 1, 4] {
+                b.accumulate(id, false, 0.5);
+            }
+            a.end_round();
+            b.end_round();
+        }
+        for id in [1, 4, 9] {
+            assert_eq!(a.accumulated(id), 15.0);
+            assert_eq!(b.accumulated(id), 15.0);
+        }
     }
 }

@@ -108,7 +108,13 @@ fn random_worlds_round_trip_exactly_with_and_without_baseline() {
                 let view = dec.view(got.sequence).unwrap();
                 assert_eq!(view, enc.view(got.sequence).unwrap());
                 assert_eq!(view.entities(), &quantized(&world, &config)[..]);
-                for (v, (id, q)) in got.entities.iter().zip(view.entities()) {
+                let entities = dec.entities(got.sequence).unwrap();
+                // What it carried is in the view as it carried it.
+                for u in &got.updated {
+                    let i = entities.binary_search_by_key(&u.id, |e| e.id).unwrap();
+                    assert_eq!(entities[i], *u);
+                }
+                for (v, (id, q)) in entities.iter().zip(view.entities()) {
                     assert_eq!(*v, q.dequantize(*id, &config));
                     assert_eq!(v.velocity.is_some(), velocities && !v.at_rest);
                 }
@@ -131,7 +137,7 @@ fn values_come_back_within_the_grid() {
     let bytes = enc.encode(1, 0.5, true, &world, &mut pri, usize::MAX);
     let got = dec.decode(&bytes).unwrap();
     assert_eq!((got.time_scale, got.paused), (0.5, true));
-    for (e, v) in world.iter().zip(&got.entities) {
+    for (e, v) in world.iter().zip(&got.updated) {
         assert_eq!(e.id, v.id);
         assert!((e.position - v.position).abs().max_element() <= 0.0005 + 1e-9);
         let angle = 2.0 * e.rotation.dot(v.rotation).abs().min(1.0).acos();
@@ -259,7 +265,7 @@ fn every_changed_entity_is_eventually_sent() {
         let bytes = enc.encode(tick, 1.0, false, &world, &mut pri, 80);
         let got = dec.decode(&bytes).unwrap();
         enc.on_ack(got.sequence);
-        for id in got.changed {
+        for id in got.updated.iter().map(|e| e.id) {
             let since = last_sent.insert(id, tick).unwrap_or(0);
             worst_wait = worst_wait.max(tick - since);
         }
@@ -294,7 +300,12 @@ fn out_of_interest_and_despawned_entities_leave_the_view() {
     let got = dec
         .decode(&enc.encode(0, 1.0, false, &world, &mut pri, 2000))
         .unwrap();
-    let ids: Vec<u32> = got.entities.iter().map(|e| e.id).collect();
+    let ids: Vec<u32> = dec
+        .entities(got.sequence)
+        .unwrap()
+        .iter()
+        .map(|e| e.id)
+        .collect();
     assert_eq!(ids, [10, 20, 40]);
     enc.on_ack(got.sequence);
     // 20 walks out of range, 10 despawns.
@@ -303,7 +314,12 @@ fn out_of_interest_and_despawned_entities_leave_the_view() {
         .decode(&enc.encode(1, 1.0, false, &world, &mut pri, 2000))
         .unwrap();
     assert_eq!(got.removed, [10, 20]);
-    let ids: Vec<u32> = got.entities.iter().map(|e| e.id).collect();
+    let ids: Vec<u32> = dec
+        .entities(got.sequence)
+        .unwrap()
+        .iter()
+        .map(|e| e.id)
+        .collect();
     assert_eq!(ids, [40]);
 }
 

@@ -285,11 +285,14 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
             else {
                 continue;
             };
-            if got.entities.len() == n && full_view_at.is_none() {
+            let Some(view) = decoder.entities(got.sequence) else {
+                continue;
+            };
+            if view.len() == n && full_view_at.is_none() {
                 full_view_at = Some(now);
                 full_view_tick = tick;
             }
-            for v in &got.entities {
+            for v in &view {
                 let t = &truth[v.id as usize];
                 pos_err.push((v.position - t.position).length() * 1e3);
                 let dot = v.rotation.dot(t.rotation).abs().min(1.0);

@@ -6,7 +6,8 @@
 //! [`BOTS_PER_PROCESS`] clients on one single-threaded tokio runtime, each
 //! a [`Client`] with its own QUIC connection. Every client decodes every
 //! snapshot into its interpolation buffer and entity table and sends
-//! inputs at the tick rate (the SDK's driver does both), and walks its
+//! inputs ([`BOT_INPUT_HZ`], each datagram with the last
+//! [`BOT_INPUT_REDUNDANCY`]; the SDK's driver does both), and walks its
 //! avatar with a changing stick, jumping and pushing now and then, set at
 //! [`BOT_FRAME_HZ`] like a game's frame loop. It does not render: the
 //! picture is sampled once a second ([`BOT_SAMPLE_HZ`]), to check there is
@@ -27,7 +28,7 @@ use std::time::{Duration, Instant};
 use clap::Parser;
 use inertia_client::dev::dev_token;
 use inertia_client::stats::ClientStats;
-use inertia_client::Client;
+use inertia_client::{Client, ConnectOptions};
 use inertia_protocol::entity::buttons;
 use serde::{Deserialize, Serialize};
 
@@ -37,8 +38,26 @@ use crate::BenchError;
 pub const BOTS_PER_PROCESS: usize = 128;
 /// How often a bot sets its input (stick, facing, buttons), Hz.
 pub const BOT_FRAME_HZ: f64 = 60.0;
+/// Input datagrams a bot sends per second, Hz: half the tick rate, as
+/// many games send (each input holds for the ticks until the next).
+pub const BOT_INPUT_HZ: u32 = 30;
+/// Inputs each input datagram carries: the last 4, so an input is lost
+/// only when 4 datagrams in a row are (133 ms at 30 Hz).
+pub const BOT_INPUT_REDUNDANCY: usize = 4;
 /// How often a bot samples its interpolated picture, Hz.
 pub const BOT_SAMPLE_HZ: f64 = 1.0;
+/// How much less urgent a bot process is than the server (added to its
+/// nice value): the bots stand in for the players' own machines, so on a
+/// machine short of cores they wait for the server, not it for them.
+pub const BOT_NICE: i32 = 10;
+/// Clients of one bot process that connect at once (players join over
+/// seconds, not all in one millisecond; the server refuses handshakes
+/// beyond its own limit in flight).
+const CONNECTS_AT_ONCE: usize = 16;
+/// Tries a bot makes to connect before it gives up.
+const CONNECT_ATTEMPTS: u32 = 5;
+/// The wait between two tries.
+const CONNECT_RETRY: Duration = Duration::from_millis(250);
 /// How long a bot process's clients have to report after `stop`.
 const REPORT_TIMEOUT: Duration = Duration::from_secs(20);
 
@@ -125,6 +144,9 @@ pub fn bot_main(args: &[String]) -> Result<(), BenchError> {
     if args.count == 0 {
         return Err("--count takes at least 1 client".into());
     }
+    // Before any other thread starts, so that they all inherit it (best
+    // effort).
+    let _ = inertia_server::priority::adjust_this_thread(BOT_NICE);
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
@@ -149,13 +171,35 @@ async fn play(args: BotArgs) -> Result<(), BenchError> {
         let _ = phase_tx.send(Phase::Stop);
     });
     let mut clients = tokio::task::JoinSet::new();
+    let connecting = std::sync::Arc::new(tokio::sync::Semaphore::new(CONNECTS_AT_ONCE));
     for id in args.client_id..args.client_id + args.count {
-        let (addr, token, _) = dev_token(&args.credentials, Some(id))?;
+        let credentials = args.credentials.clone();
         let phase = phase.clone();
+        let connecting = connecting.clone();
         clients.spawn(async move {
-            let client = Client::connect(addr, &token)
-                .await
-                .map_err(|e| format!("bot {id}: {e}"))?;
+            let options = ConnectOptions {
+                input_hz: Some(BOT_INPUT_HZ),
+                input_redundancy: Some(BOT_INPUT_REDUNDANCY),
+                ..ConnectOptions::default()
+            };
+            let client = {
+                let _turn = connecting.acquire().await.map_err(|e| e.to_string())?;
+                let mut attempt = 1;
+                loop {
+                    // A fresh token each time: a token is good for one
+                    // connection.
+                    let (addr, token, _) =
+                        dev_token(&credentials, Some(id)).map_err(|e| format!("bot {id}: {e}"))?;
+                    match Client::connect_with(addr, &token, options.clone()).await {
+                        Ok(client) => break client,
+                        Err(_) if attempt < CONNECT_ATTEMPTS => {
+                            attempt += 1;
+                            tokio::time::sleep(CONNECT_RETRY).await;
+                        }
+                        Err(e) => return Err(format!("bot {id}: {e}")),
+                    }
+                }
+            };
             {
                 let mut out = std::io::stdout().lock();
                 let _ = writeln!(out, "{{\"ready\":{id}}}");

@@ -32,6 +32,10 @@
 //!   once before the first step (the tick, with no client);
 //!   `server_cpu_us_per_client_snapshot`: the server's CPU beyond that,
 //!   per client snapshot sent, µs.
+//! * `tick_cpu_percent`, `snapshots_cpu_percent`, `network_cpu_percent`,
+//!   `other_cpu_percent`: the server's CPU split by thread: the tick
+//!   thread (and the physics workers it starts), the snapshot stage, the
+//!   network (the tokio workers: QUIC, connections, inputs) and the rest.
 //! * `rss_mb`: this process's resident set at the end of the step;
 //!   `rss_kb_per_client`: beyond the idle server's, per client, KiB.
 //! * `bots_cpu_percent`: the bots' own CPU over the same window, summed;
@@ -109,6 +113,7 @@ fn machine_cpu_s() -> (f64, f64) {
 struct ServerMark {
     at: Instant,
     cpu_s: f64,
+    threads_cpu_s: [f64; THREAD_GROUPS.len()],
     machine_busy_s: f64,
     machine_total_s: f64,
     encode_s: f64,
@@ -132,6 +137,7 @@ impl ServerMark {
         Self {
             at: Instant::now(),
             cpu_s: process_cpu_s(),
+            threads_cpu_s: threads_cpu_s(),
             machine_busy_s: busy,
             machine_total_s: total,
             encode_s,
@@ -141,6 +147,45 @@ impl ServerMark {
             overruns: stats.overruns.load(std::sync::atomic::Ordering::Relaxed),
         }
     }
+}
+
+/// The server's threads by what they do, each named by the prefix of its
+/// thread name (Linux keeps 15 bytes): the tick (with the physics worker
+/// threads it starts, which take its name), the snapshot stage, the
+/// network (this suite's tokio workers), and the rest.
+const THREAD_GROUPS: [(&str, &str); 4] = [
+    ("tick", "inertia-tick"),
+    ("snapshots", "inertia-snapsho"),
+    ("network", "inertia-bench-s"),
+    ("other", ""),
+];
+
+/// User + system CPU time of this process's threads so far, s, summed by
+/// [`THREAD_GROUPS`] (`/proc/self/task/*/stat`; threads that ended are
+/// not counted).
+fn threads_cpu_s() -> [f64; THREAD_GROUPS.len()] {
+    let mut out = [0.0; THREAD_GROUPS.len()];
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return [f64::NAN; THREAD_GROUPS.len()];
+    };
+    for task in tasks.flatten() {
+        let Ok(stat) = std::fs::read_to_string(task.path().join("stat")) else {
+            continue;
+        };
+        let Some((head, rest)) = stat.rsplit_once(')') else {
+            continue;
+        };
+        let name = head.split_once('(').map_or("", |(_, n)| n);
+        let f: Vec<&str> = rest.split_whitespace().collect();
+        let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+        let group = THREAD_GROUPS
+            .iter()
+            .position(|(_, prefix)| name.starts_with(prefix))
+            .unwrap_or(THREAD_GROUPS.len() - 1);
+        // utime and stime, in USER_HZ (100) ticks.
+        out[group] += (ticks(11) + ticks(12)) / 100.0;
+    }
+    out
 }
 
 /// The value of the sample `name` in an OpenMetrics exposition.
@@ -338,6 +383,9 @@ fn steps(
             f64::NAN
         };
         let server_cpu = (b.cpu_s - a.cpu_s) / wall * 100.0;
+        let thread_cpu: Vec<f64> = (0..THREAD_GROUPS.len())
+            .map(|g| (b.threads_cpu_s[g] - a.threads_cpu_s[g]) / wall * 100.0)
+            .collect();
         let rss_mb = super::soak::rss_mb();
         // The server's CPU beyond what it spends with no client, per
         // snapshot sent.
@@ -397,6 +445,10 @@ fn steps(
                 .num("server_cpu_percent", server_cpu)
                 .num("server_idle_cpu_percent", idle_cpu)
                 .num("server_cpu_us_per_client_snapshot", cpu_us_per_snapshot)
+                .num("tick_cpu_percent", thread_cpu[0])
+                .num("snapshots_cpu_percent", thread_cpu[1])
+                .num("network_cpu_percent", thread_cpu[2])
+                .num("other_cpu_percent", thread_cpu[3])
                 .num("rss_mb", rss_mb)
                 .num("rss_kb_per_client", (rss_mb - idle_rss_mb) * 1024.0 / kf)
                 .num("bots_cpu_percent", bots_cpu)

@@ -54,7 +54,8 @@ pub(crate) struct State {
     pub decoder: SnapshotDecoder,
     pub interp: InterpolationBuffer,
     pub entities: EntityTable,
-    pub latest: Option<(u64, Vec<ViewEntity>)>,
+    /// The newest snapshot decoded: its tick and sequence number.
+    pub latest: Option<(u64, u16)>,
     pub events: VecDeque<ClientEvent>,
     pub input: PlayerInput,
     pub disconnected: Option<DisconnectReason>,
@@ -106,29 +107,19 @@ impl State {
                     time_scale: snap.time_scale,
                     paused: snap.paused,
                 };
-                // The states this snapshot carried: the rest of the view
-                // is what earlier snapshots said, and is no news of this
+                // Only the states this snapshot carried: the rest of the
+                // view is what earlier snapshots said, no news of this
                 // tick (an entity not sent keeps its last state in the
                 // buffer, extrapolated and then held).
-                let carried: Vec<&ViewEntity> = snap
-                    .changed
-                    .iter()
-                    .filter_map(|id| {
-                        let i = snap.entities.binary_search_by_key(id, |e| e.id).ok()?;
-                        snap.entities.get(i)
-                    })
-                    .collect();
-                let entities = carried.iter().map(|e| view_of(e)).collect();
+                let entities = snap.updated.iter().map(view_of).collect();
                 if snap.newest {
                     for &id in &snap.removed {
                         self.interp.remove(id);
                     }
-                    for e in &carried {
+                    for e in &snap.updated {
                         self.entities.update(snap.tick, state_of(e));
                     }
-                }
-                if snap.newest {
-                    self.latest = Some((snap.tick, snap.entities));
+                    self.latest = Some((snap.tick, snap.sequence));
                 }
                 self.interp.push(now, Snapshot { meta, entities });
                 while let Some(e) = self.interp.poll_event() {

@@ -292,7 +292,9 @@ impl Client {
     /// The newest snapshot received, exactly as decoded (no interpolation):
     /// its tick and full view.
     pub fn latest_view(&self) -> Option<(u64, Vec<inertia_protocol::snapshot::ViewEntity>)> {
-        self.lock().latest.clone()
+        let s = self.lock();
+        let (tick, sequence) = s.latest?;
+        Some((tick, s.decoder.entities(sequence)?))
     }
 
     /// Every entity the server has described to us, by id.

@@ -1,40 +1,52 @@
-//! [`QueryIndex`]: the world's shaped bodies in a bounding-volume tree, for
-//! many scene queries on one unchanged world (a game's rules casting a
-//! few rays per player per tick).
+//! [`QueryIndex`]: the world's shaped bodies in a bounding-volume
+//! hierarchy, for many scene queries on one unchanged world (a game's
+//! rules casting a few rays per player per tick).
 //!
 //! [`World::cast_ray`] walks every body, which is exact at any moment but
 //! costs O(bodies) a ray: 1000 players casting 5 ground rays each over
 //! 2000 bodies is ten million box tests a tick. The index holds each
-//! body's tight box at its pose when the index was built, in a
-//! [`DynamicTree`] (no fat margin), and answers the same questions with
-//! the same answers in O(log bodies) a ray. It is a picture of the world
-//! at one moment: build it after the world last changed (stepped, a body
-//! added, removed or moved) and drop it at the next change.
+//! body's tight box at its pose when the index was built, in a hierarchy
+//! built top down (split at the median of the box centres along the
+//! widest axis, at most [`LEAF_SIZE`] bodies to a leaf: O(n log n) to
+//! build, balanced whatever the layout), and answers the same questions
+//! with the same answers in O(log bodies) a ray. It is a picture of the
+//! world at one moment: build it after the world last changed (stepped,
+//! a body added, removed or moved) and drop it at the next change.
 
 use glam::DVec3;
 
 use super::World;
 use crate::error::PhysicsError;
 use crate::handle::BodyHandle;
+use crate::rigid::aabb::Aabb;
 use crate::rigid::body::RigidBody;
-use crate::rigid::broad_phase::DynamicTree;
 use crate::rigid::query::{ray_aabb, ray_cast_shape, RayHit};
 
-/// Boxes in the tree are grown by this much beyond the boxes
-/// [`World::cast_ray`] tests, m, so that the tree's own slab test never
-/// rejects a body the exact one accepts.
-const TREE_SLACK_M: f64 = 1e-6;
+/// Boxes in the hierarchy are grown by this much beyond the boxes
+/// [`World::cast_ray`] tests, m, so that no rounding in a node's test
+/// rejects a body the exact test accepts.
+const SLACK_M: f64 = 1e-6;
+/// The most bodies in one leaf of the hierarchy.
+pub const LEAF_SIZE: usize = 4;
 
-/// The world's shaped bodies at their poses of one moment, in a tree, for
-/// scene queries (see the module docs).
+/// One node: its box, and either two children or a run of bodies.
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    aabb: Aabb,
+    /// Leaf: the first of its bodies in `order`; inner: the second child
+    /// (the first is the next node).
+    at: u32,
+    /// Bodies in the leaf; 0 for an inner node.
+    count: u32,
+}
+
+/// The world's shaped bodies at their poses of one moment, in a
+/// hierarchy, for scene queries (see the module docs).
 #[derive(Debug, Clone, Default)]
 pub struct QueryIndex {
-    /// Bodies whose boxes are in the tree, by the tree's tags.
-    indexed: Vec<BodyHandle>,
-    /// Bodies too large for the tree (a ground plane's box), tested on
-    /// every query.
-    unbounded: Vec<BodyHandle>,
-    tree: DynamicTree,
+    /// Bodies, in the order the leaves take them.
+    order: Vec<BodyHandle>,
+    nodes: Vec<Node>,
     /// Bodies in the world when built, to catch an index used past a change.
     bodies: usize,
 }
@@ -42,31 +54,79 @@ pub struct QueryIndex {
 impl QueryIndex {
     /// Indexes every shaped body of `world` at its pose now.
     pub fn build(world: &World) -> Self {
-        let mut index = Self {
-            tree: DynamicTree::new(0.0).expect("a zero margin is valid"),
-            ..Self::default()
-        };
+        let mut bodies = 0;
+        let mut items: Vec<(Aabb, DVec3, BodyHandle)> = Vec::new();
         for (h, b) in world.bodies() {
-            index.bodies += 1;
+            bodies += 1;
             let Some(shape) = b.shape() else { continue };
-            let aabb = shape.aabb(&b.pose()).expanded(1e-9 + TREE_SLACK_M);
-            let tag = index.indexed.len() as u32;
-            match index.tree.create_proxy(aabb, tag) {
-                Ok(_) => index.indexed.push(h),
-                Err(_) => index.unbounded.push(h),
-            }
+            let aabb = shape.aabb(&b.pose()).expanded(1e-9 + SLACK_M);
+            // A box too large to have a finite centre (a ground plane)
+            // is placed at the origin: it still bounds itself.
+            let centre = Some(aabb.center())
+                .filter(|c| c.is_finite())
+                .unwrap_or(DVec3::ZERO);
+            items.push((aabb, centre, h));
+        }
+        let mut index = Self {
+            order: Vec::with_capacity(items.len()),
+            nodes: Vec::with_capacity(2 * items.len().div_ceil(LEAF_SIZE)),
+            bodies,
+        };
+        if !items.is_empty() {
+            index.split(&mut items);
         }
         index
     }
 
-    /// Bodies indexed (in the tree or tested every time).
+    /// Adds the subtree over `items` (not empty) and returns its node.
+    fn split(&mut self, items: &mut [(Aabb, DVec3, BodyHandle)]) -> usize {
+        let aabb = items[1..]
+            .iter()
+            .fold(items[0].0, |acc, (b, _, _)| acc.union(b));
+        let node = self.nodes.len();
+        self.nodes.push(Node {
+            aabb,
+            at: self.order.len() as u32,
+            count: items.len() as u32,
+        });
+        if items.len() <= LEAF_SIZE {
+            self.order.extend(items.iter().map(|(_, _, h)| *h));
+            return node;
+        }
+        let (lo, hi) = items[1..]
+            .iter()
+            .fold((items[0].1, items[0].1), |(lo, hi), (_, c, _)| {
+                (lo.min(*c), hi.max(*c))
+            });
+        let extent = hi - lo;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let mid = items.len() / 2;
+        // Ties by handle, so the same world builds the same hierarchy.
+        items.select_nth_unstable_by(mid, |a, b| {
+            a.1[axis].total_cmp(&b.1[axis]).then(a.2.cmp(&b.2))
+        });
+        let (left, right) = items.split_at_mut(mid);
+        self.split(left);
+        let second = self.split(right);
+        self.nodes[node].at = second as u32;
+        self.nodes[node].count = 0;
+        node
+    }
+
+    /// Bodies indexed.
     pub fn len(&self) -> usize {
-        self.indexed.len() + self.unbounded.len()
+        self.order.len()
     }
 
     /// True when no body has a shape.
     pub fn is_empty(&self) -> bool {
-        self.len() == 0
+        self.order.is_empty()
     }
 
     /// The nearest hit of the ray `origin + t · dir` (`0 <= t <= max_t`)
@@ -92,45 +152,46 @@ impl QueryIndex {
             "a query index used after the world changed"
         );
         let mut best: Option<(BodyHandle, RayHit)> = None;
-        let mut consider = |h: BodyHandle, best: &mut Option<(BodyHandle, RayHit)>| {
-            let Some(b) = world.body(h) else { return };
-            let Some(shape) = b.shape() else { return };
-            let pose = b.pose();
-            let limit = best.map_or(max_t, |(_, hit)| hit.t);
-            let Some(entry) = ray_aabb(origin, dir, limit, &shape.aabb(&pose).expanded(1e-9))
-            else {
-                return;
-            };
-            if best.is_some_and(|(_, hit)| entry > hit.t) || !filter(h, b) {
-                return;
+        let mut stack: Vec<usize> = Vec::with_capacity(64);
+        if !self.nodes.is_empty() {
+            stack.push(0);
+        }
+        while let Some(n) = stack.pop() {
+            let node = self.nodes[n];
+            // Kept long enough to meet a tie with the best hit so far.
+            let reach = best.map_or(max_t, |(_, hit)| hit.t + SLACK_M);
+            if ray_aabb(origin, dir, reach, &node.aabb).is_none() {
+                continue;
             }
-            if let Some(hit) = ray_cast_shape(shape, &pose, origin, dir, max_t) {
-                let better = match *best {
-                    None => hit.t <= limit,
-                    Some((bh, bhit)) => hit.t < bhit.t || (hit.t == bhit.t && h < bh),
+            if node.count == 0 {
+                stack.push(node.at as usize);
+                stack.push(n + 1);
+                continue;
+            }
+            let run = node.at as usize..(node.at + node.count) as usize;
+            for &h in &self.order[run] {
+                let Some(b) = world.body(h) else { continue };
+                let Some(shape) = b.shape() else { continue };
+                let pose = b.pose();
+                let limit = best.map_or(max_t, |(_, hit)| hit.t);
+                let Some(entry) = ray_aabb(origin, dir, limit, &shape.aabb(&pose).expanded(1e-9))
+                else {
+                    continue;
                 };
-                if better {
-                    *best = Some((h, hit));
+                if best.is_some_and(|(_, hit)| entry > hit.t) || !filter(h, b) {
+                    continue;
+                }
+                if let Some(hit) = ray_cast_shape(shape, &pose, origin, dir, max_t) {
+                    let better = match best {
+                        None => hit.t <= limit,
+                        Some((bh, bhit)) => hit.t < bhit.t || (hit.t == bhit.t && h < bh),
+                    };
+                    if better {
+                        best = Some((h, hit));
+                    }
                 }
             }
-        };
-        for &h in &self.unbounded {
-            consider(h, &mut best);
         }
-        // The tree's walk: each leaf's answer shortens the ray to the best
-        // hit so far (kept long enough to meet ties).
-        let walk = self.tree.ray_cast(origin, dir, max_t, |proxy, _| {
-            if let Some(h) = self
-                .tree
-                .user_data(proxy)
-                .and_then(|tag| self.indexed.get(tag as usize))
-            {
-                consider(*h, &mut best);
-            }
-            best.map_or(max_t, |(_, hit)| hit.t + TREE_SLACK_M)
-        });
-        // The ray was checked above; the tree accepts every ray that is.
-        debug_assert!(walk.is_ok());
         Ok(best)
     }
 }

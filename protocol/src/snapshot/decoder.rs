@@ -32,10 +32,11 @@ pub struct DecodedSnapshot {
     pub time_scale: f32,
     /// Whether the server's clock is paused.
     pub paused: bool,
-    /// The full view, ascending by id.
-    pub entities: Vec<ViewEntity>,
-    /// Ids whose state this snapshot carried, ascending.
-    pub changed: Vec<EntityId>,
+    /// The entities this snapshot carried (their state changed since the
+    /// baseline, or they entered the view), ascending by id, in world
+    /// units. The rest of the view is as the baseline had it: no news of
+    /// this tick ([`SnapshotDecoder::entities`] gives the whole view).
+    pub updated: Vec<ViewEntity>,
     /// Ids that left the view (despawned or out of interest), ascending.
     pub removed: Vec<EntityId>,
 }
@@ -98,6 +99,18 @@ impl SnapshotDecoder {
     /// The view snapshot `sequence` described, while held.
     pub fn view(&self, sequence: u16) -> Option<&View> {
         self.received.get(sequence)
+    }
+
+    /// The whole view snapshot `sequence` described, in world units,
+    /// ascending by id, while held.
+    pub fn entities(&self, sequence: u16) -> Option<Vec<ViewEntity>> {
+        let config = self.config;
+        self.received.get(sequence).map(|view| {
+            view.entities()
+                .iter()
+                .map(|(id, q)| q.dequantize(*id, &config))
+                .collect()
+        })
     }
 
     /// Decodes one datagram. On any error nothing changes but the counts.
@@ -209,12 +222,10 @@ impl SnapshotDecoder {
         }
 
         let view = base.apply(tick, &removed, &updated);
-        let entities = view
-            .entities()
+        let updated = updated
             .iter()
             .map(|(id, q)| q.dequantize(*id, &config))
             .collect();
-        let changed = updated.iter().map(|e| e.0).collect();
         self.received.insert(sequence, view);
         let newest = self.note_received(sequence);
         Ok(DecodedSnapshot {
@@ -224,8 +235,7 @@ impl SnapshotDecoder {
             tick,
             time_scale,
             paused,
-            entities,
-            changed,
+            updated,
             removed,
         })
     }

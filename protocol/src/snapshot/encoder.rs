@@ -234,12 +234,9 @@ impl SnapshotEncoder {
             });
         }
         removed.extend(base_entities[b..].iter().map(|e| e.0));
-        // Only entities still waiting keep an accumulated priority.
-        // Every candidate was just accumulated, so the table holds them all;
-        // when it holds no more, it holds exactly them.
-        if priorities.waiting() != candidates.len() {
-            priorities.retain(|id| candidates.binary_search_by_key(&id, |c| c.id).is_ok());
-        }
+        // Only entities still waiting (the candidates) keep an accumulated
+        // priority.
+        priorities.end_round();
 
         // Fill the budget: the header with both counts at their widest,
         // then removals in id order, then entities by priority.

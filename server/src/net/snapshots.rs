@@ -11,9 +11,9 @@
 //! deferred entities still arrive and clients keep acknowledging.
 //!
 //! The stage has its own thread ([`spawn`]), at a lower scheduling
-//! priority than the tick thread (nice +5 where the platform has it), so
-//! that on a machine short of cores the encoders wait for the tick, never
-//! the tick for the encoders.
+//! priority than the tick thread and the network ([`crate::priority`]),
+//! so that on a machine short of cores the encoders wait for the tick,
+//! never the tick for the encoders.
 //!
 //! Each client's [`ServerSession`] sits behind a lock it shares with its
 //! connection task, which feeds it the client's datagrams (acks and
@@ -83,18 +83,18 @@ impl Drop for ServedGuard {
     }
 }
 
-/// How much less urgent the stage's thread is than the rest of the
-/// process (added to its nice value).
-pub const STAGE_NICE: i32 = 5;
-
 /// Starts the stage on its own thread, named `inertia-snapshots`, with its
 /// own single-threaded runtime, at [`STAGE_NICE`] below the process's
 /// priority; it ends when [`run`] does.
+///
+/// [`STAGE_NICE`]: crate::priority::STAGE_NICE
 pub fn spawn(shared: Arc<NetShared>) -> std::io::Result<std::thread::JoinHandle<()>> {
     std::thread::Builder::new()
         .name("inertia-snapshots".into())
         .spawn(move || {
-            lower_priority();
+            if let Err(e) = crate::priority::adjust_this_thread(crate::priority::STAGE_NICE) {
+                tracing::debug!(error = %e, "the snapshot stage keeps its priority");
+            }
             match tokio::runtime::Builder::new_current_thread()
                 .enable_time()
                 .build()
@@ -103,20 +103,6 @@ pub fn spawn(shared: Arc<NetShared>) -> std::io::Result<std::thread::JoinHandle<
                 Err(e) => tracing::error!(error = %e, "the snapshot stage could not start"),
             }
         })
-}
-
-/// Makes the calling thread [`STAGE_NICE`] less urgent (best effort: a
-/// platform without per-thread priorities keeps it as it is).
-fn lower_priority() {
-    #[cfg(target_os = "linux")]
-    {
-        use rustix::process::{getpriority_process, setpriority_process};
-        let tid = Some(rustix::thread::gettid());
-        let now = getpriority_process(tid).unwrap_or(0);
-        if let Err(e) = setpriority_process(tid, (now + STAGE_NICE).min(19)) {
-            tracing::debug!(error = %e, "the snapshot stage keeps its priority");
-        }
-    }
 }
 
 /// Runs the stage until shutdown or until the simulation is gone.

@@ -1254,7 +1254,16 @@ impl SimHandle {
         };
         let thread = std::thread::Builder::new()
             .name("inertia-tick".into())
-            .spawn(move || run(sim, control_rx, input_rx, publisher, exit_tx, &stop))?;
+            .spawn(move || {
+                if let Err(e) = crate::priority::adjust_this_thread(crate::priority::TICK_NICE) {
+                    tracing::info!(
+                        error = %e,
+                        "the tick thread keeps the process's priority (grant CAP_SYS_NICE \
+                         for a steadier tick on a busy machine)"
+                    );
+                }
+                run(sim, control_rx, input_rx, publisher, exit_tx, &stop)
+            })?;
         Ok(SimHandle {
             control: control_tx,
             inputs: input_tx,
