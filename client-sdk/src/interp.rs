@@ -509,6 +509,15 @@ impl InterpolationBuffer {
         self.legs.push_back(leg);
     }
 
+    /// The states held for entity `id`, oldest tick first: what the
+    /// snapshots that carried it said, each at the tick it described.
+    pub fn states(&self, id: EntityId) -> impl Iterator<Item = (u64, &EntityView)> + '_ {
+        self.entities
+            .get(&id)
+            .into_iter()
+            .flat_map(|samples| samples.iter().map(|(tick, view)| (*tick, view)))
+    }
+
     /// Forgets an entity (despawned or out of view for good).
     pub fn remove(&mut self, id: EntityId) {
         self.entities.remove(&id);

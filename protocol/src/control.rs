@@ -234,6 +234,52 @@ impl From<TokenError> for Refusal {
     }
 }
 
+/// The QUIC application close codes of a game connection; the reason
+/// text beside them is for people, the code is what a client maps to a
+/// [`DisconnectReason`] ([`DisconnectReason::from_close`]).
+pub mod close_code {
+    /// A normal goodbye.
+    pub const GOODBYE: u32 = 0;
+    /// The hello was refused.
+    pub const REFUSED: u32 = 1;
+    /// The peer broke the protocol on its control stream.
+    pub const PROTOCOL: u32 = 2;
+    /// The server is shutting down.
+    pub const SHUTDOWN: u32 = 3;
+    /// An operator kicked the client.
+    pub const KICKED: u32 = 4;
+    /// The simulation failed; the server is about to restart. The reason
+    /// text is `simulation stopped: <what failed>`.
+    pub const SIMULATION_STOPPED: u32 = 5;
+}
+
+/// The prefix of the reason text of a [`close_code::SIMULATION_STOPPED`]
+/// close, before what failed.
+pub const SIMULATION_STOPPED_PREFIX: &str = "simulation stopped: ";
+
+impl DisconnectReason {
+    /// Why the server closed a game connection with application close
+    /// `code` and `reason` text (untrusted: cut to [`MAX_REASON_BYTES`]).
+    /// A code this protocol does not define reads as a kick, with the
+    /// text as its reason.
+    pub fn from_close(code: u64, reason: &[u8]) -> DisconnectReason {
+        let mut text = String::from_utf8_lossy(reason).into_owned();
+        truncate_utf8(&mut text, MAX_REASON_BYTES);
+        match u32::try_from(code) {
+            Ok(close_code::SIMULATION_STOPPED) => DisconnectReason::SimulationStopped {
+                reason: text
+                    .strip_prefix(SIMULATION_STOPPED_PREFIX)
+                    .unwrap_or(&text)
+                    .to_string(),
+            },
+            Ok(close_code::SHUTDOWN) => DisconnectReason::ServerShutdown,
+            Ok(close_code::PROTOCOL) => DisconnectReason::ProtocolError { what: text },
+            Ok(close_code::GOODBYE) => DisconnectReason::ClientLeft,
+            _ => DisconnectReason::Kicked { reason: text },
+        }
+    }
+}
+
 /// Why a connection ended.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub enum DisconnectReason {

@@ -19,6 +19,7 @@
 
 pub mod admin;
 pub mod bits;
+pub mod client_session;
 pub mod control;
 pub mod credentials;
 pub mod entity;
@@ -38,6 +39,7 @@ pub use admin::{
     ADMIN_PROTOCOL_VERSION,
 };
 pub use bits::{BitError, BitReader, BitWriter};
+pub use client_session::{ClientConfig, ClientSession};
 pub use control::{
     encode_frame, handshake, ClientControl, ControlError, ControlMessage, DisconnectReason,
     FrameDecoder, GameEvent, Refusal, ServerControl, SnapshotParams, TokenRefusal, ALPN,

@@ -485,3 +485,44 @@ fn token_limits_hold_at_the_edges() {
         Err(TokenError::Malformed(_))
     ));
 }
+
+#[test]
+fn close_codes_map_to_disconnect_reasons() {
+    use inertia_protocol::control::{close_code, DisconnectReason as R, MAX_REASON_BYTES};
+    let from = |code: u32, text: &str| R::from_close(u64::from(code), text.as_bytes());
+    assert_eq!(
+        from(close_code::SIMULATION_STOPPED, "simulation stopped: a NaN"),
+        R::SimulationStopped {
+            reason: "a NaN".into()
+        }
+    );
+    assert_eq!(
+        from(close_code::SHUTDOWN, "server shutting down"),
+        R::ServerShutdown
+    );
+    assert_eq!(from(close_code::GOODBYE, "goodbye"), R::ClientLeft);
+    assert_eq!(
+        from(close_code::PROTOCOL, "protocol error"),
+        R::ProtocolError {
+            what: "protocol error".into()
+        }
+    );
+    assert_eq!(
+        from(close_code::KICKED, "kicked"),
+        R::Kicked {
+            reason: "kicked".into()
+        }
+    );
+    // Unknown codes read as kicks; untrusted text is cut to its bound.
+    let long = "x".repeat(10 * MAX_REASON_BYTES);
+    match R::from_close(99, long.as_bytes()) {
+        R::Kicked { reason } => assert_eq!(reason.len(), MAX_REASON_BYTES),
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(
+        R::from_close(u64::MAX, b"\xff\xfe"),
+        R::Kicked {
+            reason: "\u{fffd}\u{fffd}".into()
+        }
+    );
+}

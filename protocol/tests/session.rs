@@ -1,6 +1,6 @@
-//! A whole session without sockets: a client (made of the protocol's
-//! pieces) and the server's [`ServerSession`] talk through simulated links
-//! on a virtual clock.
+//! A whole session without sockets: the client's [`ClientSession`] and
+//! the server's [`ServerSession`], the very types the SDK and the server
+//! run, talk through simulated links on a virtual clock.
 //! The hello and welcome go over a reliable, ordered byte stream cut into
 //! arbitrary pieces; snapshots and input datagrams go over lossy,
 //! jittered, reordering, duplicating links both ways. The client's view
@@ -17,7 +17,8 @@ use inertia_protocol::link::{LinkConfig, SimLink};
 use inertia_protocol::snapshot::{QuantizedFrame, SharedDeltas};
 use inertia_protocol::token::{mint, ReplayGuard, TokenKey};
 use inertia_protocol::{
-    EntityState, PlayerInput, ServerSession, SessionConfig, SnapshotConfig, SnapshotDecoder,
+    ClientConfig, ClientSession, EntityState, PlayerInput, ServerSession, SessionConfig,
+    SnapshotConfig,
 };
 
 const SERVER: &str = "127.0.0.1:7777";
@@ -130,10 +131,19 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
     };
     let mut down = SimLink::new(bad, 1).unwrap();
     let mut up = SimLink::new(bad, 2).unwrap();
-    // The server's half is the session the server runs.
+    // The server's half is the session the server runs, the client's the
+    // one the SDK runs: inputs at 60 Hz, the last eight in each datagram.
     let mut session = ServerSession::new(SessionConfig::new(config, 1200)).unwrap();
     let mut deltas = SharedDeltas::new();
-    let mut decoder = SnapshotDecoder::new(client_config).unwrap();
+    let mut client = ClientSession::new(
+        ClientConfig {
+            snapshot: client_config,
+            input_hz: 60,
+            input_redundancy: MAX_REDUNDANT_INPUTS,
+        },
+        0,
+    )
+    .unwrap();
     let mut sent_inputs: Vec<PlayerInput> = Vec::new();
     let mut received_inputs: Vec<PlayerInput> = Vec::new();
     let (mut decoded, mut compared) = (0, 0);
@@ -151,7 +161,7 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
         // Client: decode what arrived and check it against what the
         // server says it sent.
         for bytes in down.receive(now) {
-            let Ok(snap) = decoder.decode(&bytes) else {
+            let Ok(snap) = client.on_datagram(&bytes) else {
                 continue;
             };
             decoded += 1;
@@ -159,7 +169,10 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
                 .encoder()
                 .view(snap.sequence)
                 .expect("the server still holds it");
-            let entities = decoder.entities(snap.sequence).expect("just decoded");
+            let entities = client
+                .decoder()
+                .entities(snap.sequence)
+                .expect("just decoded");
             assert_eq!(sent.len(), entities.len());
             for e in &entities {
                 let q = sent.get(e.id).expect("same ids");
@@ -167,27 +180,22 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
                 compared += 1;
             }
         }
-        // Client: one input per tick, the last eight in every datagram.
-        let input = PlayerInput {
-            sequence: tick as u32,
-            tick,
-            movement: [((tick % 7) as f32 - 3.0) / 3.0, 0.5],
-            yaw: (tick % 100) as f32 * 0.06,
-            buttons: (tick % 4) as u8 & 3,
-        };
-        sent_inputs.push(inertia_protocol::input::quantize_input(&input));
-        let (ack, ack_bits) = decoder.ack_state();
-        let datagram = InputDatagram {
-            ack,
-            ack_bits,
-            inputs: sent_inputs
-                .iter()
-                .rev()
-                .take(MAX_REDUNDANT_INPUTS)
-                .copied()
-                .collect(),
-        };
-        up.send(now, datagram.encode().unwrap());
+        // Client: a new stick every tick; one datagram a tick, carrying
+        // it (quantized for the wire) and the seven before.
+        client.set_input(
+            [((tick % 7) as f32 - 3.0) / 3.0, 0.5],
+            (tick % 100) as f32 * 0.06,
+            (tick % 4) as u8 & 3,
+        );
+        let bytes = client
+            .poll_input(now, tick)
+            .expect("one input a tick at 60 Hz");
+        let datagram = InputDatagram::decode(&bytes).unwrap();
+        assert!(datagram.inputs.len() <= MAX_REDUNDANT_INPUTS);
+        let newest = datagram.inputs[0];
+        assert_eq!((newest.sequence, newest.tick), (tick as u32, tick));
+        sent_inputs.push(newest);
+        up.send(now, bytes);
         // Server: acks move the baseline; inputs come out once, in order.
         for bytes in up.receive(now) {
             session.on_datagram(&bytes).unwrap();

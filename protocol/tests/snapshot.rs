@@ -585,13 +585,16 @@ proptest! {
         if cut % 3 == 0 {
             bytes.truncate(cut % (bytes.len() + 1));
         }
-        let _ = dec.decode(&bytes);
+        let mutant = dec.decode(&bytes);
         // The clean one still decodes afterwards unless the mutant was
-        // taken as it (a flip in padding bits only).
+        // taken as it (a flip in padding bits only), or was taken as a
+        // newer snapshot whose ring slot is the clean one's baseline's (a
+        // flip that makes sequence 1 into 64, against baseline 0).
         if bytes != clean {
             match dec.decode(&clean) {
                 Ok(got) => prop_assert_eq!(dec.view(got.sequence), enc.view(got.sequence)),
                 Err(SnapshotError::Duplicate { .. }) => {}
+                Err(SnapshotError::MissingBaseline { .. }) if mutant.is_ok() => {}
                 Err(e) => prop_assert!(false, "clean snapshot refused: {}", e),
             }
         }
@@ -649,4 +652,40 @@ fn shared_deltas_give_every_client_the_bytes_it_gets_alone() {
         mutate(&mut r, &mut world);
     }
     assert!(shared.reused() > 1000, "deltas reused: {}", shared.reused());
+}
+
+/// The case the property test met: a single flip turned sequence 1 into
+/// 64, which decodes against baseline 0 and takes its ring slot, so the
+/// clean snapshot 1 then misses its baseline (refused, not a panic).
+#[test]
+fn a_mutant_that_takes_its_baselines_slot_leaves_the_clean_one_refused_cleanly() {
+    let config = config(false);
+    let mut r = SplitMix(1);
+    let mut world = random_world(&mut r, 40);
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut dec = SnapshotDecoder::new(config).unwrap();
+    let mut pri = PriorityAccumulator::default();
+    let first = enc.encode(1, 1.0, false, &world, &mut pri, 1200);
+    dec.decode(&first).unwrap();
+    enc.on_ack(0);
+    mutate(&mut r, &mut world);
+    let clean = enc.encode(2, 1.0, false, &world, &mut pri, 1200);
+    // The flip of 0x41 somewhere in the sequence that makes 1 into 64.
+    let mutant = (0..clean.len())
+        .find_map(|i| {
+            let mut m = clean.clone();
+            m[i] ^= 0x41;
+            let taken = dec.clone().decode(&m).ok()?;
+            (taken.sequence == 64).then_some(m)
+        })
+        .expect("one flip makes sequence 64");
+    let got = dec.decode(&mutant).expect("a well-formed snapshot 64");
+    assert_eq!((got.sequence, got.baseline), (64, Some(0)));
+    assert!(matches!(
+        dec.decode(&clean),
+        Err(SnapshotError::MissingBaseline {
+            sequence: 1,
+            baseline: 0
+        })
+    ));
 }

@@ -1,7 +1,8 @@
-//! The connection's background task: one loop that reads snapshot
-//! datagrams and control frames, sends inputs on a timer, and obeys the
-//! [`super::Client`]'s commands. Everything it learns goes into [`State`],
-//! which the game reads under a short lock.
+//! The connection's background task: a thin shell that moves bytes
+//! between quinn and the sans-IO [`ClientSession`] (snapshot datagrams
+//! in, input datagrams out when the session says they are due), reads
+//! control frames, and obeys the [`super::Client`]'s commands. Everything
+//! it learns goes into [`State`], which the game reads under a short lock.
 
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
@@ -10,9 +11,8 @@ use std::time::{Duration, Instant};
 use inertia_protocol::control::{
     encode_frame, ClientControl, DisconnectReason, FrameDecoder, GameEvent, ServerControl,
 };
-use inertia_protocol::input::InputDatagram;
-use inertia_protocol::snapshot::{SnapshotDecoder, ViewEntity};
-use inertia_protocol::{EntityId, EntityState, PlayerInput};
+use inertia_protocol::snapshot::ViewEntity;
+use inertia_protocol::{ClientSession, EntityId, EntityState};
 use tokio::sync::mpsc;
 
 use crate::clock::{Discontinuity, SnapshotMeta};
@@ -51,30 +51,26 @@ pub enum ClientEvent {
 /// What the connection knows, shared with the game.
 #[derive(Debug)]
 pub(crate) struct State {
-    pub decoder: SnapshotDecoder,
+    /// The session: decoder, acknowledgements, inputs and their pacing.
+    pub session: ClientSession,
     pub interp: InterpolationBuffer,
     pub entities: EntityTable,
     /// The newest snapshot decoded: its tick and sequence number.
     pub latest: Option<(u64, u16)>,
     pub events: VecDeque<ClientEvent>,
-    pub input: PlayerInput,
     pub disconnected: Option<DisconnectReason>,
     pub stats: StatsRecorder,
     pub events_dropped: u64,
 }
 
 impl State {
-    pub fn new(info: &ServerInfo, decoder: SnapshotDecoder) -> Self {
+    pub fn new(info: &ServerInfo, session: ClientSession) -> Self {
         Self {
-            decoder,
+            session,
             interp: InterpolationBuffer::new(f64::from(info.tick_hz)),
             entities: EntityTable::new(),
             latest: None,
             events: VecDeque::new(),
-            input: PlayerInput {
-                tick: info.tick,
-                ..PlayerInput::default()
-            },
             disconnected: None,
             stats: StatsRecorder::new(),
             events_dropped: 0,
@@ -98,7 +94,7 @@ impl State {
     }
 
     fn on_datagram(&mut self, now: f64, bytes: &[u8]) {
-        match self.decoder.decode(bytes) {
+        match self.session.on_datagram(bytes) {
             Ok(snap) => {
                 self.stats.on_snapshot(now, snap.sequence, bytes.len());
                 let meta = SnapshotMeta {
@@ -198,10 +194,6 @@ pub(crate) struct Driver {
     pub state: Arc<Mutex<State>>,
     pub commands: mpsc::UnboundedReceiver<Command>,
     pub epoch: Instant,
-    pub input_hz: u32,
-    /// Inputs per datagram, 1 to
-    /// [`inertia_protocol::input::MAX_REDUNDANT_INPUTS`].
-    pub input_redundancy: usize,
 }
 
 impl Driver {
@@ -221,10 +213,6 @@ fn take_frames(d: &mut Driver) -> Result<(), String> {
 
 /// Runs the connection until it ends.
 pub(crate) async fn run(mut d: Driver) {
-    let mut timer = tokio::time::interval(Duration::from_secs_f64(1.0 / f64::from(d.input_hz)));
-    timer.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    let mut history: VecDeque<PlayerInput> = VecDeque::new();
-    let mut sequence: u32 = 0;
     let mut buf = vec![0u8; 16 * 1024];
     // The read that brought the welcome may have brought what followed it
     // too (the catalog, when the two arrive together): it is not left
@@ -234,6 +222,7 @@ pub(crate) async fn run(mut d: Driver) {
             break 'run protocol_error(&d.connection, e);
         }
         loop {
+            let due = input_due(&d);
             tokio::select! {
                 datagram = d.connection.read_datagram() => match datagram {
                     Ok(bytes) => {
@@ -256,21 +245,21 @@ pub(crate) async fn run(mut d: Driver) {
                         break closed_reason(&e);
                     }
                 },
-                _ = timer.tick() => {
-                    let (datagram, _) = {
+                _ = tokio::time::sleep_until(due) => {
+                    let datagram = {
                         let mut s = d.lock();
                         let now = d.epoch.elapsed().as_secs_f64();
-                        sequence = sequence.wrapping_add(1);
                         let rtt = d.connection.rtt().as_secs_f64();
                         s.interp.clock_mut().rtt_sample(rtt);
-                        let tick = s.interp.clock().estimated_tick(now).map_or(s.input.tick, |t| t.max(0.0) as u64);
-                        let input = PlayerInput { sequence, tick, ..s.input };
-                        history.push_front(input);
-                        history.truncate(d.input_redundancy);
-                        let (ack, ack_bits) = s.decoder.ack_state();
-                        (InputDatagram { ack, ack_bits, inputs: history.iter().copied().collect() }, ())
+                        let welcome_tick = s.session.input().tick;
+                        let tick = s
+                            .interp
+                            .clock()
+                            .estimated_tick(now)
+                            .map_or(welcome_tick, |t| t.max(0.0) as u64);
+                        s.session.poll_input(now, tick)
                     };
-                    if let Ok(bytes) = datagram.encode() {
+                    if let Some(bytes) = datagram {
                         let _ = d.connection.send_datagram(bytes.into());
                     }
                 },
@@ -296,6 +285,12 @@ pub(crate) async fn run(mut d: Driver) {
     }
 }
 
+/// When the session's next input datagram is due, on tokio's clock.
+fn input_due(d: &Driver) -> tokio::time::Instant {
+    let at = d.lock().session.next_input_at();
+    tokio::time::Instant::from_std(d.epoch) + Duration::from_secs_f64(at.max(0.0))
+}
+
 fn protocol_error(connection: &quinn::Connection, what: String) -> DisconnectReason {
     connection.close(2u32.into(), b"protocol error");
     DisconnectReason::ProtocolError { what }
@@ -306,19 +301,92 @@ fn closed_reason(e: &quinn::ConnectionError) -> DisconnectReason {
         quinn::ConnectionError::TimedOut => DisconnectReason::Timeout,
         quinn::ConnectionError::LocallyClosed => DisconnectReason::ClientLeft,
         quinn::ConnectionError::ApplicationClosed(close) => {
-            let text = String::from_utf8_lossy(&close.reason).into_owned();
-            if let Some(reason) = text.strip_prefix("simulation stopped: ") {
-                DisconnectReason::SimulationStopped {
-                    reason: reason.to_string(),
-                }
-            } else if text.contains("shut") {
-                DisconnectReason::ServerShutdown
-            } else {
-                DisconnectReason::Kicked { reason: text }
-            }
+            DisconnectReason::from_close(close.error_code.into_inner(), &close.reason)
         }
         other => DisconnectReason::ProtocolError {
             what: other.to_string(),
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DQuat, DVec3};
+    use inertia_protocol::snapshot::{SnapshotConfig, SnapshotEncoder};
+    use inertia_protocol::{ClientConfig, PriorityAccumulator};
+
+    fn moving(id: EntityId, x: f64, asleep: bool) -> EntityState {
+        EntityState {
+            id,
+            position: DVec3::new(x, 1.0, 0.0),
+            rotation: DQuat::IDENTITY,
+            linear_velocity: DVec3::new(3.0, 0.0, 0.0),
+            angular_velocity: DVec3::ZERO,
+            asleep,
+        }
+    }
+
+    /// An entity the server left out of a snapshot (its budget was spent
+    /// on others) was buffered at that snapshot's tick with the state the
+    /// client already had: interpolation then froze it and jumped. Only
+    /// what a snapshot carried may be buffered at its tick.
+    #[test]
+    fn issue_12_an_entity_left_out_is_not_buffered_at_the_new_tick() {
+        let config = SnapshotConfig::default();
+        let info = ServerInfo {
+            client_id: 1,
+            tick: 0,
+            tick_hz: 60,
+            snapshot_hz: 30,
+            snapshot: config,
+            server_version: String::new(),
+        };
+        let session = ClientSession::new(
+            ClientConfig {
+                snapshot: config,
+                input_hz: 30,
+                input_redundancy: 4,
+            },
+            0,
+        )
+        .unwrap();
+        let mut state = State::new(&info, session);
+        let mut encoder = SnapshotEncoder::new(config).unwrap();
+        let mut priorities = PriorityAccumulator::default();
+        // Both fit the first snapshot.
+        let first = [moving(1, 0.0, false), moving(2, 10.0, false)];
+        let bytes = encoder.encode(10, 1.0, false, &first, &mut priorities, 1200);
+        state.on_datagram(0.0, &bytes);
+        let (ack, bits) = state.session.decoder().ack_state();
+        encoder.on_ack_state(ack, bits);
+        // Both move; the budget of the second holds only the awake one
+        // (the smallest budget that holds one, found on copies).
+        let second = [moving(1, 0.1, false), moving(2, 10.1, true)];
+        let budget = (8..64)
+            .find(|&b| {
+                let (mut e, mut p) = (encoder.clone(), priorities.clone());
+                e.encode(12, 1.0, false, &second, &mut p, b);
+                e.last_report().included == 1
+            })
+            .expect("some budget holds exactly one");
+        let bytes = encoder.encode(12, 1.0, false, &second, &mut priorities, budget);
+        let report = encoder.last_report();
+        assert_eq!((report.included, report.deferred), (1, 1), "{report:?}");
+        state.on_datagram(1.0 / 30.0, &bytes);
+
+        let ticks = |id| state.interp.states(id).map(|(t, _)| t).collect::<Vec<_>>();
+        assert_eq!(ticks(1), [10, 12], "the one sent is buffered at both ticks");
+        assert_eq!(ticks(2), [10], "the one left out keeps its last real state");
+        let (tick, _) = state.latest.expect("decoded");
+        assert_eq!(tick, 12);
+        // The whole view still holds it, as the first snapshot had it.
+        let view = state
+            .session
+            .decoder()
+            .entities(state.latest.unwrap().1)
+            .unwrap();
+        assert_eq!(view.len(), 2);
+        assert!((view[1].position.x - 10.0).abs() < 1e-3);
     }
 }

@@ -15,9 +15,9 @@ use inertia_protocol::control::{
     PROTOCOL_VERSION,
 };
 use inertia_protocol::input::MAX_REDUNDANT_INPUTS;
-use inertia_protocol::snapshot::{SnapshotConfig, SnapshotDecoder};
+use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::ConnectToken;
-use inertia_protocol::PlayerInput;
+use inertia_protocol::{ClientConfig, ClientSession};
 use tokio::sync::mpsc;
 
 pub use driver::ClientEvent;
@@ -214,10 +214,20 @@ impl Client {
                 "the server announced a zero rate".into(),
             ));
         }
-        let decoder = SnapshotDecoder::new(info.snapshot)
-            .map_err(|e| ClientError::Protocol(format!("snapshot settings: {e}")))?;
+        let session = ClientSession::new(
+            ClientConfig {
+                snapshot: info.snapshot,
+                input_hz: options.input_hz.unwrap_or(info.tick_hz).clamp(1, 1000),
+                input_redundancy: options
+                    .input_redundancy
+                    .unwrap_or(MAX_REDUNDANT_INPUTS)
+                    .clamp(1, MAX_REDUNDANT_INPUTS),
+            },
+            info.tick,
+        )
+        .map_err(|e| ClientError::Protocol(format!("snapshot settings: {e}")))?;
         let epoch = Instant::now();
-        let state = Arc::new(Mutex::new(State::new(&info, decoder)));
+        let state = Arc::new(Mutex::new(State::new(&info, session)));
         let (commands, command_rx) = mpsc::unbounded_channel();
         tokio::spawn(driver::run(driver::Driver {
             connection: connection.clone(),
@@ -227,11 +237,6 @@ impl Client {
             state: state.clone(),
             commands: command_rx,
             epoch,
-            input_hz: options.input_hz.unwrap_or(info.tick_hz).clamp(1, 1000),
-            input_redundancy: options
-                .input_redundancy
-                .unwrap_or(MAX_REDUNDANT_INPUTS)
-                .clamp(1, MAX_REDUNDANT_INPUTS),
         }));
         Ok(Client {
             state,
@@ -268,13 +273,7 @@ impl Client {
     /// sent every input interval, with the last few inputs repeated in
     /// every datagram against loss.
     pub fn set_input(&self, movement: [f32; 2], yaw: f32, buttons: u8) {
-        let mut s = self.lock();
-        s.input = PlayerInput {
-            movement,
-            yaw,
-            buttons,
-            ..s.input
-        };
+        self.lock().session.set_input(movement, yaw, buttons);
     }
 
     /// The world as it should be drawn now: interpolated behind the
@@ -294,7 +293,7 @@ impl Client {
     pub fn latest_view(&self) -> Option<(u64, Vec<inertia_protocol::snapshot::ViewEntity>)> {
         let s = self.lock();
         let (tick, sequence) = s.latest?;
-        Some((tick, s.decoder.entities(sequence)?))
+        Some((tick, s.session.decoder().entities(sequence)?))
     }
 
     /// Every entity the server has described to us, by id.

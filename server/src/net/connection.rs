@@ -23,7 +23,7 @@ use glam::DVec3;
 use inertia_protocol::admin::TimeMode;
 use inertia_protocol::control::{
     encode_frame, handshake, truncate_utf8, ClientControl, DisconnectReason, FrameDecoder, Refusal,
-    ServerControl, SnapshotParams, MAX_REASON_BYTES,
+    ServerControl, SnapshotParams, MAX_REASON_BYTES, SIMULATION_STOPPED_PREFIX,
 };
 use inertia_protocol::{EntityId, EntityKind, ServerSession, SessionConfig};
 use tracing::{debug, info, info_span, warn, Instrument};
@@ -48,21 +48,8 @@ pub const OUTBOX_LIMIT: usize = 16 << 20;
 /// client's window.
 pub const GOODBYE_WAIT: Duration = Duration::from_secs(1);
 
-/// QUIC close codes the server uses.
-pub mod close_code {
-    /// A normal goodbye.
-    pub const GOODBYE: u32 = 0;
-    /// The hello was refused.
-    pub const REFUSED: u32 = 1;
-    /// The client broke the protocol on its control stream.
-    pub const PROTOCOL: u32 = 2;
-    /// The server is shutting down.
-    pub const SHUTDOWN: u32 = 3;
-    /// An operator kicked the client.
-    pub const KICKED: u32 = 4;
-    /// The simulation failed; the server is about to restart.
-    pub const SIMULATION_STOPPED: u32 = 5;
-}
+/// QUIC close codes the server uses (the protocol's).
+pub use inertia_protocol::control::close_code;
 
 fn unix_now() -> u64 {
     SystemTime::now()
@@ -435,7 +422,7 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
                 // before the goodbye.
                 DisconnectReason::SimulationStopped { reason } => connection.close(
                     close_code::SIMULATION_STOPPED.into(),
-                    format!("simulation stopped: {reason}").as_bytes(),
+                    format!("{SIMULATION_STOPPED_PREFIX}{reason}").as_bytes(),
                 ),
                 _ => connection.close(close_code::SHUTDOWN.into(), b"server shutting down"),
             }
