@@ -9,15 +9,17 @@
 use std::collections::BTreeMap;
 
 use glam::{DQuat, DVec3};
-use inertia_protocol::{EntityDesc, EntityId, EntityState};
+use inertia_protocol::snapshot::ViewEntity;
+use inertia_protocol::{EntityDesc, EntityId};
 
 /// The newest state a snapshot gave for an entity.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LatestState {
     /// The tick of the snapshot it came from.
     pub tick: u64,
-    /// The state: position m, rotation, velocities m/s and rad/s.
-    pub state: EntityState,
+    /// The state as the snapshot carried it (position m, rotation,
+    /// linear velocity m/s when sent).
+    pub state: ViewEntity,
 }
 
 /// One known entity.
@@ -111,7 +113,7 @@ impl EntityTable {
     /// newest. Feed it the newest snapshot by sequence number only: its
     /// tick may be lower than the one held when the server's timeline
     /// went back (a seek, or reverse play).
-    pub fn update(&mut self, tick: u64, state: EntityState) -> Update {
+    pub fn update(&mut self, tick: u64, state: ViewEntity) -> Update {
         let latest = LatestState { tick, state };
         match self.entities.get_mut(&state.id) {
             Some(e) => {
@@ -188,14 +190,14 @@ mod tests {
         }
     }
 
-    fn state(id: EntityId, x: f64) -> EntityState {
-        EntityState {
+    fn state(id: EntityId, x: f64) -> ViewEntity {
+        ViewEntity {
             id,
             position: DVec3::new(x, 0.0, 0.0),
             rotation: DQuat::IDENTITY,
-            linear_velocity: DVec3::ZERO,
-            angular_velocity: DVec3::ZERO,
-            asleep: false,
+            linear_velocity: None,
+            angular_velocity: None,
+            at_rest: false,
         }
     }
 

@@ -42,42 +42,14 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use glam::{DQuat, DVec3};
-use inertia_protocol::{EntityId, EntityState};
+use inertia_protocol::EntityId;
 
 use crate::clock::{
     direction_of, ClockConfig, Discontinuity, Observation, ServerClock, SnapshotMeta,
 };
 
-/// One entity as a snapshot shows it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EntityView {
-    /// The entity.
-    pub id: EntityId,
-    /// Position of its origin, m.
-    pub position: DVec3,
-    /// Orientation (unit quaternion).
-    pub rotation: DQuat,
-    /// Linear velocity, m/s of simulation time, when the snapshot has it.
-    pub linear_velocity: Option<DVec3>,
-    /// Angular velocity (world frame), rad/s of simulation time, when the
-    /// snapshot has it.
-    pub angular_velocity: Option<DVec3>,
-    /// True when the body is at rest (asleep): it is never extrapolated.
-    pub at_rest: bool,
-}
-
-impl From<&EntityState> for EntityView {
-    fn from(s: &EntityState) -> Self {
-        Self {
-            id: s.id,
-            position: s.position,
-            rotation: s.rotation,
-            linear_velocity: Some(s.linear_velocity),
-            angular_velocity: Some(s.angular_velocity),
-            at_rest: s.asleep,
-        }
-    }
-}
+/// One entity as a snapshot shows it: the protocol's decoded state.
+pub use inertia_protocol::snapshot::ViewEntity;
 
 /// A received snapshot: its header and the entities it carries (possibly
 /// not all of them: entities out of view or not sent this time are absent).
@@ -86,7 +58,7 @@ pub struct Snapshot {
     /// Sequence number, tick, time scale and pause state.
     pub meta: SnapshotMeta,
     /// The entities in it.
-    pub entities: Vec<EntityView>,
+    pub entities: Vec<ViewEntity>,
 }
 
 /// How an [`InterpolationBuffer`] renders. Times in seconds.
@@ -324,7 +296,7 @@ pub struct InterpolationBuffer {
     /// The legs of the timeline from the one the render tick is on to the
     /// one snapshots arrive on now.
     legs: VecDeque<Leg>,
-    entities: BTreeMap<EntityId, VecDeque<(u64, EntityView)>>,
+    entities: BTreeMap<EntityId, VecDeque<(u64, ViewEntity)>>,
     drawn: BTreeMap<EntityId, Drawn>,
     render_tick: Option<f64>,
     last_sample: Option<f64>,
@@ -511,7 +483,7 @@ impl InterpolationBuffer {
 
     /// The states held for entity `id`, oldest tick first: what the
     /// snapshots that carried it said, each at the tick it described.
-    pub fn states(&self, id: EntityId) -> impl Iterator<Item = (u64, &EntityView)> + '_ {
+    pub fn states(&self, id: EntityId) -> impl Iterator<Item = (u64, &ViewEntity)> + '_ {
         self.entities
             .get(&id)
             .into_iter()
@@ -785,7 +757,7 @@ impl InterpolationBuffer {
                 hi = hi.max(tick);
             }
         }
-        let trim = |samples: &mut VecDeque<(u64, EntityView)>| {
+        let trim = |samples: &mut VecDeque<(u64, ViewEntity)>| {
             while samples.len() >= 2 && samples[1].0 as f64 <= lo {
                 samples.pop_front();
             }
@@ -885,7 +857,7 @@ impl InterpolationBuffer {
 /// The pose of `a` carried `ahead` seconds of simulation time along its
 /// velocities (back along them when negative; held when at rest or
 /// without them).
-fn extrapolate(a: &EntityView, ahead: f64) -> (DVec3, DQuat) {
+fn extrapolate(a: &ViewEntity, ahead: f64) -> (DVec3, DQuat) {
     if a.at_rest || ahead == 0.0 {
         return (a.position, a.rotation);
     }
@@ -927,7 +899,7 @@ mod tests {
                 time_scale: 1.0,
                 paused: false,
             },
-            entities: vec![EntityView {
+            entities: vec![ViewEntity {
                 id: 7,
                 position: DVec3::new(x, 0.0, 0.0),
                 rotation: DQuat::IDENTITY,
@@ -1038,9 +1010,9 @@ mod reverse_tests {
 
     /// The recorded state at a tick: the same whichever way it is played
     /// (velocities are d(position)/d(simulation time)).
-    fn view(tick: u64) -> EntityView {
+    fn view(tick: u64) -> ViewEntity {
         let a = OMEGA * tick as f64 / HZ;
-        EntityView {
+        ViewEntity {
             id: 1,
             position: truth(tick as f64),
             rotation: DQuat::from_rotation_y(-a),

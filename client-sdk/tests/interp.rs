@@ -7,7 +7,7 @@
 
 use glam::{DQuat, DVec3};
 use inertia_client::clock::SnapshotMeta;
-use inertia_client::interp::{EntityView, InterpEvent, InterpolationBuffer, Snapshot};
+use inertia_client::interp::{InterpEvent, InterpolationBuffer, Snapshot, ViewEntity};
 
 const HZ: f64 = 60.0;
 const RADIUS: f64 = 2.0;
@@ -27,10 +27,10 @@ fn truth(tick: f64) -> (DVec3, DQuat) {
     )
 }
 
-fn view(tick: u64) -> EntityView {
+fn view(tick: u64) -> ViewEntity {
     let (position, rotation) = truth(tick as f64);
     let a = OMEGA * tick as f64 / HZ;
-    EntityView {
+    ViewEntity {
         id: 1,
         position,
         rotation,

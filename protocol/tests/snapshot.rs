@@ -116,7 +116,7 @@ fn random_worlds_round_trip_exactly_with_and_without_baseline() {
                 }
                 for (v, (id, q)) in entities.iter().zip(view.entities()) {
                     assert_eq!(*v, q.dequantize(*id, &config));
-                    assert_eq!(v.velocity.is_some(), velocities && !v.at_rest);
+                    assert_eq!(v.linear_velocity.is_some(), velocities && !v.at_rest);
                 }
                 let (newest, _) = dec.ack_state();
                 enc.on_ack(newest.unwrap());
@@ -142,7 +142,7 @@ fn values_come_back_within_the_grid() {
         assert!((e.position - v.position).abs().max_element() <= 0.0005 + 1e-9);
         let angle = 2.0 * e.rotation.dot(v.rotation).abs().min(1.0).acos();
         assert!(angle.to_degrees() < 0.15, "{}°", angle.to_degrees());
-        if let Some(vel) = v.velocity {
+        if let Some(vel) = v.linear_velocity {
             assert!((e.linear_velocity - vel).abs().max_element() <= 0.005 + 1e-9);
         }
     }

@@ -11,13 +11,12 @@ use std::time::{Duration, Instant};
 use inertia_protocol::control::{
     encode_frame, ClientControl, DisconnectReason, FrameDecoder, GameEvent, ServerControl,
 };
-use inertia_protocol::snapshot::ViewEntity;
-use inertia_protocol::{ClientSession, EntityId, EntityState};
+use inertia_protocol::{ClientSession, EntityId};
 use tokio::sync::mpsc;
 
 use crate::clock::{Discontinuity, SnapshotMeta};
 use crate::entities::EntityTable;
-use crate::interp::{EntityView, InterpEvent, InterpolationBuffer, Snapshot};
+use crate::interp::{InterpEvent, InterpolationBuffer, Snapshot};
 use crate::stats::{ClientStats, StatsRecorder};
 
 use super::ServerInfo;
@@ -107,13 +106,13 @@ impl State {
                 // view is what earlier snapshots said, no news of this
                 // tick (an entity not sent keeps its last state in the
                 // buffer, extrapolated and then held).
-                let entities = snap.updated.iter().map(view_of).collect();
+                let entities = snap.updated.clone();
                 if snap.newest {
                     for &id in &snap.removed {
                         self.interp.remove(id);
                     }
                     for e in &snap.updated {
-                        self.entities.update(snap.tick, state_of(e));
+                        self.entities.update(snap.tick, *e);
                     }
                     self.latest = Some((snap.tick, snap.sequence));
                 }
@@ -154,28 +153,6 @@ impl State {
             }
         }
         Ok(())
-    }
-}
-
-fn state_of(e: &ViewEntity) -> EntityState {
-    EntityState {
-        id: e.id,
-        position: e.position,
-        rotation: e.rotation,
-        linear_velocity: e.velocity.unwrap_or_default(),
-        angular_velocity: glam::DVec3::ZERO,
-        asleep: e.at_rest,
-    }
-}
-
-fn view_of(e: &ViewEntity) -> EntityView {
-    EntityView {
-        id: e.id,
-        position: e.position,
-        rotation: e.rotation,
-        linear_velocity: e.velocity,
-        angular_velocity: None,
-        at_rest: e.at_rest,
     }
 }
 
@@ -314,7 +291,7 @@ mod tests {
     use super::*;
     use glam::{DQuat, DVec3};
     use inertia_protocol::snapshot::{SnapshotConfig, SnapshotEncoder};
-    use inertia_protocol::{ClientConfig, PriorityAccumulator};
+    use inertia_protocol::{ClientConfig, EntityState, PriorityAccumulator};
 
     fn moving(id: EntityId, x: f64, asleep: bool) -> EntityState {
         EntityState {

@@ -38,6 +38,38 @@ fn check_pose(what: &'static str, pose: Pose) -> Result<Pose, PhysicsError> {
     Ok(Pose::new(pose.translation, rotation))
 }
 
+/// Offers body `h` to a nearest-hit search along the ray `(origin, dir,
+/// max_t)`: `best` becomes it when its shape is hit nearer than the best
+/// so far, ties to the lower handle whatever order bodies come in.
+/// `filter` is only asked about bodies whose box the ray crosses before
+/// the best hit so far.
+pub(super) fn offer_to_ray(
+    best: &mut Option<(BodyHandle, RayHit)>,
+    h: BodyHandle,
+    b: &RigidBody,
+    (origin, dir, max_t): (DVec3, DVec3, f64),
+    filter: &mut impl FnMut(BodyHandle, &RigidBody) -> bool,
+) {
+    let Some(shape) = b.shape() else { return };
+    let pose = b.pose();
+    let limit = best.map_or(max_t, |(_, hit)| hit.t);
+    let Some(entry) = ray_aabb(origin, dir, limit, &shape.aabb(&pose).expanded(1e-9)) else {
+        return;
+    };
+    if best.is_some_and(|(_, hit)| entry > hit.t) || !filter(h, b) {
+        return;
+    }
+    if let Some(hit) = ray_cast_shape(shape, &pose, origin, dir, limit) {
+        let nearer = match *best {
+            None => true,
+            Some((bh, bhit)) => hit.t < bhit.t || (hit.t == bhit.t && h < bh),
+        };
+        if nearer {
+            *best = Some((h, hit));
+        }
+    }
+}
+
 impl World {
     /// The bodies with a shape, in handle order, with that shape and the
     /// body's pose.
@@ -116,20 +148,8 @@ impl World {
     ) -> Result<Option<(BodyHandle, RayHit)>, PhysicsError> {
         check_ray(origin, dir, max_t)?;
         let mut best: Option<(BodyHandle, RayHit)> = None;
-        for (h, b, shape, pose) in self.shaped_bodies() {
-            let limit = best.map_or(max_t, |(_, hit)| hit.t);
-            let Some(entry) = ray_aabb(origin, dir, limit, &shape.aabb(&pose).expanded(1e-9))
-            else {
-                continue;
-            };
-            if best.is_some_and(|(_, hit)| entry > hit.t) || !filter(h, b) {
-                continue;
-            }
-            if let Some(hit) = ray_cast_shape(shape, &pose, origin, dir, limit) {
-                if best.is_none_or(|(_, b)| hit.t < b.t) {
-                    best = Some((h, hit));
-                }
-            }
+        for (h, b) in self.bodies() {
+            offer_to_ray(&mut best, h, b, (origin, dir, max_t), &mut filter);
         }
         Ok(best)
     }

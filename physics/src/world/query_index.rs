@@ -20,7 +20,7 @@ use crate::error::PhysicsError;
 use crate::handle::BodyHandle;
 use crate::rigid::aabb::Aabb;
 use crate::rigid::body::RigidBody;
-use crate::rigid::query::{ray_aabb, ray_cast_shape, RayHit};
+use crate::rigid::query::{ray_aabb, RayHit};
 
 /// Boxes in the hierarchy are grown by this much beyond the boxes
 /// [`World::cast_ray`] tests, m, so that no rounding in a node's test
@@ -170,25 +170,8 @@ impl QueryIndex {
             }
             let run = node.at as usize..(node.at + node.count) as usize;
             for &h in &self.order[run] {
-                let Some(b) = world.body(h) else { continue };
-                let Some(shape) = b.shape() else { continue };
-                let pose = b.pose();
-                let limit = best.map_or(max_t, |(_, hit)| hit.t);
-                let Some(entry) = ray_aabb(origin, dir, limit, &shape.aabb(&pose).expanded(1e-9))
-                else {
-                    continue;
-                };
-                if best.is_some_and(|(_, hit)| entry > hit.t) || !filter(h, b) {
-                    continue;
-                }
-                if let Some(hit) = ray_cast_shape(shape, &pose, origin, dir, max_t) {
-                    let better = match best {
-                        None => hit.t <= limit,
-                        Some((bh, bhit)) => hit.t < bhit.t || (hit.t == bhit.t && h < bh),
-                    };
-                    if better {
-                        best = Some((h, hit));
-                    }
+                if let Some(b) = world.body(h) {
+                    super::query::offer_to_ray(&mut best, h, b, (origin, dir, max_t), &mut filter);
                 }
             }
         }

@@ -75,25 +75,46 @@ impl QuantizedEntity {
             id,
             position: coords(&config.grid, self.position),
             rotation: self.rotation.to_quat(config.rotation_bits),
-            velocity: self.velocity.map(|v| coords(&config.velocity_grid, v)),
+            linear_velocity: self.velocity.map(|v| coords(&config.velocity_grid, v)),
+            angular_velocity: None,
             at_rest: self.at_rest,
         }
     }
 }
 
-/// One entity of a decoded view, in world units.
+/// One entity as a snapshot shows it, in world units: what the decoder
+/// yields, the client's interpolation buffers and its entity table holds.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ViewEntity {
     /// The entity.
     pub id: EntityId,
-    /// Position on the grid, m.
+    /// Position of its origin (on the grid, from a snapshot), m.
     pub position: DVec3,
     /// Orientation (unit quaternion).
     pub rotation: DQuat,
-    /// Linear velocity on the velocity grid, m/s, when sent.
-    pub velocity: Option<DVec3>,
-    /// The body sleeps.
+    /// Linear velocity (on the velocity grid, from a snapshot), m/s of
+    /// simulation time, when sent.
+    pub linear_velocity: Option<DVec3>,
+    /// Angular velocity (world frame), rad/s of simulation time, when
+    /// known (snapshots do not carry it; the interpolation turns by it
+    /// when a state from elsewhere has it).
+    pub angular_velocity: Option<DVec3>,
+    /// The body sleeps: it will not move until something wakes it.
     pub at_rest: bool,
+}
+
+impl From<&EntityState> for ViewEntity {
+    /// The server's state of an entity, exactly (no quantization).
+    fn from(s: &EntityState) -> Self {
+        Self {
+            id: s.id,
+            position: s.position,
+            rotation: s.rotation,
+            linear_velocity: Some(s.linear_velocity),
+            angular_velocity: Some(s.angular_velocity),
+            at_rest: s.asleep,
+        }
+    }
 }
 
 /// A full quantized view: the tick it describes and its entities,
