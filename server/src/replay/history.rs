@@ -194,6 +194,8 @@ impl Packer {
         let spawned = std::thread::Builder::new()
             .name("inertia-pack".into())
             .spawn(move || {
+                // Background work: not at the tick's priority.
+                crate::priority::restore_after_tick();
                 let mut prepared: Option<((u64, u32), zstd::dict::EncoderDictionary<'static>)> =
                     None;
                 // zstd needs room for the worst case (a little more than

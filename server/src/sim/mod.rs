@@ -1255,7 +1255,7 @@ impl SimHandle {
         let thread = std::thread::Builder::new()
             .name("inertia-tick".into())
             .spawn(move || {
-                if let Err(e) = crate::priority::adjust_this_thread(crate::priority::TICK_NICE) {
+                if let Err(e) = crate::priority::raise_tick_thread() {
                     tracing::info!(
                         error = %e,
                         "the tick thread keeps the process's priority (grant CAP_SYS_NICE \
