@@ -63,6 +63,11 @@ fn config(dir: &Path, keyframe_ticks: u64) -> SimConfig {
     SimConfig {
         recording: Some(RecorderConfig {
             keyframe_ticks,
+            // Ticks here run as fast as the machine goes, far faster than
+            // real time: a recorder thread starved by other tests must not
+            // fill the channel (a dropped record ends the recording, and
+            // the history with it).
+            capacity: 1 << 16,
             ..RecorderConfig::new(dir.join("recording"))
         }),
         record_at_start: true,
