@@ -99,10 +99,11 @@ impl ClientSession {
 
     /// The input datagram due at `now` (s), if one is: the current input
     /// stamped with the next sequence number and `tick` (the server tick
-    /// the client believes it is), with the newest acknowledgement and
-    /// the last inputs. A datagram that falls behind is skipped, not sent
-    /// in a burst.
-    pub fn poll_input(&mut self, now: f64, tick: u64) -> Option<Vec<u8>> {
+    /// the client believes it is; `None` before it can tell, and the
+    /// welcome's tick is used), with the newest acknowledgement and the
+    /// last inputs. A datagram that falls behind is skipped, not sent in
+    /// a burst.
+    pub fn poll_input(&mut self, now: f64, tick: Option<u64>) -> Option<Vec<u8>> {
         // A microsecond early is on time (sums of periods round).
         if now + 1e-6 < self.next_input_at {
             return None;
@@ -115,7 +116,7 @@ impl ClientSession {
         }
         let input = PlayerInput {
             sequence: self.input.sequence.wrapping_add(1),
-            tick,
+            tick: tick.unwrap_or(self.input.tick),
             ..self.input
         };
         self.input.sequence = input.sequence;
@@ -161,7 +162,7 @@ mod tests {
         for ms in 0..1000 {
             // Bits beyond the known buttons are dropped, not a lost input.
             s.set_input([0.5, -0.5], 0.1, if ms % 200 < 100 { 0xff } else { 0 });
-            if let Some(bytes) = s.poll_input(f64::from(ms) / 1000.0, 100 + ms as u64 / 16) {
+            if let Some(bytes) = s.poll_input(f64::from(ms) / 1000.0, Some(100 + ms as u64 / 16)) {
                 sent.push(InputDatagram::decode(&bytes).unwrap());
             }
         }
@@ -178,11 +179,11 @@ mod tests {
     #[test]
     fn a_late_poll_sends_one_datagram_not_a_burst() {
         let mut s = session(60, 8);
-        assert!(s.poll_input(0.0, 0).is_some());
-        assert!(s.poll_input(0.001, 0).is_none());
+        assert!(s.poll_input(0.0, None).is_some());
+        assert!(s.poll_input(0.001, None).is_none());
         // Half a second late: one now, the next a period after.
-        assert!(s.poll_input(0.5, 0).is_some());
-        assert!(s.poll_input(0.5, 0).is_none());
+        assert!(s.poll_input(0.5, None).is_some());
+        assert!(s.poll_input(0.5, None).is_none());
         assert!((s.next_input_at() - (0.5 + 1.0 / 60.0)).abs() < 1e-9);
     }
 

@@ -188,7 +188,7 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
             (tick % 4) as u8 & 3,
         );
         let bytes = client
-            .poll_input(now, tick)
+            .poll_input(now, Some(tick))
             .expect("one input a tick at 60 Hz");
         let datagram = InputDatagram::decode(&bytes).unwrap();
         assert!(datagram.inputs.len() <= MAX_REDUNDANT_INPUTS);

@@ -113,16 +113,20 @@ pub(crate) fn process_cpu_s() -> f64 {
     let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
         return f64::NAN;
     };
-    // Fields after the command name (which may hold spaces) in brackets.
-    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    stat_cpu(&stat).map_or(f64::NAN, |(_, s)| s)
+}
+
+/// The command (or thread) name and the user + system CPU time, s, of one
+/// `/proc/<pid>/stat` or `/proc/<pid>/task/<tid>/stat` text.
+pub(crate) fn stat_cpu(stat: &str) -> Option<(&str, f64)> {
+    // The name is in brackets and may hold spaces; the fields follow it.
+    let (head, rest) = stat.rsplit_once(')')?;
+    let name = head.split_once('(').map_or("", |(_, n)| n);
     let f: Vec<&str> = rest.split_whitespace().collect();
     // utime and stime are fields 14 and 15 of the file: 11 and 12 here.
     let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok());
-    match (ticks(11), ticks(12)) {
-        // USER_HZ is 100 on every Linux the bench runs on.
-        (Some(u), Some(s)) => (u + s) / 100.0,
-        _ => f64::NAN,
-    }
+    // USER_HZ is 100 on every Linux the bench runs on.
+    Some((name, (ticks(11)? + ticks(12)?) / 100.0))
 }
 
 /// Where a bot process's clients are in the count.

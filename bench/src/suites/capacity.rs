@@ -61,7 +61,7 @@ use inertia_protocol::{EntityId, EntityKind};
 use inertia_server::config::ServerConfig;
 use inertia_server::server::{start, RunningServer};
 
-use super::bots::{process_cpu_s, BotReport, Bots};
+use super::bots::{process_cpu_s, stat_cpu, BotReport, Bots};
 use crate::report::{logical_cores, note, progress, Record, Sink, Suspended};
 use crate::{BenchError, Opts};
 
@@ -172,18 +172,14 @@ fn threads_cpu_s() -> [f64; THREAD_GROUPS.len()] {
         let Ok(stat) = std::fs::read_to_string(task.path().join("stat")) else {
             continue;
         };
-        let Some((head, rest)) = stat.rsplit_once(')') else {
+        let Some((name, seconds)) = stat_cpu(&stat) else {
             continue;
         };
-        let name = head.split_once('(').map_or("", |(_, n)| n);
-        let f: Vec<&str> = rest.split_whitespace().collect();
-        let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
         let group = THREAD_GROUPS
             .iter()
             .position(|(_, prefix)| name.starts_with(prefix))
             .unwrap_or(THREAD_GROUPS.len() - 1);
-        // utime and stime, in USER_HZ (100) ticks.
-        out[group] += (ticks(11) + ticks(12)) / 100.0;
+        out[group] += seconds;
     }
     out
 }

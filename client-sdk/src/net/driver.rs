@@ -198,8 +198,9 @@ pub(crate) async fn run(mut d: Driver) {
         if let Err(e) = take_frames(&mut d) {
             break 'run protocol_error(&d.connection, e);
         }
+        // When the next input is due: it moves only when one is sent.
+        let mut due = input_due(&d);
         loop {
-            let due = input_due(&d);
             tokio::select! {
                 datagram = d.connection.read_datagram() => match datagram {
                     Ok(bytes) => {
@@ -228,17 +229,13 @@ pub(crate) async fn run(mut d: Driver) {
                         let now = d.epoch.elapsed().as_secs_f64();
                         let rtt = d.connection.rtt().as_secs_f64();
                         s.interp.clock_mut().rtt_sample(rtt);
-                        let welcome_tick = s.session.input().tick;
-                        let tick = s
-                            .interp
-                            .clock()
-                            .estimated_tick(now)
-                            .map_or(welcome_tick, |t| t.max(0.0) as u64);
+                        let tick = s.interp.clock().estimated_tick(now).map(|t| t.max(0.0) as u64);
                         s.session.poll_input(now, tick)
                     };
                     if let Some(bytes) = datagram {
                         let _ = d.connection.send_datagram(bytes.into());
                     }
+                    due = input_due(&d);
                 },
                 command = d.commands.recv() => {
                     // A dropped client closes too.
