@@ -33,13 +33,14 @@ fn config() -> WorldConfig {
     }
 }
 
-/// Parses `data` as a scene file in `format`; a scene that parses is
-/// built (or refused past [`MAX_BODIES`]) and stepped.
+/// Reads `data` as a scene file in `format` as the server does at start:
+/// a scene that parses is built once, which checks it (or refuses it past
+/// [`MAX_BODIES`]), and a built scene is stepped.
 pub fn drive_scene(data: &[u8], format: SceneFormat) {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
-    let Ok(scene) = Scene::parse(text, format) else {
+    let Ok(scene) = Scene::read(text, format) else {
         return;
     };
     let Ok(mut built) = scene.build_with(config()) else {

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
+use inertia_physics::WorldConfig;
 use inertia_protocol::control::{truncate_utf8, DisconnectReason, MAX_REASON_BYTES};
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::TokenKey;
@@ -49,11 +50,12 @@ pub enum StartError {
     Scene(#[from] SceneError),
     /// The scene makes more rigid bodies than `--max-bodies`.
     #[error(
-        "the scene makes {bodies} rigid bodies, more than --max-bodies {max}: raise the \
+        "the scene makes {bodies} rigid bodies or more, past --max-bodies {max}: raise the \
          limit if the machine can step that many each tick"
     )]
     TooManyBodies {
-        /// Rigid bodies the scene makes.
+        /// Rigid bodies the scene had made when it was refused: the one
+        /// past the limit (the build stops there).
         bodies: usize,
         /// The limit.
         max: usize,
@@ -126,18 +128,26 @@ pub async fn start_with_rules(
     }
     // The scene first: a bad file is refused before anything is bound or
     // written.
-    let scene = match &config.scene {
-        Some(path) => Scene::load(path)?,
-        None => demo_scene()?,
+    // Built once, under the body limit: a file that would make millions of
+    // bodies is refused at the one past the limit.
+    let world_config = WorldConfig {
+        max_bodies: config.max_bodies,
+        ..WorldConfig::default()
     };
-    let mut built = scene.build()?;
+    let built = match &config.scene {
+        Some(path) => Scene::read_file(path)?
+            .build_with(world_config)
+            .map_err(|e| e.in_file(path)),
+        None => demo_scene()?.build_with(world_config),
+    };
+    let built = built.map_err(|e| match e.body_limit() {
+        Some(max) => StartError::TooManyBodies {
+            bodies: max + 1,
+            max,
+        },
+        None => StartError::Scene(e),
+    })?;
     let bodies = built.world.bodies().count();
-    if built.world.set_max_bodies(config.max_bodies).is_err() {
-        return Err(StartError::TooManyBodies {
-            bodies,
-            max: config.max_bodies,
-        });
-    }
     info!(scene = %built.name, entities = built.entities.len(), bodies, max_bodies = config.max_bodies, "scene built");
 
     let socket = std::net::UdpSocket::bind(listen).map_err(|source| StartError::Bind {

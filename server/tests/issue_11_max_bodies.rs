@@ -166,3 +166,76 @@ fn issue_11_first_ticks_are_measured_against_the_tick_budget() {
     assert!(cost.median > std::time::Duration::ZERO && cost.median <= cost.max);
     assert_eq!(cost.over_budget(), cost.median > cost.budget);
 }
+
+/// The grid scene with a joint that names no body after it: building
+/// checks joints after bodies, so a build under the limit stops at the
+/// 65th body and never reaches the joint.
+fn grid_with_a_bad_joint_and(extra_generators: usize) -> String {
+    let big = r#"Grid(
+            name: "filler",
+            body: (name: "filler", shape: Sphere(radius: 0.1)),
+            counts: (100, 100, 10),
+            spacing: (0.5, 0.5, 0.5),
+            origin: (0.0, 50.0, 0.0),
+        ),"#;
+    let extra = big.repeat(extra_generators);
+    GRID.replace(
+        "    ],\n)",
+        &format!(
+            "    {extra}\n    ],\n    joints: [(a: \"ground\", b: \"nowhere\", kind: Ball)],\n)"
+        ),
+    )
+}
+
+fn start_refusal(scene_text: &str, max_bodies: usize) -> StartError {
+    let dir = std::env::temp_dir().join(format!(
+        "inertia-issue11-onebuild-{}-{}",
+        std::process::id(),
+        scene_text.len()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch");
+    let scene = dir.join("scene.ron");
+    std::fs::write(&scene, scene_text).expect("scene file");
+    let config = ServerConfig {
+        listen: Some("127.0.0.1:0".parse().expect("literal")),
+        metrics: "127.0.0.1:0".parse().expect("literal"),
+        data_dir: dir.join("data"),
+        scene: Some(scene),
+        max_bodies,
+        ..Default::default()
+    };
+    let rt = tokio::runtime::Runtime::new().expect("runtime");
+    let refusal = match rt.block_on(inertia_server::server::start(config)) {
+        Err(e) => e,
+        Ok(_) => panic!("the scene started"),
+    };
+    assert!(!dir.join("data").exists(), "nothing is written");
+    let _ = std::fs::remove_dir_all(&dir);
+    refusal
+}
+
+/// A scene file is built once at start, under `--max-bodies`: one that
+/// would make a million bodies is refused at the body past the limit, not
+/// built whole (twice, as it was: once to check it, once to run it).
+#[test]
+fn issue_11_scene_is_built_once_under_max_bodies() {
+    // Past the limit before the bad joint: the limit is what is said.
+    match start_refusal(&grid_with_a_bad_joint_and(0), 64) {
+        StartError::TooManyBodies {
+            bodies: 65,
+            max: 64,
+        } => {}
+        e => panic!("refused for another reason: {e}"),
+    }
+    // Under a limit it fits, the joint is what is said.
+    match start_refusal(&grid_with_a_bad_joint_and(0), 1000) {
+        StartError::Scene(e) => assert_eq!(e.at(), Some("joints[0].b"), "{e}"),
+        e => panic!("refused for another reason: {e}"),
+    }
+    // Ten generators of 100 000 bodies each: refused at body 65.
+    match start_refusal(&grid_with_a_bad_joint_and(10), 64) {
+        StartError::TooManyBodies { max: 64, .. } => {}
+        e => panic!("refused for another reason: {e}"),
+    }
+}

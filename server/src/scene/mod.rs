@@ -95,6 +95,27 @@ pub enum SceneError {
 }
 
 impl SceneError {
+    /// This error, as one in the file at `path`.
+    pub fn in_file(self, path: &Path) -> SceneError {
+        SceneError::InFile {
+            path: path.into(),
+            source: Box::new(self),
+        }
+    }
+
+    /// The limit, when the engine refused a body past
+    /// [`WorldConfig::max_bodies`].
+    pub fn body_limit(&self) -> Option<usize> {
+        match self {
+            SceneError::Physics {
+                source: PhysicsError::TooManyBodies { max },
+                ..
+            } => Some(*max),
+            SceneError::InFile { source, .. } => source.body_limit(),
+            _ => None,
+        }
+    }
+
     /// The path of the offending entry, when the error has one.
     pub fn at(&self) -> Option<&str> {
         match self {
@@ -134,27 +155,43 @@ impl Scene {
     /// extension. Errors name the file and the offending entry.
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();
+        let scene = Scene::read_file(path)?;
+        scene.check().map_err(|e| e.in_file(path))?;
+        Ok(scene)
+    }
+
+    /// Reads and parses a scene file without building it, so that the one
+    /// build that follows ([`Scene::build_with`]) does the checking, under
+    /// its configuration's body limit. Errors name the file.
+    pub fn read_file(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        let path = path.as_ref();
         let format =
             SceneFormat::from_path(path).ok_or_else(|| SceneError::UnknownFormat(path.into()))?;
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
             path: path.into(),
             source,
         })?;
-        Scene::parse(&text, format).map_err(|e| SceneError::InFile {
-            path: path.into(),
-            source: Box::new(e),
-        })
+        Scene::read(&text, format).map_err(|e| e.in_file(path))
     }
 
     /// Parses and checks scene text.
     pub fn parse(text: &str, format: SceneFormat) -> Result<Scene, SceneError> {
+        let scene = Scene::read(text, format)?;
+        scene.check()?;
+        Ok(scene)
+    }
+
+    /// Parses scene text without building it: syntax and types are
+    /// checked here, meaning (names, joints, ranges, the body limit) by
+    /// the build. A server builds its scene once this way, so a file that
+    /// makes millions of bodies is refused at the body past
+    /// [`WorldConfig::max_bodies`] rather than built whole first.
+    pub fn read(text: &str, format: SceneFormat) -> Result<Scene, SceneError> {
         let file = match format {
             SceneFormat::Ron => parse_ron(text)?,
             SceneFormat::Json => parse_json(text)?,
         };
-        let scene = Scene { file };
-        scene.check()?;
-        Ok(scene)
+        Ok(Scene { file })
     }
 
     /// Builds the world with the default world configuration.
