@@ -50,7 +50,7 @@ use crate::replay::checkpoint::CheckpointError;
 use crate::replay::WorldEdit;
 use crate::sim::edit::EditOutcome;
 use crate::sim::timeline::{SeekReport, TimeError};
-use crate::sim::{CommandError, EditError, Simulation};
+use crate::sim::{ClockControl, CommandError, EditError, Simulation};
 
 /// How long an admin tool has to say hello.
 pub const HELLO_TIMEOUT: Duration = Duration::from_secs(5);
@@ -467,39 +467,11 @@ impl Session<'_> {
                 let report = self.on_sim(status_report).await?;
                 Ok(AdminResponse::Status(report))
             }
-            AdminRequest::Pause => {
-                self.on_sim(|s| s.clock_mut().pause()).await?;
-                Ok(AdminResponse::Ok)
-            }
-            AdminRequest::Resume => {
-                self.play(|c| {
-                    c.resume();
-                    Ok(())
-                })
-                .await
-            }
-            AdminRequest::Step { ticks } => {
-                let ticks = *ticks;
-                self.play(move |c| {
-                    // Steps add up: on a paused clock the ticks still
-                    // queued stay (pause itself drops them). One the clock
-                    // refuses is refused before the pause.
-                    if !c.paused() {
-                        c.check_queue(ticks)?;
-                        c.pause();
-                    }
-                    c.step(ticks)
-                })
-                .await
-            }
-            AdminRequest::Speed { scale } => {
-                let scale = *scale;
-                self.play(move |c| c.set_time_scale(scale)).await
-            }
-            AdminRequest::RunTo { tick } => {
-                let tick = *tick;
-                self.play(move |c| c.run_to(tick)).await
-            }
+            AdminRequest::Pause => self.control_clock(ClockControl::Pause).await,
+            AdminRequest::Resume => self.control_clock(ClockControl::Resume).await,
+            AdminRequest::Step { ticks } => self.control_clock(ClockControl::Step(*ticks)).await,
+            AdminRequest::Speed { scale } => self.control_clock(ClockControl::Speed(*scale)).await,
+            AdminRequest::RunTo { tick } => self.control_clock(ClockControl::RunTo(*tick)).await,
             AdminRequest::Hash { tick } => {
                 let tick = *tick;
                 self.travel(move |s| {
@@ -625,22 +597,12 @@ impl Session<'_> {
         }
     }
 
-    /// Sets the clock going forward (history shown plays forward, never
-    /// backwards, once the operator steps, resumes or sets a speed).
-    async fn play(
-        &self,
-        f: impl FnOnce(&mut crate::clock::Clock) -> Result<(), crate::clock::ClockError>
-            + Send
-            + 'static,
-    ) -> Result<AdminResponse, AdminError> {
-        self.on_sim(move |s| {
-            // A request the clock refuses changes nothing.
-            f(s.clock_mut())?;
-            s.play_forward();
-            Ok::<(), crate::clock::ClockError>(())
-        })
-        .await?
-        .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;
+    /// Carries out a clock request on the tick thread, by the same path
+    /// as [`crate::sim::SimHandle`]'s clock methods.
+    async fn control_clock(&self, request: ClockControl) -> Result<AdminResponse, AdminError> {
+        self.on_sim(move |s| s.control_clock(request))
+            .await?
+            .map_err(|e| AdminError::new(AdminErrorKind::OutOfRange, e.to_string()))?;
         Ok(AdminResponse::Ok)
     }
 

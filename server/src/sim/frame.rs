@@ -1,0 +1,115 @@
+//! What the tick thread publishes after a loop's ticks: the states of
+//! everything that moves, the entity catalog, recent events and the
+//! clock, with the states quantized once for every client on demand.
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, OnceLock};
+use std::time::Duration;
+
+use inertia_protocol::snapshot::{QuantizedFrame, SnapshotConfig};
+use inertia_protocol::{EntityDesc, EntityId, EntityState};
+
+use super::{Simulation, TimeMode};
+use crate::rules::GameEvent;
+
+/// Events a [`Frame`] carries: the most recent ones, whatever frame they
+/// were first published in.
+pub const RECENT_EVENTS: usize = 1024;
+
+/// What the world looked like after a loop's ticks: the latest state of
+/// every entity that can move, plus the catalog of all entities.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    /// Ticks completed (the world's tick).
+    pub tick: u64,
+    /// Simulation time, s (`tick × dt`).
+    pub sim_time: f64,
+    /// Simulation seconds per wall second now (0 while paused; negative
+    /// while history plays backwards).
+    pub time_scale: f64,
+    /// Whether real-time ticking is paused.
+    pub paused: bool,
+    /// States of dynamic and kinematic bodies, free particles and anything
+    /// teleported, sorted by id.
+    pub entities: Vec<EntityState>,
+    /// Every live entity's description; the same `Arc` until it changes.
+    pub catalog: Arc<BTreeMap<EntityId, EntityDesc>>,
+    /// Changes whenever the catalog does (compare, don't diff).
+    pub catalog_version: u64,
+    /// The most recent events (at most [`RECENT_EVENTS`]), oldest first,
+    /// each with the tick it happened in; the same `Arc` until one
+    /// happens.
+    pub events: Arc<Vec<(u64, GameEvent)>>,
+    /// Wall time of the last tick.
+    pub tick_duration: Duration,
+    /// Loops that hit the catch-up cap so far.
+    pub overruns: u64,
+    /// Clients in the game (live).
+    pub clients: u32,
+    /// The live world's tick (equal to `tick` unless history is shown).
+    pub live_tick: u64,
+    /// What the clock is showing: live, or which way through history.
+    pub mode: TimeMode,
+    /// `entities` quantized for snapshots, made by the first connection
+    /// that codes this frame and shared by every other (see
+    /// [`Frame::quantized`]).
+    quantized: OnceLock<QuantizedFrame>,
+}
+
+impl Frame {
+    /// This frame's entities and clock quantized under `config`, once for
+    /// every client: the first caller quantizes, the rest share it. Every
+    /// caller must pass the same config (the server has one).
+    pub fn quantized(&self, config: &SnapshotConfig) -> &QuantizedFrame {
+        self.quantized.get_or_init(|| {
+            QuantizedFrame::new(
+                self.tick,
+                self.time_scale as f32,
+                self.paused,
+                &self.entities,
+                config,
+            )
+        })
+    }
+}
+
+impl Simulation {
+    /// The frame of the current state, with the most recent
+    /// [`RECENT_EVENTS`] events (so a reader that skipped frames still sees
+    /// every event, as long as it keeps up within that many).
+    pub fn frame(&mut self) -> Frame {
+        if !self.pending_events.is_empty() {
+            let mut recent: Vec<(u64, GameEvent)> = self.recent_events.as_ref().clone();
+            recent.append(&mut self.pending_events);
+            let excess = recent.len().saturating_sub(RECENT_EVENTS);
+            recent.drain(..excess);
+            self.recent_events = Arc::new(recent);
+        }
+        if self.catalog_stale || self.entities.version() != self.catalog_seen {
+            self.catalog = Arc::new(self.entities.catalog());
+            self.catalog_seen = self.entities.version();
+            self.catalog_version += 1;
+            self.catalog_stale = false;
+        }
+        Frame {
+            tick: self.world.tick(),
+            sim_time: self.world.time(),
+            time_scale: match self.mode() {
+                // Clients play backwards where the scale is negative.
+                TimeMode::Reverse => -self.clock.time_scale(),
+                _ => self.clock.time_scale(),
+            },
+            paused: self.clock.paused(),
+            entities: self.entities.states(&self.world),
+            catalog: self.catalog.clone(),
+            catalog_version: self.catalog_version,
+            events: self.recent_events.clone(),
+            tick_duration: self.last_tick,
+            overruns: self.clock.overruns(),
+            clients: self.live_clients() as u32,
+            live_tick: self.live_tick(),
+            mode: self.mode(),
+            quantized: OnceLock::new(),
+        }
+    }
+}

@@ -1,0 +1,166 @@
+//! The tick thread's loop: drain commands and inputs, run the ticks the
+//! clock says are due, publish a frame, sleep until the next tick; and
+//! what it does when the loop ends or anything in it panics.
+
+use std::panic::{self, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use inertia_protocol::PlayerInput;
+use tokio::sync::watch;
+
+use super::command::Command;
+use super::frame::Frame;
+use super::handle::SimExit;
+use super::Simulation;
+use crate::rules::ClientId;
+
+/// Longest sleep between loops while paused, so the loop notices closed
+/// channels.
+const IDLE_WAIT: Duration = Duration::from_millis(50);
+
+/// The tick thread: the loop, then the end of the recording. A panic
+/// anywhere in the loop (a tick, a command, an admin call) is caught here
+/// and reported on `exit`, so the server can fail its health checks, tell
+/// the clients and exit for a restart instead of serving a frozen world.
+pub(super) fn run(
+    mut sim: Simulation,
+    control: Receiver<Command>,
+    inputs: Receiver<(ClientId, PlayerInput)>,
+    frames: Publisher,
+    exit: watch::Sender<Option<SimExit>>,
+    stopping: &AtomicBool,
+) {
+    let looped = panic::catch_unwind(AssertUnwindSafe(|| {
+        run_loop(&mut sim, control, inputs, &frames, stopping)
+    }));
+    let outcome = match looped {
+        Ok(()) => match panic::catch_unwind(AssertUnwindSafe(|| sim.finish_recording())) {
+            Ok(()) => SimExit::Shutdown,
+            Err(payload) => SimExit::Failed {
+                reason: panic_message(payload.as_ref()),
+                tick: sim.world.tick(),
+                keyframe: false,
+            },
+        },
+        Err(payload) => {
+            let reason = panic_message(payload.as_ref());
+            let tick = sim.world.tick();
+            let keyframe =
+                panic::catch_unwind(AssertUnwindSafe(|| sim.end_after_failure())).unwrap_or(false);
+            tracing::error!(
+                %reason,
+                tick,
+                keyframe,
+                "the simulation failed and has stopped"
+            );
+            SimExit::Failed {
+                reason,
+                tick,
+                keyframe,
+            }
+        }
+    };
+    exit.send_replace(Some(outcome));
+}
+
+/// Where the tick thread's frames go: every frame to `frames`, and a
+/// count in `catalog` that moves only when a frame's catalog or events
+/// differ from the frame before.
+pub(super) struct Publisher {
+    pub(super) frames: watch::Sender<Arc<Frame>>,
+    pub(super) catalog: watch::Sender<u64>,
+}
+
+impl Publisher {
+    fn publish(&self, frame: Frame) {
+        let frame = Arc::new(frame);
+        let old = self.frames.send_replace(frame.clone());
+        if old.catalog_version != frame.catalog_version || !Arc::ptr_eq(&old.events, &frame.events)
+        {
+            self.catalog.send_modify(|n| *n = n.wrapping_add(1));
+        }
+    }
+}
+
+/// The message a panic was raised with.
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "a panic without a message".to_string()
+    }
+}
+
+fn run_loop(
+    sim: &mut Simulation,
+    control: Receiver<Command>,
+    inputs: Receiver<(ClientId, PlayerInput)>,
+    frames: &Publisher,
+    stopping: &AtomicBool,
+) {
+    let mut last = Instant::now();
+    let mut early: Option<Command> = None;
+    loop {
+        if stopping.load(Ordering::SeqCst) {
+            break;
+        }
+        let mut changed = false;
+        let mut budget = sim.config.max_control_per_loop.max(1);
+        if let Some(cmd) = early.take() {
+            changed = true;
+            budget -= 1;
+            if !sim.apply(cmd) {
+                break;
+            }
+        }
+        while budget > 0 {
+            match control.try_recv() {
+                Ok(cmd) => {
+                    changed = true;
+                    budget -= 1;
+                    if !sim.apply(cmd) {
+                        frames.publish(sim.frame());
+                        return;
+                    }
+                }
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => return,
+            }
+        }
+        for _ in 0..sim.config.max_inputs_per_loop {
+            match inputs.try_recv() {
+                Ok((client, input)) => {
+                    let _ = sim.input(client, &input);
+                }
+                Err(_) => break,
+            }
+        }
+        let now = Instant::now();
+        let ran = sim.advance(now - last);
+        last = now;
+        // What changed between ticks (joins, edits while paused) reaches
+        // the recording now, not at the next tick.
+        sim.flush_journal();
+        if ran > 0 || changed {
+            frames.publish(sim.frame());
+        }
+        let wait = sim
+            .clock
+            .until_next_tick()
+            .unwrap_or(IDLE_WAIT)
+            .min(IDLE_WAIT);
+        if wait > Duration::ZERO {
+            match control.recv_timeout(wait) {
+                Ok(cmd) => early = Some(cmd),
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
+        }
+    }
+    frames.publish(sim.frame());
+}
