@@ -69,6 +69,10 @@ pub struct ServerSession {
     priorities: PriorityAccumulator,
     inputs: InputBuffer,
     avatar: Option<EntityId>,
+    /// The server's divisor on top of `every_slots` when it degrades
+    /// (1: none), and which of those slots this client takes.
+    divisor: u32,
+    phase: u32,
 }
 
 impl ServerSession {
@@ -81,6 +85,8 @@ impl ServerSession {
             encoder,
             config,
             avatar: None,
+            divisor: 1,
+            phase: 0,
         })
     }
 
@@ -125,7 +131,22 @@ impl ServerSession {
     /// Whether snapshot slot `slot` (counted by the server from its
     /// start) is one this client is served in.
     pub fn serves_slot(&self, slot: u64) -> bool {
-        slot % u64::from(self.config.every_slots.max(1)) == 0
+        let every = u64::from(self.config.every_slots.max(1)) * u64::from(self.divisor);
+        (slot + u64::from(self.phase)) % every == 0
+    }
+
+    /// Serves this client in one slot of `divisor` of those it takes by
+    /// its configuration (1: all of them), offset by `phase` slots, so a
+    /// server that lowers some clients' rates can spread them over the
+    /// slots. A divisor of 0 counts as 1.
+    pub fn set_rate_divisor(&mut self, divisor: u32, phase: u32) {
+        self.divisor = divisor.max(1);
+        self.phase = phase % self.divisor;
+    }
+
+    /// The divisor [`Self::set_rate_divisor`] set (1: full rate).
+    pub fn rate_divisor(&self) -> u32 {
+        self.divisor
     }
 
     /// The snapshot of `frame` for this client in slot `slot`, at most

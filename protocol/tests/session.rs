@@ -242,3 +242,30 @@ fn a_slower_client_skips_slots_deterministically() {
     assert_eq!(session.poll_input(), None);
     assert_eq!(session.encoder().acked(), None);
 }
+
+/// A server that lowers a client's rate takes one slot of every
+/// `divisor` the client would take, at its phase; full rate again serves
+/// every slot the configuration gives.
+#[test]
+fn a_rate_divisor_takes_every_nth_slot_at_its_phase() {
+    let config = SnapshotConfig::default();
+    let mut session = ServerSession::new(SessionConfig::new(config, 1200)).unwrap();
+    let mut deltas = SharedDeltas::new();
+    let mut served_in = |session: &mut ServerSession, slots: std::ops::Range<u64>| -> Vec<u64> {
+        slots
+            .filter(|&slot| {
+                let frame = QuantizedFrame::new(slot, 1.0, false, &world(10, slot), &config);
+                session
+                    .poll_snapshot(&frame, &mut deltas, slot, 1200)
+                    .is_some()
+            })
+            .collect()
+    };
+    session.set_rate_divisor(2, 1);
+    assert_eq!(session.rate_divisor(), 2);
+    assert_eq!(served_in(&mut session, 0..8), [1, 3, 5, 7]);
+    session.set_rate_divisor(2, 0);
+    assert_eq!(served_in(&mut session, 8..14), [8, 10, 12]);
+    session.set_rate_divisor(1, 5);
+    assert_eq!(served_in(&mut session, 14..18), [14, 15, 16, 17]);
+}

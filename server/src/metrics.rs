@@ -54,6 +54,12 @@ pub struct Metrics {
     /// Wall time of encoding one snapshot for one client (priorities,
     /// delta, bit packing), s.
     pub snapshot_encode: Histogram,
+    /// Clients served at a lower snapshot rate because the server could
+    /// not serve everyone at full rate (see [`crate::net::governor`]).
+    pub snapshot_clients_degraded: Gauge,
+    /// Steps of the snapshot rate policy by `direction`: `degrade` (more
+    /// clients at the lower rate) or `restore` (fewer).
+    pub snapshot_rate_steps: Family<[(&'static str, &'static str); 1], Counter>,
     /// Datagrams dropped because they did not decode.
     pub malformed_datagrams: Counter,
     /// Inputs refused by validation (NaN, out of window, out of order).
@@ -117,6 +123,8 @@ impl Metrics {
             packets_received: Counter::default(),
             snapshot_size,
             snapshot_encode,
+            snapshot_clients_degraded: Gauge::default(),
+            snapshot_rate_steps: Family::default(),
             malformed_datagrams: Counter::default(),
             inputs_rejected: Counter::default(),
             refused_connections: Family::default(),
@@ -174,6 +182,16 @@ impl Metrics {
             "snapshot_encode_seconds",
             "Wall time of encoding one snapshot for one client, seconds",
             m.snapshot_encode.clone(),
+        );
+        r.register(
+            "snapshot_clients_degraded",
+            "Clients served at a lower snapshot rate because the server could not serve everyone at full rate",
+            m.snapshot_clients_degraded.clone(),
+        );
+        r.register(
+            "snapshot_rate_steps",
+            "Steps of the snapshot rate policy, by direction (degrade, restore)",
+            m.snapshot_rate_steps.clone(),
         );
         r.register(
             "malformed_datagrams_dropped",

@@ -8,6 +8,7 @@
 pub mod connection;
 pub mod events;
 pub mod gate;
+pub mod governor;
 pub mod snapshots;
 pub mod tls;
 

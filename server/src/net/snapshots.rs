@@ -20,6 +20,10 @@
 //! inputs); the stage holds one client's lock at a time, for one encode.
 //! Datagrams go out through quinn's `send_datagram`, which only queues.
 //!
+//! When serving a slot takes too much of the period, or the tick nears its
+//! budget, the stage lowers some clients' rates by the policy of
+//! [`super::governor`], and counts it in `/metrics`.
+//!
 //! [`Frame::quantized`]: crate::sim::Frame::quantized
 
 use std::collections::BTreeMap;
@@ -29,6 +33,7 @@ use std::time::{Duration, Instant};
 use inertia_protocol::snapshot::SharedDeltas;
 use inertia_protocol::ServerSession;
 
+use super::governor::{degrade_rank, rate_for, Candidate, Decision, RateGovernor};
 use super::NetShared;
 
 /// One connected client as the stage serves it.
@@ -59,11 +64,12 @@ impl ServedClients {
         }
     }
 
-    /// Puts every client served now into `out` (emptied first).
-    fn snapshot_into(&self, out: &mut Vec<Arc<Served>>) {
+    /// Puts every client served now into `out` (emptied first), with its
+    /// connection number, in connection order.
+    fn snapshot_into(&self, out: &mut Vec<(u64, Arc<Served>)>) {
         out.clear();
         if let Ok(c) = self.clients.lock() {
-            out.extend(c.values().cloned());
+            out.extend(c.iter().map(|(&id, s)| (id, s.clone())));
         }
     }
 }
@@ -114,6 +120,9 @@ pub async fn run(shared: Arc<NetShared>) {
     let mut slot: u64 = 0;
     let mut deltas = SharedDeltas::new();
     let mut clients = Vec::new();
+    let mut governor = RateGovernor::new(shared.snapshot_hz, shared.tick_hz);
+    // Whether some client may be at a lower rate (set, not yet undone).
+    let mut rates_lowered = false;
     loop {
         tokio::select! {
             changed = frames.changed() => if changed.is_err() { return },
@@ -128,8 +137,13 @@ pub async fn run(shared: Arc<NetShared>) {
         }
         shared.served.snapshot_into(&mut clients);
         if !clients.is_empty() {
+            let serving = Instant::now();
+            if governor.degraded() > 0 || rates_lowered {
+                set_rates(&clients, governor.degraded());
+                rates_lowered = governor.degraded() > 0;
+            }
             let quantized = frame.quantized(&shared.snapshot);
-            for served in &clients {
+            for (_, served) in &clients {
                 let max = served.connection.max_datagram_size().unwrap_or(1200);
                 let started = Instant::now();
                 let bytes = match served.session.lock() {
@@ -148,6 +162,30 @@ pub async fn run(shared: Arc<NetShared>) {
                     shared.metrics.snapshot_size.observe(len as f64);
                 }
             }
+            let decision =
+                governor.after_slot(serving.elapsed(), frame.tick_duration, clients.len());
+            let direction = match decision {
+                Decision::Hold => None,
+                Decision::Degrade => Some("degrade"),
+                Decision::Restore => Some("restore"),
+            };
+            if let Some(direction) = direction {
+                shared
+                    .metrics
+                    .snapshot_rate_steps
+                    .get_or_create(&[("direction", direction)])
+                    .inc();
+                tracing::debug!(
+                    direction,
+                    degraded = governor.degraded(),
+                    clients = clients.len(),
+                    "snapshot rates"
+                );
+            }
+            shared
+                .metrics
+                .snapshot_clients_degraded
+                .set(governor.degraded() as i64);
             clients.clear();
         }
         slot += 1;
@@ -156,6 +194,32 @@ pub async fn run(shared: Arc<NetShared>) {
         // a burst.
         if opens <= now {
             opens = now + period;
+        }
+    }
+}
+
+/// Gives the first `degraded` clients by [`degrade_rank`] the lower rate
+/// and every other client its full rate.
+fn set_rates(clients: &[(u64, Arc<Served>)], degraded: usize) {
+    let mut order: Vec<(Candidate, &Served)> = clients
+        .iter()
+        .map(|(id, served)| {
+            let plays = served
+                .session
+                .lock()
+                .is_ok_and(|session| session.avatar().is_some());
+            let candidate = Candidate {
+                connection: *id,
+                plays,
+            };
+            (candidate, served.as_ref())
+        })
+        .collect();
+    order.sort_unstable_by_key(|(c, _)| degrade_rank(c));
+    for (rank, (_, served)) in order.iter().enumerate() {
+        let (divisor, phase) = rate_for(rank, degraded);
+        if let Ok(mut session) = served.session.lock() {
+            session.set_rate_divisor(divisor, phase);
         }
     }
 }

@@ -1,0 +1,263 @@
+//! Degrading by policy: when the server cannot serve every client at its
+//! full snapshot rate, some clients get half the rate, chosen by a stated
+//! order, before the tick overruns or every client starts missing slots.
+//!
+//! The snapshot stage measures each slot: the wall time it took to serve
+//! (which grows when the machine is short of cores, since the stage runs
+//! below the tick thread's priority) and the last tick's duration, each
+//! as a share of its period, smoothed over the last few slots
+//! ([`SMOOTHING`]) so that one slow tick or one preempted slot does not
+//! count. The load is *over* when serving takes more than [`STAGE_SHARE`]
+//! of the snapshot period (slots would soon be missed, for every client
+//! alike) or the tick more than [`TICK_SHARE`] of its budget; then
+//! another step of clients ([`STEP_FRACTION`] of them, at least one) goes
+//! to half rate at once. Only after [`CALM_SLOTS`] slots in a row that
+//! were *calm* (under half those shares) does a step come back, so the
+//! rate does not flap. A world whose own tick nears its budget lowers
+//! rates too: that frees the cores the tick shares with the encoders.
+//!
+//! Which clients go first ([`degrade_order`]): spectators (no avatar)
+//! before players, and among each, the newest connection first, so the
+//! players who have been in the match longest keep their rate longest.
+//! A client at half rate is served in every other slot, half of them in
+//! even slots and half in odd ones, so the slots stay level.
+//!
+//! [`RateGovernor`] is plain state with no clock or socket: the stage
+//! feeds it durations, and the tests drive it the same way.
+
+use std::time::Duration;
+
+/// Most of the snapshot period that serving one slot may take before the
+/// governor lowers rates.
+pub const STAGE_SHARE: f64 = 0.85;
+/// Most of the tick budget (1 / tick rate) the last tick may take before
+/// the governor lowers rates.
+pub const TICK_SHARE: f64 = 0.8;
+/// Slots in a row under half the shares before a step of clients gets its
+/// full rate back (2 s at 30 Hz).
+pub const CALM_SLOTS: u32 = 60;
+/// Weight of the newest slot in the smoothed loads (an exponential
+/// moving average over about 1 / SMOOTHING slots).
+pub const SMOOTHING: f64 = 0.2;
+/// The share of the clients one step moves.
+pub const STEP_FRACTION: f64 = 0.1;
+/// The slot divisor of a degraded client: served every second slot.
+pub const DEGRADED_EVERY: u32 = 2;
+
+/// How many clients are served at a lower rate, and when that changes.
+#[derive(Debug, Clone)]
+pub struct RateGovernor {
+    /// The snapshot period, s.
+    period: f64,
+    /// The tick budget, s.
+    tick_budget: f64,
+    /// Smoothed serving time over the period, and tick over its budget.
+    stage_load: f64,
+    tick_load: f64,
+    /// Clients at the lower rate now.
+    degraded: usize,
+    /// Calm slots in a row so far.
+    calm: u32,
+}
+
+/// What the governor decided after a slot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Decision {
+    /// Keep the rates as they are.
+    Hold,
+    /// More clients go to the lower rate.
+    Degrade,
+    /// Fewer clients stay at the lower rate.
+    Restore,
+}
+
+impl RateGovernor {
+    /// A governor for `snapshot_hz` slots a second and `tick_hz` ticks,
+    /// with every client at its full rate.
+    pub fn new(snapshot_hz: u32, tick_hz: u32) -> Self {
+        Self {
+            period: 1.0 / f64::from(snapshot_hz.max(1)),
+            tick_budget: 1.0 / f64::from(tick_hz.max(1)),
+            stage_load: 0.0,
+            tick_load: 0.0,
+            degraded: 0,
+            calm: 0,
+        }
+    }
+
+    /// Clients to serve at the lower rate now.
+    pub fn degraded(&self) -> usize {
+        self.degraded
+    }
+
+    /// After a slot that took `serving` to serve `clients` clients, with
+    /// the last tick at `tick`: moves a step of clients to or from the
+    /// lower rate, and says which.
+    pub fn after_slot(&mut self, serving: Duration, tick: Duration, clients: usize) -> Decision {
+        let smooth = |load: f64, now: f64| load + SMOOTHING * (now - load);
+        self.stage_load = smooth(self.stage_load, serving.as_secs_f64() / self.period);
+        self.tick_load = smooth(self.tick_load, tick.as_secs_f64() / self.tick_budget);
+        let (stage, tick) = (self.stage_load, self.tick_load);
+        let step = ((clients as f64 * STEP_FRACTION).ceil() as usize).max(1);
+        self.degraded = self.degraded.min(clients);
+        if stage > STAGE_SHARE || tick > TICK_SHARE {
+            self.calm = 0;
+            if self.degraded < clients {
+                self.degraded = (self.degraded + step).min(clients);
+                return Decision::Degrade;
+            }
+            return Decision::Hold;
+        }
+        if stage < STAGE_SHARE / 2.0 && tick < TICK_SHARE / 2.0 {
+            self.calm += 1;
+        } else {
+            self.calm = 0;
+        }
+        if self.calm >= CALM_SLOTS && self.degraded > 0 {
+            self.calm = 0;
+            self.degraded = self.degraded.saturating_sub(step);
+            return Decision::Restore;
+        }
+        Decision::Hold
+    }
+}
+
+/// One client as the policy sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Candidate {
+    /// The connection's number (higher: connected later).
+    pub connection: u64,
+    /// Whether the client plays (has an avatar) or only watches.
+    pub plays: bool,
+}
+
+/// Where a client stands in the order clients lose their full rate in
+/// (lower first): spectators, then players; the newest connection first
+/// in each.
+pub fn degrade_rank(c: &Candidate) -> (bool, std::cmp::Reverse<u64>) {
+    (c.plays, std::cmp::Reverse(c.connection))
+}
+
+/// Sorts `clients` by [`degrade_rank`].
+pub fn degrade_order(clients: &mut [Candidate]) {
+    clients.sort_unstable_by_key(degrade_rank);
+}
+
+/// The slot divisor and phase for the client at `rank` in
+/// [`degrade_order`] when `degraded` clients are at the lower rate:
+/// `(1, 0)` for full rate, else `(DEGRADED_EVERY, phase)` with phases
+/// alternating so the degraded clients split between the slots.
+pub fn rate_for(rank: usize, degraded: usize) -> (u32, u32) {
+    if rank < degraded {
+        (DEGRADED_EVERY, (rank % DEGRADED_EVERY as usize) as u32)
+    } else {
+        (1, 0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MS: Duration = Duration::from_millis(1);
+
+    /// Feeds the same slot until the governor acts; returns the decision
+    /// and how many slots that took.
+    fn until_acted(
+        g: &mut RateGovernor,
+        serving: Duration,
+        tick: Duration,
+        n: usize,
+    ) -> (Decision, usize) {
+        for slots in 1..=1000 {
+            let d = g.after_slot(serving, tick, n);
+            if d != Decision::Hold {
+                return (d, slots);
+            }
+        }
+        (Decision::Hold, 1000)
+    }
+
+    #[test]
+    fn sustained_overload_degrades_step_by_step_and_calm_restores_slowly() {
+        let mut g = RateGovernor::new(30, 60);
+        // 33 ms slots: 32 ms of serving is over 85 %, soon (smoothed).
+        let (d, slots) = until_acted(&mut g, 32 * MS, 2 * MS, 200);
+        assert_eq!(d, Decision::Degrade);
+        assert!((3..=12).contains(&slots), "{slots}");
+        assert_eq!(g.degraded(), 20);
+        // Still over: the next step comes at the next slot.
+        assert_eq!(g.after_slot(32 * MS, 2 * MS, 200), Decision::Degrade);
+        assert_eq!(g.degraded(), 40);
+        // Between the half share and the share: held, not calm.
+        for _ in 0..(2 * CALM_SLOTS) {
+            assert_eq!(g.after_slot(20 * MS, 2 * MS, 200), Decision::Hold);
+        }
+        // Calm: one step back after CALM_SLOTS calm slots (the smoothed
+        // load takes a few slots to fall under half the share).
+        let (d, slots) = until_acted(&mut g, 2 * MS, 2 * MS, 200);
+        assert_eq!(d, Decision::Restore);
+        assert!(slots >= CALM_SLOTS as usize, "{slots}");
+        assert_eq!(g.degraded(), 20);
+    }
+
+    #[test]
+    fn one_slow_tick_or_slot_does_not_degrade() {
+        let mut g = RateGovernor::new(30, 60);
+        for _ in 0..30 {
+            assert_eq!(g.after_slot(5 * MS, 3 * MS, 100), Decision::Hold);
+        }
+        assert_eq!(g.after_slot(5 * MS, 25 * MS, 100), Decision::Hold);
+        assert_eq!(g.after_slot(45 * MS, 3 * MS, 100), Decision::Hold);
+        assert_eq!(g.degraded(), 0);
+    }
+
+    #[test]
+    fn a_tick_near_its_budget_degrades_even_when_serving_is_quick() {
+        let mut g = RateGovernor::new(30, 60);
+        // 16.7 ms budget: 15 ms is over 80 %.
+        let (d, _) = until_acted(&mut g, MS, 15 * MS, 5);
+        assert_eq!(d, Decision::Degrade);
+        assert_eq!(g.degraded(), 1, "at least one client a step");
+    }
+
+    #[test]
+    fn the_degraded_never_exceed_the_clients() {
+        let mut g = RateGovernor::new(30, 60);
+        for _ in 0..30 {
+            g.after_slot(40 * MS, 2 * MS, 7);
+        }
+        assert_eq!(g.degraded(), 7);
+        assert_eq!(g.after_slot(40 * MS, 2 * MS, 7), Decision::Hold);
+        // Clients left: the count follows.
+        g.after_slot(10 * MS, 2 * MS, 3);
+        assert_eq!(g.degraded(), 3);
+    }
+
+    #[test]
+    fn spectators_then_the_newest_players_lose_their_rate_first() {
+        let mut clients = vec![
+            Candidate {
+                connection: 1,
+                plays: true,
+            },
+            Candidate {
+                connection: 2,
+                plays: false,
+            },
+            Candidate {
+                connection: 3,
+                plays: true,
+            },
+            Candidate {
+                connection: 4,
+                plays: false,
+            },
+        ];
+        degrade_order(&mut clients);
+        let order: Vec<u64> = clients.iter().map(|c| c.connection).collect();
+        assert_eq!(order, [4, 2, 3, 1]);
+        let rates: Vec<(u32, u32)> = (0..4).map(|r| rate_for(r, 3)).collect();
+        assert_eq!(rates, [(2, 0), (2, 1), (2, 0), (1, 0)]);
+    }
+}
