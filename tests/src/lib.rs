@@ -4,6 +4,7 @@
 pub mod admin;
 pub mod conditioner;
 pub mod fault;
+pub mod raw;
 pub mod server;
 
 pub use conditioner::{BurstLoss, Conditioner, ConditionerStats, Impairment};

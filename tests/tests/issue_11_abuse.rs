@@ -32,6 +32,10 @@ use inertia_server::admin::client::read_credentials;
 use inertia_server::net::tls::STREAM_WINDOW;
 use inertia_server::server::RunningServer;
 use inertia_tests::admin::{admin, call, ok, status};
+use inertia_tests::raw::{
+    avatar_gone, closed_within, endpoint, fingerprint, game_config, joined, owns_an_avatar,
+    read_control,
+};
 use inertia_tests::server::{http_get, start_server, temp_data_dir, test_config, token};
 
 /// One attack at a time: each test's server, player and attacker share
@@ -168,13 +172,6 @@ impl Bench {
         self.player.close().await;
         self.server.shutdown().await;
     }
-}
-
-fn fingerprint(server: &RunningServer) -> [u8; 32] {
-    read_credentials(server.credentials_path().expect("dev mode"))
-        .expect("dev credentials")
-        .fingerprint()
-        .expect("fingerprint")
 }
 
 /// Refusals counted so far, by reason.
@@ -422,18 +419,6 @@ fn garbage(noise: &mut Noise) -> Vec<u8> {
 // ---------------------------------------------------------------------
 // Raw QUIC connections on the game port.
 
-/// A client endpoint on loopback with `config`.
-fn endpoint(config: quinn::ClientConfig) -> quinn::Endpoint {
-    let mut e = quinn::Endpoint::client("127.0.0.1:0".parse().expect("literal")).expect("binds");
-    e.set_default_client_config(config);
-    e
-}
-
-/// The game's client configuration, pinned to the server.
-fn game_config(server: &RunningServer) -> quinn::ClientConfig {
-    inertia_client::net::tls::client_config(fingerprint(server)).expect("TLS")
-}
-
 /// The same, with a receive window of `window` bytes per stream: a client
 /// that lets the server send it almost nothing it has not read.
 fn stingy_config(server: &RunningServer, window: u32) -> quinn::ClientConfig {
@@ -446,24 +431,6 @@ fn stingy_config(server: &RunningServer, window: u32) -> quinn::ClientConfig {
     t.stream_receive_window(quinn::VarInt::from_u32(window));
     config.transport_config(Arc::new(t));
     config
-}
-
-/// The next control message on `recv`, or `None` when the stream ends or
-/// what comes does not decode.
-async fn read_control(
-    recv: &mut quinn::RecvStream,
-    frames: &mut FrameDecoder,
-) -> Option<ServerControl> {
-    let mut buf = [0u8; 2048];
-    loop {
-        if let Some(msg) = frames.next::<ServerControl>() {
-            return msg.ok();
-        }
-        match recv.read(&mut buf).await {
-            Ok(Some(n)) => frames.push(&buf[..n]).ok()?,
-            _ => return None,
-        }
-    }
 }
 
 /// Sends `bytes` as a game connection's hello and gives what the server
@@ -803,39 +770,6 @@ async fn issue_11_initial_and_garbage_floods_amplify_nothing() {
 // ---------------------------------------------------------------------
 // 3. Streams the server does not grant or does not read.
 
-/// A game connection past its hello, made by hand: the QUIC connection,
-/// its control stream, and the welcome's client id.
-async fn joined(
-    endpoint: &quinn::Endpoint,
-    server: &RunningServer,
-    client: u64,
-) -> (quinn::Connection, quinn::SendStream, quinn::RecvStream) {
-    let (addr, t) = token(server, client);
-    let connection = endpoint
-        .connect(addr, "localhost")
-        .expect("connects")
-        .await
-        .expect("the QUIC handshake");
-    let (mut send, mut recv) = connection.open_bi().await.expect("the control stream");
-    let hello = encode_frame(&ClientControl::Hello {
-        version: PROTOCOL_VERSION,
-        token: t.to_bytes(),
-    })
-    .expect("encodes");
-    send.write_all(&hello).await.expect("hello sent");
-    let mut frames = FrameDecoder::new();
-    match tokio::time::timeout(
-        Duration::from_secs(10),
-        read_control(&mut recv, &mut frames),
-    )
-    .await
-    {
-        Ok(Some(ServerControl::Welcome { client_id, .. })) => assert_eq!(client_id, client),
-        other => panic!("expected a welcome, got {other:?}"),
-    }
-    (connection, send, recv)
-}
-
 /// Writes `chunk` until a write takes longer than `stall`, or `limit`
 /// bytes; gives the bytes taken and whether it stalled.
 async fn stuff(
@@ -853,35 +787,6 @@ async fn stuff(
         }
     }
     (taken, false)
-}
-
-fn owns_an_avatar(server: &RunningServer, client: u64) -> bool {
-    server
-        .frame()
-        .catalog
-        .values()
-        .any(|e| e.owner == Some(client))
-}
-
-/// Waits up to `limit` for the server to close `connection`; how long it
-/// took.
-async fn closed_within(connection: &quinn::Connection, limit: Duration) -> Option<Duration> {
-    let start = Instant::now();
-    tokio::time::timeout(limit, connection.closed())
-        .await
-        .ok()
-        .map(|_| start.elapsed())
-}
-
-async fn avatar_gone(server: &RunningServer, client: u64, limit: Duration) -> bool {
-    let deadline = Instant::now() + limit;
-    while owns_an_avatar(server, client) {
-        if Instant::now() >= deadline {
-            return false;
-        }
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    }
-    true
 }
 
 /// Pins issue 11's abuse suite, streams: a player with a valid token asks
@@ -909,7 +814,7 @@ async fn issue_11_unread_and_ungranted_streams_hold_nothing_and_the_player_keeps
     let probe = bench.probe();
     // Extra streams: never granted.
     let greedy = endpoint(game_config(server));
-    let (a, _a_send, _a_recv) = joined(&greedy, server, 20).await;
+    let (a, _a_send, _a_recv, _) = joined(&greedy, server, 20).await;
     let extra_bi = tokio::time::timeout(Duration::from_millis(1500), a.open_bi());
     let extra_uni = tokio::time::timeout(Duration::from_millis(1500), a.open_uni());
     // Garbage datagrams, 2000 a second, while the streams wait.
@@ -1044,7 +949,7 @@ async fn issue_11_unread_and_ungranted_streams_hold_nothing_and_the_player_keeps
     // A client that reads its welcome and nothing after it: the server's
     // catalog does not fit its 64-byte window. It can still be kicked.
     let stingy = endpoint(stingy_config(server, 64));
-    let (e, _e_send, _e_recv) = joined(&stingy, server, 21).await;
+    let (e, _e_send, _e_recv, _) = joined(&stingy, server, 21).await;
     tokio::time::sleep(Duration::from_millis(500)).await;
     assert!(e.close_reason().is_none());
     let mut admin = admin(server).await;
@@ -1068,7 +973,7 @@ async fn issue_11_unread_and_ungranted_streams_hold_nothing_and_the_player_keeps
     );
 
     // A client that ends its control stream without a goodbye has left.
-    let (f, mut f_send, _f_recv) = joined(&greedy, server, 23).await;
+    let (f, mut f_send, _f_recv, _) = joined(&greedy, server, 23).await;
     f_send.finish().expect("finished");
     let left = closed_within(&f, Duration::from_secs(3)).await;
     eprintln!("the client that ended its control stream was let go after {left:?}");

@@ -14,7 +14,9 @@
 //! so a client that stops reading still gets snapshots, is still read,
 //! kicked and told of a shutdown, and is dropped once its control stream
 //! has not moved for [`CONTROL_STALL`] (or more than [`OUTBOX_LIMIT`]
-//! bytes wait for it). Goodbyes wait at most [`GOODBYE_WAIT`].
+//! bytes wait for it). A joined client that sends no datagram for
+//! [`SILENT_TIMEOUT`] is let go too. Goodbyes wait at most
+//! [`GOODBYE_WAIT`].
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
@@ -44,6 +46,12 @@ pub const CONTROL_STALL: Duration = super::tls::IDLE_TIMEOUT;
 /// dropped as too far behind (a full catalog of `--max-bodies` bodies is
 /// well under this).
 pub const OUTBOX_LIMIT: usize = 16 << 20;
+/// Longest a joined client may send no datagram (its acknowledgements
+/// and inputs, which the SDK sends at its input rate whatever the player
+/// does) before it is let go. QUIC keep-alives alone do not count: a
+/// client that stops playing but keeps its connection open would hold a
+/// slot, an avatar and full snapshots without a baseline forever.
+pub const SILENT_TIMEOUT: Duration = super::tls::IDLE_TIMEOUT;
 /// Longest a goodbye (and what is queued before it) waits for the
 /// client's window.
 pub const GOODBYE_WAIT: Duration = Duration::from_secs(1);
@@ -438,6 +446,9 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
             outbox
                 .say_last(&mut send, &ServerControl::Goodbye(reason))
                 .await;
+            // Closing at once would drop the goodbye in flight.
+            let _ = send.finish();
+            let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
             connection.close(close_code::PROTOCOL.into(), b"protocol error");
         }
         End::Kicked(reason) => {
@@ -498,6 +509,7 @@ async fn session(
     let mut kick_open = true;
     // The catalog as it is now, then whenever it or the events change.
     let mut catalog_due = true;
+    let mut heard = tokio::time::Instant::now();
     let mut frames_open = true;
     loop {
         if catalog_due {
@@ -527,6 +539,7 @@ async fn session(
             },
             datagram = connection.read_datagram() => match datagram {
                 Ok(bytes) => {
+                    heard = tokio::time::Instant::now();
                     shared.metrics.bytes_received.inc_by(bytes.len() as u64);
                     shared.metrics.packets_received.inc();
                     let Ok(mut session) = served.session.lock() else {
@@ -581,6 +594,12 @@ async fn session(
                     "the control stream was not read for {} s ({} bytes waiting)",
                     CONTROL_STALL.as_secs(),
                     outbox.len()
+                ));
+            }
+            _ = tokio::time::sleep_until(heard + SILENT_TIMEOUT) => {
+                return End::Protocol(format!(
+                    "silent: no acknowledgement or input for {} s",
+                    SILENT_TIMEOUT.as_secs()
                 ));
             }
             _ = shutdown.changed() => {
