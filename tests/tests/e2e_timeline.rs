@@ -463,7 +463,14 @@ async fn save_and_load_over_the_network_bring_back_the_saved_state() {
     let s = status(&mut admin).await;
     assert_eq!((s.tick, s.state_hash, s.mode), (t, h, TimeMode::Live));
     ok(&mut admin, AdminRequest::Step { ticks: 1 }).await;
-    assert!(wait_for(Duration::from_secs(3), || async { server.frame().tick > t }).await);
+    // Exactly the tick after: the frame published before the load is
+    // past `t` too, and a hash asked on it could come before the step.
+    assert!(
+        wait_for(Duration::from_secs(3), || async {
+            server.frame().tick == t + 1
+        })
+        .await
+    );
     assert_eq!(
         hash_reply(&mut admin, AdminRequest::Hash { tick: None }).await,
         (t1, h1, Some(h1)),

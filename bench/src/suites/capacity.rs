@@ -43,6 +43,10 @@
 //! * `kbps_per_client`: mean over bots of the snapshot bytes each received
 //!   in the window, kbit/s; `snapshots_per_client_hz` (mean) and
 //!   `snapshots_min_client_hz` (worst bot): snapshots received per second.
+//! * `rate_degrade_steps`: steps the server's rate policy took to lower
+//!   clients' snapshot rates during the window; `clients_degraded`: the
+//!   clients at a lower rate at its end (`/metrics`). A step with clients
+//!   degraded is not served: their rate falls below 95 %.
 //!
 //! The last line adds `projected_max_clients`: the machine's cores (as
 //! CPU %) less the idle server's, over the server's CPU per client at the
@@ -118,6 +122,8 @@ struct ServerMark {
     machine_total_s: f64,
     encode_s: f64,
     encodes: u64,
+    degrade_steps: u64,
+    degraded: i64,
     bytes_sent: u64,
     ticks: u64,
     overruns: u64,
@@ -142,6 +148,11 @@ impl ServerMark {
             machine_total_s: total,
             encode_s,
             encodes,
+            degrade_steps: m
+                .snapshot_rate_steps
+                .get_or_create(&[("direction", "degrade")])
+                .get(),
+            degraded: m.snapshot_clients_degraded.get(),
             bytes_sent: m.bytes_sent.get(),
             ticks: stats.ticks.load(std::sync::atomic::Ordering::Relaxed),
             overruns: stats.overruns.load(std::sync::atomic::Ordering::Relaxed),
@@ -458,6 +469,8 @@ fn steps(
                 )
                 .num("snapshots_per_client_hz", mean(&|r| r.snapshots_hz))
                 .num("snapshots_min_client_hz", min_hz)
+                .field("rate_degrade_steps", b.degrade_steps - a.degrade_steps)
+                .field("clients_degraded", b.degraded)
                 .num("loss_mean", mean(&|r| r.loss))
                 .field("stalls", reports.iter().map(|r| r.stalls).sum::<u64>())
                 .field(

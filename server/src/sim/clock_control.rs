@@ -28,7 +28,7 @@ pub enum ClockControl {
 impl Simulation {
     /// Carries out a clock request; on error nothing changed.
     pub fn control_clock(&mut self, request: ClockControl) -> Result<(), ClockError> {
-        let clock = &mut self.clock;
+        let clock = &mut self.shown_mut().clock;
         match request {
             ClockControl::Pause => {
                 clock.pause();

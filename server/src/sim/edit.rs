@@ -154,7 +154,7 @@ impl Simulation {
     pub fn edit(&mut self, edit: WorldEdit) -> Result<EditOutcome, EditError> {
         if self.view.is_some() {
             return Err(EditError::NotLive {
-                shown: self.world.tick(),
+                shown: self.shown().world.tick(),
                 live: self.live_tick(),
             });
         }

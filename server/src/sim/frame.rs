@@ -85,27 +85,27 @@ impl Simulation {
             recent.drain(..excess);
             self.recent_events = Arc::new(recent);
         }
-        if self.catalog_stale || self.entities.version() != self.catalog_seen {
-            self.catalog = Arc::new(self.entities.catalog());
-            self.catalog_seen = self.entities.version();
+        if self.catalog_stale || self.shown().entities.version() != self.catalog_seen {
+            self.catalog = Arc::new(self.shown().entities.catalog());
+            self.catalog_seen = self.shown().entities.version();
             self.catalog_version += 1;
             self.catalog_stale = false;
         }
         Frame {
-            tick: self.world.tick(),
-            sim_time: self.world.time(),
+            tick: self.shown().world.tick(),
+            sim_time: self.shown().world.time(),
             time_scale: match self.mode() {
                 // Clients play backwards where the scale is negative.
-                TimeMode::Reverse => -self.clock.time_scale(),
-                _ => self.clock.time_scale(),
+                TimeMode::Reverse => -self.shown().clock.time_scale(),
+                _ => self.shown().clock.time_scale(),
             },
-            paused: self.clock.paused(),
-            entities: self.entities.states(&self.world),
+            paused: self.shown().clock.paused(),
+            entities: self.shown().entities.states(&self.shown().world),
             catalog: self.catalog.clone(),
             catalog_version: self.catalog_version,
             events: self.recent_events.clone(),
             tick_duration: self.last_tick,
-            overruns: self.clock.overruns(),
+            overruns: self.shown().clock.overruns(),
             clients: self.live_clients() as u32,
             live_tick: self.live_tick(),
             mode: self.mode(),

@@ -88,13 +88,13 @@ pub use inertia_protocol::admin::TimeMode;
 
 /// The tick loop's state, without the thread.
 pub struct Simulation {
-    world: World,
-    entities: EntityTable,
-    spawn_points: Vec<DVec3>,
+    /// The live timeline: what players are in. While history is shown it
+    /// stands still, and joins and leaves still reach it.
+    live: Timeline,
+    /// The game rules; their own state is that of the timeline shown
+    /// (the live one's is put aside in the [`timeline::View`] meanwhile).
     rules: Box<dyn GameRules>,
-    clock: Clock,
     config: SimConfig,
-    clients: BTreeSet<ClientId>,
     catalog: Arc<BTreeMap<EntityId, EntityDesc>>,
     catalog_version: u64,
     ctx_events: Vec<GameEvent>,
@@ -120,7 +120,7 @@ pub struct Simulation {
     /// The recording held in memory for seeking (kept when recording
     /// stops, until a recording that cannot follow it starts).
     history: Option<History>,
-    /// While history is shown: the live state, put aside.
+    /// History shown instead of the live timeline, if any.
     view: Option<timeline::View>,
     /// The entity table version the catalog was last made from.
     catalog_seen: u64,
@@ -133,14 +133,45 @@ pub struct Simulation {
     in_tick: bool,
 }
 
+/// One line of simulated time: the world and what the clock and the
+/// server keep beside it. A simulation has its live timeline and, while
+/// an operator looks at history, the timeline shown (see [`timeline`]).
+#[derive(Debug)]
+pub(crate) struct Timeline {
+    world: World,
+    entities: EntityTable,
+    clients: BTreeSet<ClientId>,
+    spawn_points: Vec<DVec3>,
+    clock: Clock,
+}
+
 impl std::fmt::Debug for Simulation {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Simulation")
-            .field("tick", &self.world.tick())
-            .field("entities", &self.entities.len())
-            .field("clients", &self.clients.len())
-            .field("clock", &self.clock)
+            .field("tick", &self.shown().world.tick())
+            .field("entities", &self.shown().entities.len())
+            .field("clients", &self.shown().clients.len())
+            .field("clock", &self.shown().clock)
             .finish()
+    }
+}
+
+impl Simulation {
+    /// The timeline shown, ticked and streamed: history while it is
+    /// shown, else the live one.
+    fn shown(&self) -> &Timeline {
+        match &self.view {
+            Some(view) => &view.shown,
+            None => &self.live,
+        }
+    }
+
+    /// [`Self::shown`], to change.
+    fn shown_mut(&mut self) -> &mut Timeline {
+        match &mut self.view {
+            Some(view) => &mut view.shown,
+            None => &mut self.live,
+        }
     }
 }
 
@@ -152,14 +183,16 @@ impl Simulation {
         let catalog = Arc::new(scene.entities.catalog());
         let catalog_version = scene.entities.version();
         let mut sim = Simulation {
-            world: scene.world,
-            entities: scene.entities,
-            spawn_points: scene.spawn_points,
+            live: Timeline {
+                world: scene.world,
+                entities: scene.entities,
+                clients: BTreeSet::new(),
+                spawn_points: scene.spawn_points,
+                clock,
+            },
             rules,
-            clock,
             startup: startup::TickCostCheck::new(config.tick_hz),
             config,
-            clients: BTreeSet::new(),
             catalog,
             catalog_version,
             ctx_events: Vec::new(),
@@ -223,12 +256,12 @@ impl Simulation {
     /// the current tick's journal in it.
     pub fn capture(&self, applied: u32) -> SimState {
         SimState {
-            tick: self.world.tick(),
+            tick: self.shown().world.tick(),
             applied,
-            world: self.world.save(),
-            entities: self.entities.clone(),
-            spawn_points: self.spawn_points.clone(),
-            clients: self.clients.iter().copied().collect(),
+            world: self.shown().world.save(),
+            entities: self.shown().entities.clone(),
+            spawn_points: self.shown().spawn_points.clone(),
+            clients: self.shown().clients.iter().copied().collect(),
             rules: self.rules.save_state(),
         }
     }
@@ -251,14 +284,15 @@ impl Simulation {
         self.rules
             .restore_state(&state.rules)
             .map_err(StateError::Rules)?;
-        if let Err(e) = self.world.restore(&state.world) {
+        if let Err(e) = self.shown_mut().world.restore(&state.world) {
             let _ = self.rules.restore_state(&old_rules);
             return Err(StateError::World(e.to_string()));
         }
-        self.entities = state.entities.clone();
-        self.spawn_points = state.spawn_points.clone();
-        self.clients = state.clients.iter().copied().collect();
-        self.clock = self.clock.clone().with_tick(state.tick);
+        let shown = self.shown_mut();
+        shown.entities = state.entities.clone();
+        shown.spawn_points = state.spawn_points.clone();
+        shown.clients = state.clients.iter().copied().collect();
+        shown.clock = shown.clock.clone().with_tick(state.tick);
         self.catalog_stale = true;
         self.update_gauges();
         Ok(())
@@ -283,22 +317,22 @@ impl Simulation {
 
     /// The world.
     pub fn world(&self) -> &World {
-        &self.world
+        &self.shown().world
     }
 
     /// The entity table.
     pub fn entities(&self) -> &EntityTable {
-        &self.entities
+        &self.shown().entities
     }
 
     /// The clock.
     pub fn clock(&self) -> &Clock {
-        &self.clock
+        &self.shown().clock
     }
 
     /// The clock, to pause, scale or step it.
     pub fn clock_mut(&mut self) -> &mut Clock {
-        &mut self.clock
+        &mut self.shown_mut().clock
     }
 
     /// The shared counters.
@@ -307,16 +341,21 @@ impl Simulation {
     }
 
     fn dt(&self) -> f64 {
-        self.clock.dt()
+        self.shown().clock.dt()
     }
 
     fn with_ctx<R>(&mut self, f: impl FnOnce(&mut dyn GameRules, &mut SimContext<'_>) -> R) -> R {
-        let tick = self.world.tick();
+        let tick = self.shown().world.tick();
         let dt = self.dt();
+        // The shown timeline, borrowed apart from the rules and events.
+        let shown = match &mut self.view {
+            Some(view) => &mut view.shown,
+            None => &mut self.live,
+        };
         let mut ctx = SimContext::new(
-            &mut self.world,
-            &mut self.entities,
-            &self.spawn_points,
+            &mut shown.world,
+            &mut shown.entities,
+            &shown.spawn_points,
             &mut self.ctx_events,
             tick,
             dt,
@@ -326,7 +365,7 @@ impl Simulation {
     }
 
     fn collect_events(&mut self) {
-        let tick = self.world.tick();
+        let tick = self.shown().world.tick();
         let mut events = std::mem::take(&mut self.ctx_events);
         events.extend(self.rules.events());
         self.pending_events
@@ -347,17 +386,17 @@ impl Simulation {
     }
 
     fn join_here(&mut self, client: ClientId) -> Result<EntityId, Refusal> {
-        if self.clients.contains(&client) {
+        if self.shown().clients.contains(&client) {
             return Err(Refusal::AlreadyJoined(client));
         }
-        if self.clients.len() >= self.config.max_clients as usize {
+        if self.shown().clients.len() >= self.config.max_clients as usize {
             return Err(Refusal::Full {
                 max: self.config.max_clients,
             });
         }
         let r = self.with_ctx(|rules, ctx| rules.on_connect(client, ctx));
         if r.is_ok() {
-            self.clients.insert(client);
+            self.shown_mut().clients.insert(client);
         }
         self.collect_events();
         self.update_gauges();
@@ -370,14 +409,14 @@ impl Simulation {
         if self.view.is_some() {
             return self.with_live(|s| s.leave(client));
         }
-        if self.clients.contains(&client) {
+        if self.shown().clients.contains(&client) {
             self.leave_here(client);
             self.journal_push(JournalEntry::Leave(client));
         }
     }
 
     fn leave_here(&mut self, client: ClientId) {
-        if self.clients.remove(&client) {
+        if self.shown_mut().clients.remove(&client) {
             self.with_ctx(|rules, ctx| rules.on_disconnect(client, ctx));
             self.collect_events();
             self.update_gauges();
@@ -398,7 +437,7 @@ impl Simulation {
     }
 
     fn input_here(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputError> {
-        let r = if self.clients.contains(&client) {
+        let r = if self.shown().clients.contains(&client) {
             self.with_ctx(|rules, ctx| rules.on_input(client, input, ctx))
         } else {
             Err(InputError::NotJoined(client))

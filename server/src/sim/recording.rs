@@ -86,7 +86,7 @@ impl Simulation {
         self.opening_recorder = true;
         Ok(Some(RecorderOpening {
             config,
-            first_tick: self.world.tick(),
+            first_tick: self.shown().world.tick(),
             retired: self.retired.take(),
             metrics: self.config.metrics.clone(),
         }))
@@ -101,7 +101,7 @@ impl Simulation {
             recorder.stop();
             return Err("the simulation changed while the recording was being opened".into());
         }
-        let tick = self.world.tick();
+        let tick = self.shown().world.tick();
         // Entries of this tick from before the session are in its keyframe.
         // A session that continues the history held (after `--resume`)
         // counts the ones already recorded for this tick.
@@ -168,7 +168,7 @@ impl Simulation {
         }
         self.flush_journal();
         if let Some(rec) = self.recording.take() {
-            let tick = self.world.tick();
+            let tick = self.shown().world.tick();
             let state = self.capture(self.journal_at_tick).encode();
             rec.recorder.finish(Some(Record::Keyframe { tick, state }));
             tracing::info!(tick, "recording ended with a keyframe");
@@ -182,7 +182,7 @@ impl Simulation {
     /// body's position and velocities are finite.
     pub fn state_is_sound(&self) -> bool {
         !self.in_tick
-            && self.world.bodies().all(|(_, b)| {
+            && self.shown().world.bodies().all(|(_, b)| {
                 b.center_of_mass().is_finite()
                     && b.linear_velocity().is_finite()
                     && b.angular_velocity().is_finite()
@@ -202,7 +202,7 @@ impl Simulation {
         if let Some(rec) = self.recording.take() {
             rec.recorder.finish(None);
             tracing::warn!(
-                tick = self.world.tick(),
+                tick = self.shown().world.tick(),
                 "recording ended without a keyframe: the failure cut a tick short"
             );
         }
@@ -215,7 +215,7 @@ impl Simulation {
     /// Records an administrator's edit of the world at the current tick
     /// (`who` the operator, `what` a short description).
     pub fn record_admin_edit(&mut self, who: &str, what: &str) {
-        let tick = self.world.tick();
+        let tick = self.shown().world.tick();
         self.send_record(Record::AdminEdit {
             tick,
             who: who.to_string(),
@@ -234,7 +234,7 @@ impl Simulation {
                 self.stats.record_gaps.fetch_add(1, Ordering::Relaxed);
                 tracing::error!(
                     error = %e,
-                    tick = self.world.tick(),
+                    tick = self.shown().world.tick(),
                     "the recording has a gap and stops here; `record on` starts a new one"
                 );
                 self.stop_recording();
@@ -258,7 +258,7 @@ impl Simulation {
             return;
         }
         let entries = std::mem::take(&mut self.journal);
-        let tick = self.world.tick();
+        let tick = self.shown().world.tick();
         let bytes = crate::replay::journal::encode(tick, &entries);
         if self.send_record(Record::Journal {
             tick,
@@ -277,9 +277,9 @@ impl Simulation {
         let Some(rec) = &self.recording else {
             return;
         };
-        let tick = self.world.tick();
+        let tick = self.shown().world.tick();
         let keyframe_ticks = rec.recorder.config().keyframe_ticks.max(1);
-        let hash = self.world.state_hash();
+        let hash = self.shown().world.state_hash();
         if !self.send_record(Record::TickHash { tick, hash }) {
             return;
         }

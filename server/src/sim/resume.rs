@@ -232,7 +232,7 @@ impl Simulation {
         };
         let mut skip = keyframe.applied as usize;
         loop {
-            let t = self.world.tick();
+            let t = self.shown().world.tick();
             for e in history.journal_at(t).iter().skip(skip) {
                 self.apply_entry(e);
             }
@@ -242,9 +242,9 @@ impl Simulation {
             }
             self.tick();
             report.resimulated += 1;
-            if let Some(want) = history.hash_at(self.world.tick()) {
+            if let Some(want) = history.hash_at(self.shown().world.tick()) {
                 report.hashes_checked += 1;
-                if want != self.world.state_hash() {
+                if want != self.shown().world.state_hash() {
                     report.mismatches += 1;
                 }
             }
@@ -258,8 +258,9 @@ impl Simulation {
         report.torn_tail = opened.cut;
         report.newest_damaged = opened.damaged;
         self.history = Some(history);
-        report.clients = self.clients.iter().copied().collect();
-        self.clock = self.clock.clone().with_tick(self.world.tick());
+        report.clients = self.shown().clients.iter().copied().collect();
+        let shown = self.shown_mut();
+        shown.clock = shown.clock.clone().with_tick(shown.world.tick());
         self.catalog_stale = true;
         report.seconds = started.elapsed().as_secs_f64();
         if report.mismatches > 0 {

@@ -41,13 +41,13 @@ pub(super) fn run(
             Ok(()) => SimExit::Shutdown,
             Err(payload) => SimExit::Failed {
                 reason: panic_message(payload.as_ref()),
-                tick: sim.world.tick(),
+                tick: sim.shown().world.tick(),
                 keyframe: false,
             },
         },
         Err(payload) => {
             let reason = panic_message(payload.as_ref());
-            let tick = sim.world.tick();
+            let tick = sim.shown().world.tick();
             let keyframe =
                 panic::catch_unwind(AssertUnwindSafe(|| sim.end_after_failure())).unwrap_or(false);
             tracing::error!(
@@ -150,6 +150,7 @@ fn run_loop(
             frames.publish(sim.frame());
         }
         let wait = sim
+            .shown()
             .clock
             .until_next_tick()
             .unwrap_or(IDLE_WAIT)

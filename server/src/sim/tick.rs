@@ -11,16 +11,16 @@ use crate::rules::{GameEvent, RemovalReason};
 impl Simulation {
     /// Runs one tick: rules, physics step, clean-up, rules.
     pub fn tick(&mut self) {
-        let _span = tracing::debug_span!("tick", tick = self.world.tick() + 1).entered();
+        let _span = tracing::debug_span!("tick", tick = self.shown().world.tick() + 1).entered();
         self.flush_journal();
         self.in_tick = true;
         let t0 = Instant::now();
         self.with_ctx(|rules, ctx| rules.before_tick(ctx));
         let dt = self.dt();
-        match self.world.step(dt) {
+        match self.shown_mut().world.step(dt) {
             Ok(report) => {
                 for h in report.removed_bodies {
-                    if let Some(id) = self.entities.remove_body(h) {
+                    if let Some(id) = self.shown_mut().entities.remove_body(h) {
                         self.ctx_events.push(GameEvent::Removed {
                             entity: id,
                             reason: RemovalReason::OutOfBounds,
@@ -28,8 +28,8 @@ impl Simulation {
                     }
                 }
                 for h in report.quarantined_bodies {
-                    let _ = self.world.remove_body(h);
-                    if let Some(id) = self.entities.remove_body(h) {
+                    let _ = self.shown_mut().world.remove_body(h);
+                    if let Some(id) = self.shown_mut().entities.remove_body(h) {
                         self.ctx_events.push(GameEvent::Removed {
                             entity: id,
                             reason: RemovalReason::Quarantined,
@@ -37,9 +37,9 @@ impl Simulation {
                     }
                 }
                 for h in report.quarantined {
-                    let _ = self.world.remove_particle(h);
-                    if let Some(id) = self.entities.by_particle(h) {
-                        self.entities.remove(id);
+                    let _ = self.shown_mut().world.remove_particle(h);
+                    if let Some(id) = self.shown().entities.by_particle(h) {
+                        self.shown_mut().entities.remove(id);
                         self.ctx_events.push(GameEvent::Removed {
                             entity: id,
                             reason: RemovalReason::Quarantined,
@@ -79,7 +79,7 @@ impl Simulation {
     /// Logs what the first live ticks cost against the tick budget: a
     /// warning when the machine cannot keep the configured rate.
     pub(super) fn say_startup_cost(&self, cost: startup::TickCost) {
-        let bodies = self.world.bodies().count();
+        let bodies = self.shown().world.bodies().count();
         let median_ms = cost.median.as_secs_f64() * 1e3;
         let budget_ms = cost.budget.as_secs_f64() * 1e3;
         let percent = cost.share() * 100.0;
@@ -127,8 +127,8 @@ impl Simulation {
     /// Feeds `wall_elapsed` to the clock and runs the ticks it owes.
     /// Returns how many ran.
     pub fn advance(&mut self, wall_elapsed: Duration) -> u32 {
-        let before = self.clock.overruns();
-        let n = self.clock.advance(wall_elapsed);
+        let before = self.shown().clock.overruns();
+        let n = self.shown_mut().clock.advance(wall_elapsed);
         self.run_due(n);
         let now = Instant::now();
         if n > 0 {
@@ -141,12 +141,12 @@ impl Simulation {
         {
             self.recent_runs.pop_front();
         }
-        let overruns = self.clock.overruns() - before;
+        let overruns = self.shown().clock.overruns() - before;
         if overruns > 0 {
             self.stats.overruns.fetch_add(overruns, Ordering::Relaxed);
             self.stats
                 .dropped_ticks
-                .store(self.clock.dropped_ticks(), Ordering::Relaxed);
+                .store(self.shown().clock.dropped_ticks(), Ordering::Relaxed);
             if let Some(m) = &self.config.metrics {
                 m.tick_overruns.inc_by(overruns);
             }
@@ -157,7 +157,7 @@ impl Simulation {
 
     /// The 64-bit state hash of the world now.
     pub fn state_hash(&self) -> u64 {
-        self.world.state_hash()
+        self.shown().world.state_hash()
     }
 
     /// The 99th percentile of the last [`TICK_WINDOW`] tick durations
@@ -195,7 +195,7 @@ impl Simulation {
     }
 
     pub(super) fn update_gauges(&self) {
-        let bodies = self.world.bodies().count() as u64;
+        let bodies = self.shown().world.bodies().count() as u64;
         self.stats.bodies.store(bodies, Ordering::Relaxed);
         self.stats
             .clients

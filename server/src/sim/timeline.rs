@@ -1,9 +1,12 @@
 //! Time travel: showing recorded history in place of the live world.
 //!
-//! History is read-only. Seeking puts the live state aside (its world,
-//! entities, clients, rules' state and clock) and shows a re-simulated
-//! past state instead; the live world stands still meanwhile, and joins
-//! and leaves still reach it. From a past tick the operator can:
+//! History is read-only. A simulation holds two [`Timeline`]s while
+//! history is shown: the live one, which stands still (joins and leaves
+//! still reach it), and the one shown, a re-simulated past state with a
+//! clock of its own, which is what ticks and what clients see. The rules
+//! object serves whichever is shown: the live timeline's rules state is
+//! put aside in the [`View`] until it comes back. From a past tick the
+//! operator can:
 //!
 //! - step or resume: the view plays forward through the recorded journal;
 //!   when it reaches the live tick the live world takes over seamlessly
@@ -23,13 +26,11 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use inertia_physics::glam::DVec3;
 use inertia_physics::World;
 
-use super::Simulation;
+use super::{Simulation, Timeline};
 use crate::clock::Clock;
 use crate::replay::{History, SimState, StateError};
-use crate::rules::ClientId;
 use crate::scene::EntityTable;
 pub use inertia_protocol::admin::TimeMode;
 
@@ -37,16 +38,6 @@ pub use inertia_protocol::admin::TimeMode;
 pub const REVERSE_BLOCK: u64 = 60;
 /// Most states the reverse cache holds.
 const CACHE_STATES: usize = 3 * REVERSE_BLOCK as usize;
-
-/// The live state put aside while history is shown.
-pub(super) struct Parts {
-    world: World,
-    entities: EntityTable,
-    clients: BTreeSet<ClientId>,
-    spawn_points: Vec<DVec3>,
-    rules: Vec<u8>,
-    clock: Clock,
-}
 
 /// Which way the view's clock plays.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,7 +52,10 @@ enum Play {
 
 /// History being shown.
 pub(super) struct View {
-    live: Parts,
+    /// The timeline shown in place of the live one.
+    pub(super) shown: Timeline,
+    /// The rules' state for the live timeline, put aside.
+    live_rules: Vec<u8>,
     play: Play,
     /// States by tick, each right after its step (reverse play).
     cache: BTreeMap<u64, SimState>,
@@ -138,9 +132,11 @@ impl Simulation {
         match &self.view {
             None => TimeMode::Live,
             Some(v) => match v.play {
-                Play::Reverse if !self.clock.paused() => TimeMode::Reverse,
+                Play::Reverse if !self.shown().clock.paused() => TimeMode::Reverse,
                 Play::Replay { .. } => TimeMode::Replay,
-                _ if self.clock.paused() && self.clock.queued() == 0 => TimeMode::History,
+                _ if self.shown().clock.paused() && self.shown().clock.queued() == 0 => {
+                    TimeMode::History
+                }
                 _ => TimeMode::Forward,
             },
         }
@@ -153,85 +149,82 @@ impl Simulation {
 
     /// The live world's tick.
     pub fn live_tick(&self) -> u64 {
-        match &self.view {
-            Some(v) => v.live.world.tick(),
-            None => self.world.tick(),
-        }
+        self.live.world.tick()
     }
 
     /// Clients in the live game.
     pub fn live_clients(&self) -> usize {
-        match &self.view {
-            Some(v) => v.live.clients.len(),
-            None => self.clients.len(),
-        }
+        self.live.clients.len()
     }
 
-    /// Swaps the shown parts with `parts`.
-    fn swap_parts(&mut self, parts: &mut Parts) {
-        std::mem::swap(&mut self.world, &mut parts.world);
-        std::mem::swap(&mut self.entities, &mut parts.entities);
-        std::mem::swap(&mut self.clients, &mut parts.clients);
-        std::mem::swap(&mut self.spawn_points, &mut parts.spawn_points);
-        std::mem::swap(&mut self.clock, &mut parts.clock);
-        let shown = self.rules.save_state();
-        if let Err(e) = self.rules.restore_state(&parts.rules) {
-            // The bytes came from these rules a moment ago.
+    /// Gives the rules `state` and returns the one they had: the rules
+    /// object serves whichever timeline is shown.
+    fn trade_rules(&mut self, state: &[u8]) -> Vec<u8> {
+        let had = self.rules.save_state();
+        if let Err(e) = self.rules.restore_state(state) {
+            // The bytes came from these rules.
             tracing::error!(error = %e, "the rules refused their own state");
         }
-        parts.rules = shown;
+        had
+    }
+
+    /// What clients see changed timelines: remake the catalog and gauges.
+    fn timeline_changed(&mut self) {
         self.catalog_stale = true;
         self.update_gauges();
     }
 
-    /// Runs `f` on the live state while history is shown (joins and
+    /// Runs `f` on the live timeline while history is shown (joins and
     /// leaves), then shows history again.
     pub(super) fn with_live<R>(&mut self, f: impl FnOnce(&mut Simulation) -> R) -> R {
         let Some(mut view) = self.view.take() else {
             return f(self);
         };
-        self.swap_parts(&mut view.live);
+        let shown_rules = self.trade_rules(&view.live_rules);
         let r = f(self);
         self.flush_journal();
-        self.swap_parts(&mut view.live);
+        view.live_rules = self.trade_rules(&shown_rules);
         self.view = Some(view);
+        self.timeline_changed();
         r
     }
 
-    /// Puts the live state aside and shows an empty view (filled next).
+    /// Shows an empty timeline in place of the live one (filled next),
+    /// paused; the live one stands still meanwhile.
     fn enter_view(&mut self) -> Result<(), TimeError> {
         if self.view.is_some() {
             return Ok(());
         }
         self.flush_journal();
         let world =
-            World::new(*self.world.config()).map_err(|e| TimeError::World(e.to_string()))?;
-        let clock = Clock::new(self.config.tick_hz, self.config.max_catch_up_ticks)
-            .with_tick(self.world.tick());
-        let mut live = Parts {
+            World::new(*self.live.world.config()).map_err(|e| TimeError::World(e.to_string()))?;
+        let mut clock = Clock::new(self.config.tick_hz, self.config.max_catch_up_ticks)
+            .with_tick(self.live.world.tick());
+        clock.pause();
+        let shown = Timeline {
             world,
             entities: EntityTable::new(),
             clients: BTreeSet::new(),
-            spawn_points: self.spawn_points.clone(),
-            rules: self.rules.save_state(),
+            spawn_points: self.live.spawn_points.clone(),
             clock,
         };
-        self.swap_parts(&mut live);
-        self.clock.pause();
         self.view = Some(View {
-            live,
+            shown,
+            live_rules: self.rules.save_state(),
             play: Play::Forward,
             cache: BTreeMap::new(),
             clean: false,
         });
+        self.timeline_changed();
         Ok(())
     }
 
-    /// Shows the live world again, as it was left.
+    /// Shows the live timeline again, as it was left.
     pub fn go_live(&mut self) {
-        if let Some(mut view) = self.view.take() {
-            self.swap_parts(&mut view.live);
-            tracing::info!(tick = self.world.tick(), "live again");
+        if let Some(view) = self.view.take() {
+            self.trade_rules(&view.live_rules);
+            self.timeline_changed();
+            tracing::info!(tick = self.live.world.tick(), "live again");
         }
     }
 
@@ -261,7 +254,7 @@ impl Simulation {
         self.check_target(tick)?;
         if tick == self.live_tick() {
             self.go_live();
-            self.clock.pause();
+            self.shown_mut().clock.pause();
             return Ok(self.report_shown());
         }
         self.enter_view()?;
@@ -269,7 +262,7 @@ impl Simulation {
         if let Some(v) = &mut self.view {
             v.play = Play::Forward;
         }
-        self.clock.pause();
+        self.shown_mut().clock.pause();
         Ok(report)
     }
 
@@ -285,7 +278,8 @@ impl Simulation {
             self.enter_view()?;
             self.restore(&now)?;
         }
-        self.clock
+        self.shown_mut()
+            .clock
             .set_time_scale(speed)
             .map_err(|e| TimeError::World(e.to_string()))?;
         if let Some(v) = &mut self.view {
@@ -306,7 +300,8 @@ impl Simulation {
             // `from` is the live tick: nothing to replay.
             return Ok(report);
         }
-        self.clock
+        self.shown_mut()
+            .clock
             .set_time_scale(speed)
             .map_err(|e| TimeError::World(e.to_string()))?;
         if let Some(v) = &mut self.view {
@@ -343,10 +338,10 @@ impl Simulation {
                 }
                 Play::Forward | Play::Replay { .. } => {
                     let end = match view.play {
-                        Play::Replay { to } => to.min(view.live.world.tick()),
-                        _ => view.live.world.tick(),
+                        Play::Replay { to } => to.min(self.live.world.tick()),
+                        _ => self.live.world.tick(),
                     };
-                    if self.world.tick() >= end {
+                    if self.shown().world.tick() >= end {
                         let replay = matches!(view.play, Play::Replay { .. });
                         self.finish_forward();
                         if replay {
@@ -363,11 +358,11 @@ impl Simulation {
         }
         if let Some(v) = &self.view {
             let end = match v.play {
-                Play::Replay { to } => Some(to.min(v.live.world.tick())),
-                Play::Forward => Some(v.live.world.tick()),
+                Play::Replay { to } => Some(to.min(self.live.world.tick())),
+                Play::Forward => Some(self.live.world.tick()),
                 Play::Reverse => None,
             };
-            if end.is_some_and(|e| self.world.tick() >= e) {
+            if end.is_some_and(|e| self.shown().world.tick() >= e) {
                 self.finish_forward();
             }
         }
@@ -382,16 +377,16 @@ impl Simulation {
                 self.go_live();
             }
             _ => {
-                let scale = self.clock.time_scale();
-                let queued = self.clock.queued();
+                let scale = self.shown().clock.time_scale();
+                let queued = self.shown().clock.queued();
                 self.go_live();
                 if scale > 0.0 {
-                    let _ = self.clock.set_time_scale(scale);
+                    let _ = self.shown_mut().clock.set_time_scale(scale);
                 } else {
-                    self.clock.pause();
+                    self.shown_mut().clock.pause();
                 }
                 // What was queued fits in the queue again.
-                let _ = self.clock.step(queued);
+                let _ = self.shown_mut().clock.step(queued);
             }
         }
     }
@@ -399,7 +394,7 @@ impl Simulation {
     /// One forward tick of the view: the recorded journal of its tick,
     /// then the step.
     fn view_step(&mut self) {
-        let t = self.world.tick();
+        let t = self.shown().world.tick();
         let clean = self.view.as_ref().is_some_and(|v| v.clean);
         if !clean {
             // A copy of the live state already holds its tick's journal.
@@ -418,7 +413,7 @@ impl Simulation {
     /// Moves the view `n` ticks back (stopping, paused, at the start of
     /// its recording session).
     fn reverse_by(&mut self, n: u64) {
-        let now = self.world.tick();
+        let now = self.shown().world.tick();
         let first = self
             .history
             .as_ref()
@@ -428,12 +423,12 @@ impl Simulation {
         if target < now {
             if let Err(e) = self.show(target, Some(target.saturating_sub(REVERSE_BLOCK))) {
                 tracing::warn!(error = %e, "reverse play stopped");
-                self.clock.pause();
+                self.shown_mut().clock.pause();
                 return;
             }
         }
         if target <= first {
-            self.clock.pause();
+            self.shown_mut().clock.pause();
         }
     }
 
@@ -462,7 +457,7 @@ impl Simulation {
             return Err(TimeError::NoHistory);
         };
         // Candidates: the view itself, a cached state, a keyframe.
-        let here = self.world.tick();
+        let here = view.shown.world.tick();
         let current = (view.clean && in_session(here)).then_some(here);
         let cached = view
             .cache
@@ -487,15 +482,15 @@ impl Simulation {
         // Events of the ticks passed over are not news to anyone.
         let events_before = self.pending_events.len();
         let mut resimulated = 0;
-        while self.world.tick() < target {
-            let t = self.world.tick();
+        while self.shown().world.tick() < target {
+            let t = self.shown().world.tick();
             for e in history.journal_at(t).iter().skip(skip) {
                 self.apply_entry(e);
             }
             skip = 0;
             self.tick();
             resimulated += 1;
-            let now = self.world.tick();
+            let now = self.shown().world.tick();
             // Reverse play keeps the block below the target, and an anchor
             // every block on the way, so the next block starts near.
             if cache_from.is_some_and(|c| now >= c || now % REVERSE_BLOCK == 0) {
@@ -517,10 +512,11 @@ impl Simulation {
                 }
             }
         }
-        self.clock = self.clock.clone().with_tick(target);
+        let shown = self.shown_mut();
+        shown.clock = shown.clock.clone().with_tick(target);
         Ok(SeekReport {
             tick: target,
-            state_hash: self.world.state_hash(),
+            state_hash: self.shown().world.state_hash(),
             recorded_hash: history.hash_at(target),
             base_tick,
             resimulated,
@@ -532,10 +528,10 @@ impl Simulation {
     /// The tick shown, its hash and the recorded one (nothing
     /// re-simulated).
     fn report_shown(&self) -> SeekReport {
-        let tick = self.world.tick();
+        let tick = self.shown().world.tick();
         SeekReport {
             tick,
-            state_hash: self.world.state_hash(),
+            state_hash: self.shown().world.state_hash(),
             recorded_hash: self.history.as_ref().and_then(|h| h.hash_at(tick)),
             base_tick: tick,
             resimulated: 0,
@@ -545,11 +541,11 @@ impl Simulation {
     /// The state hash at `tick` and the recorded one, re-simulating a past
     /// tick without changing what is shown.
     pub fn hash_at(&mut self, tick: u64) -> Result<SeekReport, TimeError> {
-        if tick == self.world.tick() {
+        if tick == self.shown().world.tick() {
             return Ok(self.report_shown());
         }
         self.check_target(tick)?;
-        let clock = self.clock.clone();
+        let clock = self.shown().clock.clone();
         let shown = self
             .view
             .as_ref()
@@ -566,7 +562,7 @@ impl Simulation {
                 }
             }
         }
-        self.clock = clock;
+        self.shown_mut().clock = clock;
         report
     }
 
@@ -579,7 +575,7 @@ impl Simulation {
     pub fn load(&mut self, state: &SimState, operator: &str) -> Result<u64, StateError> {
         self.go_live();
         self.flush_journal();
-        let connected = self.clients.clone();
+        let connected = self.shown().clients.clone();
         self.restore(state)?;
         let recording = self.recording.is_some();
         if recording {
@@ -588,7 +584,7 @@ impl Simulation {
         }
         self.journal.clear();
         self.journal_at_tick = 0;
-        let saved = self.clients.clone();
+        let saved = self.shown().clients.clone();
         for &client in saved.difference(&connected) {
             self.leave_here(client);
         }
@@ -603,6 +599,6 @@ impl Simulation {
             }
         }
         tracing::info!(operator, tick = state.tick, "checkpoint loaded");
-        Ok(self.world.state_hash())
+        Ok(self.shown().world.state_hash())
     }
 }
