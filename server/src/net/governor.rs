@@ -12,8 +12,10 @@
 //! alike) or the tick more than [`TICK_SHARE`] of its budget; then
 //! another step of clients ([`STEP_FRACTION`] of them, at least one) goes
 //! to half rate at once. Only after [`CALM_SLOTS`] slots in a row that
-//! were *calm* (under half those shares) does a step come back, so the
-//! rate does not flap. A world whose own tick nears its budget lowers
+//! were *calm* (under [`CALM_FRACTION`] of those shares) does a step come
+//! back, so the rate does not flap; while it stays calm, another step
+//! comes back every [`RESTORE_EVERY`] slots, so that a burst (a wave of
+//! handshakes, say) costs clients their rate for seconds, not minutes. A world whose own tick nears its budget lowers
 //! rates too: that frees the cores the tick shares with the encoders.
 //!
 //! Which clients go first ([`degrade_order`]): spectators (no avatar)
@@ -33,9 +35,14 @@ pub const STAGE_SHARE: f64 = 0.85;
 /// Most of the tick budget (1 / tick rate) the last tick may take before
 /// the governor lowers rates.
 pub const TICK_SHARE: f64 = 0.8;
-/// Slots in a row under half the shares before a step of clients gets its
-/// full rate back (2 s at 30 Hz).
-pub const CALM_SLOTS: u32 = 60;
+/// Slots in a row under [`CALM_FRACTION`] of the shares before a step of
+/// clients gets its full rate back (1 s at 30 Hz).
+pub const CALM_SLOTS: u32 = 30;
+/// While calm goes on, slots between further steps back.
+pub const RESTORE_EVERY: u32 = 5;
+/// A slot is calm under this fraction of [`STAGE_SHARE`] and
+/// [`TICK_SHARE`].
+pub const CALM_FRACTION: f64 = 0.7;
 /// Weight of the newest slot in the smoothed loads (an exponential
 /// moving average over about 1 / SMOOTHING slots).
 pub const SMOOTHING: f64 = 0.2;
@@ -108,13 +115,14 @@ impl RateGovernor {
             }
             return Decision::Hold;
         }
-        if stage < STAGE_SHARE / 2.0 && tick < TICK_SHARE / 2.0 {
+        if stage < STAGE_SHARE * CALM_FRACTION && tick < TICK_SHARE * CALM_FRACTION {
             self.calm += 1;
         } else {
             self.calm = 0;
         }
         if self.calm >= CALM_SLOTS && self.degraded > 0 {
-            self.calm = 0;
+            // The next step back comes RESTORE_EVERY calm slots later.
+            self.calm = CALM_SLOTS - RESTORE_EVERY;
             self.degraded = self.degraded.saturating_sub(step);
             return Decision::Restore;
         }
@@ -189,16 +197,41 @@ mod tests {
         // Still over: the next step comes at the next slot.
         assert_eq!(g.after_slot(32 * MS, 2 * MS, 200), Decision::Degrade);
         assert_eq!(g.degraded(), 40);
-        // Between the half share and the share: held, not calm.
-        for _ in 0..(2 * CALM_SLOTS) {
-            assert_eq!(g.after_slot(20 * MS, 2 * MS, 200), Decision::Hold);
+        // Between the calm share and the share: held, not calm (once the
+        // smoothed load has come down from above the share).
+        for _ in 0..10 {
+            g.after_slot(25 * MS, 2 * MS, 200);
+        }
+        let held = g.degraded();
+        for _ in 0..(4 * CALM_SLOTS) {
+            assert_eq!(g.after_slot(25 * MS, 2 * MS, 200), Decision::Hold);
         }
         // Calm: one step back after CALM_SLOTS calm slots (the smoothed
-        // load takes a few slots to fall under half the share).
+        // load takes a few slots to fall under the calm share), then one
+        // every RESTORE_EVERY slots.
         let (d, slots) = until_acted(&mut g, 2 * MS, 2 * MS, 200);
         assert_eq!(d, Decision::Restore);
         assert!(slots >= CALM_SLOTS as usize, "{slots}");
-        assert_eq!(g.degraded(), 20);
+        assert_eq!(g.degraded(), held - 20);
+        let (d, slots) = until_acted(&mut g, 2 * MS, 2 * MS, 200);
+        assert_eq!((d, slots), (Decision::Restore, RESTORE_EVERY as usize));
+        assert_eq!(g.degraded(), held - 40);
+    }
+
+    #[test]
+    fn tick_spikes_on_a_quiet_server_do_not_hold_rates_down() {
+        let mut g = RateGovernor::new(30, 60);
+        g.after_slot(40 * MS, 4 * MS, 100);
+        for _ in 0..10 {
+            g.after_slot(40 * MS, 4 * MS, 100);
+        }
+        assert!(g.degraded() > 0);
+        // A 4 ms tick with a 23 ms one every fiftieth slot: calm enough.
+        for slot in 0..300 {
+            let tick = if slot % 50 == 0 { 23 * MS } else { 4 * MS };
+            g.after_slot(3 * MS, tick, 100);
+        }
+        assert_eq!(g.degraded(), 0);
     }
 
     #[test]
