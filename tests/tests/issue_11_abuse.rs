@@ -33,8 +33,7 @@ use inertia_server::net::tls::STREAM_WINDOW;
 use inertia_server::server::RunningServer;
 use inertia_tests::admin::{admin, call, ok, status};
 use inertia_tests::raw::{
-    avatar_gone, closed_within, endpoint, fingerprint, game_config, joined, owns_an_avatar,
-    read_control,
+    avatar_gone, closed_within, endpoint, fingerprint, game_config, joined, read_control,
 };
 use inertia_tests::server::{http_get, start_server, temp_data_dir, test_config, token};
 
