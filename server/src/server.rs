@@ -23,7 +23,7 @@ use crate::metrics::{self, Metrics};
 use crate::net::{self, NetShared};
 use crate::replay::checkpoint::CheckpointDir;
 use crate::rules::{GameRules, SandboxRules, SandboxSettings};
-use crate::scene::{demo::demo_scene, Scene, SceneError};
+use crate::scene::{demo::DEMO_RON, Scene, SceneError, SceneFormat};
 use crate::sim::resume::read_for_resume;
 use crate::sim::{Frame, SimConfig, SimExit, SimHandle, Simulation};
 
@@ -138,7 +138,7 @@ pub async fn start_with_rules(
         Some(path) => Scene::read_file(path)?
             .build_with(world_config)
             .map_err(|e| e.in_file(path)),
-        None => demo_scene()?.build_with(world_config),
+        None => Scene::read(DEMO_RON, SceneFormat::Ron)?.build_with(world_config),
     };
     let built = built.map_err(|e| match e.body_limit() {
         Some(max) => StartError::TooManyBodies {

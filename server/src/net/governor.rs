@@ -18,7 +18,7 @@
 //! handshakes, say) costs clients their rate for seconds, not minutes. A world whose own tick nears its budget lowers
 //! rates too: that frees the cores the tick shares with the encoders.
 //!
-//! Which clients go first ([`degrade_order`]): spectators (no avatar)
+//! Which clients go first ([`degrade_rank`]): spectators (no avatar)
 //! before players, and among each, the newest connection first, so the
 //! players who have been in the match longest keep their rate longest.
 //! A client at half rate is served in every other slot, half of them in
@@ -146,13 +146,8 @@ pub fn degrade_rank(c: &Candidate) -> (bool, std::cmp::Reverse<u64>) {
     (c.plays, std::cmp::Reverse(c.connection))
 }
 
-/// Sorts `clients` by [`degrade_rank`].
-pub fn degrade_order(clients: &mut [Candidate]) {
-    clients.sort_unstable_by_key(degrade_rank);
-}
-
-/// The slot divisor and phase for the client at `rank` in
-/// [`degrade_order`] when `degraded` clients are at the lower rate:
+/// The slot divisor and phase for the client at `rank` by
+/// [`degrade_rank`] when `degraded` clients are at the lower rate:
 /// `(1, 0)` for full rate, else `(DEGRADED_EVERY, phase)` with phases
 /// alternating so the degraded clients split between the slots.
 pub fn rate_for(rank: usize, degraded: usize) -> (u32, u32) {
@@ -287,7 +282,7 @@ mod tests {
                 plays: false,
             },
         ];
-        degrade_order(&mut clients);
+        clients.sort_unstable_by_key(degrade_rank);
         let order: Vec<u64> = clients.iter().map(|c| c.connection).collect();
         assert_eq!(order, [4, 2, 3, 1]);
         let rates: Vec<(u32, u32)> = (0..4).map(|r| rate_for(r, 3)).collect();

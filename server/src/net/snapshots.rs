@@ -121,8 +121,9 @@ pub async fn run(shared: Arc<NetShared>) {
     let mut deltas = SharedDeltas::new();
     let mut clients = Vec::new();
     let mut governor = RateGovernor::new(shared.snapshot_hz, shared.tick_hz);
-    // Whether some client may be at a lower rate (set, not yet undone).
-    let mut rates_lowered = false;
+    // The rates as last handed out: how many lowered, among which
+    // connections (new clients start at full rate).
+    let mut rates_set = (0, Vec::new());
     loop {
         tokio::select! {
             changed = frames.changed() => if changed.is_err() { return },
@@ -138,9 +139,13 @@ pub async fn run(shared: Arc<NetShared>) {
         shared.served.snapshot_into(&mut clients);
         if !clients.is_empty() {
             let serving = Instant::now();
-            if governor.degraded() > 0 || rates_lowered {
-                set_rates(&clients, governor.degraded());
-                rates_lowered = governor.degraded() > 0;
+            let degraded = governor.degraded();
+            if (degraded > 0 || rates_set.0 > 0)
+                && (degraded != rates_set.0
+                    || !clients.iter().map(|(id, _)| id).eq(rates_set.1.iter()))
+            {
+                set_rates(&clients, degraded);
+                rates_set = (degraded, clients.iter().map(|(id, _)| *id).collect());
             }
             let quantized = frame.quantized(&shared.snapshot);
             for (_, served) in &clients {

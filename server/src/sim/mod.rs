@@ -145,6 +145,15 @@ pub(crate) struct Timeline {
     clock: Clock,
 }
 
+/// The timeline shown, from the two fields that hold one, so a caller can
+/// borrow it apart from the simulation's other fields.
+fn shown_of<'a>(view: &'a mut Option<timeline::View>, live: &'a mut Timeline) -> &'a mut Timeline {
+    match view {
+        Some(view) => &mut view.shown,
+        None => live,
+    }
+}
+
 impl std::fmt::Debug for Simulation {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Simulation")
@@ -168,14 +177,9 @@ impl Simulation {
 
     /// [`Self::shown`], to change.
     fn shown_mut(&mut self) -> &mut Timeline {
-        match &mut self.view {
-            Some(view) => &mut view.shown,
-            None => &mut self.live,
-        }
+        shown_of(&mut self.view, &mut self.live)
     }
-}
 
-impl Simulation {
     /// A simulation of a built scene under `rules`.
     pub fn new(scene: BuiltScene, rules: Box<dyn GameRules>, config: SimConfig) -> Self {
         let clock =
@@ -348,10 +352,7 @@ impl Simulation {
         let tick = self.shown().world.tick();
         let dt = self.dt();
         // The shown timeline, borrowed apart from the rules and events.
-        let shown = match &mut self.view {
-            Some(view) => &mut view.shown,
-            None => &mut self.live,
-        };
+        let shown = shown_of(&mut self.view, &mut self.live);
         let mut ctx = SimContext::new(
             &mut shown.world,
             &mut shown.entities,

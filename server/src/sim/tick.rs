@@ -4,6 +4,8 @@
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
+use inertia_protocol::EntityId;
+
 use super::stats::{RATE_WINDOW, TICK_WINDOW};
 use super::{startup, Simulation};
 use crate::rules::{GameEvent, RemovalReason};
@@ -17,34 +19,28 @@ impl Simulation {
         let t0 = Instant::now();
         self.with_ctx(|rules, ctx| rules.before_tick(ctx));
         let dt = self.dt();
-        match self.shown_mut().world.step(dt) {
+        let shown = super::shown_of(&mut self.view, &mut self.live);
+        match shown.world.step(dt) {
             Ok(report) => {
-                for h in report.removed_bodies {
-                    if let Some(id) = self.shown_mut().entities.remove_body(h) {
-                        self.ctx_events.push(GameEvent::Removed {
-                            entity: id,
-                            reason: RemovalReason::OutOfBounds,
-                        });
+                let mut removed = |id: Option<EntityId>, reason: RemovalReason| {
+                    if let Some(entity) = id {
+                        self.ctx_events.push(GameEvent::Removed { entity, reason });
                     }
+                };
+                for h in report.removed_bodies {
+                    removed(shown.entities.remove_body(h), RemovalReason::OutOfBounds);
                 }
                 for h in report.quarantined_bodies {
-                    let _ = self.shown_mut().world.remove_body(h);
-                    if let Some(id) = self.shown_mut().entities.remove_body(h) {
-                        self.ctx_events.push(GameEvent::Removed {
-                            entity: id,
-                            reason: RemovalReason::Quarantined,
-                        });
-                    }
+                    let _ = shown.world.remove_body(h);
+                    removed(shown.entities.remove_body(h), RemovalReason::Quarantined);
                 }
                 for h in report.quarantined {
-                    let _ = self.shown_mut().world.remove_particle(h);
-                    if let Some(id) = self.shown().entities.by_particle(h) {
-                        self.shown_mut().entities.remove(id);
-                        self.ctx_events.push(GameEvent::Removed {
-                            entity: id,
-                            reason: RemovalReason::Quarantined,
-                        });
+                    let _ = shown.world.remove_particle(h);
+                    let id = shown.entities.by_particle(h);
+                    if let Some(id) = id {
+                        shown.entities.remove(id);
                     }
+                    removed(id, RemovalReason::Quarantined);
                 }
             }
             Err(e) => {
