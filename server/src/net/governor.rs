@@ -264,7 +264,7 @@ mod tests {
 
     #[test]
     fn spectators_then_the_newest_players_lose_their_rate_first() {
-        let mut clients = vec![
+        let mut clients = [
             Candidate {
                 connection: 1,
                 plays: true,
