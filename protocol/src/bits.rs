@@ -49,6 +49,14 @@ impl BitWriter {
         Self::default()
     }
 
+    /// A writer whose buffer has room for `bytes` bytes before it grows.
+    pub fn with_capacity(bytes: usize) -> Self {
+        Self {
+            bytes: Vec::with_capacity(bytes),
+            ..Self::default()
+        }
+    }
+
     /// Writes the low `bits` bits of `value` (1 to 64; higher bits of
     /// `value` are ignored).
     ///

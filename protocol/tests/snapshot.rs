@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use glam::{DQuat, DVec3};
 use inertia_protocol::link::{LinkConfig, SimLink};
 use inertia_protocol::rng::SplitMix;
-use inertia_protocol::snapshot::{QuantizedEntity, MAX_TIME_SCALE};
+use inertia_protocol::snapshot::{QuantizedEntity, HELD_VIEWS, MAX_TIME_SCALE};
 use inertia_protocol::{
     EntityState, Interest, PriorityAccumulator, SnapshotConfig, SnapshotDecoder, SnapshotEncoder,
     SnapshotError,
@@ -106,7 +106,7 @@ fn random_worlds_round_trip_exactly_with_and_without_baseline() {
                 assert_eq!(got.tick, 100 + step);
                 // The client's view is the server's quantized world, exactly.
                 let view = dec.view(got.sequence).unwrap();
-                assert_eq!(view, enc.view(got.sequence).unwrap());
+                assert_eq!(*view, enc.view(got.sequence).unwrap());
                 assert_eq!(view.entities(), &quantized(&world, &config)[..]);
                 let entities = dec.entities(got.sequence).unwrap();
                 // What it carried is in the view as it carried it.
@@ -181,9 +181,29 @@ fn moving_world(n: u32, tick: u64) -> Vec<EntityState> {
 /// acks on the way back) and checks, for every snapshot the client
 /// decodes, that its view is the view the server says it sent.
 fn drive(seed: u64, velocities: bool, budget: usize, snapshots: u64) -> (u64, u64) {
+    let (dups, reordered, unchecked) = drive_with_delay(seed, velocities, budget, snapshots, 0.05);
+    assert_eq!(
+        unchecked, 0,
+        "every view the client decoded, the server could rebuild"
+    );
+    (dups, reordered)
+}
+
+/// [`drive`] over links of `delay` s each way; also returns how many
+/// decoded snapshots the server could not rebuild to compare (their
+/// baseline let go: only past [`HELD_VIEWS`] baselines in flight). The
+/// encoder never holds more than that many whole views besides the
+/// acknowledged one, and the client never misses a baseline.
+fn drive_with_delay(
+    seed: u64,
+    velocities: bool,
+    budget: usize,
+    snapshots: u64,
+    delay: f64,
+) -> (u64, u64, u64) {
     let config = config(velocities);
     let link = LinkConfig {
-        delay: 0.05,
+        delay,
         jitter: 0.02,
         loss: 0.05,
         duplicate: 0.03,
@@ -194,17 +214,22 @@ fn drive(seed: u64, velocities: bool, budget: usize, snapshots: u64) -> (u64, u6
     let mut dec = SnapshotDecoder::new(config).unwrap();
     let mut pri = PriorityAccumulator::default();
     let mut out_of_order = 0;
+    let mut unchecked = 0;
     for tick in 0..snapshots {
         let now = tick as f64 / 60.0;
         let world = moving_world(150, tick);
         let bytes = enc.encode(tick, 1.0, false, &world, &mut pri, budget);
         assert!(bytes.len() <= budget.min(config.max_datagram));
+        assert!(enc.held_views() <= HELD_VIEWS + 1, "{}", enc.held_views());
         down.send(now, bytes);
         for packet in down.receive(now) {
             match dec.decode(&packet) {
                 Ok(got) => {
                     let view = dec.view(got.sequence).unwrap();
-                    assert_eq!(Some(view), enc.view(got.sequence), "seq {}", got.sequence);
+                    match enc.view(got.sequence) {
+                        Some(sent) => assert_eq!(*view, sent, "seq {}", got.sequence),
+                        None => unchecked += 1,
+                    }
                     out_of_order += u64::from(!got.newest);
                     let (newest, bits) = dec.ack_state();
                     let mut ack = Vec::new();
@@ -222,7 +247,7 @@ fn drive(seed: u64, velocities: bool, budget: usize, snapshots: u64) -> (u64, u6
     }
     let stats = dec.stats();
     assert!(stats.decoded > snapshots * 85 / 100, "{stats:?}");
-    (stats.duplicate, out_of_order)
+    (stats.duplicate, out_of_order, unchecked)
 }
 
 #[test]
@@ -238,6 +263,42 @@ fn a_moving_world_over_a_lossy_link_stays_in_step() {
         dups > 0 && reordered > 0,
         "the link exercised duplicates ({dups}) and reordering ({reordered})"
     );
+}
+
+#[test]
+fn whole_views_are_held_only_for_baselines_in_flight() {
+    // Round trips of 12 and of 36 snapshot periods: the first within
+    // HELD_VIEWS, every view rebuilt; the second beyond it, the encoder
+    // still within its views and the client never short of a baseline.
+    let (_, _, unchecked) = drive_with_delay(6, true, 1200, 600, 0.1);
+    assert_eq!(unchecked, 0);
+    drive_with_delay(7, false, 1200, 600, 0.3);
+}
+
+#[test]
+fn a_client_that_never_acknowledges_gets_whole_snapshots_in_budget_and_holds_no_view() {
+    let config = config(true);
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut pri = PriorityAccumulator::default();
+    let mut sent_ids = std::collections::BTreeSet::new();
+    for tick in 0..300u64 {
+        let world = moving_world(1000, tick);
+        let bytes = enc.encode(tick, 1.0, false, &world, &mut pri, 1200);
+        let report = enc.last_report();
+        assert!(bytes.len() <= 1200);
+        assert_eq!(
+            report.baseline, None,
+            "nothing acknowledged, nothing to build on"
+        );
+        assert!(report.included > 0, "every snapshot carries what fits");
+        assert_eq!(enc.held_views(), 0);
+        let view = enc
+            .view(report.sequence)
+            .expect("the last snapshot is remembered");
+        sent_ids.extend(view.entities().iter().map(|e| e.0));
+    }
+    // The priorities rotate through the world while the client says nothing.
+    assert_eq!(sent_ids.len(), 1000);
 }
 
 #[test]
@@ -417,7 +478,7 @@ fn sequence_numbers_wrap_around() {
         }
         let got = dec.decode(&bytes).unwrap();
         assert_eq!(got.tick, tick);
-        assert_eq!(dec.view(got.sequence), enc.view(got.sequence));
+        assert_eq!(dec.view(got.sequence), enc.view(got.sequence).as_ref());
         with_baseline += u64::from(got.baseline.is_some());
         if tick >= 3 && (tick - 3) % 10 != 9 {
             enc.on_ack((tick - 3) as u16);
@@ -592,7 +653,7 @@ proptest! {
         // flip that makes sequence 1 into 64, against baseline 0).
         if bytes != clean {
             match dec.decode(&clean) {
-                Ok(got) => prop_assert_eq!(dec.view(got.sequence), enc.view(got.sequence)),
+                Ok(got) => prop_assert_eq!(dec.view(got.sequence).cloned(), enc.view(got.sequence)),
                 Err(SnapshotError::Duplicate { .. }) => {}
                 Err(SnapshotError::MissingBaseline { .. }) if mutant.is_ok() => {}
                 Err(e) => prop_assert!(false, "clean snapshot refused: {}", e),

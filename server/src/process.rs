@@ -3,7 +3,11 @@
 //! until SIGTERM or Ctrl-C, re-reading the admin token file on SIGHUP
 //! ([`AdminTokenStore::reload`]), and the exit status an orchestrator acts
 //! on.
-//! A studio's own server binary is `fn main() -> ExitCode { run(my_rules) }`.
+//! A studio's own server binary is `fn main() -> ExitCode { run(my_rules) }`,
+//! best with the allocator `inertia-server` declares
+//! (`#[global_allocator] static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;`):
+//! the capacity figures are measured with it, and glibc's allocator
+//! serialises the tick thread and the network workers on its arena locks.
 //!
 //! Exit status: 0 after a requested stop; 1 when the server could not
 //! start; 2 for a bad configuration; 3 when the simulation failed while

@@ -221,7 +221,7 @@ impl SnapshotDecoder {
             return Err(SnapshotError::Malformed("view above MAX_ENTITIES"));
         }
 
-        let view = base.apply(tick, &removed, &updated);
+        let view = base.apply_into(tick, &removed, &updated, Vec::new());
         let updated = updated
             .iter()
             .map(|(id, q)| q.dequantize(*id, &config))

@@ -6,11 +6,10 @@ use crate::priority::PriorityAccumulator;
 
 use super::code::{varuint_bits, write_varuint, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES};
 use super::frame::QuantizedFrame;
+use super::sent::{Sent, SentLog};
 use super::shared::{DeltaRef, SharedDeltas};
-use super::view::{QuantizedEntity, Ring, View};
-use super::{
-    sequence_newer, ConfigError, SnapshotConfig, MAX_ENTITIES, MAX_TIME_SCALE, RING, SNAPSHOT_TAG,
-};
+use super::view::{QuantizedEntity, View};
+use super::{ConfigError, SnapshotConfig, MAX_ENTITIES, MAX_TIME_SCALE, SNAPSHOT_TAG};
 
 /// What the last [`SnapshotEncoder::encode`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -33,22 +32,37 @@ pub struct EncodeReport {
     pub view_len: usize,
 }
 
-/// Codes the world for one client: keeps the views it sent (the last
-/// [`RING`]), the newest one the client acknowledged, and the next
-/// sequence number.
+/// Codes the world for one client: remembers what it sent (the last
+/// [`RING`](super::RING) snapshots, each as its change to the view it was coded
+/// against), the newest view the client acknowledged, whole, and the
+/// next sequence number.
 #[derive(Debug, Clone)]
 pub struct SnapshotEncoder {
     config: SnapshotConfig,
-    sent: Ring,
+    log: SentLog,
     next: u16,
-    acked: Option<u16>,
     last: EncodeReport,
+    /// Buffers of a snapshot the log no longer holds, for the next one.
+    spare: Sent,
+    /// Buffers of one encode, kept for their memory.
+    work: Work,
     /// The deltas of [`Self::encode_frame`], which shares them with no
     /// other client (kept for their memory).
     own: SharedDeltas,
 }
 
+/// The buffers one encode fills, kept between encodes so a snapshot
+/// allocates only its datagram.
+#[derive(Debug, Clone, Default)]
+struct Work {
+    removed: Vec<EntityId>,
+    candidates: Vec<Candidate>,
+    picked: Vec<(EntityId, usize, DeltaRef)>,
+    chosen: IndexSet,
+}
+
 /// An entity that differs from the baseline.
+#[derive(Debug, Clone, Copy)]
 struct Candidate {
     priority: f64,
     id: EntityId,
@@ -87,10 +101,11 @@ impl SnapshotEncoder {
         config.validate()?;
         Ok(Self {
             config,
-            sent: Ring::new(),
+            log: SentLog::new(),
             next: 0,
-            acked: None,
             last: EncodeReport::default(),
+            spare: Sent::default(),
+            work: Work::default(),
             own: SharedDeltas::new(),
         })
     }
@@ -104,14 +119,7 @@ impl SnapshotEncoder {
     /// baseline. Acks of snapshots never sent, no longer held, or older
     /// than the newest acknowledged are ignored.
     pub fn on_ack(&mut self, sequence: u16) {
-        let in_window = sequence_newer(self.next, sequence)
-            && usize::from(self.next.wrapping_sub(sequence)) <= RING;
-        if in_window
-            && self.sent.get(sequence).is_some()
-            && self.acked.is_none_or(|a| sequence_newer(sequence, a))
-        {
-            self.acked = Some(sequence);
-        }
+        self.log.on_ack(sequence, self.next);
     }
 
     /// Acknowledgements as [`super::SnapshotDecoder::ack_state`] gives
@@ -122,14 +130,25 @@ impl SnapshotEncoder {
         }
     }
 
-    /// The newest snapshot the client acknowledged, if still held.
+    /// The newest snapshot the client acknowledged, while it can be the
+    /// baseline of the next one (no more than [`RING`](super::RING) back).
     pub fn acked(&self) -> Option<u16> {
-        self.acked.filter(|&a| self.sent.get(a).is_some())
+        self.log.baseline(self.next).map(|(a, _)| a)
     }
 
-    /// The view snapshot `sequence` described, while held.
-    pub fn view(&self, sequence: u16) -> Option<&View> {
-        self.sent.get(sequence)
+    /// The view snapshot `sequence` described, built from what it sent and
+    /// its baseline, while both are held (the last [`RING`](super::RING) snapshots; a
+    /// baseline older than the newest acknowledged view only while a
+    /// snapshot in flight needs it).
+    pub fn view(&self, sequence: u16) -> Option<View> {
+        self.log.view(sequence)
+    }
+
+    /// Whole views this encoder holds now (the acknowledged one and older
+    /// ones snapshots in flight were coded against): its memory beyond
+    /// the [`RING`](super::RING) snapshots' changes.
+    pub fn held_views(&self) -> usize {
+        self.log.held_views()
     }
 
     /// What the last [`Self::encode`] did.
@@ -197,13 +216,22 @@ impl SnapshotEncoder {
             0.0
         };
         let sequence = self.next;
-        let baseline = self.acked().filter(|&b| b != sequence);
         let empty = View::default();
-        let base = baseline.and_then(|b| self.sent.get(b)).unwrap_or(&empty);
+        let (baseline, base) = match self.log.baseline(sequence) {
+            Some((b, view)) => (Some(b), view),
+            None => (None, &empty),
+        };
 
         // Walk the frame and the baseline together, by id.
-        let mut removed = Vec::new();
-        let mut candidates = Vec::new();
+        let Work {
+            removed,
+            candidates,
+            picked,
+            chosen,
+        } = &mut self.work;
+        removed.clear();
+        candidates.clear();
+        picked.clear();
         let base_entities = base.entities();
         let mut b = 0;
         for (i, &id) in frame.ids().iter().enumerate() {
@@ -249,8 +277,9 @@ impl SnapshotEncoder {
         used += 1 + if time_scale == 1.0 { 0 } else { 32 } + 1;
         used += 2 * varuint_bits(MAX_ENTITIES as u64, &COUNT_CLASSES);
 
-        let mut removed_sent = Vec::new();
-        for &id in &removed {
+        let mut removed_sent = std::mem::take(&mut self.spare.removed);
+        removed_sent.clear();
+        for &id in removed.iter() {
             let cost = id_bits(removed_sent.last().copied(), id);
             if used + cost > budget || removed_sent.len() == MAX_ENTITIES {
                 break;
@@ -263,8 +292,7 @@ impl SnapshotEncoder {
         // room wait.
         let mut room = MAX_ENTITIES.saturating_sub(base.len());
         // The chosen, as a set of frame indices (index order is id order).
-        let mut chosen = IndexSet::new(frame.len());
-        let mut picked: Vec<(EntityId, usize, DeltaRef)> = Vec::new();
+        chosen.reset(frame.len());
         let (mut sorted, mut misses) = (0, 0);
         for k in 0..candidates.len() {
             if misses == MISSES_WHEN_FULL {
@@ -308,15 +336,16 @@ impl SnapshotEncoder {
             }
         }
         picked.sort_unstable_by_key(|&(_, index, _)| index);
-        let by_id = picked;
-        let mut updated: Vec<(EntityId, QuantizedEntity)> = Vec::with_capacity(by_id.len());
-        for &(id, index, _) in &by_id {
+        let by_id = &*picked;
+        let mut updated: Vec<(EntityId, QuantizedEntity)> = std::mem::take(&mut self.spare.updated);
+        updated.clear();
+        for &(id, index, _) in by_id {
             updated.push((id, frame.state(index)));
             priorities.sent(id);
         }
 
         // Write it.
-        let mut w = BitWriter::new();
+        let mut w = BitWriter::with_capacity(used.div_ceil(8));
         w.write(u64::from(SNAPSHOT_TAG), 8);
         w.write(u64::from(sequence), 16);
         w.write_bool(baseline.is_some());
@@ -341,7 +370,7 @@ impl SnapshotEncoder {
         }
         write_varuint(&mut w, updated.len() as u64, &COUNT_CLASSES);
         let mut prev = None;
-        for &(id, _, delta) in &by_id {
+        for &(id, _, delta) in by_id {
             write_varuint(&mut w, id_gap(prev, id), &ID_CLASSES);
             shared.write(frame, delta, &config, &mut w);
             prev = Some(id);
@@ -353,7 +382,13 @@ impl SnapshotEncoder {
         );
         let bytes = w.finish();
 
-        let view = base.apply(tick, &removed_sent, &updated);
+        // The view it describes: the baseline's, less the removals, with
+        // the entities new to it.
+        let new = by_id
+            .iter()
+            .filter(|&&(id, _, _)| base.get(id).is_none())
+            .count();
+        let view_len = base.len() - removed_sent.len() + new;
         self.last = EncodeReport {
             sequence,
             baseline,
@@ -362,9 +397,16 @@ impl SnapshotEncoder {
             deferred: candidates.len() - updated.len(),
             removed: removed_sent.len(),
             removals_deferred: removed.len() - removed_sent.len(),
-            view_len: view.len(),
+            view_len,
         };
-        self.sent.insert(sequence, view);
+        let replaced = self.log.record(Sent {
+            sequence,
+            baseline,
+            tick,
+            removed: removed_sent,
+            updated,
+        });
+        self.spare = replaced.unwrap_or_default();
         self.next = sequence.wrapping_add(1);
         bytes
     }
@@ -372,16 +414,24 @@ impl SnapshotEncoder {
 
 /// A set of frame indices, as bits, that finds the nearest member either
 /// side of an index.
+#[derive(Debug, Clone, Default)]
 struct IndexSet {
     words: Vec<u64>,
 }
 
 impl IndexSet {
     /// Holds none of `0..len`.
+    #[cfg(test)]
     fn new(len: usize) -> Self {
-        Self {
-            words: vec![0; len.div_ceil(64)],
-        }
+        let mut set = Self::default();
+        set.reset(len);
+        set
+    }
+
+    /// Now holds none of `0..len`.
+    fn reset(&mut self, len: usize) {
+        self.words.clear();
+        self.words.resize(len.div_ceil(64), 0);
     }
 
     fn insert(&mut self, i: usize) {

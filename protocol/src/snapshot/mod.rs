@@ -71,12 +71,14 @@ mod code;
 mod decoder;
 mod encoder;
 mod frame;
+mod sent;
 mod shared;
 mod view;
 
 pub use decoder::{DecodeStats, DecodedSnapshot, SnapshotDecoder};
 pub use encoder::{EncodeReport, SnapshotEncoder};
 pub use frame::QuantizedFrame;
+pub use sent::HELD_VIEWS;
 pub use shared::SharedDeltas;
 pub use view::{QuantizedEntity, QuantizedRotation, View, ViewEntity};
 

@@ -151,35 +151,72 @@ impl View {
     }
 
     /// This view with `removed` gone and `updated` put in (both ascending by
-    /// id), by one merge.
-    pub(crate) fn apply(
+    /// id), by one merge into `buffer` (cleared first; passed in for its
+    /// memory).
+    pub(crate) fn apply_into(
         &self,
         tick: u64,
         removed: &[EntityId],
         updated: &[(EntityId, QuantizedEntity)],
+        mut buffer: Vec<(EntityId, QuantizedEntity)>,
     ) -> View {
-        let mut out = Vec::with_capacity(self.entities.len() + updated.len());
+        buffer.clear();
+        buffer.reserve(self.entities.len() + updated.len());
         let (mut r, mut u) = (0, 0);
         for &(id, q) in &self.entities {
             while u < updated.len() && updated[u].0 < id {
-                out.push(updated[u]);
+                buffer.push(updated[u]);
                 u += 1;
             }
             while r < removed.len() && removed[r] < id {
                 r += 1;
             }
             if u < updated.len() && updated[u].0 == id {
-                out.push(updated[u]);
+                buffer.push(updated[u]);
                 u += 1;
             } else if !(r < removed.len() && removed[r] == id) {
-                out.push((id, q));
+                buffer.push((id, q));
             }
         }
-        out.extend_from_slice(&updated[u..]);
+        buffer.extend_from_slice(&updated[u..]);
         View {
             tick,
-            entities: out,
+            entities: buffer,
         }
+    }
+
+    /// [`Self::apply_into`] on this view itself: when nothing is removed
+    /// and every updated id is already here (a world that only moves),
+    /// each update is written over its entity; otherwise the merge goes
+    /// through `scratch`, which is left holding the old buffer.
+    pub(crate) fn apply_in_place(
+        &mut self,
+        tick: u64,
+        removed: &[EntityId],
+        updated: &[(EntityId, QuantizedEntity)],
+        scratch: &mut Vec<(EntityId, QuantizedEntity)>,
+    ) {
+        self.tick = tick;
+        if removed.is_empty() {
+            let mut at = 0;
+            let mut all_here = true;
+            for &(id, q) in updated {
+                at += self.entities[at..].partition_point(|e| e.0 < id);
+                match self.entities.get_mut(at) {
+                    Some(e) if e.0 == id => e.1 = q,
+                    _ => {
+                        all_here = false;
+                        break;
+                    }
+                }
+            }
+            if all_here {
+                return;
+            }
+        }
+        // Updates already written are written again by the merge.
+        let merged = self.apply_into(tick, removed, updated, std::mem::take(scratch));
+        *scratch = std::mem::replace(&mut self.entities, merged.entities);
     }
 }
 
@@ -235,11 +272,27 @@ mod tests {
             tick: 1,
             entities: vec![(1, q(1)), (3, q(3)), (5, q(5)), (7, q(7))],
         };
-        let next = base.apply(2, &[3, 7], &[(0, q(9)), (5, q(8)), (9, q(9))]);
+        let (removed, updated) = ([3, 7], [(0, q(9)), (5, q(8)), (9, q(9))]);
+        let next = base.apply_into(2, &removed, &updated, vec![(4, q(4))]);
         assert_eq!(next.tick, 2);
         assert_eq!(
             next.entities,
             vec![(0, q(9)), (1, q(1)), (5, q(8)), (9, q(9))]
         );
+        // In place, through the merge (removals, a new id) and by writing
+        // over (updates of ids held only), the same view.
+        let mut scratch = Vec::new();
+        let mut in_place = base.clone();
+        in_place.apply_in_place(2, &removed, &updated, &mut scratch);
+        assert_eq!(in_place, next);
+        let moved = [(1, q(11)), (7, q(17))];
+        let mut in_place = base.clone();
+        in_place.apply_in_place(3, &[], &moved, &mut scratch);
+        assert_eq!(in_place, base.apply_into(3, &[], &moved, Vec::new()));
+        // An id not held, after some written over: the merge still agrees.
+        let mixed = [(1, q(11)), (6, q(6))];
+        let mut in_place = base.clone();
+        in_place.apply_in_place(4, &[], &mixed, &mut scratch);
+        assert_eq!(in_place, base.apply_into(4, &[], &mixed, Vec::new()));
     }
 }
