@@ -435,10 +435,15 @@ impl InterpolationBuffer {
         let pushed: Vec<EntityId> = snapshot.entities.iter().map(|v| v.id).collect();
         for view in snapshot.entities {
             let samples = self.entities.entry(view.id).or_default();
-            let at = samples.partition_point(|&(t, _)| t < meta.tick);
-            match samples.get_mut(at) {
-                Some(s) if s.0 == meta.tick => s.1 = view,
-                _ => samples.insert(at, (meta.tick, view)),
+            if samples.back().is_none_or(|s| s.0 < meta.tick) {
+                // In order, as nearly every snapshot is.
+                samples.push_back((meta.tick, view));
+            } else {
+                let at = samples.partition_point(|&(t, _)| t < meta.tick);
+                match samples.get_mut(at) {
+                    Some(s) if s.0 == meta.tick => s.1 = view,
+                    _ => samples.insert(at, (meta.tick, view)),
+                }
             }
             if samples.len() > self.config.max_snapshots {
                 // Drop the one furthest from the render tick.

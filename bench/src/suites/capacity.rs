@@ -10,9 +10,9 @@
 //! by default; `--clients`), K bot clients start in bot processes of
 //! their own ([`super::bots`]: up to 128 QUIC connections to a process,
 //! on one runtime), so their CPU time is not the server's. Every bot
-//! decodes every snapshot and sends inputs at the tick rate, as a game
-//! does, and does not render. After a warm-up the bench tells every bot
-//! to start counting, measures the server for `--seconds`, tells them to
+//! decodes every snapshot and sends inputs (30 a second, each with the
+//! last 4), as a game does, and does not render. After a warm-up the
+//! bench tells every bot to start counting, measures the server for `--seconds`, tells them to
 //! stop, and each bot reports what it received as one JSON line.
 //!
 //! Measured per K:
@@ -43,6 +43,9 @@
 //! * `kbps_per_client`: mean over bots of the snapshot bytes each received
 //!   in the window, kbit/s; `snapshots_per_client_hz` (mean) and
 //!   `snapshots_min_client_hz` (worst bot): snapshots received per second.
+//! * `settle_s`: how long after the warm-up the step waited for every
+//!   client to be back at full rate (at most [`SETTLE_MAX_S`]), so the
+//!   window does not measure the rate policy recovering from the joins.
 //! * `rate_degrade_steps`: steps the server's rate policy took to lower
 //!   clients' snapshot rates during the window; `clients_degraded`: the
 //!   clients at a lower rate at its end (`/metrics`). A step with clients
@@ -85,6 +88,11 @@ pub const TICK_BUDGET_MS: f64 = 1000.0 / TICK_HZ as f64;
 /// A client is served at its rate when it receives at least this
 /// fraction of [`SNAPSHOT_HZ`].
 pub const SERVED_FRACTION: f64 = 0.95;
+/// After the warm-up, how long a step may wait at most for the server's
+/// rate policy to bring every client back to full rate (it lowers rates
+/// while a wave of handshakes costs CPU, and restores them a step a few
+/// slots at a time), s. The wait is reported as `settle_s`.
+pub const SETTLE_MAX_S: f64 = 15.0;
 /// How long every bot of a step has to connect, s.
 const CONNECT_TIMEOUT: Duration = Duration::from_secs(60);
 
@@ -346,11 +354,19 @@ fn steps(
         let ids: Vec<u64> = (0..u64::from(k))
             .map(|i| 100_000 * (n as u64 + 1) + i)
             .collect();
-        let mut bots = Bots::spawn(&credentials, &ids, per_step + 60.0)?;
+        let mut bots = Bots::spawn(&credentials, &ids, per_step + SETTLE_MAX_S + 60.0)?;
         bots.wait_ready(CONNECT_TIMEOUT)?;
         let bot_processes = bots.processes();
         pb.set_message(format!("K={k}: warm-up"));
         std::thread::sleep(Duration::from_secs_f64(warmup));
+        let settling = Instant::now();
+        while server.metrics().snapshot_clients_degraded.get() > 0
+            && settling.elapsed().as_secs_f64() < SETTLE_MAX_S
+        {
+            pb.set_message(format!("K={k}: waiting for full rates"));
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let settle_s = settling.elapsed().as_secs_f64();
         let entities = server.frame().entities.len();
 
         bots.tell("start");
@@ -469,6 +485,7 @@ fn steps(
                 )
                 .num("snapshots_per_client_hz", mean(&|r| r.snapshots_hz))
                 .num("snapshots_min_client_hz", min_hz)
+                .num("settle_s", settle_s)
                 .field("rate_degrade_steps", b.degrade_steps - a.degrade_steps)
                 .field("clients_degraded", b.degraded)
                 .num("loss_mean", mean(&|r| r.loss))

@@ -194,34 +194,53 @@ impl SnapshotDecoder {
 
         let removed = read_ids(&mut r, base.len())?;
         // Every removal must name an entity of the baseline.
-        if removed.iter().any(|&id| base.get(id).is_none()) {
+        // (Ids come in ascending order: a cursor walks the baseline.)
+        let mut at = 0;
+        if removed
+            .iter()
+            .any(|&id| base.find_from(&mut at, id).is_none())
+        {
             return Err(SnapshotError::Malformed("removal of an entity not in view"));
         }
+        let mut at = 0;
         let bound = MAX_ENTITIES.min(r.bits_left() / MIN_ENTITY_BITS);
         let count = read_count(&mut r, bound)?;
         let mut updated: Vec<(EntityId, QuantizedEntity)> = Vec::with_capacity(count);
         let mut prev = None;
+        let mut new = 0;
         for _ in 0..count {
             let id = read_id(&mut r, prev)?;
             prev = Some(id);
             if removed.binary_search(&id).is_ok() {
                 return Err(SnapshotError::Malformed("entity both removed and updated"));
             }
-            let q = read_body(&mut r, base.get(id), &config)?;
+            let held = base.find_from(&mut at, id);
+            new += usize::from(held.is_none());
+            let q = read_body(&mut r, held, &config)?;
             updated.push((id, q));
         }
         if r.bits_left() >= 8 {
             return Err(SnapshotError::Malformed("trailing bytes"));
         }
-        let new = updated
-            .iter()
-            .filter(|(id, _)| base.get(*id).is_none())
-            .count();
         if base.len() - removed.len() + new > MAX_ENTITIES {
             return Err(SnapshotError::Malformed("view above MAX_ENTITIES"));
         }
 
-        let view = base.apply_into(tick, &removed, &updated, Vec::new());
+        // The view goes in the slot of the one RING before it: that one's
+        // buffer carries it, unless it is the baseline itself.
+        let spare = match baseline {
+            Some(b) if usize::from(sequence.wrapping_sub(b)) == RING => Vec::new(),
+            _ => self
+                .received
+                .take_slot(sequence)
+                .map(|v| v.entities)
+                .unwrap_or_default(),
+        };
+        let base = match baseline {
+            Some(b) => self.received.get(b).expect("found above"),
+            None => &empty,
+        };
+        let view = base.apply_into(tick, &removed, &updated, spare);
         let updated = updated
             .iter()
             .map(|(id, q)| q.dequantize(*id, &config))

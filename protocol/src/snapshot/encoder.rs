@@ -384,10 +384,8 @@ impl SnapshotEncoder {
 
         // The view it describes: the baseline's, less the removals, with
         // the entities new to it.
-        let new = by_id
-            .iter()
-            .filter(|&&(id, _, _)| base.get(id).is_none())
-            .count();
+        // (Each entity new to the view took one of its room.)
+        let new = MAX_ENTITIES.saturating_sub(base.len()) - room;
         let view_len = base.len() - removed_sent.len() + new;
         self.last = EncodeReport {
             sequence,

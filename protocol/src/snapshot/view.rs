@@ -140,6 +140,14 @@ impl View {
             .map(|i| &self.entities[i].1)
     }
 
+    /// [`Self::get`] for ids asked in ascending order: `at` (0 before the
+    /// first) is where the last search ended, and the search goes on from
+    /// there.
+    pub(crate) fn find_from(&self, at: &mut usize, id: EntityId) -> Option<&QuantizedEntity> {
+        *at += self.entities[*at..].partition_point(|e| e.0 < id);
+        self.entities.get(*at).filter(|e| e.0 == id).map(|e| &e.1)
+    }
+
     /// Entities in the view.
     pub fn len(&self) -> usize {
         self.entities.len()
@@ -238,6 +246,11 @@ impl Ring {
             Some((s, v)) if *s == seq => Some(v),
             _ => None,
         }
+    }
+
+    /// Whatever view the slot of `seq` holds, taken out.
+    pub(crate) fn take_slot(&mut self, seq: u16) -> Option<View> {
+        self.slots[usize::from(seq) % RING].take().map(|(_, v)| v)
     }
 
     pub(crate) fn insert(&mut self, seq: u16, view: View) {

@@ -507,13 +507,19 @@ async fn session(
     let mut shutdown = shared.shutdown.clone();
     let mut buf = vec![0u8; 4096];
     let mut kick_open = true;
-    // The catalog as it is now, then whenever it or the events change.
+    // The catalog as it is now, then whenever it or the events change,
+    // at most once a snapshot period: with players jumping and pushing
+    // there are events at nearly every tick, and one write of a period's
+    // events costs the network far less than one for each frame.
     let mut catalog_due = true;
+    let sync_period = Duration::from_secs_f64(1.0 / f64::from(shared.snapshot_hz.max(1)));
+    let mut next_sync = tokio::time::Instant::now();
     let mut heard = tokio::time::Instant::now();
     let mut frames_open = true;
     loop {
-        if catalog_due {
+        if catalog_due && tokio::time::Instant::now() >= next_sync {
             catalog_due = false;
+            next_sync = tokio::time::Instant::now() + sync_period;
             published.borrow_and_update();
             let frame = shared.sim.frame();
             if let Err(e) = sync_catalog(outbox, &frame, &mut view, shared) {
@@ -531,7 +537,8 @@ async fn session(
         }
         let stall = outbox.stall_deadline();
         tokio::select! {
-            changed = published.changed(), if frames_open => match changed {
+            _ = tokio::time::sleep_until(next_sync), if catalog_due => {}
+            changed = published.changed(), if frames_open && !catalog_due => match changed {
                 Ok(()) => catalog_due = true,
                 // The tick thread has stopped: the shutdown that follows
                 // says why.

@@ -178,6 +178,14 @@ impl EntityTable {
     /// whose physics object is gone are skipped.
     pub fn states(&self, world: &World) -> Vec<EntityState> {
         let mut out = Vec::with_capacity(self.entries.len());
+        self.states_into(world, &mut out);
+        out
+    }
+
+    /// [`Self::states`], into `out` (emptied first; passed in for its
+    /// memory).
+    pub fn states_into(&self, world: &World, out: &mut Vec<EntityState>) {
+        out.clear();
         for (&id, e) in &self.entries {
             match e.source {
                 EntitySource::Body(h) => {
@@ -214,7 +222,6 @@ impl EntityTable {
                 }
             }
         }
-        out
     }
 }
 

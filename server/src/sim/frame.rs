@@ -78,6 +78,12 @@ impl Simulation {
     /// [`RECENT_EVENTS`] events (so a reader that skipped frames still sees
     /// every event, as long as it keeps up within that many).
     pub fn frame(&mut self) -> Frame {
+        self.frame_in(Vec::new())
+    }
+
+    /// [`Self::frame`], its states written into `states` (emptied; passed
+    /// in for its memory).
+    pub(crate) fn frame_in(&mut self, mut states: Vec<EntityState>) -> Frame {
         if !self.pending_events.is_empty() {
             let mut recent: Vec<(u64, GameEvent)> = self.recent_events.as_ref().clone();
             recent.append(&mut self.pending_events);
@@ -100,7 +106,12 @@ impl Simulation {
                 _ => self.shown().clock.time_scale(),
             },
             paused: self.shown().clock.paused(),
-            entities: self.shown().entities.states(&self.shown().world),
+            entities: {
+                self.shown()
+                    .entities
+                    .states_into(&self.shown().world, &mut states);
+                states
+            },
             catalog: self.catalog.clone(),
             catalog_version: self.catalog_version,
             events: self.recent_events.clone(),

@@ -91,6 +91,7 @@ impl SimHandle {
         let publisher = Publisher {
             frames: frame_tx,
             catalog: catalog_tx,
+            retired: Default::default(),
         };
         let thread = std::thread::Builder::new()
             .name("inertia-tick".into())

@@ -2,13 +2,14 @@
 //! clock says are due, publish a frame, sleep until the next tick; and
 //! what it does when the loop ends or anything in it panics.
 
+use std::collections::VecDeque;
 use std::panic::{self, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use inertia_protocol::PlayerInput;
+use inertia_protocol::{EntityState, PlayerInput};
 use tokio::sync::watch;
 
 use super::command::Command;
@@ -29,12 +30,12 @@ pub(super) fn run(
     mut sim: Simulation,
     control: Receiver<Command>,
     inputs: Receiver<(ClientId, PlayerInput)>,
-    frames: Publisher,
+    mut frames: Publisher,
     exit: watch::Sender<Option<SimExit>>,
     stopping: &AtomicBool,
 ) {
     let looped = panic::catch_unwind(AssertUnwindSafe(|| {
-        run_loop(&mut sim, control, inputs, &frames, stopping)
+        run_loop(&mut sim, control, inputs, &mut frames, stopping)
     }));
     let outcome = match looped {
         Ok(()) => match panic::catch_unwind(AssertUnwindSafe(|| sim.finish_recording())) {
@@ -66,22 +67,52 @@ pub(super) fn run(
     exit.send_replace(Some(outcome));
 }
 
+/// Frames a [`Publisher`] keeps after replacing them, until no reader
+/// holds them: one of those lends its states buffer to the next frame, so
+/// publishing 60 frames a second does not allocate (and fault in) a
+/// fresh buffer of every moving entity each time.
+const RETIRED_FRAMES: usize = 8;
+
 /// Where the tick thread's frames go: every frame to `frames`, and a
 /// count in `catalog` that moves only when a frame's catalog or events
 /// differ from the frame before.
 pub(super) struct Publisher {
     pub(super) frames: watch::Sender<Arc<Frame>>,
     pub(super) catalog: watch::Sender<u64>,
+    /// Frames replaced, oldest first, at most [`RETIRED_FRAMES`].
+    pub(super) retired: VecDeque<Arc<Frame>>,
 }
 
 impl Publisher {
-    fn publish(&self, frame: Frame) {
-        let frame = Arc::new(frame);
+    /// Publishes the simulation's frame now.
+    fn publish(&mut self, sim: &mut Simulation) {
+        let frame = Arc::new(sim.frame_in(self.reclaim()));
         let old = self.frames.send_replace(frame.clone());
         if old.catalog_version != frame.catalog_version || !Arc::ptr_eq(&old.events, &frame.events)
         {
             self.catalog.send_modify(|n| *n = n.wrapping_add(1));
         }
+        self.retired.push_back(old);
+        if self.retired.len() > RETIRED_FRAMES {
+            self.retired.pop_front();
+        }
+    }
+
+    /// The states buffer of the oldest retired frame no reader holds any
+    /// more, emptied (a new one when every one is still read).
+    fn reclaim(&mut self) -> Vec<EntityState> {
+        let free = self
+            .retired
+            .iter_mut()
+            .position(|f| Arc::get_mut(f).is_some());
+        let Some(mut frame) = free.and_then(|i| self.retired.remove(i)) else {
+            return Vec::new();
+        };
+        let mut states = Arc::get_mut(&mut frame)
+            .map(|f| std::mem::take(&mut f.entities))
+            .unwrap_or_default();
+        states.clear();
+        states
     }
 }
 
@@ -100,7 +131,7 @@ fn run_loop(
     sim: &mut Simulation,
     control: Receiver<Command>,
     inputs: Receiver<(ClientId, PlayerInput)>,
-    frames: &Publisher,
+    frames: &mut Publisher,
     stopping: &AtomicBool,
 ) {
     let mut last = Instant::now();
@@ -124,7 +155,7 @@ fn run_loop(
                     changed = true;
                     budget -= 1;
                     if !sim.apply(cmd) {
-                        frames.publish(sim.frame());
+                        frames.publish(sim);
                         return;
                     }
                 }
@@ -147,7 +178,7 @@ fn run_loop(
         // the recording now, not at the next tick.
         sim.flush_journal();
         if ran > 0 || changed {
-            frames.publish(sim.frame());
+            frames.publish(sim);
         }
         let wait = sim
             .shown()
@@ -163,5 +194,5 @@ fn run_loop(
             }
         }
     }
-    frames.publish(sim.frame());
+    frames.publish(sim);
 }
