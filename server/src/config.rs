@@ -66,6 +66,8 @@ pub const MIN_RECORD_MAX_BYTES: u64 = 1024 * 1024;
 pub const MAX_TICK_HZ: u32 = 1000;
 /// Highest accepted client count.
 pub const MAX_CLIENTS_LIMIT: u32 = 4096;
+/// Highest accepted `retry_above_per_sec`.
+pub const MAX_RETRY_ABOVE_PER_SEC: u32 = 100_000;
 
 /// How log lines are written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, clap::ValueEnum)]
@@ -113,6 +115,12 @@ pub struct ConfigLayer {
     /// Most clients at once (1..=4096, default 64).
     #[arg(long)]
     pub max_clients: Option<u32>,
+    /// QUIC address validation: above this many new connections a second,
+    /// an address that has not proven itself gets a Retry (one round trip
+    /// more) before any handshake work; 0 (the default): always
+    /// (0..=100000).
+    #[arg(long)]
+    pub retry_above_per_sec: Option<u32>,
     /// Most rigid bodies in the world at once: a scene with more is
     /// refused at start, and spawns, avatars and loads beyond it are
     /// refused (1..=10000000, default 20000).
@@ -221,6 +229,9 @@ pub struct ServerConfig {
     pub client_budget_kbps: u32,
     /// Most clients connected at once.
     pub max_clients: u32,
+    /// New connections per second above which unproven addresses get a
+    /// QUIC Retry first; 0: always ([`crate::net::gate`]).
+    pub retry_above_per_sec: u32,
     /// Most rigid bodies in the world at once.
     pub max_bodies: usize,
     /// Directory for recordings and other data.
@@ -273,6 +284,7 @@ impl Default for ServerConfig {
             snapshot_hz: DEFAULT_SNAPSHOT_HZ,
             client_budget_kbps: DEFAULT_CLIENT_BUDGET_KBPS,
             max_clients: DEFAULT_MAX_CLIENTS,
+            retry_above_per_sec: 0,
             max_bodies: DEFAULT_MAX_BODIES,
             data_dir: PathBuf::from("./inertia-data"),
             checkpoint_dir: None,
@@ -352,6 +364,9 @@ pub enum ConfigError {
     /// `max_clients` outside 1..=4096.
     #[error("max_clients must be in 1..={MAX_CLIENTS_LIMIT}, got {0}")]
     MaxClients(u32),
+    /// `retry_above_per_sec` above 100000.
+    #[error("retry_above_per_sec must be in 0..={MAX_RETRY_ABOVE_PER_SEC}, got {0}")]
+    RetryAbove(u32),
     /// `max_bodies` outside 1..=10000000.
     #[error("max_bodies must be in 1..={MAX_BODIES_LIMIT}, got {0}")]
     MaxBodies(usize),
@@ -443,6 +458,7 @@ impl ServerConfig {
             snapshot_hz: layer.snapshot_hz.unwrap_or(self.snapshot_hz),
             client_budget_kbps: layer.client_budget_kbps.unwrap_or(self.client_budget_kbps),
             max_clients: layer.max_clients.unwrap_or(self.max_clients),
+            retry_above_per_sec: layer.retry_above_per_sec.unwrap_or(self.retry_above_per_sec),
             max_bodies: layer.max_bodies.unwrap_or(self.max_bodies),
             data_dir: layer.data_dir.unwrap_or(self.data_dir),
             checkpoint_dir: layer.checkpoint_dir.or(self.checkpoint_dir),
@@ -485,6 +501,9 @@ impl ServerConfig {
         }
         if !(1..=MAX_CLIENTS_LIMIT).contains(&self.max_clients) {
             return Err(ConfigError::MaxClients(self.max_clients));
+        }
+        if self.retry_above_per_sec > MAX_RETRY_ABOVE_PER_SEC {
+            return Err(ConfigError::RetryAbove(self.retry_above_per_sec));
         }
         if !(1..=MAX_BODIES_LIMIT).contains(&self.max_bodies) {
             return Err(ConfigError::MaxBodies(self.max_bodies));
@@ -583,6 +602,7 @@ impl ConfigLayer {
             snapshot_hz: self.snapshot_hz.or(lower.snapshot_hz),
             client_budget_kbps: self.client_budget_kbps.or(lower.client_budget_kbps),
             max_clients: self.max_clients.or(lower.max_clients),
+            retry_above_per_sec: self.retry_above_per_sec.or(lower.retry_above_per_sec),
             max_bodies: self.max_bodies.or(lower.max_bodies),
             data_dir: self.data_dir.or(lower.data_dir),
             checkpoint_dir: self.checkpoint_dir.or(lower.checkpoint_dir),
@@ -647,6 +667,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         snapshot_hz: get(env, "INERTIA_SNAPSHOT_HZ")?,
         client_budget_kbps: get(env, "INERTIA_CLIENT_BUDGET_KBPS")?,
         max_clients: get(env, "INERTIA_MAX_CLIENTS")?,
+        retry_above_per_sec: get(env, "INERTIA_RETRY_ABOVE_PER_SEC")?,
         max_bodies: get(env, "INERTIA_MAX_BODIES")?,
         data_dir: get(env, "INERTIA_DATA_DIR")?,
         checkpoint_dir: get(env, "INERTIA_CHECKPOINT_DIR")?,
@@ -800,6 +821,14 @@ mod tests {
             run(&["--max-clients", "0"]),
             Err(ConfigError::MaxClients(0))
         ));
+        assert!(matches!(
+            run(&["--retry-above-per-sec", "100001"]),
+            Err(ConfigError::RetryAbove(100_001))
+        ));
+        assert_eq!(
+            run(&["--retry-above-per-sec", "50"]).unwrap().retry_above_per_sec,
+            50
+        );
         assert!(matches!(
             run(&["--max-catch-up-ticks", "0"]),
             Err(ConfigError::CatchUp(0))

@@ -1,23 +1,23 @@
-//! Thread priorities: the tick first, then the network, then the
-//! snapshot encoders.
+//! Thread priorities: the tick first, then the network and the snapshot
+//! encoders alike.
 //!
 //! On a machine short of cores every thread of the server competes for
 //! them, and a tick that waits for a core overruns its 16.7 ms however
 //! little work it has. The tick thread asks to be [`TICK_NICE`] more
 //! urgent than the process (which needs `CAP_SYS_NICE`, or a soft
 //! `RLIMIT_NICE` that allows it: grant one of them to the game-server
-//! container for a steady tick under load); the snapshot stage makes
-//! itself [`STAGE_NICE`] less urgent, which needs nothing. Both are best
-//! effort: where a platform or the limits refuse, the thread keeps the
-//! process's priority and says so once in the log. Threads the tick
+//! container for a steady tick under load). It is best effort: where a
+//! platform or the limits refuse, the thread keeps the process's priority
+//! and says so once in the log. The snapshot stage keeps the process's
+//! priority, as the network workers do: it has a slot to finish within
+//! each snapshot period, and below them it lost most of a shared core to
+//! them while the other core was partly idle. Threads the tick
 //! thread starts for background work (the checkpoint packer) go back to
 //! the priority it had before ([`restore_after_tick`]); the physics
 //! workers it starts keep its priority, since the tick waits for them.
 
 /// How much more urgent the tick thread asks to be than the process.
 pub const TICK_NICE: i32 = -10;
-/// How much less urgent the snapshot stage's thread is than the process.
-pub const STAGE_NICE: i32 = 5;
 
 /// The nice value the tick thread had before it raised its priority,
 /// for the threads it starts to go back to.
@@ -100,12 +100,12 @@ mod tests {
     #[test]
     fn a_thread_can_always_become_less_urgent() {
         std::thread::spawn(|| {
-            adjust_this_thread(STAGE_NICE).expect("lowering needs no privilege");
+            adjust_this_thread(5).expect("lowering needs no privilege");
             #[cfg(target_os = "linux")]
             {
                 let tid = Some(rustix::thread::gettid());
                 let nice = rustix::process::getpriority_process(tid).unwrap();
-                assert!(nice >= STAGE_NICE.min(19), "{nice}");
+                assert!(nice >= 5, "{nice}");
             }
         })
         .join()

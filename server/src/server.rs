@@ -304,7 +304,11 @@ pub async fn start_with_rules(
     // Its own thread, below the tick thread's priority; it ends with the
     // shutdown.
     net::snapshots::spawn(shared.clone()).map_err(StartError::SnapshotThread)?;
-    tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone())));
+    let gate = net::gate::GateConfig {
+        retry_above_per_sec: config.retry_above_per_sec as usize,
+        ..net::gate::GateConfig::default()
+    };
+    tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone(), gate)));
     tasks.push(tokio::spawn(supervise(
         shared.sim.watch_exit(),
         health.clone(),

@@ -50,6 +50,12 @@ pub const SMOOTHING: f64 = 0.2;
 pub const STEP_FRACTION: f64 = 0.1;
 /// The slot divisor of a degraded client: served every second slot.
 pub const DEGRADED_EVERY: u32 = 2;
+/// Slots after a step down before the next one, unless a slot already
+/// takes the whole period: a step shows in the smoothed load only after
+/// its clients have skipped a slot and the average has caught up, and
+/// stepping on every slot until then lowered several steps for an
+/// overload one would have cured (then took seconds to give them back).
+pub const SETTLE_SLOTS: u32 = DEGRADED_EVERY + 5;
 
 /// How many clients are served at a lower rate, and when that changes.
 #[derive(Debug, Clone)]
@@ -65,6 +71,8 @@ pub struct RateGovernor {
     degraded: usize,
     /// Calm slots in a row so far.
     calm: u32,
+    /// Slots still to wait after a step down before another.
+    settling: u32,
 }
 
 /// What the governor decided after a slot.
@@ -89,6 +97,7 @@ impl RateGovernor {
             tick_load: 0.0,
             degraded: 0,
             calm: 0,
+            settling: 0,
         }
     }
 
@@ -107,10 +116,15 @@ impl RateGovernor {
         let (stage, tick) = (self.stage_load, self.tick_load);
         let step = ((clients as f64 * STEP_FRACTION).ceil() as usize).max(1);
         self.degraded = self.degraded.min(clients);
+        let settled = self.settling == 0;
+        self.settling = self.settling.saturating_sub(1);
         if stage > STAGE_SHARE || tick > TICK_SHARE {
             self.calm = 0;
-            if self.degraded < clients {
+            // A slot longer than the period is late already: no waiting.
+            let late = serving.as_secs_f64() > self.period;
+            if self.degraded < clients && (settled || late) {
                 self.degraded = (self.degraded + step).min(clients);
+                self.settling = SETTLE_SLOTS;
                 return Decision::Degrade;
             }
             return Decision::Hold;
@@ -189,8 +203,10 @@ mod tests {
         assert_eq!(d, Decision::Degrade);
         assert!((3..=12).contains(&slots), "{slots}");
         assert_eq!(g.degraded(), 20);
-        // Still over: the next step comes at the next slot.
-        assert_eq!(g.after_slot(32 * MS, 2 * MS, 200), Decision::Degrade);
+        // Still over: the next step comes once the first has had time to
+        // show.
+        let (d, slots) = until_acted(&mut g, 32 * MS, 2 * MS, 200);
+        assert_eq!((d, slots), (Decision::Degrade, SETTLE_SLOTS as usize + 1));
         assert_eq!(g.degraded(), 40);
         // Between the calm share and the share: held, not calm (once the
         // smoothed load has come down from above the share).
@@ -247,6 +263,24 @@ mod tests {
         let (d, _) = until_acted(&mut g, MS, 15 * MS, 5);
         assert_eq!(d, Decision::Degrade);
         assert_eq!(g.degraded(), 1, "at least one client a step");
+    }
+
+    #[test]
+    fn issue_12_an_overload_one_step_cures_lowers_one_step_not_many() {
+        let mut g = RateGovernor::new(30, 60);
+        // 30 ms of a 33 ms slot: over the share until a step lowers it.
+        let (d, _) = until_acted(&mut g, 30 * MS, 2 * MS, 100);
+        assert_eq!(d, Decision::Degrade);
+        // The step brings serving down to 25 ms, under the share, once its
+        // clients have skipped a slot (two slots on); the smoothed load
+        // takes a few more to follow, and no further step comes meanwhile.
+        for _ in 0..DEGRADED_EVERY {
+            g.after_slot(30 * MS, 2 * MS, 100);
+        }
+        for _ in 0..60 {
+            g.after_slot(25 * MS, 2 * MS, 100);
+        }
+        assert_eq!(g.degraded(), 10, "one step of a tenth");
     }
 
     #[test]

@@ -261,9 +261,9 @@ async fn route(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>, hands
 /// Accepts connections on `endpoint` until shutdown, serving each on its
 /// own task. After a simulation failure it goes on accepting until the
 /// process stops, so a client that tries to join is told why it cannot.
-pub async fn accept(endpoint: quinn::Endpoint, shared: Arc<NetShared>) {
+pub async fn accept(endpoint: quinn::Endpoint, shared: Arc<NetShared>, gate: GateConfig) {
     let mut shutdown = shared.shutdown.clone();
-    let mut gate = HandshakeGate::new(GateConfig::default());
+    let mut gate = HandshakeGate::new(gate);
     let in_flight = Arc::new(AtomicUsize::new(0));
     loop {
         tokio::select! {

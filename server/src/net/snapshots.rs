@@ -90,17 +90,12 @@ impl Drop for ServedGuard {
 }
 
 /// Starts the stage on its own thread, named `inertia-snapshots`, with its
-/// own single-threaded runtime, at [`STAGE_NICE`] below the process's
-/// priority; it ends when [`run`] does.
-///
-/// [`STAGE_NICE`]: crate::priority::STAGE_NICE
+/// own single-threaded runtime, at the process's priority (see
+/// [`crate::priority`]); it ends when [`run`] does.
 pub fn spawn(shared: Arc<NetShared>) -> std::io::Result<std::thread::JoinHandle<()>> {
     std::thread::Builder::new()
         .name("inertia-snapshots".into())
         .spawn(move || {
-            if let Err(e) = crate::priority::adjust_this_thread(crate::priority::STAGE_NICE) {
-                tracing::debug!(error = %e, "the snapshot stage keeps its priority");
-            }
             match tokio::runtime::Builder::new_current_thread()
                 .enable_time()
                 .build()
