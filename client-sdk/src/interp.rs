@@ -432,7 +432,9 @@ impl InterpolationBuffer {
         }
         self.primed |= self.legs.iter().map(|l| l.snaps.len()).sum::<usize>() >= 2;
         let render = self.render_tick;
-        let pushed: Vec<EntityId> = snapshot.entities.iter().map(|v| v.id).collect();
+        // Only the entities this snapshot touched are trimmed (in the same
+        // visit): the rest are when the picture is next drawn.
+        let span = self.prune_legs();
         for view in snapshot.entities {
             let samples = self.entities.entry(view.id).or_default();
             if samples.back().is_none_or(|s| s.0 < meta.tick) {
@@ -456,10 +458,10 @@ impl InterpolationBuffer {
                     samples.pop_back();
                 }
             }
+            if let Some(span) = span {
+                trim(samples, span);
+            }
         }
-        // Only what this snapshot touched: the rest is trimmed when the
-        // picture is next drawn.
-        self.prune_entities(Some(&pushed));
         observation
     }
 
@@ -725,24 +727,23 @@ impl InterpolationBuffer {
     /// the size bound. Entity states are kept over the ticks any leg still
     /// to play spans.
     fn prune(&mut self) {
-        self.prune_entities(None);
+        if let Some(span) = self.prune_legs() {
+            self.entities.values_mut().for_each(|s| trim(s, span));
+        }
     }
 
-    /// [`Self::prune`], trimming the samples of `only` these entities
-    /// (all with `None`).
-    fn prune_entities(&mut self, only: Option<&[EntityId]>) {
+    /// Drops the snapshots the render tick has left behind and any beyond
+    /// the size bound, and gives the ticks entity samples are kept over
+    /// (`None` before the first picture).
+    fn prune_legs(&mut self) -> Option<(f64, f64)> {
         let max = self.config.max_snapshots.max(2);
         for leg in &mut self.legs {
             while leg.snaps.len() > max {
                 leg.snaps.pop_first();
             }
         }
-        let Some(r) = self.render_tick else {
-            return;
-        };
-        let Some(leg) = self.legs.front_mut() else {
-            return;
-        };
+        let r = self.render_tick?;
+        let leg = self.legs.front_mut()?;
         let keep_from = leg
             .snaps
             .range(..=(leg.dir * r).floor() as i64)
@@ -762,24 +763,7 @@ impl InterpolationBuffer {
                 hi = hi.max(tick);
             }
         }
-        let trim = |samples: &mut VecDeque<(u64, ViewEntity)>| {
-            while samples.len() >= 2 && samples[1].0 as f64 <= lo {
-                samples.pop_front();
-            }
-            while samples.len() >= 2 && samples[samples.len() - 2].0 as f64 >= hi {
-                samples.pop_back();
-            }
-        };
-        match only {
-            None => self.entities.values_mut().for_each(trim),
-            Some(ids) => {
-                for id in ids {
-                    if let Some(samples) = self.entities.get_mut(id) {
-                        trim(samples);
-                    }
-                }
-            }
-        }
+        Some((lo, hi))
     }
 
     fn draw(&mut self, r: f64, dt: f64) {
@@ -890,6 +874,17 @@ fn hermite(p0: DVec3, v0: DVec3, p1: DVec3, v1: DVec3, h: f64, s: f64) -> DVec3 
 fn slerp(a: DQuat, b: DQuat, s: f64) -> DQuat {
     let b = if a.dot(b) < 0.0 { -b } else { b };
     a.slerp(b, s).normalize()
+}
+
+/// Drops an entity's samples outside the ticks `(lo, hi)` still to be
+/// drawn, keeping the one at or before `lo` and the one at or after `hi`.
+fn trim(samples: &mut VecDeque<(u64, ViewEntity)>, (lo, hi): (f64, f64)) {
+    while samples.len() >= 2 && samples[1].0 as f64 <= lo {
+        samples.pop_front();
+    }
+    while samples.len() >= 2 && samples[samples.len() - 2].0 as f64 >= hi {
+        samples.pop_back();
+    }
 }
 
 #[cfg(test)]

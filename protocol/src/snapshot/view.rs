@@ -144,7 +144,15 @@ impl View {
     /// first) is where the last search ended, and the search goes on from
     /// there.
     pub(crate) fn find_from(&self, at: &mut usize, id: EntityId) -> Option<&QuantizedEntity> {
-        *at += self.entities[*at..].partition_point(|e| e.0 < id);
+        // Galloping: the next id is usually a few places on, so bracket it
+        // by doubling steps, then search only the bracket.
+        let rest = &self.entities[*at..];
+        let mut end = 1;
+        while end < rest.len() && rest[end - 1].0 < id {
+            end *= 2;
+        }
+        let end = end.min(rest.len());
+        *at += rest[..end].partition_point(|e| e.0 < id);
         self.entities.get(*at).filter(|e| e.0 == id).map(|e| &e.1)
     }
 
@@ -270,6 +278,26 @@ mod tests {
             let back = r.to_quat(bits);
             assert!(back.dot(q).abs() > 0.9999, "{bits}: {back:?} vs {q:?}");
             assert_eq!(QuantizedRotation::new(back, bits), r, "stable at {bits}");
+        }
+    }
+
+    #[test]
+    fn a_forward_cursor_finds_what_get_finds() {
+        let q = |x| QuantizedEntity {
+            position: [x; 3],
+            rotation: QuantizedRotation::default(),
+            velocity: None,
+            at_rest: false,
+        };
+        let view = View {
+            tick: 1,
+            entities: (0..300u32).map(|i| (i * 8 + i % 7, q(i))).collect(),
+        };
+        for stride in [1u32, 2, 5, 40, 333] {
+            let mut at = 0;
+            for id in (0..2500).step_by(stride as usize) {
+                assert_eq!(view.find_from(&mut at, id), view.get(id), "{id} by {stride}");
+            }
         }
     }
 
