@@ -458,7 +458,9 @@ impl ServerConfig {
             snapshot_hz: layer.snapshot_hz.unwrap_or(self.snapshot_hz),
             client_budget_kbps: layer.client_budget_kbps.unwrap_or(self.client_budget_kbps),
             max_clients: layer.max_clients.unwrap_or(self.max_clients),
-            retry_above_per_sec: layer.retry_above_per_sec.unwrap_or(self.retry_above_per_sec),
+            retry_above_per_sec: layer
+                .retry_above_per_sec
+                .unwrap_or(self.retry_above_per_sec),
             max_bodies: layer.max_bodies.unwrap_or(self.max_bodies),
             data_dir: layer.data_dir.unwrap_or(self.data_dir),
             checkpoint_dir: layer.checkpoint_dir.or(self.checkpoint_dir),
@@ -826,7 +828,9 @@ mod tests {
             Err(ConfigError::RetryAbove(100_001))
         ));
         assert_eq!(
-            run(&["--retry-above-per-sec", "50"]).unwrap().retry_above_per_sec,
+            run(&["--retry-above-per-sec", "50"])
+                .unwrap()
+                .retry_above_per_sec,
             50
         );
         assert!(matches!(

@@ -308,7 +308,11 @@ pub async fn start_with_rules(
         retry_above_per_sec: config.retry_above_per_sec as usize,
         ..net::gate::GateConfig::default()
     };
-    tasks.push(tokio::spawn(net::accept(endpoint.clone(), shared.clone(), gate)));
+    tasks.push(tokio::spawn(net::accept(
+        endpoint.clone(),
+        shared.clone(),
+        gate,
+    )));
     tasks.push(tokio::spawn(supervise(
         shared.sim.watch_exit(),
         health.clone(),

@@ -270,6 +270,16 @@ impl Ring {
 mod tests {
     use super::*;
 
+    /// An entity told apart by its position.
+    fn q(x: u32) -> QuantizedEntity {
+        QuantizedEntity {
+            position: [x; 3],
+            rotation: QuantizedRotation::default(),
+            velocity: None,
+            at_rest: false,
+        }
+    }
+
     #[test]
     fn rotation_levels_rebuild_what_the_shared_reader_rebuilds() {
         let q = DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -1.2, 2.0);
@@ -283,12 +293,6 @@ mod tests {
 
     #[test]
     fn a_forward_cursor_finds_what_get_finds() {
-        let q = |x| QuantizedEntity {
-            position: [x; 3],
-            rotation: QuantizedRotation::default(),
-            velocity: None,
-            at_rest: false,
-        };
         let view = View {
             tick: 1,
             entities: (0..300u32).map(|i| (i * 8 + i % 7, q(i))).collect(),
@@ -296,19 +300,17 @@ mod tests {
         for stride in [1u32, 2, 5, 40, 333] {
             let mut at = 0;
             for id in (0..2500).step_by(stride as usize) {
-                assert_eq!(view.find_from(&mut at, id), view.get(id), "{id} by {stride}");
+                assert_eq!(
+                    view.find_from(&mut at, id),
+                    view.get(id),
+                    "{id} by {stride}"
+                );
             }
         }
     }
 
     #[test]
     fn apply_merges_removals_and_updates() {
-        let q = |x| QuantizedEntity {
-            position: [x; 3],
-            rotation: QuantizedRotation::default(),
-            velocity: None,
-            at_rest: false,
-        };
         let base = View {
             tick: 1,
             entities: vec![(1, q(1)), (3, q(3)), (5, q(5)), (7, q(7))],
