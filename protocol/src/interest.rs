@@ -62,10 +62,16 @@ impl Interest {
         if self.always_relevant.contains(&id) {
             return 1.0;
         }
-        let d = position.distance(self.point);
-        if d.is_nan() {
+        // Squared first: most entities of most worlds fall inside the full
+        // radius (all of them with no limit), and need no square root.
+        let d2 = position.distance_squared(self.point);
+        if d2.is_nan() {
             return 0.0;
         }
+        if d2 <= self.radius_full * self.radius_full {
+            return 1.0;
+        }
+        let d = d2.sqrt();
         if d <= self.radius_full {
             1.0
         } else if d >= self.radius_max {
