@@ -12,8 +12,9 @@
 //! on one runtime), so their CPU time is not the server's. Every bot
 //! decodes every snapshot and sends inputs (30 a second, each with the
 //! last 4), as a game does, and does not render. After a warm-up the
-//! bench tells every bot to start counting, measures the server for `--seconds`, tells them to
-//! stop, and each bot reports what it received as one JSON line.
+//! bench tells every bot to start counting, measures the server for
+//! `--seconds`, tells them to stop, and each bot reports what it received
+//! as one JSON line.
 //!
 //! Measured per K:
 //!

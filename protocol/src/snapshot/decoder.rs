@@ -226,16 +226,7 @@ impl SnapshotDecoder {
             return Err(SnapshotError::Malformed("view above MAX_ENTITIES"));
         }
 
-        // The view goes in the slot of the one RING before it: that one's
-        // buffer carries it, unless it is the baseline itself.
-        let spare = match baseline {
-            Some(b) if usize::from(sequence.wrapping_sub(b)) == RING => Vec::new(),
-            _ => self
-                .received
-                .take_slot(sequence)
-                .map(|v| v.entities)
-                .unwrap_or_default(),
-        };
+        let spare = self.received.spare_for(sequence, baseline);
         let base = match baseline {
             Some(b) => self.received.get(b).expect("found above"),
             None => &empty,

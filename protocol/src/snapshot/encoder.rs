@@ -33,9 +33,9 @@ pub struct EncodeReport {
 }
 
 /// Codes the world for one client: remembers what it sent (the last
-/// [`RING`](super::RING) snapshots, each as its change to the view it was coded
-/// against), the newest view the client acknowledged, whole, and the
-/// next sequence number.
+/// [`RING`](super::RING) snapshots, each as its change to the view it was
+/// coded against), the newest view the client acknowledged, whole, and
+/// the next sequence number.
 #[derive(Debug, Clone)]
 pub struct SnapshotEncoder {
     config: SnapshotConfig,
@@ -137,9 +137,9 @@ impl SnapshotEncoder {
     }
 
     /// The view snapshot `sequence` described, built from what it sent and
-    /// its baseline, while both are held (the last [`RING`](super::RING) snapshots; a
-    /// baseline older than the newest acknowledged view only while a
-    /// snapshot in flight needs it).
+    /// its baseline, while both are held (the last [`RING`](super::RING)
+    /// snapshots; a baseline older than the newest acknowledged view only
+    /// while a snapshot in flight needs it).
     pub fn view(&self, sequence: u16) -> Option<View> {
         self.log.view(sequence)
     }
@@ -383,8 +383,7 @@ impl SnapshotEncoder {
         let bytes = w.finish();
 
         // The view it describes: the baseline's, less the removals, with
-        // the entities new to it.
-        // (Each entity new to the view took one of its room.)
+        // the entities new to it (each took one of the room).
         let new = MAX_ENTITIES.saturating_sub(base.len()) - room;
         let view_len = base.len() - removed_sent.len() + new;
         self.last = EncodeReport {
@@ -418,14 +417,6 @@ struct IndexSet {
 }
 
 impl IndexSet {
-    /// Holds none of `0..len`.
-    #[cfg(test)]
-    fn new(len: usize) -> Self {
-        let mut set = Self::default();
-        set.reset(len);
-        set
-    }
-
     /// Now holds none of `0..len`.
     fn reset(&mut self, len: usize) {
         self.words.clear();
@@ -472,7 +463,8 @@ mod tests {
 
     #[test]
     fn index_sets_find_the_nearest_members_either_side() {
-        let mut set = IndexSet::new(300);
+        let mut set = IndexSet::default();
+        set.reset(300);
         assert_eq!((set.before(150), set.after(150)), (None, None));
         for i in [0, 63, 64, 130, 299] {
             set.insert(i);

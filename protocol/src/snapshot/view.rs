@@ -144,6 +144,12 @@ impl View {
     /// first) is where the last search ended, and the search goes on from
     /// there.
     pub(crate) fn find_from(&self, at: &mut usize, id: EntityId) -> Option<&QuantizedEntity> {
+        self.index_from(at, id).map(|i| &self.entities[i].1)
+    }
+
+    /// Where `id` is, searching on from `at` (see [`Self::find_from`]),
+    /// which is left at the first entity not below `id`.
+    fn index_from(&self, at: &mut usize, id: EntityId) -> Option<usize> {
         // Galloping: the next id is usually a few places on, so bracket it
         // by doubling steps, then search only the bracket.
         let rest = &self.entities[*at..];
@@ -153,7 +159,10 @@ impl View {
         }
         let end = end.min(rest.len());
         *at += rest[..end].partition_point(|e| e.0 < id);
-        self.entities.get(*at).filter(|e| e.0 == id).map(|e| &e.1)
+        self.entities
+            .get(*at)
+            .is_some_and(|e| e.0 == id)
+            .then_some(*at)
     }
 
     /// Entities in the view.
@@ -217,10 +226,9 @@ impl View {
             let mut at = 0;
             let mut all_here = true;
             for &(id, q) in updated {
-                at += self.entities[at..].partition_point(|e| e.0 < id);
-                match self.entities.get_mut(at) {
-                    Some(e) if e.0 == id => e.1 = q,
-                    _ => {
+                match self.index_from(&mut at, id) {
+                    Some(i) => self.entities[i].1 = q,
+                    None => {
                         all_here = false;
                         break;
                     }
@@ -256,9 +264,19 @@ impl Ring {
         }
     }
 
-    /// Whatever view the slot of `seq` holds, taken out.
-    pub(crate) fn take_slot(&mut self, seq: u16) -> Option<View> {
-        self.slots[usize::from(seq) % RING].take().map(|(_, v)| v)
+    /// A buffer for the view of `seq`: the one of the view its slot holds
+    /// now (which `seq` replaces), unless that view is `keep` (a baseline
+    /// still to be read); empty otherwise.
+    pub(crate) fn spare_for(
+        &mut self,
+        seq: u16,
+        keep: Option<u16>,
+    ) -> Vec<(EntityId, QuantizedEntity)> {
+        let slot = &mut self.slots[usize::from(seq) % RING];
+        match slot {
+            Some((held, _)) if Some(*held) == keep => Vec::new(),
+            _ => slot.take().map(|(_, v)| v.entities).unwrap_or_default(),
+        }
     }
 
     pub(crate) fn insert(&mut self, seq: u16, view: View) {

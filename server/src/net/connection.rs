@@ -517,9 +517,10 @@ async fn session(
     let mut heard = tokio::time::Instant::now();
     let mut frames_open = true;
     loop {
-        if catalog_due && tokio::time::Instant::now() >= next_sync {
+        let now = tokio::time::Instant::now();
+        if catalog_due && now >= next_sync {
             catalog_due = false;
-            next_sync = tokio::time::Instant::now() + sync_period;
+            next_sync = now + sync_period;
             published.borrow_and_update();
             let frame = shared.sim.frame();
             if let Err(e) = sync_catalog(outbox, &frame, &mut view, shared) {

@@ -116,9 +116,7 @@ pub async fn run(shared: Arc<NetShared>) {
     let mut deltas = SharedDeltas::new();
     let mut clients = Vec::new();
     let mut governor = RateGovernor::new(shared.snapshot_hz, shared.tick_hz);
-    // The rates as last handed out: how many lowered, among which
-    // connections (new clients start at full rate).
-    let mut rates_set = (0, Vec::new());
+    let mut handed_out = RatesHandedOut::default();
     loop {
         tokio::select! {
             changed = frames.changed() => if changed.is_err() { return },
@@ -135,12 +133,9 @@ pub async fn run(shared: Arc<NetShared>) {
         if !clients.is_empty() {
             let serving = Instant::now();
             let degraded = governor.degraded();
-            if (degraded > 0 || rates_set.0 > 0)
-                && (degraded != rates_set.0
-                    || !clients.iter().map(|(id, _)| id).eq(rates_set.1.iter()))
-            {
+            if handed_out.stale(degraded, &clients) {
                 set_rates(&clients, degraded);
-                rates_set = (degraded, clients.iter().map(|(id, _)| *id).collect());
+                handed_out.record(degraded, &clients);
             }
             let quantized = frame.quantized(&shared.snapshot);
             for (_, served) in &clients {
@@ -200,6 +195,30 @@ pub async fn run(shared: Arc<NetShared>) {
 
 /// Gives the first `degraded` clients by [`degrade_rank`] the lower rate
 /// and every other client its full rate.
+/// The rates as last handed out: how many clients at the lower rate,
+/// among which connections. New clients start at full rate, so while
+/// none is lowered there is nothing to hand out.
+#[derive(Debug, Default)]
+struct RatesHandedOut {
+    degraded: usize,
+    connections: Vec<u64>,
+}
+
+impl RatesHandedOut {
+    /// Whether `degraded` lowered among `clients` needs handing out again.
+    fn stale(&self, degraded: usize, clients: &[(u64, Arc<Served>)]) -> bool {
+        (degraded > 0 || self.degraded > 0)
+            && (degraded != self.degraded
+                || !clients.iter().map(|(id, _)| id).eq(&self.connections))
+    }
+
+    fn record(&mut self, degraded: usize, clients: &[(u64, Arc<Served>)]) {
+        self.degraded = degraded;
+        self.connections.clear();
+        self.connections.extend(clients.iter().map(|(id, _)| *id));
+    }
+}
+
 fn set_rates(clients: &[(u64, Arc<Served>)], degraded: usize) {
     let mut order: Vec<(Candidate, &Served)> = clients
         .iter()

@@ -105,11 +105,10 @@ impl Publisher {
             .retired
             .iter_mut()
             .position(|f| Arc::get_mut(f).is_some());
-        let Some(mut frame) = free.and_then(|i| self.retired.remove(i)) else {
-            return Vec::new();
-        };
-        let mut states = Arc::get_mut(&mut frame)
-            .map(|f| std::mem::take(&mut f.entities))
+        let mut states = free
+            .and_then(|i| self.retired.remove(i))
+            .and_then(Arc::into_inner)
+            .map(|f| f.entities)
             .unwrap_or_default();
         states.clear();
         states
