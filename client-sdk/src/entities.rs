@@ -134,6 +134,33 @@ impl EntityTable {
         }
     }
 
+    /// [`Self::update`] for every state of one snapshot, ascending by id
+    /// as the decoder yields them: one walk of the table beside the
+    /// states instead of a search for each.
+    pub fn update_all(&mut self, tick: u64, states: &[ViewEntity]) {
+        let (Some(first), Some(last)) = (states.first(), states.last()) else {
+            return;
+        };
+        let mut applied = 0;
+        let mut rest = states.iter().peekable();
+        if first.id <= last.id {
+            for (&id, e) in self.entities.range_mut(first.id..=last.id) {
+                while rest.next_if(|s| s.id < id).is_some() {}
+                if let Some(&state) = rest.next_if(|s| s.id == id) {
+                    e.latest = Some(LatestState { tick, state });
+                    applied += 1;
+                }
+            }
+        }
+        if applied < states.len() {
+            // Some are not spawned yet (or the states were out of order):
+            // one by one.
+            for &state in states {
+                self.update(tick, state);
+            }
+        }
+    }
+
     /// Forgets every entity and held state (after a reconnect, or when the
     /// server's timeline broke and it will spawn everything again).
     pub fn clear(&mut self) {
@@ -218,6 +245,36 @@ mod tests {
         assert_eq!(table.despawn(2).unwrap().name, "a");
         assert!(table.despawn(2).is_none());
         assert_eq!(table.len(), 1);
+    }
+
+    #[test]
+    fn updating_a_snapshot_at_once_is_updating_each_state() {
+        let spawned = |table: &mut EntityTable| {
+            for id in [2, 4, 6, 8] {
+                table.spawn(desc(id, "x"));
+            }
+        };
+        let (mut walked, mut each) = (EntityTable::new(), EntityTable::new());
+        spawned(&mut walked);
+        spawned(&mut each);
+        // Ascending, with ids not spawned yet among them; then out of order.
+        let snapshots = [
+            vec![state(1, 1.0), state(2, 2.0), state(5, 5.0), state(8, 8.0)],
+            vec![state(4, 4.0), state(6, 6.0)],
+            vec![state(8, 9.0), state(2, 3.0)],
+        ];
+        for (tick, states) in snapshots.iter().enumerate() {
+            walked.update_all(tick as u64, states);
+            for &s in states {
+                each.update(tick as u64, s);
+            }
+        }
+        assert_eq!(walked.held(), each.held());
+        let all = |t: &EntityTable| t.iter().map(|(_, e)| e.clone()).collect::<Vec<_>>();
+        assert_eq!(all(&walked), all(&each));
+        assert_eq!(walked.get(2).unwrap().latest.unwrap().state.position.x, 3.0);
+        walked.spawn(desc(5, "late"));
+        assert_eq!(walked.get(5).unwrap().position().x, 5.0);
     }
 
     #[test]

@@ -366,7 +366,18 @@ impl InterpolationBuffer {
     /// the clock made of it; on a discontinuity the buffer is flushed first
     /// and an [`InterpEvent::Discontinuity`] queued.
     pub fn push(&mut self, local_time: f64, snapshot: Snapshot) -> Observation {
-        let meta = snapshot.meta;
+        self.push_states(local_time, snapshot.meta, &snapshot.entities)
+    }
+
+    /// [`Self::push`] of a snapshot given as its header and the states it
+    /// carried, borrowed (as the decoder hands them out): nothing is
+    /// allocated but the samples kept.
+    pub fn push_states(
+        &mut self,
+        local_time: f64,
+        meta: SnapshotMeta,
+        entities: &[ViewEntity],
+    ) -> Observation {
         let observation = self.clock.observe(local_time, meta);
         match observation {
             Observation::Stale => {
@@ -435,31 +446,33 @@ impl InterpolationBuffer {
         // Only the entities this snapshot touched are trimmed (in the same
         // visit): the rest are when the picture is next drawn.
         let span = self.prune_legs();
-        for view in snapshot.entities {
-            let samples = self.entities.entry(view.id).or_default();
-            if samples.back().is_none_or(|s| s.0 < meta.tick) {
-                // In order, as nearly every snapshot is.
-                samples.push_back((meta.tick, view));
-            } else {
-                let at = samples.partition_point(|&(t, _)| t < meta.tick);
-                match samples.get_mut(at) {
-                    Some(s) if s.0 == meta.tick => s.1 = view,
-                    _ => samples.insert(at, (meta.tick, view)),
-                }
-            }
-            if samples.len() > self.config.max_snapshots {
-                // Drop the one furthest from the render tick.
-                let r = render.unwrap_or(f64::INFINITY);
-                let front = samples.front().map_or(0.0, |s| (r - s.0 as f64).abs());
-                let back = samples.back().map_or(0.0, |s| (r - s.0 as f64).abs());
-                if front >= back {
-                    samples.pop_front();
-                } else {
-                    samples.pop_back();
-                }
-            }
+        let max = self.config.max_snapshots;
+        let add = |samples: &mut VecDeque<(u64, ViewEntity)>, view: ViewEntity| {
+            add_sample(samples, meta.tick, view, max, render);
             if let Some(span) = span {
                 trim(samples, span);
+            }
+        };
+        // The states come ascending by id: one walk beside the entities
+        // held, then the ones new to the buffer.
+        let mut added = 0;
+        if let (Some(first), Some(last)) = (entities.first(), entities.last()) {
+            if first.id <= last.id {
+                let mut rest = entities.iter().peekable();
+                for (&id, samples) in self.entities.range_mut(first.id..=last.id) {
+                    while rest.next_if(|v| v.id < id).is_some() {}
+                    if let Some(&view) = rest.next_if(|v| v.id == id) {
+                        add(samples, view);
+                        added += 1;
+                    }
+                }
+            }
+        }
+        if added < entities.len() {
+            // New entities (or states out of order): one by one; a sample
+            // already added is replaced by itself.
+            for &view in entities {
+                add(self.entities.entry(view.id).or_default(), view);
             }
         }
         observation
@@ -876,6 +889,38 @@ fn slerp(a: DQuat, b: DQuat, s: f64) -> DQuat {
     a.slerp(b, s).normalize()
 }
 
+/// Puts the state `view` of `tick` among an entity's samples (in tick
+/// order, replacing one of the same tick); beyond `max` samples drops the
+/// one furthest from the render tick `render`.
+fn add_sample(
+    samples: &mut VecDeque<(u64, ViewEntity)>,
+    tick: u64,
+    view: ViewEntity,
+    max: usize,
+    render: Option<f64>,
+) {
+    if samples.back().is_none_or(|s| s.0 < tick) {
+        // In order, as nearly every snapshot is.
+        samples.push_back((tick, view));
+    } else {
+        let at = samples.partition_point(|&(t, _)| t < tick);
+        match samples.get_mut(at) {
+            Some(s) if s.0 == tick => s.1 = view,
+            _ => samples.insert(at, (tick, view)),
+        }
+    }
+    if samples.len() > max {
+        let r = render.unwrap_or(f64::INFINITY);
+        let front = samples.front().map_or(0.0, |s| (r - s.0 as f64).abs());
+        let back = samples.back().map_or(0.0, |s| (r - s.0 as f64).abs());
+        if front >= back {
+            samples.pop_front();
+        } else {
+            samples.pop_back();
+        }
+    }
+}
+
 /// Drops an entity's samples outside the ticks `(lo, hi)` still to be
 /// drawn, keeping the one at or before `lo` and the one at or after `hi`.
 fn trim(samples: &mut VecDeque<(u64, ViewEntity)>, (lo, hi): (f64, f64)) {
@@ -981,6 +1026,59 @@ mod tests {
         assert_eq!(buf.stats().stalls, 1);
         buf.remove(7);
         assert!(buf.sample(2.1).get(7).is_none());
+    }
+}
+
+#[cfg(test)]
+mod walk_tests {
+    use super::*;
+
+    fn state(id: EntityId, x: f64) -> ViewEntity {
+        ViewEntity {
+            id,
+            position: DVec3::new(x, 0.0, 0.0),
+            rotation: DQuat::IDENTITY,
+            linear_velocity: Some(DVec3::X),
+            angular_velocity: None,
+            at_rest: false,
+        }
+    }
+
+    #[test]
+    fn samples_walked_in_are_the_samples_put_in_one_by_one() {
+        let mut walked = InterpolationBuffer::new(60.0);
+        let mut each = InterpolationBuffer::new(60.0);
+        for n in 0..40u64 {
+            let meta = SnapshotMeta {
+                seq: Some(n as u16),
+                tick: 2 * n,
+                time_scale: 1.0,
+                paused: false,
+            };
+            // Entities come and go; every fifth snapshot out of order.
+            let mut states: Vec<ViewEntity> = (0..12)
+                .filter(|id| (id + n) % 3 != 0)
+                .map(|id| state(id as EntityId, (n * 10 + id) as f64))
+                .collect();
+            if n % 5 == 4 {
+                states.reverse();
+            }
+            let t = n as f64 / 30.0;
+            walked.push_states(t, meta, &states);
+            for &s in &states {
+                each.push_states(t, meta, &[s]);
+            }
+            if n % 4 == 0 {
+                walked.sample(t);
+                each.sample(t);
+            }
+        }
+        for id in 0..12 {
+            let samples =
+                |b: &InterpolationBuffer| b.states(id).map(|(t, s)| (t, *s)).collect::<Vec<_>>();
+            assert_eq!(samples(&walked), samples(&each), "entity {id}");
+        }
+        assert_eq!(walked.sample(1.5), each.sample(1.5));
     }
 }
 

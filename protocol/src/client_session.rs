@@ -39,6 +39,8 @@ pub struct ClientSession {
     sent: VecDeque<PlayerInput>,
     /// The next input datagram is due at this time, s.
     next_input_at: f64,
+    /// The snapshot decoded last (its memory reused for the next).
+    decoded: DecodedSnapshot,
 }
 
 impl ClientSession {
@@ -58,6 +60,7 @@ impl ClientSession {
             },
             sent: VecDeque::new(),
             next_input_at: 0.0,
+            decoded: DecodedSnapshot::default(),
             config,
         })
     }
@@ -68,10 +71,12 @@ impl ClientSession {
     }
 
     /// A snapshot datagram: the states it carried (and what left the
-    /// view); it is acknowledged from the next input datagram on. On any
-    /// error nothing changes but the decoder's counts.
-    pub fn on_datagram(&mut self, bytes: &[u8]) -> Result<DecodedSnapshot, SnapshotError> {
-        self.decoder.decode(bytes)
+    /// view), held until the next datagram; it is acknowledged from the
+    /// next input datagram on. On any error nothing changes but the
+    /// decoder's counts.
+    pub fn on_datagram(&mut self, bytes: &[u8]) -> Result<&DecodedSnapshot, SnapshotError> {
+        self.decoder.decode_into(bytes, &mut self.decoded)?;
+        Ok(&self.decoded)
     }
 
     /// What the player wants from now on: movement in the horizontal

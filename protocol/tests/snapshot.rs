@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use glam::{DQuat, DVec3};
 use inertia_protocol::link::{LinkConfig, SimLink};
 use inertia_protocol::rng::SplitMix;
-use inertia_protocol::snapshot::{QuantizedEntity, HELD_VIEWS, MAX_TIME_SCALE};
+use inertia_protocol::snapshot::{DecodedSnapshot, QuantizedEntity, HELD_VIEWS, MAX_TIME_SCALE};
 use inertia_protocol::{
     EntityState, Interest, PriorityAccumulator, SnapshotConfig, SnapshotDecoder, SnapshotEncoder,
     SnapshotError,
@@ -382,6 +382,31 @@ fn out_of_interest_and_despawned_entities_leave_the_view() {
         .map(|e| e.id)
         .collect();
     assert_eq!(ids, [40]);
+}
+
+#[test]
+fn decoding_into_a_used_snapshot_is_decoding_afresh_and_an_error_leaves_it_alone() {
+    let config = roomy(true);
+    let mut r = SplitMix(21);
+    let mut world = random_world(&mut r, 200);
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut pri = PriorityAccumulator::new(Interest::everything());
+    let (mut fresh, mut reused) = (
+        SnapshotDecoder::new(config).unwrap(),
+        SnapshotDecoder::new(config).unwrap(),
+    );
+    let mut out = DecodedSnapshot::default();
+    for step in 0..6u64 {
+        let bytes = enc.encode(step, 1.0, false, &world, &mut pri, 900);
+        let want = fresh.decode(&bytes).unwrap();
+        reused.decode_into(&bytes, &mut out).unwrap();
+        assert_eq!(out, want);
+        // A duplicate is an error and leaves the last snapshot as it was.
+        assert!(reused.decode_into(&bytes, &mut out).is_err());
+        assert_eq!(out, want);
+        enc.on_ack(want.sequence);
+        mutate(&mut r, &mut world);
+    }
 }
 
 #[test]

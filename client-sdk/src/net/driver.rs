@@ -16,7 +16,7 @@ use tokio::sync::mpsc;
 
 use crate::clock::{Discontinuity, SnapshotMeta};
 use crate::entities::EntityTable;
-use crate::interp::{InterpEvent, InterpolationBuffer, Snapshot};
+use crate::interp::{InterpEvent, InterpolationBuffer};
 use crate::stats::{ClientStats, StatsRecorder};
 
 use super::ServerInfo;
@@ -102,21 +102,18 @@ impl State {
                     time_scale: snap.time_scale,
                     paused: snap.paused,
                 };
-                // Only the states this snapshot carried: the rest of the
-                // view is what earlier snapshots said, no news of this
-                // tick (an entity not sent keeps its last state in the
-                // buffer, extrapolated and then held).
-                let entities = snap.updated.clone();
                 if snap.newest {
                     for &id in &snap.removed {
                         self.interp.remove(id);
                     }
-                    for e in &snap.updated {
-                        self.entities.update(snap.tick, *e);
-                    }
+                    self.entities.update_all(snap.tick, &snap.updated);
                     self.latest = Some((snap.tick, snap.sequence));
                 }
-                self.interp.push(now, Snapshot { meta, entities });
+                // Only the states this snapshot carried: the rest of the
+                // view is what earlier snapshots said, no news of this
+                // tick (an entity not sent keeps its last state in the
+                // buffer, extrapolated and then held).
+                self.interp.push_states(now, meta, &snap.updated);
                 while let Some(e) = self.interp.poll_event() {
                     let e = match e {
                         InterpEvent::Discontinuity(d) => ClientEvent::Discontinuity(d),
