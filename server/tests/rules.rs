@@ -115,7 +115,7 @@ fn jumps_once_when_grounded_and_cannot_fly() {
         .frame()
         .events
         .iter()
-        .filter(|(_, e)| matches!(e, GameEvent::Jumped { .. }))
+        .filter(|e| matches!(e.event, GameEvent::Jumped { .. }))
         .count();
     assert_eq!(jumps, 1, "holding the button jumps once");
     let rise = peak - ground_y;
@@ -142,7 +142,7 @@ fn jumps_once_when_grounded_and_cannot_fly() {
         .frame()
         .events
         .iter()
-        .filter(|(tick, e)| *tick > spam_from && matches!(e, GameEvent::Jumped { .. }))
+        .filter(|e| e.tick > spam_from && matches!(e.event, GameEvent::Jumped { .. }))
         .count();
     // Each jump takes about 1.1 s in the air: at most three in 3 s.
     assert!((1..=3).contains(&jumps), "{jumps} jumps, rise {rise}");
@@ -175,7 +175,7 @@ fn push_moves_the_crate_within_limits() {
     let pushed: Vec<_> = frame
         .events
         .iter()
-        .filter_map(|(_, e)| match e {
+        .filter_map(|e| match &e.event {
             GameEvent::Pushed {
                 target, impulse, ..
             } => Some((*target, *impulse)),
@@ -268,7 +268,7 @@ fn joining_leaving_and_the_client_cap() {
     assert!(f
         .events
         .iter()
-        .any(|(_, e)| matches!(e, GameEvent::Left { client: 1 })));
+        .any(|e| matches!(e.event, GameEvent::Left { client: 1 })));
     assert!(sim.join(3).is_ok());
 }
 
@@ -297,8 +297,8 @@ fn an_avatar_that_falls_off_the_world_comes_back() {
     for _ in 0..600 {
         p.send(&mut sim, [1.0, 0.0], 0.0, 0);
         sim.run_ticks(1);
-        for (_, e) in sim.frame().events.iter() {
-            if let GameEvent::Respawned { avatar, .. } = e {
+        for e in sim.frame().events.iter() {
+            if let GameEvent::Respawned { avatar, .. } = &e.event {
                 respawned = Some(*avatar);
             }
         }

@@ -18,11 +18,11 @@
 //! [`SILENT_TIMEOUT`] is let go too. Goodbyes wait at most
 //! [`GOODBYE_WAIT`].
 
-use std::sync::{Arc, Mutex};
+use std::future::Future;
+use std::sync::Arc;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use glam::DVec3;
-use inertia_protocol::admin::TimeMode;
 use inertia_protocol::control::{
     encode_frame, handshake, truncate_utf8, ClientControl, DisconnectReason, FrameDecoder, Refusal,
     ServerControl, SnapshotParams, MAX_REASON_BYTES, SIMULATION_STOPPED_PREFIX,
@@ -30,7 +30,6 @@ use inertia_protocol::control::{
 use inertia_protocol::{EntityId, EntityKind, ServerSession, SessionConfig};
 use tracing::{debug, info, info_span, warn, Instrument};
 
-use super::events::to_wire;
 use super::snapshots::Served;
 use super::NetShared;
 use crate::rules;
@@ -306,11 +305,16 @@ impl Outbox {
     /// Queues `msg`; its framed length.
     fn push(&mut self, msg: &ServerControl) -> Result<usize, String> {
         let frame = encode_frame(msg).map_err(|e| e.to_string())?;
+        Ok(self.push_coded(&frame))
+    }
+
+    /// Queues a message already coded as a control frame.
+    fn push_coded(&mut self, frame: &[u8]) -> usize {
         if self.is_empty() {
             self.moved = tokio::time::Instant::now();
         }
-        self.bytes.extend_from_slice(&frame);
-        Ok(frame.len())
+        self.bytes.extend_from_slice(frame);
+        frame.len()
     }
 
     /// The bytes still to write.
@@ -345,6 +349,25 @@ impl Outbox {
         (!self.is_empty()).then(|| self.moved + CONTROL_STALL)
     }
 
+    /// Writes what the client's flow-control window takes now, without
+    /// waiting for it to open (the connection loop writes the rest).
+    fn write_now(&mut self, send: &mut quinn::SendStream) -> Result<(), quinn::WriteError> {
+        let waker = std::task::Waker::noop();
+        let mut cx = std::task::Context::from_waker(waker);
+        while !self.is_empty() {
+            let written = {
+                let write = std::pin::pin!(send.write(self.pending()));
+                write.poll(&mut cx)
+            };
+            match written {
+                std::task::Poll::Ready(Ok(n)) => self.advance(n),
+                std::task::Poll::Ready(Err(e)) => return Err(e),
+                std::task::Poll::Pending => break,
+            }
+        }
+        Ok(())
+    }
+
     /// Writes everything queued; false when the stream failed.
     async fn flush(&mut self, send: &mut quinn::SendStream) -> bool {
         while !self.is_empty() {
@@ -367,16 +390,6 @@ impl Outbox {
             Ok(true)
         )
     }
-}
-
-/// What this client has been told about the world.
-struct ClientView {
-    /// Entities described to the client, ascending.
-    known: Vec<EntityId>,
-    /// The catalog version last synchronised.
-    catalog_version: Option<u64>,
-    /// The newest tick whose events were sent.
-    events_up_to: u64,
 }
 
 async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShared) {
@@ -477,7 +490,7 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
 async fn session(
     connection: &quinn::Connection,
     client: u64,
-    mut avatar: EntityId,
+    avatar: EntityId,
     send: &mut quinn::SendStream,
     outbox: &mut Outbox,
     recv: &mut quinn::RecvStream,
@@ -489,62 +502,28 @@ async fn session(
     let config = SessionConfig::new(shared.snapshot, budget);
     let mut game_session = ServerSession::new(config).expect("validated at start-up");
     game_session.set_avatar(avatar);
-    // The snapshot stage codes this client's snapshots from here on.
-    let served = Arc::new(Served {
-        connection: connection.clone(),
-        session: Mutex::new(game_session),
-    });
+    // The snapshot stage serves this client's slots from here on.
+    let served = Arc::new(Served::new(
+        connection.clone(),
+        client,
+        game_session,
+        &shared.sim.frame(),
+    ));
     let _serving = shared
         .served
         .add(connection.stable_id() as u64, served.clone());
-    // Wakes when the catalog or the events change, not at every frame.
-    let mut published = shared.sim.subscribe_catalog();
-    let mut view = ClientView {
-        known: Vec::new(),
-        catalog_version: None,
-        events_up_to: shared.sim.frame().tick,
-    };
     let mut shutdown = shared.shutdown.clone();
     let mut buf = vec![0u8; 4096];
     let mut kick_open = true;
-    // The catalog as it is now, then whenever it or the events change,
-    // at most once a snapshot period: with players jumping and pushing
-    // there are events at nearly every tick, and one write of a period's
-    // events costs the network far less than one for each frame.
-    let mut catalog_due = true;
-    let sync_period = Duration::from_secs_f64(1.0 / f64::from(shared.snapshot_hz.max(1)));
-    let mut next_sync = tokio::time::Instant::now();
     let mut heard = tokio::time::Instant::now();
-    let mut frames_open = true;
     loop {
-        let now = tokio::time::Instant::now();
-        if catalog_due && now >= next_sync {
-            catalog_due = false;
-            next_sync = now + sync_period;
-            published.borrow_and_update();
-            let frame = shared.sim.frame();
-            if let Err(e) = sync_catalog(outbox, &frame, &mut view, shared) {
-                return End::Protocol(format!("control stream: {e}"));
-            }
-            if !frame.catalog.contains_key(&avatar) && frame.mode == TimeMode::Live {
-                // A loaded checkpoint gave the client a new avatar.
-                if let Some(id) = avatar_of(&frame, client) {
-                    avatar = id;
-                    if let Ok(mut session) = served.session.lock() {
-                        session.set_avatar(id);
-                    }
-                }
-            }
-        }
         let stall = outbox.stall_deadline();
         tokio::select! {
-            _ = tokio::time::sleep_until(next_sync), if catalog_due => {}
-            changed = published.changed(), if frames_open && !catalog_due => match changed {
-                Ok(()) => catalog_due = true,
-                // The tick thread has stopped: the shutdown that follows
-                // says why.
-                Err(_) => frames_open = false,
-            },
+            () = served.ready.notified() => {
+                if let Err(e) = send_slot(&served, outbox, send, shared) {
+                    return e;
+                }
+            }
             datagram = connection.read_datagram() => match datagram {
                 Ok(bytes) => {
                     heard = tokio::time::Instant::now();
@@ -626,49 +605,47 @@ async fn session(
     }
 }
 
-/// Brings the client's catalog up to date (spawns and despawns, then the
-/// frame's events), reliably and in order on the control stream, through
-/// its outbox; refuses a client more than [`OUTBOX_LIMIT`] bytes behind.
-fn sync_catalog(
+/// Sends what the snapshot stage made for the client at its last slot
+/// (see [`SlotOutput`]): its control messages first, written at once as far
+/// as the client's window allows (the rest as it opens), then its snapshot
+/// datagram, so that quinn puts them in one packet. Refuses a client more
+/// than [`OUTBOX_LIMIT`] bytes behind.
+///
+/// [`SlotOutput`]: super::snapshots::SlotOutput
+fn send_slot(
+    served: &Served,
     outbox: &mut Outbox,
-    frame: &Frame,
-    view: &mut ClientView,
+    send: &mut quinn::SendStream,
     shared: &NetShared,
-) -> Result<(), String> {
-    let mut sent = 0usize;
-    if view.catalog_version != Some(frame.catalog_version) {
-        // Both in id order: walks side by side find what left, then
-        // what came (despawns first, then spawns).
-        let mut now = frame.catalog.keys().copied().peekable();
-        for &id in &view.known {
-            while now.next_if(|&n| n < id).is_some() {}
-            if now.next_if_eq(&id).is_none() {
-                sent += outbox.push(&ServerControl::Despawn { id })?;
-            }
+) -> Result<(), End> {
+    let datagram = {
+        let Ok(mut out) = served.out.lock() else {
+            return Err(End::Protocol("slot output lost".into()));
+        };
+        if let Some(e) = out.error.take() {
+            return Err(End::Protocol(format!("control stream: {e}")));
         }
-        let mut known = view.known.iter().copied().peekable();
-        for (&id, desc) in frame.catalog.iter() {
-            while known.next_if(|&k| k < id).is_some() {}
-            if known.next_if_eq(&id).is_none() {
-                sent += outbox.push(&ServerControl::Spawn(desc.clone()))?;
-            }
-        }
-        view.known.clear();
-        view.known.extend(frame.catalog.keys().copied());
-        view.catalog_version = Some(frame.catalog_version);
-    }
-    for (tick, event) in frame.events.iter() {
-        if *tick > view.events_up_to {
-            sent += outbox.push(&ServerControl::Event(to_wire(event)))?;
-        }
-    }
-    view.events_up_to = view.events_up_to.max(frame.tick);
-    shared.metrics.bytes_sent.inc_by(sent as u64);
+        outbox.push_coded(&out.control);
+        out.control.clear();
+        out.datagram.take()
+    };
     if outbox.len() > OUTBOX_LIMIT {
-        return Err(format!(
+        return Err(End::Protocol(format!(
             "{} bytes wait for the client, more than {OUTBOX_LIMIT}",
             outbox.len()
-        ));
+        )));
+    }
+    outbox.write_now(send).map_err(|e| match e {
+        quinn::WriteError::ConnectionLost(e) => End::Closed(e),
+        e => End::Protocol(format!("control stream: {e}")),
+    })?;
+    if let Some(bytes) = datagram {
+        let len = bytes.len();
+        if served.connection.send_datagram(bytes.into()).is_ok() {
+            shared.metrics.bytes_sent.inc_by(len as u64);
+            shared.metrics.packets_sent.inc();
+            shared.metrics.snapshot_size.observe(len as f64);
+        }
     }
     Ok(())
 }

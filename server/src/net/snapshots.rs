@@ -10,15 +10,25 @@
 //! is served from the latest frame half a period after it opened, so
 //! deferred entities still arrive and clients keep acknowledging.
 //!
-//! The stage has its own thread ([`spawn`]), at a lower scheduling
-//! priority than the tick thread and the network ([`crate::priority`]),
-//! so that on a machine short of cores the encoders wait for the tick,
-//! never the tick for the encoders.
+//! The stage has its own thread ([`spawn`]), at the process's priority,
+//! below the tick thread's ([`crate::priority`]), so that on a machine
+//! short of cores the encoders wait for the tick, never the tick for the
+//! encoders.
 //!
 //! Each client's [`ServerSession`] sits behind a lock it shares with its
 //! connection task, which feeds it the client's datagrams (acks and
 //! inputs); the stage holds one client's lock at a time, for one encode.
-//! Datagrams go out through quinn's `send_datagram`, which only queues.
+//!
+//! A slot's control messages (the catalog's changes, the events since the
+//! client's last slot: [`Told`]) and its snapshot leave together. The
+//! stage brings what the client has been told up to date, codes the
+//! snapshot in the room those messages and an acknowledgement leave in
+//! one packet ([`room_beside`]), and hands both to the client's
+//! connection task ([`SlotOutput`]), which writes the messages to the
+//! control stream and then queues the datagram. quinn then sends one
+//! packet where there were three (the snapshot, the control messages, an
+//! acknowledgement of the client's inputs), and the client acknowledges
+//! one.
 //!
 //! When serving a slot takes too much of the period, or the tick nears its
 //! budget, the stage lowers some clients' rates by the policy of
@@ -30,20 +40,94 @@ use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use inertia_protocol::snapshot::SharedDeltas;
+use inertia_protocol::admin::TimeMode;
+use inertia_protocol::snapshot::{QuantizedFrame, SharedDeltas};
 use inertia_protocol::ServerSession;
 
+use super::catalog::Told;
 use super::governor::{degrade_rank, rate_for, Candidate, Decision, RateGovernor};
 use super::NetShared;
+use crate::sim::Frame;
 
 /// One connected client as the stage serves it.
 #[derive(Debug)]
 pub struct Served {
-    /// Its connection, for `send_datagram` and the path's datagram size.
+    /// Its connection, for the path's datagram size.
     pub connection: quinn::Connection,
+    /// Its client id.
+    pub client: u64,
     /// Its session (encoder, priorities, inputs), shared with its
     /// connection task.
     pub session: Mutex<ServerSession>,
+    /// What its slots made, for its connection task to send.
+    pub out: Mutex<SlotOutput>,
+    /// Wakes its connection task when `out` has something.
+    pub ready: tokio::sync::Notify,
+}
+
+impl Served {
+    /// A client joined at `frame`, to be served through `session`.
+    pub fn new(
+        connection: quinn::Connection,
+        client: u64,
+        session: ServerSession,
+        frame: &Frame,
+    ) -> Self {
+        Self {
+            connection,
+            client,
+            session: Mutex::new(session),
+            out: Mutex::new(SlotOutput {
+                told: Told::new(&frame.events),
+                control: Vec::new(),
+                datagram: None,
+                error: None,
+            }),
+            ready: tokio::sync::Notify::new(),
+        }
+    }
+}
+
+/// What a client's slots made for its connection task to send: the
+/// control messages first, then the snapshot, so that both leave in one
+/// packet when they fit in it.
+#[derive(Debug)]
+pub struct SlotOutput {
+    /// What the client has been told of the catalog and events.
+    told: Told,
+    /// Control frames waiting to be written to the control stream.
+    pub control: Vec<u8>,
+    /// The newest snapshot datagram, unsent (a newer one replaces it).
+    pub datagram: Option<Vec<u8>>,
+    /// Why the client cannot be told what it must be (a control message
+    /// that cannot be coded): its connection ends.
+    pub error: Option<String>,
+}
+
+/// Room a snapshot leaves in its packet for an acknowledgement of the
+/// client's inputs, bytes: quinn bundles a pending ACK frame (about 10
+/// bytes with a few ranges) after the other frames when it fits, which
+/// saves an ACK-only packet.
+pub const ACK_ROOM: usize = 24;
+
+/// The most control-message bytes that share a packet with the snapshot;
+/// more go in packets of their own, beside a full snapshot.
+pub const MAX_CONTROL_BESIDE: usize = 480;
+
+/// A STREAM frame's own bytes beyond its data, at most: type, stream id,
+/// offset and length.
+const STREAM_FRAME_OVERHEAD: usize = 1 + 8 + 8 + 2;
+
+/// The room a snapshot leaves in its packet for what travels with it:
+/// an acknowledgement, and `control` bytes of control messages when they
+/// are few.
+pub fn room_beside(control: usize) -> usize {
+    ACK_ROOM
+        + if control > 0 && control <= MAX_CONTROL_BESIDE {
+            control + STREAM_FRAME_OVERHEAD
+        } else {
+            0
+        }
 }
 
 /// The clients the stage serves, by connection number.
@@ -139,23 +223,7 @@ pub async fn run(shared: Arc<NetShared>) {
             }
             let quantized = frame.quantized(&shared.snapshot);
             for (_, served) in &clients {
-                let max = served.connection.max_datagram_size().unwrap_or(1200);
-                let started = Instant::now();
-                let bytes = match served.session.lock() {
-                    Ok(mut session) => session.poll_snapshot(quantized, &mut deltas, slot, max),
-                    Err(_) => None,
-                };
-                let Some(bytes) = bytes else { continue };
-                shared
-                    .metrics
-                    .snapshot_encode
-                    .observe(started.elapsed().as_secs_f64());
-                let len = bytes.len();
-                if served.connection.send_datagram(bytes.into()).is_ok() {
-                    shared.metrics.bytes_sent.inc_by(len as u64);
-                    shared.metrics.packets_sent.inc();
-                    shared.metrics.snapshot_size.observe(len as f64);
-                }
+                serve(served, &frame, quantized, &mut deltas, slot, &shared);
             }
             let decision =
                 governor.after_slot(serving.elapsed(), frame.tick_duration, clients.len());
@@ -193,8 +261,77 @@ pub async fn run(shared: Arc<NetShared>) {
     }
 }
 
-/// Gives the first `degraded` clients by [`degrade_rank`] the lower rate
-/// and every other client its full rate.
+/// Serves one client its slot: brings what it has been told up to date
+/// with `frame` (catalog, events), codes its snapshot in the room those
+/// control messages leave in the packet, and hands both to its connection
+/// task, which writes the control messages and then queues the datagram,
+/// so that quinn sends them (and an acknowledgement) in one packet.
+fn serve(
+    served: &Served,
+    frame: &Frame,
+    quantized: &QuantizedFrame,
+    deltas: &mut SharedDeltas,
+    slot: u64,
+    shared: &NetShared,
+) {
+    let Ok(mut out) = served.out.lock() else {
+        return;
+    };
+    let out = &mut *out;
+    if out.error.is_some() {
+        return;
+    }
+    let told = out.told.catch_up(
+        frame.catalog_version,
+        &frame.catalog,
+        &frame.events,
+        &mut out.control,
+    );
+    match told {
+        Ok(bytes) => {
+            shared.metrics.bytes_sent.inc_by(bytes as u64);
+        }
+        Err(e) => {
+            out.error = Some(e);
+            served.ready.notify_one();
+            return;
+        }
+    }
+    let max = served.connection.max_datagram_size().unwrap_or(1200);
+    let max = max.saturating_sub(room_beside(out.control.len()));
+    let started = Instant::now();
+    let bytes = match served.session.lock() {
+        Ok(mut session) => {
+            follow_avatar(&mut session, frame, served.client);
+            session.poll_snapshot(quantized, deltas, slot, max)
+        }
+        Err(_) => None,
+    };
+    if bytes.is_some() {
+        shared
+            .metrics
+            .snapshot_encode
+            .observe(started.elapsed().as_secs_f64());
+        out.datagram = bytes;
+    }
+    if out.datagram.is_some() || !out.control.is_empty() {
+        served.ready.notify_one();
+    }
+}
+
+/// Gives the session the client's new avatar when a loaded checkpoint
+/// gave it one (its old one is gone from the live catalog).
+fn follow_avatar(session: &mut ServerSession, frame: &Frame, client: u64) {
+    let gone = session
+        .avatar()
+        .is_some_and(|avatar| !frame.catalog.contains_key(&avatar));
+    if gone && frame.mode == TimeMode::Live {
+        if let Some(id) = super::connection::avatar_of(frame, client) {
+            session.set_avatar(id);
+        }
+    }
+}
+
 /// The rates as last handed out: how many clients at the lower rate,
 /// among which connections. New clients start at full rate, so while
 /// none is lowered there is nothing to hand out.
@@ -219,6 +356,8 @@ impl RatesHandedOut {
     }
 }
 
+/// Gives the first `degraded` clients by [`degrade_rank`] the lower rate
+/// and every other client its full rate.
 fn set_rates(clients: &[(u64, Arc<Served>)], degraded: usize) {
     let mut order: Vec<(Candidate, &Served)> = clients
         .iter()

@@ -6,15 +6,35 @@ use std::collections::BTreeMap;
 use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
+use inertia_protocol::control::{encode_frame, ServerControl};
 use inertia_protocol::snapshot::{QuantizedFrame, SnapshotConfig};
 use inertia_protocol::{EntityDesc, EntityId, EntityState};
 
 use super::{Simulation, TimeMode};
+use crate::net::events::to_wire;
 use crate::rules::GameEvent;
 
 /// Events a [`Frame`] carries: the most recent ones, whatever frame they
 /// were first published in.
 pub const RECENT_EVENTS: usize = 1024;
+
+/// One game event as frames carry it: the tick it happened in, the event,
+/// and the control frame that tells a client of it, coded once when it is
+/// published and shared by every connection.
+#[derive(Debug, Clone)]
+pub struct RecentEvent {
+    /// Events are numbered from 1 in the order they are published, so a
+    /// reader finds what is new to it by number, whatever the ticks did
+    /// (they go back on a rewind).
+    pub number: u64,
+    /// The tick it happened in.
+    pub tick: u64,
+    /// The event.
+    pub event: GameEvent,
+    /// `ServerControl::Event` of it as the control stream carries it
+    /// (length prefix included).
+    pub wire: Arc<[u8]>,
+}
 
 /// What the world looked like after a loop's ticks: the latest state of
 /// every entity that can move, plus the catalog of all entities.
@@ -39,7 +59,7 @@ pub struct Frame {
     /// The most recent events (at most [`RECENT_EVENTS`]), oldest first,
     /// each with the tick it happened in; the same `Arc` until one
     /// happens.
-    pub events: Arc<Vec<(u64, GameEvent)>>,
+    pub events: Arc<Vec<RecentEvent>>,
     /// Wall time of the last tick.
     pub tick_duration: Duration,
     /// Loops that hit the catch-up cap so far.
@@ -85,8 +105,28 @@ impl Simulation {
     /// in for its memory).
     pub(crate) fn frame_in(&mut self, mut states: Vec<EntityState>) -> Frame {
         if !self.pending_events.is_empty() {
-            let mut recent: Vec<(u64, GameEvent)> = self.recent_events.as_ref().clone();
-            recent.append(&mut self.pending_events);
+            let mut recent: Vec<RecentEvent> = self.recent_events.as_ref().clone();
+            recent.extend(self.pending_events.drain(..).filter_map(|(tick, event)| {
+                let wire = ServerControl::Event(to_wire(&event));
+                match encode_frame(&wire) {
+                    Ok(bytes) => Some(RecentEvent {
+                        number: {
+                            self.events_published += 1;
+                            self.events_published
+                        },
+                        tick,
+                        event,
+                        wire: bytes.into(),
+                    }),
+                    Err(e) => {
+                        // The rules' events are bounded when made; one
+                        // that still cannot be told is dropped, not sent
+                        // as a protocol error to every client.
+                        tracing::warn!(tick, error = %e, "an event that cannot be coded was dropped");
+                        None
+                    }
+                }
+            }));
             let excess = recent.len().saturating_sub(RECENT_EVENTS);
             recent.drain(..excess);
             self.recent_events = Arc::new(recent);

@@ -48,7 +48,6 @@ pub struct SimHandle {
     control: SyncSender<Command>,
     inputs: SyncSender<(ClientId, PlayerInput)>,
     frames: watch::Receiver<Arc<Frame>>,
-    catalog: watch::Receiver<u64>,
     exit: watch::Receiver<Option<SimExit>>,
     stats: Arc<SimStats>,
     /// Set to stop the thread at the top of its next loop when the
@@ -84,13 +83,11 @@ impl SimHandle {
         let (input_tx, input_rx) = mpsc::sync_channel(sim.config.input_capacity.max(1));
         let stats = sim.stats();
         let (frame_tx, frame_rx) = watch::channel(Arc::new(sim.frame()));
-        let (catalog_tx, catalog_rx) = watch::channel(0);
         let (exit_tx, exit_rx) = watch::channel(None);
         let stopping = Arc::new(AtomicBool::new(false));
         let stop = stopping.clone();
         let publisher = Publisher {
             frames: frame_tx,
-            catalog: catalog_tx,
             retired: Default::default(),
         };
         let thread = std::thread::Builder::new()
@@ -109,7 +106,6 @@ impl SimHandle {
             control: control_tx,
             inputs: input_tx,
             frames: frame_rx,
-            catalog: catalog_rx,
             exit: exit_rx,
             stats,
             stopping,
@@ -226,14 +222,6 @@ impl SimHandle {
     /// A receiver that wakes on every new frame (`changed().await`).
     pub fn subscribe(&self) -> watch::Receiver<Arc<Frame>> {
         self.frames.clone()
-    }
-
-    /// A receiver that wakes only when a frame's catalog or events differ
-    /// from the frame before (read the frame with [`SimHandle::frame`]):
-    /// for a task per client that keeps the client's catalog, which would
-    /// otherwise wake at every tick for nothing.
-    pub fn subscribe_catalog(&self) -> watch::Receiver<u64> {
-        self.catalog.clone()
     }
 
     /// The shared counters.

@@ -78,7 +78,7 @@ pub use clock_control::ClockControl;
 pub use command::{Command, CommandError, SimCall};
 pub use config::{SimConfig, DEFAULT_CHECKPOINT_TICKS};
 pub use edit::EditError;
-pub use frame::{Frame, RECENT_EVENTS};
+pub use frame::{Frame, RecentEvent, RECENT_EVENTS};
 pub use handle::{spawn, SimExit, SimHandle};
 pub use recording::RecorderOpening;
 pub use stats::{SimStats, RATE_WINDOW, TICK_WINDOW};
@@ -99,7 +99,9 @@ pub struct Simulation {
     catalog_version: u64,
     ctx_events: Vec<GameEvent>,
     pending_events: Vec<(u64, GameEvent)>,
-    recent_events: Arc<Vec<(u64, GameEvent)>>,
+    recent_events: Arc<Vec<RecentEvent>>,
+    /// Events published so far (the number of the newest).
+    events_published: u64,
     last_tick: Duration,
     stats: Arc<SimStats>,
     /// Durations of the last [`TICK_WINDOW`] ticks.
@@ -202,6 +204,7 @@ impl Simulation {
             ctx_events: Vec::new(),
             pending_events: Vec::new(),
             recent_events: Arc::new(Vec::new()),
+            events_published: 0,
             last_tick: Duration::ZERO,
             stats: Arc::new(SimStats::default()),
             recent_ticks: VecDeque::with_capacity(TICK_WINDOW),

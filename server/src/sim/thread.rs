@@ -73,12 +73,9 @@ pub(super) fn run(
 /// fresh buffer of every moving entity each time.
 const RETIRED_FRAMES: usize = 8;
 
-/// Where the tick thread's frames go: every frame to `frames`, and a
-/// count in `catalog` that moves only when a frame's catalog or events
-/// differ from the frame before.
+/// Where the tick thread's frames go: every frame to `frames`.
 pub(super) struct Publisher {
     pub(super) frames: watch::Sender<Arc<Frame>>,
-    pub(super) catalog: watch::Sender<u64>,
     /// Frames replaced, oldest first, at most [`RETIRED_FRAMES`].
     pub(super) retired: VecDeque<Arc<Frame>>,
 }
@@ -87,11 +84,7 @@ impl Publisher {
     /// Publishes the simulation's frame now.
     fn publish(&mut self, sim: &mut Simulation) {
         let frame = Arc::new(sim.frame_in(self.reclaim()));
-        let old = self.frames.send_replace(frame.clone());
-        if old.catalog_version != frame.catalog_version || !Arc::ptr_eq(&old.events, &frame.events)
-        {
-            self.catalog.send_modify(|n| *n = n.wrapping_add(1));
-        }
+        let old = self.frames.send_replace(frame);
         self.retired.push_back(old);
         if self.retired.len() > RETIRED_FRAMES {
             self.retired.pop_front();

@@ -1,0 +1,190 @@
+//! What each client has been told about the world on its control stream:
+//! the entity catalog (spawns and despawns) and the game events, brought
+//! up to date at the client's snapshot slots by the snapshot stage, so
+//! that a slot's control messages leave with its snapshot (see
+//! [`super::snapshots`]).
+
+use std::collections::BTreeMap;
+
+use inertia_protocol::control::{encode_frame, ServerControl};
+use inertia_protocol::{EntityDesc, EntityId};
+
+use crate::sim::RecentEvent;
+
+/// What one client has been told.
+#[derive(Debug, Clone)]
+pub struct Told {
+    /// Entities described to the client, ascending.
+    known: Vec<EntityId>,
+    /// The catalog version last told.
+    catalog_version: Option<u64>,
+    /// The number of the last event told ([`crate::sim::RecentEvent::number`]).
+    events_told: u64,
+}
+
+impl Told {
+    /// A client that has been told nothing of the catalog, and to whom the
+    /// `recent` events are not news (they happened before it came).
+    pub fn new(recent: &[RecentEvent]) -> Self {
+        Self {
+            known: Vec::new(),
+            catalog_version: None,
+            events_told: recent.last().map_or(0, |e| e.number),
+        }
+    }
+
+    /// Appends to `out` the control frames that bring the client up to
+    /// date with a frame's catalog (at `version`) and `recent` events:
+    /// despawns, then spawns (both in id order), then the events
+    /// published since the last call, each coded once for every client
+    /// when it was published. Returns the bytes appended.
+    pub fn catch_up(
+        &mut self,
+        version: u64,
+        catalog: &BTreeMap<EntityId, EntityDesc>,
+        recent: &[RecentEvent],
+        out: &mut Vec<u8>,
+    ) -> Result<usize, String> {
+        let start = out.len();
+        if self.catalog_version != Some(version) {
+            // Both in id order: walks side by side find what left, then
+            // what came.
+            let mut now = catalog.keys().copied().peekable();
+            for &id in &self.known {
+                while now.next_if(|&n| n < id).is_some() {}
+                if now.next_if_eq(&id).is_none() {
+                    push(out, &ServerControl::Despawn { id })?;
+                }
+            }
+            let mut known = self.known.iter().copied().peekable();
+            for (&id, desc) in catalog {
+                while known.next_if(|&k| k < id).is_some() {}
+                if known.next_if_eq(&id).is_none() {
+                    push(out, &ServerControl::Spawn(desc.clone()))?;
+                }
+            }
+            self.known.clear();
+            self.known.extend(catalog.keys().copied());
+            self.catalog_version = Some(version);
+        }
+        let first = recent.partition_point(|e| e.number <= self.events_told);
+        for e in &recent[first..] {
+            out.extend_from_slice(&e.wire);
+            self.events_told = e.number;
+        }
+        Ok(out.len() - start)
+    }
+}
+
+fn push(out: &mut Vec<u8>, msg: &ServerControl) -> Result<(), String> {
+    let frame = encode_frame(msg).map_err(|e| e.to_string())?;
+    out.extend_from_slice(&frame);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use inertia_protocol::control::{FrameDecoder, GameEvent as WireEvent};
+    use inertia_protocol::{EntityKind, ShapeDesc};
+
+    use super::*;
+    use crate::rules::GameEvent;
+
+    fn desc(id: EntityId) -> EntityDesc {
+        EntityDesc {
+            id,
+            kind: EntityKind::Dynamic,
+            shape: ShapeDesc::Sphere { radius: 0.5 },
+            color: [255; 4],
+            owner: None,
+            name: format!("ball {id}"),
+            position: [0.0; 3],
+            rotation: [0.0, 0.0, 0.0, 1.0],
+        }
+    }
+
+    fn event(number: u64, tick: u64) -> RecentEvent {
+        let event = GameEvent::Jumped {
+            avatar: number as EntityId,
+        };
+        let wire = encode_frame(&ServerControl::Event(crate::net::events::to_wire(&event)))
+            .unwrap()
+            .into();
+        RecentEvent {
+            number,
+            tick,
+            event,
+            wire,
+        }
+    }
+
+    /// The messages in `bytes`, as a client reads them.
+    fn read(bytes: &[u8]) -> Vec<ServerControl> {
+        let mut frames = FrameDecoder::new();
+        frames.push(bytes).unwrap();
+        std::iter::from_fn(|| frames.next::<ServerControl>().map(Result::unwrap)).collect()
+    }
+
+    fn jumped(msg: &ServerControl) -> Option<String> {
+        match msg {
+            ServerControl::Event(WireEvent::Custom { name, data }) if name == "jumped" => {
+                Some(String::from_utf8(data.clone()).unwrap())
+            }
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn a_client_is_told_despawns_then_spawns_then_new_events_once() {
+        let mut told = Told::new(&[event(1, 10)]);
+        let catalog: BTreeMap<_, _> = [1, 2, 3].map(|id| (id, desc(id))).into();
+        let mut out = Vec::new();
+        told.catch_up(1, &catalog, &[event(1, 10)], &mut out)
+            .unwrap();
+        let msgs = read(&out);
+        let spawned: Vec<_> = msgs
+            .iter()
+            .filter_map(|m| match m {
+                ServerControl::Spawn(d) => Some(d.id),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(spawned, [1, 2, 3]);
+        assert!(
+            msgs.iter().all(|m| jumped(m).is_none()),
+            "an event from before the client came is not news"
+        );
+
+        // Entity 2 goes, 4 comes, two events happen.
+        let catalog: BTreeMap<_, _> = [1, 3, 4].map(|id| (id, desc(id))).into();
+        let recent = [event(1, 10), event(2, 11), event(3, 11)];
+        out.clear();
+        told.catch_up(2, &catalog, &recent, &mut out).unwrap();
+        let msgs = read(&out);
+        assert!(matches!(msgs[0], ServerControl::Despawn { id: 2 }));
+        assert!(matches!(&msgs[1], ServerControl::Spawn(d) if d.id == 4));
+        let events: Vec<_> = msgs.iter().filter_map(jumped).collect();
+        assert_eq!(events, [r#"{"avatar":2}"#, r#"{"avatar":3}"#]);
+
+        // Nothing new: nothing told.
+        out.clear();
+        assert_eq!(told.catch_up(2, &catalog, &recent, &mut out), Ok(0));
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn issue_12_events_after_a_rewind_are_told_though_their_ticks_went_back() {
+        let catalog = BTreeMap::new();
+        let mut told = Told::new(&[]);
+        let mut out = Vec::new();
+        told.catch_up(0, &catalog, &[event(1, 500)], &mut out)
+            .unwrap();
+        assert_eq!(read(&out).len(), 1);
+        // The world went back to tick 100 and an event happened there.
+        let recent = [event(1, 500), event(2, 101)];
+        out.clear();
+        told.catch_up(0, &catalog, &recent, &mut out).unwrap();
+        let events: Vec<_> = read(&out).iter().filter_map(jumped).collect();
+        assert_eq!(events, [r#"{"avatar":2}"#]);
+    }
+}
