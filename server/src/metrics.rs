@@ -54,6 +54,9 @@ pub struct Metrics {
     /// Wall time of encoding one snapshot for one client (priorities,
     /// delta, bit packing), s.
     pub snapshot_encode: Histogram,
+    /// Snapshots replaced unsent by the client's next one, because its
+    /// connection task had not run for a whole snapshot period.
+    pub snapshots_superseded: Counter,
     /// Clients served at a lower snapshot rate because the server could
     /// not serve everyone at full rate (see [`crate::net::governor`]).
     pub snapshot_clients_degraded: Gauge,
@@ -123,6 +126,7 @@ impl Metrics {
             packets_received: Counter::default(),
             snapshot_size,
             snapshot_encode,
+            snapshots_superseded: Counter::default(),
             snapshot_clients_degraded: Gauge::default(),
             snapshot_rate_steps: Family::default(),
             malformed_datagrams: Counter::default(),
@@ -182,6 +186,11 @@ impl Metrics {
             "snapshot_encode_seconds",
             "Wall time of encoding one snapshot for one client, seconds",
             m.snapshot_encode.clone(),
+        );
+        r.register(
+            "snapshots_superseded",
+            "Snapshots replaced unsent by the client's next one (its connection task had not run for a snapshot period)",
+            m.snapshots_superseded.clone(),
         );
         r.register(
             "snapshot_clients_degraded",

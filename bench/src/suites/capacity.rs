@@ -51,6 +51,8 @@
 //!   clients' snapshot rates during the window; `clients_degraded`: the
 //!   clients at a lower rate at its end (`/metrics`). A step with clients
 //!   degraded is not served: their rate falls below 95 %.
+//! * `snapshots_superseded`: snapshots replaced unsent by the client's
+//!   next one, its connection task not having run for a whole period.
 //!
 //! The last line adds `projected_max_clients`: the machine's cores (as
 //! CPU %) less the idle server's, over the server's CPU per client at the
@@ -132,6 +134,7 @@ struct ServerMark {
     encode_s: f64,
     encodes: u64,
     degrade_steps: u64,
+    superseded: u64,
     degraded: i64,
     bytes_sent: u64,
     ticks: u64,
@@ -161,6 +164,7 @@ impl ServerMark {
                 .snapshot_rate_steps
                 .get_or_create(&[("direction", "degrade")])
                 .get(),
+            superseded: m.snapshots_superseded.get(),
             degraded: m.snapshot_clients_degraded.get(),
             bytes_sent: m.bytes_sent.get(),
             ticks: stats.ticks.load(std::sync::atomic::Ordering::Relaxed),
@@ -488,6 +492,7 @@ fn steps(
                 .num("snapshots_min_client_hz", min_hz)
                 .num("settle_s", settle_s)
                 .field("rate_degrade_steps", b.degrade_steps - a.degrade_steps)
+                .field("snapshots_superseded", b.superseded - a.superseded)
                 .field("clients_degraded", b.degraded)
                 .num("loss_mean", mean(&|r| r.loss))
                 .field("stalls", reports.iter().map(|r| r.stalls).sum::<u64>())

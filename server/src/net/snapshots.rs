@@ -307,12 +307,14 @@ fn serve(
         }
         Err(_) => None,
     };
-    if bytes.is_some() {
+    if let Some(bytes) = bytes {
         shared
             .metrics
             .snapshot_encode
             .observe(started.elapsed().as_secs_f64());
-        out.datagram = bytes;
+        if out.datagram.replace(bytes).is_some() {
+            shared.metrics.snapshots_superseded.inc();
+        }
     }
     if out.datagram.is_some() || !out.control.is_empty() {
         served.ready.notify_one();
