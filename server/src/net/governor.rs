@@ -9,14 +9,17 @@
 //! ([`SMOOTHING`]) so that one slow tick or one preempted slot does not
 //! count. The load is *over* when serving takes more than [`STAGE_SHARE`]
 //! of the snapshot period (slots would soon be missed, for every client
-//! alike) or the tick more than [`TICK_SHARE`] of its budget; then
+//! alike) or the tick more than [`TICK_SHARE`] of its budget while
+//! serving takes at least [`STAGE_FLOOR`] of the period (below it,
+//! lowering rates would free too little to speed the tick); then
 //! another step of clients ([`STEP_FRACTION`] of them, at least one) goes
 //! to half rate at once. Only after [`CALM_SLOTS`] slots in a row that
 //! were *calm* (under [`CALM_FRACTION`] of those shares) does a step come
 //! back, so the rate does not flap; while it stays calm, another step
 //! comes back every [`RESTORE_EVERY`] slots, so that a burst (a wave of
-//! handshakes, say) costs clients their rate for seconds, not minutes. A world whose own tick nears its budget lowers
-//! rates too: that frees the cores the tick shares with the encoders.
+//! handshakes, say) costs clients their rate for seconds, not minutes. A
+//! world whose own tick nears its budget lowers rates too, while the
+//! encoders take a share of the cores worth freeing for it.
 //!
 //! Which clients go first ([`degrade_rank`]): spectators (no avatar)
 //! before players, and among each, the newest connection first, so the
@@ -35,6 +38,10 @@ pub const STAGE_SHARE: f64 = 0.85;
 /// Most of the tick budget (1 / tick rate) the last tick may take before
 /// the governor lowers rates.
 pub const TICK_SHARE: f64 = 0.8;
+/// The least share of the snapshot period serving must take for a slow
+/// tick to lower rates: below it the encoders use too little of the cores
+/// for lowering their work to speed the tick.
+pub const STAGE_FLOOR: f64 = 0.2;
 /// Slots in a row under [`CALM_FRACTION`] of the shares before a step of
 /// clients gets its full rate back (1 s at 30 Hz).
 pub const CALM_SLOTS: u32 = 30;
@@ -118,7 +125,14 @@ impl RateGovernor {
         self.degraded = self.degraded.min(clients);
         let settled = self.settling == 0;
         self.settling = self.settling.saturating_sub(1);
-        if stage > STAGE_SHARE || tick > TICK_SHARE {
+        // The tick counts only while the encoders take a share of the
+        // cores worth freeing: halving the rates of clients that cost a
+        // few percent of a core does nothing for a tick slow on its own
+        // (a heavy world, a busy neighbour), and cost every client its
+        // rate at 50 clients on a machine three-quarters idle.
+        let tick_over = tick > TICK_SHARE && stage >= STAGE_FLOOR;
+        let tick_calm = tick < TICK_SHARE * CALM_FRACTION || stage < STAGE_FLOOR * CALM_FRACTION;
+        if stage > STAGE_SHARE || tick_over {
             self.calm = 0;
             // A slot longer than the period is late already: no waiting.
             let late = serving.as_secs_f64() > self.period;
@@ -129,7 +143,7 @@ impl RateGovernor {
             }
             return Decision::Hold;
         }
-        if stage < STAGE_SHARE * CALM_FRACTION && tick < TICK_SHARE * CALM_FRACTION {
+        if stage < STAGE_SHARE * CALM_FRACTION && tick_calm {
             self.calm += 1;
         } else {
             self.calm = 0;
@@ -257,12 +271,29 @@ mod tests {
     }
 
     #[test]
-    fn a_tick_near_its_budget_degrades_even_when_serving_is_quick() {
+    fn a_tick_near_its_budget_degrades_while_the_encoders_take_a_share_worth_freeing() {
         let mut g = RateGovernor::new(30, 60);
-        // 16.7 ms budget: 15 ms is over 80 %.
-        let (d, _) = until_acted(&mut g, MS, 15 * MS, 5);
+        // 16.7 ms budget: 15 ms is over 80 %; serving takes 10 ms of 33.
+        let (d, _) = until_acted(&mut g, 10 * MS, 15 * MS, 5);
         assert_eq!(d, Decision::Degrade);
         assert_eq!(g.degraded(), 1, "at least one client a step");
+    }
+
+    #[test]
+    fn issue_12_a_slow_tick_does_not_lower_rates_when_the_encoders_take_little() {
+        let mut g = RateGovernor::new(30, 60);
+        // Serving takes 3 ms of 33: halving rates would free next to
+        // nothing for a tick that is slow on its own.
+        for _ in 0..300 {
+            assert_eq!(g.after_slot(3 * MS, 15 * MS, 50), Decision::Hold);
+        }
+        assert_eq!(g.degraded(), 0);
+        // Clients lowered while serving was heavy come back once it is
+        // light, though the tick stays slow.
+        let (d, _) = until_acted(&mut g, 32 * MS, 15 * MS, 50);
+        assert_eq!(d, Decision::Degrade);
+        let (d, _) = until_acted(&mut g, 2 * MS, 15 * MS, 50);
+        assert_eq!(d, Decision::Restore);
     }
 
     #[test]
