@@ -6,8 +6,8 @@
 //! (which grows when the machine is short of cores, since the stage runs
 //! below the tick thread's priority) and the last tick's duration, each
 //! as a share of its period, smoothed over the last few slots
-//! ([`SMOOTHING`]) so that one slow tick or one preempted slot does not
-//! count. The load is *over* when serving takes more than [`STAGE_SHARE`]
+//! ([`SMOOTHING`]), each counting for at most [`MAX_SAMPLE_LOAD`] of its
+//! period, so that one slow tick or one preempted slot does not count. The load is *over* when serving takes more than [`STAGE_SHARE`]
 //! of the snapshot period (slots would soon be missed, for every client
 //! alike) or the tick more than [`TICK_SHARE`] of its budget while
 //! serving takes at least [`STAGE_FLOOR`] of the period (below it,
@@ -53,6 +53,10 @@ pub const CALM_FRACTION: f64 = 0.7;
 /// Weight of the newest slot in the smoothed loads (an exponential
 /// moving average over about 1 / SMOOTHING slots).
 pub const SMOOTHING: f64 = 0.2;
+/// The most one slot's serving time, or one tick's time, counts for in
+/// the smoothed loads, as a share of its period: three slots this long in
+/// a row put the load over [`STAGE_SHARE`]; one does not.
+pub const MAX_SAMPLE_LOAD: f64 = 2.0;
 /// The share of the clients one step moves.
 pub const STEP_FRACTION: f64 = 0.1;
 /// The slot divisor of a degraded client: served every second slot.
@@ -117,7 +121,10 @@ impl RateGovernor {
     /// the last tick at `tick`: moves a step of clients to or from the
     /// lower rate, and says which.
     pub fn after_slot(&mut self, serving: Duration, tick: Duration, clients: usize) -> Decision {
-        let smooth = |load: f64, now: f64| load + SMOOTHING * (now - load);
+        // One slot or tick counts for at most MAX_SAMPLE_LOAD of its
+        // period: a single stall (the host, a page fault storm) cannot
+        // push the average over alone, as a run of them does.
+        let smooth = |load: f64, now: f64| load + SMOOTHING * (now.min(MAX_SAMPLE_LOAD) - load);
         self.stage_load = smooth(self.stage_load, serving.as_secs_f64() / self.period);
         self.tick_load = smooth(self.tick_load, tick.as_secs_f64() / self.tick_budget);
         let (stage, tick) = (self.stage_load, self.tick_load);
@@ -312,6 +319,24 @@ mod tests {
             g.after_slot(25 * MS, 2 * MS, 100);
         }
         assert_eq!(g.degraded(), 10, "one step of a tenth");
+    }
+
+    #[test]
+    fn issue_12_one_stalled_slot_does_not_degrade() {
+        let mut g = RateGovernor::new(30, 60);
+        for _ in 0..30 {
+            g.after_slot(3 * MS, 4 * MS, 50);
+        }
+        // The stage's thread lost its core for 150 ms once (the host, a
+        // page fault storm): one slot, not an overload.
+        assert_eq!(g.after_slot(150 * MS, 4 * MS, 50), Decision::Hold);
+        for _ in 0..30 {
+            assert_eq!(g.after_slot(3 * MS, 4 * MS, 50), Decision::Hold);
+        }
+        // Stalled slot after stalled slot is one.
+        let (d, slots) = until_acted(&mut g, 150 * MS, 4 * MS, 50);
+        assert_eq!(d, Decision::Degrade);
+        assert!(slots <= 3, "{slots}");
     }
 
     #[test]
