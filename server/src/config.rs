@@ -167,6 +167,13 @@ pub struct ConfigLayer {
     /// `--record false` turns it off).
     #[arg(long, value_name = "BOOL", num_args = 0..=1, default_missing_value = "true")]
     pub record: Option<bool>,
+    /// Run the tick thread and its physics workers at real-time priority
+    /// (SCHED_FIFO 10; needs CAP_SYS_NICE or an RLIMIT_RTPRIO that allows
+    /// it, else the tick falls back to a raised nice value): a steady tick
+    /// on a machine whose cores are all busy (default false). At fast
+    /// forward the tick then takes a whole core.
+    #[arg(long, value_name = "BOOL", num_args = 0..=1, default_missing_value = "true")]
+    pub tick_realtime: Option<bool>,
     /// A keyframe (the full saved world) every this many ticks
     /// (1..=1000000, default 900).
     #[arg(long)]
@@ -258,6 +265,9 @@ pub struct ServerConfig {
     pub position_resolution_mm: f64,
     /// Record the session into [`ServerConfig::recording_dir`].
     pub record: bool,
+    /// Ask for real-time priority for the tick thread and its physics
+    /// workers ([`crate::priority`]).
+    pub tick_realtime: bool,
     /// A keyframe every this many ticks.
     pub keyframe_ticks: u64,
     /// Retention limit of the recording, bytes.
@@ -297,6 +307,7 @@ impl Default for ServerConfig {
             max_catch_up_ticks: DEFAULT_MAX_CATCH_UP_TICKS,
             position_resolution_mm: DEFAULT_POSITION_RESOLUTION_MM,
             record: true,
+            tick_realtime: false,
             keyframe_ticks: DEFAULT_KEYFRAME_TICKS,
             record_max_bytes: DEFAULT_RECORD_MAX_BYTES,
             resume: false,
@@ -475,6 +486,7 @@ impl ServerConfig {
                 .position_resolution_mm
                 .unwrap_or(self.position_resolution_mm),
             record: layer.record.unwrap_or(self.record),
+            tick_realtime: layer.tick_realtime.unwrap_or(self.tick_realtime),
             keyframe_ticks: layer.keyframe_ticks.unwrap_or(self.keyframe_ticks),
             record_max_bytes: layer.record_max_bytes.unwrap_or(self.record_max_bytes),
             resume: layer.resume.unwrap_or(self.resume),
@@ -617,6 +629,7 @@ impl ConfigLayer {
             max_catch_up_ticks: self.max_catch_up_ticks.or(lower.max_catch_up_ticks),
             position_resolution_mm: self.position_resolution_mm.or(lower.position_resolution_mm),
             record: self.record.or(lower.record),
+            tick_realtime: self.tick_realtime.or(lower.tick_realtime),
             keyframe_ticks: self.keyframe_ticks.or(lower.keyframe_ticks),
             record_max_bytes: self.record_max_bytes.or(lower.record_max_bytes),
             resume: self.resume.or(lower.resume),
@@ -682,6 +695,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         position_resolution_mm: get(env, "INERTIA_POSITION_RESOLUTION_MM")?,
         max_catch_up_ticks: get(env, "INERTIA_MAX_CATCH_UP_TICKS")?,
         record: get(env, "INERTIA_RECORD")?,
+        tick_realtime: get(env, "INERTIA_TICK_REALTIME")?,
         keyframe_ticks: get(env, "INERTIA_KEYFRAME_TICKS")?,
         record_max_bytes: get(env, "INERTIA_RECORD_MAX_BYTES")?,
         resume: get(env, "INERTIA_RESUME")?,
@@ -823,6 +837,13 @@ mod tests {
             run(&["--max-clients", "0"]),
             Err(ConfigError::MaxClients(0))
         ));
+        assert!(!run(&[]).unwrap().tick_realtime, "off by default");
+        assert!(run(&["--tick-realtime"]).unwrap().tick_realtime);
+        assert!(
+            ServerConfig::from_args(["s"], env_of(&[("INERTIA_TICK_REALTIME", "true")]))
+                .unwrap()
+                .tick_realtime
+        );
         assert!(matches!(
             run(&["--retry-above-per-sec", "100001"]),
             Err(ConfigError::RetryAbove(100_001))

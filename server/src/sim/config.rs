@@ -42,6 +42,9 @@ pub struct SimConfig {
     /// every this many ticks (0: none), so a seek re-simulates at most
     /// that many ticks.
     pub checkpoint_ticks: u64,
+    /// Ask for real-time priority for the tick thread and its physics
+    /// workers ([`crate::priority::raise_tick_thread`]).
+    pub tick_realtime: bool,
 }
 
 impl Default for SimConfig {
@@ -67,6 +70,7 @@ impl From<&ServerConfig> for SimConfig {
             record_at_start: false,
             history_budget: usize::try_from(c.seek_memory_mb << 20).unwrap_or(usize::MAX),
             checkpoint_ticks: c.checkpoint_ticks,
+            tick_realtime: c.tick_realtime,
         }
     }
 }

@@ -90,10 +90,11 @@ impl SimHandle {
             frames: frame_tx,
             retired: Default::default(),
         };
+        let realtime = sim.config.tick_realtime;
         let thread = std::thread::Builder::new()
             .name("inertia-tick".into())
             .spawn(move || {
-                if let Err(e) = crate::priority::raise_tick_thread() {
+                if let Err(e) = crate::priority::raise_tick_thread(realtime) {
                     tracing::info!(
                         error = %e,
                         "the tick thread keeps the process's priority (grant CAP_SYS_NICE \
