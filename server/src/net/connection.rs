@@ -1,10 +1,10 @@
 //! One client's connection: the hello and token check, then a single loop
-//! that keeps the client's entity catalog in step over the reliable
-//! control stream (at every published frame), feeds the client's
-//! datagrams (acks and inputs) into its [`ServerSession`] and the inputs
-//! on to the simulation, and says goodbye on shutdown. Its snapshots are
-//! coded and sent by the snapshot stage ([`super::snapshots`]), which
-//! shares the session.
+//! that sends what the snapshot stage ([`super::snapshots`]) made at each
+//! of the client's slots (its catalog changes and events on the reliable
+//! control stream, then its snapshot datagram, so that both leave in one
+//! packet), feeds the client's datagrams (acks and inputs) into its
+//! [`ServerSession`], which it shares with the stage, and the inputs on
+//! to the simulation, and says goodbye on shutdown.
 //!
 //! Nothing here waits on a client without a deadline. The client has
 //! [`HELLO_TIMEOUT`] to say hello and as long again to take its welcome;

@@ -25,10 +25,10 @@
 //! snapshot in the room those messages and an acknowledgement leave in
 //! one packet ([`room_beside`]), and hands both to the client's
 //! connection task ([`SlotOutput`]), which writes the messages to the
-//! control stream and then queues the datagram. quinn then sends one
-//! packet where there were three (the snapshot, the control messages, an
-//! acknowledgement of the client's inputs), and the client acknowledges
-//! one.
+//! control stream and then queues the datagram. quinn can then send one
+//! packet where there were up to three (the snapshot, the control
+//! messages, an acknowledgement of the client's inputs): 1.3–1.4 packets
+//! a snapshot at 150 clients, from 1.9.
 //!
 //! When serving a slot takes too much of the period, or the tick nears its
 //! budget, the stage lowers some clients' rates by the policy of
