@@ -138,20 +138,9 @@ impl EntityTable {
     /// as the decoder yields them: one walk of the table beside the
     /// states instead of a search for each.
     pub fn update_all(&mut self, tick: u64, states: &[ViewEntity]) {
-        let (Some(first), Some(last)) = (states.first(), states.last()) else {
-            return;
-        };
-        let mut applied = 0;
-        let mut rest = states.iter().peekable();
-        if first.id <= last.id {
-            for (&id, e) in self.entities.range_mut(first.id..=last.id) {
-                while rest.next_if(|s| s.id < id).is_some() {}
-                if let Some(&state) = rest.next_if(|s| s.id == id) {
-                    e.latest = Some(LatestState { tick, state });
-                    applied += 1;
-                }
-            }
-        }
+        let applied = crate::by_id::visit_beside(&mut self.entities, states, |e, state| {
+            e.latest = Some(LatestState { tick, state });
+        });
         if applied < states.len() {
             // Some are not spawned yet (or the states were out of order):
             // one by one.

@@ -453,21 +453,9 @@ impl InterpolationBuffer {
                 trim(samples, span);
             }
         };
-        // The states come ascending by id: one walk beside the entities
-        // held, then the ones new to the buffer.
-        let mut added = 0;
-        if let (Some(first), Some(last)) = (entities.first(), entities.last()) {
-            if first.id <= last.id {
-                let mut rest = entities.iter().peekable();
-                for (&id, samples) in self.entities.range_mut(first.id..=last.id) {
-                    while rest.next_if(|v| v.id < id).is_some() {}
-                    if let Some(&view) = rest.next_if(|v| v.id == id) {
-                        add(samples, view);
-                        added += 1;
-                    }
-                }
-            }
-        }
+        // One walk beside the entities held, then the ones new to the
+        // buffer.
+        let added = crate::by_id::visit_beside(&mut self.entities, entities, &add);
         if added < entities.len() {
             // New entities (or states out of order): one by one; a sample
             // already added is replaced by itself.

@@ -18,6 +18,7 @@
 //! - [`dev`]: tokens from a dev-mode server's credentials file.
 
 pub mod blocking;
+mod by_id;
 pub mod clock;
 pub mod dev;
 pub mod entities;

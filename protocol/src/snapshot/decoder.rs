@@ -216,26 +216,21 @@ impl SnapshotDecoder {
         }
         let paused = r.read_bool()?;
 
-        let mut removed = std::mem::take(&mut self.removed);
-        let mut updated = std::mem::take(&mut self.updated);
-        let parsed = read_entities(&mut r, base, &config, &mut removed, &mut updated);
-        // The scratch goes back whatever the outcome.
-        let result = parsed.map(|()| {
-            let spare = self.received.spare_for(sequence, baseline);
-            let base = match baseline {
-                Some(b) => self.received.get(b).expect("found above"),
-                None => &empty,
-            };
-            let view = base.apply_into(tick, &removed, &updated, spare);
-            self.received.insert(sequence, view);
-            out.updated.clear();
-            out.updated
-                .extend(updated.iter().map(|(id, q)| q.dequantize(*id, &config)));
-            out.removed.clone_from(&removed);
-        });
-        self.removed = removed;
-        self.updated = updated;
-        result?;
+        read_entities(&mut r, base, &config, &mut self.removed, &mut self.updated)?;
+        let spare = self.received.spare_for(sequence, baseline);
+        let base = match baseline {
+            Some(b) => self.received.get(b).expect("found above"),
+            None => &empty,
+        };
+        let view = base.apply_into(tick, &self.removed, &self.updated, spare);
+        self.received.insert(sequence, view);
+        out.updated.clear();
+        out.updated.extend(
+            self.updated
+                .iter()
+                .map(|(id, q)| q.dequantize(*id, &config)),
+        );
+        out.removed.clone_from(&self.removed);
         out.newest = self.note_received(sequence);
         out.sequence = sequence;
         out.baseline = baseline;
