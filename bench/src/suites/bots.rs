@@ -116,13 +116,20 @@ pub(crate) fn process_cpu_s() -> f64 {
     stat_cpu(&stat).map_or(f64::NAN, |(_, s)| s)
 }
 
-/// The command (or thread) name and the user + system CPU time, s, of one
-/// `/proc/<pid>/stat` or `/proc/<pid>/task/<tid>/stat` text.
-pub(crate) fn stat_cpu(stat: &str) -> Option<(&str, f64)> {
+/// The command (or thread) name of one `/proc/<pid>/stat` or
+/// `/proc/<pid>/task/<tid>/stat` text, and the fields after it (field
+/// `n` of the file is at `n - 3`).
+pub(crate) fn stat_fields(stat: &str) -> Option<(&str, Vec<&str>)> {
     // The name is in brackets and may hold spaces; the fields follow it.
     let (head, rest) = stat.rsplit_once(')')?;
     let name = head.split_once('(').map_or("", |(_, n)| n);
-    let f: Vec<&str> = rest.split_whitespace().collect();
+    Some((name, rest.split_whitespace().collect()))
+}
+
+/// The command (or thread) name and the user + system CPU time, s, of one
+/// `/proc/<pid>/stat` or `/proc/<pid>/task/<tid>/stat` text.
+pub(crate) fn stat_cpu(stat: &str) -> Option<(&str, f64)> {
+    let (name, f) = stat_fields(stat)?;
     // utime and stime are fields 14 and 15 of the file: 11 and 12 here.
     let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok());
     // USER_HZ is 100 on every Linux the bench runs on.

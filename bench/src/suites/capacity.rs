@@ -74,7 +74,7 @@ use inertia_protocol::{EntityId, EntityKind};
 use inertia_server::config::ServerConfig;
 use inertia_server::server::{start, RunningServer};
 
-use super::bots::{process_cpu_s, stat_cpu, BotReport, Bots};
+use super::bots::{process_cpu_s, stat_cpu, stat_fields, BotReport, Bots};
 use crate::report::{logical_cores, note, progress, Record, Sink, Suspended};
 use crate::{BenchError, Opts};
 
@@ -197,12 +197,10 @@ fn tick_realtime() -> bool {
         let Ok(stat) = std::fs::read_to_string(task.path().join("stat")) else {
             return false;
         };
-        let Some((head, rest)) = stat.rsplit_once(')') else {
-            return false;
-        };
         // The policy is field 41 of the file: 38 after the name.
-        let policy = rest.split_whitespace().nth(38);
-        head.ends_with("(inertia-tick") && matches!(policy, Some("1" | "2"))
+        stat_fields(&stat).is_some_and(|(name, f)| {
+            name == "inertia-tick" && matches!(f.get(38), Some(&("1" | "2")))
+        })
     })
 }
 

@@ -5,6 +5,7 @@
 //! [`super::snapshots`]).
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use inertia_protocol::control::{encode_frame, ServerControl};
 use inertia_protocol::{EntityDesc, EntityId};
@@ -25,7 +26,7 @@ pub struct Told {
 impl Told {
     /// A client that has been told nothing of the catalog, and to whom the
     /// `recent` events are not news (they happened before it came).
-    pub fn new(recent: &[RecentEvent]) -> Self {
+    pub fn new(recent: &[Arc<RecentEvent>]) -> Self {
         Self {
             known: Vec::new(),
             catalog_version: None,
@@ -37,12 +38,12 @@ impl Told {
     /// date with a frame's catalog (at `version`) and `recent` events:
     /// despawns, then spawns (both in id order), then the events
     /// published since the last call, each coded once for every client
-    /// when it was published. Returns the bytes appended.
+    /// ([`RecentEvent::wire`]). Returns the bytes appended.
     pub fn catch_up(
         &mut self,
         version: u64,
         catalog: &BTreeMap<EntityId, EntityDesc>,
-        recent: &[RecentEvent],
+        recent: &[Arc<RecentEvent>],
         out: &mut Vec<u8>,
     ) -> Result<usize, String> {
         let start = out.len();
@@ -69,7 +70,9 @@ impl Told {
         }
         let first = recent.partition_point(|e| e.number <= self.events_told);
         for e in &recent[first..] {
-            out.extend_from_slice(&e.wire);
+            if let Some(wire) = e.wire() {
+                out.extend_from_slice(wire);
+            }
             self.events_told = e.number;
         }
         Ok(out.len() - start)
@@ -103,19 +106,11 @@ mod tests {
         }
     }
 
-    fn event(number: u64, tick: u64) -> RecentEvent {
+    fn event(number: u64, tick: u64) -> Arc<RecentEvent> {
         let event = GameEvent::Jumped {
             avatar: number as EntityId,
         };
-        let wire = encode_frame(&ServerControl::Event(crate::net::events::to_wire(&event)))
-            .unwrap()
-            .into();
-        RecentEvent {
-            number,
-            tick,
-            event,
-            wire,
-        }
+        Arc::new(RecentEvent::new(number, tick, event))
     }
 
     /// The messages in `bytes`, as a client reads them.

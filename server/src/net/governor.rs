@@ -7,13 +7,13 @@
 //! below the tick thread's priority) and the last tick's duration, each
 //! as a share of its period, smoothed over the last few slots
 //! ([`SMOOTHING`]), each counting for at most [`MAX_SAMPLE_LOAD`] of its
-//! period, so that one slow tick or one preempted slot does not count. The load is *over* when serving takes more than [`STAGE_SHARE`]
-//! of the snapshot period (slots would soon be missed, for every client
-//! alike) or the tick more than [`TICK_SHARE`] of its budget while
-//! serving takes at least [`STAGE_FLOOR`] of the period (below it,
-//! lowering rates would free too little to speed the tick); then
-//! another step of clients ([`STEP_FRACTION`] of them, at least one) goes
-//! to half rate at once. Only after [`CALM_SLOTS`] slots in a row that
+//! period, so that one slow tick or one preempted slot does not count.
+//! The load is *over* when serving takes more than [`STAGE_SHARE`] of the
+//! snapshot period (slots would soon be missed, for every client alike)
+//! or the tick more than [`TICK_SHARE`] of its budget while serving takes
+//! at least [`STAGE_FLOOR`] of the period (below it, lowering rates would
+//! free too little to speed the tick); then another step of clients
+//! ([`STEP_FRACTION`] of them, at least one) goes to half rate at once. Only after [`CALM_SLOTS`] slots in a row that
 //! were *calm* (under [`CALM_FRACTION`] of those shares) does a step come
 //! back, so the rate does not flap; while it stays calm, another step
 //! comes back every [`RESTORE_EVERY`] slots, so that a burst (a wave of

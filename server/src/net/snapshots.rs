@@ -274,31 +274,35 @@ fn serve(
     slot: u64,
     shared: &NetShared,
 ) {
-    let Ok(mut out) = served.out.lock() else {
-        return;
-    };
-    let out = &mut *out;
-    if out.error.is_some() {
-        return;
-    }
-    let told = out.told.catch_up(
-        frame.catalog_version,
-        &frame.catalog,
-        &frame.events,
-        &mut out.control,
-    );
-    match told {
-        Ok(bytes) => {
-            shared.metrics.bytes_sent.inc_by(bytes as u64);
-        }
-        Err(e) => {
-            out.error = Some(e);
-            served.ready.notify_one();
+    // What the slot tells the client, and the room it takes; the lock is
+    // not held over the encode, so the connection task is never kept
+    // waiting for one.
+    let control = {
+        let Ok(mut out) = served.out.lock() else {
+            return;
+        };
+        let out = &mut *out;
+        if out.error.is_some() {
             return;
         }
-    }
+        let told = out.told.catch_up(
+            frame.catalog_version,
+            &frame.catalog,
+            &frame.events,
+            &mut out.control,
+        );
+        match told {
+            Ok(bytes) => shared.metrics.bytes_sent.inc_by(bytes as u64),
+            Err(e) => {
+                out.error = Some(e);
+                served.ready.notify_one();
+                return;
+            }
+        };
+        out.control.len()
+    };
     let max = served.connection.max_datagram_size().unwrap_or(1200);
-    let max = max.saturating_sub(room_beside(out.control.len()));
+    let max = max.saturating_sub(room_beside(control));
     let started = Instant::now();
     let bytes = match served.session.lock() {
         Ok(mut session) => {
@@ -307,17 +311,20 @@ fn serve(
         }
         Err(_) => None,
     };
-    if let Some(bytes) = bytes {
-        shared
-            .metrics
-            .snapshot_encode
-            .observe(started.elapsed().as_secs_f64());
-        if out.datagram.replace(bytes).is_some() {
-            shared.metrics.snapshots_superseded.inc();
+    let encoding = started.elapsed();
+    if let Ok(mut out) = served.out.lock() {
+        if let Some(bytes) = bytes {
+            shared
+                .metrics
+                .snapshot_encode
+                .observe(encoding.as_secs_f64());
+            if out.datagram.replace(bytes).is_some() {
+                shared.metrics.snapshots_superseded.inc();
+            }
         }
-    }
-    if out.datagram.is_some() || !out.control.is_empty() {
-        served.ready.notify_one();
+        if out.datagram.is_some() || !out.control.is_empty() {
+            served.ready.notify_one();
+        }
     }
 }
 

@@ -18,10 +18,11 @@ use crate::rules::GameEvent;
 /// were first published in.
 pub const RECENT_EVENTS: usize = 1024;
 
-/// One game event as frames carry it: the tick it happened in, the event,
-/// and the control frame that tells a client of it, coded once when it is
-/// published and shared by every connection.
-#[derive(Debug, Clone)]
+/// One game event as frames carry it: its number, the tick it happened
+/// in, the event, and the control frame that tells a client of it, coded
+/// by the first connection that sends it and shared by every other (as
+/// [`Frame::quantized`] is), off the tick thread.
+#[derive(Debug)]
 pub struct RecentEvent {
     /// Events are numbered from 1 in the order they are published, so a
     /// reader finds what is new to it by number, whatever the ticks did
@@ -31,9 +32,37 @@ pub struct RecentEvent {
     pub tick: u64,
     /// The event.
     pub event: GameEvent,
+    wire: OnceLock<Option<Vec<u8>>>,
+}
+
+impl RecentEvent {
+    /// Event `number`, which happened in `tick`.
+    pub fn new(number: u64, tick: u64, event: GameEvent) -> Self {
+        Self {
+            number,
+            tick,
+            event,
+            wire: OnceLock::new(),
+        }
+    }
+
     /// `ServerControl::Event` of it as the control stream carries it
-    /// (length prefix included).
-    pub wire: Arc<[u8]>,
+    /// (length prefix included), coded once for every client; `None` for
+    /// an event that cannot be coded, which is logged once and sent to
+    /// nobody rather than ending every client's session.
+    pub fn wire(&self) -> Option<&[u8]> {
+        self.wire
+            .get_or_init(
+                || match encode_frame(&ServerControl::Event(to_wire(&self.event))) {
+                    Ok(bytes) => Some(bytes),
+                    Err(e) => {
+                        tracing::warn!(tick = self.tick, error = %e, "an event that cannot be coded is not sent");
+                        None
+                    }
+                },
+            )
+            .as_deref()
+    }
 }
 
 /// What the world looked like after a loop's ticks: the latest state of
@@ -59,7 +88,7 @@ pub struct Frame {
     /// The most recent events (at most [`RECENT_EVENTS`]), oldest first,
     /// each with the tick it happened in; the same `Arc` until one
     /// happens.
-    pub events: Arc<Vec<RecentEvent>>,
+    pub events: Arc<Vec<Arc<RecentEvent>>>,
     /// Wall time of the last tick.
     pub tick_duration: Duration,
     /// Loops that hit the catch-up cap so far.
@@ -105,28 +134,12 @@ impl Simulation {
     /// in for its memory).
     pub(crate) fn frame_in(&mut self, mut states: Vec<EntityState>) -> Frame {
         if !self.pending_events.is_empty() {
-            let mut recent: Vec<RecentEvent> = self.recent_events.as_ref().clone();
-            recent.extend(self.pending_events.drain(..).filter_map(|(tick, event)| {
-                let wire = ServerControl::Event(to_wire(&event));
-                match encode_frame(&wire) {
-                    Ok(bytes) => Some(RecentEvent {
-                        number: {
-                            self.events_published += 1;
-                            self.events_published
-                        },
-                        tick,
-                        event,
-                        wire: bytes.into(),
-                    }),
-                    Err(e) => {
-                        // The rules' events are bounded when made; one
-                        // that still cannot be told is dropped, not sent
-                        // as a protocol error to every client.
-                        tracing::warn!(tick, error = %e, "an event that cannot be coded was dropped");
-                        None
-                    }
-                }
-            }));
+            let mut recent = self.recent_events.as_ref().clone();
+            for (tick, event) in self.pending_events.drain(..) {
+                self.events_published += 1;
+                let number = self.events_published;
+                recent.push(Arc::new(RecentEvent::new(number, tick, event)));
+            }
             let excess = recent.len().saturating_sub(RECENT_EVENTS);
             recent.drain(..excess);
             self.recent_events = Arc::new(recent);

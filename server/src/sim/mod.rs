@@ -99,7 +99,7 @@ pub struct Simulation {
     catalog_version: u64,
     ctx_events: Vec<GameEvent>,
     pending_events: Vec<(u64, GameEvent)>,
-    recent_events: Arc<Vec<RecentEvent>>,
+    recent_events: Arc<Vec<Arc<RecentEvent>>>,
     /// Events published so far (the number of the newest).
     events_published: u64,
     last_tick: Duration,
