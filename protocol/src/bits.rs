@@ -71,10 +71,12 @@ impl BitWriter {
         };
         self.scratch |= u128::from(masked) << self.pending;
         self.pending += bits;
-        while self.pending >= 8 {
-            self.bytes.push(self.scratch as u8);
-            self.scratch >>= 8;
-            self.pending -= 8;
+        // Eight bytes at a time: `pending` stays below 64 between calls.
+        if self.pending >= 64 {
+            self.bytes
+                .extend_from_slice(&(self.scratch as u64).to_le_bytes());
+            self.scratch >>= 64;
+            self.pending -= 64;
         }
     }
 
@@ -96,9 +98,9 @@ impl BitWriter {
 
     /// The bytes, the last one padded with zero bits.
     pub fn finish(mut self) -> Vec<u8> {
-        if self.pending > 0 {
-            self.bytes.push(self.scratch as u8);
-        }
+        let tail = self.pending.div_ceil(8) as usize;
+        self.bytes
+            .extend_from_slice(&(self.scratch as u64).to_le_bytes()[..tail]);
         self.bytes
     }
 }

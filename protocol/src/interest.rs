@@ -62,6 +62,12 @@ impl Interest {
         if self.always_relevant.contains(&id) {
             return 1.0;
         }
+        self.distance_weight(position)
+    }
+
+    /// How much an entity at `position` (m) matters by its distance alone
+    /// (what [`Self::weight`] gives one not always relevant).
+    pub fn distance_weight(&self, position: DVec3) -> f64 {
         // Squared first: most entities of most worlds fall inside the full
         // radius (all of them with no limit), and need no square root.
         let d2 = position.distance_squared(self.point);

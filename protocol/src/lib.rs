@@ -49,7 +49,7 @@ pub use entity::{EntityDesc, EntityId, EntityKind, EntityState, PlayerInput, Sha
 pub use input::{InputBuffer, InputDatagram, InputError, MAX_REDUNDANT_INPUTS};
 pub use interest::Interest;
 pub use link::{LinkConfig, LinkError, LinkStats, SimLink};
-pub use priority::{PriorityAccumulator, PriorityWeights};
+pub use priority::{PriorityAccumulator, PriorityWeights, Standing};
 pub use quantize::{read_rotation, write_rotation, PositionGrid};
 pub use session::{ServerSession, SessionConfig};
 pub use snapshot::{

@@ -38,6 +38,18 @@ impl Default for PriorityWeights {
     }
 }
 
+/// What an entity is to one client, which sets the base of its
+/// per-snapshot priority ([`PriorityWeights`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Standing {
+    /// In the client's [`Interest::always_relevant`].
+    AlwaysRelevant,
+    /// An awake body.
+    Moving,
+    /// A sleeping body.
+    AtRest,
+}
+
 /// Accumulated priority of every entity waiting to be sent to one client.
 ///
 /// One snapshot is one *round*: the encoder accumulates the entities that
@@ -101,12 +113,24 @@ impl PriorityAccumulator {
     /// Called in ascending id order within a round it is a step forwards;
     /// out of order, a search.
     pub fn accumulate(&mut self, id: EntityId, asleep: bool, relevance: f64) -> f64 {
-        let base = if self.interest.always_relevant.contains(&id) {
-            self.weights.always_relevant
+        let standing = if self.interest.always_relevant.contains(&id) {
+            Standing::AlwaysRelevant
         } else if asleep {
-            self.weights.at_rest
+            Standing::AtRest
         } else {
-            self.weights.moving
+            Standing::Moving
+        };
+        self.accumulate_as(id, standing, relevance)
+    }
+
+    /// [`Self::accumulate`] for a caller that knows the entity's
+    /// [`Standing`] already (the encoder walks the always relevant beside
+    /// the frame, in id order, instead of looking each entity up).
+    pub fn accumulate_as(&mut self, id: EntityId, standing: Standing, relevance: f64) -> f64 {
+        let base = match standing {
+            Standing::AlwaysRelevant => self.weights.always_relevant,
+            Standing::Moving => self.weights.moving,
+            Standing::AtRest => self.weights.at_rest,
         };
         let add = base * relevance;
         if !self.open {
@@ -234,6 +258,24 @@ mod tests {
         p.end_round();
         assert_eq!(p.accumulated(1), 0.0);
         assert_eq!(p.waiting(), 1);
+    }
+
+    #[test]
+    fn a_known_standing_accumulates_as_a_looked_up_one() {
+        let mut interest = Interest::everything();
+        interest.always_relevant.insert(4);
+        let mut looked_up = PriorityAccumulator::new(interest.clone());
+        let mut known = PriorityAccumulator::new(interest);
+        for (id, asleep, standing) in [
+            (1, false, Standing::Moving),
+            (4, true, Standing::AlwaysRelevant),
+            (9, true, Standing::AtRest),
+        ] {
+            let a = looked_up.accumulate(id, asleep, 0.5);
+            let b = known.accumulate_as(id, standing, 0.5);
+            assert_eq!(a, b, "entity {id}");
+        }
+        assert_eq!(known.accumulated(4), 500.0);
     }
 
     #[test]
