@@ -18,11 +18,21 @@
 //! default) is the backstop; the tick loop sleeps between ticks and caps
 //! its catch-up, and only fast-forward keeps it busy. It is best effort:
 //! where a platform or the limits refuse, the thread falls back to the nice
-//! value, then to the process's priority, and says so once in the log. The
-//! snapshot stage keeps the process's priority, as the network workers
-//! do: it has a slot to finish within each snapshot period, and below them
-//! it lost most of a shared core to them while the other core was partly
-//! idle. Threads the tick thread starts for background work (the
+//! value, then to the process's priority, and says so once in the log.
+//!
+//! The snapshot stage has a slot to finish within each snapshot period.
+//! Below the network workers it lost most of a shared core to them while
+//! the other core was partly idle, so it keeps at least the process's
+//! priority. With `--tick-realtime` it runs real-time too, below the tick
+//! ([`STAGE_RT_PRIORITY`], [`raise_stage_thread`]): at the process's
+//! priority, on a machine whose cores were both busy, its slots stretched
+//! past the governor's share of the period while its own work took under
+//! half of it, and the governor lowered rates the server could have kept.
+//! Its work is bounded by the governor (a slot that takes more than
+//! [`crate::net::governor::STAGE_SHARE`] of the period lowers rates), so
+//! the stage leaves the rest of each period to the network workers.
+//!
+//! Threads the tick thread starts for background work (the
 //! checkpoint packer) go back to the scheduling it had before
 //! ([`restore_after_tick`]); the physics workers it starts keep its
 //! priority, since the tick waits for them.
@@ -34,6 +44,11 @@ pub const TICK_NICE: i32 = -10;
 /// `--tick-realtime` (1..=99): low among real-time threads, so the
 /// kernel's own (interrupt threads at 50) stay above it.
 pub const TICK_RT_PRIORITY: i32 = 10;
+
+/// The `SCHED_FIFO` priority the snapshot stage asks for with
+/// `--tick-realtime`: below the tick's, so a tick never waits for an
+/// encoder.
+pub const STAGE_RT_PRIORITY: i32 = TICK_RT_PRIORITY - 5;
 
 /// The nice value the tick thread had before it raised its priority,
 /// for the threads it starts to go back to.
@@ -73,6 +88,26 @@ pub fn raise_tick_thread(realtime: bool) -> std::io::Result<TickPriority> {
         }
     }
     adjust_this_thread(TICK_NICE).map(|()| TickPriority::Nice)
+}
+
+/// Raises the calling thread, the snapshot stage, to real time at
+/// [`STAGE_RT_PRIORITY`] when `realtime`; otherwise, or where refused
+/// (logged), it keeps the process's priority. Says whether it is real
+/// time now.
+pub fn raise_stage_thread(realtime: bool) -> bool {
+    if !realtime {
+        return false;
+    }
+    match set_this_thread_fifo(STAGE_RT_PRIORITY) {
+        Ok(()) => true,
+        Err(e) => {
+            tracing::info!(
+                error = %e,
+                "the snapshot stage cannot run at real-time priority; it keeps the process's"
+            );
+            false
+        }
+    }
 }
 
 /// Puts a thread the tick thread started (which took its scheduling) back
@@ -189,6 +224,19 @@ mod tests {
         })
         .join()
         .unwrap();
+    }
+
+    #[test]
+    fn the_stage_runs_real_time_only_when_asked_and_below_the_tick() {
+        std::thread::spawn(|| {
+            assert!(!raise_stage_thread(false));
+            assert!(!this_thread_is_realtime());
+            let raised = raise_stage_thread(true);
+            assert_eq!(this_thread_is_realtime(), raised);
+        })
+        .join()
+        .unwrap();
+        const { assert!(0 < STAGE_RT_PRIORITY && STAGE_RT_PRIORITY < TICK_RT_PRIORITY) };
     }
 
     #[test]

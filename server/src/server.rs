@@ -303,7 +303,8 @@ pub async fn start_with_rules(
     }
     // Its own thread, below the tick thread's priority; it ends with the
     // shutdown.
-    net::snapshots::spawn(shared.clone()).map_err(StartError::SnapshotThread)?;
+    net::snapshots::spawn(shared.clone(), config.tick_realtime)
+        .map_err(StartError::SnapshotThread)?;
     let gate = net::gate::GateConfig {
         retry_above_per_sec: config.retry_above_per_sec as usize,
         ..net::gate::GateConfig::default()

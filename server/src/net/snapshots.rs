@@ -10,10 +10,11 @@
 //! is served from the latest frame half a period after it opened, so
 //! deferred entities still arrive and clients keep acknowledging.
 //!
-//! The stage has its own thread ([`spawn`]), at the process's priority,
-//! below the tick thread's ([`crate::priority`]), so that on a machine
-//! short of cores the encoders wait for the tick, never the tick for the
-//! encoders.
+//! The stage has its own thread ([`spawn`]), below the tick thread's
+//! priority ([`crate::priority`]), so that on a machine short of cores
+//! the encoders wait for the tick, never the tick for the encoders; with
+//! a real-time tick it runs real-time too, below the tick and above the
+//! network workers.
 //!
 //! Each client's [`ServerSession`] sits behind a lock it shares with its
 //! connection task, which feeds it the client's datagrams (acks and
@@ -174,12 +175,17 @@ impl Drop for ServedGuard {
 }
 
 /// Starts the stage on its own thread, named `inertia-snapshots`, with its
-/// own single-threaded runtime, at the process's priority (see
-/// [`crate::priority`]); it ends when [`run`] does.
-pub fn spawn(shared: Arc<NetShared>) -> std::io::Result<std::thread::JoinHandle<()>> {
+/// own single-threaded runtime, real-time below the tick when `realtime`
+/// and allowed, else at the process's priority (see [`crate::priority`]);
+/// it ends when [`run`] does.
+pub fn spawn(
+    shared: Arc<NetShared>,
+    realtime: bool,
+) -> std::io::Result<std::thread::JoinHandle<()>> {
     std::thread::Builder::new()
         .name("inertia-snapshots".into())
         .spawn(move || {
+            crate::priority::raise_stage_thread(realtime);
             match tokio::runtime::Builder::new_current_thread()
                 .enable_time()
                 .build()
