@@ -7,7 +7,7 @@
 //! it, so their deltas of it are the same bits: [`SharedDeltas`] keeps,
 //! for one [`QuantizedFrame`], each delta sized so far (every client sizes
 //! every changed entity to fill its budget) and, once some client sends
-//! it, the writes that make it up (in one buffer, with a range per delta),
+//! it, its bits (packed in one buffer of words, with a range per delta),
 //! and hands both to the next client with the same baseline state. In the
 //! spirit of bevy_replicon's serialized data (one buffer for a tick's
 //! replication messages, with each client's ranges into it). A client's
@@ -31,8 +31,8 @@ struct Delta {
     base: Option<QuantizedEntity>,
     /// The entity's index in the frame.
     index: u32,
-    /// Its writes, a range of [`SharedDeltas::writes`]; [`NONE`] until a
-    /// client first writes it (most deltas are sized, for the budget, by
+    /// Its bits, a range of words of [`SharedDeltas::words`]; [`NONE`]
+    /// until a client first writes it (most deltas are sized, for the budget, by
     /// far more clients than send them).
     start: u32,
     end: u32,
@@ -83,8 +83,9 @@ pub struct SharedDeltas {
     deltas: Vec<Delta>,
     /// Each delta's [`Link`], by the same index.
     links: Vec<Link>,
-    /// Every delta's writes (value, bits), back to back.
-    writes: Vec<(u64, u32)>,
+    /// Every written delta's bits, packed least significant first as a
+    /// [`BitWriter`] packs them, each delta from a fresh word.
+    words: Vec<u64>,
     /// Lookups answered from a delta coded before.
     reused: u64,
 }
@@ -93,17 +94,42 @@ pub struct SharedDeltas {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct DeltaRef(u32);
 
-/// Records writes instead of making bits.
+/// Packs a delta's bits into words, for clients to copy a word at a time
+/// (a delta is a dozen writes of a few bits each; copied, two or three).
 struct Recorder<'a> {
-    writes: &'a mut Vec<(u64, u32)>,
+    words: &'a mut Vec<u64>,
+    /// Bits not yet pushed as a word, least significant first.
+    scratch: u128,
+    pending: u32,
     bits: u32,
 }
 
 impl BitSink for Recorder<'_> {
     fn put(&mut self, value: u64, bits: u32) {
-        if bits > 0 {
-            self.writes.push((value, bits));
-            self.bits += bits;
+        if bits == 0 {
+            return;
+        }
+        let masked = if bits == 64 {
+            value
+        } else {
+            value & ((1u64 << bits) - 1)
+        };
+        self.scratch |= u128::from(masked) << self.pending;
+        self.pending += bits;
+        self.bits += bits;
+        if self.pending >= 64 {
+            self.words.push(self.scratch as u64);
+            self.scratch >>= 64;
+            self.pending -= 64;
+        }
+    }
+}
+
+impl Recorder<'_> {
+    /// Pushes the last, partial word.
+    fn finish(self) {
+        if self.pending > 0 {
+            self.words.push(self.scratch as u64);
         }
     }
 }
@@ -134,7 +160,7 @@ impl SharedDeltas {
             self.heads.resize(frame.len(), NONE);
             self.deltas.clear();
             self.links.clear();
-            self.writes.clear();
+            self.words.clear();
         }
     }
 
@@ -191,23 +217,29 @@ impl SharedDeltas {
     ) {
         let delta = self.deltas[d.0 as usize];
         let (start, end) = if delta.start == NONE {
-            let start = self.writes.len();
+            let start = self.words.len();
             let mut recorder = Recorder {
-                writes: &mut self.writes,
+                words: &mut self.words,
+                scratch: 0,
+                pending: 0,
                 bits: 0,
             };
             let q = frame.state(delta.index as usize);
             write_body(&mut recorder, &q, delta.base.as_ref(), config);
             debug_assert_eq!(recorder.bits, delta.bits);
-            let end = self.writes.len();
+            recorder.finish();
+            let end = self.words.len();
             let slot = &mut self.deltas[d.0 as usize];
             (slot.start, slot.end) = (start as u32, end as u32);
             (start, end)
         } else {
             (delta.start as usize, delta.end as usize)
         };
-        for &(value, bits) in &self.writes[start..end] {
-            w.write(value, bits);
+        let mut left = delta.bits;
+        for &word in &self.words[start..end] {
+            let bits = left.min(64);
+            w.write(word, bits);
+            left -= bits;
         }
     }
 }
