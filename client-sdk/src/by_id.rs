@@ -1,12 +1,18 @@
-//! Visiting, in one walk, the entries of an id-keyed map that a snapshot's
-//! states name: the decoder yields them ascending by id, so the map's
-//! range between the first and the last is walked beside them instead of
-//! searched once per state.
+//! Visiting the entries of an id-keyed map that a snapshot's states name.
+//! The decoder yields them ascending by id, so when they are many of the
+//! map's entries the map's range between the first and the last is walked
+//! beside them; when they are few (a snapshot of a thousand-entity world
+//! carries a hundred or so, spread over every id), each is looked up.
 
 use std::collections::BTreeMap;
 
 use inertia_protocol::snapshot::ViewEntity;
 use inertia_protocol::EntityId;
+
+/// Below one state for this many entries of the map, the states are
+/// looked up one by one rather than walked beside (a walk steps through
+/// every entry between the first state and the last).
+const WALK_FRACTION: usize = 4;
 
 /// Calls `visit` with the entry of `map` and the state, for every state
 /// in `states` (ascending by id) that has an entry; returns how many had
@@ -25,6 +31,21 @@ pub(crate) fn visit_beside<V>(
         return 0;
     }
     let mut visited = 0;
+    if states.len() * WALK_FRACTION < map.len() {
+        let mut prev = None;
+        for &state in states {
+            if prev.is_some_and(|p| p >= state.id) {
+                // Out of order: the rest are the caller's.
+                break;
+            }
+            prev = Some(state.id);
+            if let Some(entry) = map.get_mut(&state.id) {
+                visit(entry, state);
+                visited += 1;
+            }
+        }
+        return visited;
+    }
     let mut rest = states.iter().peekable();
     for (&id, entry) in map.range_mut(first.id..=last.id) {
         while rest.next_if(|s| s.id < id).is_some() {}

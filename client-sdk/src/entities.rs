@@ -239,15 +239,18 @@ mod tests {
     #[test]
     fn updating_a_snapshot_at_once_is_updating_each_state() {
         let spawned = |table: &mut EntityTable| {
-            for id in [2, 4, 6, 8] {
+            for id in (2..=40).step_by(2) {
                 table.spawn(desc(id, "x"));
             }
         };
         let (mut walked, mut each) = (EntityTable::new(), EntityTable::new());
         spawned(&mut walked);
         spawned(&mut each);
-        // Ascending, with ids not spawned yet among them; then out of order.
+        // Ascending, with ids not spawned yet among them; a few of many
+        // (looked up, not walked); then out of order.
+        let dense: Vec<_> = (1..=40).map(|id| state(id, f64::from(id))).collect();
         let snapshots = [
+            dense,
             vec![state(1, 1.0), state(2, 2.0), state(5, 5.0), state(8, 8.0)],
             vec![state(4, 4.0), state(6, 6.0)],
             vec![state(8, 9.0), state(2, 3.0)],

@@ -1043,9 +1043,17 @@ mod walk_tests {
                 time_scale: 1.0,
                 paused: false,
             };
-            // Entities come and go; every fifth snapshot out of order.
-            let mut states: Vec<ViewEntity> = (0..12)
-                .filter(|id| (id + n) % 3 != 0)
+            // Entities come and go; every other snapshot carries a few of
+            // them (looked up, not walked); every fifth out of order.
+            let keep = |id: u64| {
+                if n % 2 == 0 {
+                    (id + n) % 3 != 0
+                } else {
+                    (id + n) % 13 == 0
+                }
+            };
+            let mut states: Vec<ViewEntity> = (0..40)
+                .filter(|&id| keep(id))
                 .map(|id| state(id as EntityId, (n * 10 + id) as f64))
                 .collect();
             if n % 5 == 4 {
@@ -1061,7 +1069,7 @@ mod walk_tests {
                 each.sample(t);
             }
         }
-        for id in 0..12 {
+        for id in 0..40 {
             let samples =
                 |b: &InterpolationBuffer| b.states(id).map(|(t, s)| (t, *s)).collect::<Vec<_>>();
             assert_eq!(samples(&walked), samples(&each), "entity {id}");
