@@ -132,6 +132,7 @@ pub async fn start_with_rules(
     // bodies is refused at the one past the limit.
     let world_config = WorldConfig {
         max_bodies: config.max_bodies,
+        threads: config.physics_threads_now(),
         ..WorldConfig::default()
     };
     let built = match &config.scene {

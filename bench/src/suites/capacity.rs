@@ -51,6 +51,8 @@
 //!   clients' snapshot rates during the window; `clients_degraded`: the
 //!   clients at a lower rate at its end (`/metrics`). A step with clients
 //!   degraded is not served: their rate falls below 95 %.
+//! * `physics_threads`: the threads stepping the physics (the server's
+//!   default: half the cores, at least one)
 //! * `tick_realtime`: whether the tick thread got real-time priority
 //!   (the bench asks for it, as `--tick-realtime` does; it needs
 //!   `CAP_SYS_NICE`).
@@ -186,6 +188,12 @@ const THREAD_GROUPS: [(&str, &str); 4] = [
     ("network", "inertia-bench-s"),
     ("other", ""),
 ];
+
+/// The threads stepping the physics: the server's default, which the
+/// bench leaves as it is (half the cores, at least one).
+fn physics_threads() -> usize {
+    ServerConfig::default().physics_threads_now()
+}
 
 /// Whether the tick thread runs at real-time priority (`--tick-realtime`
 /// granted): the policy field of its `/proc/self/task/*/stat`.
@@ -531,6 +539,7 @@ fn steps(
                     "per-frame tick_duration via server.sim().subscribe()",
                 )
                 .field("threads", logical_cores())
+                .field("physics_threads", physics_threads())
                 .field("tick_realtime", tick_realtime()),
         );
         pb.inc(1);
