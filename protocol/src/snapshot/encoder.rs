@@ -57,15 +57,20 @@ pub struct SnapshotEncoder {
 struct Work {
     removed: Vec<EntityId>,
     candidates: Vec<Candidate>,
+    /// Candidates in the order they are sized, as [`sort_key`]s.
+    order: Vec<u128>,
     picked: Vec<(EntityId, usize, DeltaRef)>,
     chosen: IndexSet,
+    /// The delta of each chosen entity, by frame index (only the chosen
+    /// ones are read).
+    delta_of: Vec<Option<DeltaRef>>,
     /// The client's always relevant entities, ascending, walked beside
     /// the frame.
     always: Vec<EntityId>,
 }
 
 /// An entity that differs from the baseline (24 bytes: a thousand of them
-/// are pushed and ordered for every snapshot).
+/// are pushed for every snapshot, and ordered by their [`sort_key`]).
 #[derive(Debug, Clone, Copy)]
 struct Candidate {
     /// Its accumulated priority as an integer in the same order
@@ -92,14 +97,23 @@ fn order_key(priority: f64) -> i64 {
 /// fills its budget long before the last of a thousand, so the rest need
 /// not be sorted.
 const SORT_CHUNK: usize = 256;
+/// The least bits an entity's update takes (its id gap, flags and a
+/// position delta in the smallest classes), for the first chunk's size:
+/// about as many as fit the budget, so the first chunk is seldom followed
+/// by another and seldom sorts many that will not be sized.
+const FEWEST_BITS_AN_ENTITY: usize = 48;
 /// Once this many candidates in a row did not fit, the snapshot is full:
 /// the rest are not sized (entities of one kind code to much the same
 /// size, so one that fits after this many misses is rare).
 const MISSES_WHEN_FULL: usize = 16;
 
-/// Highest priority first, ties by id: a total order (ids are unique).
-fn by_priority(a: &Candidate, b: &Candidate) -> std::cmp::Ordering {
-    b.key.cmp(&a.key).then(a.id.cmp(&b.id))
+/// The key that puts candidate `position` (of those pushed, in ascending
+/// id order) with priority key `key` in the order it is sized: highest
+/// priority first, ties by id. One integer, so ordering a thousand
+/// candidates compares and moves 16 bytes, not a candidate.
+fn sort_key(key: i64, position: usize) -> u128 {
+    let ascending = (key as u64) ^ (1 << 63);
+    (u128::from(!ascending) << 64) | position as u128
 }
 
 /// The id gap code's size when `id` follows `prev` (`None`: first).
@@ -242,8 +256,10 @@ impl SnapshotEncoder {
         let Work {
             removed,
             candidates,
+            order,
             picked,
             chosen,
+            delta_of,
             always,
         } = &mut self.work;
         removed.clear();
@@ -332,22 +348,34 @@ impl SnapshotEncoder {
         let mut room = MAX_ENTITIES.saturating_sub(base.len());
         // The chosen, as a set of frame indices (index order is id order).
         chosen.reset(frame.len());
+        delta_of.clear();
+        delta_of.resize(frame.len(), None);
+        order.clear();
+        order.extend(
+            candidates
+                .iter()
+                .enumerate()
+                .map(|(k, c)| sort_key(c.key, k)),
+        );
         let (mut sorted, mut misses) = (0, 0);
-        for k in 0..candidates.len() {
+        for k in 0..order.len() {
             if misses == MISSES_WHEN_FULL {
                 break;
             }
             if k == sorted {
                 // The next chunk in priority order.
-                let rest = &mut candidates[sorted..];
-                let n = SORT_CHUNK.min(rest.len());
+                let rest = &mut order[sorted..];
+                let first = (budget / FEWEST_BITS_AN_ENTITY + MISSES_WHEN_FULL).min(SORT_CHUNK);
+                let n = if sorted == 0 { first } else { SORT_CHUNK }
+                    .max(1)
+                    .min(rest.len());
                 if n < rest.len() {
-                    rest.select_nth_unstable_by(n - 1, by_priority);
+                    rest.select_nth_unstable(n - 1);
                 }
-                rest[..n].sort_unstable_by(by_priority);
+                rest[..n].sort_unstable();
                 sorted += n;
             }
-            let c = &candidates[k];
+            let c = &candidates[order[k] as u32 as usize];
             let new = c.in_base == NOT_IN_BASE;
             if new && room == 0 {
                 continue;
@@ -368,14 +396,19 @@ impl SnapshotEncoder {
             if used + cost <= budget {
                 used += cost;
                 chosen.insert(index);
-                picked.push((c.id, index, delta));
+                delta_of[index] = Some(delta);
                 room -= usize::from(new);
                 misses = 0;
             } else {
                 misses += 1;
             }
         }
-        picked.sort_unstable_by_key(|&(_, index, _)| index);
+        // The chosen in id order (index order is id order).
+        picked.extend(
+            chosen
+                .iter()
+                .filter_map(|i| Some((frame.ids()[i], i, delta_of[i]?))),
+        );
         let by_id = &*picked;
         let mut updated: Vec<(EntityId, QuantizedEntity)> = std::mem::take(&mut self.spare.updated);
         updated.clear();
@@ -467,6 +500,20 @@ impl IndexSet {
         self.words[i / 64] |= 1 << (i % 64);
     }
 
+    /// The members, ascending.
+    fn iter(&self) -> impl Iterator<Item = usize> + '_ {
+        self.words.iter().enumerate().flat_map(|(w, &word)| {
+            let mut bits = word;
+            std::iter::from_fn(move || {
+                (bits != 0).then(|| {
+                    let b = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    w * 64 + b
+                })
+            })
+        })
+    }
+
     /// The largest member below `i`.
     fn before(&self, i: usize) -> Option<usize> {
         let (w, b) = (i / 64, i % 64);
@@ -514,5 +561,6 @@ mod tests {
         assert_eq!((set.before(100), set.after(100)), (Some(64), Some(130)));
         assert_eq!((set.before(299), set.after(299)), (Some(130), None));
         assert_eq!((set.before(200), set.after(131)), (Some(130), Some(299)));
+        assert_eq!(set.iter().collect::<Vec<_>>(), [0, 63, 64, 130, 299]);
     }
 }
