@@ -33,14 +33,49 @@ pub enum BitError {
     },
 }
 
+/// Packs values of 1 to 64 bits into 64-bit words, least significant bit
+/// first: what [`BitWriter`] writes as bytes, and what a recorded
+/// snapshot delta keeps as words.
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct WordPacker {
+    /// Bits not yet handed out as a word, least significant first.
+    scratch: u128,
+    /// How many bits `scratch` holds (< 64 between calls).
+    pending: u32,
+}
+
+impl WordPacker {
+    /// Adds the low `bits` bits of `value` (1 to 64; higher bits are
+    /// ignored); a word when one is full.
+    #[inline]
+    pub(crate) fn put(&mut self, value: u64, bits: u32) -> Option<u64> {
+        let masked = if bits >= 64 {
+            value
+        } else {
+            value & ((1u64 << bits) - 1)
+        };
+        self.scratch |= u128::from(masked) << self.pending;
+        self.pending += bits;
+        (self.pending >= 64).then(|| {
+            let word = self.scratch as u64;
+            self.scratch >>= 64;
+            self.pending -= 64;
+            word
+        })
+    }
+
+    /// The bits of a partial word still held (fewer than 64), and how many.
+    pub(crate) fn rest(&self) -> (u64, u32) {
+        (self.scratch as u64, self.pending)
+    }
+}
+
 /// Writes values bit by bit into a growing byte buffer.
 #[derive(Debug, Default, Clone)]
 pub struct BitWriter {
     bytes: Vec<u8>,
-    /// Bits not yet flushed to `bytes`, least significant first.
-    scratch: u128,
-    /// How many bits `scratch` holds (< 64 between calls).
-    pending: u32,
+    /// Bits not yet flushed to `bytes` (eight bytes at a time).
+    packer: WordPacker,
 }
 
 impl BitWriter {
@@ -64,19 +99,8 @@ impl BitWriter {
     /// If `bits` is 0 or above 64: a bug in the caller, not bad input.
     pub fn write(&mut self, value: u64, bits: u32) {
         assert!((1..=64).contains(&bits), "bit width {bits} outside 1..=64");
-        let masked = if bits == 64 {
-            value
-        } else {
-            value & ((1u64 << bits) - 1)
-        };
-        self.scratch |= u128::from(masked) << self.pending;
-        self.pending += bits;
-        // Eight bytes at a time: `pending` stays below 64 between calls.
-        if self.pending >= 64 {
-            self.bytes
-                .extend_from_slice(&(self.scratch as u64).to_le_bytes());
-            self.scratch >>= 64;
-            self.pending -= 64;
+        if let Some(word) = self.packer.put(value, bits) {
+            self.bytes.extend_from_slice(&word.to_le_bytes());
         }
     }
 
@@ -93,14 +117,14 @@ impl BitWriter {
 
     /// Bits written so far.
     pub fn bit_len(&self) -> usize {
-        self.bytes.len() * 8 + self.pending as usize
+        self.bytes.len() * 8 + self.packer.rest().1 as usize
     }
 
     /// The bytes, the last one padded with zero bits.
     pub fn finish(mut self) -> Vec<u8> {
-        let tail = self.pending.div_ceil(8) as usize;
-        self.bytes
-            .extend_from_slice(&(self.scratch as u64).to_le_bytes()[..tail]);
+        let (word, bits) = self.packer.rest();
+        let tail = bits.div_ceil(8) as usize;
+        self.bytes.extend_from_slice(&word.to_le_bytes()[..tail]);
         self.bytes
     }
 }

@@ -14,7 +14,7 @@
 //! datagram is the same byte for byte whether its deltas were coded for
 //! it or reused.
 
-use crate::bits::BitWriter;
+use crate::bits::{BitWriter, WordPacker};
 
 use super::code::{write_body, BitCount, BitSink};
 use super::frame::QuantizedFrame;
@@ -98,9 +98,7 @@ pub(crate) struct DeltaRef(u32);
 /// (a delta is a dozen writes of a few bits each; copied, two or three).
 struct Recorder<'a> {
     words: &'a mut Vec<u64>,
-    /// Bits not yet pushed as a word, least significant first.
-    scratch: u128,
-    pending: u32,
+    packer: WordPacker,
     bits: u32,
 }
 
@@ -109,18 +107,9 @@ impl BitSink for Recorder<'_> {
         if bits == 0 {
             return;
         }
-        let masked = if bits == 64 {
-            value
-        } else {
-            value & ((1u64 << bits) - 1)
-        };
-        self.scratch |= u128::from(masked) << self.pending;
-        self.pending += bits;
         self.bits += bits;
-        if self.pending >= 64 {
-            self.words.push(self.scratch as u64);
-            self.scratch >>= 64;
-            self.pending -= 64;
+        if let Some(word) = self.packer.put(value, bits) {
+            self.words.push(word);
         }
     }
 }
@@ -128,8 +117,9 @@ impl BitSink for Recorder<'_> {
 impl Recorder<'_> {
     /// Pushes the last, partial word.
     fn finish(self) {
-        if self.pending > 0 {
-            self.words.push(self.scratch as u64);
+        let (word, bits) = self.packer.rest();
+        if bits > 0 {
+            self.words.push(word);
         }
     }
 }
@@ -220,8 +210,7 @@ impl SharedDeltas {
             let start = self.words.len();
             let mut recorder = Recorder {
                 words: &mut self.words,
-                scratch: 0,
-                pending: 0,
+                packer: WordPacker::default(),
                 bits: 0,
             };
             let q = frame.state(delta.index as usize);
