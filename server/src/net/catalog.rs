@@ -10,7 +10,7 @@ use std::sync::Arc;
 use inertia_protocol::control::{encode_frame, ServerControl};
 use inertia_protocol::{EntityDesc, EntityId};
 
-use crate::sim::RecentEvent;
+use crate::sim::{CatalogChange, RecentEvent};
 
 /// What one client has been told.
 #[derive(Debug, Clone)]
@@ -35,19 +35,32 @@ impl Told {
     }
 
     /// Appends to `out` the control frames that bring the client up to
-    /// date with a frame's catalog (at `version`) and `recent` events:
-    /// despawns, then spawns (both in id order), then the events
-    /// published since the last call, each coded once for every client
-    /// ([`RecentEvent::wire`]). Returns the bytes appended.
+    /// date with a frame's catalog (at `version`, reached by the recent
+    /// `changes`) and `recent` events: despawns, then spawns (both in id
+    /// order), then the events published since the last call, each coded
+    /// once for every client ([`RecentEvent::wire`]). A client told a
+    /// version the changes reach from is told each change since; one told
+    /// an older version (or none) is told the difference from one walk of
+    /// the whole catalog. Returns the bytes appended.
     pub fn catch_up(
         &mut self,
         version: u64,
         catalog: &BTreeMap<EntityId, EntityDesc>,
+        changes: &[Arc<CatalogChange>],
         recent: &[Arc<RecentEvent>],
         out: &mut Vec<u8>,
     ) -> Result<usize, String> {
         let start = out.len();
-        if self.catalog_version != Some(version) {
+        let since = self
+            .catalog_version
+            .filter(|&told| told != version)
+            .and_then(|told| changes_since(changes, told, version));
+        if let Some(since) = since {
+            for change in since {
+                self.tell_change(change, catalog, out)?;
+            }
+            self.catalog_version = Some(version);
+        } else if self.catalog_version != Some(version) {
             // Both in id order: walks side by side find what left, then
             // what came.
             let mut now = catalog.keys().copied().peekable();
@@ -77,6 +90,48 @@ impl Told {
         }
         Ok(out.len() - start)
     }
+}
+
+impl Told {
+    /// Tells one change: its despawns of entities the client knows, then
+    /// its spawns of entities still in `catalog` (a later change may have
+    /// taken one away again).
+    fn tell_change(
+        &mut self,
+        change: &CatalogChange,
+        catalog: &BTreeMap<EntityId, EntityDesc>,
+        out: &mut Vec<u8>,
+    ) -> Result<(), String> {
+        for &id in &change.despawned {
+            if let Ok(i) = self.known.binary_search(&id) {
+                push(out, &ServerControl::Despawn { id })?;
+                self.known.remove(i);
+            }
+        }
+        for &id in &change.spawned {
+            let (Err(i), Some(desc)) = (self.known.binary_search(&id), catalog.get(&id)) else {
+                continue;
+            };
+            push(out, &ServerControl::Spawn(desc.clone()))?;
+            self.known.insert(i, id);
+        }
+        Ok(())
+    }
+}
+
+/// The changes after version `told` up to `version`, when `changes` holds
+/// every one of them.
+fn changes_since(
+    changes: &[Arc<CatalogChange>],
+    told: u64,
+    version: u64,
+) -> Option<&[Arc<CatalogChange>]> {
+    let first = changes.partition_point(|c| c.version <= told);
+    let since = &changes[first..];
+    let whole = since.first().is_some_and(|c| c.version == told + 1)
+        && since.last().is_some_and(|c| c.version == version)
+        && since.windows(2).all(|w| w[1].version == w[0].version + 1);
+    whole.then_some(since)
 }
 
 fn push(out: &mut Vec<u8>, msg: &ServerControl) -> Result<(), String> {
@@ -134,7 +189,7 @@ mod tests {
         let mut told = Told::new(&[event(1, 10)]);
         let catalog: BTreeMap<_, _> = [1, 2, 3].map(|id| (id, desc(id))).into();
         let mut out = Vec::new();
-        told.catch_up(1, &catalog, &[event(1, 10)], &mut out)
+        told.catch_up(1, &catalog, &[], &[event(1, 10)], &mut out)
             .unwrap();
         let msgs = read(&out);
         let spawned: Vec<_> = msgs
@@ -154,7 +209,7 @@ mod tests {
         let catalog: BTreeMap<_, _> = [1, 3, 4].map(|id| (id, desc(id))).into();
         let recent = [event(1, 10), event(2, 11), event(3, 11)];
         out.clear();
-        told.catch_up(2, &catalog, &recent, &mut out).unwrap();
+        told.catch_up(2, &catalog, &[], &recent, &mut out).unwrap();
         let msgs = read(&out);
         assert!(matches!(msgs[0], ServerControl::Despawn { id: 2 }));
         assert!(matches!(&msgs[1], ServerControl::Spawn(d) if d.id == 4));
@@ -163,8 +218,77 @@ mod tests {
 
         // Nothing new: nothing told.
         out.clear();
-        assert_eq!(told.catch_up(2, &catalog, &recent, &mut out), Ok(0));
+        assert_eq!(told.catch_up(2, &catalog, &[], &recent, &mut out), Ok(0));
         assert!(out.is_empty());
+    }
+
+    /// The entities a client holds after reading `bytes` on top of `held`.
+    fn held_after(mut held: Vec<EntityId>, bytes: &[u8]) -> Vec<EntityId> {
+        for msg in read(bytes) {
+            match msg {
+                ServerControl::Spawn(d) => held.push(d.id),
+                ServerControl::Despawn { id } => held.retain(|&h| h != id),
+                _ => {}
+            }
+        }
+        held.sort_unstable();
+        held
+    }
+
+    #[test]
+    fn issue_12_a_catalog_change_is_told_from_the_change_not_a_walk_of_the_catalog() {
+        let catalogs: Vec<BTreeMap<EntityId, EntityDesc>> = [
+            vec![1, 2, 3],
+            vec![1, 3, 4],
+            vec![1, 4, 5, 6],
+            vec![4, 6, 7],
+            vec![4, 7],
+        ]
+        .iter()
+        .map(|ids| ids.iter().map(|&id| (id, desc(id))).collect())
+        .collect();
+        let empty = BTreeMap::new();
+        let changes: Vec<Arc<CatalogChange>> = catalogs
+            .iter()
+            .enumerate()
+            .map(|(v, c)| {
+                let before = if v == 0 { &empty } else { &catalogs[v - 1] };
+                Arc::new(CatalogChange::between(v as u64 + 1, before, c))
+            })
+            .collect();
+        assert_eq!(changes[1].despawned, [2]);
+        assert_eq!(changes[1].spawned, [4]);
+
+        // Told each version in turn: the same bytes as a walk of the whole
+        // catalog.
+        let (mut by_change, mut by_walk) = (Told::new(&[]), Told::new(&[]));
+        for (v, catalog) in catalogs.iter().enumerate() {
+            let version = v as u64 + 1;
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            by_change
+                .catch_up(version, catalog, &changes[..=v], &[], &mut a)
+                .unwrap();
+            by_walk
+                .catch_up(version, catalog, &[], &[], &mut b)
+                .unwrap();
+            assert_eq!(a, b, "version {version}");
+        }
+
+        // A client that skipped versions is told every change since, and
+        // holds what the catalog holds; one told a version older than the
+        // changes reach is told the difference from a walk.
+        for (told_at, changes_held) in [(1, &changes[..]), (1, &changes[3..])] {
+            let mut told = Told::new(&[]);
+            let mut out = Vec::new();
+            told.catch_up(told_at, &catalogs[0], &[], &[], &mut out)
+                .unwrap();
+            let held = held_after(Vec::new(), &out);
+            out.clear();
+            told.catch_up(5, &catalogs[4], changes_held, &[], &mut out)
+                .unwrap();
+            assert_eq!(held_after(held, &out), [4, 7]);
+            assert_eq!(told.known, [4, 7]);
+        }
     }
 
     #[test]
@@ -172,13 +296,13 @@ mod tests {
         let catalog = BTreeMap::new();
         let mut told = Told::new(&[]);
         let mut out = Vec::new();
-        told.catch_up(0, &catalog, &[event(1, 500)], &mut out)
+        told.catch_up(0, &catalog, &[], &[event(1, 500)], &mut out)
             .unwrap();
         assert_eq!(read(&out).len(), 1);
         // The world went back to tick 100 and an event happened there.
         let recent = [event(1, 500), event(2, 101)];
         out.clear();
-        told.catch_up(0, &catalog, &recent, &mut out).unwrap();
+        told.catch_up(0, &catalog, &[], &recent, &mut out).unwrap();
         let events: Vec<_> = read(&out).iter().filter_map(jumped).collect();
         assert_eq!(events, [r#"{"avatar":2}"#]);
     }

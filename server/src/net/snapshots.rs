@@ -294,6 +294,7 @@ fn serve(
         let told = out.told.catch_up(
             frame.catalog_version,
             &frame.catalog,
+            &frame.catalog_changes,
             &frame.events,
             &mut out.control,
         );

@@ -18,6 +18,66 @@ use crate::rules::GameEvent;
 /// were first published in.
 pub const RECENT_EVENTS: usize = 1024;
 
+/// Catalog changes a [`Frame`] carries: the most recent ones. A client
+/// told an older version is brought up to date by a walk of the whole
+/// catalog instead.
+pub const RECENT_CATALOG_CHANGES: usize = 64;
+
+/// One change of the catalog, as the version it made: what left and what
+/// came (both ascending by id), so that each client is told the change
+/// without walking the whole catalog.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct CatalogChange {
+    /// The catalog version after the change.
+    pub version: u64,
+    /// Entities gone from the catalog.
+    pub despawned: Vec<EntityId>,
+    /// Entities new to it.
+    pub spawned: Vec<EntityId>,
+}
+
+impl CatalogChange {
+    /// Which ids changed from `old` to `new`, as version `version`: one
+    /// walk of both catalogs, side by side.
+    pub fn between(
+        version: u64,
+        old: &BTreeMap<EntityId, EntityDesc>,
+        new: &BTreeMap<EntityId, EntityDesc>,
+    ) -> Self {
+        let mut change = Self {
+            version,
+            ..Self::default()
+        };
+        let mut o = old.iter().peekable();
+        let mut n = new.iter().peekable();
+        loop {
+            match (o.peek(), n.peek()) {
+                (Some(&(&a, _)), Some(&(&b, _))) => {
+                    if a < b {
+                        change.despawned.push(a);
+                        o.next();
+                    } else if b < a {
+                        change.spawned.push(b);
+                        n.next();
+                    } else {
+                        o.next();
+                        n.next();
+                    }
+                }
+                (Some(&(&a, _)), None) => {
+                    change.despawned.push(a);
+                    o.next();
+                }
+                (None, Some(&(&b, _))) => {
+                    change.spawned.push(b);
+                    n.next();
+                }
+                (None, None) => return change,
+            }
+        }
+    }
+}
+
 /// One game event as frames carry it: its number, the tick it happened
 /// in, the event, and the control frame that tells a client of it, coded
 /// by the first connection that sends it and shared by every other (as
@@ -85,6 +145,10 @@ pub struct Frame {
     pub catalog: Arc<BTreeMap<EntityId, EntityDesc>>,
     /// Changes whenever the catalog does (compare, don't diff).
     pub catalog_version: u64,
+    /// The most recent catalog changes (at most
+    /// [`RECENT_CATALOG_CHANGES`]), oldest first, the last one making
+    /// `catalog_version` (none before the first change).
+    pub catalog_changes: Arc<Vec<Arc<CatalogChange>>>,
     /// The most recent events (at most [`RECENT_EVENTS`]), oldest first,
     /// each with the tick it happened in; the same `Arc` until one
     /// happens.
@@ -145,9 +209,16 @@ impl Simulation {
             self.recent_events = Arc::new(recent);
         }
         if self.catalog_stale || self.shown().entities.version() != self.catalog_seen {
-            self.catalog = Arc::new(self.shown().entities.catalog());
-            self.catalog_seen = self.shown().entities.version();
+            let catalog = Arc::new(self.shown().entities.catalog());
             self.catalog_version += 1;
+            let change = CatalogChange::between(self.catalog_version, &self.catalog, &catalog);
+            let mut changes = self.catalog_changes.as_ref().clone();
+            changes.push(Arc::new(change));
+            let excess = changes.len().saturating_sub(RECENT_CATALOG_CHANGES);
+            changes.drain(..excess);
+            self.catalog_changes = Arc::new(changes);
+            self.catalog = catalog;
+            self.catalog_seen = self.shown().entities.version();
             self.catalog_stale = false;
         }
         Frame {
@@ -167,6 +238,7 @@ impl Simulation {
             },
             catalog: self.catalog.clone(),
             catalog_version: self.catalog_version,
+            catalog_changes: self.catalog_changes.clone(),
             events: self.recent_events.clone(),
             tick_duration: self.last_tick,
             overruns: self.shown().clock.overruns(),

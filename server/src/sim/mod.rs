@@ -78,7 +78,7 @@ pub use clock_control::ClockControl;
 pub use command::{Command, CommandError, SimCall};
 pub use config::{SimConfig, DEFAULT_CHECKPOINT_TICKS};
 pub use edit::EditError;
-pub use frame::{Frame, RecentEvent, RECENT_EVENTS};
+pub use frame::{CatalogChange, Frame, RecentEvent, RECENT_CATALOG_CHANGES, RECENT_EVENTS};
 pub use handle::{spawn, SimExit, SimHandle};
 pub use recording::RecorderOpening;
 pub use stats::{SimStats, RATE_WINDOW, TICK_WINDOW};
@@ -97,6 +97,8 @@ pub struct Simulation {
     config: SimConfig,
     catalog: Arc<BTreeMap<EntityId, EntityDesc>>,
     catalog_version: u64,
+    /// The most recent catalog changes, for [`Frame::catalog_changes`].
+    catalog_changes: Arc<Vec<Arc<CatalogChange>>>,
     ctx_events: Vec<GameEvent>,
     pending_events: Vec<(u64, GameEvent)>,
     recent_events: Arc<Vec<Arc<RecentEvent>>>,
@@ -201,6 +203,7 @@ impl Simulation {
             config,
             catalog,
             catalog_version,
+            catalog_changes: Arc::new(Vec::new()),
             ctx_events: Vec::new(),
             pending_events: Vec::new(),
             recent_events: Arc::new(Vec::new()),
