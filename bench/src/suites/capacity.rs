@@ -40,7 +40,9 @@
 //! * `rss_mb`: this process's resident set at the end of the step;
 //!   `rss_kb_per_client`: beyond the idle server's, per client, KiB.
 //! * `bots_cpu_percent`: the bots' own CPU over the same window, summed;
-//!   `machine_cpu_percent`: every process on the machine (`/proc/stat`).
+//!   `machine_cpu_percent`: every process on the machine (`/proc/stat`);
+//!   `steal_ms`: CPU time the host took from the machine's virtual cores
+//!   in the window (a stall of everything, named in the verdict).
 //! * `kbps_per_client`: mean over bots of the snapshot bytes each received
 //!   in the window, kbit/s; `snapshots_per_client_hz` (mean) and
 //!   `snapshots_min_client_hz` (worst bot): snapshots received per second.
@@ -104,18 +106,24 @@ pub const SETTLE_MAX_S: f64 = 15.0;
 /// How long every bot of a step has to connect, s.
 const CONNECT_TIMEOUT: Duration = Duration::from_secs(60);
 
+/// Stolen time in a step worth naming as a cause, ms: a stall of a few
+/// tens of milliseconds costs a slot or two at 30 Hz.
+const STEAL_NOTED_MS: f64 = 20.0;
+
 /// The scene every step runs.
 pub fn scene_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../server/scenes/capacity.ron")
 }
 
-/// The machine's busy and total CPU time so far, s (`/proc/stat`).
-fn machine_cpu_s() -> (f64, f64) {
+/// The machine's busy, total and stolen CPU time so far, s
+/// (`/proc/stat`; stolen: time the host ran something else while this
+/// machine's virtual cores had work).
+fn machine_cpu_s() -> (f64, f64, f64) {
     let Ok(stat) = std::fs::read_to_string("/proc/stat") else {
-        return (f64::NAN, f64::NAN);
+        return (f64::NAN, f64::NAN, f64::NAN);
     };
     let Some(line) = stat.lines().find(|l| l.starts_with("cpu ")) else {
-        return (f64::NAN, f64::NAN);
+        return (f64::NAN, f64::NAN, f64::NAN);
     };
     let v: Vec<f64> = line
         .split_whitespace()
@@ -125,7 +133,8 @@ fn machine_cpu_s() -> (f64, f64) {
     // user nice system idle iowait irq softirq steal (guest is in user).
     let total: f64 = v.iter().take(8).sum();
     let idle = v.get(3).copied().unwrap_or(0.0) + v.get(4).copied().unwrap_or(0.0);
-    ((total - idle) / 100.0, total / 100.0)
+    let steal = v.get(7).copied().unwrap_or(0.0);
+    ((total - idle) / 100.0, total / 100.0, steal / 100.0)
 }
 
 /// The server-side counters a step compares at its start and end.
@@ -136,6 +145,7 @@ struct ServerMark {
     threads_cpu_s: [f64; THREAD_GROUPS.len()],
     machine_busy_s: f64,
     machine_total_s: f64,
+    machine_steal_s: f64,
     encode_s: f64,
     encodes: u64,
     degrade_steps: u64,
@@ -150,7 +160,7 @@ impl ServerMark {
     fn take(server: &RunningServer) -> Self {
         let m = server.metrics();
         let stats = server.sim().stats();
-        let (busy, total) = machine_cpu_s();
+        let (busy, total, steal) = machine_cpu_s();
         // The histogram's sum and count, as Prometheus reads them.
         let text = m.encode();
         let (encode_s, encodes) = (
@@ -163,6 +173,7 @@ impl ServerMark {
             threads_cpu_s: threads_cpu_s(),
             machine_busy_s: busy,
             machine_total_s: total,
+            machine_steal_s: steal,
             encode_s,
             encodes,
             degrade_steps: m
@@ -264,6 +275,8 @@ struct Step {
     server_cpu: f64,
     bots_cpu: f64,
     machine_cpu: f64,
+    /// CPU time the host took from the machine in the step, ms.
+    steal_ms: f64,
     served: bool,
 }
 
@@ -454,6 +467,7 @@ fn steps(
         } else {
             f64::NAN
         };
+        let steal_ms = (b.machine_steal_s - a.machine_steal_s) * 1e3;
         let machine_cpu = (b.machine_busy_s - a.machine_busy_s)
             / (b.machine_total_s - a.machine_total_s).max(1e-9)
             * 100.0
@@ -514,6 +528,7 @@ fn steps(
                 .num("bots_cpu_percent", bots_cpu)
                 .field("bot_processes", bot_processes)
                 .num("machine_cpu_percent", machine_cpu)
+                .num("steal_ms", steal_ms)
                 .num("cpu_ceiling_percent", 100.0 * logical_cores() as f64)
                 .num("kbps_per_client", mean(&|r| r.kbps))
                 .num(
@@ -551,6 +566,7 @@ fn steps(
             server_cpu,
             bots_cpu,
             machine_cpu,
+            steal_ms,
             served,
         };
         if served {
@@ -632,6 +648,12 @@ fn verdict(last: &Step) -> String {
         format!("CPU: both cores saturated and shared with the bots; {cpu}; {shared}")
     } else if saturated {
         format!("CPU: both cores saturated, mostly by the server; {cpu}")
+    } else if last.steal_ms >= STEAL_NOTED_MS {
+        format!(
+            "not CPU-saturated ({cpu}), but the host took {:.0} ms of the machine's cores \
+             in the step (steal time)",
+            last.steal_ms
+        )
     } else {
         format!("not CPU-saturated ({cpu}): the server's own latency")
     };
@@ -653,8 +675,8 @@ mod tests {
 
     #[test]
     fn cpu_counters_read() {
-        let (busy, total) = machine_cpu_s();
-        assert!(total > 0.0 && busy <= total);
+        let (busy, total, steal) = machine_cpu_s();
+        assert!(total > 0.0 && busy <= total && steal <= total);
     }
 
     #[test]
