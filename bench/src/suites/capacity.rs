@@ -467,7 +467,7 @@ fn steps(
         } else {
             f64::NAN
         };
-        let steal_ms = (b.machine_steal_s - a.machine_steal_s) * 1e3;
+        let steal_ms = ((b.machine_steal_s - a.machine_steal_s) * 1e3).round();
         let machine_cpu = (b.machine_busy_s - a.machine_busy_s)
             / (b.machine_total_s - a.machine_total_s).max(1e-9)
             * 100.0
