@@ -9,8 +9,6 @@
 //! relevant highest, moving bodies high, resting ones low) times the
 //! entity's [`Interest`] weight.
 
-use glam::DVec3;
-
 use crate::entity::EntityId;
 use crate::interest::Interest;
 
@@ -48,6 +46,20 @@ pub enum Standing {
     Moving,
     /// A sleeping body.
     AtRest,
+}
+
+impl Standing {
+    /// The standing of an entity in the always relevant or not, asleep or
+    /// not (the always relevant rank first, asleep or not).
+    pub fn new(always_relevant: bool, asleep: bool) -> Self {
+        if always_relevant {
+            Self::AlwaysRelevant
+        } else if asleep {
+            Self::AtRest
+        } else {
+            Self::Moving
+        }
+    }
 }
 
 /// Accumulated priority of every entity waiting to be sent to one client.
@@ -102,24 +114,12 @@ impl PriorityAccumulator {
         self.interest = interest;
     }
 
-    /// How much entity `id` at `position` (m) matters to this client, 0
-    /// (not sent) to 1.
-    pub fn relevance(&self, id: EntityId, position: DVec3) -> f64 {
-        self.interest.weight(id, position)
-    }
-
     /// Adds this round's priority of entity `id` (sleeping when `asleep`,
     /// of relevance `relevance`) and returns its accumulated priority.
     /// Called in ascending id order within a round it is a step forwards;
     /// out of order, a search.
     pub fn accumulate(&mut self, id: EntityId, asleep: bool, relevance: f64) -> f64 {
-        let standing = if self.interest.always_relevant.contains(&id) {
-            Standing::AlwaysRelevant
-        } else if asleep {
-            Standing::AtRest
-        } else {
-            Standing::Moving
-        };
+        let standing = Standing::new(self.interest.always_relevant.contains(&id), asleep);
         self.accumulate_as(id, standing, relevance)
     }
 
@@ -231,7 +231,7 @@ impl PriorityAccumulator {
 mod tests {
     use super::*;
     use crate::entity::EntityState;
-    use glam::DQuat;
+    use glam::{DQuat, DVec3};
 
     fn state(id: EntityId, asleep: bool) -> EntityState {
         EntityState {

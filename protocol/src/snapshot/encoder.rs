@@ -73,9 +73,8 @@ struct Work {
 /// are pushed for every snapshot, and ordered by their [`sort_key`]).
 #[derive(Debug, Clone, Copy)]
 struct Candidate {
-    /// Its accumulated priority as an integer in the same order
-    /// ([`order_key`]).
-    key: i64,
+    /// Its accumulated priority.
+    priority: f64,
     id: EntityId,
     /// Its index in the frame.
     index: u32,
@@ -85,13 +84,6 @@ struct Candidate {
 
 /// [`Candidate::in_base`] of an entity the baseline does not hold.
 const NOT_IN_BASE: u32 = u32::MAX;
-
-/// A priority as an integer that orders as [`f64::total_cmp`] does, so
-/// ordering candidates compares integers.
-fn order_key(priority: f64) -> i64 {
-    let bits = priority.to_bits() as i64;
-    bits ^ (((bits >> 63) as u64) >> 1) as i64
-}
 
 /// Candidates are put in priority order this many at a time: a snapshot
 /// fills its budget long before the last of a thousand, so the rest need
@@ -108,11 +100,19 @@ const FEWEST_BITS_AN_ENTITY: usize = 48;
 const MISSES_WHEN_FULL: usize = 16;
 
 /// The key that puts candidate `position` (of those pushed, in ascending
-/// id order) with priority key `key` in the order it is sized: highest
-/// priority first, ties by id. One integer, so ordering a thousand
-/// candidates compares and moves 16 bytes, not a candidate.
-fn sort_key(key: i64, position: usize) -> u128 {
-    let ascending = (key as u64) ^ (1 << 63);
+/// id order) of accumulated `priority` in the order it is sized: highest
+/// priority first ([`f64::total_cmp`]'s order), ties by id. One integer,
+/// so ordering a thousand candidates compares and moves 16 bytes, not a
+/// candidate.
+fn sort_key(priority: f64, position: usize) -> u128 {
+    // The bits of a float, made to order as total_cmp does: negative ones
+    // flipped whole, positive ones above them.
+    let bits = priority.to_bits();
+    let ascending = if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | 1 << 63
+    };
     (u128::from(!ascending) << 64) | position as u128
 }
 
@@ -298,15 +298,9 @@ impl SnapshotEncoder {
             if in_base.is_some_and(|q| frame.same_as(i, q)) {
                 continue;
             }
-            let standing = if is_always {
-                Standing::AlwaysRelevant
-            } else if frame.at_rest(i) {
-                Standing::AtRest
-            } else {
-                Standing::Moving
-            };
+            let standing = Standing::new(is_always, frame.at_rest(i));
             candidates.push(Candidate {
-                key: order_key(priorities.accumulate_as(id, standing, relevance)),
+                priority: priorities.accumulate_as(id, standing, relevance),
                 id,
                 index: i as u32,
                 in_base: if in_base.is_some() {
@@ -355,8 +349,10 @@ impl SnapshotEncoder {
             candidates
                 .iter()
                 .enumerate()
-                .map(|(k, c)| sort_key(c.key, k)),
+                .map(|(k, c)| sort_key(c.priority, k)),
         );
+        // The first chunk: about as many as fit the budget.
+        let first_chunk = (budget / FEWEST_BITS_AN_ENTITY + MISSES_WHEN_FULL).min(SORT_CHUNK);
         let (mut sorted, mut misses) = (0, 0);
         for k in 0..order.len() {
             if misses == MISSES_WHEN_FULL {
@@ -365,8 +361,7 @@ impl SnapshotEncoder {
             if k == sorted {
                 // The next chunk in priority order.
                 let rest = &mut order[sorted..];
-                let first = (budget / FEWEST_BITS_AN_ENTITY + MISSES_WHEN_FULL).min(SORT_CHUNK);
-                let n = if sorted == 0 { first } else { SORT_CHUNK }
+                let n = if sorted == 0 { first_chunk } else { SORT_CHUNK }
                     .max(1)
                     .min(rest.len());
                 if n < rest.len() {
@@ -546,7 +541,17 @@ impl IndexSet {
 
 #[cfg(test)]
 mod tests {
-    use super::IndexSet;
+    use super::{sort_key, IndexSet};
+
+    #[test]
+    fn sort_keys_order_by_priority_down_then_position_up() {
+        let priorities = [3.5, -1.0, 0.0, 1e300, -0.0, 3.5, f64::MIN_POSITIVE, -7.25];
+        let mut by_key: Vec<usize> = (0..priorities.len()).collect();
+        by_key.sort_by_key(|&k| sort_key(priorities[k], k));
+        let mut by_total_cmp: Vec<usize> = (0..priorities.len()).collect();
+        by_total_cmp.sort_by(|&a, &b| priorities[b].total_cmp(&priorities[a]).then(a.cmp(&b)));
+        assert_eq!(by_key, by_total_cmp);
+    }
 
     #[test]
     fn index_sets_find_the_nearest_members_either_side() {
