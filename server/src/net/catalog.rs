@@ -51,34 +51,26 @@ impl Told {
         out: &mut Vec<u8>,
     ) -> Result<usize, String> {
         let start = out.len();
-        let since = self
-            .catalog_version
-            .filter(|&told| told != version)
-            .and_then(|told| changes_since(changes, told, version));
-        if let Some(since) = since {
-            for change in since {
-                self.tell_change(change, catalog, out)?;
-            }
-            self.catalog_version = Some(version);
-        } else if self.catalog_version != Some(version) {
-            // Both in id order: walks side by side find what left, then
-            // what came.
-            let mut now = catalog.keys().copied().peekable();
-            for &id in &self.known {
-                while now.next_if(|&n| n < id).is_some() {}
-                if now.next_if_eq(&id).is_none() {
-                    push(out, &ServerControl::Despawn { id })?;
+        if self.catalog_version != Some(version) {
+            let since = self
+                .catalog_version
+                .and_then(|told| changes_since(changes, told, version));
+            match since {
+                Some(since) => {
+                    for change in since {
+                        self.tell_change(change, catalog, out)?;
+                    }
+                }
+                None => {
+                    // What the client knows against the whole catalog.
+                    let change = CatalogChange::of_ids(
+                        version,
+                        self.known.iter().copied(),
+                        catalog.keys().copied(),
+                    );
+                    self.tell_change(&change, catalog, out)?;
                 }
             }
-            let mut known = self.known.iter().copied().peekable();
-            for (&id, desc) in catalog {
-                while known.next_if(|&k| k < id).is_some() {}
-                if known.next_if_eq(&id).is_none() {
-                    push(out, &ServerControl::Spawn(desc.clone()))?;
-                }
-            }
-            self.known.clear();
-            self.known.extend(catalog.keys().copied());
             self.catalog_version = Some(version);
         }
         let first = recent.partition_point(|e| e.number <= self.events_told);
@@ -90,9 +82,7 @@ impl Told {
         }
         Ok(out.len() - start)
     }
-}
 
-impl Told {
     /// Tells one change: its despawns of entities the client knows, then
     /// its spawns of entities still in `catalog` (a later change may have
     /// taken one away again).

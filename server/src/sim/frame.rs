@@ -37,42 +37,42 @@ pub struct CatalogChange {
 }
 
 impl CatalogChange {
-    /// Which ids changed from `old` to `new`, as version `version`: one
-    /// walk of both catalogs, side by side.
+    /// Which ids changed from `old` to `new`, as version `version`.
     pub fn between(
         version: u64,
         old: &BTreeMap<EntityId, EntityDesc>,
         new: &BTreeMap<EntityId, EntityDesc>,
     ) -> Self {
+        Self::of_ids(version, old.keys().copied(), new.keys().copied())
+    }
+
+    /// Which ids left and which came between two ascending runs of ids,
+    /// as version `version`: one walk of both, side by side.
+    pub fn of_ids(
+        version: u64,
+        old: impl IntoIterator<Item = EntityId>,
+        new: impl IntoIterator<Item = EntityId>,
+    ) -> Self {
         let mut change = Self {
             version,
             ..Self::default()
         };
-        let mut o = old.iter().peekable();
-        let mut n = new.iter().peekable();
+        let (mut old, mut new) = (old.into_iter().peekable(), new.into_iter().peekable());
         loop {
-            match (o.peek(), n.peek()) {
-                (Some(&(&a, _)), Some(&(&b, _))) => {
-                    if a < b {
-                        change.despawned.push(a);
-                        o.next();
-                    } else if b < a {
-                        change.spawned.push(b);
-                        n.next();
-                    } else {
-                        o.next();
-                        n.next();
-                    }
+            match (old.peek().copied(), new.peek().copied()) {
+                (Some(a), Some(b)) if a == b => {
+                    old.next();
+                    new.next();
                 }
-                (Some(&(&a, _)), None) => {
+                (Some(a), b) if b.is_none_or(|b| a < b) => {
                     change.despawned.push(a);
-                    o.next();
+                    old.next();
                 }
-                (None, Some(&(&b, _))) => {
+                (_, Some(b)) => {
                     change.spawned.push(b);
-                    n.next();
+                    new.next();
                 }
-                (None, None) => return change,
+                (_, None) => return change,
             }
         }
     }
