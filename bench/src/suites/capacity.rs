@@ -200,12 +200,6 @@ const THREAD_GROUPS: [(&str, &str); 4] = [
     ("other", ""),
 ];
 
-/// The threads stepping the physics: the server's default, which the
-/// bench leaves as it is (half the cores, at least one).
-fn physics_threads() -> usize {
-    ServerConfig::default().physics_threads_now()
-}
-
 /// Whether the tick thread runs at real-time priority (`--tick-realtime`
 /// granted): the policy field of its `/proc/self/task/*/stat`.
 fn tick_realtime() -> bool {
@@ -326,8 +320,18 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         .thread_name("inertia-bench-server")
         .enable_all()
         .build()?;
+    // The bench leaves the server's default: half the cores, at least one.
+    let physics_threads = config.physics_threads_now();
     let server = runtime.block_on(start(config))?;
-    let result = steps(&runtime, &server, &ks, seconds, warmup, sink);
+    let result = steps(
+        &runtime,
+        &server,
+        physics_threads,
+        &ks,
+        seconds,
+        warmup,
+        sink,
+    );
     runtime.block_on(server.shutdown());
     drop(runtime);
     let _ = std::fs::remove_dir_all(&data_dir);
@@ -337,6 +341,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
 fn steps(
     runtime: &tokio::runtime::Runtime,
     server: &RunningServer,
+    physics_threads: usize,
     ks: &[u32],
     seconds: f64,
     warmup: f64,
@@ -554,7 +559,7 @@ fn steps(
                     "per-frame tick_duration via server.sim().subscribe()",
                 )
                 .field("threads", logical_cores())
-                .field("physics_threads", physics_threads())
+                .field("physics_threads", physics_threads)
                 .field("tick_realtime", tick_realtime()),
         );
         pb.inc(1);
