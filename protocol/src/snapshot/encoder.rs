@@ -44,17 +44,18 @@ pub struct SnapshotEncoder {
     last: EncodeReport,
     /// Buffers of a snapshot the log no longer holds, for the next one.
     spare: Sent,
-    /// Buffers of one encode, kept for their memory.
-    work: Work,
     /// The deltas of [`Self::encode_frame`], which shares them with no
     /// other client (kept for their memory).
     own: SharedDeltas,
 }
 
 /// The buffers one encode fills, kept between encodes so a snapshot
-/// allocates only its datagram.
+/// allocates only its datagram. Nothing in them outlives an encode, so the
+/// encoders of one frame take turns with one set ([`SharedDeltas`] holds
+/// it): a server coding for a few hundred clients then writes the same
+/// few tens of KB each time, in cache, instead of each client's own.
 #[derive(Debug, Clone, Default)]
-struct Work {
+pub(crate) struct Work {
     removed: Vec<EntityId>,
     candidates: Vec<Candidate>,
     /// Candidates in the order they are sized, as [`sort_key`]s.
@@ -135,7 +136,6 @@ impl SnapshotEncoder {
             next: 0,
             last: EncodeReport::default(),
             spare: Sent::default(),
-            work: Work::default(),
             own: SharedDeltas::new(),
         })
     }
@@ -253,6 +253,7 @@ impl SnapshotEncoder {
         };
 
         // Walk the frame and the baseline together, by id.
+        let mut work = shared.take_work();
         let Work {
             removed,
             candidates,
@@ -261,7 +262,7 @@ impl SnapshotEncoder {
             chosen,
             delta_of,
             always,
-        } = &mut self.work;
+        } = &mut work;
         removed.clear();
         candidates.clear();
         picked.clear();
@@ -473,6 +474,7 @@ impl SnapshotEncoder {
         });
         self.spare = replaced.unwrap_or_default();
         self.next = sequence.wrapping_add(1);
+        shared.put_work(work);
         bytes
     }
 }

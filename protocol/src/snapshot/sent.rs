@@ -112,29 +112,20 @@ impl SentLog {
                     && sequence_newer(next, t.sequence)
             })
         };
-        let in_place = match (&self.acked, base) {
-            (Some((a, _)), Some(b)) => *a == b && !needed_later(self, b),
-            _ => false,
-        };
+        // The view it was coded against goes into the new one in place
+        // when nothing sent later needs it (acknowledgements that come a
+        // slot or more late leave it among the held views, and two or
+        // three chains of baselines then run side by side); else the new
+        // view is a copy.
         let old = self.acked.take();
+        let had_old = old.is_some();
+        self.held.extend(old);
         let mut scratch = std::mem::take(&mut self.scratch);
         let sent = self.slots[slot].as_ref().expect("found above");
-        let view = match old {
-            Some((_, mut view)) if in_place => {
-                // Nothing still needs the old view: change it in place.
-                view.apply_in_place(sent.tick, &sent.removed, &sent.updated, &mut scratch);
-                self.scratch = scratch;
-                view
-            }
-            old => {
-                let had_old = old.is_some();
-                self.held.extend(old);
-                let empty = View::default();
-                let from = match base {
-                    None => Some(&empty),
-                    Some(b) => self.held.iter().find(|(h, _)| *h == b).map(|(_, v)| v),
-                };
-                let Some(from) = from else {
+        let view = match base {
+            None => View::default().apply_into(sent.tick, &sent.removed, &sent.updated, scratch),
+            Some(b) => {
+                let Some(at) = self.held.iter().position(|(h, _)| *h == b) else {
                     // Its baseline was let go: keep the one acknowledged.
                     if had_old {
                         self.acked = self.held.pop();
@@ -142,7 +133,16 @@ impl SentLog {
                     self.scratch = scratch;
                     return;
                 };
-                from.apply_into(sent.tick, &sent.removed, &sent.updated, scratch)
+                if needed_later(self, b) {
+                    self.held[at]
+                        .1
+                        .apply_into(sent.tick, &sent.removed, &sent.updated, scratch)
+                } else {
+                    let (_, mut view) = self.held.remove(at);
+                    view.apply_in_place(sent.tick, &sent.removed, &sent.updated, &mut scratch);
+                    self.scratch = scratch;
+                    view
+                }
             }
         };
         self.acked = Some((sequence, view));

@@ -17,6 +17,7 @@
 use crate::bits::{BitWriter, WordPacker};
 
 use super::code::{write_body, BitCount, BitSink};
+use super::encoder::Work;
 use super::frame::QuantizedFrame;
 use super::view::QuantizedEntity;
 use super::SnapshotConfig;
@@ -88,6 +89,8 @@ pub struct SharedDeltas {
     words: Vec<u64>,
     /// Lookups answered from a delta coded before.
     reused: u64,
+    /// The working memory of one encode, lent to each encoder in turn.
+    work: Work,
 }
 
 /// A handle to one coded delta.
@@ -139,6 +142,16 @@ impl SharedDeltas {
     /// Deltas coded for the current frame.
     pub fn coded(&self) -> usize {
         self.deltas.len()
+    }
+
+    /// Lends the working memory of one encode (see [`Work`]).
+    pub(crate) fn take_work(&mut self) -> Work {
+        std::mem::take(&mut self.work)
+    }
+
+    /// Takes back what [`Self::take_work`] lent.
+    pub(crate) fn put_work(&mut self, work: Work) {
+        self.work = work;
     }
 
     /// Makes the deltas those of `frame`, emptying them if they were of

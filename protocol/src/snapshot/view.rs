@@ -356,4 +356,32 @@ mod tests {
         in_place.apply_in_place(4, &[], &mixed, &mut scratch);
         assert_eq!(in_place, base.apply_into(4, &[], &mixed, Vec::new()));
     }
+    proptest::proptest! {
+        /// The merge of runs gives what a map of the view, with the
+        /// removals taken out and the updates put in, gives.
+        #[test]
+        fn apply_agrees_with_a_map_of_the_view(
+            held in proptest::collection::btree_set(0u32..400, 0..200),
+            removed in proptest::collection::btree_set(0u32..400, 0..40),
+            updated in proptest::collection::btree_map(0u32..400, 0u32..1000, 0..40),
+        ) {
+            let base = View {
+                tick: 1,
+                entities: held.iter().map(|&id| (id, q(id))).collect(),
+            };
+            let mut model: std::collections::BTreeMap<u32, QuantizedEntity> =
+                base.entities.iter().copied().collect();
+            for id in &removed {
+                model.remove(id);
+            }
+            let updated: Vec<_> = updated.into_iter().map(|(id, x)| (id, q(x))).collect();
+            model.extend(updated.iter().copied());
+            let removed: Vec<_> = removed.into_iter().collect();
+            let next = base.apply_into(2, &removed, &updated, Vec::new());
+            proptest::prop_assert_eq!(&next.entities, &model.into_iter().collect::<Vec<_>>());
+            let mut in_place = base.clone();
+            in_place.apply_in_place(2, &removed, &updated, &mut Vec::new());
+            proptest::prop_assert_eq!(in_place, next);
+        }
+    }
 }

@@ -1,8 +1,9 @@
 //! One client's connection: the hello and token check, then a single loop
-//! that sends what the snapshot stage ([`super::snapshots`]) made at each
-//! of the client's slots (its catalog changes and events on the reliable
-//! control stream, then its snapshot datagram, so that both leave in one
-//! packet), feeds the client's datagrams (acks and inputs) into its
+//! that sends what the snapshot stage ([`super::snapshots`]) made at the
+//! client's slots that had control messages (its catalog changes and
+//! events on the reliable control stream, then its snapshot datagram, so
+//! that both leave in one packet; the stage queues a snapshot without
+//! them itself), feeds the client's datagrams (acks and inputs) into its
 //! [`ServerSession`], which it shares with the stage, and the inputs on
 //! to the simulation, and says goodbye on shutdown.
 //!
@@ -516,6 +517,11 @@ async fn session(
     let mut buf = vec![0u8; 4096];
     let mut kick_open = true;
     let mut heard = tokio::time::Instant::now();
+    // One timer for the silence, moved on only when it fires: a timer made
+    // afresh on each turn of the loop would be registered and dropped twice
+    // a slot for every client.
+    let silence = tokio::time::sleep_until(heard + SILENT_TIMEOUT);
+    tokio::pin!(silence);
     loop {
         let stall = outbox.stall_deadline();
         tokio::select! {
@@ -583,7 +589,11 @@ async fn session(
                     outbox.len()
                 ));
             }
-            _ = tokio::time::sleep_until(heard + SILENT_TIMEOUT) => {
+            () = &mut silence => {
+                if heard + SILENT_TIMEOUT > tokio::time::Instant::now() {
+                    silence.as_mut().reset(heard + SILENT_TIMEOUT);
+                    continue;
+                }
                 return End::Protocol(format!(
                     "silent: no acknowledgement or input for {} s",
                     SILENT_TIMEOUT.as_secs()
@@ -640,12 +650,7 @@ fn send_slot(
         e => End::Protocol(format!("control stream: {e}")),
     })?;
     if let Some(bytes) = datagram {
-        let len = bytes.len();
-        if served.connection.send_datagram(bytes.into()).is_ok() {
-            shared.metrics.bytes_sent.inc_by(len as u64);
-            shared.metrics.packets_sent.inc();
-            shared.metrics.snapshot_size.observe(len as f64);
-        }
+        super::snapshots::send_datagram(&served.connection, bytes, shared);
     }
     Ok(())
 }

@@ -29,7 +29,9 @@
 //! control stream and then queues the datagram. quinn can then send one
 //! packet where there were up to three (the snapshot, the control
 //! messages, an acknowledgement of the client's inputs): 1.3–1.4 packets
-//! a snapshot at 150 clients, from 1.9.
+//! a snapshot at 150 clients, from 1.9. A slot with no control message
+//! (most slots) queues its datagram with quinn itself, and the
+//! connection task is not woken for it.
 //!
 //! When serving a slot takes too much of the period, or the tick nears its
 //! budget, the stage lowers some clients' rates by the policy of
@@ -271,7 +273,8 @@ pub async fn run(shared: Arc<NetShared>) {
 /// with `frame` (catalog, events), codes its snapshot in the room those
 /// control messages leave in the packet, and hands both to its connection
 /// task, which writes the control messages and then queues the datagram,
-/// so that quinn sends them (and an acknowledgement) in one packet.
+/// so that quinn sends them (and an acknowledgement) in one packet. A
+/// snapshot with no control message beside it is queued from here.
 fn serve(
     served: &Served,
     frame: &Frame,
@@ -319,19 +322,42 @@ fn serve(
         Err(_) => None,
     };
     let encoding = started.elapsed();
-    if let Ok(mut out) = served.out.lock() {
-        if let Some(bytes) = bytes {
-            shared
-                .metrics
-                .snapshot_encode
-                .observe(encoding.as_secs_f64());
+    if bytes.is_some() {
+        shared
+            .metrics
+            .snapshot_encode
+            .observe(encoding.as_secs_f64());
+    }
+    let Ok(mut out) = served.out.lock() else {
+        return;
+    };
+    match bytes {
+        // Nothing for the control stream, and nothing of an earlier slot
+        // still waiting: the snapshot goes now, from here, and the
+        // connection task is not woken for it.
+        Some(bytes) if out.control.is_empty() && out.datagram.is_none() => {
+            drop(out);
+            send_datagram(&served.connection, bytes, shared);
+        }
+        Some(bytes) => {
             if out.datagram.replace(bytes).is_some() {
                 shared.metrics.snapshots_superseded.inc();
             }
-        }
-        if out.datagram.is_some() || !out.control.is_empty() {
             served.ready.notify_one();
         }
+        None if !out.control.is_empty() => served.ready.notify_one(),
+        None => {}
+    }
+}
+
+/// Queues snapshot `bytes` on `connection` for quinn to send, and counts
+/// it.
+pub fn send_datagram(connection: &quinn::Connection, bytes: Vec<u8>, shared: &NetShared) {
+    let len = bytes.len();
+    if connection.send_datagram(bytes.into()).is_ok() {
+        shared.metrics.bytes_sent.inc_by(len as u64);
+        shared.metrics.packets_sent.inc();
+        shared.metrics.snapshot_size.observe(len as f64);
     }
 }
 
