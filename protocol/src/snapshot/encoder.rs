@@ -352,8 +352,15 @@ impl SnapshotEncoder {
                 .enumerate()
                 .map(|(k, c)| sort_key(c.priority, k)),
         );
-        // The first chunk: about as many as fit the budget.
-        let first_chunk = (budget / FEWEST_BITS_AN_ENTITY + MISSES_WHEN_FULL).min(SORT_CHUNK);
+        // The first chunk: about as many as the last snapshot took and a
+        // half again (the same world codes to much the same sizes from one
+        // snapshot to the next), never more than the budget can take. The
+        // chunks only decide how much is sorted at a time, not the order,
+        // so the datagram is the same whatever their sizes.
+        let fit = budget / FEWEST_BITS_AN_ENTITY;
+        let expected = self.last.included + self.last.included / 2;
+        let first_chunk =
+            (fit.min(expected.max(MISSES_WHEN_FULL)) + MISSES_WHEN_FULL).min(SORT_CHUNK);
         let (mut sorted, mut misses) = (0, 0);
         for k in 0..order.len() {
             if misses == MISSES_WHEN_FULL {
