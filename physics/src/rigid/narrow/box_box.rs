@@ -5,8 +5,8 @@
 //!
 //! It gives what the generic polytope path (`sat.rs`, then `convex.rs`)
 //! gives for two boxes: the same tie rules (A's faces win exact ties, B's
-//! faces must beat A's by `1e-9 · scale`, edges must beat faces by
-//! `1e-6 · scale + 1e-3 · |face separation|`), the same clipping, point
+//! faces must beat A's by [`super::face_b_margin`], edges must beat faces by
+//! [`super::edge_margin`]), the same clipping, point
 //! keys and reduction, so the same points and feature ids, which stay put
 //! while a box rests. It works on the boxes' axes directly: no vertex
 //! lists, no edge adjacency, no heap until the result is built, and GJK
@@ -200,7 +200,7 @@ fn routed(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> (Option<Contact>, Route)
             best = (s, Axis::Face { side: 0, face });
         }
     }
-    let face_tol = 1e-9 * scale;
+    let face_tol = super::face_b_margin(scale);
     for j in 0..3 {
         let ra = r[0][j].abs() * ha[0] + r[1][j].abs() * ha[1] + r[2][j].abs() * ha[2];
         let s = db[j].abs() - hb[j] - ra;
@@ -213,7 +213,7 @@ fn routed(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> (Option<Contact>, Route)
 
     // Edge axes, only when the faces leave the pair within reach.
     if best.0 <= spec {
-        let edge_tol = 1e-6 * scale + 1e-3 * best.0.abs();
+        let edge_tol = super::edge_margin(scale, best.0);
         if let Some((s, axis)) = best_edge(&ba, &bb, &r, d) {
             if s > best.0 + edge_tol {
                 best = (s, axis);
@@ -805,10 +805,13 @@ mod tests {
             )
         };
         let tilted = Pose::new(DVec3::new(0.3, 0.9 + 1e-4, -0.2), turn(1e-4));
-        for (pose, swapped, flat_tol) in [
-            (flat, false, 1e-12),
-            (tilted, false, 2e-4),
-            (tilted, true, 2e-4),
+        // Tilted and swapped, the top box is A, and A's face wins the tie
+        // with the ground's (within `tie_margin`): the normal is the tilted
+        // face's.
+        for (pose, swapped, flat_tol, normal_tol) in [
+            (flat, false, 1e-12, 1e-12),
+            (tilted, false, 2e-4, 1e-12),
+            (tilted, true, 2e-4, 2e-4),
         ] {
             let run = |p: &Pose| {
                 if swapped {
@@ -820,7 +823,7 @@ mod tests {
             let m = run(&pose);
             assert_eq!(m.points.len(), 4, "{m:?}");
             let up = if swapped { -DVec3::Y } else { DVec3::Y };
-            assert!((m.normal - up).length() <= 1e-12, "{m:?}");
+            assert!((m.normal - up).length() <= normal_tol, "{m:?}");
             let mut corners = Vec::new();
             for p in &m.points {
                 let (on_ground, on_top) = if swapped {
@@ -848,8 +851,9 @@ mod tests {
         }
     }
 
-    /// A box overhanging another's edge, its overhanging end dipped a
-    /// little (the edge axes win, and the faces are clipped along them),
+    /// A box overhanging another's edge, its overhanging end dipped by
+    /// about a degree (the edge axes win by more than `edge_margin`, and
+    /// the faces are clipped along them),
     /// keeps its points and ids from one call to the next under a tiny
     /// perturbation, and they are the generic path's ids.
     #[test]
@@ -862,18 +866,18 @@ mod tests {
                 Pose::new(DVec3::new(1.8, y, 0.1), q),
             )
         };
-        let (c0, r0) = routed(&a, &tilt(-2e-3, 0.999), 0.01);
-        let (c1, r1) = routed(&a, &tilt(-2e-3 - 1e-7, 0.999 - 1e-7), 0.01);
+        let (c0, r0) = routed(&a, &tilt(-2e-2, 1.003), 0.01);
+        let (c1, r1) = routed(&a, &tilt(-2e-2 - 1e-7, 1.003 - 1e-7), 0.01);
         let (c0, c1) = (c0.unwrap(), c1.unwrap());
         assert_eq!((r0, r1), (Route::EdgeFaces, Route::EdgeFaces));
-        assert_eq!(c0.points.len(), 4, "{c0:?}");
+        assert!(c0.points.len() >= 3, "{c0:?}");
         let ids = |c: &Contact| {
             let mut v: Vec<u32> = c.points.iter().map(|p| p.3).collect();
             v.sort_unstable();
             v
         };
         assert_eq!(ids(&c0), ids(&c1), "{c0:?}\n{c1:?}");
-        let g = polytope_polytope(&a, &tilt(-2e-3, 0.999), 0.01).unwrap();
+        let g = polytope_polytope(&a, &tilt(-2e-2, 1.003), 0.01).unwrap();
         assert_eq!(ids(&g), ids(&c0));
     }
 

@@ -67,7 +67,8 @@
 //! (hull faces, cylinder caps, several triangles), four are kept: the
 //! deepest, the one farthest from it, the one making the largest triangle
 //! with those two, and the one adding the most area on the other side
-//! (Gregorius's reduction). Feature ids hash the reference and incident
+//! (Gregorius's reduction), a near tie going to the point clipped first
+//! ([`tie_margin`]), so that a resting pair keeps its points. Feature ids hash the reference and incident
 //! face indices and, per point, the incident vertex or the incident edge
 //! and reference side plane that cut it, so they stay put while the same
 //! features touch. Ids are per ordered pair: swapping A and B gives the
@@ -301,6 +302,51 @@ pub fn penetration(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Option
     (s <= 0.0).then_some((-s, m.normal))
 }
 
+/// The length below which two candidates for the same role in a contact
+/// (reference face, deepest point) count as tied, m: half a millimetre, as
+/// Box2D's polygon collider takes a tenth of its 5 mm linear slop, or a
+/// thousandth of `scale` (the shapes' size) for shapes under half a metre.
+/// A tie goes to the candidate that comes first in a fixed order, so two
+/// nearly equal ones do not swap from one step to the next while a body
+/// rests: a swap changes the manifold's points (and their ids) and jolts
+/// the bodies resting there.
+pub(crate) fn tie_margin(scale: f64) -> f64 {
+    (1e-3 * scale).min(5e-4)
+}
+
+/// How much farther apart one of B's face axes must hold the shapes than
+/// A's best face axis to be the reference face instead, m: A's faces win
+/// ties ([`tie_margin`]).
+pub(crate) fn face_b_margin(scale: f64) -> f64 {
+    tie_margin(scale)
+}
+
+/// How much farther apart an edge-pair axis must hold the shapes than the
+/// best face axis to give the contact, m, when the best face axis
+/// separates them by `face` m: five tie margins (2.5 mm for shapes of half
+/// a metre and more) and a thousandth of `face`. A box resting tilted on
+/// another's face has an edge-pair axis within a fraction of a millimetre
+/// of the face axis; taking whichever was ahead by a hair swapped the
+/// four-point face manifold for another every few steps. The same axis
+/// bias as Gregorius's SAT (qu3e: faces win unless an edge is ahead by
+/// half a linear slop).
+pub(crate) fn edge_margin(scale: f64, face: f64) -> f64 {
+    5.0 * tie_margin(scale) + 1e-3 * face.abs()
+}
+
+/// The first of `0..len` (skipping `skip`) whose `score` is within
+/// `margin` of the largest: near ties go to the earlier candidate.
+fn first_near_best(
+    len: usize,
+    skip: &[usize],
+    score: impl Fn(usize) -> f64,
+    margin: impl Fn(f64) -> f64,
+) -> Option<usize> {
+    let candidates = || (0..len).filter(|i| !skip.contains(i));
+    let best = candidates().map(&score).fold(f64::NEG_INFINITY, f64::max);
+    candidates().find(|&i| score(i) >= best - margin(best))
+}
+
 /// A feature id from the reference side (0 = A, 1 = B), the reference and
 /// incident face indices and two per-point keys.
 pub(crate) fn pack_id(ref_side: u32, ref_face: u32, inc_face: u32, k0: u32, k1: u32) -> u32 {
@@ -343,26 +389,21 @@ pub(crate) fn reduce_in_place(n: DVec3, pts: &mut [(DVec3, DVec3, f64, u32)]) ->
     }
     let pts = &mut pts[..len];
     let proj = |p: DVec3| p - n * n.dot(p);
-    let i0 = (0..len)
-        .min_by(|&i, &j| pts[i].2.total_cmp(&pts[j].2))
-        .unwrap_or(0);
+    // Each pick takes the first point (in clipping order, which follows
+    // the features) within a margin of the best score: the deepest within
+    // a tie margin, the others within a hundredth of the best distance or
+    // area. A resting pair's picks then stay put, where taking the best by
+    // a hair swapped them whenever two near-equal points traded places.
+    let tie = tie_margin(scale);
+    let relative = |best: f64| 1e-2 * best.abs();
+    let i0 = first_near_best(len, &[], |i| -pts[i].2, |_| tie).unwrap_or(0);
     let p0 = proj(pts[i0].0);
-    let i1 = (0..len)
-        .max_by(|&i, &j| {
-            proj(pts[i].0)
-                .distance_squared(p0)
-                .total_cmp(&proj(pts[j].0).distance_squared(p0))
-        })
-        .unwrap_or(0);
+    let i1 =
+        first_near_best(len, &[], |i| proj(pts[i].0).distance_squared(p0), relative).unwrap_or(0);
     let p1 = proj(pts[i1].0);
     let area = |a: DVec3, b: DVec3, q: DVec3| (b - a).cross(q - a).dot(n);
-    let i2 = (0..len)
-        .max_by(|&i, &j| {
-            area(p0, p1, proj(pts[i].0))
-                .abs()
-                .total_cmp(&area(p0, p1, proj(pts[j].0)).abs())
-        })
-        .unwrap_or(0);
+    let i2 =
+        first_near_best(len, &[], |i| area(p0, p1, proj(pts[i].0)).abs(), relative).unwrap_or(0);
     let p2 = proj(pts[i2].0);
     let orient = area(p0, p1, p2).signum();
     // The fourth: the point farthest outside the triangle (most negative
@@ -373,9 +414,7 @@ pub(crate) fn reduce_in_place(n: DVec3, pts: &mut [(DVec3, DVec3, f64, u32)]) ->
             .min(orient * area(p1, p2, q))
             .min(orient * area(p2, p0, q))
     };
-    let i3 = (0..len)
-        .filter(|&i| i != i0 && i != i1 && i != i2)
-        .min_by(|&i, &j| outside(pts[i].0).total_cmp(&outside(pts[j].0)));
+    let i3 = first_near_best(len, &[i0, i1, i2], |i| -outside(pts[i].0), relative);
     let mut keep = [i0, i1, i2, i3.unwrap_or(i2)];
     keep.sort_unstable();
     let mut kept = 0;

@@ -82,7 +82,7 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
             best_face = (s, Axis::FaceA(i));
         }
     }
-    let face_tol = 1e-9 * scale;
+    let face_tol = super::face_b_margin(scale);
     for (i, f) in pb.faces.iter().enumerate() {
         let n = pb.pose.transform_vector(f.normal);
         let s = min_dot(&va, n) - (f.offset + n.dot(pb.pose.translation));
@@ -92,7 +92,7 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
     }
     let mut best = best_face;
     if best.0 <= spec {
-        let edge_tol = 1e-6 * scale + 1e-3 * best_face.0.abs();
+        let edge_tol = super::edge_margin(scale, best_face.0);
         let edge = match (edge_adjacency(&pa), edge_adjacency(&pb)) {
             (Some(ja), Some(jb)) => gauss_map_edges(&pa, &pb, &va, &vb, &ja, &jb),
             _ => projected_edges(&pa, &pb, &va, &vb),

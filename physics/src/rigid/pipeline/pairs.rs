@@ -75,7 +75,13 @@ pub(crate) fn pair_bodies<'a>(
 }
 
 /// An awake body about to hit a sleeping one wakes it before anything is
-/// solved. Returns whether any body woke (so the caller wakes their islands).
+/// solved: one that can close the gap between them this step
+/// ([`wake_reach`]). A resting body beside a sleeping one, however near,
+/// does not wake it; were it to, two resting neighbours a centimetre apart
+/// would wake each other in turn for ever (the one awake wakes the other
+/// as it falls asleep). If they do meet, the contact wakes the sleeper at
+/// the next step. Returns whether any body woke (so the caller wakes their
+/// islands).
 pub(crate) fn wake_before_contact(
     bodies: &mut Arena<RigidBody>,
     index: &BodyIndex,
@@ -102,9 +108,11 @@ pub(crate) fn wake_before_contact(
         if ba.sensor || bb.sensor {
             continue;
         }
-        let speculative = speculative_distance(ba, bb, dt);
+        let reach = wake_reach(ba, bb, dt);
         let hit = match (&ba.shape, &bb.shape) {
-            (Some(sa), Some(sb)) => shapes_near(sa, &ba.pose(), sb, &bb.pose(), speculative),
+            (Some(sa), Some(sb)) if reach > 0.0 => {
+                shapes_near(sa, &ba.pose(), sb, &bb.pose(), reach)
+            }
             _ => false,
         };
         if hit {
@@ -144,6 +152,22 @@ pub(crate) fn speculative_distance(a: &RigidBody, b: &RigidBody, dt: f64) -> f64
         a.shape_radius().max(b.shape_radius())
     };
     SPECULATIVE_DISTANCE + closing.min(cap)
+}
+
+/// How far two bodies can close in on each other this step, m: their
+/// relative speed, and each one's spin at its radius, times the step;
+/// capped at their size as in [`speculative_distance`] unless either is
+/// `ccd`.
+fn wake_reach(a: &RigidBody, b: &RigidBody, dt: f64) -> f64 {
+    let speed = (a.linvel - b.linvel).length()
+        + a.angvel.length() * a.shape_radius()
+        + b.angvel.length() * b.shape_radius();
+    let cap = if a.ccd || b.ccd {
+        f64::INFINITY
+    } else {
+        a.shape_radius().max(b.shape_radius())
+    };
+    (speed * dt).min(cap)
 }
 
 /// Whether any leaf of `a` comes within `speculative` of any leaf of `b`.

@@ -1,0 +1,132 @@
+//! Stability defects found by trying the engine as a new user would, each
+//! pinned by a test named after it.
+
+mod common;
+
+use inertia_physics::glam::{DQuat, DVec3};
+use inertia_physics::rigid::body::RigidBodyDesc;
+use inertia_physics::rigid::pose::Pose;
+use inertia_physics::rigid::shape::Shape;
+use inertia_physics::{BodyHandle, World};
+
+const G: f64 = 9.81;
+const DT: f64 = 1.0 / 60.0;
+
+fn world_with_ground() -> World {
+    let mut w = common::world();
+    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    let ground = RigidBodyDesc::fixed(
+        Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
+        Pose::from_translation(DVec3::NEG_Y * 0.5),
+    );
+    w.add_body(&ground).unwrap();
+    w
+}
+
+fn cube(w: &mut World, half: f64, at: DVec3, rotation: DQuat) -> BodyHandle {
+    let pose = Pose::new(at, rotation);
+    w.add_body(
+        &RigidBodyDesc::dynamic(Shape::cuboid(DVec3::splat(half)).unwrap(), 500.0, pose).unwrap(),
+    )
+    .unwrap()
+}
+
+fn asleep(w: &World, bodies: &[BodyHandle]) -> usize {
+    bodies
+        .iter()
+        .filter(|h| w.body(**h).unwrap().is_sleeping())
+        .count()
+}
+
+#[test]
+fn issue_13_a_settled_heap_of_a_hundred_boxes_sleeps() {
+    let mut w = world_with_ground();
+    let mut r = common::Rng(13);
+    let mut boxes = Vec::new();
+    // Four layers of 5 × 5 boxes, a little apart and a little turned, so
+    // they land on each other unevenly and settle as a heap.
+    for layer in 0..4 {
+        for i in 0..5 {
+            for k in 0..5 {
+                let at = DVec3::new(
+                    (i as f64 - 2.0) * 0.55 + r.range(-0.1, 0.1),
+                    0.3 + layer as f64 * 0.6 + r.range(0.0, 0.1),
+                    (k as f64 - 2.0) * 0.55 + r.range(-0.1, 0.1),
+                );
+                let turn = DQuat::from_euler(
+                    inertia_physics::glam::EulerRot::XYZ,
+                    r.range(-0.3, 0.3),
+                    r.range(-0.8, 0.8),
+                    r.range(-0.3, 0.3),
+                );
+                boxes.push(cube(&mut w, 0.25, at, turn));
+            }
+        }
+    }
+    assert_eq!(boxes.len(), 100);
+    let mut all_asleep_at = None;
+    for step in 0..(30.0 / DT) as usize {
+        w.step(DT).unwrap();
+        if asleep(&w, &boxes) == boxes.len() {
+            all_asleep_at = Some(step as f64 * DT);
+            break;
+        }
+    }
+    assert!(
+        all_asleep_at.is_some_and(|t| t < 15.0),
+        "{} of 100 asleep after 30 s",
+        asleep(&w, &boxes)
+    );
+}
+
+#[test]
+fn issue_13_resting_neighbours_a_centimetre_apart_fall_asleep() {
+    // Two boxes side by side on the ground, 1 cm apart, the second put
+    // down a little later: each rests, neither touches the other. The
+    // first fell asleep before the second; the second, resting, must not
+    // wake it (it did, and then the first woke the second in turn, for
+    // ever).
+    let mut w = world_with_ground();
+    let first = cube(&mut w, 0.25, DVec3::new(0.0, 0.25, 0.0), DQuat::IDENTITY);
+    common::run(&mut w, DT, 45);
+    let second = cube(&mut w, 0.25, DVec3::new(0.51, 0.26, 0.0), DQuat::IDENTITY);
+    let mut woken = 0;
+    let mut was_asleep = w.body(first).unwrap().is_sleeping();
+    for _ in 0..(5.0 / DT) as usize {
+        w.step(DT).unwrap();
+        let asleep_now = w.body(first).unwrap().is_sleeping();
+        woken += usize::from(was_asleep && !asleep_now);
+        was_asleep = asleep_now;
+    }
+    assert_eq!(woken, 0, "the first box was woken {woken} times");
+    assert_eq!(asleep(&w, &[first, second]), 2, "both asleep after 5 s");
+}
+
+#[test]
+fn issue_13_a_resting_box_keeps_its_contact_points_when_it_barely_moves() {
+    use inertia_physics::rigid::narrow::collide;
+    // B turned 45° about the vertical on A (their faces overlap in an
+    // octagon: eight clipped points, four kept) and tipped 1° about x, so
+    // that two of the points are equally deep. A turn of a ten-millionth
+    // of a radian either way makes one or the other the deepest; the
+    // points kept must not change with it.
+    let cube = Shape::cuboid(DVec3::splat(0.25)).unwrap();
+    let turned = |eps: f64, y: f64| {
+        let rotation = DQuat::from_rotation_z(eps)
+            * DQuat::from_rotation_x(1f64.to_radians())
+            * DQuat::from_rotation_y(std::f64::consts::FRAC_PI_4);
+        Pose::new(DVec3::new(0.0, y, 0.0), rotation)
+    };
+    let probe = collide(&cube, &Pose::IDENTITY, &cube, &turned(0.0, 0.5), 0.05).unwrap();
+    // Down until the deepest point is 1 mm in.
+    let y = 0.5 - probe.min_separation().unwrap() - 0.001;
+    let ids = |eps: f64| {
+        let m = collide(&cube, &Pose::IDENTITY, &cube, &turned(eps, y), 0.02).unwrap();
+        let mut ids: Vec<u32> = m.points.iter().map(|p| p.id).collect();
+        ids.sort_unstable();
+        ids
+    };
+    let (left, right) = (ids(-1e-7), ids(1e-7));
+    assert_eq!(left.len(), 4);
+    assert_eq!(left, right, "the points kept swapped");
+}
