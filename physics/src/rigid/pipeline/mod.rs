@@ -245,7 +245,8 @@ pub(crate) fn step(
         bodies,
         narrow.constraints,
         joint_rows,
-        inputs.cfg.stick_speed,
+        &inputs,
+        &external,
         &crate::rigid::solver::ContactPass::new(
             inputs.cfg,
             inputs.dt / f64::from(inputs.cfg.substeps.max(1)),

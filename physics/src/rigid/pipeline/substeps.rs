@@ -47,9 +47,18 @@ impl Solve {
         bodies: &Arena<RigidBody>,
         constraints: Vec<(ContactKey, ContactConstraint)>,
         joint_rows: Vec<(u32, u32, JointConstraint)>,
-        stick_speed: f64,
+        inputs: &StepInputs<'_>,
+        external: &[(DVec3, DVec3)],
         solve: &ContactPass,
     ) -> Self {
+        let stick_speed = inputs.cfg.stick_speed;
+        // Each body's acceleration over the step, for the speed at which
+        // contacts meet (restitution).
+        let accel: Vec<DVec3> = bodies
+            .iter()
+            .zip(external)
+            .map(|((_, _, b), &(force, _))| linear_accel(b, inputs.gravity, force))
+            .collect();
         let solver_bodies: Vec<SolverBody> = bodies
             .iter()
             .map(|(_, _, b)| {
@@ -75,7 +84,14 @@ impl Solve {
         let groups = colouring::group(&colours);
         crate::parallel::for_each_chunk(&mut constraints, PREPARE_ITEM, |chunk| {
             for (_, c) in chunk {
-                c.prepare(&solver_bodies[c.a], &solver_bodies[c.b], stick_speed, solve);
+                let relative = accel[c.b] - accel[c.a];
+                c.prepare(
+                    &solver_bodies[c.a],
+                    &solver_bodies[c.b],
+                    relative,
+                    stick_speed,
+                    solve,
+                );
             }
         });
         let start = bodies
@@ -217,10 +233,10 @@ fn integrate_velocity(
     torque: DVec3,
     h: f64,
 ) -> bool {
-    if b.kind != BodyKind::Dynamic || b.quarantined || b.sleeping {
+    if b.is_fixed_now() {
         return true;
     }
-    let accel = gravity * b.gravity_scale + (b.control_force + force) * b.inv_mass;
+    let accel = linear_accel(b, gravity, force);
     let v = (sb.v + accel * h) / (1.0 + h * b.linear_damping);
     let w =
         (sb.w + sb.inv_inertia * ((b.control_torque + torque) * h)) / (1.0 + h * b.angular_damping);
@@ -230,6 +246,16 @@ fn integrate_velocity(
     sb.v = v;
     sb.w = w;
     true
+}
+
+/// A body's acceleration from gravity, its scripted force and `force`
+/// (the force generators' and attachments'), m/s²; zero for a body the
+/// solver leaves where it is (not dynamic, asleep, quarantined).
+fn linear_accel(b: &RigidBody, gravity: DVec3, force: DVec3) -> DVec3 {
+    if b.is_fixed_now() {
+        return DVec3::ZERO;
+    }
+    gravity * b.gravity_scale + (b.control_force + force) * b.inv_mass
 }
 
 /// Moves a body over one substep: translation with its velocity, rotation
