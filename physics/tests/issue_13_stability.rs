@@ -183,3 +183,30 @@ fn issue_13_a_bounce_at_60_hz_rises_to_e_squared_h() {
         );
     }
 }
+
+#[test]
+fn issue_13_a_box_pushed_out_of_the_ground_does_not_sleep_inside_it() {
+    // Push-out moves a body out of an overlap without giving it velocity:
+    // a box put into the ground counted as resting from its first step and
+    // fell asleep after half a second wherever the push had got it (5.6 mm
+    // deep from 45 cm). It rests at the ground's surface (a third of a
+    // millimetre in, where the soft contact holds it) before it sleeps.
+    for depth in [0.1, 0.2, 0.45, 0.6] {
+        let mut w = world_with_ground();
+        let b = cube(&mut w, 0.25, DVec3::Y * (0.25 - depth), DQuat::IDENTITY);
+        let mut asleep_with_bottom_at = None;
+        for _ in 0..(10.0 / DT) as usize {
+            w.step(DT).unwrap();
+            let body = w.body(b).unwrap();
+            if body.is_sleeping() {
+                asleep_with_bottom_at = Some(body.center_of_mass().y - 0.25);
+                break;
+            }
+        }
+        let bottom = asleep_with_bottom_at.expect("asleep within 10 s");
+        assert!(
+            bottom > -0.001,
+            "{depth} m deep: asleep with its bottom at {bottom} m"
+        );
+    }
+}

@@ -93,10 +93,17 @@ fn find(parent: &mut [usize], mut i: usize) -> usize {
 }
 
 /// Advances sleep timers by `dt` and puts to sleep every island whose
-/// bodies have all rested long enough.
+/// bodies have all rested long enough. A body rests when both its
+/// velocity and how fast it moved over the step (`moved`, by slot: m/s and
+/// rad/s, see [`RigidStepOut::moved`]) are under the tolerances: push-out
+/// moves a body out of an overlap without giving it velocity, and a body
+/// still being pushed out of the ground is not resting.
+///
+/// [`RigidStepOut::moved`]: crate::rigid::pipeline::RigidStepOut
 pub(crate) fn update(
     bodies: &mut Arena<RigidBody>,
     touching: impl Iterator<Item = (BodyHandle, BodyHandle)>,
+    moved: &[(f64, f64)],
     cfg: &SleepConfig,
     dt: f64,
 ) {
@@ -135,9 +142,10 @@ pub(crate) fn update(
         }
         // A body the game is pushing (scripted force or torque) never rests.
         let pushed = b.control_force != glam::DVec3::ZERO || b.control_torque != glam::DVec3::ZERO;
+        let (speed, spin) = moved.get(k).copied().unwrap_or_default();
         let resting = !pushed
-            && b.linvel.length() < cfg.linear_tolerance
-            && b.angvel.length() < cfg.angular_tolerance;
+            && b.linvel.length().max(speed) < cfg.linear_tolerance
+            && b.angvel.length().max(spin) < cfg.angular_tolerance;
         b.sleep_time = if resting && b.can_sleep {
             b.sleep_time + dt
         } else {

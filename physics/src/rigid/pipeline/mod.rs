@@ -119,6 +119,10 @@ pub(crate) struct RigidStepOut {
     pub(crate) broken_joints: Vec<crate::handle::JointHandle>,
     pub(crate) events: Vec<ContactEvent>,
     pub(crate) forces: Vec<ContactForceEvent>,
+    /// How fast each body moved over the step, by slot: its centre's
+    /// displacement (m/s) and its turn (rad/s) over the step, push-out
+    /// included, which its velocity does not show.
+    pub(crate) moved: Vec<(f64, f64)>,
     /// Wall time of each stage.
     pub(crate) profile: RigidProfile,
 }
@@ -275,7 +279,13 @@ pub(crate) fn step(
     profile.finish = clock.lap();
 
     let links = bodies::Links::new(joints, &contacts.touching);
-    crate::rigid::island::update(bodies, links.all(), &inputs.cfg.sleep, inputs.dt);
+    crate::rigid::island::update(
+        bodies,
+        links.all(),
+        &out.moved,
+        &inputs.cfg.sleep,
+        inputs.dt,
+    );
     profile.islands = clock.lap();
     out.profile = profile;
     out
