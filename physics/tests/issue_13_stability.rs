@@ -131,42 +131,6 @@ fn issue_13_a_resting_box_keeps_its_contact_points_when_it_barely_moves() {
     assert_eq!(left, right, "the points kept swapped");
 }
 
-/// The apex of a ball's first bounce over `e² h`, dropped from `h` m at
-/// `hz` steps a second onto ground of restitution `e`.
-fn bounce_ratio(e: f64, h: f64, hz: f64) -> f64 {
-    let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
-    let mut ground = RigidBodyDesc::fixed(
-        Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
-        Pose::from_translation(DVec3::NEG_Y * 0.5),
-    );
-    ground.restitution = e;
-    w.add_body(&ground).unwrap();
-    let r = 0.25;
-    let mut ball = RigidBodyDesc::dynamic(
-        Shape::sphere(r).unwrap(),
-        1000.0,
-        Pose::from_translation(DVec3::Y * (h + r)),
-    )
-    .unwrap();
-    ball.restitution = e;
-    let b = w.add_body(&ball).unwrap();
-    let (mut bounced, mut apex) = (false, 0.0f64);
-    for _ in 0..(10.0 * hz) as usize {
-        w.step(1.0 / hz).unwrap();
-        let body = w.body(b).unwrap();
-        let v = body.linear_velocity().y;
-        bounced |= v > 0.0;
-        if bounced {
-            apex = apex.max(body.center_of_mass().y - r);
-            if v < 0.0 {
-                break;
-            }
-        }
-    }
-    apex / (e * e * h)
-}
-
 #[test]
 fn issue_13_a_bounce_at_60_hz_rises_to_e_squared_h() {
     // Restitution answered the speed at the start of the step in which the
@@ -176,7 +140,7 @@ fn issue_13_a_bounce_at_60_hz_rises_to_e_squared_h() {
     // integrator's: a flight integrated in substeps of h rises about
     // v·h/2 short of v²/2g.
     for (e, h) in [(0.5, 0.5), (0.8, 0.5), (0.5, 2.0), (0.8, 2.0)] {
-        let ratio = bounce_ratio(e, h, 60.0);
+        let ratio = common::bounce_ratio(e, h, 60.0);
         assert!(
             (0.95..=1.01).contains(&ratio),
             "e={e}, h={h}: apex {ratio} of e² h"

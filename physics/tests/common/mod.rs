@@ -2,7 +2,9 @@
 #![allow(dead_code)]
 
 use inertia_physics::glam::{DQuat, DVec3};
+use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::pose::Pose;
+use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{
     GravityMethod, Integrator, MutualGravity, ParticleDesc, ParticleHandle, SpringParams,
     SystemDesc, SystemHandle, World, WorldConfig,
@@ -221,4 +223,40 @@ impl Rng {
             }
         }
     }
+}
+
+/// The apex of a ball's first bounce over `e² h`, dropped from `h` m at
+/// `hz` steps a second onto ground of restitution `e`.
+pub fn bounce_ratio(e: f64, h: f64, hz: f64) -> f64 {
+    let mut w = world();
+    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    let mut ground = RigidBodyDesc::fixed(
+        Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
+        Pose::from_translation(DVec3::NEG_Y * 0.5),
+    );
+    ground.restitution = e;
+    w.add_body(&ground).unwrap();
+    let r = 0.25;
+    let mut ball = RigidBodyDesc::dynamic(
+        Shape::sphere(r).unwrap(),
+        1000.0,
+        Pose::from_translation(DVec3::Y * (h + r)),
+    )
+    .unwrap();
+    ball.restitution = e;
+    let b = w.add_body(&ball).unwrap();
+    let (mut bounced, mut apex) = (false, 0.0f64);
+    for _ in 0..(10.0 * hz) as usize {
+        w.step(1.0 / hz).unwrap();
+        let body = w.body(b).unwrap();
+        let v = body.linear_velocity().y;
+        bounced |= v > 0.0;
+        if bounced {
+            apex = apex.max(body.center_of_mass().y - r);
+            if v < 0.0 {
+                break;
+            }
+        }
+    }
+    apex / (e * e * h)
 }
