@@ -228,6 +228,106 @@ impl RigidBodyDesc {
         self
     }
 
+    /// Gives the body a total mass of `mass` kg, its shape's distribution
+    /// kept (centre of mass unchanged, inertia scaled with the mass): for
+    /// a body whose weight matters more than its material. Refused for a
+    /// body that is not dynamic or has no mass to scale, and for a mass
+    /// outside the engine's limits; nothing is changed then.
+    ///
+    /// ```
+    /// use inertia_physics::glam::DVec3;
+    /// use inertia_physics::rigid::body::RigidBodyDesc;
+    /// use inertia_physics::rigid::pose::Pose;
+    /// use inertia_physics::rigid::shape::Shape;
+    /// use inertia_physics::{World, WorldConfig};
+    ///
+    /// // A 20 kg crate, grippy and a little bouncy, whatever it is made of.
+    /// let crate_desc = RigidBodyDesc::dynamic(
+    ///     Shape::cuboid(DVec3::splat(0.5))?,
+    ///     1.0,
+    ///     Pose::from_translation(DVec3::Y),
+    /// )?
+    /// .with_mass(20.0)?
+    /// .with_friction(0.9)
+    /// .with_restitution(0.2);
+    /// let mut world = World::new(WorldConfig::default())?;
+    /// let h = world.add_body(&crate_desc)?;
+    /// assert!((world.body(h).unwrap().mass() - 20.0).abs() < 1e-9);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn with_mass(mut self, mass: f64) -> Result<Self, PhysicsError> {
+        limits::mass(mass)?;
+        let now = self.mass_properties.mass;
+        if self.kind != BodyKind::Dynamic || !(now.is_finite() && now > 0.0) {
+            return Err(PhysicsError::Invalid {
+                what: "body mass",
+                why: "only a dynamic body with a shape's mass can be given a mass".into(),
+            });
+        }
+        let scale = mass / now;
+        self.mass_properties.mass = mass;
+        self.mass_properties.inertia *= scale;
+        Ok(self)
+    }
+
+    /// Sets the mass, centre of mass (body frame, m) and inertia tensor
+    /// about it (kg·m²) outright, for a body whose collision shape is not
+    /// where its mass is (a hollow hull, a car with its engine low).
+    /// Checked when the body is added.
+    pub fn with_mass_properties(mut self, mass_properties: MassProperties) -> Self {
+        self.mass_properties = mass_properties;
+        self
+    }
+
+    /// Sets both friction coefficients, static and sliding, to `mu`.
+    pub fn with_friction(self, mu: f64) -> Self {
+        self.with_friction_coefficients(mu, mu)
+    }
+
+    /// Sets the static and the sliding (dynamic) friction coefficients.
+    pub fn with_friction_coefficients(mut self, r#static: f64, dynamic: f64) -> Self {
+        self.friction_static = r#static;
+        self.friction_dynamic = dynamic;
+        self
+    }
+
+    /// Sets the coefficient of restitution, 0 (no bounce) to 1.
+    pub fn with_restitution(mut self, restitution: f64) -> Self {
+        self.restitution = restitution;
+        self
+    }
+
+    /// Sets the linear and angular damping, 1/s.
+    pub fn with_damping(mut self, linear: f64, angular: f64) -> Self {
+        self.linear_damping = linear;
+        self.angular_damping = angular;
+        self
+    }
+
+    /// Sets how strongly the world's gravity pulls the body (0 floats).
+    pub fn with_gravity_scale(mut self, scale: f64) -> Self {
+        self.gravity_scale = scale;
+        self
+    }
+
+    /// Makes the body a sensor: it reports contacts but never pushes.
+    pub fn as_sensor(mut self) -> Self {
+        self.sensor = true;
+        self
+    }
+
+    /// Turns continuous collision detection on or off.
+    pub fn with_ccd(mut self, ccd: bool) -> Self {
+        self.ccd = ccd;
+        self
+    }
+
+    /// Whether the body may fall asleep when it rests.
+    pub fn with_can_sleep(mut self, can_sleep: bool) -> Self {
+        self.can_sleep = can_sleep;
+        self
+    }
+
     /// Checks every field and builds the body.
     pub(crate) fn build(&self) -> Result<RigidBody, PhysicsError> {
         finite3("body position", self.pose.translation)?;
