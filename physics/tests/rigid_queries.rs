@@ -871,3 +871,55 @@ fn world_queries_see_meshes_and_heightfields() {
     let exact = 5.5 - 0.5 * 2f64.sqrt();
     assert!((t - exact).abs() < 1e-3, "{t} vs {exact}");
 }
+
+#[test]
+fn contacts_of_a_body_say_what_it_rests_on_and_what_rests_on_it() {
+    let mut w = common::world();
+    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    let ground = w
+        .add_body(&RigidBodyDesc::fixed(
+            Shape::cuboid(DVec3::new(10.0, 0.5, 10.0)).unwrap(),
+            Pose::from_translation(DVec3::NEG_Y * 0.5),
+        ))
+        .unwrap();
+    let cube = |y: f64| {
+        RigidBodyDesc::dynamic(
+            Shape::cuboid(DVec3::splat(0.5)).unwrap(),
+            100.0,
+            Pose::from_translation(DVec3::Y * y),
+        )
+        .unwrap()
+    };
+    let lower = w.add_body(&cube(0.5)).unwrap();
+    let upper = w.add_body(&cube(1.5)).unwrap();
+    w.step(1.0 / 60.0).unwrap();
+    let mut seen: Vec<_> = w.contacts_of(lower).collect();
+    seen.sort_by_key(|p| p.b);
+    assert_eq!(seen.len(), 2, "{seen:?}");
+    let below = w.contact_between(lower, ground).expect("on the ground");
+    let above = w
+        .contact_between(lower, upper)
+        .expect("under the upper box");
+    assert!(
+        below.normal.y < -0.99 && above.normal.y > 0.99,
+        "{below:?} {above:?}"
+    );
+    // The ground holds up both boxes, the lower box the upper one.
+    let weight = 100.0 * 9.81 / 60.0;
+    assert!(below.impulse > 1.5 * weight && above.impulse > 0.5 * weight);
+    assert!(below.separation < 1e-3 && below.points == 4);
+    // Seen from the other side: the same contact, the normal turned.
+    let from_upper = w.contact_between(upper, lower).unwrap();
+    assert_eq!(from_upper.normal, -above.normal);
+    assert_eq!(from_upper.impulse, above.impulse);
+    // Asleep, the stack still reports its contacts.
+    common::run(&mut w, 1.0 / 60.0, 120);
+    assert!(w.body(upper).unwrap().is_sleeping());
+    assert!(w.contact_between(upper, lower).is_some());
+    // A stale handle has none; nor does a restored world until it steps.
+    let saved = w.save();
+    w.remove_body(upper).unwrap();
+    assert_eq!(w.contacts_of(upper).count(), 0);
+    w.restore(&saved).unwrap();
+    assert_eq!(w.contacts_of(lower).count(), 0);
+}

@@ -24,4 +24,6 @@ pub mod ragdoll;
 pub mod shape;
 pub mod solver;
 
-pub use pipeline::{ContactEvent, ContactEventKind, ContactForceEvent, SPECULATIVE_DISTANCE};
+pub use pipeline::{
+    ContactEvent, ContactEventKind, ContactForceEvent, PairContact, SPECULATIVE_DISTANCE,
+};

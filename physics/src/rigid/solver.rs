@@ -499,6 +499,14 @@ impl ContactConstraint {
         self.rows.total_impulse.iter().sum()
     }
 
+    /// The smallest separation of the points at the start of the step, m.
+    pub(crate) fn start_separation(&self) -> f64 {
+        let n = self.normal;
+        (0..self.len)
+            .map(|i| self.rows.base[i] + n.dot(self.rows.rb.get(i) - self.rows.ra.get(i)))
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// The point's anchor on A, its offset from the centre in the contact
     /// plane, m.
     fn planar_offset(&self, i: usize) -> DVec3 {

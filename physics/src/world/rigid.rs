@@ -10,6 +10,7 @@ use crate::handle::{BodyForceHandle, BodyHandle};
 use crate::rigid::body::{checked_rotation, BodyKind, RigidBody, RigidBodyDesc};
 use crate::rigid::pose::Pose;
 use crate::rigid::solver::SolverConfig;
+use crate::rigid::PairContact;
 
 impl World {
     /// Adds a rigid body.
@@ -216,6 +217,63 @@ impl World {
     /// Number of touching manifolds after the last step.
     pub fn contact_count(&self) -> usize {
         self.contacts.manifold_count()
+    }
+
+    /// The bodies in contact with `h` at the last step, each seen from `h`:
+    /// [`PairContact::a`] is `h`, [`PairContact::b`] the other body, and the
+    /// normal points from `h` to it (a box resting on the ground has a
+    /// normal of about `-Y`). Empty for a stale handle. Pairs of bodies
+    /// that both stayed put (asleep or fixed) report what the step that
+    /// last solved them found; after a restore, until they wake, nothing.
+    ///
+    /// ```
+    /// use inertia_physics::glam::DVec3;
+    /// use inertia_physics::rigid::body::RigidBodyDesc;
+    /// use inertia_physics::rigid::pose::Pose;
+    /// use inertia_physics::rigid::shape::Shape;
+    /// use inertia_physics::{World, WorldConfig};
+    ///
+    /// let mut world = World::new(WorldConfig::default())?;
+    /// world.set_body_gravity(DVec3::new(0.0, -9.81, 0.0))?;
+    /// let ground = world.add_body(&RigidBodyDesc::fixed(
+    ///     Shape::cuboid(DVec3::new(10.0, 0.5, 10.0))?,
+    ///     Pose::from_translation(DVec3::NEG_Y * 0.5),
+    /// ))?;
+    /// let ball = world.add_body(&RigidBodyDesc::dynamic(
+    ///     Shape::sphere(0.5)?,
+    ///     100.0,
+    ///     Pose::from_translation(DVec3::Y * 0.5),
+    /// )?)?;
+    /// world.step(1.0 / 60.0)?;
+    /// let below = world.contacts_of(ball).next().expect("on the ground");
+    /// assert_eq!((below.a, below.b), (ball, ground));
+    /// assert!(below.normal.y < -0.99, "the ground is below it");
+    /// assert!(below.impulse > 0.0, "and holds it up");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn contacts_of(&self, h: BodyHandle) -> impl Iterator<Item = PairContact> + '_ {
+        self.contacts
+            .pairs
+            .iter()
+            .filter(move |p| p.a == h || p.b == h)
+            .map(move |p| {
+                if p.a == h {
+                    *p
+                } else {
+                    PairContact {
+                        a: p.b,
+                        b: p.a,
+                        normal: -p.normal,
+                        ..*p
+                    }
+                }
+            })
+    }
+
+    /// The contact between `a` and `b` at the last step, seen from `a`
+    /// (see [`Self::contacts_of`]), if they touched or nearly did.
+    pub fn contact_between(&self, a: BodyHandle, b: BodyHandle) -> Option<PairContact> {
+        self.contacts_of(a).find(|p| p.b == b)
     }
 
     /// The deepest overlap between two bodies that the last step's narrow

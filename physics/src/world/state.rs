@@ -90,6 +90,7 @@ impl World {
         self.solver = decoded.solver;
         self.contacts.cache = decoded.contacts;
         self.contacts.touching = decoded.touching;
+        self.contacts.pairs.clear();
         self.body_bounds = decoded.body_bounds;
         self.joints = decoded.joints;
         self.attachments = decoded.attachments;

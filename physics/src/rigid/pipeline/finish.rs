@@ -7,8 +7,8 @@ use glam::DVec3;
 use super::bodies::BodyIndex;
 use super::substeps::Solve;
 use super::{
-    CachedPoint, ContactEvent, ContactEventKind, ContactForceEvent, Contacts, RigidStepOut,
-    StepInputs,
+    CachedPoint, ContactEvent, ContactEventKind, ContactForceEvent, Contacts, PairContact,
+    RigidStepOut, StepInputs,
 };
 use crate::arena::Arena;
 use crate::handle::{BodyHandle, JointHandle};
@@ -134,6 +134,47 @@ pub(crate) fn finish(
     }
     contacts.touching = touching.into_iter().map(|t| t.0).collect();
     contacts.deepest_penetration = found.deepest;
+
+    // The pairs in contact, for the rules' queries: one entry a pair of
+    // bodies (a compound's manifolds merged), in constraint order, which
+    // is pair order; pairs that stayed put keep theirs.
+    let mut pairs: Vec<PairContact> = Vec::new();
+    for (key, c) in &constraints {
+        let (a, b) = (handle(key.a), handle(key.b));
+        let impulse = c.total_normal_impulse();
+        let separation = c.start_separation();
+        match pairs.last_mut() {
+            Some(p) if (p.a, p.b) == (a, b) => {
+                let harder = impulse > 0.0 && impulse > p.impulse;
+                let deeper = p.impulse == 0.0 && impulse == 0.0 && separation < p.separation;
+                if harder || deeper {
+                    p.normal = c.normal;
+                }
+                p.impulse += impulse;
+                p.separation = p.separation.min(separation);
+                p.points += c.len;
+            }
+            _ => pairs.push(PairContact {
+                a,
+                b,
+                normal: c.normal,
+                separation,
+                impulse,
+                points: c.len,
+            }),
+        }
+    }
+    if !found.carried.is_empty() {
+        let mut kept = found.carried.iter().peekable();
+        let key = |h: BodyHandle| (h.index, h.generation);
+        pairs.extend(contacts.pairs.iter().copied().filter(|p| {
+            let k = (key(p.a), key(p.b));
+            while kept.next_if(|&&c| c < k).is_some() {}
+            kept.peek().is_some_and(|&&c| c == k)
+        }));
+        pairs.sort_by_key(|p| (key(p.a), key(p.b)));
+    }
+    contacts.pairs = pairs;
 
     // The impulses, for the next step's warm start. Pairs that stayed put
     // keep their entries; every other entry is replaced by this step's.

@@ -112,6 +112,28 @@ pub struct ContactForceEvent {
     pub normal: DVec3,
 }
 
+/// Two bodies in contact at the last step, as a game's rules ask of it
+/// (standing on the ground, pressed against a wall, how hard).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairContact {
+    /// The first body (the lower handle).
+    pub a: BodyHandle,
+    /// The second body.
+    pub b: BodyHandle,
+    /// Unit normal from `a` to `b` of the manifold that pushed hardest (of
+    /// the deepest one when none pushed).
+    pub normal: DVec3,
+    /// The smallest separation of their points at the start of the step,
+    /// m: negative where they overlapped, up to the speculative distance
+    /// where they were about to touch.
+    pub separation: f64,
+    /// The normal impulse between them over the step (every substep and
+    /// restitution), N·s; divided by the step, the average contact force.
+    pub impulse: f64,
+    /// Contact points, over every manifold of the pair.
+    pub points: usize,
+}
+
 /// What the rigid step reports.
 #[derive(Debug, Default)]
 pub(crate) struct RigidStepOut {
@@ -137,6 +159,10 @@ pub(crate) struct Contacts {
     pub(crate) touching: std::collections::BTreeSet<(BodyHandle, BodyHandle)>,
     /// The broad phase; derived from the bodies and rebuilt after a restore.
     broad: Option<BroadPhase>,
+    /// The pairs in contact at the last step, in handle order (derived:
+    /// not saved). Pairs that stayed put (both asleep or fixed) keep the
+    /// entries of the step that last solved them; none after a restore.
+    pub(crate) pairs: Vec<PairContact>,
     /// Deepest overlap the last step's narrow phase found between two
     /// bodies (not sensors), m; 0 when nothing overlapped. A diagnostic,
     /// derived: not saved.
@@ -154,6 +180,7 @@ impl Contacts {
         let id = (h.index, h.generation);
         self.cache.retain(|k, _| k.a != id && k.b != id);
         self.touching.retain(|(a, b)| *a != h && *b != h);
+        self.pairs.retain(|p| p.a != h && p.b != h);
         self.broad = None;
     }
 
