@@ -224,7 +224,13 @@ impl World {
     /// normal points from `h` to it (a box resting on the ground has a
     /// normal of about `-Y`). Empty for a stale handle. Pairs of bodies
     /// that both stayed put (asleep or fixed) report what the step that
-    /// last solved them found; after a restore, until they wake, nothing.
+    /// last solved them found.
+    ///
+    /// What this reports is derived from the last step and is not part of
+    /// the saved state: a world restored from a save reports nothing until
+    /// it steps (and its resting pairs nothing until they wake). Logic that
+    /// must replay bit for bit across a save and a restore (a server's
+    /// rules) cannot branch on it yet.
     ///
     /// ```
     /// use inertia_physics::glam::DVec3;
