@@ -174,3 +174,78 @@ fn issue_13_a_box_pushed_out_of_the_ground_does_not_sleep_inside_it() {
         );
     }
 }
+
+/// The speed along `down` and the rolling speed `ω r` of a body of radius
+/// `r` m rolling about its z axis after `seconds`, launched at `v0` m/s
+/// along x on ground tilted by `angle` rad about z, at 60 Hz.
+fn roll(shape: Shape, r: f64, turn: DQuat, v0: f64, angle: f64, seconds: f64) -> (f64, f64) {
+    let mut w = common::world();
+    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    let tilt = DQuat::from_rotation_z(-angle);
+    let ground = RigidBodyDesc::fixed(
+        Shape::cuboid(DVec3::new(60.0, 0.5, 5.0)).unwrap(),
+        Pose::new(tilt * (DVec3::NEG_Y * 0.5), tilt),
+    );
+    w.add_body(&ground).unwrap();
+    let down = tilt * DVec3::X;
+    let desc = RigidBodyDesc::dynamic(shape, 1000.0, Pose::new(tilt * (DVec3::Y * r), turn))
+        .unwrap()
+        .with_velocity(down * v0, DVec3::ZERO);
+    let b = w.add_body(&desc).unwrap();
+    common::run(&mut w, DT, (seconds / DT) as usize);
+    let body = w.body(b).unwrap();
+    (
+        body.linear_velocity().dot(down),
+        -body.angular_velocity().z * r,
+    )
+}
+
+#[test]
+fn issue_13_rolling_bodies_roll_without_slipping() {
+    // Reported slipping about 2 % at the contact point; measured here, a
+    // rolling sphere, capsule and cylinder keep v = ω r to a part in a
+    // thousand, on flat ground (at the speed theory gives once sliding
+    // friction has brought them to roll) and down a 20° slope (at the
+    // acceleration theory gives).
+    let r = 0.5;
+    let side = DQuat::from_rotation_x(std::f64::consts::FRAC_PI_2);
+    let cases = [
+        (
+            "sphere",
+            Shape::sphere(r).unwrap(),
+            DQuat::IDENTITY,
+            2.0 / 5.0,
+        ),
+        ("capsule", Shape::capsule(r, r).unwrap(), side, f64::NAN),
+        ("cylinder", Shape::cylinder(r, r).unwrap(), side, 1.0 / 2.0),
+    ];
+    for (name, shape, turn, k) in cases {
+        // Flat, launched sliding at 5 m/s: rolls at 5 / (1 + k).
+        let (v, wr) = roll(shape.clone(), r, turn, 5.0, 0.0, 2.0);
+        assert!(
+            (v - wr).abs() < 1e-3 * v,
+            "{name} on the flat: v {v}, ω r {wr}"
+        );
+        if k.is_finite() {
+            let expected = 5.0 / (1.0 + k);
+            assert!(
+                (v - expected).abs() < 1e-3 * expected,
+                "{name}: {v} m/s, theory {expected}"
+            );
+        }
+        // Down a 20° slope from rest: v = g sin θ t / (1 + k).
+        let angle = 20f64.to_radians();
+        let (v, wr) = roll(shape, r, turn, 0.0, angle, 1.5);
+        assert!(
+            (v - wr).abs() < 1e-3 * v,
+            "{name} on the slope: v {v}, ω r {wr}"
+        );
+        if k.is_finite() {
+            let expected = G * angle.sin() * 1.5 / (1.0 + k);
+            assert!(
+                (v - expected).abs() < 2e-3 * expected,
+                "{name}: {v} m/s, theory {expected}"
+            );
+        }
+    }
+}
