@@ -94,16 +94,15 @@ fn find(parent: &mut [usize], mut i: usize) -> usize {
 
 /// Advances sleep timers by `dt` and puts to sleep every island whose
 /// bodies have all rested long enough. A body rests when both its
-/// velocity and how fast it moved over the step (`moved`, by slot: m/s and
-/// rad/s, see [`RigidStepOut::moved`]) are under the tolerances: push-out
-/// moves a body out of an overlap without giving it velocity, and a body
-/// still being pushed out of the ground is not resting.
-///
-/// [`RigidStepOut::moved`]: crate::rigid::pipeline::RigidStepOut
+/// velocity and how fast it moved over the step (from `start`, each
+/// body's centre of mass and principal rotation at the start of the step,
+/// by slot) are under the tolerances: push-out moves a body out of an
+/// overlap without giving it velocity, and a body still being pushed out
+/// of the ground is not resting.
 pub(crate) fn update(
     bodies: &mut Arena<RigidBody>,
     touching: impl Iterator<Item = (BodyHandle, BodyHandle)>,
-    moved: &[(f64, f64)],
+    start: &[(glam::DVec3, glam::DQuat)],
     cfg: &SleepConfig,
     dt: f64,
 ) {
@@ -142,7 +141,10 @@ pub(crate) fn update(
         }
         // A body the game is pushing (scripted force or torque) never rests.
         let pushed = b.control_force != glam::DVec3::ZERO || b.control_torque != glam::DVec3::ZERO;
-        let (speed, spin) = moved.get(k).copied().unwrap_or_default();
+        let (speed, spin) = start.get(k).map_or((0.0, 0.0), |(com, principal)| {
+            let turned = principal.angle_between(b.rotation * b.principal);
+            ((b.com - *com).length() / dt, turned / dt)
+        });
         let resting = !pushed
             && b.linvel.length().max(speed) < cfg.linear_tolerance
             && b.angvel.length().max(spin) < cfg.angular_tolerance;

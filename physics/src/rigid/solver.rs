@@ -416,8 +416,6 @@ pub(crate) fn pair(
     }
 }
 
-/// Relative velocity of B's anchor against A's, m/s.
-#[inline]
 /// The normal speed at which a point meets, m/s (negative: closing): a
 /// point `gap` m apart at the start of the step, closing at `vn` m/s and
 /// pressed together at `closing_accel` m/s², meets at
@@ -433,6 +431,8 @@ fn impact_speed(vn: f64, gap: f64, closing_accel: f64) -> f64 {
     -(vn * vn + 2.0 * closing_accel * gap).sqrt()
 }
 
+/// Relative velocity of B's anchor against A's, m/s.
+#[inline]
 fn relative_velocity(a: &SolverBody, b: &SolverBody, ra: DVec3, rb: DVec3) -> DVec3 {
     b.v + b.w.cross(rb) - a.v - a.w.cross(ra)
 }
@@ -501,10 +501,16 @@ impl ContactConstraint {
 
     /// The smallest separation of the points at the start of the step, m.
     pub(crate) fn start_separation(&self) -> f64 {
-        let n = self.normal;
         (0..self.len)
-            .map(|i| self.rows.base[i] + n.dot(self.rows.rb.get(i) - self.rows.ra.get(i)))
+            .map(|i| self.start_gap(i))
             .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Point `i`'s separation at the start of the step, m (what
+    /// [`Self::separations`] gives before either body moves, to rounding).
+    fn start_gap(&self, i: usize) -> f64 {
+        let rows = &self.rows;
+        rows.base[i] + self.normal.dot(rows.rb.get(i) - rows.ra.get(i))
     }
 
     /// The point's anchor on A, its offset from the centre in the contact
@@ -580,17 +586,16 @@ impl ContactConstraint {
         let linear = n.dot(b.v - a.v);
         let closing_accel = (-n.dot(accel)).max(0.0);
         self.closing_accel = closing_accel;
+        let gaps: Lanes = std::array::from_fn(|i| self.start_gap(i));
         let rows = &mut self.rows;
         for i in 0..self.len {
-            let (ra, rb) = (rows.ra.get(i), rows.rb.get(i));
-            let (ca, cb) = (ra.cross(n), rb.cross(n));
+            let (ca, cb) = (rows.ra.get(i).cross(n), rows.rb.get(i).cross(n));
             rows.ca.set(i, ca);
             rows.cb.set(i, cb);
             rows.k[i] =
                 a.inv_mass + b.inv_mass + ca.dot(a.inv_inertia * ca) + cb.dot(b.inv_inertia * cb);
             let vn = linear + cb.dot(b.w) - ca.dot(a.w);
-            let gap = rows.base[i] + n.dot(rb - ra);
-            rows.approach[i] = impact_speed(vn, gap, closing_accel);
+            rows.approach[i] = impact_speed(vn, gaps[i], closing_accel);
         }
         rows.max_impulse = [0.0; MAX_POINTS];
         rows.total_impulse = [0.0; MAX_POINTS];

@@ -5,7 +5,7 @@
 //!
 //! It gives what the generic polytope path (`sat.rs`, then `convex.rs`)
 //! gives for two boxes: the same tie rules (A's faces win exact ties, B's
-//! faces must beat A's by [`super::face_b_margin`], edges must beat faces by
+//! faces must beat A's by [`super::tie_margin`], edges must beat faces by
 //! [`super::edge_margin`]), the same clipping, point
 //! keys and reduction, so the same points and feature ids, which stay put
 //! while a box rests. It works on the boxes' axes directly: no vertex
@@ -200,7 +200,8 @@ fn routed(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> (Option<Contact>, Route)
             best = (s, Axis::Face { side: 0, face });
         }
     }
-    let face_tol = super::face_b_margin(scale);
+    // A's faces win ties with B's.
+    let face_tol = super::tie_margin(scale);
     for j in 0..3 {
         let ra = r[0][j].abs() * ha[0] + r[1][j].abs() * ha[1] + r[2][j].abs() * ha[2];
         let s = db[j].abs() - hb[j] - ra;

@@ -68,11 +68,12 @@
 //! deepest, the one farthest from it, the one making the largest triangle
 //! with those two, and the one adding the most area on the other side
 //! (Gregorius's reduction), a near tie going to the point clipped first
-//! ([`tie_margin`]), so that a resting pair keeps its points. Feature ids hash the reference and incident
-//! face indices and, per point, the incident vertex or the incident edge
-//! and reference side plane that cut it, so they stay put while the same
-//! features touch. Ids are per ordered pair: swapping A and B gives the
-//! same geometry but may give other ids.
+//! ([`tie_margin`]), so that a resting pair keeps its points. Feature ids
+//! hash the reference and incident face indices and, per point, the
+//! incident vertex or the incident edge and reference side plane that cut
+//! it, so they stay put while the same features touch. Ids are per
+//! ordered pair: swapping A and B gives the same geometry but may give
+//! other ids.
 //!
 //! **Robustness.** Bad poses and unsupported pairs give a [`ContactError`];
 //! degenerate input (coincident centres, exactly touching shapes) picks a
@@ -312,13 +313,6 @@ pub fn penetration(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Option
 /// the bodies resting there.
 pub(crate) fn tie_margin(scale: f64) -> f64 {
     (1e-3 * scale).min(5e-4)
-}
-
-/// How much farther apart one of B's face axes must hold the shapes than
-/// A's best face axis to be the reference face instead, m: A's faces win
-/// ties ([`tie_margin`]).
-pub(crate) fn face_b_margin(scale: f64) -> f64 {
-    tie_margin(scale)
 }
 
 /// How much farther apart an edge-pair axis must hold the shapes than the

@@ -82,7 +82,8 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
             best_face = (s, Axis::FaceA(i));
         }
     }
-    let face_tol = super::face_b_margin(scale);
+    // A's faces win ties with B's.
+    let face_tol = super::tie_margin(scale);
     for (i, f) in pb.faces.iter().enumerate() {
         let n = pb.pose.transform_vector(f.normal);
         let s = min_dot(&va, n) - (f.offset + n.dot(pb.pose.translation));

@@ -226,15 +226,7 @@ pub(crate) fn finish(
             b.angvel = sb.w;
         }
     }
-    // How fast each body moved over the step, push-out included.
-    out.moved = bodies
-        .iter()
-        .zip(&start)
-        .map(|((_, _, b), (com, principal))| {
-            let turned = principal.angle_between(b.rotation * b.principal);
-            ((b.com - *com).length() / inputs.dt, turned / inputs.dt)
-        })
-        .collect();
+    out.start = start;
     out.quarantined = quarantined;
     out
 }

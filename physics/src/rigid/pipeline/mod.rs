@@ -141,10 +141,10 @@ pub(crate) struct RigidStepOut {
     pub(crate) broken_joints: Vec<crate::handle::JointHandle>,
     pub(crate) events: Vec<ContactEvent>,
     pub(crate) forces: Vec<ContactForceEvent>,
-    /// How fast each body moved over the step, by slot: its centre's
-    /// displacement (m/s) and its turn (rad/s) over the step, push-out
-    /// included, which its velocity does not show.
-    pub(crate) moved: Vec<(f64, f64)>,
+    /// Each body's centre of mass and principal rotation at the start of
+    /// the step, by slot: how far it moved over the step (push-out
+    /// included, which its velocity does not show) for the rest test.
+    pub(crate) start: Vec<(DVec3, glam::DQuat)>,
     /// Wall time of each stage.
     pub(crate) profile: RigidProfile,
 }
@@ -309,7 +309,7 @@ pub(crate) fn step(
     crate::rigid::island::update(
         bodies,
         links.all(),
-        &out.moved,
+        &out.start,
         &inputs.cfg.sleep,
         inputs.dt,
     );

@@ -146,28 +146,27 @@ pub(crate) fn leaves<'a>(shape: &'a Shape, pose: Pose, out: &mut Vec<(Pose, &'a 
 /// is not capped, so the body is stopped at the first surface in its path.
 pub(crate) fn speculative_distance(a: &RigidBody, b: &RigidBody, dt: f64) -> f64 {
     let closing = (a.linvel - b.linvel).length() * dt;
-    let cap = if a.ccd || b.ccd {
+    SPECULATIVE_DISTANCE + closing.min(closing_cap(a, b))
+}
+
+/// The most two bodies are taken to close in on each other in a step, m:
+/// their size, or no limit when either is `ccd`.
+fn closing_cap(a: &RigidBody, b: &RigidBody) -> f64 {
+    if a.ccd || b.ccd {
         f64::INFINITY
     } else {
         a.shape_radius().max(b.shape_radius())
-    };
-    SPECULATIVE_DISTANCE + closing.min(cap)
+    }
 }
 
 /// How far two bodies can close in on each other this step, m: their
-/// relative speed, and each one's spin at its radius, times the step;
-/// capped at their size as in [`speculative_distance`] unless either is
-/// `ccd`.
+/// relative speed, and each one's spin at its radius, times the step,
+/// within [`closing_cap`].
 fn wake_reach(a: &RigidBody, b: &RigidBody, dt: f64) -> f64 {
     let speed = (a.linvel - b.linvel).length()
         + a.angvel.length() * a.shape_radius()
         + b.angvel.length() * b.shape_radius();
-    let cap = if a.ccd || b.ccd {
-        f64::INFINITY
-    } else {
-        a.shape_radius().max(b.shape_radius())
-    };
-    (speed * dt).min(cap)
+    (speed * dt).min(closing_cap(a, b))
 }
 
 /// Whether any leaf of `a` comes within `speculative` of any leaf of `b`.

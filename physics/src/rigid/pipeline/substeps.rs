@@ -23,6 +23,9 @@ const BODIES_PER_ITEM: usize = 512;
 pub(crate) struct Solve {
     /// Velocities and frozen mass properties, by slot.
     pub(crate) bodies: Vec<SolverBody>,
+    /// Each body's acceleration from gravity and the step's forces, m/s²,
+    /// by slot (zero for one the solver leaves where it is).
+    accel: Vec<DVec3>,
     /// Contact constraints, in pair order.
     pub(crate) constraints: Vec<(ContactKey, ContactConstraint)>,
     /// The colour of each constraint.
@@ -52,8 +55,8 @@ impl Solve {
         solve: &ContactPass,
     ) -> Self {
         let stick_speed = inputs.cfg.stick_speed;
-        // Each body's acceleration over the step, for the speed at which
-        // contacts meet (restitution).
+        // Each body's acceleration over the step: integrated in every
+        // substep, and the speed at which contacts meet (restitution).
         let accel: Vec<DVec3> = bodies
             .iter()
             .zip(external)
@@ -106,6 +109,7 @@ impl Solve {
             joint_colours,
             joint_groups,
             bodies: solver_bodies,
+            accel,
             constraints,
             colours,
             groups,
@@ -168,7 +172,8 @@ impl Solve {
         // of them in parallel (each body is its own work).
         let mut refs: Vec<&mut RigidBody> = bodies.iter_mut().map(|(_, _, b)| b).collect();
         let mut starts: Vec<DQuat> = self.start.iter().map(|s| s.1).collect();
-        let gravity = inputs.gravity;
+        // Out of `self` for the substeps, which solve through `self` too.
+        let accel = std::mem::take(&mut self.accel);
         for _ in 0..n {
             let frozen = crate::parallel::par_map_chunks3(
                 &mut refs,
@@ -178,8 +183,8 @@ impl Solve {
                 |base, bs, sbs, _| {
                     let mut frozen = Vec::new();
                     for (i, (b, sb)) in bs.iter_mut().zip(sbs.iter_mut()).enumerate() {
-                        let (force, torque) = external[base + i];
-                        if !integrate_velocity(b, sb, gravity, force, torque, h) {
+                        let (accel, torque) = (accel[base + i], external[base + i].1);
+                        if !integrate_velocity(b, sb, accel, torque, h) {
                             // Non-finite: freeze it now, before a contact can
                             // carry the bad values to a neighbour.
                             *sb = SolverBody {
@@ -215,6 +220,7 @@ impl Solve {
             self.joints(|j, a, b| j.solve(a, b, h, false));
             self.contacts(|c, a, b| c.solve(a, b, &relax));
         }
+        self.accel = accel;
         let threshold = cfg.restitution_threshold;
         if self.constraints.iter().any(|(_, c)| c.restitution != 0.0) {
             self.contacts(|c, a, b| c.restitute(a, b, threshold));
@@ -223,20 +229,19 @@ impl Solve {
     }
 }
 
-/// Gravity, external and scripted forces and damping over one substep.
+/// The body's acceleration `accel` (m/s², [`linear_accel`]), its scripted
+/// and external torques (`torque`, N·m) and damping over one substep.
 /// Returns false (changing nothing) if the result is not finite.
 fn integrate_velocity(
     b: &RigidBody,
     sb: &mut SolverBody,
-    gravity: DVec3,
-    force: DVec3,
+    accel: DVec3,
     torque: DVec3,
     h: f64,
 ) -> bool {
     if b.is_fixed_now() {
         return true;
     }
-    let accel = linear_accel(b, gravity, force);
     let v = (sb.v + accel * h) / (1.0 + h * b.linear_damping);
     let w =
         (sb.w + sb.inv_inertia * ((b.control_torque + torque) * h)) / (1.0 + h * b.angular_damping);
