@@ -588,14 +588,14 @@ impl ContactConstraint {
         self.closing_accel = closing_accel;
         let gaps: Lanes = std::array::from_fn(|i| self.start_gap(i));
         let rows = &mut self.rows;
-        for i in 0..self.len {
+        for (i, &gap) in gaps.iter().enumerate().take(self.len) {
             let (ca, cb) = (rows.ra.get(i).cross(n), rows.rb.get(i).cross(n));
             rows.ca.set(i, ca);
             rows.cb.set(i, cb);
             rows.k[i] =
                 a.inv_mass + b.inv_mass + ca.dot(a.inv_inertia * ca) + cb.dot(b.inv_inertia * cb);
             let vn = linear + cb.dot(b.w) - ca.dot(a.w);
-            rows.approach[i] = impact_speed(vn, gaps[i], closing_accel);
+            rows.approach[i] = impact_speed(vn, gap, closing_accel);
         }
         rows.max_impulse = [0.0; MAX_POINTS];
         rows.total_impulse = [0.0; MAX_POINTS];
