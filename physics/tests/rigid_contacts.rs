@@ -9,7 +9,7 @@ use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::contact::{ContactError, Manifold};
 use inertia_physics::rigid::narrow::epa::epa;
-use inertia_physics::rigid::narrow::gjk::{gjk, GjkResult};
+use inertia_physics::rigid::narrow::gjk::{gjk, gjk_within, GjkResult};
 use inertia_physics::rigid::narrow::{collide, distance, penetration};
 use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
@@ -437,6 +437,55 @@ fn gjk_distance_matches_known() {
     assert_close(d, 2.0 - 0.5 - 0.5 * 3f64.sqrt(), 1e-9, "corner on face");
     let (d, _, _) = distance(&b, &Pose::IDENTITY, &b, &at(0.5, 0.0, 0.0)).unwrap();
     assert_eq!(d, 0.0);
+}
+
+/// `gjk_within` stops early only for pairs `gjk` measures farther apart
+/// than the limit, and otherwise answers exactly what `gjk` answers: the
+/// narrow phase's early exit changes no contact.
+#[test]
+fn gjk_within_agrees_with_gjk_and_stops_only_beyond_the_limit() {
+    let mut rng = Rng(5);
+    let cloud: Vec<DVec3> = (0..32).map(|_| rng.in_cube(0.5)).collect();
+    let hull = Shape::convex_hull(&cloud).unwrap();
+    let Shape::ConvexHull(hull) = &hull else {
+        unreachable!("a convex hull")
+    };
+    let (mut early, mut within) = (0, 0);
+    for k in 0..4000 {
+        let (qa, qb) = (rng.rotation(), rng.rotation());
+        let offset = rng.in_cube(1.5);
+        // A cylinder (curved: slow to converge) or a hull, against a hull.
+        let sa = |d: DVec3| {
+            let l = qa.inverse() * d;
+            let p = if k % 2 == 0 {
+                let y = if l.y >= 0.0 { 0.3 } else { -0.3 };
+                DVec3::new(l.x, 0.0, l.z).normalize_or_zero() * 0.4 + DVec3::new(0.0, y, 0.0)
+            } else {
+                hull.support(l)
+            };
+            qa * p
+        };
+        let sb = |d: DVec3| offset + qb * hull.support(qb.inverse() * d);
+        let limit = rng.range(0.0, 0.3);
+        let full = gjk(&sa, &sb, offset, 1.0);
+        match gjk_within(&sa, &sb, offset, 1.0, limit) {
+            None => {
+                early += 1;
+                let GjkResult::Separated { distance, .. } = full else {
+                    panic!("stopped early on an overlapping pair");
+                };
+                assert!(distance > limit, "stopped early at {distance} <= {limit}");
+            }
+            Some(r) => {
+                within += 1;
+                assert_eq!(format!("{r:?}"), format!("{full:?}"), "pair {k}");
+            }
+        }
+    }
+    assert!(
+        early > 500 && within > 500,
+        "early {early}, within {within}"
+    );
 }
 
 #[test]

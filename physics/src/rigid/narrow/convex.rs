@@ -8,7 +8,7 @@ use std::borrow::Cow;
 use glam::DVec3;
 
 use super::epa::epa;
-use super::gjk::{gjk, GjkResult};
+use super::gjk::{gjk_within, GjkResult};
 use super::{pack_id, reduce, Contact};
 use crate::rigid::hull::{ConvexHull, Face};
 use crate::rigid::pose::Pose;
@@ -327,7 +327,9 @@ pub(crate) fn convex_convex(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Option
     let sb = |d: DVec3| b.core_support(d);
     let init = b.pose.translation - a.pose.translation;
     let radii = a.radius + b.radius;
-    let (normal, sep, pa, pb) = match gjk(&sa, &sb, -init, scale) {
+    // Cores farther apart than the radii and the speculative distance
+    // make no contact: GJK stops as soon as it proves that.
+    let (normal, sep, pa, pb) = match gjk_within(&sa, &sb, -init, scale, spec + radii)? {
         GjkResult::Separated {
             distance,
             point_a,

@@ -16,7 +16,7 @@
 use glam::DVec3;
 
 use super::convex::{manifold_from_features, Convex, Feature, Polytope};
-use super::gjk::{gjk, GjkResult};
+use super::gjk::{gjk, gjk_within, GjkResult};
 use super::{pack_id, Contact};
 
 /// Vertices of a polytope mapped into the common frame.
@@ -56,7 +56,7 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
     let early = if matches!(a.core, super::convex::Core::Hull(_))
         || matches!(b.core, super::convex::Core::Hull(_))
     {
-        match gjk(&sa, &sb, ca_cb(a, b), scale) {
+        match gjk_within(&sa, &sb, ca_cb(a, b), scale, spec)? {
             GjkResult::Separated { distance, .. } if distance > spec => return None,
             r => Some(r),
         }

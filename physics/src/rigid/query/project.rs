@@ -155,6 +155,5 @@ fn closest_on_triangles(p: DVec3, tris: impl Iterator<Item = [DVec3; 3]>) -> Opt
 }
 
 fn closest_on_triangle(p: DVec3, t: [DVec3; 3]) -> DVec3 {
-    let (idx, w) = closest_triangle(t[0] - p, t[1] - p, t[2] - p);
-    idx.iter().zip(&w).map(|(&k, &l)| t[k] * l).sum()
+    closest_triangle(t[0] - p, t[1] - p, t[2] - p).point(&t)
 }
