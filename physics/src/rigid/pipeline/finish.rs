@@ -47,10 +47,15 @@ pub(crate) fn finish(
     let Solve {
         bodies: solver_bodies,
         constraints,
+        in_pair_order,
         joint_rows,
         start,
         ..
     } = solve;
+
+    // The constraints in the narrow phase's pair order (they are stored in
+    // solve order).
+    let by_pair = || in_pair_order.iter().map(|&at| &constraints[at as usize]);
 
     // Joints keep their impulses for the next step, or break.
     for (jindex, generation, row) in joint_rows {
@@ -71,7 +76,7 @@ pub(crate) fn finish(
     // as do the narrow phase's touching pairs, so both lists are sorted and
     // merge in one walk.
     let mut pushed: Vec<((BodyHandle, BodyHandle), f64, DVec3, f64)> = Vec::new();
-    for (key, c) in &constraints {
+    for (key, c) in by_pair() {
         let total = c.total_normal_impulse() / inputs.dt;
         if total <= 0.0 {
             continue;
@@ -139,7 +144,7 @@ pub(crate) fn finish(
     // bodies (a compound's manifolds merged), in constraint order, which
     // is pair order; pairs that stayed put keep theirs.
     let mut pairs: Vec<PairContact> = Vec::new();
-    for (key, c) in &constraints {
+    for (key, c) in by_pair() {
         let (a, b) = (handle(key.a), handle(key.b));
         let impulse = c.total_normal_impulse();
         let separation = c.start_separation();
@@ -178,7 +183,7 @@ pub(crate) fn finish(
 
     // The impulses, for the next step's warm start. Pairs that stayed put
     // keep their entries; every other entry is replaced by this step's.
-    let fresh = constraints.iter().map(|(key, c)| {
+    let fresh = by_pair().map(|(key, c)| {
         let shares = c.point_tangent_impulses();
         let pts = (0..c.len)
             .map(|i| {

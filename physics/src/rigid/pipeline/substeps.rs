@@ -26,11 +26,15 @@ pub(crate) struct Solve {
     /// Each body's acceleration from gravity and the step's forces, m/s²,
     /// by slot (zero for one the solver leaves where it is).
     accel: Vec<DVec3>,
-    /// Contact constraints, in pair order.
+    /// Contact constraints, stored in solve order (colour by colour, pair
+    /// order within a colour), so that every pass walks them front to back.
     pub(crate) constraints: Vec<(ContactKey, ContactConstraint)>,
-    /// The colour of each constraint.
+    /// Where each constraint of the narrow phase's pair order is stored:
+    /// `constraints[in_pair_order[k]]` is the `k`-th.
+    pub(crate) in_pair_order: Vec<u32>,
+    /// The colour of each constraint (as stored).
     colours: Vec<u8>,
-    /// The solve order: colour by colour.
+    /// The solve order: colour by colour (as stored: each colour a run).
     groups: colouring::Groups,
     /// Whether a constraint can move each body (dynamic and awake).
     movable: Vec<bool>,
@@ -83,8 +87,9 @@ impl Solve {
         let movable: Vec<bool> = bodies.iter().map(|(_, _, b)| !b.is_fixed_now()).collect();
         let ends: Vec<(usize, usize)> = constraints.iter().map(|(_, c)| (c.a, c.b)).collect();
         let mut constraints = constraints;
-        let colours = colouring::colour(&ends, &movable);
-        let groups = colouring::group(&colours);
+        let mut colours = colouring::colour(&ends, &movable);
+        let mut groups = colouring::group(&colours);
+        let in_pair_order = into_solve_order(&mut constraints, &mut colours, &mut groups);
         crate::parallel::for_each_chunk(&mut constraints, PREPARE_ITEM, |chunk| {
             for (_, c) in chunk {
                 let relative = accel[c.b] - accel[c.a];
@@ -111,6 +116,7 @@ impl Solve {
             bodies: solver_bodies,
             accel,
             constraints,
+            in_pair_order,
             colours,
             groups,
             movable,
@@ -227,6 +233,42 @@ impl Solve {
         }
         quarantined
     }
+}
+
+/// Moves the constraints into the order `groups` solves them in, with
+/// their colours and groups to match (each colour now a run of the
+/// vector); returns where each one of the original order went. The passes then
+/// read the constraints front to back, which the memory system streams,
+/// instead of jumping about the pair order; what each constraint computes
+/// is unchanged.
+fn into_solve_order(
+    constraints: &mut [(ContactKey, ContactConstraint)],
+    colours: &mut Vec<u8>,
+    groups: &mut colouring::Groups,
+) -> Vec<u32> {
+    let order = &groups.order;
+    // In place, cycle by cycle (no second buffer of constraints): slot
+    // `at` takes constraint `order[at]`.
+    let mut placed = vec![false; order.len()];
+    for start in 0..order.len() {
+        let mut at = start;
+        while !placed[at] {
+            placed[at] = true;
+            let from = order[at] as usize;
+            if from == start {
+                break;
+            }
+            constraints.swap(at, from);
+            at = from;
+        }
+    }
+    *colours = order.iter().map(|&k| colours[k as usize]).collect();
+    let mut in_pair_order = vec![0u32; order.len()];
+    for (at, &k) in order.iter().enumerate() {
+        in_pair_order[k as usize] = at as u32;
+    }
+    groups.order = (0..constraints.len() as u32).collect();
+    in_pair_order
 }
 
 /// The body's acceleration `accel` (m/s², [`linear_accel`]), its scripted
