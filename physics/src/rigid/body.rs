@@ -587,7 +587,9 @@ impl RigidBody {
 
     /// Translational plus rotational kinetic energy, J (0 for non-dynamic bodies).
     pub fn kinetic_energy(&self) -> f64 {
-        if self.inv_mass == 0.0 {
+        // Still bodies (every sleeping one) skip the world inertia: the
+        // answer is the same zero.
+        if self.inv_mass == 0.0 || (self.linvel == DVec3::ZERO && self.angvel == DVec3::ZERO) {
             return 0.0;
         }
         let rot = self.angvel.dot(self.inertia_world() * self.angvel);

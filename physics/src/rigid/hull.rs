@@ -117,6 +117,9 @@ pub struct ConvexHull {
     /// separating-axis test walks on the Gauss map (derived from `faces`).
     edge_faces: Vec<(u32, u32, usize, usize)>,
     tolerance: f64,
+    /// The largest magnitude of any vertex coordinate, m: a size for the
+    /// narrow phase's tolerances (derived from `vertices`).
+    extent: f64,
 }
 
 /// Each edge of closed polygon `faces` with the two faces that share it,
@@ -243,6 +246,12 @@ impl ConvexHull {
     #[inline]
     pub fn face(&self, i: usize) -> Option<&Face> {
         self.faces.get(i)
+    }
+
+    /// The largest magnitude of any vertex coordinate, m.
+    #[inline]
+    pub(crate) fn extent(&self) -> f64 {
+        self.extent
     }
 
     /// Each edge with its two faces (see [`edge_faces`]).

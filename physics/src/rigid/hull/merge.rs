@@ -106,12 +106,17 @@ impl Mesh {
             .collect();
         edges.sort_unstable();
         let edge_faces = super::edge_faces(&faces);
+        let extent = vertices
+            .iter()
+            .map(|v| v.abs().max_element())
+            .fold(0.0, f64::max);
         ConvexHull {
             vertices,
             faces,
             edges,
             edge_faces,
             tolerance,
+            extent,
         }
     }
 }

@@ -82,11 +82,7 @@ impl Convex<'_> {
             Core::Segment(h) => h,
             Core::Cuboid(h) => h.max_element(),
             Core::Cylinder(hh, r) => hh.max(r),
-            Core::Hull(h) => h
-                .vertices()
-                .iter()
-                .map(|v| v.abs().max_element())
-                .fold(0.0, f64::max),
+            Core::Hull(h) => h.extent(),
             Core::Triangle(t) => t.iter().map(|v| v.abs().max_element()).fold(0.0, f64::max),
         };
         c + self.radius

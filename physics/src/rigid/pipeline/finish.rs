@@ -209,6 +209,9 @@ pub(crate) fn finish(
         });
         contacts.cache.extend(fresh);
     }
+    let mut memory = constraints;
+    memory.clear();
+    contacts.constraint_memory = memory;
 
     // New velocities, or quarantine where the state is not finite.
     let mut quarantined = found.quarantined;

@@ -20,11 +20,49 @@ use crate::rigid::solver::{ContactConstraint, PointConstraint, MAX_POINTS};
 /// Pairs per parallel work item.
 const PAIRS_PER_ITEM: usize = 64;
 
+/// One constraint per manifold with points, in pair order, as the
+/// parallel runs of pairs found them (run after run). The solver takes
+/// each out once, in the order it solves them ([`Found::take_in`]): one
+/// move a constraint from where the narrow phase built it.
+#[derive(Debug, Default)]
+pub(crate) struct Found {
+    runs: Vec<Vec<Option<(ContactKey, ContactConstraint)>>>,
+}
+
+impl Found {
+    /// The two bodies (slots) of every constraint, in pair order.
+    pub(crate) fn ends(&self) -> Vec<(usize, usize)> {
+        self.all().map(|(_, c)| (c.a, c.b)).collect()
+    }
+
+    /// The constraints, in pair order.
+    fn all(&self) -> impl Iterator<Item = &(ContactKey, ContactConstraint)> {
+        self.runs.iter().flatten().flatten()
+    }
+
+    /// The constraints in `order` (indices in pair order; each once),
+    /// into `into` (emptied first; its memory is kept from step to step).
+    pub(crate) fn take_in(
+        mut self,
+        order: &[u32],
+        into: &mut Vec<(ContactKey, ContactConstraint)>,
+    ) {
+        let mut slots: Vec<&mut Option<(ContactKey, ContactConstraint)>> =
+            self.runs.iter_mut().flatten().collect();
+        into.clear();
+        into.extend(
+            order
+                .iter()
+                .filter_map(|&k| slots.get_mut(k as usize).and_then(|s| s.take())),
+        );
+    }
+}
+
 /// What the narrow phase found.
 #[derive(Debug, Default)]
 pub(crate) struct Narrow {
-    /// One constraint per manifold with points, in pair order.
-    pub(crate) constraints: Vec<(ContactKey, ContactConstraint)>,
+    /// One constraint per manifold with points.
+    pub(crate) constraints: Found,
     /// Pairs that overlap (or touched and stayed put), with whether either
     /// body is a sensor.
     pub(crate) touching: Vec<((BodyHandle, BodyHandle), bool)>,
@@ -86,6 +124,7 @@ pub(crate) fn find(
     let runs: Vec<&[Pair]> = pairs.chunks(PAIRS_PER_ITEM).collect();
     let outs = crate::parallel::par_map(&runs, 1, |run| {
         let mut out = Narrow::default();
+        out.constraints.runs.push(Vec::new());
         let Some(first) = run.first() else {
             return out;
         };
@@ -104,13 +143,10 @@ pub(crate) fn find(
         }
         out
     });
-    let mut narrow = Narrow {
-        constraints: Vec::with_capacity(outs.iter().map(|o| o.constraints.len()).sum()),
-        ..Narrow::default()
-    };
+    let mut narrow = Narrow::default();
     for out in outs {
         narrow.touching.extend(out.touching);
-        narrow.constraints.extend(out.constraints);
+        narrow.constraints.runs.extend(out.constraints.runs);
         narrow.carried.extend(out.carried);
         narrow.deepest = narrow.deepest.max(out.deepest);
     }
@@ -187,7 +223,9 @@ fn one_pair(
             child_b: cb as u32,
         };
         let c = constraint((ia, ba, pa), (ib, bb, pb), &m, cache.get(&key));
-        out.constraints.push((key, c));
+        if let Some(run) = out.constraints.runs.last_mut() {
+            run.push(Some((key, c)));
+        }
     };
     let compound =
         |s: &crate::rigid::shape::Shape| matches!(s, crate::rigid::shape::Shape::Compound(_));

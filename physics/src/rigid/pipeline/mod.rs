@@ -163,6 +163,10 @@ pub(crate) struct Contacts {
     /// not saved). Pairs that stayed put (both asleep or fixed) keep the
     /// entries of the step that last solved them; none after a restore.
     pub(crate) pairs: Vec<PairContact>,
+    /// The memory of the last step's contact constraints, emptied, for the
+    /// next step's (scratch: kept only so that each step does not map
+    /// fresh pages for them).
+    pub(crate) constraint_memory: Vec<(ContactKey, crate::rigid::solver::ContactConstraint)>,
     /// Deepest overlap the last step's narrow phase found between two
     /// bodies (not sensors), m; 0 when nothing overlapped. A diagnostic,
     /// derived: not saved.
@@ -275,6 +279,7 @@ pub(crate) fn step(
     let mut solve = substeps::Solve::new(
         bodies,
         narrow.constraints,
+        std::mem::take(&mut contacts.constraint_memory),
         joint_rows,
         &inputs,
         &external,

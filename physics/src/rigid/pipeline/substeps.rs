@@ -4,6 +4,7 @@
 use glam::{DQuat, DVec3};
 
 use super::bodies::BodyIndex;
+use super::manifolds::Found;
 use super::{ContactKey, StepInputs};
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
@@ -52,7 +53,8 @@ impl Solve {
     /// constraints coloured and prepared.
     pub(crate) fn new(
         bodies: &Arena<RigidBody>,
-        constraints: Vec<(ContactKey, ContactConstraint)>,
+        found: Found,
+        mut constraints: Vec<(ContactKey, ContactConstraint)>,
         joint_rows: Vec<(u32, u32, JointConstraint)>,
         inputs: &StepInputs<'_>,
         external: &[(DVec3, DVec3)],
@@ -85,11 +87,11 @@ impl Solve {
             })
             .collect();
         let movable: Vec<bool> = bodies.iter().map(|(_, _, b)| !b.is_fixed_now()).collect();
-        let ends: Vec<(usize, usize)> = constraints.iter().map(|(_, c)| (c.a, c.b)).collect();
-        let mut constraints = constraints;
+        let ends = found.ends();
         let mut colours = colouring::colour(&ends, &movable);
         let mut groups = colouring::group(&colours);
-        let in_pair_order = into_solve_order(&mut constraints, &mut colours, &mut groups);
+        let (in_pair_order, solve_order) = into_solve_order(&mut colours, &mut groups);
+        found.take_in(&solve_order, &mut constraints);
         crate::parallel::for_each_chunk(&mut constraints, PREPARE_ITEM, |chunk| {
             for (_, c) in chunk {
                 let relative = accel[c.b] - accel[c.a];
@@ -235,40 +237,20 @@ impl Solve {
     }
 }
 
-/// Moves the constraints into the order `groups` solves them in, with
-/// their colours and groups to match (each colour now a run of the
-/// vector); returns where each one of the original order went. The passes then
-/// read the constraints front to back, which the memory system streams,
-/// instead of jumping about the pair order; what each constraint computes
-/// is unchanged.
-fn into_solve_order(
-    constraints: &mut [(ContactKey, ContactConstraint)],
-    colours: &mut Vec<u8>,
-    groups: &mut colouring::Groups,
-) -> Vec<u32> {
-    let order = &groups.order;
-    // In place, cycle by cycle (no second buffer of constraints): slot
-    // `at` takes constraint `order[at]`.
-    let mut placed = vec![false; order.len()];
-    for start in 0..order.len() {
-        let mut at = start;
-        while !placed[at] {
-            placed[at] = true;
-            let from = order[at] as usize;
-            if from == start {
-                break;
-            }
-            constraints.swap(at, from);
-            at = from;
-        }
-    }
+/// Renumbers the colouring for constraints stored in the order `groups`
+/// solves them in (each colour a run of the vector, so the passes read the
+/// constraints front to back, which the memory system streams): the
+/// colours and groups as stored, and returns where each constraint of the
+/// pair order is stored and, the other way, which one each place holds.
+fn into_solve_order(colours: &mut Vec<u8>, groups: &mut colouring::Groups) -> (Vec<u32>, Vec<u32>) {
+    let order = std::mem::take(&mut groups.order);
     *colours = order.iter().map(|&k| colours[k as usize]).collect();
     let mut in_pair_order = vec![0u32; order.len()];
     for (at, &k) in order.iter().enumerate() {
         in_pair_order[k as usize] = at as u32;
     }
-    groups.order = (0..constraints.len() as u32).collect();
-    in_pair_order
+    groups.order = (0..order.len() as u32).collect();
+    (in_pair_order, order)
 }
 
 /// The body's acceleration `accel` (m/s², [`linear_accel`]), its scripted
