@@ -9,12 +9,36 @@ pub(crate) enum Entry<T> {
 }
 
 /// Slots of `T` addressed by `(index, generation)`.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub(crate) struct Arena<T> {
     pub(crate) entries: Vec<Entry<T>>,
     /// Freed indices, reused last-in first-out.
     pub(crate) free: Vec<u32>,
     len: usize,
+    /// Changes whenever the contents may have (see [`Revision`]).
+    revision: Revision,
+}
+
+/// Names what an arena holds: any mutable access gives the arena a new
+/// revision, and no two arenas (clones included) share one. Derived work
+/// remembered with a revision (what a world at rest would compute again)
+/// stays valid while the arena's revision is the same.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Revision {
+    /// This arena, among every arena made in the process.
+    arena: u64,
+    /// Mutable accesses so far.
+    edits: u64,
+}
+
+impl Revision {
+    fn fresh() -> Self {
+        static ARENAS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        Self {
+            arena: ARENAS.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            edits: 0,
+        }
+    }
 }
 
 impl<T> Default for Arena<T> {
@@ -23,6 +47,19 @@ impl<T> Default for Arena<T> {
             entries: Vec::new(),
             free: Vec::new(),
             len: 0,
+            revision: Revision::fresh(),
+        }
+    }
+}
+
+impl<T: Clone> Clone for Arena<T> {
+    /// The same contents under a revision of its own.
+    fn clone(&self) -> Self {
+        Self {
+            entries: self.entries.clone(),
+            free: self.free.clone(),
+            len: self.len,
+            revision: Revision::fresh(),
         }
     }
 }
@@ -47,15 +84,31 @@ impl<T> Arena<T> {
             seen[f] = true;
         }
         let len = entries.len() - vacant;
-        Some(Self { entries, free, len })
+        Some(Self {
+            entries,
+            free,
+            len,
+            revision: Revision::fresh(),
+        })
     }
 
     pub(crate) fn len(&self) -> usize {
         self.len
     }
 
+    /// The contents' revision.
+    pub(crate) fn revision(&self) -> Revision {
+        self.revision
+    }
+
+    /// Notes a mutable access.
+    fn edit(&mut self) {
+        self.revision.edits += 1;
+    }
+
     /// Inserts `value`, returning `(index, generation)`.
     pub(crate) fn insert(&mut self, value: T) -> (u32, u32) {
+        self.edit();
         self.len += 1;
         if let Some(index) = self.free.pop() {
             let entry = &mut self.entries[index as usize];
@@ -86,6 +139,7 @@ impl<T> Arena<T> {
     }
 
     pub(crate) fn get_mut(&mut self, index: u32, generation: u32) -> Option<&mut T> {
+        self.edit();
         match self.entries.get_mut(index as usize)? {
             Entry::Occupied {
                 generation: g,
@@ -96,6 +150,7 @@ impl<T> Arena<T> {
     }
 
     pub(crate) fn remove(&mut self, index: u32, generation: u32) -> Option<T> {
+        self.edit();
         let entry = self.entries.get_mut(index as usize)?;
         match entry {
             Entry::Occupied { generation: g, .. } if *g == generation => {
@@ -127,6 +182,7 @@ impl<T> Arena<T> {
 
     /// Occupied entries in index order, mutably.
     pub(crate) fn iter_mut(&mut self) -> impl Iterator<Item = (u32, u32, &mut T)> {
+        self.edit();
         self.entries
             .iter_mut()
             .enumerate()

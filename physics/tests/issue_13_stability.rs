@@ -249,3 +249,57 @@ fn issue_13_rolling_bodies_roll_without_slipping() {
         }
     }
 }
+
+/// A world at rest reuses what it worked out while nothing changed (it
+/// does not look at every body each step), and still answers every change:
+/// a teleport, a push, new gravity.
+#[test]
+fn a_world_at_rest_answers_every_change() {
+    let mut w = world_with_ground();
+    let b = cube(&mut w, 0.25, DVec3::new(0.0, 0.25, 0.0), DQuat::IDENTITY);
+    let mut steps = 0;
+    while !w.body(b).unwrap().is_sleeping() {
+        w.step(DT).unwrap();
+        steps += 1;
+        assert!(steps < 600, "the box never fell asleep");
+    }
+    let mass = w.body(b).unwrap().mass();
+    let height = |w: &World| w.body(b).unwrap().center_of_mass().y;
+    for _ in 0..3 {
+        w.step(DT).unwrap();
+    }
+    let e = w.energy();
+    assert_eq!(e.kinetic, 0.0);
+    let expected = mass * G * height(&w);
+    assert!((e.gravity_uniform - expected).abs() < 1e-9 * expected);
+
+    // Teleported (asleep, at rest): the energy follows.
+    let pose = Pose::from_translation(DVec3::new(0.0, 2.0, 0.0));
+    w.set_body_pose(b, pose).unwrap();
+    w.step(DT).unwrap();
+    let expected = mass * G * height(&w);
+    assert!(height(&w) > 1.9);
+    assert!((w.energy().gravity_uniform - expected).abs() < 1e-9 * expected);
+
+    // Stronger gravity: the energy follows, and the box falls.
+    for _ in 0..240 {
+        w.step(DT).unwrap();
+    }
+    assert!(height(&w) < 0.3, "the box did not fall: {}", height(&w));
+    w.set_body_gravity(DVec3::new(0.0, -2.0 * G, 0.0)).unwrap();
+    while !w.body(b).unwrap().is_sleeping() {
+        w.step(DT).unwrap();
+    }
+    w.step(DT).unwrap();
+    let expected = mass * 2.0 * G * height(&w);
+    assert!((w.energy().gravity_uniform - expected).abs() < 1e-9 * expected);
+
+    // Pushed while the world is at rest: it moves.
+    let before = w.body(b).unwrap().center_of_mass();
+    w.set_body_velocity(b, DVec3::new(3.0, 0.0, 0.0), DVec3::ZERO)
+        .unwrap();
+    for _ in 0..10 {
+        w.step(DT).unwrap();
+    }
+    assert!(w.body(b).unwrap().center_of_mass().x > before.x + 0.2);
+}

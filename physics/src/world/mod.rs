@@ -126,6 +126,10 @@ pub struct World {
     /// Warm-start cache and broad phase.
     contacts: Contacts,
     energy: Energy,
+    /// The bodies' kinetic and uniform-gravity energy, J, with the bodies'
+    /// revision and the gravity they were worked out for (derived: a world
+    /// at rest reuses them instead of visiting every body).
+    body_energy: Option<(crate::arena::Revision, DVec3, (f64, f64))>,
     profile: StepProfile,
     totals: ProfileTotals,
     #[cfg(feature = "gpu")]
@@ -171,6 +175,7 @@ impl World {
             attachment_loads: Default::default(),
             solver: SolverConfig::default(),
             contacts: Contacts::default(),
+            body_energy: None,
             energy: Energy::default(),
             profile: StepProfile::default(),
             totals: ProfileTotals::default(),
@@ -392,12 +397,23 @@ impl World {
             }
             report.removed_bodies = gone;
         }
-        for (_, _, b) in self.bodies.iter() {
-            energy.kinetic += b.kinetic_energy();
-            if b.inv_mass > 0.0 {
-                energy.gravity_uniform -= (g * b.gravity_scale).dot(b.com) / b.inv_mass;
+        let revision = self.bodies.revision();
+        let (kinetic, potential) = match self.body_energy {
+            Some((r, g0, e)) if r == revision && g0 == g => e,
+            _ => {
+                let mut e = (0.0, 0.0);
+                for (_, _, b) in self.bodies.iter() {
+                    e.0 += b.kinetic_energy();
+                    if b.inv_mass > 0.0 {
+                        e.1 -= (g * b.gravity_scale).dot(b.com) / b.inv_mass;
+                    }
+                }
+                self.body_energy = Some((revision, g, e));
+                e
             }
-        }
+        };
+        energy.kinetic += kinetic;
+        energy.gravity_uniform += potential;
         out.profile
     }
 

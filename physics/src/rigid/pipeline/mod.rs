@@ -163,6 +163,9 @@ pub(crate) struct Contacts {
     /// not saved). Pairs that stayed put (both asleep or fixed) keep the
     /// entries of the step that last solved them; none after a restore.
     pub(crate) pairs: Vec<PairContact>,
+    /// The bodies' revision when the last step found nothing could move
+    /// (derived): while it stands, no body needs a look to know it.
+    resting: Option<crate::arena::Revision>,
     /// The memory of the last step's contact constraints, emptied, for the
     /// next step's (scratch: kept only so that each step does not map
     /// fresh pages for them).
@@ -241,10 +244,12 @@ pub(crate) fn step(
 ) -> RigidStepOut {
     let mut clock = Stopwatch(Instant::now());
     let mut profile = RigidProfile::default();
-    if at_rest(bodies) {
+    if contacts.resting == Some(bodies.revision()) || at_rest(bodies) {
         // Everything asleep or still: nothing can move, touch or wake, so
         // the step changes nothing (contacts, impulses and sleep carry
-        // over as they are). A settled world costs one look at each body.
+        // over as they are). A settled world costs one look at each body,
+        // and none again until something changes a body.
+        contacts.resting = Some(bodies.revision());
         profile.forces = clock.lap();
         return RigidStepOut {
             profile,
@@ -252,6 +257,7 @@ pub(crate) fn step(
         };
     }
 
+    contacts.resting = None;
     let index = bodies::BodyIndex::new(bodies);
     let external = bodies::external_loads(bodies, &inputs);
     let links = bodies::Links::new(joints, &contacts.touching);
