@@ -409,6 +409,21 @@ impl BroadPhase {
         Ok(moved)
     }
 
+    /// Whether the tight boxes (as last inserted or updated) of a pair's
+    /// proxies overlap; true when either is unknown. A pair comes from its
+    /// fat boxes, which stay put while a proxy moves within them, so many
+    /// pairs are farther apart than their tight boxes allow.
+    pub fn tight_boxes_overlap(&self, pair: &Pair) -> bool {
+        let tight = |key: u32| {
+            let id = self.proxies.get(&key)?;
+            self.info.get(id.index())?.as_ref().map(|i| i.tight)
+        };
+        match (tight(pair.a), tight(pair.b)) {
+            (Some(a), Some(b)) => a.intersects(&b),
+            _ => true,
+        }
+    }
+
     /// The fat box of proxy `key` (m): what pairs are made of.
     pub fn fat_aabb(&self, key: u32) -> Option<Aabb> {
         self.tree.fat_aabb(*self.proxies.get(&key)?)

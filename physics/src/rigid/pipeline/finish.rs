@@ -7,13 +7,14 @@ use glam::DVec3;
 use super::bodies::BodyIndex;
 use super::substeps::Solve;
 use super::{
-    CachedPoint, ContactEvent, ContactEventKind, ContactForceEvent, Contacts, PairContact,
-    RigidStepOut, StepInputs,
+    CachedPoint, ContactEvent, ContactEventKind, ContactForceEvent, ContactKey, Contacts,
+    PairContact, RigidStepOut, StepInputs,
 };
 use crate::arena::Arena;
 use crate::handle::{BodyHandle, JointHandle};
 use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::joint::Joint;
+use crate::rigid::solver::ContactConstraint;
 
 /// What the earlier stages found, besides the solver state.
 #[derive(Debug)]
@@ -53,10 +54,6 @@ pub(crate) fn finish(
         ..
     } = solve;
 
-    // The constraints in the narrow phase's pair order (they are stored in
-    // solve order).
-    let by_pair = || in_pair_order.iter().map(|&at| &constraints[at as usize]);
-
     // Joints keep their impulses for the next step, or break.
     for (jindex, generation, row) in joint_rows {
         if row.joint.force(h) > row.joint.desc.break_force {
@@ -70,29 +67,19 @@ pub(crate) fn finish(
         }
     }
 
+    // One walk over the constraints in pair order (a pair's compound
+    // children next to each other), each read once: what pushed, the pairs
+    // in contact, and the impulses to keep.
+    let walked = walk(
+        in_pair_order.iter().map(|&at| &constraints[at as usize]),
+        inputs.dt,
+    );
+
     // Pairs pushed apart count as touching even if they started a hair
-    // apart; their total normal force feeds the force events. Constraints
-    // come in pair order (a pair's compound children next to each other),
-    // as do the narrow phase's touching pairs, so both lists are sorted and
-    // merge in one walk.
-    let mut pushed: Vec<((BodyHandle, BodyHandle), f64, DVec3, f64)> = Vec::new();
-    for (key, c) in by_pair() {
-        let total = c.total_normal_impulse() / inputs.dt;
-        if total <= 0.0 {
-            continue;
-        }
-        let pair_key = (handle(key.a), handle(key.b));
-        match pushed.last_mut() {
-            Some(last) if last.0 == pair_key => {
-                last.1 += total;
-                if total > last.3 {
-                    last.2 = c.normal;
-                    last.3 = total;
-                }
-            }
-            _ => pushed.push((pair_key, total, c.normal, total)),
-        }
-    }
+    // apart; their total normal force feeds the force events. Both these
+    // and the narrow phase's touching pairs are sorted, so they merge in
+    // one walk.
+    let pushed = walked.pushed;
     let threshold = |h: BodyHandle| {
         bodies
             .get(h.index, h.generation)
@@ -140,35 +127,9 @@ pub(crate) fn finish(
     contacts.touching = touching.into_iter().map(|t| t.0).collect();
     contacts.deepest_penetration = found.deepest;
 
-    // The pairs in contact, for the rules' queries: one entry a pair of
-    // bodies (a compound's manifolds merged), in constraint order, which
-    // is pair order; pairs that stayed put keep theirs.
-    let mut pairs: Vec<PairContact> = Vec::new();
-    for (key, c) in by_pair() {
-        let (a, b) = (handle(key.a), handle(key.b));
-        let impulse = c.total_normal_impulse();
-        let separation = c.start_separation();
-        match pairs.last_mut() {
-            Some(p) if (p.a, p.b) == (a, b) => {
-                let harder = impulse > 0.0 && impulse > p.impulse;
-                let deeper = p.impulse == 0.0 && impulse == 0.0 && separation < p.separation;
-                if harder || deeper {
-                    p.normal = c.normal;
-                }
-                p.impulse += impulse;
-                p.separation = p.separation.min(separation);
-                p.points += c.len;
-            }
-            _ => pairs.push(PairContact {
-                a,
-                b,
-                normal: c.normal,
-                separation,
-                impulse,
-                points: c.len,
-            }),
-        }
-    }
+    // The pairs in contact, for the rules' queries; pairs that stayed put
+    // keep theirs.
+    let mut pairs = walked.pairs;
     if !found.carried.is_empty() {
         let mut kept = found.carried.iter().peekable();
         let key = |h: BodyHandle| (h.index, h.generation);
@@ -183,23 +144,9 @@ pub(crate) fn finish(
 
     // The impulses, for the next step's warm start. Pairs that stayed put
     // keep their entries; every other entry is replaced by this step's.
-    let fresh = by_pair().map(|(key, c)| {
-        let shares = c.point_tangent_impulses();
-        let pts = (0..c.len)
-            .map(|i| {
-                let (id, anchor_a) = c.point_id(i);
-                CachedPoint {
-                    id,
-                    anchor_a,
-                    normal: c.normal_impulse(i),
-                    tangent: shares[i],
-                }
-            })
-            .collect();
-        (*key, pts)
-    });
+    let fresh = walked.cache;
     if found.carried.is_empty() {
-        contacts.cache = fresh.collect();
+        contacts.cache = fresh.into_iter().collect();
     } else {
         // Both in key order: one walk.
         let mut kept = found.carried.iter().peekable();
@@ -237,6 +184,82 @@ pub(crate) fn finish(
     out.start = start;
     out.quarantined = quarantined;
     out
+}
+
+/// What finish reads from the constraints.
+struct Walked {
+    /// Each pair that pushed: the pair, its total normal force (N), the
+    /// normal of the manifold that pushed hardest and that one's force.
+    pushed: Vec<((BodyHandle, BodyHandle), f64, DVec3, f64)>,
+    /// One entry a pair of bodies in contact (a compound's manifolds
+    /// merged).
+    pairs: Vec<PairContact>,
+    /// Each manifold's impulses, for the next step's warm start.
+    cache: Vec<(ContactKey, Vec<CachedPoint>)>,
+}
+
+/// Reads what finish needs from each constraint (in pair order), once.
+fn walk<'a>(
+    constraints: impl Iterator<Item = &'a (ContactKey, ContactConstraint)>,
+    dt: f64,
+) -> Walked {
+    let mut w = Walked {
+        pushed: Vec::new(),
+        pairs: Vec::new(),
+        cache: Vec::new(),
+    };
+    for (key, c) in constraints {
+        let (a, b) = (handle(key.a), handle(key.b));
+        let impulse = c.total_normal_impulse();
+        let total = impulse / dt;
+        if total > 0.0 {
+            match w.pushed.last_mut() {
+                Some(last) if last.0 == (a, b) => {
+                    last.1 += total;
+                    if total > last.3 {
+                        last.2 = c.normal;
+                        last.3 = total;
+                    }
+                }
+                _ => w.pushed.push(((a, b), total, c.normal, total)),
+            }
+        }
+        let separation = c.start_separation();
+        match w.pairs.last_mut() {
+            Some(p) if (p.a, p.b) == (a, b) => {
+                let harder = impulse > 0.0 && impulse > p.impulse;
+                let deeper = p.impulse == 0.0 && impulse == 0.0 && separation < p.separation;
+                if harder || deeper {
+                    p.normal = c.normal;
+                }
+                p.impulse += impulse;
+                p.separation = p.separation.min(separation);
+                p.points += c.len;
+            }
+            _ => w.pairs.push(PairContact {
+                a,
+                b,
+                normal: c.normal,
+                separation,
+                impulse,
+                points: c.len,
+            }),
+        }
+        let shares = c.point_tangent_impulses();
+        let pts = (0..c.len)
+            .map(|i| {
+                let (id, anchor_a) = c.point_id(i);
+                CachedPoint {
+                    id,
+                    anchor_a,
+                    normal: c.normal_impulse(i),
+                    tangent: shares[i],
+                }
+            })
+            .collect();
+        w.cache.push((*key, pts));
+    }
+    w
 }
 
 /// The union of the narrow phase's touching pairs (sorted, with their

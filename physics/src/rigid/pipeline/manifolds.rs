@@ -10,7 +10,7 @@ use super::{CachedPoint, ContactKey, ANCHOR_MATCH_DISTANCE};
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::rigid::body::{CombineRule, RigidBody};
-use crate::rigid::broad_phase::Pair;
+use crate::rigid::broad_phase::{BroadPhase, Pair};
 use crate::rigid::contact::Manifold;
 use crate::rigid::joint::{Joint, JointConstraint};
 use crate::rigid::narrow::collide;
@@ -116,12 +116,12 @@ pub(crate) fn find(
     bodies: &Arena<RigidBody>,
     index: &BodyIndex,
     links: &Links<'_>,
-    pairs: &[Pair],
+    broad: &BroadPhase,
     cache: &BTreeMap<ContactKey, Vec<CachedPoint>>,
     touched: &BTreeSet<(BodyHandle, BodyHandle)>,
     dt: f64,
 ) -> Narrow {
-    let runs: Vec<&[Pair]> = pairs.chunks(PAIRS_PER_ITEM).collect();
+    let runs: Vec<&[Pair]> = broad.pairs().chunks(PAIRS_PER_ITEM).collect();
     let outs = crate::parallel::par_map(&runs, 1, |run| {
         let mut out = Narrow::default();
         out.constraints.runs.push(Vec::new());
@@ -134,6 +134,7 @@ pub(crate) fn find(
                 bodies,
                 index,
                 links,
+                broad,
                 pair,
                 &mut cursor,
                 touched,
@@ -159,6 +160,7 @@ fn one_pair(
     bodies: &Arena<RigidBody>,
     index: &BodyIndex,
     links: &Links<'_>,
+    broad: &BroadPhase,
     pair: &Pair,
     cache: &mut CacheCursor<'_>,
     touched: &BTreeSet<(BodyHandle, BodyHandle)>,
@@ -185,6 +187,12 @@ fn one_pair(
         if touched.contains(&(ha, hb)) {
             out.touching.push(((ha, hb), false));
         }
+        return;
+    }
+    // Each tight box holds its shape grown by how far the body can move
+    // this step plus the speculative distance, so boxes apart put the
+    // shapes farther apart than the speculative distance: no contact.
+    if !broad.tight_boxes_overlap(pair) {
         return;
     }
     let (Some(sa), Some(sb)) = (&ba.shape, &bb.shape) else {

@@ -274,7 +274,7 @@ pub(crate) fn step(
         bodies,
         &index,
         &links,
-        broad.pairs(),
+        broad,
         &contacts.cache,
         &contacts.touching,
         inputs.dt,
