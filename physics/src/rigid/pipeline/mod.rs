@@ -8,11 +8,12 @@
 //!    move this step plus the speculative margin, is updated in the dynamic
 //!    AABB tree; the overlapping pairs come out sorted.
 //! 3. **narrow phase** ([`manifolds`]) — each pair (each pair of child
-//!    shapes for compounds) gives a manifold, in parallel; its points take
-//!    the impulses they had last step (matched by feature id) for warm
-//!    starting.
+//!    shapes for compounds) whose tight boxes meet gives a manifold, in
+//!    parallel; its points take the impulses they had last step (matched
+//!    by feature id) for warm starting.
 //! 4. **colouring** ([`colouring`](super::colouring)) — the contact
-//!    constraints are grouped so that no two of a group move the same body.
+//!    constraints are grouped so that no two of a group move the same
+//!    body, and stored colour by colour (the order they are solved in).
 //! 5. **solve** ([`substeps`]) — [`solver`](super::solver) substeps:
 //!    integrate velocities, warm start, solve with bias, integrate positions
 //!    (with the gyroscopic splitting of [`motion`](super::motion)), relax;
@@ -21,6 +22,10 @@
 //!    contact cache; bodies get their new velocities, or are quarantined if
 //!    their state is not finite.
 //! 7. **islands** — resting islands fall asleep.
+//!
+//! A world where nothing can move skips every stage, and remembers the
+//! bodies' revision (see `Arena::revision`) so the next step needs no look
+//! at a body either while nothing changed them.
 //!
 //! Everything iterates in body-handle order, pair order and colour order,
 //! none of which depends on the number of threads, so the result does not
