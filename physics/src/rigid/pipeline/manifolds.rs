@@ -124,7 +124,9 @@ pub(crate) fn find(
     let runs: Vec<&[Pair]> = broad.pairs().chunks(PAIRS_PER_ITEM).collect();
     let outs = crate::parallel::par_map(&runs, 1, |run| {
         let mut out = Narrow::default();
-        out.constraints.runs.push(Vec::new());
+        // About a manifold a pair at most (compounds aside): room for them
+        // up front, not grown (and moved) as they come.
+        out.constraints.runs.push(Vec::with_capacity(run.len()));
         let Some(first) = run.first() else {
             return out;
         };
