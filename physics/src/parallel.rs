@@ -55,21 +55,6 @@ where
         .collect()
 }
 
-/// Runs `f(chunk)` over `chunk`-sized pieces of `a`, in parallel when there
-/// are at least two pieces. For work whose result does not depend on the
-/// order the pieces run in.
-pub(crate) fn for_each_chunk<A, F>(a: &mut [A], chunk: usize, f: F)
-where
-    A: Send,
-    F: Fn(&mut [A]) + Sync + Send,
-{
-    if a.len() < 2 * chunk || inline() {
-        a.chunks_mut(chunk).for_each(f);
-    } else {
-        a.par_chunks_mut(chunk).for_each(f);
-    }
-}
-
 /// Runs `f(chunk)` over `chunk`-sized pieces of `items`, in parallel when
 /// there are at least two pieces. For work whose result does not depend on
 /// the order the pieces run in.

@@ -19,6 +19,8 @@ use crate::rigid::solver::{ContactConstraint, PointConstraint, MAX_POINTS};
 
 /// Pairs per parallel work item.
 const PAIRS_PER_ITEM: usize = 64;
+/// Constraints placed (and prepared) per parallel work item.
+const PLACE_ITEM: usize = 256;
 
 /// One constraint per manifold with points, in pair order, as the
 /// parallel runs of pairs found them (run after run). The solver takes
@@ -41,20 +43,32 @@ impl Found {
     }
 
     /// The constraints in `order` (indices in pair order; each once),
-    /// into `into` (emptied first; its memory is kept from step to step).
-    pub(crate) fn take_in(
-        mut self,
+    /// each passed through `f` (in parallel) as it is placed, into `into`
+    /// (emptied first; its memory is kept from step to step).
+    pub(crate) fn place_in(
+        self,
         order: &[u32],
         into: &mut Vec<(ContactKey, ContactConstraint)>,
+        f: impl Fn(&mut ContactConstraint) + Sync + Send,
     ) {
-        let mut slots: Vec<&mut Option<(ContactKey, ContactConstraint)>> =
-            self.runs.iter_mut().flatten().collect();
+        let all: Vec<&(ContactKey, ContactConstraint)> = self.all().collect();
         into.clear();
-        into.extend(
-            order
-                .iter()
-                .filter_map(|&k| slots.get_mut(k as usize).and_then(|s| s.take())),
-        );
+        into.reserve(order.len());
+        let places = &mut into.spare_capacity_mut()[..order.len()];
+        crate::parallel::par_map_chunks(places, PLACE_ITEM, |base, chunk| {
+            for (j, place) in chunk.iter_mut().enumerate() {
+                let (key, c) = all[order[base + j] as usize];
+                // A copy (a constraint not yet prepared owns no memory), so
+                // nothing is moved out of memory other threads read.
+                let mut c = c.clone();
+                f(&mut c);
+                place.write((*key, c));
+            }
+        });
+        // SAFETY: the chunks cover all of `places`, and each of its
+        // elements was written above; had anything panicked, this line is
+        // not reached and the written elements are only leaked.
+        unsafe { into.set_len(order.len()) };
     }
 }
 

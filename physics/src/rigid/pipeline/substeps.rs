@@ -14,8 +14,6 @@ use crate::rigid::joint::JointConstraint;
 use crate::rigid::motion::free_rotation;
 use crate::rigid::solver::{ContactConstraint, ContactPass, SolverBody};
 
-/// Constraints per parallel work item when preparing them.
-const PREPARE_ITEM: usize = 256;
 /// Bodies per parallel work item when integrating them.
 const BODIES_PER_ITEM: usize = 512;
 
@@ -91,19 +89,17 @@ impl Solve {
         let mut colours = colouring::colour(&ends, &movable);
         let mut groups = colouring::group(&colours);
         let (in_pair_order, solve_order) = into_solve_order(&mut colours, &mut groups);
-        found.take_in(&solve_order, &mut constraints);
-        crate::parallel::for_each_chunk(&mut constraints, PREPARE_ITEM, |chunk| {
-            for (_, c) in chunk {
-                let relative = accel[c.b] - accel[c.a];
-                c.prepare(
-                    &solver_bodies[c.a],
-                    &solver_bodies[c.b],
-                    relative,
-                    stick_speed,
-                    solve,
-                );
-            }
-        });
+        let prepare = |c: &mut ContactConstraint| {
+            let relative = accel[c.b] - accel[c.a];
+            c.prepare(
+                &solver_bodies[c.a],
+                &solver_bodies[c.b],
+                relative,
+                stick_speed,
+                solve,
+            );
+        };
+        found.place_in(&solve_order, &mut constraints, prepare);
         let start = bodies
             .iter()
             .map(|(_, _, b)| (b.com, b.principal_rotation()))
