@@ -23,12 +23,12 @@ const PAIRS_PER_ITEM: usize = 64;
 const PLACE_ITEM: usize = 256;
 
 /// One constraint per manifold with points, in pair order, as the
-/// parallel runs of pairs found them (run after run). The solver takes
-/// each out once, in the order it solves them ([`Found::take_in`]): one
-/// move a constraint from where the narrow phase built it.
+/// parallel runs of pairs found them (run after run). The solver places
+/// them in the order it solves them ([`Found::place_in`]), straight from
+/// where the narrow phase built them.
 #[derive(Debug, Default)]
 pub(crate) struct Found {
-    runs: Vec<Vec<Option<(ContactKey, ContactConstraint)>>>,
+    runs: Vec<Vec<(ContactKey, ContactConstraint)>>,
 }
 
 impl Found {
@@ -39,7 +39,7 @@ impl Found {
 
     /// The constraints, in pair order.
     fn all(&self) -> impl Iterator<Item = &(ContactKey, ContactConstraint)> {
-        self.runs.iter().flatten().flatten()
+        self.runs.iter().flatten()
     }
 
     /// The constraints in `order` (indices in pair order; each once),
@@ -248,7 +248,7 @@ fn one_pair(
         };
         let c = constraint((ia, ba, pa), (ib, bb, pb), &m, cache.get(&key));
         if let Some(run) = out.constraints.runs.last_mut() {
-            run.push(Some((key, c)));
+            run.push((key, c));
         }
     };
     let compound =

@@ -48,11 +48,13 @@ pub(crate) struct Solve {
 
 impl Solve {
     /// Solver bodies from the bodies at the start of the step; the
-    /// constraints coloured and prepared.
+    /// constraints the narrow phase `found`, coloured, placed in solve order
+    /// in `memory` (the last step's constraint vector, emptied: its room is
+    /// used again) and prepared.
     pub(crate) fn new(
         bodies: &Arena<RigidBody>,
         found: Found,
-        mut constraints: Vec<(ContactKey, ContactConstraint)>,
+        mut memory: Vec<(ContactKey, ContactConstraint)>,
         joint_rows: Vec<(u32, u32, JointConstraint)>,
         inputs: &StepInputs<'_>,
         external: &[(DVec3, DVec3)],
@@ -99,7 +101,7 @@ impl Solve {
                 solve,
             );
         };
-        found.place_in(&solve_order, &mut constraints, prepare);
+        found.place_in(&solve_order, &mut memory, prepare);
         let start = bodies
             .iter()
             .map(|(_, _, b)| (b.com, b.principal_rotation()))
@@ -113,7 +115,7 @@ impl Solve {
             joint_groups,
             bodies: solver_bodies,
             accel,
-            constraints,
+            constraints: memory,
             in_pair_order,
             colours,
             groups,
