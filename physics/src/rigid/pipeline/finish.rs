@@ -8,7 +8,7 @@ use super::bodies::BodyIndex;
 use super::substeps::Solve;
 use super::{
     CachedPoint, ContactEvent, ContactEventKind, ContactForceEvent, ContactKey, Contacts,
-    PairContact, RigidStepOut, StepInputs,
+    PairContact, RigidStepOut, StepInputs, StepMemory,
 };
 use crate::arena::Arena;
 use crate::handle::{BodyHandle, JointHandle};
@@ -55,7 +55,8 @@ pub(crate) fn finish(
     } = solve;
 
     // Joints keep their impulses for the next step, or break.
-    for (jindex, generation, row) in joint_rows {
+    let mut joint_rows = joint_rows;
+    for (jindex, generation, row) in joint_rows.drain(..) {
         if row.joint.force(h) > row.joint.desc.break_force {
             joints.remove(jindex, generation);
             out.broken_joints.push(JointHandle {
@@ -156,9 +157,8 @@ pub(crate) fn finish(
         });
         contacts.cache.extend(fresh);
     }
-    let mut memory = constraints;
-    memory.clear();
-    contacts.constraint_memory = memory;
+    let mut constraints = constraints;
+    constraints.clear();
 
     // New velocities, or quarantine where the state is not finite.
     let mut quarantined = found.quarantined;
@@ -181,6 +181,13 @@ pub(crate) fn finish(
             b.angvel = sb.w;
         }
     }
+    let mut solver_bodies = solver_bodies;
+    solver_bodies.clear();
+    contacts.memory = StepMemory {
+        constraints,
+        joint_rows,
+        solver_bodies,
+    };
     out.start = start;
     out.quarantined = quarantined;
     out

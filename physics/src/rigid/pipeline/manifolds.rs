@@ -334,13 +334,15 @@ fn constraint(
 }
 
 /// The row of every joint between bodies that still exist with one side
-/// free to move, with the joint's arena index and generation.
+/// free to move, with the joint's arena index and generation, into `rows`
+/// (emptied first).
 pub(crate) fn joint_rows(
     bodies: &Arena<RigidBody>,
     index: &BodyIndex,
     joints: &Arena<Joint>,
-) -> Vec<(u32, u32, JointConstraint)> {
-    let mut rows = Vec::new();
+    rows: &mut Vec<(u32, u32, JointConstraint)>,
+) {
+    rows.clear();
     for (jindex, generation, j) in joints.iter() {
         let (Some(ia), Some(ib)) = (index.slot(j.desc.a), index.slot(j.desc.b)) else {
             continue;
@@ -373,5 +375,4 @@ pub(crate) fn joint_rows(
             },
         ));
     }
-    rows
 }

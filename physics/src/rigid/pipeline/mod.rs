@@ -154,6 +154,19 @@ pub(crate) struct RigidStepOut {
     pub(crate) profile: RigidProfile,
 }
 
+/// The largest vectors a step fills, kept empty between steps so that
+/// each step uses their room again instead of mapping fresh pages (scratch:
+/// nothing in them is read across steps).
+#[derive(Debug, Default)]
+pub(crate) struct StepMemory {
+    /// Contact constraints.
+    pub(crate) constraints: Vec<(ContactKey, crate::rigid::solver::ContactConstraint)>,
+    /// Joint rows with their joint's arena index and generation.
+    pub(crate) joint_rows: Vec<(u32, u32, crate::rigid::joint::JointConstraint)>,
+    /// Solver bodies.
+    pub(crate) solver_bodies: Vec<crate::rigid::solver::SolverBody>,
+}
+
 /// Contact state carried from step to step.
 #[derive(Debug, Default)]
 pub(crate) struct Contacts {
@@ -171,10 +184,8 @@ pub(crate) struct Contacts {
     /// The bodies' revision when the last step found nothing could move
     /// (derived): while it stands, no body needs a look to know it.
     resting: Option<crate::arena::Revision>,
-    /// The memory of the last step's contact constraints, emptied, for the
-    /// next step's (scratch: kept only so that each step does not map
-    /// fresh pages for them).
-    pub(crate) constraint_memory: Vec<(ContactKey, crate::rigid::solver::ContactConstraint)>,
+    /// The step's largest vectors, emptied, for the next step.
+    pub(crate) memory: StepMemory,
     /// Deepest overlap the last step's narrow phase found between two
     /// bodies (not sensors), m; 0 when nothing overlapped. A diagnostic,
     /// derived: not saved.
@@ -284,14 +295,14 @@ pub(crate) fn step(
         &contacts.touching,
         inputs.dt,
     );
-    let joint_rows = manifolds::joint_rows(bodies, &index, joints);
+    let mut memory = std::mem::take(&mut contacts.memory);
+    manifolds::joint_rows(bodies, &index, joints, &mut memory.joint_rows);
     profile.narrow_phase = clock.lap();
 
     let mut solve = substeps::Solve::new(
         bodies,
         narrow.constraints,
-        std::mem::take(&mut contacts.constraint_memory),
-        joint_rows,
+        memory,
         &inputs,
         &external,
         &crate::rigid::solver::ContactPass::new(

@@ -5,7 +5,7 @@ use glam::{DQuat, DVec3};
 
 use super::bodies::BodyIndex;
 use super::manifolds::Found;
-use super::{ContactKey, StepInputs};
+use super::{ContactKey, StepInputs, StepMemory};
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::rigid::body::{BodyKind, RigidBody};
@@ -49,13 +49,12 @@ pub(crate) struct Solve {
 impl Solve {
     /// Solver bodies from the bodies at the start of the step; the
     /// constraints the narrow phase `found`, coloured, placed in solve order
-    /// in `memory` (the last step's constraint vector, emptied: its room is
-    /// used again) and prepared.
+    /// and prepared; the joint rows (in `memory`, whose other vectors come
+    /// empty and are filled here, their room used again).
     pub(crate) fn new(
         bodies: &Arena<RigidBody>,
         found: Found,
-        mut memory: Vec<(ContactKey, ContactConstraint)>,
-        joint_rows: Vec<(u32, u32, JointConstraint)>,
+        memory: StepMemory,
         inputs: &StepInputs<'_>,
         external: &[(DVec3, DVec3)],
         solve: &ContactPass,
@@ -68,24 +67,27 @@ impl Solve {
             .zip(external)
             .map(|((_, _, b), &(force, _))| linear_accel(b, inputs.gravity, force))
             .collect();
-        let solver_bodies: Vec<SolverBody> = bodies
-            .iter()
-            .map(|(_, _, b)| {
-                let fixed = b.is_fixed_now();
-                SolverBody {
-                    v: b.linvel,
-                    w: b.angvel,
-                    inv_mass: if fixed { 0.0 } else { b.inv_mass },
-                    inv_inertia: if fixed {
-                        glam::DMat3::ZERO
-                    } else {
-                        b.inverse_inertia_world()
-                    },
-                    dp: DVec3::ZERO,
-                    dq: DQuat::IDENTITY,
-                }
-            })
-            .collect();
+        let StepMemory {
+            constraints: mut placed,
+            joint_rows,
+            mut solver_bodies,
+        } = memory;
+        solver_bodies.clear();
+        solver_bodies.extend(bodies.iter().map(|(_, _, b)| {
+            let fixed = b.is_fixed_now();
+            SolverBody {
+                v: b.linvel,
+                w: b.angvel,
+                inv_mass: if fixed { 0.0 } else { b.inv_mass },
+                inv_inertia: if fixed {
+                    glam::DMat3::ZERO
+                } else {
+                    b.inverse_inertia_world()
+                },
+                dp: DVec3::ZERO,
+                dq: DQuat::IDENTITY,
+            }
+        }));
         let movable: Vec<bool> = bodies.iter().map(|(_, _, b)| !b.is_fixed_now()).collect();
         let ends = found.ends();
         let mut colours = colouring::colour(&ends, &movable);
@@ -101,7 +103,7 @@ impl Solve {
                 solve,
             );
         };
-        found.place_in(&solve_order, &mut memory, prepare);
+        found.place_in(&solve_order, &mut placed, prepare);
         let start = bodies
             .iter()
             .map(|(_, _, b)| (b.com, b.principal_rotation()))
@@ -115,7 +117,7 @@ impl Solve {
             joint_groups,
             bodies: solver_bodies,
             accel,
-            constraints: memory,
+            constraints: placed,
             in_pair_order,
             colours,
             groups,
