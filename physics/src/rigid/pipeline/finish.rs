@@ -69,34 +69,32 @@ pub(crate) fn finish(
     }
 
     // One walk over the constraints in pair order (a pair's compound
-    // children next to each other), each read once: what pushed, the pairs
-    // in contact, and the impulses to keep.
-    let walked = walk(
-        in_pair_order.iter().map(|&at| &constraints[at as usize]),
-        inputs.dt,
-    );
+    // children next to each other), each read once: the pairs in contact
+    // (and so those that pushed) and the impulses to keep.
+    let walked = walk(in_pair_order.iter().map(|&at| &constraints[at as usize]));
 
     // Pairs pushed apart count as touching even if they started a hair
     // apart; their total normal force feeds the force events. Both these
     // and the narrow phase's touching pairs are sorted, so they merge in
     // one walk.
-    let pushed = walked.pushed;
+    let pushed = || walked.pairs.iter().filter(|p| p.impulse > 0.0);
     let threshold = |h: BodyHandle| {
         bodies
             .get(h.index, h.generation)
             .map_or(f64::MAX, |b| b.contact_force_threshold)
     };
-    for &((a, b), force, normal, _) in &pushed {
-        if force > threshold(a).min(threshold(b)) {
+    for p in pushed() {
+        let force = p.impulse / inputs.dt;
+        if force > threshold(p.a).min(threshold(p.b)) {
             out.forces.push(ContactForceEvent {
-                a,
-                b,
+                a: p.a,
+                b: p.b,
                 force,
-                normal,
+                normal: p.normal,
             });
         }
     }
-    let touching = merge_touching(found.touching, pushed.iter().map(|p| p.0));
+    let touching = merge_touching(found.touching, pushed().map(|p| (p.a, p.b)));
     // Begin: touching now, not before; end: before, not now.
     let mut before = contacts.touching.iter().peekable();
     for &(pair, sensor) in &touching {
@@ -195,62 +193,50 @@ pub(crate) fn finish(
 
 /// What finish reads from the constraints.
 struct Walked {
-    /// Each pair that pushed: the pair, its total normal force (N), the
-    /// normal of the manifold that pushed hardest and that one's force.
-    pushed: Vec<((BodyHandle, BodyHandle), f64, DVec3, f64)>,
-    /// One entry a pair of bodies in contact (a compound's manifolds
-    /// merged).
+    /// One entry a pair of bodies with a manifold (a compound's manifolds
+    /// merged), in pair order; those with an impulse pushed.
     pairs: Vec<PairContact>,
     /// Each manifold's impulses, for the next step's warm start.
     cache: Vec<(ContactKey, Vec<CachedPoint>)>,
 }
 
 /// Reads what finish needs from each constraint (in pair order), once.
-fn walk<'a>(
-    constraints: impl Iterator<Item = &'a (ContactKey, ContactConstraint)>,
-    dt: f64,
-) -> Walked {
+fn walk<'a>(constraints: impl Iterator<Item = &'a (ContactKey, ContactConstraint)>) -> Walked {
     let mut w = Walked {
-        pushed: Vec::new(),
         pairs: Vec::new(),
         cache: Vec::new(),
     };
+    // The impulse of the hardest-pushing manifold of the last pair, N·s.
+    let mut hardest = 0.0;
     for (key, c) in constraints {
         let (a, b) = (handle(key.a), handle(key.b));
         let impulse = c.total_normal_impulse();
-        let total = impulse / dt;
-        if total > 0.0 {
-            match w.pushed.last_mut() {
-                Some(last) if last.0 == (a, b) => {
-                    last.1 += total;
-                    if total > last.3 {
-                        last.2 = c.normal;
-                        last.3 = total;
-                    }
-                }
-                _ => w.pushed.push(((a, b), total, c.normal, total)),
-            }
-        }
         let separation = c.start_separation();
         match w.pairs.last_mut() {
             Some(p) if (p.a, p.b) == (a, b) => {
-                let harder = impulse > 0.0 && impulse > p.impulse;
-                let deeper = p.impulse == 0.0 && impulse == 0.0 && separation < p.separation;
+                // The normal of the manifold that pushed hardest; while
+                // none has pushed, of the deepest.
+                let harder = impulse > hardest;
+                let deeper = hardest == 0.0 && impulse == 0.0 && separation < p.separation;
                 if harder || deeper {
                     p.normal = c.normal;
                 }
+                hardest = f64::max(hardest, impulse);
                 p.impulse += impulse;
                 p.separation = p.separation.min(separation);
                 p.points += c.len;
             }
-            _ => w.pairs.push(PairContact {
-                a,
-                b,
-                normal: c.normal,
-                separation,
-                impulse,
-                points: c.len,
-            }),
+            _ => {
+                hardest = impulse;
+                w.pairs.push(PairContact {
+                    a,
+                    b,
+                    normal: c.normal,
+                    separation,
+                    impulse,
+                    points: c.len,
+                });
+            }
         }
         let shares = c.point_tangent_impulses();
         let pts = (0..c.len)
@@ -286,4 +272,45 @@ fn merge_touching(
     }
     out.extend(pushed.map(|p| (p, false)));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rigid::solver::{PointConstraint, MAX_POINTS};
+
+    /// A one-point manifold between bodies 1 and 2 (child `child`) along
+    /// `normal` that pushed with `impulse` N·s.
+    fn manifold(child: u32, normal: DVec3, impulse: f64) -> (ContactKey, ContactConstraint) {
+        let key = ContactKey {
+            a: (1, 0),
+            b: (2, 0),
+            child_a: child,
+            child_b: 0,
+        };
+        let mut points = [PointConstraint::default(); MAX_POINTS];
+        points[0] = PointConstraint::new(DVec3::ZERO, DVec3::ZERO, 0.0, [0.0; 2]);
+        let mut c = ContactConstraint::new((0, 1), normal, (0.5, 0.5, 0.0), points, 1);
+        c.rows.total_impulse[0] = impulse;
+        (key, c)
+    }
+
+    /// A compound pressed on through several manifolds reports the normal
+    /// of the one that pushed hardest, not of the first whose impulse
+    /// outgrew the sum so far; the pair's impulse is their sum.
+    #[test]
+    fn issue_13_a_pair_contact_takes_the_normal_of_its_hardest_manifold() {
+        let found = [
+            manifold(0, DVec3::X, 1.0),
+            manifold(1, DVec3::Y, 1.5),
+            manifold(2, DVec3::Z, 2.0),
+        ];
+        let walked = walk(found.iter());
+        assert_eq!(walked.pairs.len(), 1);
+        let p = walked.pairs[0];
+        assert_eq!(p.normal, DVec3::Z);
+        assert_eq!(p.impulse, 4.5);
+        assert_eq!(p.points, 3);
+        assert_eq!(walked.cache.len(), 3);
+    }
 }

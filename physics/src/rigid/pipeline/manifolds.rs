@@ -37,6 +37,14 @@ impl Found {
         self.all().map(|(_, c)| (c.a, c.b)).collect()
     }
 
+    /// Adds a constraint at the end of the last run.
+    fn push(&mut self, constraint: (ContactKey, ContactConstraint)) {
+        match self.runs.last_mut() {
+            Some(run) => run.push(constraint),
+            None => self.runs.push(vec![constraint]),
+        }
+    }
+
     /// The constraints, in pair order.
     fn all(&self) -> impl Iterator<Item = &(ContactKey, ContactConstraint)> {
         self.runs.iter().flatten()
@@ -247,9 +255,7 @@ fn one_pair(
             child_b: cb as u32,
         };
         let c = constraint((ia, ba, pa), (ib, bb, pb), &m, cache.get(&key));
-        if let Some(run) = out.constraints.runs.last_mut() {
-            run.push((key, c));
-        }
+        out.constraints.push((key, c));
     };
     let compound =
         |s: &crate::rigid::shape::Shape| matches!(s, crate::rigid::shape::Shape::Compound(_));
