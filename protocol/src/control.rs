@@ -251,6 +251,8 @@ pub mod close_code {
     /// The simulation failed; the server is about to restart. The reason
     /// text is `simulation stopped: <what failed>`.
     pub const SIMULATION_STOPPED: u32 = 5;
+    /// Nothing was heard from the client for too long.
+    pub const TIMEOUT: u32 = 6;
 }
 
 /// The prefix of the reason text of a [`close_code::SIMULATION_STOPPED`]
@@ -275,7 +277,36 @@ impl DisconnectReason {
             Ok(close_code::SHUTDOWN) => DisconnectReason::ServerShutdown,
             Ok(close_code::PROTOCOL) => DisconnectReason::ProtocolError { what: text },
             Ok(close_code::GOODBYE) => DisconnectReason::ClientLeft,
+            Ok(close_code::TIMEOUT) => DisconnectReason::Timeout,
             _ => DisconnectReason::Kicked { reason: text },
+        }
+    }
+
+    /// The application close code and reason text that say this reason
+    /// on their own, for a client that sees the close before the goodbye
+    /// (a close discards what is still in flight): the inverse of
+    /// [`DisconnectReason::from_close`]. The text is at most
+    /// [`MAX_REASON_BYTES`] plus the simulation-stopped prefix.
+    pub fn to_close(&self) -> (u32, String) {
+        let mut text = match self {
+            DisconnectReason::ServerShutdown => "server shutting down".to_string(),
+            DisconnectReason::Kicked { reason } => reason.clone(),
+            DisconnectReason::Timeout => "timed out".to_string(),
+            DisconnectReason::ClientLeft => "goodbye".to_string(),
+            DisconnectReason::ProtocolError { what } => what.clone(),
+            DisconnectReason::SimulationStopped { reason } => reason.clone(),
+        };
+        truncate_utf8(&mut text, MAX_REASON_BYTES);
+        match self {
+            DisconnectReason::ServerShutdown => (close_code::SHUTDOWN, text),
+            DisconnectReason::Kicked { .. } => (close_code::KICKED, text),
+            DisconnectReason::Timeout => (close_code::TIMEOUT, text),
+            DisconnectReason::ClientLeft => (close_code::GOODBYE, text),
+            DisconnectReason::ProtocolError { .. } => (close_code::PROTOCOL, text),
+            DisconnectReason::SimulationStopped { .. } => (
+                close_code::SIMULATION_STOPPED,
+                format!("{SIMULATION_STOPPED_PREFIX}{text}"),
+            ),
         }
     }
 }

@@ -223,6 +223,15 @@ fn decode_stream<T: inertia_protocol::control::ControlMessage>(bytes: &[u8], chu
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 
+    /// A client that sees the server's close before its goodbye still
+    /// learns the whole reason, a kick's text included (the server used
+    /// to close every kick with the text "kicked").
+    #[test]
+    fn issue_13_a_close_says_the_whole_disconnect_reason(r in reason()) {
+        let (code, text) = r.to_close();
+        prop_assert_eq!(DisconnectReason::from_close(u64::from(code), text.as_bytes()), r);
+    }
+
     #[test]
     fn server_messages_round_trip(msgs in vec(server_control(), 1..5), chunk in 1usize..200) {
         let stream: Vec<u8> = msgs.iter().flat_map(|m| encode_frame(m).unwrap()).collect();

@@ -263,8 +263,10 @@ fn input_due(d: &Driver) -> tokio::time::Instant {
 }
 
 fn protocol_error(connection: &quinn::Connection, what: String) -> DisconnectReason {
-    connection.close(2u32.into(), b"protocol error");
-    DisconnectReason::ProtocolError { what }
+    let reason = DisconnectReason::ProtocolError { what };
+    let (code, text) = reason.to_close();
+    connection.close(code.into(), text.as_bytes());
+    reason
 }
 
 fn closed_reason(e: &quinn::ConnectionError) -> DisconnectReason {

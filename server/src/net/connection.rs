@@ -26,7 +26,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use glam::DVec3;
 use inertia_protocol::control::{
     encode_frame, handshake, truncate_utf8, ClientControl, DisconnectReason, FrameDecoder, Refusal,
-    ServerControl, SnapshotParams, MAX_REASON_BYTES, SIMULATION_STOPPED_PREFIX,
+    ServerControl, SnapshotParams, MAX_REASON_BYTES,
 };
 use inertia_protocol::{EntityId, EntityKind, ServerSession, SessionConfig};
 use tracing::{debug, info, info_span, warn, Instrument};
@@ -439,15 +439,7 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
             outbox.say_last(&mut send, &goodbye).await;
             let _ = send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
-            match reason {
-                // The close says it too, for a client that sees the close
-                // before the goodbye.
-                DisconnectReason::SimulationStopped { reason } => connection.close(
-                    close_code::SIMULATION_STOPPED.into(),
-                    format!("{SIMULATION_STOPPED_PREFIX}{reason}").as_bytes(),
-                ),
-                _ => connection.close(close_code::SHUTDOWN.into(), b"server shutting down"),
-            }
+            close_saying(&connection, &reason);
             info!(client, "client told of shutdown");
         }
         End::Goodbye => {
@@ -458,21 +450,23 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
             warn!(client, %what, "protocol error");
             let reason = DisconnectReason::ProtocolError { what };
             outbox
-                .say_last(&mut send, &ServerControl::Goodbye(reason))
+                .say_last(&mut send, &ServerControl::Goodbye(reason.clone()))
                 .await;
             // Closing at once would drop the goodbye in flight.
             let _ = send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
-            connection.close(close_code::PROTOCOL.into(), b"protocol error");
+            close_saying(&connection, &reason);
         }
         End::Kicked(reason) => {
-            let goodbye = ServerControl::Goodbye(DisconnectReason::Kicked {
+            let said = DisconnectReason::Kicked {
                 reason: reason.clone(),
-            });
-            outbox.say_last(&mut send, &goodbye).await;
+            };
+            outbox
+                .say_last(&mut send, &ServerControl::Goodbye(said.clone()))
+                .await;
             let _ = send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
-            connection.close(close_code::KICKED.into(), b"kicked");
+            close_saying(&connection, &said);
             info!(client, %reason, "client kicked");
         }
         End::Closed(e) => info!(client, reason = %e, "connection closed"),
@@ -485,6 +479,14 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
             c.remove(&client);
         }
     }
+}
+
+/// Closes `connection` with a code and text that say `reason` on their
+/// own: a client that sees the close before the goodbye (a close discards
+/// what is still in flight) learns the same reason from it.
+fn close_saying(connection: &quinn::Connection, reason: &DisconnectReason) {
+    let (code, text) = reason.to_close();
+    connection.close(code.into(), text.as_bytes());
 }
 
 #[allow(clippy::too_many_arguments)]
