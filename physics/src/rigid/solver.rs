@@ -143,9 +143,10 @@ impl Row {
     }
 }
 
-/// One contact point as the narrow phase hands it over: anchors, warm-start
-/// impulses and what the contact cache needs to match it next step. The
-/// solver keeps its working data by lanes (see [`NormalRows`]).
+/// One contact point as the narrow phase hands it over: anchors and
+/// warm-start impulses. The solver keeps its working data by lanes (see
+/// [`NormalRows`]); what the contact cache keeps of the point is kept
+/// apart from it (`CachedPoint`).
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct PointConstraint {
     /// Anchors from each centre of mass at the start of the step, world, m.
@@ -160,10 +161,6 @@ pub(crate) struct PointConstraint {
     /// `separation - n · (rb - ra)` at the start: adding `n · (current
     /// anchor offset)` gives the current separation.
     pub(crate) base_separation: f64,
-    /// Feature id from the narrow phase.
-    pub(crate) id: u32,
-    /// The point on A in A's body frame, m (for warm-start matching).
-    pub(crate) anchor_a: DVec3,
 }
 
 impl PointConstraint {
@@ -283,10 +280,6 @@ pub(crate) struct ContactConstraint {
     /// or `None` when the block is not used (one point, or not positive
     /// definite).
     pub(crate) block: Option<Box<[Block; 2]>>,
-    /// Each point's feature id and anchor on A (A's body frame, m), for the
-    /// contact cache; not read while solving.
-    pub(crate) ids: [u32; MAX_POINTS],
-    pub(crate) anchors: LaneVec,
 }
 
 /// A lower-triangular Cholesky factor of a manifold's normal block, up to
@@ -450,14 +443,11 @@ impl ContactConstraint {
     ) -> Self {
         let len = len.min(MAX_POINTS);
         let mut rows = NormalRows::default();
-        let (mut ids, mut anchors) = ([0; MAX_POINTS], LaneVec::default());
         for (i, p) in points[..len].iter().enumerate() {
             rows.ra.set(i, p.ra);
             rows.rb.set(i, p.rb);
             rows.base[i] = p.base_separation;
             rows.impulse[i] = p.normal_impulse;
-            ids[i] = p.id;
-            anchors.set(i, p.anchor_a);
         }
         let mut c = Self {
             a,
@@ -477,16 +467,9 @@ impl ContactConstraint {
             sticking: false,
             closing_accel: 0.0,
             block: None,
-            ids,
-            anchors,
         };
         c.gather_friction(&points[..len]);
         c
-    }
-
-    /// Feature id and anchor on A (A's body frame, m) of point `i`.
-    pub(crate) fn point_id(&self, i: usize) -> (u32, DVec3) {
-        (self.ids[i], self.anchors.get(i))
     }
 
     /// Accumulated normal impulse of point `i`, N·s.

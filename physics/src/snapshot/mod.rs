@@ -34,13 +34,17 @@ use crate::particle_system::{
     Backend, ParticleSystem, Slot, FLAG_PINNED, FLAG_QUARANTINED, FREE, MAX_GROUPS,
 };
 use crate::rigid::body::RigidBody;
-use crate::rigid::pipeline::{CachedPoint, ContactKey};
+use crate::rigid::pipeline::{CachedManifold, ContactKey};
 use crate::rigid::solver::SolverConfig;
 use crate::spring::{Spring, SpringParams};
 
 const MAGIC: &[u8; 8] = b"INRTWRLD";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
+/// The oldest format version this build reads. Version 3 kept each
+/// manifold's impulses only: its manifolds are collided afresh on the
+/// first step after a restore.
+pub const OLDEST_FORMAT_VERSION: u32 = 3;
 
 /// Why a saved state could not be restored. The world is unchanged.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -49,7 +53,9 @@ pub enum SnapshotError {
     #[error("not an Inertia world state (bad magic)")]
     BadMagic,
     /// Written by a format version this build does not read.
-    #[error("unsupported world state format version {0} (this build reads {FORMAT_VERSION})")]
+    #[error(
+        "unsupported world state format version {0} (this build reads {OLDEST_FORMAT_VERSION} to {FORMAT_VERSION})"
+    )]
     UnsupportedVersion(u32),
     /// The data ended early.
     #[error("world state truncated at byte {0}")]
@@ -246,7 +252,7 @@ pub(crate) struct StateRef<'a> {
     pub(crate) body_gravity: DVec3,
     pub(crate) body_forces: &'a Arena<ForceEntry>,
     pub(crate) solver: &'a SolverConfig,
-    pub(crate) contacts: &'a BTreeMap<ContactKey, Vec<CachedPoint>>,
+    pub(crate) contacts: &'a BTreeMap<ContactKey, CachedManifold>,
     pub(crate) touching: &'a BTreeSet<(BodyHandle, BodyHandle)>,
     pub(crate) body_bounds: Option<Aabb>,
     pub(crate) joints: &'a Arena<crate::rigid::joint::Joint>,
@@ -293,7 +299,7 @@ pub(crate) struct DecodedWorld {
     pub(crate) body_gravity: DVec3,
     pub(crate) body_forces: Arena<ForceEntry>,
     pub(crate) solver: SolverConfig,
-    pub(crate) contacts: BTreeMap<ContactKey, Vec<CachedPoint>>,
+    pub(crate) contacts: BTreeMap<ContactKey, CachedManifold>,
     pub(crate) touching: BTreeSet<(BodyHandle, BodyHandle)>,
     pub(crate) body_bounds: Option<Aabb>,
     pub(crate) joints: Arena<crate::rigid::joint::Joint>,
@@ -303,6 +309,8 @@ pub(crate) struct DecodedWorld {
 struct Reader<'a> {
     b: &'a [u8],
     pos: usize,
+    /// The format version being read.
+    version: u32,
 }
 
 fn invalid<T>(msg: impl Into<String>) -> Result<T, SnapshotError> {
@@ -617,11 +625,13 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     let mut r = Reader {
         b: &bytes[..body_end],
         pos: MAGIC.len(),
+        version: FORMAT_VERSION,
     };
     let version = r.u32()?;
-    if version != FORMAT_VERSION {
+    if !(OLDEST_FORMAT_VERSION..=FORMAT_VERSION).contains(&version) {
         return Err(SnapshotError::UnsupportedVersion(version));
     }
+    r.version = version;
     let computed = hash_bytes(&bytes[..body_end]);
     if stored != computed {
         return Err(SnapshotError::Checksum { stored, computed });

@@ -16,7 +16,7 @@ use crate::rigid::aabb::Aabb;
 use crate::rigid::attachment::Attachment;
 use crate::rigid::body::{BodyKind, CombineRule, RigidBody};
 use crate::rigid::joint::{Joint, JointDesc, JointKind};
-use crate::rigid::pipeline::{CachedPoint, ContactKey};
+use crate::rigid::pipeline::{CachedManifold, CachedPoint, ContactKey, Reference};
 use crate::rigid::pose::Pose;
 use crate::rigid::shape::Shape;
 use crate::rigid::solver::SolverConfig;
@@ -324,16 +324,28 @@ pub(super) fn solver<S: Sink>(s: &mut S, c: &SolverConfig) {
     s.f64(c.sleep.time_to_sleep);
 }
 
-pub(super) fn contacts<S: Sink>(s: &mut S, cache: &BTreeMap<ContactKey, Vec<CachedPoint>>) {
+pub(super) fn contacts<S: Sink>(s: &mut S, cache: &BTreeMap<ContactKey, CachedManifold>) {
     s.u64(cache.len() as u64);
-    for (k, points) in cache {
+    for (k, m) in cache {
         for v in [k.a.0, k.a.1, k.b.0, k.b.1, k.child_a, k.child_b] {
             s.u32(v);
         }
-        s.u64(points.len() as u64);
-        for p in points {
+        s.vec3(m.normal_a);
+        match &m.reference {
+            None => s.u8(0),
+            Some(r) => {
+                s.u8(if r.in_a { 1 } else { 2 });
+                s.vec3(r.translation);
+                quat(s, r.rotation);
+                s.f64(r.reach);
+            }
+        }
+        s.u64(m.points.len() as u64);
+        for p in &m.points {
             s.u32(p.id);
             s.vec3(p.anchor_a);
+            s.vec3(p.anchor_b);
+            s.f64(p.gap);
             s.f64(p.normal);
             s.f64(p.tangent[0]);
             s.f64(p.tangent[1]);
@@ -376,9 +388,9 @@ impl Reader<'_> {
         Ok(c)
     }
 
-    pub(super) fn contacts(
-        &mut self,
-    ) -> Result<BTreeMap<ContactKey, Vec<CachedPoint>>, SnapshotError> {
+    pub(super) fn contacts(&mut self) -> Result<BTreeMap<ContactKey, CachedManifold>, SnapshotError> {
+        // Version 3 kept each point's id, anchor on A and impulses only.
+        let whole = self.version >= 4;
         let n = self.count(32)?;
         let mut cache = BTreeMap::new();
         for _ in 0..n {
@@ -388,15 +400,49 @@ impl Reader<'_> {
                 child_a: self.u32()?,
                 child_b: self.u32()?,
             };
-            let m = self.count(52)?;
+            let (normal_a, reference) = if whole {
+                let normal_a = self.vec3("contact normal")?;
+                if (normal_a.length() - 1.0).abs() > 1e-6 {
+                    return invalid("a cached contact normal is not a unit vector");
+                }
+                let reference = match self.u8()? {
+                    0 => None,
+                    tag @ (1 | 2) => {
+                        let r = Reference {
+                            in_a: tag == 1,
+                            translation: self.vec3("contact reference translation")?,
+                            rotation: self.quat("contact reference rotation")?,
+                            reach: self.finite("contact reach")?,
+                        };
+                        if r.reach < 0.0 {
+                            return invalid("a cached manifold's reach is negative");
+                        }
+                        Some(r)
+                    }
+                    t => return invalid(format!("contact reference tag {t}")),
+                };
+                (normal_a, reference)
+            } else {
+                (DVec3::ZERO, None)
+            };
+            let m = self.count(if whole { 84 } else { 52 })?;
             if m > crate::rigid::contact::MAX_POINTS {
                 return invalid("too many points in a cached manifold");
             }
             let points = (0..m)
                 .map(|_| {
+                    let id = self.u32()?;
+                    let anchor_a = self.vec3("contact anchor")?;
+                    let (anchor_b, gap) = if whole {
+                        (self.vec3("contact anchor")?, self.finite("contact gap")?)
+                    } else {
+                        (DVec3::ZERO, 0.0)
+                    };
                     Ok(CachedPoint {
-                        id: self.u32()?,
-                        anchor_a: self.vec3("contact anchor")?,
+                        id,
+                        anchor_a,
+                        anchor_b,
+                        gap,
                         normal: self.finite("contact impulse")?,
                         tangent: [
                             self.finite("friction impulse")?,
@@ -405,7 +451,12 @@ impl Reader<'_> {
                     })
                 })
                 .collect::<Result<Vec<_>, SnapshotError>>()?;
-            if cache.insert(key, points).is_some() {
+            let kept = CachedManifold {
+                normal_a,
+                reference,
+                points,
+            };
+            if cache.insert(key, kept).is_some() {
                 return invalid("duplicate cached manifold");
             }
         }

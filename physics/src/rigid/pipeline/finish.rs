@@ -7,7 +7,7 @@ use glam::DVec3;
 use super::bodies::BodyIndex;
 use super::substeps::Solve;
 use super::{
-    CachedPoint, ContactEvent, ContactEventKind, ContactForceEvent, ContactKey, Contacts,
+    CachedManifold, ContactEvent, ContactEventKind, ContactForceEvent, ContactKey, Contacts,
     PairContact, RigidStepOut, StepInputs, StepMemory,
 };
 use crate::arena::Arena;
@@ -19,6 +19,8 @@ use crate::rigid::solver::ContactConstraint;
 /// What the earlier stages found, besides the solver state.
 #[derive(Debug)]
 pub(crate) struct Found {
+    /// The manifolds with points, in pair order.
+    pub(crate) manifolds: super::manifolds::Found,
     /// Overlapping pairs from the narrow phase, with whether a sensor is involved.
     pub(crate) touching: Vec<((BodyHandle, BodyHandle), bool)>,
     /// Body pairs (keys, sorted) whose cache entries carry over unchanged.
@@ -71,7 +73,13 @@ pub(crate) fn finish(
     // One walk over the constraints in pair order (a pair's compound
     // children next to each other), each read once: the pairs in contact
     // (and so those that pushed) and the impulses to keep.
-    let walked = walk(in_pair_order.iter().map(|&at| &constraints[at as usize]));
+    let walked = walk(
+        found
+            .manifolds
+            .into_all()
+            .zip(&in_pair_order)
+            .map(|(f, &at)| (f.key, f.kept, &constraints[at as usize])),
+    );
 
     // Pairs pushed apart count as touching even if they started a hair
     // apart; their total normal force feeds the force events. Both these
@@ -196,19 +204,22 @@ struct Walked {
     /// One entry a pair of bodies with a manifold (a compound's manifolds
     /// merged), in pair order; those with an impulse pushed.
     pairs: Vec<PairContact>,
-    /// Each manifold's impulses, for the next step's warm start.
-    cache: Vec<(ContactKey, Vec<CachedPoint>)>,
+    /// Each manifold with its impulses, for the next step.
+    cache: Vec<(ContactKey, CachedManifold)>,
 }
 
-/// Reads what finish needs from each constraint (in pair order), once.
-fn walk<'a>(constraints: impl Iterator<Item = &'a (ContactKey, ContactConstraint)>) -> Walked {
+/// Reads what finish needs from each manifold and its solved constraint
+/// (in pair order), once.
+fn walk<'a>(
+    manifolds: impl Iterator<Item = (ContactKey, CachedManifold, &'a ContactConstraint)>,
+) -> Walked {
     let mut w = Walked {
         pairs: Vec::new(),
         cache: Vec::new(),
     };
     // The impulse of the hardest-pushing manifold of the last pair, N·s.
     let mut hardest = 0.0;
-    for (key, c) in constraints {
+    for (key, mut kept, c) in manifolds {
         let (a, b) = (handle(key.a), handle(key.b));
         let impulse = c.total_normal_impulse();
         let separation = c.start_separation();
@@ -239,18 +250,11 @@ fn walk<'a>(constraints: impl Iterator<Item = &'a (ContactKey, ContactConstraint
             }
         }
         let shares = c.point_tangent_impulses();
-        let pts = (0..c.len)
-            .map(|i| {
-                let (id, anchor_a) = c.point_id(i);
-                CachedPoint {
-                    id,
-                    anchor_a,
-                    normal: c.normal_impulse(i),
-                    tangent: shares[i],
-                }
-            })
-            .collect();
-        w.cache.push((*key, pts));
+        for (i, p) in kept.points.iter_mut().enumerate() {
+            p.normal = c.normal_impulse(i);
+            p.tangent = shares[i];
+        }
+        w.cache.push((key, kept));
     }
     w
 }
@@ -277,11 +281,16 @@ fn merge_touching(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use super::super::CachedPoint;
     use crate::rigid::solver::{PointConstraint, MAX_POINTS};
 
     /// A one-point manifold between bodies 1 and 2 (child `child`) along
     /// `normal` that pushed with `impulse` N·s.
-    fn manifold(child: u32, normal: DVec3, impulse: f64) -> (ContactKey, ContactConstraint) {
+    fn manifold(
+        child: u32,
+        normal: DVec3,
+        impulse: f64,
+    ) -> (ContactKey, CachedManifold, ContactConstraint) {
         let key = ContactKey {
             a: (1, 0),
             b: (2, 0),
@@ -292,7 +301,19 @@ mod tests {
         points[0] = PointConstraint::new(DVec3::ZERO, DVec3::ZERO, 0.0, [0.0; 2]);
         let mut c = ContactConstraint::new((0, 1), normal, (0.5, 0.5, 0.0), points, 1);
         c.rows.total_impulse[0] = impulse;
-        (key, c)
+        let kept = CachedManifold {
+            normal_a: normal,
+            reference: None,
+            points: vec![CachedPoint {
+                id: 0,
+                anchor_a: DVec3::ZERO,
+                anchor_b: DVec3::ZERO,
+                gap: 0.0,
+                normal: 0.0,
+                tangent: [0.0; 2],
+            }],
+        };
+        (key, kept, c)
     }
 
     /// A compound pressed on through several manifolds reports the normal
@@ -305,7 +326,7 @@ mod tests {
             manifold(1, DVec3::Y, 1.5),
             manifold(2, DVec3::Z, 2.0),
         ];
-        let walked = walk(found.iter());
+        let walked = walk(found.iter().map(|(k, m, c)| (*k, m.clone(), c)));
         assert_eq!(walked.pairs.len(), 1);
         let p = walked.pairs[0];
         assert_eq!(p.normal, DVec3::Z);

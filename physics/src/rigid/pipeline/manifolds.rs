@@ -6,12 +6,14 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use super::bodies::{BodyIndex, Links};
 use super::pairs::{leaves, pair_bodies, speculative_distance};
-use super::{CachedPoint, ContactKey, ANCHOR_MATCH_DISTANCE};
+use super::{
+    CachedManifold, CachedPoint, ContactKey, Reference, ANCHOR_MATCH_DISTANCE, RECYCLE_DRIFT,
+};
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::rigid::body::{CombineRule, RigidBody};
 use crate::rigid::broad_phase::{BroadPhase, Pair};
-use crate::rigid::contact::Manifold;
+use crate::rigid::contact::{ContactPoint, Manifold};
 use crate::rigid::joint::{Joint, JointConstraint};
 use crate::rigid::narrow::collide;
 use crate::rigid::pose::Pose;
@@ -22,55 +24,73 @@ const PAIRS_PER_ITEM: usize = 64;
 /// Constraints placed (and prepared) per parallel work item.
 const PLACE_ITEM: usize = 256;
 
-/// One constraint per manifold with points, in pair order, as the
-/// parallel runs of pairs found them (run after run). The solver places
-/// them in the order it solves them ([`Found::place_in`]), straight from
-/// where the narrow phase built them.
+/// A manifold with points, as the narrow phase found it.
+#[derive(Debug)]
+pub(crate) struct FoundManifold {
+    /// Which manifold.
+    pub(crate) key: ContactKey,
+    /// What the contact cache keeps of it (its impulses are filled in
+    /// once solved).
+    pub(crate) kept: CachedManifold,
+    /// Its constraint, warm-started from the cache.
+    pub(crate) constraint: ContactConstraint,
+}
+
+/// The manifolds with points, in pair order, as the parallel runs of
+/// pairs found them (run after run). The solver places copies of their
+/// constraints in the order it solves them ([`Found::place_in`]); the
+/// finish stage reads them back beside what the cache keeps.
 #[derive(Debug, Default)]
 pub(crate) struct Found {
-    runs: Vec<Vec<(ContactKey, ContactConstraint)>>,
+    runs: Vec<Vec<FoundManifold>>,
 }
 
 impl Found {
     /// The two bodies (slots) of every constraint, in pair order.
     pub(crate) fn ends(&self) -> Vec<(usize, usize)> {
-        self.all().map(|(_, c)| (c.a, c.b)).collect()
+        self.all()
+            .map(|f| (f.constraint.a, f.constraint.b))
+            .collect()
     }
 
-    /// Adds a constraint at the end of the last run.
-    fn push(&mut self, constraint: (ContactKey, ContactConstraint)) {
+    /// Adds a manifold at the end of the last run.
+    fn push(&mut self, found: FoundManifold) {
         match self.runs.last_mut() {
-            Some(run) => run.push(constraint),
-            None => self.runs.push(vec![constraint]),
+            Some(run) => run.push(found),
+            None => self.runs.push(vec![found]),
         }
     }
 
-    /// The constraints, in pair order.
-    fn all(&self) -> impl Iterator<Item = &(ContactKey, ContactConstraint)> {
+    /// The manifolds, in pair order.
+    fn all(&self) -> impl Iterator<Item = &FoundManifold> {
         self.runs.iter().flatten()
     }
 
-    /// The constraints in `order` (indices in pair order; each once),
-    /// each passed through `f` (in parallel) as it is placed, into `into`
-    /// (emptied first; its memory is kept from step to step).
+    /// The manifolds, in pair order, taken.
+    pub(crate) fn into_all(self) -> impl Iterator<Item = FoundManifold> {
+        self.runs.into_iter().flatten()
+    }
+
+    /// Copies of the constraints in `order` (indices in pair order; each
+    /// once), each passed through `f` (in parallel) as it is placed, into
+    /// `into` (emptied first; its memory is kept from step to step).
     pub(crate) fn place_in(
-        self,
+        &self,
         order: &[u32],
-        into: &mut Vec<(ContactKey, ContactConstraint)>,
+        into: &mut Vec<ContactConstraint>,
         f: impl Fn(&mut ContactConstraint) + Sync + Send,
     ) {
-        let all: Vec<&(ContactKey, ContactConstraint)> = self.all().collect();
+        let all: Vec<&ContactConstraint> = self.all().map(|f| &f.constraint).collect();
         into.clear();
         into.reserve(order.len());
         let places = &mut into.spare_capacity_mut()[..order.len()];
         crate::parallel::par_map_chunks(places, PLACE_ITEM, |base, chunk| {
             for (j, place) in chunk.iter_mut().enumerate() {
-                let (key, c) = all[order[base + j] as usize];
                 // A copy (a constraint not yet prepared owns no memory), so
                 // nothing is moved out of memory other threads read.
-                let mut c = c.clone();
+                let mut c = all[order[base + j] as usize].clone();
                 f(&mut c);
-                place.write((*key, c));
+                place.write(c);
             }
         });
         // SAFETY: the chunks cover all of `places`, and each of its
@@ -100,18 +120,18 @@ pub(crate) struct Narrow {
 /// of a search.
 struct CacheCursor<'a> {
     entries:
-        std::iter::Peekable<std::collections::btree_map::Range<'a, ContactKey, Vec<CachedPoint>>>,
+        std::iter::Peekable<std::collections::btree_map::Range<'a, ContactKey, CachedManifold>>,
 }
 
 impl<'a> CacheCursor<'a> {
-    fn new(cache: &'a BTreeMap<ContactKey, Vec<CachedPoint>>, from: ContactKey) -> Self {
+    fn new(cache: &'a BTreeMap<ContactKey, CachedManifold>, from: ContactKey) -> Self {
         Self {
             entries: cache.range(from..).peekable(),
         }
     }
 
     /// The entry for `key` (keys asked for must not decrease).
-    fn get(&mut self, key: &ContactKey) -> Option<&'a Vec<CachedPoint>> {
+    fn get(&mut self, key: &ContactKey) -> Option<&'a CachedManifold> {
         while self.entries.next_if(|(k, _)| *k < key).is_some() {}
         self.entries.next_if(|(k, _)| *k == key).map(|(_, v)| v)
     }
@@ -139,7 +159,7 @@ pub(crate) fn find(
     index: &BodyIndex,
     links: &Links<'_>,
     broad: &BroadPhase,
-    cache: &BTreeMap<ContactKey, Vec<CachedPoint>>,
+    cache: &BTreeMap<ContactKey, CachedManifold>,
     touched: &BTreeSet<(BodyHandle, BodyHandle)>,
     dt: f64,
 ) -> Narrow {
@@ -225,16 +245,11 @@ fn one_pair(
     let speculative = speculative_distance(ba, bb, dt);
     let (pose_a, pose_b) = (ba.pose(), bb.pose());
     let mut touching = false;
-    let mut add = |ca: usize, pa: &Pose, shape_a, cb: usize, pb: &Pose, shape_b| {
-        let Ok(m) = collide(
-            shape_a,
-            &pose_a.mul(pa),
-            shape_b,
-            &pose_b.mul(pb),
-            speculative,
-        ) else {
-            return;
-        };
+    let mut add = |(ca, pa): (usize, &Pose),
+                   (cb, pb): (usize, &Pose),
+                   m: Manifold,
+                   reference: Option<Reference>,
+                   cached: Option<&CachedManifold>| {
         if m.is_empty() {
             return;
         }
@@ -254,20 +269,66 @@ fn one_pair(
             child_a: ca as u32,
             child_b: cb as u32,
         };
-        let c = constraint((ia, ba, pa), (ib, bb, pb), &m, cache.get(&key));
-        out.constraints.push((key, c));
+        let (kept, constraint) = constraint((ia, ba, pa), (ib, bb, pb), &m, reference, cached);
+        out.constraints.push(FoundManifold {
+            key,
+            kept,
+            constraint,
+        });
     };
     let compound =
         |s: &crate::rigid::shape::Shape| matches!(s, crate::rigid::shape::Shape::Compound(_));
     if !compound(sa) && !compound(sb) {
-        add(0, &Pose::IDENTITY, sa, 0, &Pose::IDENTITY, sb);
+        // The last manifold again while the bodies have barely moved
+        // relative to each other (see `Reference`); else the shapes
+        // collided, with room for the next steps' drift.
+        let cached = cache.get(&ContactKey {
+            a: ka,
+            b: kb,
+            child_a: 0,
+            child_b: 0,
+        });
+        let recycled = cached.and_then(|c| {
+            let r = c.reference?;
+            (r.drift(ba, bb) + speculative <= r.reach).then(|| (c.manifold(&pose_a, &pose_b), r))
+        });
+        let (m, reference) = match recycled {
+            Some(found) => found,
+            None => {
+                let reach = speculative + RECYCLE_DRIFT;
+                let Ok(m) = collide(sa, &pose_a, sb, &pose_b, reach) else {
+                    return;
+                };
+                (m, Reference::between(ba, bb, reach))
+            }
+        };
+        let here = (0, &Pose::IDENTITY);
+        add(here, here, m, Some(reference), cached);
     } else {
         let (mut la, mut lb) = (Vec::new(), Vec::new());
         leaves(sa, Pose::IDENTITY, &mut la);
         leaves(sb, Pose::IDENTITY, &mut lb);
         for (ca, (pa, shape_a)) in la.iter().enumerate() {
             for (cb, (pb, shape_b)) in lb.iter().enumerate() {
-                add(ca, pa, shape_a, cb, pb, shape_b);
+                let Ok(m) = collide(
+                    shape_a,
+                    &pose_a.mul(pa),
+                    shape_b,
+                    &pose_b.mul(pb),
+                    speculative,
+                ) else {
+                    continue;
+                };
+                let key = ContactKey {
+                    a: ka,
+                    b: kb,
+                    child_a: ca as u32,
+                    child_b: cb as u32,
+                };
+                if !m.is_empty() {
+                    let cached = cache.get(&key);
+                    add((ca, pa), (cb, pb), m, None, cached);
+                }
             }
         }
     }
@@ -276,18 +337,20 @@ fn one_pair(
     }
 }
 
-/// The constraint for one manifold between `a` and `b` (each with its slot
-/// and the child shape's pose in its body frame), warm-started from
-/// `cached`.
+/// What the cache keeps of one manifold between `a` and `b` (each with its
+/// slot and the child shape's pose in its body frame; impulses left 0),
+/// and its constraint, warm-started from `cached`.
 fn constraint(
     (ia, a, child_a): (usize, &RigidBody, &Pose),
     (ib, b, child_b): (usize, &RigidBody, &Pose),
     m: &Manifold,
-    cached: Option<&Vec<CachedPoint>>,
-) -> ContactConstraint {
+    reference: Option<Reference>,
+    cached: Option<&CachedManifold>,
+) -> (CachedManifold, ContactConstraint) {
     let (pose_a, pose_b) = (a.pose().mul(child_a), b.pose().mul(child_b));
     let n = m.normal;
     let mut points = [PointConstraint::default(); MAX_POINTS];
+    let mut kept = Vec::with_capacity(m.points.len().min(MAX_POINTS));
     let len = m.points.len().min(MAX_POINTS);
     for (slot, p) in points.iter_mut().zip(&m.points) {
         let (wa, wb) = (
@@ -296,7 +359,7 @@ fn constraint(
         );
         let (ra, rb) = (wa - a.com, wb - b.com);
         let anchor_a = child_a.transform_point(p.local_a);
-        let warm = cached.and_then(|c| {
+        let warm = cached.map(|c| &c.points).and_then(|c| {
             c.iter().find(|q| q.id == p.id).or_else(|| {
                 c.iter()
                     .map(|q| (q, (q.anchor_a - anchor_a).length()))
@@ -307,8 +370,6 @@ fn constraint(
         });
         *slot = PointConstraint {
             base_separation: p.separation - n.dot(rb - ra),
-            id: p.id,
-            anchor_a,
             ..PointConstraint::new(
                 ra,
                 rb,
@@ -316,8 +377,16 @@ fn constraint(
                 warm.map_or([0.0; 2], |q| q.tangent),
             )
         };
+        kept.push(CachedPoint {
+            id: p.id,
+            anchor_a,
+            anchor_b: child_b.transform_point(p.local_b),
+            gap: p.separation - n.dot(wb - wa),
+            normal: 0.0,
+            tangent: [0.0; 2],
+        });
     }
-    ContactConstraint::new(
+    let constraint = ContactConstraint::new(
         (ia, ib),
         n,
         (
@@ -336,7 +405,39 @@ fn constraint(
         ),
         points,
         len,
-    )
+    );
+    let kept = CachedManifold {
+        normal_a: a.pose().rotation.inverse() * n,
+        reference,
+        points: kept,
+    };
+    (kept, constraint)
+}
+
+impl CachedManifold {
+    /// The manifold again, its separations measured from the bodies' poses
+    /// now (`pose_a`, `pose_b`: body frames, which are the shapes' frames
+    /// of a manifold that is used again).
+    fn manifold(&self, pose_a: &Pose, pose_b: &Pose) -> Manifold {
+        let normal = pose_a.rotation * self.normal_a;
+        let points = self
+            .points
+            .iter()
+            .map(|p| {
+                let (wa, wb) = (
+                    pose_a.transform_point(p.anchor_a),
+                    pose_b.transform_point(p.anchor_b),
+                );
+                ContactPoint {
+                    local_a: p.anchor_a,
+                    local_b: p.anchor_b,
+                    separation: p.gap + normal.dot(wb - wa),
+                    id: p.id,
+                }
+            })
+            .collect();
+        Manifold { normal, points }
+    }
 }
 
 /// The row of every joint between bodies that still exist with one side

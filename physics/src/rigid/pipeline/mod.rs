@@ -40,7 +40,7 @@ mod substeps;
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
@@ -65,14 +65,103 @@ pub(crate) struct ContactKey {
     pub(crate) child_b: u32,
 }
 
-/// Impulses of one point kept for warm starting, N·s, with where the point
-/// was on body A (body frame, m) for matching when feature ids change.
+/// One point of a manifold as the narrow phase found it, with the
+/// impulses it ended the step with, N·s (for warm starting); its anchors
+/// let the pair's manifold be used again while the bodies barely move
+/// (see [`CachedManifold::reference`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct CachedPoint {
     pub(crate) id: u32,
+    /// The point on A, in A's body frame, m (also for matching when
+    /// feature ids change).
     pub(crate) anchor_a: DVec3,
+    /// The point on B, in B's body frame, m.
+    pub(crate) anchor_b: DVec3,
+    /// The point's separation less `n · (point on B - point on A)` (world),
+    /// m: 0 for points on the two surfaces along the normal.
+    pub(crate) gap: f64,
     pub(crate) normal: f64,
     pub(crate) tangent: [f64; 2],
+}
+
+/// A manifold kept from one step to the next (world state: saved and
+/// hashed): its points with their impulses, and what lets the narrow
+/// phase use it again instead of colliding the shapes.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct CachedManifold {
+    /// The normal from A to B, in A's body frame.
+    pub(crate) normal_a: DVec3,
+    /// The bodies' relative pose when the shapes were last collided;
+    /// `None` for a manifold that is not used again (a compound's child,
+    /// or one read from a state written before manifolds were).
+    pub(crate) reference: Option<Reference>,
+    pub(crate) points: Vec<CachedPoint>,
+}
+
+/// Where two bodies stood, relative to each other, when their shapes were
+/// last collided, and how far apart the manifold's points were looked for.
+///
+/// The pose is that of the smaller body (by radius about its centre of
+/// mass) in the frame of the larger, whose points stay put in it. The
+/// manifold is used again while `drift + speculative ≤ reach`: `drift`
+/// bounds how far any point of the smaller body has moved in the larger's
+/// frame since (the change of the relative translation, plus the chord of
+/// the relative rotation times the smaller radius), so no separation
+/// between the two has changed by more; `speculative` is this step's
+/// speculative distance. Every feature pair within this step's
+/// speculative distance was then within `reach`, so it is among the
+/// manifold's points; each point's separation is measured again from the
+/// bodies' poses. The shapes are collided with [`RECYCLE_DRIFT`] more than
+/// the speculative distance, which is the room drift has.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Reference {
+    /// Whether A is the larger body, whose frame the pose is in.
+    pub(crate) in_a: bool,
+    /// The smaller body's centre of mass from the larger's, in the
+    /// larger's body frame, m.
+    pub(crate) translation: DVec3,
+    /// The smaller body's rotation relative to the larger's.
+    pub(crate) rotation: DQuat,
+    /// How far apart points were kept, m.
+    pub(crate) reach: f64,
+}
+
+/// How far the points of two bodies in contact may drift relative to each
+/// other before their shapes are collided again, m. Jolt keeps a body
+/// pair's contacts while it moves less than 1 mm and turns less than 2°;
+/// rapier3d keeps them within 5 cm of drift. A resting stack drifts
+/// micrometres a step, so it is collided again every few hundred steps.
+pub(crate) const RECYCLE_DRIFT: f64 = 0.002;
+
+impl Reference {
+    /// The relative pose of `a` and `b` (centres of mass, body rotations),
+    /// with points kept up to `reach`.
+    pub(crate) fn between(a: &RigidBody, b: &RigidBody, reach: f64) -> Reference {
+        let in_a = a.shape_radius() >= b.shape_radius();
+        let (large, small) = if in_a { (a, b) } else { (b, a) };
+        let inverse = large.rotation.inverse();
+        Reference {
+            in_a,
+            translation: inverse * (small.com - large.com),
+            rotation: inverse * small.rotation,
+            reach,
+        }
+    }
+
+    /// How far any point of the smaller of `a` and `b` has moved in the
+    /// larger's frame since this reference, at most, m (infinite if they
+    /// changed roles).
+    pub(crate) fn drift(&self, a: &RigidBody, b: &RigidBody) -> f64 {
+        let now = Reference::between(a, b, self.reach);
+        if now.in_a != self.in_a {
+            return f64::INFINITY;
+        }
+        let small = if self.in_a { b } else { a };
+        let turn = now.rotation * self.rotation.inverse();
+        // The chord of the turn: |q_xyz| = sin(θ/2), chord = 2 sin(θ/2).
+        let chord = 2.0 * DVec3::new(turn.x, turn.y, turn.z).length();
+        (now.translation - self.translation).length() + chord * small.shape_radius()
+    }
 }
 
 /// A new point with no cached id takes the impulses of a cached point whose
@@ -160,7 +249,7 @@ pub(crate) struct RigidStepOut {
 #[derive(Debug, Default)]
 pub(crate) struct StepMemory {
     /// Contact constraints.
-    pub(crate) constraints: Vec<(ContactKey, crate::rigid::solver::ContactConstraint)>,
+    pub(crate) constraints: Vec<crate::rigid::solver::ContactConstraint>,
     /// Joint rows with their joint's arena index and generation.
     pub(crate) joint_rows: Vec<(u32, u32, crate::rigid::joint::JointConstraint)>,
     /// Solver bodies.
@@ -170,8 +259,9 @@ pub(crate) struct StepMemory {
 /// Contact state carried from step to step.
 #[derive(Debug, Default)]
 pub(crate) struct Contacts {
-    /// Warm-start impulses per manifold (world state: saved and hashed).
-    pub(crate) cache: BTreeMap<ContactKey, Vec<CachedPoint>>,
+    /// Each manifold of the last step, with its impulses (world state:
+    /// saved and hashed).
+    pub(crate) cache: BTreeMap<ContactKey, CachedManifold>,
     /// Pairs touching at the end of the last step, for begin/end events
     /// (world state: saved and hashed).
     pub(crate) touching: std::collections::BTreeSet<(BodyHandle, BodyHandle)>,
@@ -301,7 +391,7 @@ pub(crate) fn step(
 
     let mut solve = substeps::Solve::new(
         bodies,
-        narrow.constraints,
+        &narrow.constraints,
         memory,
         &inputs,
         &external,
@@ -323,6 +413,7 @@ pub(crate) fn step(
         &index,
         solve,
         finish::Found {
+            manifolds: narrow.constraints,
             touching: narrow.touching,
             carried: narrow.carried,
             deepest: narrow.deepest,

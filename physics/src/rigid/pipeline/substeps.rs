@@ -5,7 +5,7 @@ use glam::{DQuat, DVec3};
 
 use super::bodies::BodyIndex;
 use super::manifolds::Found;
-use super::{ContactKey, StepInputs, StepMemory};
+use super::{StepInputs, StepMemory};
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::rigid::body::{BodyKind, RigidBody};
@@ -27,7 +27,7 @@ pub(crate) struct Solve {
     accel: Vec<DVec3>,
     /// Contact constraints, stored in solve order (colour by colour, pair
     /// order within a colour), so that every pass walks them front to back.
-    pub(crate) constraints: Vec<(ContactKey, ContactConstraint)>,
+    pub(crate) constraints: Vec<ContactConstraint>,
     /// Where each constraint of the narrow phase's pair order is stored:
     /// `constraints[in_pair_order[k]]` is the `k`-th.
     pub(crate) in_pair_order: Vec<u32>,
@@ -53,7 +53,7 @@ impl Solve {
     /// empty and are filled here, their room used again).
     pub(crate) fn new(
         bodies: &Arena<RigidBody>,
-        found: Found,
+        found: &Found,
         memory: StepMemory,
         inputs: &StepInputs<'_>,
         external: &[(DVec3, DVec3)],
@@ -136,10 +136,10 @@ impl Solve {
             &mut self.constraints,
             &self.groups,
             &self.colours,
-            |(_, c)| (c.a, c.b),
+            |c| (c.a, c.b),
             &mut self.bodies,
             &self.movable,
-            |(_, c), a, b| f(c, a, b),
+            f,
         );
     }
 
@@ -230,7 +230,7 @@ impl Solve {
         }
         self.accel = accel;
         let threshold = cfg.restitution_threshold;
-        if self.constraints.iter().any(|(_, c)| c.restitution != 0.0) {
+        if self.constraints.iter().any(|c| c.restitution != 0.0) {
             self.contacts(|c, a, b| c.restitute(a, b, threshold));
         }
         quarantined
