@@ -80,6 +80,17 @@ impl Manifold {
     }
 }
 
+/// How the manifolds of one step were found.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ManifoldCount {
+    /// Shape pairs collided (a compound counts once per pair of children).
+    pub collided: u64,
+    /// Manifolds used again from the last step, their bodies having barely
+    /// moved relative to each other (see ARCHITECTURE.md, contact
+    /// recycling).
+    pub recycled: u64,
+}
+
 /// Why two shapes could not be collided.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ContactError {

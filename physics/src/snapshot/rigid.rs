@@ -388,7 +388,9 @@ impl Reader<'_> {
         Ok(c)
     }
 
-    pub(super) fn contacts(&mut self) -> Result<BTreeMap<ContactKey, CachedManifold>, SnapshotError> {
+    pub(super) fn contacts(
+        &mut self,
+    ) -> Result<BTreeMap<ContactKey, CachedManifold>, SnapshotError> {
         // Version 3 kept each point's id, anchor on A and impulses only.
         let whole = self.version >= 4;
         let n = self.count(32)?;

@@ -99,6 +99,8 @@ pub struct StepReport {
     pub expired_forces: Vec<ForceHandle>,
     /// World energy after the step.
     pub energy: Energy,
+    /// How the step's contact manifolds were found.
+    pub manifolds: crate::rigid::contact::ManifoldCount,
 }
 
 /// A physics world: particle systems and rigid bodies.
@@ -381,6 +383,7 @@ impl World {
         report.quarantined_bodies = out.quarantined;
         report.contact_events = out.events;
         report.contact_forces = out.forces;
+        report.manifolds = out.manifolds;
         if let Some(bounds) = self.body_bounds {
             let gone: Vec<BodyHandle> = self
                 .bodies

@@ -336,10 +336,35 @@ fn first_near_best(
     score: impl Fn(usize) -> f64,
     margin: impl Fn(f64) -> f64,
 ) -> Option<usize> {
-    let candidates = || (0..len).filter(|i| !skip.contains(i));
+    first_near_best_of(|i| i < len && !skip.contains(&i), len, score, margin)
+}
+
+/// [`first_near_best`] among the candidates `0..len` that `take` accepts.
+fn first_near_best_of(
+    take: impl Fn(usize) -> bool,
+    len: usize,
+    score: impl Fn(usize) -> f64,
+    margin: impl Fn(f64) -> f64,
+) -> Option<usize> {
+    let candidates = || (0..len).filter(|&i| take(i));
     let best = candidates().map(&score).fold(f64::NEG_INFINITY, f64::max);
     candidates().find(|&i| score(i) >= best - margin(best))
 }
+
+/// How far above the deepest point of a manifold a point may lie and
+/// still count as bearing load when four points are kept from more, m.
+/// The spread picks look among these supporting points first: a box
+/// tilted on another's face rests on its low side, and a pick by area
+/// alone kept points hovering millimetres above on the high side instead
+/// of a loaded one, so the box dipped and was pushed back every time its
+/// shapes were collided again (a rocking that never let a heap sleep).
+pub(crate) const SUPPORT_BAND: f64 = 0.002;
+
+/// Of the picks a spread score gives, a supporting point's (see
+/// [`SUPPORT_BAND`]) is taken while its score is at least this fraction of
+/// the best over all points; below it the supporting points lie too close
+/// together (one point, a short line) and the best of all is taken.
+const SUPPORT_SPREAD: f64 = 0.1;
 
 /// A feature id from the reference side (0 = A, 1 = B), the reference and
 /// incident face indices and two per-point keys.
@@ -392,12 +417,26 @@ pub(crate) fn reduce_in_place(n: DVec3, pts: &mut [(DVec3, DVec3, f64, u32)]) ->
     let relative = |best: f64| 1e-2 * best.abs();
     let i0 = first_near_best(len, &[], |i| -pts[i].2, |_| tie).unwrap_or(0);
     let p0 = proj(pts[i0].0);
-    let i1 =
-        first_near_best(len, &[], |i| proj(pts[i].0).distance_squared(p0), relative).unwrap_or(0);
+    let supporting = |i: usize| pts[i].2 <= pts[i0].2 + SUPPORT_BAND;
+    // The best supporting point for a spread score, or the best of all
+    // where no supporting point comes close (see `SUPPORT_SPREAD`).
+    let spread = |skip: &[usize], score: &dyn Fn(usize) -> f64| {
+        let all = first_near_best(len, skip, score, relative)?;
+        let held = first_near_best_of(
+            |i| !skip.contains(&i) && supporting(i),
+            len,
+            score,
+            relative,
+        );
+        Some(match held {
+            Some(i) if score(i) > 0.0 && score(i) >= SUPPORT_SPREAD * score(all) => i,
+            _ => all,
+        })
+    };
+    let i1 = spread(&[], &|i| proj(pts[i].0).distance_squared(p0)).unwrap_or(0);
     let p1 = proj(pts[i1].0);
     let area = |a: DVec3, b: DVec3, q: DVec3| (b - a).cross(q - a).dot(n);
-    let i2 =
-        first_near_best(len, &[], |i| area(p0, p1, proj(pts[i].0)).abs(), relative).unwrap_or(0);
+    let i2 = spread(&[], &|i| area(p0, p1, proj(pts[i].0)).abs()).unwrap_or(0);
     let p2 = proj(pts[i2].0);
     let orient = area(p0, p1, p2).signum();
     // The fourth: the point farthest outside the triangle (most negative
@@ -408,7 +447,7 @@ pub(crate) fn reduce_in_place(n: DVec3, pts: &mut [(DVec3, DVec3, f64, u32)]) ->
             .min(orient * area(p1, p2, q))
             .min(orient * area(p2, p0, q))
     };
-    let i3 = first_near_best(len, &[i0, i1, i2], |i| -outside(pts[i].0), relative);
+    let i3 = spread(&[i0, i1, i2], &|i| -outside(pts[i].0));
     let mut keep = [i0, i1, i2, i3.unwrap_or(i2)];
     keep.sort_unstable();
     let mut kept = 0;
@@ -423,4 +462,42 @@ pub(crate) fn reduce_in_place(n: DVec3, pts: &mut [(DVec3, DVec3, f64, u32)]) ->
         kept += 1;
     }
     kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A box tilted on another's face bears on its low side: of six
+    /// clipped points, three lie within a millimetre of the deepest and
+    /// three hover 4 mm above. Picking by spread alone kept two hovering
+    /// points and dropped a loaded one, so the box dipped there until its
+    /// shapes were collided again and it was pushed back, for ever.
+    #[test]
+    fn issue_13_a_tilted_box_keeps_its_loaded_points() {
+        let point = |x: f64, z: f64, separation: f64, id: u32| {
+            let p = DVec3::new(x, 0.0, z);
+            (p, p + DVec3::Y * separation, separation, id)
+        };
+        let mut pts = [
+            point(0.25, -0.25, -0.0004, 0),
+            point(0.0, -0.25, -0.0006, 1),
+            point(-0.24, -0.08, 0.0008, 2),
+            point(0.15, 0.25, 0.004, 3),
+            point(0.01, 0.25, 0.004, 4),
+            point(0.25, 0.18, 0.004, 5),
+        ];
+        let kept = reduce_in_place(DVec3::Y, &mut pts);
+        let ids: Vec<u32> = pts[..kept].iter().map(|p| p.3).collect();
+        assert_eq!(kept, MAX_POINTS);
+        for loaded in [0, 1, 2] {
+            assert!(
+                ids.contains(&loaded),
+                "loaded point {loaded} dropped: kept {ids:?}"
+            );
+        }
+        // The fourth still spreads the manifold over the high side, where
+        // the box would land if it tipped.
+        assert!(ids.iter().any(|id| *id >= 3), "kept {ids:?}");
+    }
 }

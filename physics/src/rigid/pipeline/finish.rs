@@ -280,8 +280,8 @@ fn merge_touching(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use super::super::CachedPoint;
+    use super::*;
     use crate::rigid::solver::{PointConstraint, MAX_POINTS};
 
     /// A one-point manifold between bodies 1 and 2 (child `child`) along

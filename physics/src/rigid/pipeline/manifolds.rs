@@ -13,7 +13,7 @@ use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::rigid::body::{CombineRule, RigidBody};
 use crate::rigid::broad_phase::{BroadPhase, Pair};
-use crate::rigid::contact::{ContactPoint, Manifold};
+use crate::rigid::contact::{ContactPoint, Manifold, ManifoldCount};
 use crate::rigid::joint::{Joint, JointConstraint};
 use crate::rigid::narrow::collide;
 use crate::rigid::pose::Pose;
@@ -113,6 +113,8 @@ pub(crate) struct Narrow {
     pub(crate) carried: Vec<((u32, u32), (u32, u32))>,
     /// Deepest overlap, m.
     pub(crate) deepest: f64,
+    /// Shape pairs collided and manifolds used again.
+    pub(crate) count: ManifoldCount,
 }
 
 /// Walks the contact cache in key order alongside a run of pairs (which
@@ -194,6 +196,8 @@ pub(crate) fn find(
         narrow.constraints.runs.extend(out.constraints.runs);
         narrow.carried.extend(out.carried);
         narrow.deepest = narrow.deepest.max(out.deepest);
+        narrow.count.collided += out.count.collided;
+        narrow.count.recycled += out.count.recycled;
     }
     narrow
 }
@@ -290,11 +294,16 @@ fn one_pair(
         });
         let recycled = cached.and_then(|c| {
             let r = c.reference?;
-            (r.drift(ba, bb) + speculative <= r.reach).then(|| (c.manifold(&pose_a, &pose_b), r))
+            r.holds(ba, bb, speculative)
+                .then(|| (c.manifold(&pose_a, &pose_b), r))
         });
         let (m, reference) = match recycled {
-            Some(found) => found,
+            Some(found) => {
+                out.count.recycled += 1;
+                found
+            }
             None => {
+                out.count.collided += 1;
                 let reach = speculative + RECYCLE_DRIFT;
                 let Ok(m) = collide(sa, &pose_a, sb, &pose_b, reach) else {
                     return;
@@ -310,6 +319,7 @@ fn one_pair(
         leaves(sb, Pose::IDENTITY, &mut lb);
         for (ca, (pa, shape_a)) in la.iter().enumerate() {
             for (cb, (pb, shape_b)) in lb.iter().enumerate() {
+                out.count.collided += 1;
                 let Ok(m) = collide(
                     shape_a,
                     &pose_a.mul(pa),

@@ -103,16 +103,19 @@ pub(crate) struct CachedManifold {
 ///
 /// The pose is that of the smaller body (by radius about its centre of
 /// mass) in the frame of the larger, whose points stay put in it. The
-/// manifold is used again while `drift + speculative ≤ reach`: `drift`
-/// bounds how far any point of the smaller body has moved in the larger's
-/// frame since (the change of the relative translation, plus the chord of
-/// the relative rotation times the smaller radius), so no separation
-/// between the two has changed by more; `speculative` is this step's
-/// speculative distance. Every feature pair within this step's
-/// speculative distance was then within `reach`, so it is among the
-/// manifold's points; each point's separation is measured again from the
-/// bodies' poses. The shapes are collided with [`RECYCLE_DRIFT`] more than
-/// the speculative distance, which is the room drift has.
+/// manifold is used again while `drift + speculative ≤ reach` and `drift ≤
+/// RECYCLE_DRIFT` ([`Reference::holds`]): `drift` bounds how far any point
+/// of the smaller body has moved in the larger's frame since (the change
+/// of the relative translation, plus the chord of the relative rotation
+/// times the smaller radius), so no separation between the two has changed
+/// by more; `speculative` is this step's speculative distance. Every
+/// feature pair within this step's speculative distance was then within
+/// `reach`, so it is among the manifold's points; each point's separation
+/// is measured again from the bodies' poses, along the kept normal (turned
+/// with A). The shapes are collided with [`RECYCLE_DRIFT`] more than the
+/// speculative distance, which is the room drift has; the cap on drift
+/// bounds how stale the normal and the points may grow when the
+/// speculative distance was large (a fast body that has since stopped).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Reference {
     /// Whether A is the larger body, whose frame the pose is in.
@@ -146,6 +149,13 @@ impl Reference {
             rotation: inverse * small.rotation,
             reach,
         }
+    }
+
+    /// Whether the manifold kept with this reference still serves `a` and
+    /// `b` this step, with `speculative` its speculative distance, m.
+    pub(crate) fn holds(&self, a: &RigidBody, b: &RigidBody, speculative: f64) -> bool {
+        let drift = self.drift(a, b);
+        drift <= RECYCLE_DRIFT && drift + speculative <= self.reach
     }
 
     /// How far any point of the smaller of `a` and `b` has moved in the
@@ -241,6 +251,8 @@ pub(crate) struct RigidStepOut {
     pub(crate) start: Vec<(DVec3, glam::DQuat)>,
     /// Wall time of each stage.
     pub(crate) profile: RigidProfile,
+    /// Shape pairs collided and manifolds used again.
+    pub(crate) manifolds: crate::rigid::contact::ManifoldCount,
 }
 
 /// The largest vectors a step fills, kept empty between steps so that
@@ -421,6 +433,7 @@ pub(crate) fn step(
         },
         &inputs,
     );
+    out.manifolds = narrow.count;
     profile.finish = clock.lap();
 
     let links = bodies::Links::new(joints, &contacts.touching);
