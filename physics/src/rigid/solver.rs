@@ -282,6 +282,34 @@ pub(crate) struct ContactConstraint {
     pub(crate) block: Option<Box<[Block; 2]>>,
 }
 
+/// What the constraint of one manifold is built from, as the narrow phase
+/// hands it over: the bodies' slots, the normal from A to B, the combined
+/// materials (static and dynamic friction, restitution) and the points
+/// with their warm-start impulses. Less than half the size of the
+/// constraint, which the solver builds where it solves it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ContactSource {
+    pub(crate) ends: (usize, usize),
+    pub(crate) normal: DVec3,
+    pub(crate) materials: (f64, f64, f64),
+    pub(crate) points: [PointConstraint; MAX_POINTS],
+    /// How many of `points` are used.
+    pub(crate) len: usize,
+}
+
+impl ContactSource {
+    /// The constraint, not yet prepared.
+    pub(crate) fn build(&self) -> ContactConstraint {
+        ContactConstraint::new(
+            self.ends,
+            self.normal,
+            self.materials,
+            self.points,
+            self.len,
+        )
+    }
+}
+
 /// A lower-triangular Cholesky factor of a manifold's normal block, up to
 /// 4×4.
 pub(crate) type Block = [[f64; MAX_POINTS]; MAX_POINTS];

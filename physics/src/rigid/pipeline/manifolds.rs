@@ -17,7 +17,7 @@ use crate::rigid::contact::{ContactPoint, Manifold, ManifoldCount};
 use crate::rigid::joint::{Joint, JointConstraint};
 use crate::rigid::narrow::collide;
 use crate::rigid::pose::Pose;
-use crate::rigid::solver::{ContactConstraint, PointConstraint, MAX_POINTS};
+use crate::rigid::solver::{ContactConstraint, ContactSource, PointConstraint, MAX_POINTS};
 
 /// Pairs per parallel work item.
 const PAIRS_PER_ITEM: usize = 64;
@@ -32,8 +32,8 @@ pub(crate) struct FoundManifold {
     /// What the contact cache keeps of it (its impulses are filled in
     /// once solved).
     pub(crate) kept: CachedManifold,
-    /// Its constraint, warm-started from the cache.
-    pub(crate) constraint: ContactConstraint,
+    /// What its constraint is built from, warm-started from the cache.
+    pub(crate) source: ContactSource,
 }
 
 /// The manifolds with points, in pair order, as the parallel runs of
@@ -48,9 +48,7 @@ pub(crate) struct Found {
 impl Found {
     /// The two bodies (slots) of every constraint, in pair order.
     pub(crate) fn ends(&self) -> Vec<(usize, usize)> {
-        self.all()
-            .map(|f| (f.constraint.a, f.constraint.b))
-            .collect()
+        self.all().map(|f| f.source.ends).collect()
     }
 
     /// Adds a manifold at the end of the last run.
@@ -71,8 +69,8 @@ impl Found {
         self.runs.into_iter().flatten()
     }
 
-    /// Copies of the constraints in `order` (indices in pair order; each
-    /// once), each passed through `f` (in parallel) as it is placed, into
+    /// The constraints in `order` (indices in pair order; each once), built
+    /// and passed through `f` (in parallel) where they are placed, in
     /// `into` (emptied first; its memory is kept from step to step).
     pub(crate) fn place_in(
         &self,
@@ -80,17 +78,13 @@ impl Found {
         into: &mut Vec<ContactConstraint>,
         f: impl Fn(&mut ContactConstraint) + Sync + Send,
     ) {
-        let all: Vec<&ContactConstraint> = self.all().map(|f| &f.constraint).collect();
+        let all: Vec<&ContactSource> = self.all().map(|f| &f.source).collect();
         into.clear();
         into.reserve(order.len());
         let places = &mut into.spare_capacity_mut()[..order.len()];
         crate::parallel::par_map_chunks(places, PLACE_ITEM, |base, chunk| {
             for (j, place) in chunk.iter_mut().enumerate() {
-                // A copy (a constraint not yet prepared owns no memory), so
-                // nothing is moved out of memory other threads read.
-                let mut c = all[order[base + j] as usize].clone();
-                f(&mut c);
-                place.write(c);
+                f(place.write(all[order[base + j] as usize].build()));
             }
         });
         // SAFETY: the chunks cover all of `places`, and each of its
@@ -273,12 +267,8 @@ fn one_pair(
             child_a: ca as u32,
             child_b: cb as u32,
         };
-        let (kept, constraint) = constraint((ia, ba, pa), (ib, bb, pb), &m, reference, cached);
-        out.constraints.push(FoundManifold {
-            key,
-            kept,
-            constraint,
-        });
+        let (kept, source) = kept_and_source((ia, ba, pa), (ib, bb, pb), &m, reference, cached);
+        out.constraints.push(FoundManifold { key, kept, source });
     };
     let compound =
         |s: &crate::rigid::shape::Shape| matches!(s, crate::rigid::shape::Shape::Compound(_));
@@ -349,14 +339,14 @@ fn one_pair(
 
 /// What the cache keeps of one manifold between `a` and `b` (each with its
 /// slot and the child shape's pose in its body frame; impulses left 0),
-/// and its constraint, warm-started from `cached`.
-fn constraint(
+/// and what its constraint is built from, warm-started from `cached`.
+fn kept_and_source(
     (ia, a, child_a): (usize, &RigidBody, &Pose),
     (ib, b, child_b): (usize, &RigidBody, &Pose),
     m: &Manifold,
     reference: Option<Reference>,
     cached: Option<&CachedManifold>,
-) -> (CachedManifold, ContactConstraint) {
+) -> (CachedManifold, ContactSource) {
     let (pose_a, pose_b) = (a.pose().mul(child_a), b.pose().mul(child_b));
     let n = m.normal;
     let mut points = [PointConstraint::default(); MAX_POINTS];
@@ -396,10 +386,10 @@ fn constraint(
             tangent: [0.0; 2],
         });
     }
-    let constraint = ContactConstraint::new(
-        (ia, ib),
-        n,
-        (
+    let source = ContactSource {
+        ends: (ia, ib),
+        normal: n,
+        materials: (
             CombineRule::combine(
                 (a.friction_static, a.friction_combine),
                 (b.friction_static, b.friction_combine),
@@ -415,13 +405,13 @@ fn constraint(
         ),
         points,
         len,
-    );
+    };
     let kept = CachedManifold {
         normal_a: a.pose().rotation.inverse() * n,
         reference,
         points: kept,
     };
-    (kept, constraint)
+    (kept, source)
 }
 
 impl CachedManifold {
