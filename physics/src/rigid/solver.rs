@@ -220,14 +220,14 @@ impl LaneVec {
 /// The non-penetration rows of a manifold's points, by lanes.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct NormalRows {
-    /// Anchors from each centre of mass, m (for the separations).
+    /// Anchors from each centre of mass, m. The normal speed of point `i`
+    /// is `n · (v_b - v_a) + rb_i · (n × ω_b) - ra_i · (n × ω_a)`, and an
+    /// impulse `λ_i` turns A by `-I_a⁻¹ (ra_i × n) λ_i` and B by `I_b⁻¹
+    /// (rb_i × n) λ_i`. (The angular rows `ra × n` and `rb × n` are not
+    /// kept: the solve streams every constraint in every pass, and they
+    /// made it a fifth larger.)
     pub(crate) ra: LaneVec,
     pub(crate) rb: LaneVec,
-    /// `ra × n` and `rb × n`, m: the normal speed of point `i` is
-    /// `n · (v_b - v_a) + cb_i · ω_b - ca_i · ω_a`, and an impulse `λ_i`
-    /// turns A by `-I_a⁻¹ ca_i λ_i` and B by `I_b⁻¹ cb_i λ_i`.
-    pub(crate) ca: LaneVec,
-    pub(crate) cb: LaneVec,
     /// Inverse effective mass `K_ii`, 1/kg (0 in unused lanes).
     pub(crate) k: Lanes,
     /// `separation - n · (rb - ra)` at the start of the step, m.
@@ -601,8 +601,6 @@ impl ContactConstraint {
         let rows = &mut self.rows;
         for (i, &gap) in gaps.iter().enumerate().take(self.len) {
             let (ca, cb) = (rows.ra.get(i).cross(n), rows.rb.get(i).cross(n));
-            rows.ca.set(i, ca);
-            rows.cb.set(i, cb);
             rows.k[i] =
                 a.inv_mass + b.inv_mass + ca.dot(a.inv_inertia * ca) + cb.dot(b.inv_inertia * cb);
             let vn = linear + cb.dot(b.w) - ca.dot(a.w);
@@ -639,12 +637,14 @@ impl ContactConstraint {
         let rows = &self.rows;
         let mut k = [[0.0; MAX_POINTS]; MAX_POINTS];
         for i in 0..len {
+            let n = self.normal;
             let (ia, ib) = (
-                a.inv_inertia * rows.ca.get(i),
-                b.inv_inertia * rows.cb.get(i),
+                a.inv_inertia * rows.ra.get(i).cross(n),
+                b.inv_inertia * rows.rb.get(i).cross(n),
             );
             for j in 0..=i {
-                let kij = a.inv_mass + b.inv_mass + rows.ca.get(j).dot(ia) + rows.cb.get(j).dot(ib);
+                let (ca, cb) = (rows.ra.get(j).cross(n), rows.rb.get(j).cross(n));
+                let kij = a.inv_mass + b.inv_mass + ca.dot(ia) + cb.dot(ib);
                 k[i][j] = kij;
                 k[j][i] = kij;
             }
@@ -666,8 +666,12 @@ impl ContactConstraint {
     /// Normal speeds of the points, m/s (positive: separating).
     #[inline]
     fn normal_speeds(&self, a: &SolverBody, b: &SolverBody) -> Lanes {
-        let linear = self.normal.dot(b.v - a.v);
-        let (wb, wa) = (self.rows.cb.dot(b.w), self.rows.ca.dot(a.w));
+        let n = self.normal;
+        let linear = n.dot(b.v - a.v);
+        let (wb, wa) = (
+            self.rows.rb.dot(n.cross(b.w)),
+            self.rows.ra.dot(n.cross(a.w)),
+        );
         std::array::from_fn(|i| linear + wb[i] - wa[i])
     }
 
@@ -675,7 +679,8 @@ impl ContactConstraint {
     #[inline]
     fn normal_speed(&self, a: &SolverBody, b: &SolverBody, i: usize) -> f64 {
         let rows = &self.rows;
-        self.normal.dot(b.v - a.v) + rows.cb.get(i).dot(b.w) - rows.ca.get(i).dot(a.w)
+        let n = self.normal;
+        n.dot(b.v - a.v) + rows.rb.get(i).dot(n.cross(b.w)) - rows.ra.get(i).dot(n.cross(a.w))
     }
 
     /// Applies normal impulse `x` (N·s) at point `i`: `+` on B, `-` on A.
@@ -684,8 +689,8 @@ impl ContactConstraint {
         let n = self.normal;
         a.v -= n * (x * a.inv_mass);
         b.v += n * (x * b.inv_mass);
-        a.w -= a.inv_inertia * (self.rows.ca.get(i) * x);
-        b.w += b.inv_inertia * (self.rows.cb.get(i) * x);
+        a.w -= a.inv_inertia * (self.rows.ra.get(i).cross(n) * x);
+        b.w += b.inv_inertia * (self.rows.rb.get(i).cross(n) * x);
     }
 
     /// Applies normal impulses `x` (N·s, one per point): `+` on B, `-` on A.
@@ -695,8 +700,8 @@ impl ContactConstraint {
         let n = self.normal;
         a.v -= n * (sum * a.inv_mass);
         b.v += n * (sum * b.inv_mass);
-        a.w -= a.inv_inertia * self.rows.ca.weighted_sum(x);
-        b.w += b.inv_inertia * self.rows.cb.weighted_sum(x);
+        a.w -= a.inv_inertia * self.rows.ra.weighted_sum(x).cross(n);
+        b.w += b.inv_inertia * self.rows.rb.weighted_sum(x).cross(n);
     }
 
     /// Solves the normal rows of all points at once (a block solve): the
