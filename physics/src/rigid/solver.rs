@@ -252,7 +252,6 @@ pub(crate) struct ContactConstraint {
     pub(crate) b: usize,
     /// World normal from A to B.
     pub(crate) normal: DVec3,
-    pub(crate) tangents: [DVec3; 2],
     pub(crate) friction_static: f64,
     pub(crate) friction_dynamic: f64,
     pub(crate) restitution: f64,
@@ -260,12 +259,10 @@ pub(crate) struct ContactConstraint {
     pub(crate) len: usize,
     /// The points' non-penetration rows.
     pub(crate) rows: NormalRows,
-    /// Friction acts at the centre of the points (anchors from each centre
-    /// of mass, world, m): two tangent rows and a twist row about the
-    /// normal, limited by `μ` times the points' total normal impulse (and,
-    /// for the twist, times their mean distance from the centre).
-    pub(crate) centre_a: DVec3,
-    pub(crate) centre_b: DVec3,
+    /// Friction acts at the centre of the points ([`Self::centres`]): two
+    /// tangent rows ([`Self::tangents`]) and a twist row about the normal,
+    /// limited by `μ` times the points' total normal impulse (and, for the
+    /// twist, times their mean distance from the centre).
     pub(crate) friction: [Row; 2],
     pub(crate) twist: Row,
     /// Mean distance of the points from their centre, m.
@@ -481,14 +478,11 @@ impl ContactConstraint {
             a,
             b,
             normal,
-            tangents: tangent_basis(normal),
             friction_static,
             friction_dynamic,
             restitution,
             len,
             rows,
-            centre_a: DVec3::ZERO,
-            centre_b: DVec3::ZERO,
             friction: [Row::default(); 2],
             twist: Row::default(),
             twist_radius: 0.0,
@@ -524,11 +518,30 @@ impl ContactConstraint {
         rows.base[i] + self.normal.dot(rows.rb.get(i) - rows.ra.get(i))
     }
 
-    /// The point's anchor on A, its offset from the centre in the contact
-    /// plane, m.
-    fn planar_offset(&self, i: usize) -> DVec3 {
+    /// The friction directions: a fixed function of the normal
+    /// ([`tangent_basis`]), found again where needed (the solve streams
+    /// every constraint each pass, and keeping them made each 48 bytes
+    /// larger).
+    #[inline]
+    pub(crate) fn tangents(&self) -> [DVec3; 2] {
+        tangent_basis(self.normal)
+    }
+
+    /// The centre of the points, on A and on B (anchors from each centre of
+    /// mass, world, m), where friction acts; found again where needed, as
+    /// the tangents are.
+    #[inline]
+    pub(crate) fn centres(&self) -> (DVec3, DVec3) {
+        let len = self.len.max(1) as f64;
+        let mean = |v: &LaneVec| (0..self.len).map(|i| v.get(i)).sum::<DVec3>() / len;
+        (mean(&self.rows.ra), mean(&self.rows.rb))
+    }
+
+    /// The point's anchor on A, its offset from the centre `centre_a` in
+    /// the contact plane, m.
+    fn planar_offset(&self, centre_a: DVec3, i: usize) -> DVec3 {
         let n = self.normal;
-        let d = self.rows.ra.get(i) - self.centre_a;
+        let d = self.rows.ra.get(i) - centre_a;
         d - n * n.dot(d)
     }
 
@@ -537,16 +550,15 @@ impl ContactConstraint {
     /// [`Self::point_tangent_impulses`]).
     fn gather_friction(&mut self, pts: &[PointConstraint]) {
         let len = self.len.max(1) as f64;
-        self.centre_a = pts.iter().map(|p| p.ra).sum::<DVec3>() / len;
-        self.centre_b = pts.iter().map(|p| p.rb).sum::<DVec3>() / len;
+        let (centre_a, _) = self.centres();
         let n = self.normal;
-        let [t1, t2] = self.tangents;
+        let [t1, t2] = self.tangents();
         let (mut f1, mut f2, mut twist, mut radius) = (0.0, 0.0, 0.0, 0.0);
         for (i, p) in pts.iter().enumerate() {
             let [s1, s2] = p.cached_tangent;
             f1 += s1;
             f2 += s2;
-            let d = self.planar_offset(i);
+            let d = self.planar_offset(centre_a, i);
             twist += d.cross(t1 * s1 + t2 * s2).dot(n);
             radius += d.length();
         }
@@ -565,16 +577,17 @@ impl ContactConstraint {
     pub(crate) fn point_tangent_impulses(&self) -> [[f64; 2]; MAX_POINTS] {
         let mut out = [[0.0; 2]; MAX_POINTS];
         let n = self.normal;
-        let [t1, t2] = self.tangents;
+        let [t1, t2] = self.tangents();
+        let (centre_a, _) = self.centres();
         let spread: f64 = (0..self.len)
-            .map(|i| self.planar_offset(i).length_squared())
+            .map(|i| self.planar_offset(centre_a, i).length_squared())
             .sum();
         let len = self.len.max(1) as f64;
         for (i, o) in out.iter_mut().enumerate().take(self.len) {
             let mut j =
                 t1 * (self.friction[0].impulse / len) + t2 * (self.friction[1].impulse / len);
             if spread > 0.0 {
-                j += n.cross(self.planar_offset(i)) * (self.twist.impulse / spread);
+                j += n.cross(self.planar_offset(centre_a, i)) * (self.twist.impulse / spread);
             }
             *o = [t1.dot(j), t2.dot(j)];
         }
@@ -608,8 +621,8 @@ impl ContactConstraint {
         }
         rows.max_impulse = [0.0; MAX_POINTS];
         rows.total_impulse = [0.0; MAX_POINTS];
-        let (ca, cb) = (self.centre_a, self.centre_b);
-        let [t1, t2] = self.tangents;
+        let (ca, cb) = self.centres();
+        let [t1, t2] = self.tangents();
         self.friction[0].prepare(a, b, ca, cb, t1);
         self.friction[1].prepare(a, b, ca, cb, t2);
         self.twist.prepare_angular(a, b, n);
@@ -769,7 +782,7 @@ impl ContactConstraint {
     /// Re-applies the accumulated impulses (warm start).
     pub(crate) fn warm_start(&self, a: &mut SolverBody, b: &mut SolverBody) {
         self.push(a, b, &self.rows.impulse);
-        let [t1, t2] = self.tangents;
+        let [t1, t2] = self.tangents();
         let [f1, f2] = &self.friction;
         let linear = t1 * f1.impulse + t2 * f2.impulse;
         a.v -= linear * a.inv_mass;
@@ -795,8 +808,9 @@ impl ContactConstraint {
         let limit = mu * pressed;
         // Both tangent rows from the same relative velocity, then the pair
         // clamped to the friction circle (isotropic Coulomb).
-        let dv = relative_velocity(a, b, self.centre_a, self.centre_b);
-        let [t1, t2] = self.tangents;
+        let (centre_a, centre_b) = self.centres();
+        let dv = relative_velocity(a, b, centre_a, centre_b);
+        let [t1, t2] = self.tangents();
         let [f1, f2] = &mut self.friction;
         let mut new1 = f1.impulse - f1.mass * t1.dot(dv);
         let mut new2 = f2.impulse - f2.mass * t2.dot(dv);
