@@ -229,6 +229,13 @@ fn physics_suite() {
                 assert!(m[k].is_null(), "{k} in {m:?}");
             }
         }
+        // The share of manifolds used again: a fraction, or null where
+        // there were none.
+        let recycled = &m["ours_recycled"];
+        assert!(
+            recycled.is_null() || recycled.as_f64().is_some_and(|x| (0.0..=1.0).contains(&x)),
+            "ours_recycled in {m:?}"
+        );
         // Nothing blew up, nothing fell through the ground.
         for k in [
             "ours_fell_through",

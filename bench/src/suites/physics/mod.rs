@@ -156,11 +156,13 @@ pub fn measure(
     let mut rapier = rapier::Rapier::build(scene, sleeping, DT)?;
     let steps = scene.steps;
     let mut after_warmup = ours.profile_totals();
+    let mut manifolds_at_warmup = ours.manifolds();
     let (o, r) = pool.install(|| -> Result<(Run, Run), BenchError> {
         let (mut o, mut r) = (Run::new(steps), Run::new(steps));
         for k in 0..warmup + steps {
             if k == warmup {
                 after_warmup = ours.profile_totals();
+                manifolds_at_warmup = ours.manifolds();
             }
             let (to, tr) = if k % 2 == 0 {
                 let to = timed(&mut ours)?;
@@ -198,6 +200,16 @@ pub fn measure(
     };
     let (om, rm) = (median(&o.times_ms), median(&r.times_ms));
     let stages = stage_means(&after_warmup, &ours.profile_totals());
+    let recycled = {
+        let (before, after) = (manifolds_at_warmup, ours.manifolds());
+        let used_again = after.recycled - before.recycled;
+        let all = used_again + after.collided - before.collided;
+        if all == 0 {
+            Value::Null
+        } else {
+            Value::from(used_again as f64 / all as f64)
+        }
+    };
     Ok(Record::new()
         .field("scene", scene.name.clone())
         .field("bodies", scene.dynamic_count())
@@ -223,6 +235,7 @@ pub fn measure(
         .field("ours_drift_mm", drift_mm(&end_o))
         .field("rapier_drift_mm", drift_mm(&end_r))
         .field("ours_stage_ms", stages)
+        .field("ours_recycled", recycled)
         .field("ours_awake_at_end", ours.awake())
         .field("rapier_awake_at_end", rapier.awake())
         .field("ours_fell_through", fell_through(&end_o, scene.floor_y))

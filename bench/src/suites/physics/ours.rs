@@ -8,6 +8,7 @@
 
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::{BodyKind, RigidBodyDesc};
+use inertia_physics::rigid::contact::ManifoldCount;
 use inertia_physics::rigid::joint::{JointDesc, JointKind};
 use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
@@ -26,6 +27,8 @@ pub struct Ours {
     dynamic: Vec<BodyHandle>,
     dt: f64,
     quarantined: usize,
+    /// Shape pairs collided and manifolds used again, over every step.
+    manifolds: ManifoldCount,
 }
 
 fn shape(s: &ShapeDesc) -> Result<Shape, BenchError> {
@@ -54,6 +57,12 @@ impl Ours {
     /// The world's per-stage timings summed since it was built.
     pub fn profile_totals(&self) -> inertia_physics::ProfileTotals {
         *self.world.profile_totals()
+    }
+
+    /// Shape pairs collided and manifolds used again, summed over every
+    /// step so far.
+    pub fn manifolds(&self) -> ManifoldCount {
+        self.manifolds
     }
 
     /// Builds `scene` in a new world. `threads == 1` runs the step inline on
@@ -139,6 +148,7 @@ impl Ours {
             dynamic,
             dt,
             quarantined: 0,
+            manifolds: ManifoldCount::default(),
         })
     }
 }
@@ -147,6 +157,8 @@ impl Engine for Ours {
     fn step(&mut self) -> Result<(), BenchError> {
         let report = self.world.step(self.dt)?;
         self.quarantined += report.quarantined_bodies.len();
+        self.manifolds.collided += report.manifolds.collided;
+        self.manifolds.recycled += report.manifolds.recycled;
         Ok(())
     }
 
