@@ -91,6 +91,13 @@ pub struct ManifoldCount {
     pub recycled: u64,
 }
 
+impl std::ops::AddAssign for ManifoldCount {
+    fn add_assign(&mut self, other: Self) {
+        self.collided += other.collided;
+        self.recycled += other.recycled;
+    }
+}
+
 /// Why two shapes could not be collided.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ContactError {

@@ -647,16 +647,15 @@ impl ContactConstraint {
         if len < 2 {
             return None;
         }
-        let rows = &self.rows;
+        let (rows, n) = (&self.rows, self.normal);
+        // The points' angular rows `ra × n`, `rb × n`.
+        let c: [(DVec3, DVec3); MAX_POINTS] =
+            std::array::from_fn(|i| (rows.ra.get(i).cross(n), rows.rb.get(i).cross(n)));
         let mut k = [[0.0; MAX_POINTS]; MAX_POINTS];
         for i in 0..len {
-            let n = self.normal;
-            let (ia, ib) = (
-                a.inv_inertia * rows.ra.get(i).cross(n),
-                b.inv_inertia * rows.rb.get(i).cross(n),
-            );
+            let (ia, ib) = (a.inv_inertia * c[i].0, b.inv_inertia * c[i].1);
             for j in 0..=i {
-                let (ca, cb) = (rows.ra.get(j).cross(n), rows.rb.get(j).cross(n));
+                let (ca, cb) = c[j];
                 let kij = a.inv_mass + b.inv_mass + ca.dot(ia) + cb.dot(ib);
                 k[i][j] = kij;
                 k[j][i] = kij;

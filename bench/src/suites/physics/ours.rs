@@ -157,8 +157,7 @@ impl Engine for Ours {
     fn step(&mut self) -> Result<(), BenchError> {
         let report = self.world.step(self.dt)?;
         self.quarantined += report.quarantined_bodies.len();
-        self.manifolds.collided += report.manifolds.collided;
-        self.manifolds.recycled += report.manifolds.recycled;
+        self.manifolds += report.manifolds;
         Ok(())
     }
 

@@ -68,7 +68,10 @@
 //! deepest, the one farthest from it, the one making the largest triangle
 //! with those two, and the one adding the most area on the other side
 //! (Gregorius's reduction), a near tie going to the point clipped first
-//! ([`tie_margin`]), so that a resting pair keeps its points. Feature ids
+//! ([`tie_margin`]), so that a resting pair keeps its points. The last
+//! three are looked for first among the points within [`SUPPORT_BAND`] of
+//! the deepest, which bear the load, so that a tilted box keeps them
+//! rather than points hovering on its high side. Feature ids
 //! hash the reference and incident face indices and, per point, the
 //! incident vertex or the incident edge and reference side plane that cut
 //! it, so they stay put while the same features touch. Ids are per
@@ -336,7 +339,7 @@ fn first_near_best(
     score: impl Fn(usize) -> f64,
     margin: impl Fn(f64) -> f64,
 ) -> Option<usize> {
-    first_near_best_of(|i| i < len && !skip.contains(&i), len, score, margin)
+    first_near_best_of(|i| !skip.contains(&i), len, score, margin)
 }
 
 /// [`first_near_best`] among the candidates `0..len` that `take` accepts.
@@ -358,7 +361,7 @@ fn first_near_best_of(
 /// alone kept points hovering millimetres above on the high side instead
 /// of a loaded one, so the box dipped and was pushed back every time its
 /// shapes were collided again (a rocking that never let a heap sleep).
-pub(crate) const SUPPORT_BAND: f64 = 0.002;
+const SUPPORT_BAND: f64 = 0.002;
 
 /// Of the picks a spread score gives, a supporting point's (see
 /// [`SUPPORT_BAND`]) is taken while its score is at least this fraction of

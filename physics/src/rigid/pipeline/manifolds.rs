@@ -190,8 +190,7 @@ pub(crate) fn find(
         narrow.constraints.runs.extend(out.constraints.runs);
         narrow.carried.extend(out.carried);
         narrow.deepest = narrow.deepest.max(out.deepest);
-        narrow.count.collided += out.count.collided;
-        narrow.count.recycled += out.count.recycled;
+        narrow.count += out.count;
     }
     narrow
 }
