@@ -154,13 +154,27 @@ fn nbody_suite() {
 
 #[test]
 fn physics_suite() {
-    let lines = run("physics");
+    let all = run("physics");
+    // The demo scene is ours alone: one record per thread count, no rapier.
+    let (demo, lines): (Vec<_>, Vec<_>) = all.into_iter().partition(|m| m["scene"] == "demo");
+    assert!(demo.len() >= 2, "the demo at 1 and 2 threads: {demo:?}");
+    for m in &demo {
+        for k in ["bodies", "particles", "steps", "ours_ms_median", "dt"] {
+            positive(m, k);
+        }
+        assert!(num(m, "ours_ms_median") <= num(m, "ours_ms_p99"), "{m:?}");
+        assert_eq!(num(m, "ours_quarantined"), 0.0, "{m:?}");
+        assert!(m.get("rapier_ms_median").is_none(), "{m:?}");
+        let stages = m["ours_stage_ms"].as_object().expect("stages");
+        assert!(stages["total"].as_f64().is_some_and(|t| t > 0.0), "{m:?}");
+    }
     let scenes = [
         "pyramid_4",
         "pyramid_8",
         "many_pyramids_4x4",
         "balls_64",
         "mixed_pile_48",
+        "convex_pile_48",
         "joint_grid_6x6",
         "ragdolls_4",
     ];

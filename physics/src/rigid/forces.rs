@@ -26,6 +26,18 @@ use crate::forces::{Buoyancy, Drag, Explosion, Force};
 use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::immersion::{projected_area, submerged, surface};
 
+/// How far (m) above a fluid's surface a body's bounds must lie for the
+/// body to count as wholly out of it without clipping its surface: far
+/// more than the rounding between the world-frame bounds and the
+/// body-frame clipping, so skipping never changes a result.
+const ABOVE_SURFACE_MARGIN: f64 = 1e-9;
+
+/// The lowest value of `up · x` over the box `b` (m).
+fn lowest_along(b: &crate::rigid::aabb::Aabb, up: DVec3) -> f64 {
+    let (c, e) = (b.center(), b.half_extents());
+    up.dot(c) - up.abs().dot(e)
+}
+
 /// The body force generators of a world, compiled once per step.
 #[derive(Debug, Default)]
 pub(crate) struct BodyField {
@@ -76,7 +88,10 @@ impl BodyField {
         let Some(shape) = b.shape.as_ref().filter(|_| self.needs_surface()) else {
             return (force, torque);
         };
-        let tris = surface(shape);
+        // The triangulated surface, built only for a generator that reaches
+        // the body (most bodies of a world with water never touch it).
+        let surface_tris = std::cell::OnceCell::new();
+        let tris = || surface_tris.get_or_init(|| surface(shape));
         let pose = b.pose();
         let to_local = pose.rotation.inverse();
         // Lever arm from the centre of mass to a point given in the body frame.
@@ -85,15 +100,20 @@ impl BodyField {
             if w.dir == DVec3::ZERO {
                 continue;
             }
-            let (area, centre) = projected_area(shape, &tris, to_local * w.dir);
+            let (area, centre) = projected_area(shape, tris(), to_local * w.dir);
             let f = w.force(b.linvel, area);
             force += f;
             torque += arm(centre).cross(f);
         }
+        let bounds = shape.aabb(&pose);
         for fluid in &self.buoyancy {
+            if lowest_along(&bounds, fluid.up) > fluid.surface_height + ABOVE_SURFACE_MARGIN {
+                // Wholly above the surface: nothing submerged.
+                continue;
+            }
             let n = to_local * fluid.up;
             let d = fluid.surface_height - fluid.up.dot(pose.translation);
-            let (volume, centre) = submerged(shape, &tris, n, d);
+            let (volume, centre) = submerged(shape, tris(), n, d);
             if volume <= 0.0 {
                 continue;
             }
@@ -110,7 +130,7 @@ impl BodyField {
             if away.length_squared() == 0.0 {
                 continue;
             }
-            let (area, _) = projected_area(shape, &tris, to_local * -away.normalize());
+            let (area, _) = projected_area(shape, tris(), to_local * -away.normalize());
             force += e.force(b.com, area, self.t, self.dt);
         }
         (force, torque)

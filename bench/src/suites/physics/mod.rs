@@ -16,6 +16,7 @@
 //!
 //! See `bench/README.md` (`## physics`) for every field.
 
+pub mod demo;
 pub mod ours;
 pub mod rapier;
 pub mod scene;
@@ -263,7 +264,15 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         .collect();
     let warmup = if opts.quick { WARMUP_QUICK } else { WARMUP };
     let cases = cases();
-    let pb = progress((specs.len() * cases.len()) as u64, "physics");
+    let demo_cases = if opts.wants(demo::NAME) {
+        thread_counts().len()
+    } else {
+        0
+    };
+    let pb = progress(
+        (specs.len() * cases.len() + demo_cases) as u64,
+        "physics",
+    );
     let mut out = Suspended::new(&pb, sink);
     let sink: &mut dyn Sink = &mut out;
     let t_all = Instant::now();
@@ -282,6 +291,27 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
                 ),
             );
             sink.record(record);
+            pb.inc(1);
+        }
+    }
+    if opts.wants(demo::NAME) {
+        let steps = if opts.quick {
+            demo::STEPS_QUICK
+        } else {
+            demo::STEPS
+        };
+        for t in thread_counts() {
+            pb.set_message(format!("{} threads={t}", demo::NAME));
+            let t0 = Instant::now();
+            sink.record(demo::measure(t, warmup, steps)?);
+            note(
+                &pb,
+                &format!(
+                    "physics: {} threads={t} in {:.1} s",
+                    demo::NAME,
+                    t0.elapsed().as_secs_f64()
+                ),
+            );
             pb.inc(1);
         }
     }

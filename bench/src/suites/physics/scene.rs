@@ -364,7 +364,7 @@ fn random_rotation(rng: &mut SplitMix64) -> DQuat {
     .normalize()
 }
 
-/// Number of points of each convex hull in `mixed_pile`.
+/// Number of points of each convex hull in `mixed_pile` and `convex_pile`.
 pub const HULL_POINTS: usize = 32;
 
 /// `HULL_POINTS` points on (and just inside) an ellipsoid with semi-axes
@@ -412,6 +412,33 @@ pub fn mixed_pile(name: String, n: usize, steps: usize) -> Scene {
             },
             _ => ShapeDesc::ConvexHull(rocks[k % rocks.len()].clone()),
         };
+        let rotation = random_rotation(&mut rng);
+        s.add(Body::dynamic(shape, DVec3::new(x, y, z), rotation));
+    }
+    s
+}
+
+/// `convex_pile`: `n` convex hulls of [`HULL_POINTS`] points (the rocks of
+/// `mixed_pile`, 8 shapes), randomly oriented, on a 16 × 16 grid of layers
+/// (0.8 m pitch; 5120 bodies: 20 layers), the lowest 1 m up, dropped into
+/// a box container: Box3D's convex-pile benchmark, hull against hull
+/// only.
+pub fn convex_pile(name: String, n: usize, steps: usize) -> Scene {
+    let mut s = Scene::new(name, steps, false, -1.0);
+    let side = if n >= 1000 { 16 } else { grid_side(n, 3) };
+    let layers = n.div_ceil(side * side);
+    let pitch = 0.8;
+    let half = 0.5 * side as f64 * pitch + 0.5;
+    s.ground(0.0, 0.0, half + 2.0, half + 2.0);
+    s.walls(half, layers as f64 * pitch + 1.5);
+    let mut rng = SplitMix64(0x0C0E_7E11);
+    let rocks: Vec<Arc<Vec<DVec3>>> = (0..8).map(|_| Arc::new(rock(&mut rng))).collect();
+    for k in 0..n {
+        let (i, j, l) = (k % side, (k / side) % side, k / (side * side));
+        let x = (i as f64 - (side as f64 - 1.0) / 2.0) * pitch;
+        let z = (j as f64 - (side as f64 - 1.0) / 2.0) * pitch;
+        let y = 1.0 + l as f64 * pitch;
+        let shape = ShapeDesc::ConvexHull(rocks[k % rocks.len()].clone());
         let rotation = random_rotation(&mut rng);
         s.add(Body::dynamic(shape, DVec3::new(x, y, z), rotation));
     }
@@ -659,6 +686,7 @@ pub fn all(quick: bool) -> Vec<SceneSpec> {
             SceneSpec::new("many_pyramids_4x4", 20, |n, st| many_pyramids(n, 4, 4, st)),
             SceneSpec::new("balls_64", 30, |n, st| balls(n, 64, st)),
             SceneSpec::new("mixed_pile_48", 30, |n, st| mixed_pile(n, 48, st)),
+            SceneSpec::new("convex_pile_48", 30, |n, st| convex_pile(n, 48, st)),
             SceneSpec::new("joint_grid_6x6", 30, |n, st| joint_grid(n, 6, st)),
             SceneSpec::new("ragdolls_4", 30, |n, st| ragdolls(n, 4, st)),
         ]
@@ -669,6 +697,7 @@ pub fn all(quick: bool) -> Vec<SceneSpec> {
             SceneSpec::new("many_pyramids", 90, |n, st| many_pyramids(n, 48, 20, st)),
             SceneSpec::new("balls", 120, |n, st| balls(n, 8000, st)),
             SceneSpec::new("mixed_pile", 90, |n, st| mixed_pile(n, 3000, st)),
+            SceneSpec::new("convex_pile", 90, |n, st| convex_pile(n, 5120, st)),
             SceneSpec::new("joint_grid", 120, |n, st| joint_grid(n, 100, st)),
             SceneSpec::new("ragdolls", 200, |n, st| ragdolls(n, 200, st)),
         ]
@@ -707,6 +736,7 @@ mod tests {
         assert_eq!(many_pyramids("m".into(), 48, 20, 1).dynamic_count(), 10_080);
         assert_eq!(balls("b".into(), 8000, 1).dynamic_count(), 8000);
         assert_eq!(mixed_pile("m".into(), 3000, 1).dynamic_count(), 3000);
+        assert_eq!(convex_pile("c".into(), 5120, 1).dynamic_count(), 5120);
         let grid = joint_grid("j".into(), 100, 1);
         assert_eq!(grid.dynamic_count(), 9900);
         assert_eq!(grid.joints.len(), 99 * 99 + 100 * 99);
