@@ -321,11 +321,33 @@ pub(crate) fn convex_convex(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Option
     let scale = a.size().max(b.size()).max(1e-12);
     let sa = |d: DVec3| a.core_support(d);
     let sb = |d: DVec3| b.core_support(d);
-    let init = b.pose.translation - a.pose.translation;
-    let radii = a.radius + b.radius;
     // Cores farther apart than the radii and the speculative distance
     // make no contact: GJK stops as soon as it proves that.
-    let (normal, sep, pa, pb) = match gjk_within(&sa, &sb, -init, scale, spec + radii)? {
+    let found = gjk_within(&sa, &sb, gjk_start(a, b), scale, spec + a.radius + b.radius)?;
+    convex_convex_from(a, b, spec, scale, found)
+}
+
+/// The direction GJK starts from for `a` against `b`: from B's centre
+/// towards A's.
+pub(crate) fn gjk_start(a: &Convex<'_>, b: &Convex<'_>) -> DVec3 {
+    a.pose.translation - b.pose.translation
+}
+
+/// [`convex_convex`] from what GJK found on the cores (started from
+/// [`gjk_start`], `scale` as there): a caller that already ran it does not
+/// run it again.
+pub(crate) fn convex_convex_from(
+    a: &Convex<'_>,
+    b: &Convex<'_>,
+    spec: f64,
+    scale: f64,
+    found: GjkResult,
+) -> Option<Contact> {
+    let sa = |d: DVec3| a.core_support(d);
+    let sb = |d: DVec3| b.core_support(d);
+    let init = b.pose.translation - a.pose.translation;
+    let radii = a.radius + b.radius;
+    let (normal, sep, pa, pb) = match found {
         GjkResult::Separated {
             distance,
             point_a,

@@ -15,7 +15,10 @@
 
 use glam::DVec3;
 
-use super::convex::{manifold_from_features, Convex, Feature, Polytope};
+use super::convex::{
+    convex_convex, convex_convex_from, gjk_start, manifold_from_features, Convex, Feature,
+    Polytope,
+};
 use super::gjk::{gjk, gjk_within, GjkResult};
 use super::{pack_id, Contact};
 
@@ -56,12 +59,21 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
     let early = if matches!(a.core, super::convex::Core::Hull(_))
         || matches!(b.core, super::convex::Core::Hull(_))
     {
-        match gjk_within(&sa, &sb, ca_cb(a, b), scale, spec)? {
+        match gjk_within(&sa, &sb, gjk_start(a, b), scale, spec)? {
             GjkResult::Separated { distance, .. } if distance > spec => return None,
             r => Some(r),
         }
     } else {
         None
+    };
+    // GJK/EPA and the features along its normal, from the answer above
+    // when there is one (polytopes have no radius, so it is the answer
+    // `convex_convex` would find).
+    let general = |early: Option<GjkResult>| match early {
+        Some(found) if a.radius + b.radius == 0.0 => {
+            convex_convex_from(a, b, spec, scale, found)
+        }
+        _ => convex_convex(a, b, spec),
     };
     let pa = a.polytope()?;
     let pb = b.polytope()?;
@@ -69,7 +81,7 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
         // Many-sided hulls: the edge-pair test would dominate; GJK/EPA and
         // the features along its normal give the manifold instead (as
         // Rapier does for every convex pair).
-        return super::convex::convex_convex(a, b, spec);
+        return general(early);
     }
     let va = world_verts(&pa);
     let vb = world_verts(&pb);
@@ -109,7 +121,9 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
     if sat_sep > 0.0 {
         // Separated: GJK gives the exact distance and direction. If it
         // agrees with a face axis, clip that face; otherwise one point.
-        let result = early.unwrap_or_else(|| gjk(&sa, &sb, ca_cb(a, b), scale));
+        let result = early
+            .clone()
+            .unwrap_or_else(|| gjk(&sa, &sb, gjk_start(a, b), scale));
         if let GjkResult::Separated {
             distance,
             point_a,
@@ -139,7 +153,7 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
         }),
         // Edge against edge: EPA on the polytopes is exact and gives the
         // witness points of the two edges.
-        Axis::Edge => return super::convex::convex_convex(a, b, spec),
+        Axis::Edge => return general(early),
     }
     .map(super::reduce)
 }
@@ -258,10 +272,6 @@ fn gauss_map_edges(
         }
     }
     best
-}
-
-fn ca_cb(a: &Convex<'_>, b: &Convex<'_>) -> DVec3 {
-    a.pose.translation - b.pose.translation
 }
 
 /// Face `fi` of `rf` is the reference; the face of `inc` most anti-parallel
