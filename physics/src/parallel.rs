@@ -70,21 +70,6 @@ where
     }
 }
 
-/// Maps `f` over `items` in `chunk`-sized pieces, in parallel when there
-/// are at least two pieces; the results come back in item order.
-pub(crate) fn par_map<T, R, F>(items: &[T], chunk: usize, f: F) -> Vec<R>
-where
-    T: Sync,
-    R: Send,
-    F: Fn(&T) -> R + Sync + Send,
-{
-    if items.len() < 2 * chunk || inline() {
-        items.iter().map(f).collect()
-    } else {
-        items.par_iter().with_min_len(chunk).map(f).collect()
-    }
-}
-
 /// Like [`par_map_chunks`] over three equally long slices, chunked alike.
 pub(crate) fn par_map_chunks3<A, B, C, R, F>(
     a: &mut [A],

@@ -73,10 +73,10 @@ pub(crate) fn finish(
     // One walk over the constraints in pair order (a pair's compound
     // children next to each other), each read once: the pairs in contact
     // (and so those that pushed) and the impulses to keep.
+    let mut manifolds = found.manifolds;
     let walked = walk(
-        found
-            .manifolds
-            .into_all()
+        manifolds
+            .drain_all()
             .zip(&in_pair_order)
             .map(|(f, &at)| (f.key, f.kept, &constraints[at as usize])),
     );
@@ -193,6 +193,7 @@ pub(crate) fn finish(
         constraints,
         joint_rows,
         solver_bodies,
+        found: manifolds.into_memory(),
     };
     out.start = start;
     out.quarantined = quarantined;

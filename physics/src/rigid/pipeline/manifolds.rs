@@ -64,9 +64,21 @@ impl Found {
         self.runs.iter().flatten()
     }
 
-    /// The manifolds, in pair order, taken.
-    pub(crate) fn into_all(self) -> impl Iterator<Item = FoundManifold> {
-        self.runs.into_iter().flatten()
+    /// The manifolds, in pair order, taken out (the runs' memory stays,
+    /// for [`Self::into_memory`]).
+    pub(crate) fn drain_all(&mut self) -> impl Iterator<Item = FoundManifold> + '_ {
+        self.runs.iter_mut().flat_map(|run| run.drain(..))
+    }
+
+    /// The runs, emptied, with their memory: what the next step's narrow
+    /// phase fills again ([`find`]) rather than allocate anew (several MB
+    /// for a pile of thousands, which the allocator would otherwise hand
+    /// back to the system and fault in, zeroed, every step).
+    pub(crate) fn into_memory(mut self) -> Vec<Vec<FoundManifold>> {
+        for run in &mut self.runs {
+            run.clear();
+        }
+        self.runs
     }
 
     /// The constraints in `order` (indices in pair order; each once), built
@@ -158,18 +170,29 @@ pub(crate) fn find(
     cache: &BTreeMap<ContactKey, CachedManifold>,
     touched: &BTreeSet<(BodyHandle, BodyHandle)>,
     dt: f64,
+    memory: &mut Vec<Vec<FoundManifold>>,
 ) -> Narrow {
-    let runs: Vec<&[Pair]> = broad.pairs().chunks(PAIRS_PER_ITEM).collect();
-    let outs = crate::parallel::par_map(&runs, 1, |run| {
+    // Each run of pairs with a list to fill, from the last step's memory.
+    let mut runs: Vec<(&[Pair], Vec<FoundManifold>)> = broad
+        .pairs()
+        .chunks(PAIRS_PER_ITEM)
+        .map(|run| (run, memory.pop().unwrap_or_default()))
+        .collect();
+    let outs = crate::parallel::par_map_chunks(&mut runs, 1, |_, item| {
         let mut out = Narrow::default();
+        let Some((run, list)) = item.first_mut() else {
+            return out;
+        };
+        let (run, mut list) = (*run, std::mem::take(list));
         // About a manifold a pair at most (compounds aside): room for them
         // up front, not grown (and moved) as they come.
-        out.constraints.runs.push(Vec::with_capacity(run.len()));
+        list.reserve(run.len());
+        out.constraints.runs.push(list);
         let Some(first) = run.first() else {
             return out;
         };
         let mut cursor = CacheCursor::new(cache, first_key(index, first));
-        for pair in *run {
+        for pair in run {
             one_pair(
                 bodies,
                 index,

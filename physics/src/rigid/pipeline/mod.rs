@@ -266,6 +266,8 @@ pub(crate) struct StepMemory {
     pub(crate) joint_rows: Vec<(u32, u32, crate::rigid::joint::JointConstraint)>,
     /// Solver bodies.
     pub(crate) solver_bodies: Vec<crate::rigid::solver::SolverBody>,
+    /// The narrow phase's lists of manifolds found, one a run of pairs.
+    pub(crate) found: Vec<Vec<manifolds::FoundManifold>>,
 }
 
 /// Contact state carried from step to step.
@@ -388,6 +390,7 @@ pub(crate) fn step(
     }
     profile.broad_phase = clock.lap();
 
+    let mut memory = std::mem::take(&mut contacts.memory);
     let narrow = manifolds::find(
         bodies,
         &index,
@@ -396,8 +399,8 @@ pub(crate) fn step(
         &contacts.cache,
         &contacts.touching,
         inputs.dt,
+        &mut memory.found,
     );
-    let mut memory = std::mem::take(&mut contacts.memory);
     manifolds::joint_rows(bodies, &index, joints, &mut memory.joint_rows);
     profile.narrow_phase = clock.lap();
 

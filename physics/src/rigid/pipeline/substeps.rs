@@ -71,6 +71,7 @@ impl Solve {
             constraints: mut placed,
             joint_rows,
             mut solver_bodies,
+            found: _,
         } = memory;
         solver_bodies.clear();
         solver_bodies.extend(bodies.iter().map(|(_, _, b)| {
