@@ -120,6 +120,25 @@ pub struct ConvexHull {
     /// The largest magnitude of any vertex coordinate, m: a size for the
     /// narrow phase's tolerances (derived from `vertices`).
     extent: f64,
+    /// The vertices by coordinate in groups of four (derived from
+    /// `vertices`; see [`Quad`]).
+    quads: Vec<Quad>,
+}
+
+/// Four vertices by coordinate (`[x; 4], [y; 4], [z; 4]`, m), so the
+/// support scan measures four at a time; the last group is padded with
+/// copies of vertex 0.
+type Quad = [[f64; 4]; 3];
+
+/// The vertices of `vertices` in groups of four (see [`Quad`]).
+pub(crate) fn quads(vertices: &[DVec3]) -> Vec<Quad> {
+    vertices
+        .chunks(4)
+        .map(|group| {
+            let at = |k: usize| group.get(k).copied().unwrap_or(vertices[0]);
+            [0, 1, 2].map(|c| [0, 1, 2, 3].map(|k| at(k)[c]))
+        })
+        .collect()
 }
 
 /// Each edge of closed polygon `faces` with the two faces that share it,
@@ -276,17 +295,44 @@ impl ConvexHull {
 
     /// The vertex (m) farthest along `dir` (the first one on ties). `dir`
     /// need not be normalised; a zero direction returns the first vertex.
+    #[inline]
     pub fn support(&self, dir: DVec3) -> DVec3 {
-        let mut best = self.vertices[0];
-        let mut best_dot = best.dot(dir);
-        for &v in &self.vertices[1..] {
-            let d = v.dot(dir);
-            if d > best_dot {
-                best_dot = d;
-                best = v;
+        self.vertices[self.support_index(dir)]
+    }
+
+    /// The index of the vertex farthest along `dir` (the first one on
+    /// ties). Four vertices are measured at a time, each lane keeping the
+    /// first of its best; the lanes' bests then give the first of the
+    /// best, which is what a scan one vertex at a time gives, bit for bit
+    /// (each `v · dir` is the same sum in the same order).
+    pub(crate) fn support_index(&self, dir: DVec3) -> usize {
+        let dot = |q: &Quad, k: usize| q[0][k] * dir.x + q[1][k] * dir.y + q[2][k] * dir.z;
+        // The first group is whole: a hull has at least four vertices.
+        let first = &self.quads[0];
+        let mut best: [f64; 4] = std::array::from_fn(|k| dot(first, k));
+        let mut at: [usize; 4] = [0, 1, 2, 3];
+        for (g, q) in self.quads.iter().enumerate().skip(1) {
+            for k in 0..4 {
+                let d = dot(q, k);
+                if d > best[k] {
+                    best[k] = d;
+                    at[k] = 4 * g + k;
+                }
             }
         }
-        best
+        let (mut top, mut index) = (best[0], at[0]);
+        for k in 1..4 {
+            if best[k] > top || (best[k] == top && at[k] < index) {
+                (top, index) = (best[k], at[k]);
+            }
+        }
+        // A padding lane can only be best where vertex 0 ties it, and
+        // vertex 0 comes first: never past the end.
+        if index < self.vertices.len() {
+            index
+        } else {
+            0
+        }
     }
 
     /// The faces as triangle fans (vertex indices, counter-clockwise from
@@ -326,4 +372,61 @@ fn chain_loop<E: Copy>(edges: &mut [E], ends: impl Fn(&E) -> (u32, u32)) -> Opti
         }
     }
     (cur == 0 && out.len() == edges.len()).then_some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The first vertex with the largest `v · dir`, one vertex at a time.
+    fn scan(vertices: &[DVec3], dir: DVec3) -> usize {
+        let mut best = 0;
+        for (i, v) in vertices.iter().enumerate() {
+            if v.dot(dir) > vertices[best].dot(dir) {
+                best = i;
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn four_at_a_time_support_is_the_one_at_a_time_scan() {
+        // A cube with points on its edges (ties along the axes) and hulls
+        // of 4 to 40 points on a sphere (every remainder of four).
+        let mut clouds: Vec<Vec<DVec3>> = vec![(0..27)
+            .map(|i| DVec3::new((i % 3) as f64, ((i / 3) % 3) as f64, (i / 9) as f64) - 1.0)
+            .collect()];
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        for n in 4..=40 {
+            clouds.push(
+                (0..n)
+                    .map(|i| {
+                        let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+                        let r = (1.0 - y * y).sqrt();
+                        let phi = golden * i as f64;
+                        DVec3::new(r * phi.cos(), y, r * phi.sin())
+                    })
+                    .collect(),
+            );
+        }
+        let mut dirs = vec![DVec3::ZERO, DVec3::NAN, DVec3::new(1.0, 1.0, 0.0)];
+        for i in 0..64 {
+            let t = i as f64 * 0.7;
+            dirs.push(DVec3::new(t.cos(), (1.3 * t).sin(), (0.5 * t).cos()));
+        }
+        for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
+            dirs.extend([axis, -axis]);
+        }
+        for cloud in &clouds {
+            let hull = ConvexHull::from_points(cloud).expect("hull");
+            for &d in &dirs {
+                assert_eq!(
+                    hull.support_index(d),
+                    scan(hull.vertices(), d),
+                    "{} vertices, {d}",
+                    hull.vertices().len()
+                );
+            }
+        }
+    }
 }

@@ -110,7 +110,9 @@ impl Mesh {
             .iter()
             .map(|v| v.abs().max_element())
             .fold(0.0, f64::max);
+        let quads = super::quads(&vertices);
         ConvexHull {
+            quads,
             vertices,
             faces,
             edges,

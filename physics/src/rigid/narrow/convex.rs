@@ -52,7 +52,13 @@ const FACE_ALIGNED: f64 = 0.9;
 impl Convex<'_> {
     /// Support of the core along `d` (common frame), m.
     pub fn core_support(&self, d: DVec3) -> DVec3 {
-        let l = self.pose.inverse_transform_vector(d);
+        // The first shape of a pair is in its own frame: no turning there.
+        let turned = self.pose.rotation != glam::DQuat::IDENTITY;
+        let l = if turned {
+            self.pose.inverse_transform_vector(d)
+        } else {
+            d
+        };
         let p = match self.core {
             Core::Point => DVec3::ZERO,
             Core::Segment(h) => DVec3::new(0.0, if l.y >= 0.0 { h } else { -h }, 0.0),
@@ -72,7 +78,11 @@ impl Convex<'_> {
                 best
             }
         };
-        self.pose.transform_point(p)
+        if turned {
+            self.pose.transform_point(p)
+        } else {
+            p + self.pose.translation
+        }
     }
 
     /// Rough size of the shape (m) for tolerances.
