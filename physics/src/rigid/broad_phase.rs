@@ -83,7 +83,7 @@
 mod sap;
 mod tree;
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use glam::DVec3;
 
@@ -292,8 +292,10 @@ struct ProxyInfo {
 #[derive(Debug, Clone, Default)]
 pub struct BroadPhase {
     tree: DynamicTree,
-    /// key → proxy. Only looked up, never iterated, so its order is moot.
-    proxies: HashMap<u32, ProxyId>,
+    /// key → proxy. Only looked up, never iterated, so its order is moot;
+    /// hashed by FxHash (a multiply per key), not SipHash: the narrow
+    /// phase looks two keys up per pair.
+    proxies: FxHashMap<u32, ProxyId>,
     /// By `ProxyId::index`.
     info: Vec<Option<ProxyInfo>>,
     /// Keys inserted, moved or removed since the last pair update.
