@@ -34,7 +34,7 @@ use crate::particle_system::{
     Backend, ParticleSystem, Slot, FLAG_PINNED, FLAG_QUARANTINED, FREE, MAX_GROUPS,
 };
 use crate::rigid::body::RigidBody;
-use crate::rigid::pipeline::{CachedManifold, ContactKey};
+use crate::rigid::pipeline::{CachedManifold, ContactCache, ContactKey};
 use crate::rigid::solver::SolverConfig;
 use crate::spring::{Spring, SpringParams};
 
@@ -252,7 +252,7 @@ pub(crate) struct StateRef<'a> {
     pub(crate) body_gravity: DVec3,
     pub(crate) body_forces: &'a Arena<ForceEntry>,
     pub(crate) solver: &'a SolverConfig,
-    pub(crate) contacts: &'a BTreeMap<ContactKey, CachedManifold>,
+    pub(crate) contacts: &'a ContactCache,
     pub(crate) touching: &'a BTreeSet<(BodyHandle, BodyHandle)>,
     pub(crate) body_bounds: Option<Aabb>,
     pub(crate) joints: &'a Arena<crate::rigid::joint::Joint>,

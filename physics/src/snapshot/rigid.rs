@@ -16,7 +16,7 @@ use crate::rigid::aabb::Aabb;
 use crate::rigid::attachment::Attachment;
 use crate::rigid::body::{BodyKind, CombineRule, RigidBody};
 use crate::rigid::joint::{Joint, JointDesc, JointKind};
-use crate::rigid::pipeline::{CachedManifold, CachedPoint, ContactKey, Reference};
+use crate::rigid::pipeline::{CachedManifold, CachedPoint, ContactCache, ContactKey, Reference};
 use crate::rigid::pose::Pose;
 use crate::rigid::shape::Shape;
 use crate::rigid::solver::SolverConfig;
@@ -324,9 +324,9 @@ pub(super) fn solver<S: Sink>(s: &mut S, c: &SolverConfig) {
     s.f64(c.sleep.time_to_sleep);
 }
 
-pub(super) fn contacts<S: Sink>(s: &mut S, cache: &BTreeMap<ContactKey, CachedManifold>) {
+pub(super) fn contacts<S: Sink>(s: &mut S, cache: &ContactCache) {
     s.u64(cache.len() as u64);
-    for (k, m) in cache {
+    for (k, m) in cache.iter() {
         for v in [k.a.0, k.a.1, k.b.0, k.b.1, k.child_a, k.child_b] {
             s.u32(v);
         }

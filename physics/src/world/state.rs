@@ -88,7 +88,7 @@ impl World {
         self.body_gravity = decoded.body_gravity;
         self.body_forces = decoded.body_forces;
         self.solver = decoded.solver;
-        self.contacts.cache = decoded.contacts;
+        self.contacts.cache = decoded.contacts.into();
         self.contacts.touching = decoded.touching;
         self.contacts.pairs.clear();
         self.body_bounds = decoded.body_bounds;

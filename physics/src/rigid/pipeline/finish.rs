@@ -153,15 +153,15 @@ pub(crate) fn finish(
     // keep their entries; every other entry is replaced by this step's.
     let fresh = walked.cache;
     if found.carried.is_empty() {
-        contacts.cache = fresh.into_iter().collect();
+        contacts.cache = super::ContactCache::new(fresh);
     } else {
         // Both in key order: one walk.
         let mut kept = found.carried.iter().peekable();
-        contacts.cache.retain(|k, _| {
+        contacts.cache.retain(|k| {
             while kept.next_if(|&&p| p < (k.a, k.b)).is_some() {}
             kept.peek().is_some_and(|&&p| p == (k.a, k.b))
         });
-        contacts.cache.extend(fresh);
+        contacts.cache.merge(fresh);
     }
     let mut constraints = constraints;
     constraints.clear();

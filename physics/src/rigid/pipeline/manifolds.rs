@@ -2,12 +2,14 @@
 //! (in parallel, results kept in pair order) and each manifold a contact
 //! constraint warm-started from the cache; every joint gives its row.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 
 use super::bodies::{BodyIndex, Links};
 use super::pairs::{leaves, pair_bodies, speculative_distance};
+use super::cache::Cursor;
 use super::{
-    CachedManifold, CachedPoint, ContactKey, Reference, ANCHOR_MATCH_DISTANCE, RECYCLE_DRIFT,
+    CachedManifold, CachedPoint, ContactCache, ContactKey, Reference, ANCHOR_MATCH_DISTANCE,
+    RECYCLE_DRIFT,
 };
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
@@ -123,28 +125,6 @@ pub(crate) struct Narrow {
     pub(crate) count: ManifoldCount,
 }
 
-/// Walks the contact cache in key order alongside a run of pairs (which
-/// ask for keys in increasing order): each lookup is a step or two instead
-/// of a search.
-struct CacheCursor<'a> {
-    entries:
-        std::iter::Peekable<std::collections::btree_map::Range<'a, ContactKey, CachedManifold>>,
-}
-
-impl<'a> CacheCursor<'a> {
-    fn new(cache: &'a BTreeMap<ContactKey, CachedManifold>, from: ContactKey) -> Self {
-        Self {
-            entries: cache.range(from..).peekable(),
-        }
-    }
-
-    /// The entry for `key` (keys asked for must not decrease).
-    fn get(&mut self, key: &ContactKey) -> Option<&'a CachedManifold> {
-        while self.entries.next_if(|(k, _)| *k < key).is_some() {}
-        self.entries.next_if(|(k, _)| *k == key).map(|(_, v)| v)
-    }
-}
-
 /// The first cache key a pair could have.
 fn first_key(index: &BodyIndex, pair: &Pair) -> ContactKey {
     let key = |i: u32| {
@@ -167,7 +147,7 @@ pub(crate) fn find(
     index: &BodyIndex,
     links: &Links<'_>,
     broad: &BroadPhase,
-    cache: &BTreeMap<ContactKey, CachedManifold>,
+    cache: &ContactCache,
     touched: &BTreeSet<(BodyHandle, BodyHandle)>,
     dt: f64,
     memory: &mut Vec<Vec<FoundManifold>>,
@@ -191,7 +171,7 @@ pub(crate) fn find(
         let Some(first) = run.first() else {
             return out;
         };
-        let mut cursor = CacheCursor::new(cache, first_key(index, first));
+        let mut cursor = cache.cursor_from(&first_key(index, first));
         for pair in run {
             one_pair(
                 bodies,
@@ -226,7 +206,7 @@ fn one_pair(
     links: &Links<'_>,
     broad: &BroadPhase,
     pair: &Pair,
-    cache: &mut CacheCursor<'_>,
+    cache: &mut Cursor<'_>,
     touched: &BTreeSet<(BodyHandle, BodyHandle)>,
     dt: f64,
     out: &mut Narrow,

@@ -32,6 +32,7 @@
 //! either; nor does it depend on history the state does not record.
 
 mod bodies;
+mod cache;
 mod finish;
 mod manifolds;
 mod pairs;
@@ -42,6 +43,7 @@ use std::time::{Duration, Instant};
 
 use glam::{DQuat, DVec3};
 
+pub(crate) use cache::ContactCache;
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::profile::RigidProfile;
@@ -275,7 +277,7 @@ pub(crate) struct StepMemory {
 pub(crate) struct Contacts {
     /// Each manifold of the last step, with its impulses (world state:
     /// saved and hashed).
-    pub(crate) cache: BTreeMap<ContactKey, CachedManifold>,
+    pub(crate) cache: ContactCache,
     /// Pairs touching at the end of the last step, for begin/end events
     /// (world state: saved and hashed).
     pub(crate) touching: std::collections::BTreeSet<(BodyHandle, BodyHandle)>,
@@ -305,7 +307,7 @@ impl Contacts {
     /// Drops everything about a removed body.
     pub(crate) fn forget(&mut self, h: BodyHandle) {
         let id = (h.index, h.generation);
-        self.cache.retain(|k, _| k.a != id && k.b != id);
+        self.cache.retain(|k| k.a != id && k.b != id);
         self.touching.retain(|(a, b)| *a != h && *b != h);
         self.pairs.retain(|p| p.a != h && p.b != h);
         self.broad = None;

@@ -1,0 +1,173 @@
+//! The contact cache: each manifold of the last step with its impulses,
+//! in key order (world state: saved and hashed in that order).
+//!
+//! It is rebuilt every step from the manifolds found, which come in pair
+//! order, so in key order already: a sorted vector takes them as they are
+//! (a tree would allocate a node for every few of them and move each
+//! entry in), and the narrow phase's lookups, also in key order, walk it
+//! front to back.
+
+use std::collections::BTreeMap;
+
+use super::{CachedManifold, ContactKey};
+
+/// Each manifold of the last step, in increasing key order, keys unique.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct ContactCache {
+    entries: Vec<(ContactKey, CachedManifold)>,
+}
+
+impl ContactCache {
+    /// The cache of `entries`; sorted by key first where they are not (a
+    /// later entry wins over an earlier one with the same key).
+    pub(crate) fn new(mut entries: Vec<(ContactKey, CachedManifold)>) -> Self {
+        if !entries.is_sorted_by(|x, y| x.0 < y.0) {
+            // Stable: entries with the same key keep their order, so the
+            // last of them is the one kept.
+            entries.sort_by_key(|e| e.0);
+            entries.reverse();
+            entries.dedup_by_key(|e| e.0);
+            entries.reverse();
+        }
+        Self { entries }
+    }
+
+    /// Number of manifolds.
+    pub(crate) fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// The manifolds in key order.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (&ContactKey, &CachedManifold)> {
+        self.entries.iter().map(|(k, m)| (k, m))
+    }
+
+    /// Keeps the manifolds whose key `keep` accepts (asked in key order).
+    pub(crate) fn retain(&mut self, mut keep: impl FnMut(&ContactKey) -> bool) {
+        self.entries.retain(|(k, _)| keep(k));
+    }
+
+    /// Adds `fresh` (in key order, keys not in the cache), keeping the key
+    /// order: one merge of the two.
+    pub(crate) fn merge(&mut self, fresh: Vec<(ContactKey, CachedManifold)>) {
+        if fresh.is_empty() {
+            return;
+        }
+        let old = std::mem::take(&mut self.entries);
+        let mut out = Vec::with_capacity(old.len() + fresh.len());
+        let mut fresh = fresh.into_iter().peekable();
+        for entry in old {
+            while let Some(f) = fresh.next_if(|f| f.0 < entry.0) {
+                out.push(f);
+            }
+            if fresh.peek().is_some_and(|f| f.0 == entry.0) {
+                // A key in both: the fresh manifold replaces the old one.
+                continue;
+            }
+            out.push(entry);
+        }
+        out.extend(fresh);
+        *self = Self::new(out);
+    }
+
+    /// A cursor from the first key not below `from`.
+    pub(crate) fn cursor_from(&self, from: &ContactKey) -> Cursor<'_> {
+        let at = self.entries.partition_point(|(k, _)| k < from);
+        Cursor {
+            rest: &self.entries[at..],
+        }
+    }
+}
+
+impl From<BTreeMap<ContactKey, CachedManifold>> for ContactCache {
+    fn from(map: BTreeMap<ContactKey, CachedManifold>) -> Self {
+        Self {
+            entries: map.into_iter().collect(),
+        }
+    }
+}
+
+/// Walks the cache in key order alongside a run of pairs (which ask for
+/// keys in increasing order): each lookup is a step or two instead of a
+/// search.
+pub(crate) struct Cursor<'a> {
+    rest: &'a [(ContactKey, CachedManifold)],
+}
+
+impl<'a> Cursor<'a> {
+    /// The manifold of `key` (keys asked for must not decrease).
+    pub(crate) fn get(&mut self, key: &ContactKey) -> Option<&'a CachedManifold> {
+        while let Some(((k, _), rest)) = self.rest.split_first() {
+            if k >= key {
+                break;
+            }
+            self.rest = rest;
+        }
+        match self.rest.first() {
+            Some((k, m)) if k == key => {
+                self.rest = &self.rest[1..];
+                Some(m)
+            }
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn key(a: u32, child: u32) -> ContactKey {
+        ContactKey {
+            a: (a, 0),
+            b: (a + 1, 0),
+            child_a: child,
+            child_b: 0,
+        }
+    }
+
+    fn manifold(x: f64) -> CachedManifold {
+        CachedManifold {
+            normal_a: glam::DVec3::new(x, 0.0, 0.0),
+            reference: None,
+            points: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn unsorted_entries_are_sorted_and_the_last_of_a_key_wins() {
+        let c = ContactCache::new(vec![
+            (key(3, 0), manifold(1.0)),
+            (key(1, 0), manifold(2.0)),
+            (key(3, 0), manifold(3.0)),
+        ]);
+        let got: Vec<(u32, f64)> = c.iter().map(|(k, m)| (k.a.0, m.normal_a.x)).collect();
+        assert_eq!(got, [(1, 2.0), (3, 3.0)]);
+    }
+
+    #[test]
+    fn merging_keeps_key_order_and_fresh_entries_replace_old_ones() {
+        let mut c = ContactCache::new(vec![
+            (key(1, 0), manifold(1.0)),
+            (key(5, 0), manifold(5.0)),
+        ]);
+        c.merge(vec![
+            (key(0, 0), manifold(0.5)),
+            (key(5, 0), manifold(50.0)),
+            (key(9, 0), manifold(9.0)),
+        ]);
+        let got: Vec<(u32, f64)> = c.iter().map(|(k, m)| (k.a.0, m.normal_a.x)).collect();
+        assert_eq!(got, [(0, 0.5), (1, 1.0), (5, 50.0), (9, 9.0)]);
+    }
+
+    #[test]
+    fn a_cursor_finds_keys_asked_in_order() {
+        let c = ContactCache::new((0..10).map(|i| (key(2 * i, 0), manifold(i as f64))).collect());
+        let mut cursor = c.cursor_from(&key(3, 0));
+        assert!(cursor.get(&key(3, 0)).is_none());
+        assert_eq!(cursor.get(&key(4, 0)).map(|m| m.normal_a.x), Some(2.0));
+        assert!(cursor.get(&key(4, 1)).is_none());
+        assert_eq!(cursor.get(&key(18, 0)).map(|m| m.normal_a.x), Some(9.0));
+        assert!(cursor.get(&key(19, 0)).is_none());
+    }
+}
