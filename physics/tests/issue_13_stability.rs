@@ -303,3 +303,58 @@ fn a_world_at_rest_answers_every_change() {
     }
     assert!(w.body(b).unwrap().center_of_mass().x > before.x + 0.2);
 }
+
+/// Stacks where each box is ten (or a thousand) times heavier than the one
+/// under it: the soft contacts under a light box gave way in proportion to
+/// the mass ratio (a 1 : 1000 pair sank 28 cm into each other and the
+/// ground, a 1 : 10 : 100 : 1000 stack 70 cm), and a five-box stack
+/// collapsed through the ground.
+#[test]
+fn issue_13_heavy_boxes_on_light_ones_do_not_sink_through() {
+    for (boxes, ratio) in [(2usize, 1000.0f64), (4, 10.0), (5, 10.0)] {
+        for hz in [60.0, 120.0] {
+            let mut w = world_with_ground();
+            let stack: Vec<BodyHandle> = (0..boxes)
+                .map(|i| {
+                    let density = 10.0 * ratio.powi(i as i32);
+                    let pose = Pose::from_translation(DVec3::Y * (0.5 + i as f64));
+                    let desc = RigidBodyDesc::dynamic(
+                        Shape::cuboid(DVec3::splat(0.5)).unwrap(),
+                        density,
+                        pose,
+                    )
+                    .unwrap();
+                    w.add_body(&desc).unwrap()
+                })
+                .collect();
+            let centre = |w: &World, i: usize| w.body(stack[i]).unwrap().center_of_mass();
+            common::run(&mut w, 1.0 / hz, (2.0 * hz) as usize);
+            let settled: Vec<DVec3> = (0..boxes).map(|i| centre(&w, i)).collect();
+            let mut deepest = 0.0f64;
+            for _ in 0..(2.0 * hz) as usize {
+                w.step(1.0 / hz).unwrap();
+                for i in 0..boxes {
+                    let floor = if i == 0 {
+                        0.0
+                    } else {
+                        centre(&w, i - 1).y + 0.5
+                    };
+                    deepest = deepest.max(floor - (centre(&w, i).y - 0.5));
+                }
+            }
+            let drift = (0..boxes)
+                .map(|i| (centre(&w, i) - settled[i]).length())
+                .fold(0.0, f64::max);
+            assert!(
+                deepest < 0.01,
+                "{boxes} boxes at 1 : {ratio} a level, {hz} Hz: {:.1} mm deep",
+                deepest * 1e3
+            );
+            assert!(
+                drift < 1e-3,
+                "{boxes} boxes at 1 : {ratio} a level, {hz} Hz: drifted {:.2} mm",
+                drift * 1e3
+            );
+        }
+    }
+}

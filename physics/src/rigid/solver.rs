@@ -871,6 +871,62 @@ impl ContactConstraint {
         }
     }
 
+    /// Shock propagation (Guendelman, Bridson & Fedkiw, "Nonconvex rigid
+    /// bodies with stacking", SIGGRAPH 2003): the pass solved once more,
+    /// whole (friction, twist and the normal rows), on a copy of the
+    /// constraint prepared with the lower body held still (A when
+    /// `hold_a`), so the upper body ends it resting on the lower one
+    /// whatever their masses. (Point by point, a light body under a heavy
+    /// one passes on only about its own mass's worth of the heavy one's
+    /// momentum a pass, and the heavy one sank through it.) Only the upper
+    /// body's velocity changes; the copy's impulses are dropped, since the
+    /// warm start would apply them to both bodies.
+    pub(crate) fn solve_held(
+        &self,
+        a: &mut SolverBody,
+        b: &mut SolverBody,
+        hold_a: bool,
+        stick_speed: f64,
+        pass: &ContactPass,
+    ) {
+        let (mut held_a, mut held_b) = (*a, *b);
+        let held = if hold_a { &mut held_a } else { &mut held_b };
+        held.inv_mass = 0.0;
+        held.inv_inertia = DMat3::ZERO;
+        let mut copy = ContactConstraint {
+            block: None,
+            ..self.clone_without_block()
+        };
+        copy.prepare(&held_a, &held_b, DVec3::ZERO, stick_speed, pass);
+        copy.solve(&mut held_a, &mut held_b, pass);
+        if hold_a {
+            *b = held_b;
+        } else {
+            *a = held_a;
+        }
+    }
+
+    /// A copy without the normal block's factors (which [`Self::prepare`]
+    /// makes again).
+    fn clone_without_block(&self) -> Self {
+        Self {
+            a: self.a,
+            b: self.b,
+            normal: self.normal,
+            friction_static: self.friction_static,
+            friction_dynamic: self.friction_dynamic,
+            restitution: self.restitution,
+            len: self.len,
+            rows: self.rows,
+            friction: self.friction,
+            twist: self.twist,
+            twist_radius: self.twist_radius,
+            sticking: self.sticking,
+            closing_accel: self.closing_accel,
+            block: None,
+        }
+    }
+
     /// The points' separations now, from how far the anchors have moved
     /// since the start of the step, m: `n · (dq r)` is `(dq⁻¹ n) · r`, so
     /// each body's rotation turns the normal once instead of every anchor.

@@ -269,10 +269,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     } else {
         0
     };
-    let pb = progress(
-        (specs.len() * cases.len() + demo_cases) as u64,
-        "physics",
-    );
+    let pb = progress((specs.len() * cases.len() + demo_cases) as u64, "physics");
     let mut out = Suspended::new(&pb, sink);
     let sink: &mut dyn Sink = &mut out;
     let t_all = Instant::now();

@@ -16,8 +16,7 @@
 use glam::DVec3;
 
 use super::convex::{
-    convex_convex, convex_convex_from, gjk_start, manifold_from_features, Convex, Feature,
-    Polytope,
+    convex_convex, convex_convex_from, gjk_start, manifold_from_features, Convex, Feature, Polytope,
 };
 use super::gjk::{gjk, gjk_within, GjkResult};
 use super::{pack_id, Contact};
@@ -70,9 +69,7 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
     // when there is one (polytopes have no radius, so it is the answer
     // `convex_convex` would find).
     let general = |early: Option<GjkResult>| match early {
-        Some(found) if a.radius + b.radius == 0.0 => {
-            convex_convex_from(a, b, spec, scale, found)
-        }
+        Some(found) if a.radius + b.radius == 0.0 => convex_convex_from(a, b, spec, scale, found),
         _ => convex_convex(a, b, spec),
     };
     let pa = a.polytope()?;

@@ -147,10 +147,7 @@ mod tests {
 
     #[test]
     fn merging_keeps_key_order_and_fresh_entries_replace_old_ones() {
-        let mut c = ContactCache::new(vec![
-            (key(1, 0), manifold(1.0)),
-            (key(5, 0), manifold(5.0)),
-        ]);
+        let mut c = ContactCache::new(vec![(key(1, 0), manifold(1.0)), (key(5, 0), manifold(5.0))]);
         c.merge(vec![
             (key(0, 0), manifold(0.5)),
             (key(5, 0), manifold(50.0)),
@@ -162,7 +159,11 @@ mod tests {
 
     #[test]
     fn a_cursor_finds_keys_asked_in_order() {
-        let c = ContactCache::new((0..10).map(|i| (key(2 * i, 0), manifold(i as f64))).collect());
+        let c = ContactCache::new(
+            (0..10)
+                .map(|i| (key(2 * i, 0), manifold(i as f64)))
+                .collect(),
+        );
         let mut cursor = c.cursor_from(&key(3, 0));
         assert!(cursor.get(&key(3, 0)).is_none());
         assert_eq!(cursor.get(&key(4, 0)).map(|m| m.normal_a.x), Some(2.0));

@@ -5,8 +5,8 @@
 use std::collections::BTreeSet;
 
 use super::bodies::{BodyIndex, Links};
-use super::pairs::{leaves, pair_bodies, speculative_distance};
 use super::cache::Cursor;
+use super::pairs::{leaves, pair_bodies, speculative_distance};
 use super::{
     CachedManifold, CachedPoint, ContactCache, ContactKey, Reference, ANCHOR_MATCH_DISTANCE,
     RECYCLE_DRIFT,
@@ -142,6 +142,7 @@ fn first_key(index: &BodyIndex, pair: &Pair) -> ContactKey {
 
 /// Manifolds and constraints of every pair. Runs of consecutive pairs are
 /// the parallel work items; results are joined in pair order.
+#[allow(clippy::too_many_arguments)] // the stage's inputs, each read as is
 pub(crate) fn find(
     bodies: &Arena<RigidBody>,
     index: &BodyIndex,

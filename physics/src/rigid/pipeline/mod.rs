@@ -36,6 +36,7 @@ mod cache;
 mod finish;
 mod manifolds;
 mod pairs;
+mod shock;
 mod substeps;
 
 use std::collections::BTreeMap;
@@ -43,7 +44,6 @@ use std::time::{Duration, Instant};
 
 use glam::{DQuat, DVec3};
 
-pub(crate) use cache::ContactCache;
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::profile::RigidProfile;
@@ -52,6 +52,7 @@ use crate::rigid::broad_phase::BroadPhase;
 use crate::rigid::forces::BodyField;
 use crate::rigid::joint::Joint;
 use crate::rigid::solver::SolverConfig;
+pub(crate) use cache::ContactCache;
 
 /// Contacts closer than this are kept as speculative points, m.
 pub const SPECULATIVE_DISTANCE: f64 = 0.02;

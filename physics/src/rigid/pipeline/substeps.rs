@@ -5,6 +5,7 @@ use glam::{DQuat, DVec3};
 
 use super::bodies::BodyIndex;
 use super::manifolds::Found;
+use super::shock::Shock;
 use super::{StepInputs, StepMemory};
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
@@ -44,6 +45,9 @@ pub(crate) struct Solve {
     joint_groups: colouring::Groups,
     /// Centre of mass and principal rotation of each body at the start.
     pub(crate) start: Vec<(DVec3, DQuat)>,
+    /// The contacts solved again with their lower body held (heavy bodies
+    /// over light ones), in order.
+    shock: Shock,
 }
 
 impl Solve {
@@ -105,6 +109,7 @@ impl Solve {
             );
         };
         found.place_in(&solve_order, &mut placed, prepare);
+        let shock = Shock::new(&placed, &solver_bodies, &movable, stick_speed);
         let start = bodies
             .iter()
             .map(|(_, _, b)| (b.com, b.principal_rotation()))
@@ -125,6 +130,7 @@ impl Solve {
             movable,
             joint_rows,
             start,
+            shock,
         }
     }
 
@@ -215,6 +221,10 @@ impl Solve {
             self.contacts(|c, a, b| c.warm_start(a, b));
             self.joints(|j, a, b| j.solve(a, b, h, true));
             self.contacts(|c, a, b| c.solve(a, b, &solve));
+            if !self.shock.is_empty() {
+                self.shock
+                    .run(&mut self.constraints, &mut self.bodies, &solve);
+            }
             crate::parallel::par_map_chunks3(
                 &mut refs,
                 &mut self.bodies,
