@@ -24,6 +24,14 @@
 //! which is what stops fast bodies without continuous collision in most
 //! cases.
 //!
+//! A soft contact gives way in proportion to its load over its effective
+//! mass, and one pass passes on about the lighter body's mass worth of
+//! momentum, so a heavy body on a light one sank through it (and the
+//! light one through the ground). Those contacts, and every contact under
+//! them down to the ground, are solved once more each substep, lowest
+//! first, with the lower body held still (`ContactConstraint::solve_held`,
+//! ordered by `pipeline/shock.rs`).
+//!
 //! Friction is Coulomb: each point has two tangent impulses clamped to
 //! `μ · normal impulse`, with the static coefficient while the point sticks
 //! and the dynamic one once it slides.

@@ -68,8 +68,8 @@
 //! deepest, the one farthest from it, the one making the largest triangle
 //! with those two, and the one adding the most area on the other side
 //! (Gregorius's reduction), a near tie going to the point clipped first
-//! ([`tie_margin`]), so that a resting pair keeps its points. The last
-//! three are looked for first among the points within [`SUPPORT_BAND`] of
+//! (`tie_margin`), so that a resting pair keeps its points. The last
+//! three are looked for first among the points within `SUPPORT_BAND` of
 //! the deepest, which bear the load, so that a tilted box keeps them
 //! rather than points hovering on its high side. Feature ids
 //! hash the reference and incident face indices and, per point, the
