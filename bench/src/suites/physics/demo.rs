@@ -23,7 +23,7 @@ use crate::BenchError;
 /// The case's name (what `--only` matches).
 pub const NAME: &str = "demo";
 
-/// Timed ticks (30 s of simulated time), and with `--quick`.
+/// Timed ticks (30 s of simulated time).
 pub const STEPS: usize = 1800;
 /// Timed ticks with `--quick`.
 pub const STEPS_QUICK: usize = 30;
