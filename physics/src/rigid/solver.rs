@@ -426,7 +426,6 @@ impl ContactPass {
 }
 
 /// Mutable references to two different bodies.
-#[cfg(test)]
 pub(crate) fn pair(
     bodies: &mut [SolverBody],
     a: usize,

@@ -382,40 +382,57 @@ fn rock(rng: &mut SplitMix64) -> Vec<DVec3> {
         .collect()
 }
 
-/// `mixed_pile`: `n` bodies — capsules, cylinders and 32-point convex hulls
-/// in turn, randomly oriented — on a 15 × 15 grid (0.9 m pitch) of layers
-/// (3000 bodies: 14 layers, the top one partly filled), dropped into a box
-/// container.
-pub fn mixed_pile(name: String, n: usize, steps: usize) -> Scene {
-    let mut s = Scene::new(name, steps, false, -1.0);
-    let side = if n >= 1000 { 15 } else { grid_side(n, 3) };
+/// `n` bodies dropped into a box container, randomly oriented, on a
+/// `side` × `side` grid of layers `pitch` m apart (`side` fitted to `n`
+/// for small piles), the lowest 1 m up; body `k` has shape `shape(k,
+/// rocks)`, where `rocks` are 8 hulls of [`HULL_POINTS`] points drawn first
+/// from the generator seeded with `seed`.
+fn pile(
+    mut s: Scene,
+    n: usize,
+    (side, pitch): (usize, f64),
+    seed: u64,
+    shape: impl Fn(usize, &[Arc<Vec<DVec3>>]) -> ShapeDesc,
+) -> Scene {
+    let side = if n >= 1000 { side } else { grid_side(n, 3) };
     let layers = n.div_ceil(side * side);
-    let pitch = 0.9;
     let half = 0.5 * side as f64 * pitch + 0.5;
     s.ground(0.0, 0.0, half + 2.0, half + 2.0);
     s.walls(half, layers as f64 * pitch + 1.5);
-    let mut rng = SplitMix64(0x0051_1E5A);
+    let mut rng = SplitMix64(seed);
     let rocks: Vec<Arc<Vec<DVec3>>> = (0..8).map(|_| Arc::new(rock(&mut rng))).collect();
     for k in 0..n {
         let (i, j, l) = (k % side, (k / side) % side, k / (side * side));
         let x = (i as f64 - (side as f64 - 1.0) / 2.0) * pitch;
         let z = (j as f64 - (side as f64 - 1.0) / 2.0) * pitch;
         let y = 1.0 + l as f64 * pitch;
-        let shape = match k % 3 {
-            0 => ShapeDesc::Capsule {
-                half_height: 0.2,
-                radius: 0.18,
-            },
-            1 => ShapeDesc::Cylinder {
-                half_height: 0.2,
-                radius: 0.25,
-            },
-            _ => ShapeDesc::ConvexHull(rocks[k % rocks.len()].clone()),
-        };
         let rotation = random_rotation(&mut rng);
-        s.add(Body::dynamic(shape, DVec3::new(x, y, z), rotation));
+        s.add(Body::dynamic(
+            shape(k, &rocks),
+            DVec3::new(x, y, z),
+            rotation,
+        ));
     }
     s
+}
+
+/// `mixed_pile`: `n` bodies — capsules, cylinders and 32-point convex hulls
+/// in turn, randomly oriented — on a 15 × 15 grid (0.9 m pitch) of layers
+/// (3000 bodies: 14 layers, the top one partly filled), dropped into a box
+/// container.
+pub fn mixed_pile(name: String, n: usize, steps: usize) -> Scene {
+    let s = Scene::new(name, steps, false, -1.0);
+    pile(s, n, (15, 0.9), 0x0051_1E5A, |k, rocks| match k % 3 {
+        0 => ShapeDesc::Capsule {
+            half_height: 0.2,
+            radius: 0.18,
+        },
+        1 => ShapeDesc::Cylinder {
+            half_height: 0.2,
+            radius: 0.25,
+        },
+        _ => ShapeDesc::ConvexHull(rocks[k % rocks.len()].clone()),
+    })
 }
 
 /// `convex_pile`: `n` convex hulls of [`HULL_POINTS`] points (the rocks of
@@ -424,25 +441,10 @@ pub fn mixed_pile(name: String, n: usize, steps: usize) -> Scene {
 /// a box container: Box3D's convex-pile benchmark, hull against hull
 /// only.
 pub fn convex_pile(name: String, n: usize, steps: usize) -> Scene {
-    let mut s = Scene::new(name, steps, false, -1.0);
-    let side = if n >= 1000 { 16 } else { grid_side(n, 3) };
-    let layers = n.div_ceil(side * side);
-    let pitch = 0.8;
-    let half = 0.5 * side as f64 * pitch + 0.5;
-    s.ground(0.0, 0.0, half + 2.0, half + 2.0);
-    s.walls(half, layers as f64 * pitch + 1.5);
-    let mut rng = SplitMix64(0x0C0E_7E11);
-    let rocks: Vec<Arc<Vec<DVec3>>> = (0..8).map(|_| Arc::new(rock(&mut rng))).collect();
-    for k in 0..n {
-        let (i, j, l) = (k % side, (k / side) % side, k / (side * side));
-        let x = (i as f64 - (side as f64 - 1.0) / 2.0) * pitch;
-        let z = (j as f64 - (side as f64 - 1.0) / 2.0) * pitch;
-        let y = 1.0 + l as f64 * pitch;
-        let shape = ShapeDesc::ConvexHull(rocks[k % rocks.len()].clone());
-        let rotation = random_rotation(&mut rng);
-        s.add(Body::dynamic(shape, DVec3::new(x, y, z), rotation));
-    }
-    s
+    let s = Scene::new(name, steps, false, -1.0);
+    pile(s, n, (16, 0.8), 0x0C0E_7E11, |k, rocks| {
+        ShapeDesc::ConvexHull(rocks[k % rocks.len()].clone())
+    })
 }
 
 /// `joint_grid`: an `n × n` curtain of spheres (radius 0.1 m, 0.25 m

@@ -14,7 +14,7 @@
 //! first, each with its lower body held still. Stacks of like masses
 //! never enter it, so they cost nothing more and move as before.
 
-use crate::rigid::solver::{ContactConstraint, ContactPass, SolverBody};
+use crate::rigid::solver::{pair, ContactConstraint, ContactPass, SolverBody};
 
 /// How many times heavier than the body under it a body must be for its
 /// contact to need the shock pass.
@@ -103,7 +103,7 @@ impl Shock {
     ) {
         for &(k, hold_a) in &self.order {
             let c = &mut constraints[k as usize];
-            let (a, b) = two(bodies, c.a, c.b);
+            let (a, b) = pair(bodies, c.a, c.b);
             c.solve_held(a, b, hold_a, self.stick_speed, pass);
         }
     }
@@ -150,16 +150,4 @@ fn levels(constraints: &[ContactConstraint], movable: &[bool]) -> Vec<u32> {
         }
     }
     level
-}
-
-/// Mutable references to two different bodies.
-fn two(bodies: &mut [SolverBody], a: usize, b: usize) -> (&mut SolverBody, &mut SolverBody) {
-    debug_assert_ne!(a, b);
-    if a < b {
-        let (lo, hi) = bodies.split_at_mut(b);
-        (&mut lo[a], &mut hi[0])
-    } else {
-        let (lo, hi) = bodies.split_at_mut(a);
-        (&mut hi[0], &mut lo[b])
-    }
 }
