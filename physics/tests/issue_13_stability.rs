@@ -358,3 +358,80 @@ fn issue_13_heavy_boxes_on_light_ones_do_not_sink_through() {
         }
     }
 }
+
+/// A heavy plank (3 t) across two light boxes (1.25 kg each): the soft
+/// contacts under the boxes gave way in proportion to the load they
+/// carried over the boxes' own mass, and the boxes sank into the ground
+/// (25 cm, all the way, before shock propagation; 17 cm with it, until
+/// those contacts measured their give from the load they carried).
+#[test]
+fn issue_13_a_heavy_plank_does_not_press_light_boxes_into_the_ground() {
+    let mut w = world_with_ground();
+    let light = |x: f64| {
+        RigidBodyDesc::dynamic(
+            Shape::cuboid(DVec3::splat(0.25)).unwrap(),
+            10.0,
+            Pose::from_translation(DVec3::new(x, 0.25, 0.0)),
+        )
+        .unwrap()
+    };
+    let boxes = [
+        w.add_body(&light(-1.0)).unwrap(),
+        w.add_body(&light(1.0)).unwrap(),
+    ];
+    let plank = w
+        .add_body(
+            &RigidBodyDesc::dynamic(
+                Shape::cuboid(DVec3::new(1.5, 0.1, 0.5)).unwrap(),
+                5000.0,
+                Pose::from_translation(DVec3::Y * 0.6),
+            )
+            .unwrap(),
+        )
+        .unwrap();
+    common::run(&mut w, DT, 300);
+    for b in boxes {
+        let y = w.body(b).unwrap().center_of_mass().y;
+        assert!(
+            (y - 0.25).abs() < 2e-3,
+            "a light box rests at {y} m, not 0.25"
+        );
+    }
+    let top = w.body(plank).unwrap().center_of_mass();
+    assert!((top.y - 0.6).abs() < 3e-3, "the plank rests at {top}");
+    assert!(
+        top.x.abs() < 0.01 && top.z.abs() < 0.01,
+        "the plank slid to {top}"
+    );
+}
+
+/// A box a hundred times heavier dropped 2 m onto a light one: the light
+/// one was driven into the ground and thrown out at 9 m/s.
+#[test]
+fn issue_13_a_heavy_box_dropped_on_a_light_one_does_not_drive_it_into_the_ground() {
+    let mut w = world_with_ground();
+    let cube = |density: f64, y: f64| {
+        RigidBodyDesc::dynamic(
+            Shape::cuboid(DVec3::splat(0.5)).unwrap(),
+            density,
+            Pose::from_translation(DVec3::Y * y),
+        )
+        .unwrap()
+    };
+    let light = w.add_body(&cube(10.0, 0.5)).unwrap();
+    let heavy = w.add_body(&cube(1000.0, 3.5)).unwrap();
+    let mut fastest = 0.0f64;
+    for _ in 0..300 {
+        w.step(DT).unwrap();
+        fastest = fastest.max(w.body(light).unwrap().linear_velocity().length());
+    }
+    assert!(fastest < 6.0, "the light box was thrown at {fastest} m/s");
+    for (name, h) in [("light", light), ("heavy", heavy)] {
+        let y = w.body(h).unwrap().center_of_mass().y;
+        assert!(
+            y > 0.495,
+            "the {name} box ends {:.1} mm into the ground",
+            (0.5 - y) * 1e3
+        );
+    }
+}

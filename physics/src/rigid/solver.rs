@@ -30,7 +30,9 @@
 //! light one through the ground). Those contacts, and every contact under
 //! them down to the ground, are solved once more each substep, lowest
 //! first, with the lower body held still (`ContactConstraint::solve_held`,
-//! ordered by `pipeline/shock.rs`).
+//! ordered by `pipeline/shock.rs`), and their resting points measure their
+//! soft give from the load they carried at the start of the step, not
+//! from zero (`ContactConstraint::carries_load`).
 //!
 //! Friction is Coulomb: each point has two tangent impulses clamped to
 //! `μ · normal impulse`, with the static coefficient while the point sticks
@@ -185,6 +187,10 @@ impl PointConstraint {
     }
 }
 
+/// Normal speed (m/s) below which a point counts as resting when it
+/// carries a heavier body's load.
+const RESTING_SPEED: f64 = 0.1;
+
 /// Most points one manifold's constraint holds.
 pub(crate) const MAX_POINTS: usize = crate::rigid::contact::MAX_POINTS;
 
@@ -242,6 +248,11 @@ pub(crate) struct NormalRows {
     pub(crate) base: Lanes,
     /// Accumulated impulse, N·s (kept across steps for warm starting).
     pub(crate) impulse: Lanes,
+    /// The impulse each point started the step with (its warm start), N·s:
+    /// for a contact that carries a heavier body's load (see
+    /// [`ContactConstraint::carries_load`]), what the soft contact holds
+    /// without giving way.
+    pub(crate) carried: Lanes,
     /// Largest impulse seen this step (a point that never pushed gets no
     /// restitution), N·s.
     pub(crate) max_impulse: Lanes,
@@ -285,6 +296,12 @@ pub(crate) struct ContactConstraint {
     /// or `None` when the block is not used (one point, or not positive
     /// definite).
     pub(crate) block: Option<Box<[Block; 2]>>,
+    /// Whether the contact carries a heavier body's load (it is in the
+    /// shock pass): its soft give is then measured from the load it
+    /// carried at the start of the step, not from zero. A soft contact
+    /// rests `load / (m ω²)` deep on its effective mass `m`, and under a
+    /// light body carrying a heavy one that depth grows with their ratio.
+    pub(crate) carries_load: bool,
 }
 
 /// What the constraint of one manifold is built from, as the narrow phase
@@ -480,6 +497,7 @@ impl ContactConstraint {
             rows.rb.set(i, p.rb);
             rows.base[i] = p.base_separation;
             rows.impulse[i] = p.normal_impulse;
+            rows.carried[i] = p.normal_impulse;
         }
         let mut c = Self {
             a,
@@ -496,6 +514,7 @@ impl ContactConstraint {
             sticking: false,
             closing_accel: 0.0,
             block: None,
+            carries_load: false,
         };
         c.gather_friction(&points[..len]);
         c
@@ -758,7 +777,7 @@ impl ContactConstraint {
             } else {
                 0.0
             };
-            let r = -(vn[i] + bias + soft * rows.k[i] * rows.impulse[i]);
+            let r = -(vn[i] + bias + soft * rows.k[i] * self.give(i));
             if i < len {
                 r
             } else {
@@ -783,6 +802,32 @@ impl ContactConstraint {
         }
         self.push(a, b, &x);
         true
+    }
+
+    /// Marks the contact as carrying a heavier body's load (see
+    /// [`Self::carries_load`]); points that met at more than
+    /// [`RESTING_SPEED`] this step carry none (their warm start may be an
+    /// impact's, not a load's).
+    pub(crate) fn carry_load(&mut self) {
+        self.carries_load = true;
+        let rows = &mut self.rows;
+        for i in 0..MAX_POINTS {
+            if rows.approach[i].abs() > RESTING_SPEED {
+                rows.carried[i] = 0.0;
+            }
+        }
+    }
+
+    /// The impulse point `i`'s soft give is measured by, N·s: all of it,
+    /// or what it gained since the step began for a contact that carries
+    /// a heavier body's load.
+    #[inline]
+    fn give(&self, i: usize) -> f64 {
+        if self.carries_load {
+            self.rows.impulse[i] - self.rows.carried[i]
+        } else {
+            self.rows.impulse[i]
+        }
     }
 
     /// Re-applies the accumulated impulses (warm start).
@@ -859,13 +904,14 @@ impl ContactConstraint {
                 (0.0, 1.0, 0.0)
             };
             let vn = self.normal_speed(a, b, i);
+            let give = self.give(i);
             let rows = &mut self.rows;
             let mass = if rows.k[i] > 0.0 {
                 1.0 / rows.k[i]
             } else {
                 0.0
             };
-            let impulse = -mass * ms * (vn + bias) - is * rows.impulse[i];
+            let impulse = -mass * ms * (vn + bias) - is * give;
             let total = (rows.impulse[i] + impulse).max(0.0);
             let applied = total - rows.impulse[i];
             rows.impulse[i] = total;
@@ -931,6 +977,7 @@ impl ContactConstraint {
             sticking: self.sticking,
             closing_accel: self.closing_accel,
             block: None,
+            carries_load: self.carries_load,
         }
     }
 

@@ -11,8 +11,11 @@
 //! [`HEAVY_OVER_LIGHT`] times its mass), which the solve passes cannot
 //! hold up: every such contact, and every contact below its lower body
 //! down to the ground, is solved once more per substep, lowest level
-//! first, each with its lower body held still. Stacks of like masses
-//! never enter it, so they cost nothing more and move as before.
+//! first, each with its lower body held still, and those contacts'
+//! resting points measure their soft give from the load they carried at
+//! the start of the step (`ContactConstraint::carries_load`). Stacks of
+//! like masses never enter it, so they cost nothing more and move as
+//! before.
 
 use crate::rigid::solver::{pair, ContactConstraint, ContactPass, SolverBody};
 
@@ -34,7 +37,7 @@ impl Shock {
     /// The shock pass over `constraints` (as stored) between bodies whose
     /// `movable` flags and inverse masses (`bodies`) are given by slot.
     pub(crate) fn new(
-        constraints: &[ContactConstraint],
+        constraints: &mut [ContactConstraint],
         bodies: &[SolverBody],
         movable: &[bool],
         stick_speed: f64,
@@ -86,6 +89,9 @@ impl Shock {
         }
         // Lowest level first (the walk above went from the top).
         order.reverse();
+        for &(k, _) in &order {
+            constraints[k as usize].carry_load();
+        }
         Self { order, stick_speed }
     }
 

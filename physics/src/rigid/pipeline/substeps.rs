@@ -109,7 +109,7 @@ impl Solve {
             );
         };
         found.place_in(&solve_order, &mut placed, prepare);
-        let shock = Shock::new(&placed, &solver_bodies, &movable, stick_speed);
+        let shock = Shock::new(&mut placed, &solver_bodies, &movable, stick_speed);
         let start = bodies
             .iter()
             .map(|(_, _, b)| (b.com, b.principal_rotation()))
