@@ -82,6 +82,10 @@ where
         }
     }
     let mut faces = start?;
+    // Room kept from one iteration to the next: the horizon's edges and the
+    // faces that survive it.
+    let mut edges: Vec<[usize; 2]> = Vec::with_capacity(16);
+    let mut kept: Vec<Face> = Vec::with_capacity(faces.len() + 8);
     let mut best = faces[0];
     for iterations in 0..MAX_ITERATIONS {
         let (bi, _) = faces
@@ -103,8 +107,8 @@ where
         let wi = pts.len();
         pts.push(w);
         // Remove the faces that see w, keep their horizon edges.
-        let mut edges: Vec<[usize; 2]> = Vec::new();
-        let mut kept = Vec::with_capacity(faces.len() + 8);
+        edges.clear();
+        kept.clear();
         for f in faces.drain(..) {
             if f.n.dot(w.w - pts[f.v[0]].w) > 0.0 {
                 for e in [[f.v[0], f.v[1]], [f.v[1], f.v[2]], [f.v[2], f.v[0]]] {
@@ -118,8 +122,8 @@ where
                 kept.push(f);
             }
         }
-        faces = kept;
-        for e in edges {
+        std::mem::swap(&mut faces, &mut kept);
+        for e in &edges {
             if let Some(f) = make_face(&pts, [e[0], e[1], wi]) {
                 faces.push(f);
             }
