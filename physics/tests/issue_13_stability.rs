@@ -13,7 +13,17 @@ const G: f64 = 9.81;
 const DT: f64 = 1.0 / 60.0;
 
 fn world_with_ground() -> World {
-    let mut w = common::world();
+    ground_world(1)
+}
+
+/// Gravity and a static ground whose top is at `y = 0`, stepped on
+/// `threads` threads.
+fn ground_world(threads: usize) -> World {
+    let mut w = World::new(inertia_physics::WorldConfig {
+        threads,
+        ..Default::default()
+    })
+    .unwrap();
     w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let ground = RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
@@ -441,17 +451,7 @@ fn issue_13_a_heavy_box_dropped_on_a_light_one_does_not_drive_it_into_the_ground
 #[test]
 fn heavy_over_light_stacks_step_identically_on_any_thread_count_and_after_a_restore() {
     let build = |threads: usize| {
-        let mut w = World::new(inertia_physics::WorldConfig {
-            threads,
-            ..Default::default()
-        })
-        .unwrap();
-        w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
-        w.add_body(&RigidBodyDesc::fixed(
-            Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
-            Pose::from_translation(DVec3::NEG_Y * 0.5),
-        ))
-        .unwrap();
+        let mut w = ground_world(threads);
         // Ten stacks of four, each box ten times the one under it, a little
         // off centre so that they lean and touch their neighbours.
         for s in 0..10 {
@@ -468,14 +468,7 @@ fn heavy_over_light_stacks_step_identically_on_any_thread_count_and_after_a_rest
         }
         w
     };
-    let hashes = |w: &mut World, n: usize| -> Vec<u64> {
-        (0..n)
-            .map(|_| {
-                w.step(DT).unwrap();
-                w.state_hash()
-            })
-            .collect()
-    };
+    let hashes = |w: &mut World, n: usize| common::state_hashes(w, DT, n);
     let (mut one, mut two) = (build(1), build(2));
     assert_eq!(
         hashes(&mut one, 60),

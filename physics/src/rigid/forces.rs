@@ -105,9 +105,11 @@ impl BodyField {
             force += f;
             torque += arm(centre).cross(f);
         }
-        let bounds = shape.aabb(&pose);
+        // The body's bounds, found only where there is a fluid to test.
+        let bounds = std::cell::OnceCell::new();
         for fluid in &self.buoyancy {
-            if lowest_along(&bounds, fluid.up) > fluid.surface_height + ABOVE_SURFACE_MARGIN {
+            let bounds = bounds.get_or_init(|| shape.aabb(&pose));
+            if lowest_along(bounds, fluid.up) > fluid.surface_height + ABOVE_SURFACE_MARGIN {
                 // Wholly above the surface: nothing submerged.
                 continue;
             }

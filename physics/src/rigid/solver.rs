@@ -32,7 +32,7 @@
 //! first, with the lower body held still (`ContactConstraint::solve_held`,
 //! ordered by `pipeline/shock.rs`), and their resting points measure their
 //! soft give from the load they carried at the start of the step, not
-//! from zero (`ContactConstraint::carries_load`).
+//! from zero (`NormalRows::carried`).
 //!
 //! Friction is Coulomb: each point has two tangent impulses clamped to
 //! `μ · normal impulse`, with the static coefficient while the point sticks
@@ -248,10 +248,12 @@ pub(crate) struct NormalRows {
     pub(crate) base: Lanes,
     /// Accumulated impulse, N·s (kept across steps for warm starting).
     pub(crate) impulse: Lanes,
-    /// The impulse each point started the step with (its warm start), N·s:
-    /// for a contact that carries a heavier body's load (see
-    /// [`ContactConstraint::carries_load`]), what the soft contact holds
-    /// without giving way.
+    /// The load each point carries without giving way, N·s: its warm
+    /// start for a resting point of a contact that carries a heavier
+    /// body's load ([`ContactConstraint::carry_load`]), else 0. A soft
+    /// contact rests `load / (m ω²)` deep on its effective mass `m`, and
+    /// under a light body carrying a heavy one that depth grows with their
+    /// ratio; measured from the load carried, it does not.
     pub(crate) carried: Lanes,
     /// Largest impulse seen this step (a point that never pushed gets no
     /// restitution), N·s.
@@ -296,12 +298,6 @@ pub(crate) struct ContactConstraint {
     /// or `None` when the block is not used (one point, or not positive
     /// definite).
     pub(crate) block: Option<Box<[Block; 2]>>,
-    /// Whether the contact carries a heavier body's load (it is in the
-    /// shock pass): its soft give is then measured from the load it
-    /// carried at the start of the step, not from zero. A soft contact
-    /// rests `load / (m ω²)` deep on its effective mass `m`, and under a
-    /// light body carrying a heavy one that depth grows with their ratio.
-    pub(crate) carries_load: bool,
 }
 
 /// What the constraint of one manifold is built from, as the narrow phase
@@ -317,19 +313,6 @@ pub(crate) struct ContactSource {
     pub(crate) points: [PointConstraint; MAX_POINTS],
     /// How many of `points` are used.
     pub(crate) len: usize,
-}
-
-impl ContactSource {
-    /// The constraint, not yet prepared.
-    pub(crate) fn build(&self) -> ContactConstraint {
-        ContactConstraint::new(
-            self.ends,
-            self.normal,
-            self.materials,
-            self.points,
-            self.len,
-        )
-    }
 }
 
 /// A lower-triangular Cholesky factor of a manifold's normal block, up to
@@ -480,16 +463,16 @@ fn relative_velocity(a: &SolverBody, b: &SolverBody, ra: DVec3, rb: DVec3) -> DV
 }
 
 impl ContactConstraint {
-    /// The constraint of a manifold with normal `normal` (from A to B) and
-    /// the first `len` of `points`, its friction gathered from the points'
-    /// cached shares.
-    pub(crate) fn new(
-        (a, b): (usize, usize),
-        normal: DVec3,
-        (friction_static, friction_dynamic, restitution): (f64, f64, f64),
-        points: [PointConstraint; MAX_POINTS],
-        len: usize,
-    ) -> Self {
+    /// The constraint of a manifold as the narrow phase hands it over (not
+    /// yet prepared), its friction gathered from the points' cached shares.
+    pub(crate) fn new(source: &ContactSource) -> Self {
+        let ContactSource {
+            ends: (a, b),
+            normal,
+            materials: (friction_static, friction_dynamic, restitution),
+            points,
+            len,
+        } = *source;
         let len = len.min(MAX_POINTS);
         let mut rows = NormalRows::default();
         for (i, p) in points[..len].iter().enumerate() {
@@ -497,7 +480,6 @@ impl ContactConstraint {
             rows.rb.set(i, p.rb);
             rows.base[i] = p.base_separation;
             rows.impulse[i] = p.normal_impulse;
-            rows.carried[i] = p.normal_impulse;
         }
         let mut c = Self {
             a,
@@ -514,7 +496,6 @@ impl ContactConstraint {
             sticking: false,
             closing_accel: 0.0,
             block: None,
-            carries_load: false,
         };
         c.gather_friction(&points[..len]);
         c
@@ -804,30 +785,25 @@ impl ContactConstraint {
         true
     }
 
-    /// Marks the contact as carrying a heavier body's load (see
-    /// [`Self::carries_load`]); points that met at more than
-    /// [`RESTING_SPEED`] this step carry none (their warm start may be an
-    /// impact's, not a load's).
+    /// Marks the contact as carrying a heavier body's load, before any
+    /// pass of the step: each resting point carries its warm start (see
+    /// [`NormalRows::carried`]); a point that met at more than
+    /// [`RESTING_SPEED`] carries none (its warm start may be an impact's,
+    /// not a load's).
     pub(crate) fn carry_load(&mut self) {
-        self.carries_load = true;
         let rows = &mut self.rows;
-        for i in 0..MAX_POINTS {
-            if rows.approach[i].abs() > RESTING_SPEED {
-                rows.carried[i] = 0.0;
+        for i in 0..self.len {
+            if rows.approach[i].abs() <= RESTING_SPEED {
+                rows.carried[i] = rows.impulse[i];
             }
         }
     }
 
-    /// The impulse point `i`'s soft give is measured by, N·s: all of it,
-    /// or what it gained since the step began for a contact that carries
-    /// a heavier body's load.
+    /// The impulse point `i`'s soft give is measured by, N·s: what it holds
+    /// beyond the load it carries.
     #[inline]
     fn give(&self, i: usize) -> f64 {
-        if self.carries_load {
-            self.rows.impulse[i] - self.rows.carried[i]
-        } else {
-            self.rows.impulse[i]
-        }
+        self.rows.impulse[i] - self.rows.carried[i]
     }
 
     /// Re-applies the accumulated impulses (warm start).
@@ -946,38 +922,13 @@ impl ContactConstraint {
         let held = if hold_a { &mut held_a } else { &mut held_b };
         held.inv_mass = 0.0;
         held.inv_inertia = DMat3::ZERO;
-        let mut copy = ContactConstraint {
-            block: None,
-            ..self.clone_without_block()
-        };
+        let mut copy = self.clone();
         copy.prepare(&held_a, &held_b, DVec3::ZERO, stick_speed, pass);
         copy.solve(&mut held_a, &mut held_b, pass);
         if hold_a {
             *b = held_b;
         } else {
             *a = held_a;
-        }
-    }
-
-    /// A copy without the normal block's factors (which [`Self::prepare`]
-    /// makes again).
-    fn clone_without_block(&self) -> Self {
-        Self {
-            a: self.a,
-            b: self.b,
-            normal: self.normal,
-            friction_static: self.friction_static,
-            friction_dynamic: self.friction_dynamic,
-            restitution: self.restitution,
-            len: self.len,
-            rows: self.rows,
-            friction: self.friction,
-            twist: self.twist,
-            twist_radius: self.twist_radius,
-            sticking: self.sticking,
-            closing_accel: self.closing_accel,
-            block: None,
-            carries_load: self.carries_load,
         }
     }
 
@@ -1064,7 +1015,13 @@ mod tests {
             base_separation: 0.5,
             ..PointConstraint::new(DVec3::ZERO, DVec3::new(0.0, -0.5, 0.0), 0.0, [0.0; 2])
         };
-        let mut c = ContactConstraint::new((0, 1), DVec3::Y, (0.6, 0.5, 0.0), points, 1);
+        let mut c = ContactConstraint::new(&ContactSource {
+            ends: (0, 1),
+            normal: DVec3::Y,
+            materials: (0.6, 0.5, 0.0),
+            points,
+            len: 1,
+        });
         let (solve, relax) = (
             ContactPass::new(&cfg, h, true),
             ContactPass::new(&cfg, h, false),
@@ -1121,7 +1078,13 @@ mod tests {
             ContactPass::new(&cfg, h, true),
             ContactPass::new(&cfg, h, false),
         );
-        let mut c = ContactConstraint::new((0, 1), DVec3::Y, (0.6, 0.6, 0.0), points, 4);
+        let mut c = ContactConstraint::new(&ContactSource {
+            ends: (0, 1),
+            normal: DVec3::Y,
+            materials: (0.6, 0.6, 0.0),
+            points,
+            len: 4,
+        });
         c.prepare(&bodies[0], &bodies[1], DVec3::ZERO, cfg.stick_speed, &solve);
         assert!(c.block.is_some());
         for _ in 0..8 {

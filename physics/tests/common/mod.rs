@@ -144,6 +144,16 @@ pub fn run(world: &mut World, dt: f64, n: usize) {
     }
 }
 
+/// The state hash after each of `n` steps of `dt`.
+pub fn state_hashes(world: &mut World, dt: f64, n: usize) -> Vec<u64> {
+    (0..n)
+        .map(|_| {
+            world.step(dt).unwrap();
+            world.state_hash()
+        })
+        .collect()
+}
+
 /// A tiny deterministic PRNG (splitmix64) for test scenes.
 pub struct Rng(pub u64);
 

@@ -16,7 +16,7 @@ use inertia_server::scene::demo::demo_scene;
 use inertia_physics::ProfileTotals;
 use serde_json::Value;
 
-use super::{percentile, stage_means, target_cpu_native};
+use super::{per_step_ms, percentile, stage_means, target_cpu_native};
 use crate::report::{median, Record};
 use crate::BenchError;
 
@@ -78,10 +78,7 @@ pub fn measure(threads: usize, warmup: usize, steps: usize) -> Result<Record, Be
 /// Mean wall time per timed tick of the particle stages (ropes, cloth,
 /// water), ms: the parts of `StepProfile` outside the rigid step.
 fn particle_stage_means(before: &ProfileTotals, after: &ProfileTotals) -> Value {
-    let steps = (after.steps - before.steps).max(1) as f64;
-    let ms = |a: std::time::Duration, b: std::time::Duration| {
-        Value::from(a.saturating_sub(b).as_secs_f64() * 1e3 / steps)
-    };
+    let ms = per_step_ms(before, after);
     let (a, b) = (&after.sum, &before.sum);
     serde_json::json!({
         "prepare": ms(a.prepare, b.prepare),

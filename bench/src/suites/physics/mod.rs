@@ -122,13 +122,20 @@ fn fell_through(end: &[DVec3], floor_y: f64) -> usize {
         .count()
 }
 
+/// A stage's mean wall time per step between two readings of the totals,
+/// ms, from its summed time in each (`after`, `before`).
+fn per_step_ms(
+    before: &ProfileTotals,
+    after: &ProfileTotals,
+) -> impl Fn(std::time::Duration, std::time::Duration) -> Value {
+    let steps = (after.steps - before.steps).max(1) as f64;
+    move |a, b| Value::from(a.saturating_sub(b).as_secs_f64() * 1e3 / steps)
+}
+
 /// Mean wall time per timed step of each stage of our rigid step, ms:
 /// where our time goes (see `inertia_physics::RigidProfile`).
 fn stage_means(before: &ProfileTotals, after: &ProfileTotals) -> Value {
-    let steps = (after.steps - before.steps).max(1) as f64;
-    let ms = |a: std::time::Duration, b: std::time::Duration| {
-        Value::from((a.saturating_sub(b)).as_secs_f64() * 1e3 / steps)
-    };
+    let ms = per_step_ms(before, after);
     let (a, b) = (&after.sum.rigid, &before.sum.rigid);
     serde_json::json!({
         "forces": ms(a.forces, b.forces),

@@ -355,7 +355,8 @@ pub(crate) fn convex_convex_from(
 ) -> Option<Contact> {
     let sa = |d: DVec3| a.core_support(d);
     let sb = |d: DVec3| b.core_support(d);
-    let init = b.pose.translation - a.pose.translation;
+    // From A's centre towards B's: the fallback axis.
+    let init = -gjk_start(a, b);
     let radii = a.radius + b.radius;
     let (normal, sep, pa, pb) = match found {
         GjkResult::Separated {

@@ -67,7 +67,7 @@ impl ContactCache {
             out.push(entry);
         }
         out.extend(fresh);
-        *self = Self::new(out);
+        self.entries = out;
     }
 
     /// A cursor from the first key not below `from`.

@@ -283,7 +283,7 @@ fn merge_touching(
 mod tests {
     use super::super::CachedPoint;
     use super::*;
-    use crate::rigid::solver::{PointConstraint, MAX_POINTS};
+    use crate::rigid::solver::{ContactSource, PointConstraint, MAX_POINTS};
 
     /// A one-point manifold between bodies 1 and 2 (child `child`) along
     /// `normal` that pushed with `impulse` N·s.
@@ -300,7 +300,13 @@ mod tests {
         };
         let mut points = [PointConstraint::default(); MAX_POINTS];
         points[0] = PointConstraint::new(DVec3::ZERO, DVec3::ZERO, 0.0, [0.0; 2]);
-        let mut c = ContactConstraint::new((0, 1), normal, (0.5, 0.5, 0.0), points, 1);
+        let mut c = ContactConstraint::new(&ContactSource {
+            ends: (0, 1),
+            normal,
+            materials: (0.5, 0.5, 0.0),
+            points,
+            len: 1,
+        });
         c.rows.total_impulse[0] = impulse;
         let kept = CachedManifold {
             normal_a: normal,

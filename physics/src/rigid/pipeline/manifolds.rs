@@ -98,7 +98,7 @@ impl Found {
         let places = &mut into.spare_capacity_mut()[..order.len()];
         crate::parallel::par_map_chunks(places, PLACE_ITEM, |base, chunk| {
             for (j, place) in chunk.iter_mut().enumerate() {
-                f(place.write(all[order[base + j] as usize].build()));
+                f(place.write(ContactConstraint::new(all[order[base + j] as usize])));
             }
         });
         // SAFETY: the chunks cover all of `places`, and each of its

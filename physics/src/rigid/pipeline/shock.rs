@@ -13,7 +13,7 @@
 //! down to the ground, is solved once more per substep, lowest level
 //! first, each with its lower body held still, and those contacts'
 //! resting points measure their soft give from the load they carried at
-//! the start of the step (`ContactConstraint::carries_load`). Stacks of
+//! the start of the step (`NormalRows::carried`). Stacks of
 //! like masses never enter it, so they cost nothing more and move as
 //! before.
 
@@ -42,11 +42,11 @@ impl Shock {
         movable: &[bool],
         stick_speed: f64,
     ) -> Self {
+        // The upper body more than `HEAVY_OVER_LIGHT` times the lower's
+        // mass, both movable (by inverse masses: no division a contact).
         let heavy_over_light = |lower: usize, upper: usize| {
-            let (lower, upper) = (&bodies[lower], &bodies[upper]);
-            movable_mass(lower).is_some_and(|m_lower| {
-                movable_mass(upper).is_some_and(|m_upper| m_upper > HEAVY_OVER_LIGHT * m_lower)
-            })
+            let (lower, upper) = (bodies[lower].inv_mass, bodies[upper].inv_mass);
+            upper > 0.0 && lower > HEAVY_OVER_LIGHT * upper
         };
         // Most worlds have no pair of touching bodies that far apart in
         // mass: then there is nothing to order.
@@ -95,11 +95,6 @@ impl Shock {
         Self { order, stick_speed }
     }
 
-    /// Whether there is nothing to solve.
-    pub(crate) fn is_empty(&self) -> bool {
-        self.order.is_empty()
-    }
-
     /// Solves the pass's contacts in order, on the calling thread.
     pub(crate) fn run(
         &self,
@@ -113,11 +108,6 @@ impl Shock {
             c.solve_held(a, b, hold_a, self.stick_speed, pass);
         }
     }
-}
-
-/// A body's mass (kg), or `None` for one no constraint moves.
-fn movable_mass(b: &SolverBody) -> Option<f64> {
-    (b.inv_mass > 0.0).then(|| 1.0 / b.inv_mass)
 }
 
 /// Each body's level (see the module note); `u32::MAX` for bodies no chain

@@ -221,10 +221,8 @@ impl Solve {
             self.contacts(|c, a, b| c.warm_start(a, b));
             self.joints(|j, a, b| j.solve(a, b, h, true));
             self.contacts(|c, a, b| c.solve(a, b, &solve));
-            if !self.shock.is_empty() {
-                self.shock
-                    .run(&mut self.constraints, &mut self.bodies, &solve);
-            }
+            self.shock
+                .run(&mut self.constraints, &mut self.bodies, &solve);
             crate::parallel::par_map_chunks3(
                 &mut refs,
                 &mut self.bodies,
