@@ -83,7 +83,7 @@ pub(crate) fn group(colours: &[u8]) -> Groups {
 
 /// A slice lent to the workers of one colour at a time: each worker takes
 /// the elements its constraints own.
-struct Shared<'a, T> {
+pub(crate) struct Shared<'a, T> {
     ptr: *mut T,
     len: usize,
     _lifetime: PhantomData<&'a mut [T]>,
@@ -96,7 +96,7 @@ struct Shared<'a, T> {
 unsafe impl<T: Send> Sync for Shared<'_, T> {}
 
 impl<'a, T> Shared<'a, T> {
-    fn new(items: &'a mut [T]) -> Self {
+    pub(crate) fn new(items: &'a mut [T]) -> Self {
         Self {
             ptr: items.as_mut_ptr(),
             len: items.len(),
@@ -105,7 +105,7 @@ impl<'a, T> Shared<'a, T> {
     }
 
     /// A copy of element `i` (one that nobody writes while this runs).
-    fn read(&self, i: usize) -> T
+    pub(crate) fn read(&self, i: usize) -> T
     where
         T: Copy,
     {
@@ -120,11 +120,27 @@ impl<'a, T> Shared<'a, T> {
     /// # Safety
     /// No other reference to element `i` may exist while the result lives.
     #[allow(clippy::mut_from_ref)]
-    unsafe fn get(&self, i: usize) -> &mut T {
+    pub(crate) unsafe fn get(&self, i: usize) -> &mut T {
         assert!(i < self.len, "index {i} out of {}", self.len);
         // SAFETY: in bounds (checked above); exclusive by the caller's
         // guarantee.
         unsafe { &mut *self.ptr.add(i) }
+    }
+
+    /// Elements `start..start + len`, exclusively.
+    ///
+    /// # Safety
+    /// No other reference to any of them may exist while the result lives.
+    #[allow(clippy::mut_from_ref)]
+    pub(crate) unsafe fn get_range(&self, start: usize, len: usize) -> &mut [T] {
+        assert!(
+            start <= self.len && len <= self.len - start,
+            "range {start}+{len} out of {}",
+            self.len
+        );
+        // SAFETY: in bounds (checked above); exclusive by the caller's
+        // guarantee.
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.add(start), len) }
     }
 }
 

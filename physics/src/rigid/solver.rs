@@ -37,8 +37,20 @@
 //! Friction is Coulomb: each point has two tangent impulses clamped to
 //! `μ · normal impulse`, with the static coefficient while the point sticks
 //! and the dynamic one once it slides.
+//!
+//! The constraints are prepared here in `f64`, one at a time; the step's
+//! passes run four constraints of a colour at a time in `f32`
+//! ([`wide`]), on the bodies' hot state ([`hot`]). The scalar passes below
+//! are the reference they are tested against, and what the shock pass
+//! runs.
 
 use glam::{DMat3, DQuat, DVec3};
+
+mod hot;
+mod lanes;
+mod wide;
+
+pub(crate) use wide::{WideContacts, WidePass};
 
 /// Tuning of the contact solver. Defaults follow Box2D v3's, which are
 /// chosen for 60 Hz worlds with 4 substeps.
@@ -806,7 +818,10 @@ impl ContactConstraint {
         self.rows.impulse[i] - self.rows.carried[i]
     }
 
-    /// Re-applies the accumulated impulses (warm start).
+    /// Re-applies the accumulated impulses (warm start). The scalar
+    /// reference of the wide pass (`wide::Batch::warm_start`), which the
+    /// step runs.
+    #[cfg(test)]
     pub(crate) fn warm_start(&self, a: &mut SolverBody, b: &mut SolverBody) {
         self.push(a, b, &self.rows.impulse);
         let [t1, t2] = self.tangents();
@@ -823,7 +838,9 @@ impl ContactConstraint {
     /// One pass: friction and twist at the centre (limited by the normal
     /// impulses so far), then non-penetration (soft when `pass.use_bias`):
     /// all points at once where possible, else point by point; so the
-    /// constraint that matters most is solved last.
+    /// constraint that matters most is solved last. The step runs it four
+    /// constraints at a time (`wide::Batch::solve`, tested against this),
+    /// and the shock pass runs it on one ([`Self::solve_held`]).
     pub(crate) fn solve(&mut self, a: &mut SolverBody, b: &mut SolverBody, pass: &ContactPass) {
         let n = self.normal;
         let mu = if self.sticking {

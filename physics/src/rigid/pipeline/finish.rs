@@ -53,6 +53,7 @@ pub(crate) fn finish(
         in_pair_order,
         joint_rows,
         start,
+        wide,
         ..
     } = solve;
 
@@ -194,6 +195,7 @@ pub(crate) fn finish(
         joint_rows,
         solver_bodies,
         found: manifolds.into_memory(),
+        wide,
     };
     out.start = start;
     out.quarantined = quarantined;

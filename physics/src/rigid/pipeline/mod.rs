@@ -271,6 +271,8 @@ pub(crate) struct StepMemory {
     pub(crate) solver_bodies: Vec<crate::rigid::solver::SolverBody>,
     /// The narrow phase's lists of manifolds found, one a run of pairs.
     pub(crate) found: Vec<Vec<manifolds::FoundManifold>>,
+    /// The contact constraints in batches, and the bodies' hot state.
+    pub(crate) wide: crate::rigid::solver::WideContacts,
 }
 
 /// Contact state carried from step to step.

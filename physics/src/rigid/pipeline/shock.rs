@@ -95,6 +95,16 @@ impl Shock {
         Self { order, stick_speed }
     }
 
+    /// Whether the pass has no contacts.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.order.is_empty()
+    }
+
+    /// The pass's contacts (their places in the stored constraints).
+    pub(crate) fn contacts(&self) -> impl Iterator<Item = usize> + '_ {
+        self.order.iter().map(|&(k, _)| k as usize)
+    }
+
     /// Solves the pass's contacts in order, on the calling thread.
     pub(crate) fn run(
         &self,

@@ -13,7 +13,7 @@ use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::colouring;
 use crate::rigid::joint::JointConstraint;
 use crate::rigid::motion::free_rotation;
-use crate::rigid::solver::{ContactConstraint, ContactPass, SolverBody};
+use crate::rigid::solver::{ContactConstraint, ContactPass, SolverBody, WideContacts, WidePass};
 
 /// Bodies per parallel work item when integrating them.
 const BODIES_PER_ITEM: usize = 512;
@@ -48,6 +48,10 @@ pub(crate) struct Solve {
     /// The contacts solved again with their lower body held (heavy bodies
     /// over light ones), in order.
     shock: Shock,
+    /// The constraints in batches of four for the contact passes, and the
+    /// bodies' hot state; the impulses are unpacked into `constraints`
+    /// where the shock pass and the end of the step read them.
+    pub(crate) wide: WideContacts,
 }
 
 impl Solve {
@@ -75,6 +79,7 @@ impl Solve {
             constraints: mut placed,
             joint_rows,
             mut solver_bodies,
+            mut wide,
             found: _,
         } = memory;
         solver_bodies.clear();
@@ -110,6 +115,7 @@ impl Solve {
         };
         found.place_in(&solve_order, &mut placed, prepare);
         let shock = Shock::new(&mut placed, &solver_bodies, &movable, stick_speed);
+        wide.pack(&placed, &groups, &colours, &movable);
         let start = bodies
             .iter()
             .map(|(_, _, b)| (b.com, b.principal_rotation()))
@@ -131,7 +137,19 @@ impl Solve {
             joint_rows,
             start,
             shock,
+            wide,
         }
+    }
+
+    /// Runs `f` on the contacts' batches with the bodies in their hot
+    /// state: loaded before, velocities stored after.
+    fn wide_contacts(&mut self, f: impl FnOnce(&mut WideContacts)) {
+        if self.wide.is_empty() {
+            return;
+        }
+        self.wide.load(&self.bodies);
+        f(&mut self.wide);
+        self.wide.store(&mut self.bodies, &self.movable);
     }
 
     /// Runs `f` on every contact constraint, colour by colour.
@@ -182,6 +200,7 @@ impl Solve {
             ContactPass::new(cfg, h, true),
             ContactPass::new(cfg, h, false),
         );
+        let (wide_solve, wide_relax) = (WidePass::new(&solve), WidePass::new(&relax));
         let mut quarantined = Vec::new();
         // The bodies in slot order, so the integration can run over chunks
         // of them in parallel (each body is its own work).
@@ -217,12 +236,25 @@ impl Solve {
                 },
             );
             quarantined.extend(frozen.into_iter().flatten().map(|k| index.handles[k]));
-            self.joints(|j, a, b| j.warm_start(a, b));
-            self.contacts(|c, a, b| c.warm_start(a, b));
-            self.joints(|j, a, b| j.solve(a, b, h, true));
-            self.contacts(|c, a, b| c.solve(a, b, &solve));
-            self.shock
-                .run(&mut self.constraints, &mut self.bodies, &solve);
+            let joints = !self.joint_rows.is_empty();
+            if joints {
+                self.joints(|j, a, b| j.warm_start(a, b));
+                self.wide_contacts(WideContacts::warm_start);
+                self.joints(|j, a, b| j.solve(a, b, h, true));
+                self.wide_contacts(|w| w.solve(&wide_solve));
+            } else {
+                self.wide_contacts(|w| {
+                    w.warm_start();
+                    w.solve(&wide_solve);
+                });
+            }
+            if !self.shock.is_empty() {
+                for k in self.shock.contacts() {
+                    self.wide.unpack_one(k, &mut self.constraints[k]);
+                }
+                self.shock
+                    .run(&mut self.constraints, &mut self.bodies, &solve);
+            }
             crate::parallel::par_map_chunks3(
                 &mut refs,
                 &mut self.bodies,
@@ -234,9 +266,12 @@ impl Solve {
                     }
                 },
             );
-            self.joints(|j, a, b| j.solve(a, b, h, false));
-            self.contacts(|c, a, b| c.solve(a, b, &relax));
+            if joints {
+                self.joints(|j, a, b| j.solve(a, b, h, false));
+            }
+            self.wide_contacts(|w| w.solve(&wide_relax));
         }
+        self.wide.unpack(&mut self.constraints);
         self.accel = accel;
         let threshold = cfg.restitution_threshold;
         if self.constraints.iter().any(|c| c.restitution != 0.0) {
