@@ -76,7 +76,7 @@ fn tumbling_brick() -> Result<Vec<(f64, DVec3)>, Box<dyn std::error::Error>> {
 fn pile() -> Result<(), Box<dyn std::error::Error>> {
     println!("\n5. 60 boxes, balls and capsules dropped on the ground (60 Hz, 4 substeps)");
     let mut world = World::new(WorldConfig::default())?;
-    world.set_body_gravity(DVec3::new(0.0, -9.81, 0.0))?;
+    world.set_gravity(DVec3::new(0.0, -9.81, 0.0))?;
     world.add_body(&RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(10.0, 0.5, 10.0))?,
         Pose::from_translation(DVec3::NEG_Y * 0.5),

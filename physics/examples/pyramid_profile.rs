@@ -19,7 +19,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         threads,
         ..WorldConfig::default()
     })?;
-    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0))?;
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0))?;
     let mut cfg = *w.solver_config();
     cfg.sleep.enabled = sleep;
     w.set_solver_config(cfg)?;

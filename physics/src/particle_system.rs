@@ -131,6 +131,12 @@ pub struct SystemDesc {
     pub collision_radius: f64,
     /// Friction coefficient of particles sliding on bodies.
     pub collision_friction: f64,
+    /// Multiplies the world's gravity ([`crate::World::set_gravity`]) on
+    /// this system's particles: 1 (the default) for particles that fall
+    /// like everything else, 0 for those that feel only the system's own
+    /// forces, negative for smoke that rises. A value that is not finite is
+    /// taken as 1.
+    pub gravity_scale: f64,
 }
 
 impl Default for SystemDesc {
@@ -140,6 +146,7 @@ impl Default for SystemDesc {
             max_substeps: 16,
             collision_radius: 0.0,
             collision_friction: 0.3,
+            gravity_scale: 1.0,
         }
     }
 }
@@ -174,6 +181,8 @@ pub struct ParticleSystem {
     /// Collision radius against rigid bodies, m (0 = off), and friction.
     pub(crate) collision_radius: f64,
     pub(crate) collision_friction: f64,
+    /// Multiplies the world's gravity on these particles.
+    pub(crate) gravity_scale: f64,
 
     // --- hot data, one entry per particle, dense ---
     /// Positions, m.
@@ -255,6 +264,11 @@ impl ParticleSystem {
                 desc.collision_friction.max(0.0)
             } else {
                 0.0
+            },
+            gravity_scale: if desc.gravity_scale.is_finite() {
+                desc.gravity_scale
+            } else {
+                1.0
             },
             position: Vec::new(),
             velocity: Vec::new(),

@@ -24,7 +24,7 @@ fn ground_world(threads: usize) -> World {
         ..Default::default()
     })
     .unwrap();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let ground = RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
         Pose::from_translation(DVec3::NEG_Y * 0.5),
@@ -190,7 +190,7 @@ fn issue_13_a_box_pushed_out_of_the_ground_does_not_sleep_inside_it() {
 /// along x on ground tilted by `angle` rad about z, at 60 Hz.
 fn roll(shape: Shape, r: f64, turn: DQuat, v0: f64, angle: f64, seconds: f64) -> (f64, f64) {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let tilt = DQuat::from_rotation_z(-angle);
     let ground = RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(60.0, 0.5, 5.0)).unwrap(),
@@ -296,7 +296,7 @@ fn a_world_at_rest_answers_every_change() {
         w.step(DT).unwrap();
     }
     assert!(height(&w) < 0.3, "the box did not fall: {}", height(&w));
-    w.set_body_gravity(DVec3::new(0.0, -2.0 * G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -2.0 * G, 0.0)).unwrap();
     while !w.body(b).unwrap().is_sleeping() {
         w.step(DT).unwrap();
     }

@@ -50,7 +50,7 @@ fn rel(err: f64, scale: f64) -> f64 {
 /// A world with gravity `G` and a static slab whose top is the plane y = 0.
 fn ground_world() -> (World, BodyHandle) {
     let mut w = common::world();
-    w.set_body_gravity(G).unwrap();
+    w.set_gravity(G).unwrap();
     let slab = Shape::cuboid(DVec3::new(50.0, 0.5, 50.0)).unwrap();
     let ground = w
         .add_body(&RigidBodyDesc::fixed(slab, at(0.0, -0.5, 0.0)))
@@ -415,7 +415,7 @@ fn throw_into_empty_space_lands_only_in_time() {
     assert!(w.predict_landing(b, 1e300).is_ok());
     // Alone in the world: nothing to land on.
     let mut alone = common::world();
-    alone.set_body_gravity(G).unwrap();
+    alone.set_gravity(G).unwrap();
     let b = ball(&mut alone, 0.2, at(0.0, 10.0, 0.0), DVec3::X);
     assert!(alone.predict_landing(b, 100.0).unwrap().is_none());
 }

@@ -12,7 +12,7 @@ const WATER: f64 = 1000.0;
 
 fn floating(shape: Shape, density_ratio: f64, pose: Pose) -> (World, inertia_physics::BodyHandle) {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
     // Equilibrium is approached slowly under heavy fluid drag: keep the body
     // awake so the test measures where it floats, not where it fell asleep.
     let mut cfg = *w.solver_config();
@@ -133,7 +133,7 @@ fn off_centre_wind_turns_a_weathervane() {
 #[test]
 fn body_drag_reaches_terminal_velocity() {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
     w.add_body_force(Drag::default()).unwrap();
     let mut d =
         RigidBodyDesc::dynamic(Shape::sphere(0.1).unwrap(), 1000.0, Pose::IDENTITY).unwrap();
@@ -308,9 +308,9 @@ fn particles_and_bodies_exchange_momentum() {
 /// the particles.
 #[test]
 fn particles_resting_on_a_body_weigh_on_it() {
-    use inertia_physics::{ParticleDesc, SystemDesc, UniformGravity};
+    use inertia_physics::{ParticleDesc, SystemDesc};
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
     w.add_body(&RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(5.0, 0.5, 5.0)).unwrap(),
         Pose::from_translation(DVec3::NEG_Y * 0.5),
@@ -329,7 +329,6 @@ fn particles_resting_on_a_body_weigh_on_it() {
         collision_friction: 0.5,
         ..SystemDesc::default()
     });
-    w.add_force(sys, UniformGravity::earth()).unwrap();
     let (n, m) = (25, 2.0);
     for i in 0..n {
         let p = DVec3::new((i % 5) as f64 * 0.2 - 0.4, 1.1, (i / 5) as f64 * 0.2 - 0.4);
@@ -404,7 +403,7 @@ fn springs_join_particles_and_bodies_both_ways() {
     // A 4 kg ball hanging from a pinned particle settles too, and the spring
     // that holds it is the only thing that does.
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
     let sys = w.add_system(SystemDesc::default());
     let hook = w
         .add_particle(

@@ -25,7 +25,7 @@ fn anchor(w: &mut World) -> BodyHandle {
 /// released at `theta0` from the vertical.
 fn pendulum(kind: JointKind, l: f64, r: f64, theta0: f64) -> (World, BodyHandle) {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let mut cfg = *w.solver_config();
     cfg.sleep.enabled = false;
     w.set_solver_config(cfg).unwrap();
@@ -104,7 +104,7 @@ fn a_ball_joint_pendulum_too() {
 #[test]
 fn a_fixed_joint_holds_a_cantilever() {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let wall = w
         .add_body(&RigidBodyDesc::fixed(
             Shape::cuboid(DVec3::splat(0.5)).unwrap(),
@@ -188,7 +188,7 @@ fn hinge_limits_and_motor() {
 #[test]
 fn a_distance_joint_with_a_spring_bounces_and_a_weak_joint_breaks() {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let top = anchor(&mut w);
     let weight = w
         .add_body(
@@ -225,7 +225,7 @@ fn a_distance_joint_with_a_spring_bounces_and_a_weak_joint_breaks() {
     );
 
     let mut w2 = common::world();
-    w2.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w2.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let top = anchor(&mut w2);
     let heavy = w2
         .add_body(
@@ -287,7 +287,7 @@ fn joints_are_saved_and_restored() {
 #[test]
 fn a_swing_twist_joint_holds_its_cone() {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let top = anchor(&mut w);
     // A rod hanging from the anchor, pushed sideways hard: the cone stops it at 0.4 rad.
     let rod = w
@@ -347,7 +347,7 @@ fn a_ragdoll_falls_down_stairs_and_comes_to_rest_in_one_piece() {
 fn ragdoll_down_stairs(lean: f64, turn: f64) {
     use inertia_physics::rigid::ragdoll::{build_ragdoll, RagdollDesc};
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     // Six steps climbing towards -z (0.2 m rise, 0.4 m run) above a floor.
     w.add_body(&RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(4.0, 0.5, 6.0)).unwrap(),

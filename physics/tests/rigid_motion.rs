@@ -29,7 +29,7 @@ fn brick(world: &mut World, omega: DVec3) -> BodyHandle {
 #[test]
 fn free_fall_follows_symplectic_euler_over_the_substeps_exactly() {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
     let ball = Shape::sphere(0.5).unwrap();
     let h = w
         .add_body(&RigidBodyDesc::dynamic(ball, 500.0, pose(DVec3::new(0.0, 100.0, 0.0))).unwrap())
@@ -163,7 +163,7 @@ fn impulse_at_a_point_changes_linear_and_angular_velocity() {
 #[test]
 fn static_and_kinematic_bodies() {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
     let ground = w
         .add_body(&RigidBodyDesc::fixed(
             Shape::cuboid(DVec3::new(10.0, 0.5, 10.0)).unwrap(),
@@ -222,7 +222,7 @@ fn bad_body_input_is_refused_and_changes_nothing() {
     assert!(w
         .set_body_control(h, DVec3::ZERO, DVec3::splat(f64::NAN))
         .is_err());
-    assert!(w.set_body_gravity(DVec3::splat(f64::NAN)).is_err());
+    assert!(w.set_gravity(DVec3::splat(f64::NAN)).is_err());
     assert_eq!(w.state_hash(), h0);
     w.remove_body(h).unwrap();
     assert!(w.body(h).is_none());
@@ -268,7 +268,7 @@ fn a_body_that_blows_up_is_quarantined_alone() {
 #[test]
 fn bodies_are_saved_restored_and_hashed() {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
     brick(&mut w, DVec3::new(0.1, 2.0, 0.3));
     let hull = Shape::convex_hull(&[
         DVec3::new(0.0, 0.0, 0.0),

@@ -24,7 +24,7 @@ fn slider(
     motor: Option<(f64, f64)>,
 ) -> (World, BodyHandle) {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let mut cfg = *w.solver_config();
     cfg.sleep.enabled = false;
     w.set_solver_config(cfg).unwrap();
@@ -194,7 +194,7 @@ fn steps_to_break(
     break_weights: f64,
 ) -> Option<usize> {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let base = w
         .add_body(&RigidBodyDesc::fixed(
             Shape::sphere(0.05).unwrap(),
@@ -326,7 +326,7 @@ fn two_free_bodies_on_a_driven_slider_keep_their_momentum() {
 fn a_prismatic_joint_is_saved_and_restored_bit_for_bit() {
     // Two dynamic bodies, a tilted axis, limits and a motor, all mid-motion.
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let mut cfg = *w.solver_config();
     cfg.sleep.enabled = false;
     w.set_solver_config(cfg).unwrap();

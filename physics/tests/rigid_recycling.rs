@@ -16,7 +16,7 @@ const DT: f64 = 1.0 / 60.0;
 /// off (so that bodies at rest keep being stepped).
 fn world_with_ground() -> World {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
     let mut cfg = *w.solver_config();
     cfg.sleep.enabled = false;
     w.set_solver_config(cfg).unwrap();

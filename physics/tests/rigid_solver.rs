@@ -12,7 +12,7 @@ const G: f64 = 9.81;
 
 fn world_with_ground(friction: f64, restitution: f64) -> World {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let mut ground = RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
         Pose::from_translation(DVec3::NEG_Y * 0.5),
@@ -47,7 +47,7 @@ fn slide_on(
     t: f64,
 ) -> (f64, f64, f64) {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     let tilt = DQuat::from_rotation_z(deg.to_radians());
     let mut slope = RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(30.0, 0.5, 5.0)).unwrap(),
@@ -306,7 +306,7 @@ fn pile(threads: usize) -> World {
         ..Default::default()
     })
     .unwrap();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     w.add_body(&RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
         Pose::from_translation(DVec3::NEG_Y * 0.5),
@@ -465,7 +465,7 @@ fn contact_force_events_report_the_weight() {
 #[test]
 fn bodies_leaving_the_world_bounds_are_removed_and_reported() {
     let mut w = common::world();
-    w.set_body_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     w.set_body_bounds(Some(inertia_physics::rigid::aabb::Aabb::new(
         DVec3::splat(-10.0),
         DVec3::splat(10.0),

@@ -100,7 +100,7 @@ struct Scene {
 
 fn build() -> Result<Scene, BenchError> {
     let mut world = World::new(WorldConfig::default())?;
-    world.set_body_gravity(DVec3::new(0.0, -9.81, 0.0))?;
+    world.set_gravity(DVec3::new(0.0, -9.81, 0.0))?;
     world.add_body(&RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(100.0, 1.0, 100.0))?,
         Pose::new(DVec3::new(0.0, -1.0, 0.0), DQuat::IDENTITY),

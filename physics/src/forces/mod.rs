@@ -101,7 +101,8 @@ pub(crate) struct ForceEntry {
 /// invariants hoisted out of the per-particle loop.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct FieldForces {
-    /// Sum of uniform gravities, m/s².
+    /// The world's gravity (times the system's gravity scale) plus the
+    /// system's own uniform gravities, m/s².
     pub(crate) gravity: DVec3,
     pub(crate) drag: Option<Drag>,
     pub(crate) winds: Vec<CompiledWind>,
@@ -113,8 +114,12 @@ pub(crate) struct FieldForces {
 }
 
 impl FieldForces {
-    pub(crate) fn compile(sys: &ParticleSystem, t: f64, dt: f64) -> Self {
+    /// The forces on `sys` over the step `[t, t + dt]` (s), under the
+    /// world's uniform `gravity` (m/s², scaled by the system's gravity
+    /// scale) and the system's own forces.
+    pub(crate) fn compile(sys: &ParticleSystem, gravity: DVec3, t: f64, dt: f64) -> Self {
         let mut f = FieldForces {
+            gravity: gravity * sys.gravity_scale,
             t,
             dt,
             ..Default::default()

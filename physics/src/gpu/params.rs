@@ -6,6 +6,7 @@
 //! fresh [`Params`] and refuses, before anything is dispatched, what the
 //! shaders cannot do.
 
+use glam::DVec3;
 use bytemuck::Zeroable;
 use inertia_shaders::layout as wgsl;
 
@@ -63,9 +64,15 @@ pub(crate) fn check_supported(sys: &ParticleSystem) -> Result<(), PhysicsError> 
     Ok(())
 }
 
-/// The uniform block for stepping `sys` by `dt` s from time `t` s (one
-/// substep; the caller plans the substeps first).
-pub(crate) fn compile(sys: &ParticleSystem, t: f64, dt: f64) -> Result<Params, PhysicsError> {
+/// The uniform block for stepping `sys` by `dt` s from time `t` s under
+/// the world's `gravity` (m/s²) (one substep; the caller plans the
+/// substeps first).
+pub(crate) fn compile(
+    sys: &ParticleSystem,
+    gravity: DVec3,
+    t: f64,
+    dt: f64,
+) -> Result<Params, PhysicsError> {
     check_supported(sys)?;
     let dt32 = to_f32("time step dt", dt)?;
     if dt32 <= 0.0 {
@@ -73,7 +80,7 @@ pub(crate) fn compile(sys: &ParticleSystem, t: f64, dt: f64) -> Result<Params, P
             "time step dt = {dt} s rounds to 0 in the GPU backend's f32"
         )));
     }
-    let field = FieldForces::compile(sys, t, dt);
+    let field = FieldForces::compile(sys, gravity, t, dt);
     let mut p = Params::zeroed();
     p.gravity = vec4_f32("uniform gravity", field.gravity, 0.0)?;
     p.n = sys.len() as u32;

@@ -113,9 +113,11 @@ fn grid(ctx: &GpuContext, items: u32) -> Result<(u32, u32), PhysicsError> {
 /// copies positions, velocities and flags into the CPU arrays and returns
 /// kinetic and uniform-gravity energy summed on the CPU in index order;
 /// without it, returns zero energy and leaves the CPU arrays stale.
+/// `gravity` is the world's, m/s².
 pub(crate) fn step_system(
     ctx: &GpuContext,
     sys: &mut ParticleSystem,
+    gravity: DVec3,
     t: f64,
     dt: f64,
     readback: bool,
@@ -127,7 +129,7 @@ pub(crate) fn step_system(
     // refused before any work is submitted.
     let blocks = (0..substeps)
         .map(|k| {
-            let mut p = params::compile(sys, t + f64::from(k) * h, h)?;
+            let mut p = params::compile(sys, gravity, t + f64::from(k) * h, h)?;
             p.first_substep = u32::from(k == 0);
             Ok(p)
         })
@@ -198,7 +200,7 @@ pub(crate) fn step_system(
     if let Some(gpu) = sys.gpu.as_mut() {
         gpu.mirror_fresh = true;
     }
-    let g = FieldForces::compile(sys, t, dt);
+    let g = FieldForces::compile(sys, gravity, t, dt);
     let mut e = Energy::default();
     for i in 0..sys.len() {
         e.kinetic += 0.5 * sys.velocity[i].length_squared() / sys.inv_mass[i];

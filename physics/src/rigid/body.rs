@@ -124,7 +124,7 @@ pub struct RigidBodyDesc {
     pub linear_damping: f64,
     /// Angular damping, 1/s, applied like the linear one.
     pub angular_damping: f64,
-    /// Multiplies the world's rigid-body gravity (0 = floats, -1 = falls up).
+    /// Multiplies the world's gravity (0 = floats, -1 = falls up).
     pub gravity_scale: f64,
     /// Linear drag coefficient `b`, kg/s, used by a [`Drag`](crate::Drag) body force.
     pub drag_linear: f64,
@@ -358,6 +358,7 @@ impl RigidBodyDesc {
             rotation,
             linvel: self.linear_velocity,
             angvel: self.angular_velocity,
+            push_velocity: DVec3::ZERO,
             local_com: DVec3::ZERO,
             inv_mass: 0.0,
             principal: DQuat::IDENTITY,
@@ -456,6 +457,10 @@ pub struct RigidBody {
     pub(crate) linvel: DVec3,
     /// Angular velocity, rad/s, world.
     pub(crate) angvel: DVec3,
+    /// How fast the solver's position correction moved the centre of mass
+    /// over the last step beyond its velocity, m/s (see
+    /// [`RigidBody::push_velocity`]).
+    pub(crate) push_velocity: DVec3,
     /// Centre of mass in the body frame, m.
     pub(crate) local_com: DVec3,
     /// 1/kg; 0 for kinematic and static bodies.
@@ -519,6 +524,18 @@ impl RigidBody {
     /// Velocity of the centre of mass, m/s.
     pub fn linear_velocity(&self) -> DVec3 {
         self.linvel
+    }
+
+    /// How fast the solver's position correction moved the centre of mass
+    /// over the last step, beyond what its velocity moved it, m/s (averaged
+    /// over the step): push-out of overlaps, and joints pulled back
+    /// together. The correction moves the body without giving it velocity
+    /// (so an overlap does not launch it), so this is the one place to see
+    /// it: a body dropped into the ground and pushed out reads about its
+    /// overlap divided by the step. Zero for a body that overlaps nothing,
+    /// and for bodies the solver did not move (asleep, fixed, quarantined).
+    pub fn push_velocity(&self) -> DVec3 {
+        self.push_velocity
     }
 
     /// Angular velocity, rad/s, world frame.

@@ -34,16 +34,19 @@ use crate::particle_system::{
     Backend, ParticleSystem, Slot, FLAG_PINNED, FLAG_QUARANTINED, FREE, MAX_GROUPS,
 };
 use crate::rigid::body::RigidBody;
-use crate::rigid::pipeline::{CachedManifold, ContactCache, ContactKey};
+use crate::rigid::pipeline::{CachedManifold, ContactCache, ContactKey, PairContact};
 use crate::rigid::solver::SolverConfig;
 use crate::spring::{Spring, SpringParams};
 
 const MAGIC: &[u8; 8] = b"INRTWRLD";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 /// The oldest format version this build reads. Version 3 kept each
 /// manifold's impulses only: its manifolds are collided afresh on the
-/// first step after a restore.
+/// first step after a restore. Version 4 had no world gravity on
+/// particles (its systems restore with a gravity scale of 0, as their own
+/// forces carried their gravity), no push-out velocities and no contact
+/// pairs (the queries report none until the world steps).
 pub const OLDEST_FORMAT_VERSION: u32 = 3;
 
 /// Why a saved state could not be restored. The world is unchanged.
@@ -212,6 +215,7 @@ fn system<S: Sink>(s: &mut S, p: &ParticleSystem) {
     s.u32(p.max_substeps);
     s.f64(p.collision_radius);
     s.f64(p.collision_friction);
+    s.f64(p.gravity_scale);
     vec3s(s, &p.position);
     vec3s(s, &p.velocity);
     vec3s(s, &p.prev_position);
@@ -249,11 +253,12 @@ pub(crate) struct StateRef<'a> {
     pub(crate) time: f64,
     pub(crate) systems: &'a Arena<ParticleSystem>,
     pub(crate) bodies: &'a Arena<RigidBody>,
-    pub(crate) body_gravity: DVec3,
+    pub(crate) gravity: DVec3,
     pub(crate) body_forces: &'a Arena<ForceEntry>,
     pub(crate) solver: &'a SolverConfig,
     pub(crate) contacts: &'a ContactCache,
     pub(crate) touching: &'a BTreeSet<(BodyHandle, BodyHandle)>,
+    pub(crate) pairs: &'a [PairContact],
     pub(crate) body_bounds: Option<Aabb>,
     pub(crate) joints: &'a Arena<crate::rigid::joint::Joint>,
     pub(crate) attachments: &'a Arena<crate::rigid::attachment::Attachment>,
@@ -264,12 +269,13 @@ pub(crate) fn encode_world<S: Sink>(s: &mut S, w: &StateRef<'_>) {
     s.u64(w.tick);
     s.f64(w.time);
     arena(s, w.systems, system);
-    s.vec3(w.body_gravity);
+    s.vec3(w.gravity);
     arena(s, w.bodies, rigid::body);
     arena(s, w.body_forces, |s, f| force(s, &f.force));
     rigid::solver(s, w.solver);
     rigid::contacts(s, w.contacts);
     rigid::touching(s, w.touching);
+    rigid::pairs(s, w.pairs);
     rigid::bounds(s, w.body_bounds);
     arena(s, w.joints, rigid::joint);
     arena(s, w.attachments, rigid::attachment);
@@ -296,11 +302,12 @@ pub(crate) struct DecodedWorld {
     pub(crate) time: f64,
     pub(crate) systems: Arena<ParticleSystem>,
     pub(crate) bodies: Arena<RigidBody>,
-    pub(crate) body_gravity: DVec3,
+    pub(crate) gravity: DVec3,
     pub(crate) body_forces: Arena<ForceEntry>,
     pub(crate) solver: SolverConfig,
     pub(crate) contacts: BTreeMap<ContactKey, CachedManifold>,
     pub(crate) touching: BTreeSet<(BodyHandle, BodyHandle)>,
+    pub(crate) pairs: Vec<PairContact>,
     pub(crate) body_bounds: Option<Aabb>,
     pub(crate) joints: Arena<crate::rigid::joint::Joint>,
     pub(crate) attachments: Arena<crate::rigid::attachment::Attachment>,
@@ -472,6 +479,12 @@ impl<'a> Reader<'a> {
         if p.max_substeps == 0 {
             return invalid("max substeps is zero");
         }
+        // Before version 5 the world's gravity did not reach particles.
+        p.gravity_scale = if self.version >= 5 {
+            self.finite("system gravity scale")?
+        } else {
+            0.0
+        };
         p.position = self.vec3s("position")?;
         p.velocity = self.vec3s("velocity")?;
         p.prev_position = self.vec3s("previous position")?;
@@ -670,12 +683,13 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     let free = r.u32s()?;
     let systems = Arena::from_parts(entries, free)
         .ok_or_else(|| SnapshotError::Invalid("system free list is inconsistent".into()))?;
-    let body_gravity = r.vec3("body gravity")?;
+    let gravity = r.vec3("gravity")?;
     let bodies = r.arena(|r| r.body())?;
     let body_forces = r.arena(|r| Ok(ForceEntry { force: r.force()? }))?;
     let solver = r.solver()?;
     let contacts = r.contacts()?;
     let touching = r.touching()?;
+    let pairs = r.pairs()?;
     let body_bounds = r.bounds()?;
     let joints = r.arena(|r| r.joint())?;
     let attachments = r.arena(|r| r.attachment())?;
@@ -687,11 +701,12 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         time,
         systems,
         bodies,
-        body_gravity,
+        gravity,
         body_forces,
         solver,
         contacts,
         touching,
+        pairs,
         body_bounds,
         joints,
         attachments,

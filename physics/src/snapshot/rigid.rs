@@ -16,7 +16,9 @@ use crate::rigid::aabb::Aabb;
 use crate::rigid::attachment::Attachment;
 use crate::rigid::body::{BodyKind, CombineRule, RigidBody};
 use crate::rigid::joint::{Joint, JointDesc, JointKind};
-use crate::rigid::pipeline::{CachedManifold, CachedPoint, ContactCache, ContactKey, Reference};
+use crate::rigid::pipeline::{
+    CachedManifold, CachedPoint, ContactCache, ContactKey, PairContact, Reference,
+};
 use crate::rigid::pose::Pose;
 use crate::rigid::shape::Shape;
 use crate::rigid::solver::SolverConfig;
@@ -41,6 +43,7 @@ pub(super) fn body<S: Sink>(s: &mut S, b: &RigidBody) {
     quat(s, b.rotation);
     s.vec3(b.linvel);
     s.vec3(b.angvel);
+    s.vec3(b.push_velocity);
     s.vec3(b.local_com);
     s.f64(b.inv_mass);
     quat(s, b.principal);
@@ -169,6 +172,12 @@ impl Reader<'_> {
         let rotation = self.quat("body rotation")?;
         let linvel = self.vec3("body velocity")?;
         let angvel = self.vec3("body angular velocity")?;
+        // Version 4 and older did not keep the push-out.
+        let push_velocity = if self.version >= 5 {
+            self.vec3("body push velocity")?
+        } else {
+            DVec3::ZERO
+        };
         let local_com = self.vec3("body local centre of mass")?;
         let inv_mass = self.finite("body inverse mass")?;
         let principal = self.quat("body principal frame")?;
@@ -226,6 +235,7 @@ impl Reader<'_> {
             rotation,
             linvel,
             angvel,
+            push_velocity,
             local_com,
             inv_mass,
             principal,
@@ -475,6 +485,21 @@ pub(super) fn touching<S: Sink>(s: &mut S, set: &BTreeSet<(BodyHandle, BodyHandl
     }
 }
 
+/// The pairs in contact at the last step, as the rules' queries report them
+/// (in handle order).
+pub(super) fn pairs<S: Sink>(s: &mut S, pairs: &[PairContact]) {
+    s.u64(pairs.len() as u64);
+    for p in pairs {
+        for v in [p.a.index, p.a.generation, p.b.index, p.b.generation] {
+            s.u32(v);
+        }
+        s.vec3(p.normal);
+        s.f64(p.separation);
+        s.f64(p.impulse);
+        s.u32(p.points as u32);
+    }
+}
+
 pub(super) fn bounds<S: Sink>(s: &mut S, b: Option<Aabb>) {
     match b {
         None => s.u8(0),
@@ -502,6 +527,49 @@ impl Reader<'_> {
             set.insert((a, b));
         }
         Ok(set)
+    }
+
+    /// The pairs in contact (version 5 on; none before, and a restored
+    /// world's queries then report nothing until it steps).
+    pub(super) fn pairs(&mut self) -> Result<Vec<PairContact>, SnapshotError> {
+        if self.version < 5 {
+            return Ok(Vec::new());
+        }
+        let n = self.count(60)?;
+        let mut pairs: Vec<PairContact> = Vec::with_capacity(n);
+        let key = |h: BodyHandle| (h.index, h.generation);
+        for _ in 0..n {
+            let a = BodyHandle {
+                index: self.u32()?,
+                generation: self.u32()?,
+            };
+            let b = BodyHandle {
+                index: self.u32()?,
+                generation: self.u32()?,
+            };
+            let normal = self.vec3("contact pair normal")?;
+            let separation = self.finite("contact pair separation")?;
+            let impulse = self.finite("contact pair impulse")?;
+            let points = self.u32()? as usize;
+            if key(a) >= key(b) {
+                return invalid("a contact pair's bodies are not in handle order");
+            }
+            if pairs.last().is_some_and(|q| (key(q.a), key(q.b)) >= (key(a), key(b))) {
+                return invalid("contact pairs are not in handle order");
+            }
+            if (normal.length() - 1.0).abs() > 1e-6 || impulse < 0.0 || points == 0 {
+                return invalid("a contact pair's normal, impulse or point count is out of range");
+            }
+            pairs.push(PairContact {
+                a,
+                b,
+                normal,
+                separation,
+                impulse,
+                points,
+            });
+        }
+        Ok(pairs)
     }
 
     pub(super) fn bounds(&mut self) -> Result<Option<Aabb>, SnapshotError> {

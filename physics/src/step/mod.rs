@@ -89,16 +89,18 @@ pub(crate) struct State<'a> {
     pub(crate) verlet_dt: &'a mut f64,
 }
 
-/// Advances `sys` by `dt` from time `t`. Returns the energy of the new state
-/// and how many particles were quarantined (they carry `FLAG_NEW_QUARANTINE`).
+/// Advances `sys` by `dt` from time `t` under the world's `gravity`
+/// (m/s²). Returns the energy of the new state and how many particles were
+/// quarantined (they carry `FLAG_NEW_QUARANTINE`).
 pub(crate) fn step_system(
     sys: &mut ParticleSystem,
     scratch: &mut Scratch,
+    gravity: DVec3,
     t: f64,
     dt: f64,
 ) -> (ChunkOut, StageTimes) {
     sys.refresh_topology();
-    let field = FieldForces::compile(sys, t, dt);
+    let field = FieldForces::compile(sys, gravity, t, dt);
     let n = sys.position.len();
     let ParticleSystem {
         integrator,

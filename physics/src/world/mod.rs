@@ -111,8 +111,9 @@ pub struct World {
     time: f64,
     systems: Arena<ParticleSystem>,
     bodies: Arena<RigidBody>,
-    /// Uniform gravity on rigid bodies, m/s².
-    body_gravity: DVec3,
+    /// Uniform gravity on everything: rigid bodies and particles (each
+    /// scaled by its gravity scale), m/s².
+    gravity: DVec3,
     /// Force generators acting on every rigid body.
     body_forces: Arena<crate::forces::ForceEntry>,
     /// Bodies whose centre leaves this box are removed and reported.
@@ -169,7 +170,7 @@ impl World {
             time: 0.0,
             systems: Arena::default(),
             bodies: Arena::default(),
-            body_gravity: DVec3::ZERO,
+            gravity: DVec3::ZERO,
             body_forces: Arena::default(),
             body_bounds: None,
             joints: Arena::default(),
@@ -210,6 +211,34 @@ impl World {
     /// Simulation time, s (the sum of every step's `dt`).
     pub fn time(&self) -> f64 {
         self.time
+    }
+
+    /// Sets the world's uniform gravity, m/s², once for everything in it:
+    /// every rigid body (times its [gravity scale](crate::rigid::body::RigidBodyDesc::gravity_scale))
+    /// and every particle of every system, ropes and cloth included (times
+    /// the system's [`SystemDesc::gravity_scale`](crate::SystemDesc::gravity_scale)).
+    /// A system's own [`UniformGravity`](crate::forces::UniformGravity)
+    /// forces add to it. Zero until set; refused if not finite.
+    ///
+    /// ```
+    /// use inertia_physics::glam::DVec3;
+    /// use inertia_physics::{World, WorldConfig};
+    ///
+    /// let mut world = World::new(WorldConfig::default())?;
+    /// world.set_gravity(DVec3::new(0.0, -9.81, 0.0))?;
+    /// assert_eq!(world.gravity().y, -9.81);
+    /// assert!(world.set_gravity(DVec3::new(f64::NAN, 0.0, 0.0)).is_err());
+    /// assert_eq!(world.gravity().y, -9.81, "a refused value changes nothing");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn set_gravity(&mut self, gravity: DVec3) -> Result<(), PhysicsError> {
+        self.gravity = crate::error::finite3("gravity", gravity)?;
+        Ok(())
+    }
+
+    /// The world's uniform gravity, m/s².
+    pub fn gravity(&self) -> DVec3 {
+        self.gravity
     }
 
     /// Stage timings of the last step.
@@ -317,7 +346,7 @@ impl World {
         for (_, _, s) in self.systems.iter_mut() {
             match s.backend {
                 Backend::Cpu => {
-                    let (kinetic, gravity, quarantined) = step_cpu_system(s, t, dt, profile);
+                    let (kinetic, gravity, quarantined) = step_cpu_system(s, self.gravity, t, dt, profile);
                     energy.kinetic += kinetic;
                     energy.gravity_uniform += gravity;
                     if quarantined {
@@ -335,7 +364,7 @@ impl World {
                             .as_ref()
                             .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
                         let readback = self.config.gpu_readback_every_step;
-                        let e = crate::gpu::step_system(ctx, s, t, dt, readback)?;
+                        let e = crate::gpu::step_system(ctx, s, self.gravity, t, dt, readback)?;
                         energy.kinetic += e.kinetic;
                         energy.gravity_uniform += e.gravity_uniform;
                         // Flags are only current after a readback.
@@ -365,7 +394,7 @@ impl World {
             self.time,
             dt,
         );
-        let g = self.body_gravity + field.gravity;
+        let g = self.gravity + field.gravity;
         let inputs = pipeline::StepInputs {
             field: &field,
             gravity: g,
@@ -490,7 +519,7 @@ impl World {
         let mut total = Energy::default();
         for (_, _, s) in self.systems.iter_mut() {
             let mut e = potential_energy(s);
-            let field = crate::forces::FieldForces::compile(s, self.time, 1.0);
+            let field = crate::forces::FieldForces::compile(s, self.gravity, self.time, 1.0);
             for i in 0..s.len() {
                 e.kinetic += 0.5 * s.velocity[i].length_squared() / s.inv_mass[i];
                 e.gravity_uniform += field.gravity_potential(s.position[i], s.inv_mass[i]);
@@ -501,11 +530,12 @@ impl World {
     }
 }
 
-/// Steps one CPU system by `dt` from `t` in its planned substeps. Returns
-/// kinetic and uniform-gravity energy of the final state and whether any
-/// particle was quarantined.
+/// Steps one CPU system by `dt` from `t` in its planned substeps, under the
+/// world's `gravity` (m/s²). Returns kinetic and uniform-gravity energy of
+/// the final state and whether any particle was quarantined.
 fn step_cpu_system(
     s: &mut ParticleSystem,
+    gravity: DVec3,
     t: f64,
     dt: f64,
     profile: &mut StepProfile,
@@ -515,7 +545,7 @@ fn step_cpu_system(
     let mut scratch = std::mem::take(&mut s.scratch);
     let (mut last, mut quarantined) = (ChunkOut::default(), 0);
     for k in 0..n {
-        let (out, times) = step_system(s, &mut scratch, t + f64::from(k) * h, h);
+        let (out, times) = step_system(s, &mut scratch, gravity, t + f64::from(k) * h, h);
         profile.forces += Duration::from_secs_f64(times.forces);
         profile.integrate += Duration::from_secs_f64(times.integrate);
         quarantined += out.quarantined;

@@ -562,7 +562,7 @@ impl Sweep<'_> {
 impl World {
     /// The analytic path of a body's centre of mass from its current state
     /// (see [`ballistic`](crate::rigid::ballistic)): for a dynamic body the
-    /// world's body gravity times its gravity scale, with its linear damping
+    /// world's gravity times its gravity scale, with its linear damping
     /// as the drag rate (the continuous form of the per-substep
     /// `v / (1 + c h)`); kinematic bodies keep their velocity and static
     /// ones stay put. Force generators, scripted forces, contacts and
@@ -573,7 +573,7 @@ impl World {
     pub fn body_trajectory(&self, body: BodyHandle) -> Result<Trajectory, PhysicsError> {
         let b = self.body(body).ok_or(PhysicsError::UnknownBody(body))?;
         let (gravity, drag) = match b.kind {
-            BodyKind::Dynamic => (self.body_gravity * b.gravity_scale, b.linear_damping),
+            BodyKind::Dynamic => (self.gravity * b.gravity_scale, b.linear_damping),
             BodyKind::Kinematic | BodyKind::Static => (DVec3::ZERO, 0.0),
         };
         let velocity = if b.kind == BodyKind::Static {
@@ -613,7 +613,7 @@ impl World {
     /// use inertia_physics::{World, WorldConfig};
     ///
     /// let mut world = World::new(WorldConfig::default()).unwrap();
-    /// world.set_body_gravity(DVec3::new(0.0, -10.0, 0.0)).unwrap();
+    /// world.set_gravity(DVec3::new(0.0, -10.0, 0.0)).unwrap();
     /// let slab = Shape::cuboid(DVec3::new(50.0, 0.5, 50.0)).unwrap();
     /// let ground = world
     ///     .add_body(&RigidBodyDesc::fixed(slab, Pose::from_translation(-0.5 * DVec3::Y)))

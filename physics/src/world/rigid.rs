@@ -161,13 +161,6 @@ impl World {
         Ok(())
     }
 
-    /// Uniform gravity on every rigid body, m/s² (scaled per body by its
-    /// gravity scale). Zero until set.
-    pub fn set_body_gravity(&mut self, gravity: DVec3) -> Result<(), PhysicsError> {
-        self.body_gravity = finite3("body gravity", gravity)?;
-        Ok(())
-    }
-
     /// Contact solver settings.
     pub fn solver_config(&self) -> &SolverConfig {
         &self.solver
@@ -226,11 +219,8 @@ impl World {
     /// that both stayed put (asleep or fixed) report what the step that
     /// last solved them found.
     ///
-    /// What this reports is derived from the last step and is not part of
-    /// the saved state: a world restored from a save reports nothing until
-    /// it steps (and its resting pairs nothing until they wake). Logic that
-    /// must replay bit for bit across a save and a restore (a server's
-    /// rules) cannot branch on it yet.
+    /// What this reports is part of the saved state, so rules that branch
+    /// on it replay bit for bit across a save and a restore.
     ///
     /// ```
     /// use inertia_physics::glam::DVec3;
@@ -240,7 +230,7 @@ impl World {
     /// use inertia_physics::{World, WorldConfig};
     ///
     /// let mut world = World::new(WorldConfig::default())?;
-    /// world.set_body_gravity(DVec3::new(0.0, -9.81, 0.0))?;
+    /// world.set_gravity(DVec3::new(0.0, -9.81, 0.0))?;
     /// let ground = world.add_body(&RigidBodyDesc::fixed(
     ///     Shape::cuboid(DVec3::new(10.0, 0.5, 10.0))?,
     ///     Pose::from_translation(DVec3::NEG_Y * 0.5),
@@ -287,11 +277,6 @@ impl World {
     /// that stayed asleep are not re-measured.
     pub fn deepest_penetration(&self) -> f64 {
         self.contacts.deepest_penetration
-    }
-
-    /// The rigid-body gravity, m/s².
-    pub fn body_gravity(&self) -> DVec3 {
-        self.body_gravity
     }
 
     /// Attaches a force generator that acts on every rigid body: drag, wind

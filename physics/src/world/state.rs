@@ -14,11 +14,12 @@ impl World {
             time: self.time,
             systems: &self.systems,
             bodies: &self.bodies,
-            body_gravity: self.body_gravity,
+            gravity: self.gravity,
             body_forces: &self.body_forces,
             solver: &self.solver,
             contacts: &self.contacts.cache,
             touching: &self.contacts.touching,
+            pairs: &self.contacts.pairs,
             body_bounds: self.body_bounds,
             joints: &self.joints,
             attachments: &self.attachments,
@@ -85,12 +86,12 @@ impl World {
         self.time = decoded.time;
         self.systems = decoded.systems;
         self.bodies = decoded.bodies;
-        self.body_gravity = decoded.body_gravity;
+        self.gravity = decoded.gravity;
         self.body_forces = decoded.body_forces;
         self.solver = decoded.solver;
         self.contacts.cache = decoded.contacts.into();
         self.contacts.touching = decoded.touching;
-        self.contacts.pairs.clear();
+        self.contacts.pairs = decoded.pairs;
         self.body_bounds = decoded.body_bounds;
         self.joints = decoded.joints;
         self.attachments = decoded.attachments;

@@ -239,7 +239,7 @@ impl Rng {
 /// `hz` steps a second onto ground of restitution `e`.
 pub fn bounce_ratio(e: f64, h: f64, hz: f64) -> f64 {
     let mut w = world();
-    w.set_body_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
     let mut ground = RigidBodyDesc::fixed(
         Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
         Pose::from_translation(DVec3::NEG_Y * 0.5),

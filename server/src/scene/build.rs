@@ -18,7 +18,7 @@ use inertia_physics::rigid::solver::SolverConfig;
 use inertia_physics::{
     build_cloth, build_rope, BodyHandle, Buoyancy, ClothDesc, Drag, Explosion, Force,
     ParticleHandle, PhysicsError, RopeDesc, SpringParams, SpringStiffness, SystemDesc,
-    SystemHandle, UniformGravity, Wind, World, WorldConfig,
+    SystemHandle, Wind, World, WorldConfig,
 };
 use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
 
@@ -627,25 +627,14 @@ impl Builder {
         Ok(())
     }
 
-    fn particle_system(&mut self, at: &str, radius: f64) -> Result<SystemHandle, SceneError> {
+    fn particle_system(&mut self, radius: f64) -> SystemHandle {
+        // The world's gravity reaches the particles as it does the bodies.
         let sys = self.world.add_system(SystemDesc {
             collision_radius: radius,
             ..SystemDesc::default()
         });
-        let g = self.gravity.length();
-        if g > 0.0 {
-            self.world
-                .add_force(
-                    sys,
-                    UniformGravity {
-                        g,
-                        direction: self.gravity,
-                    },
-                )
-                .map_err(physics(at))?;
-        }
         self.systems.push(sys);
-        Ok(sys)
+        sys
     }
 
     fn particle_entities(
@@ -709,7 +698,7 @@ impl Builder {
         if desc.start == desc.end {
             return Err(invalid(format!("{at}.end"), "the ends must differ"));
         }
-        let sys = self.particle_system(at, radius)?;
+        let sys = self.particle_system(radius);
         let rope = build_rope(&mut self.world, sys, &desc).map_err(physics(at))?;
         // The particle-body spring is evaluated once per tick (not in the
         // rope's substeps), so it must be stable at the tick rate on its own:
@@ -786,7 +775,7 @@ impl Builder {
                 .map(|&(u, v)| (u as usize, v as usize))
                 .collect(),
         };
-        let sys = self.particle_system(at, radius)?;
+        let sys = self.particle_system(radius);
         let cloth = build_cloth(&mut self.world, sys, &desc).map_err(physics(at))?;
         self.particle_entities(
             &c.name,
@@ -1091,7 +1080,7 @@ pub(crate) fn build(file: &SceneFile, config: WorldConfig) -> Result<BuiltScene,
     let mut world = World::new(config).map_err(physics("."))?;
     let gravity = vec3("world.gravity", file.world.gravity)?;
     world
-        .set_body_gravity(gravity)
+        .set_gravity(gravity)
         .map_err(physics("world.gravity"))?;
     let substeps = file.world.solver_substeps;
     if !(1..=64).contains(&substeps) {

@@ -1,6 +1,6 @@
 //! A [`Scene`] built into an `inertia_physics::World`.
 //!
-//! Gravity is set explicitly (rigid-body gravity is zero until set), the
+//! Gravity is set explicitly (the world's gravity is zero until set), the
 //! solver runs [`SOLVER_ITERATIONS`] substeps, and sleeping
 //! is switched on or off for the whole world (`SolverConfig::sleep.enabled`)
 //! and for every body (`can_sleep`). Friction is one coefficient used as
@@ -80,7 +80,7 @@ impl Ours {
             gpu_readback_every_step: true,
             ..WorldConfig::default()
         })?;
-        world.set_body_gravity(DVec3::new(0.0, GRAVITY, 0.0))?;
+        world.set_gravity(DVec3::new(0.0, GRAVITY, 0.0))?;
         let mut cfg = SolverConfig {
             substeps: SOLVER_ITERATIONS as u32,
             ..SolverConfig::default()

@@ -53,6 +53,7 @@ pub(crate) fn finish(
         in_pair_order,
         joint_rows,
         start,
+        push_velocity,
         wide,
         ..
     } = solve;
@@ -179,6 +180,7 @@ pub(crate) fn finish(
             b.rotation = (start[k].1 * b.principal.inverse()).normalize();
             b.linvel = DVec3::ZERO;
             b.angvel = DVec3::ZERO;
+            b.push_velocity = DVec3::ZERO;
             if !frozen {
                 b.quarantined = true;
                 quarantined.push(index.handles[k]);
@@ -186,6 +188,7 @@ pub(crate) fn finish(
         } else if b.kind != BodyKind::Static {
             b.linvel = sb.v;
             b.angvel = sb.w;
+            b.push_velocity = push_velocity[k];
         }
     }
     let mut solver_bodies = solver_bodies;

@@ -286,9 +286,10 @@ pub(crate) struct Contacts {
     pub(crate) touching: std::collections::BTreeSet<(BodyHandle, BodyHandle)>,
     /// The broad phase; derived from the bodies and rebuilt after a restore.
     broad: Option<BroadPhase>,
-    /// The pairs in contact at the last step, in handle order (derived:
-    /// not saved). Pairs that stayed put (both asleep or fixed) keep the
-    /// entries of the step that last solved them; none after a restore.
+    /// The pairs in contact at the last step, in handle order (world
+    /// state: saved and hashed, since the rules read them). Pairs that
+    /// stayed put (both asleep or fixed) keep the entries of the step that
+    /// last solved them.
     pub(crate) pairs: Vec<PairContact>,
     /// The bodies' revision when the last step found nothing could move
     /// (derived): while it stands, no body needs a look to know it.

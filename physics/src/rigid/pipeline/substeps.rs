@@ -45,6 +45,9 @@ pub(crate) struct Solve {
     joint_groups: colouring::Groups,
     /// Centre of mass and principal rotation of each body at the start.
     pub(crate) start: Vec<(DVec3, DQuat)>,
+    /// How fast the position correction moved each body beyond its
+    /// velocity over the step, m/s, by slot (filled by [`Solve::run`]).
+    pub(crate) push_velocity: Vec<DVec3>,
     /// The contacts solved again with their lower body held (heavy bodies
     /// over light ones), in order.
     shock: Shock,
@@ -136,6 +139,7 @@ impl Solve {
             movable,
             joint_rows,
             start,
+            push_velocity: Vec::new(),
             shock,
             wide,
         }
@@ -205,7 +209,20 @@ impl Solve {
         // The bodies in slot order, so the integration can run over chunks
         // of them in parallel (each body is its own work).
         let mut refs: Vec<&mut RigidBody> = bodies.iter_mut().map(|(_, _, b)| b).collect();
-        let mut starts: Vec<DQuat> = self.start.iter().map(|s| s.1).collect();
+        // Each body's principal rotation at the start, and its push: how
+        // far the solver's position correction moved it, m, the sum over
+        // the substeps of `h (v_moved - v_relaxed)`, the velocity its
+        // position moved with less the one the relax pass left it (which
+        // carries no bias). It starts at `h v_0` so that every substep can
+        // take off `h v` from before its velocity update (the relaxed
+        // velocity of the one before, `v_0` for the first); the last
+        // relaxed velocity comes off after the substeps.
+        let mut starts: Vec<(DQuat, DVec3)> = self
+            .start
+            .iter()
+            .zip(&self.bodies)
+            .map(|(s, sb)| (s.1, sb.v * h))
+            .collect();
         // Out of `self` for the substeps, which solve through `self` too.
         let accel = std::mem::take(&mut self.accel);
         for _ in 0..n {
@@ -214,9 +231,12 @@ impl Solve {
                 &mut self.bodies,
                 &mut starts,
                 BODIES_PER_ITEM,
-                |base, bs, sbs, _| {
+                |base, bs, sbs, pushes| {
                     let mut frozen = Vec::new();
-                    for (i, (b, sb)) in bs.iter_mut().zip(sbs.iter_mut()).enumerate() {
+                    for (i, ((b, sb), (_, push))) in
+                        bs.iter_mut().zip(sbs.iter_mut()).zip(pushes).enumerate()
+                    {
+                        *push -= sb.v * h;
                         let (accel, torque) = (accel[base + i], external[base + i].1);
                         if !integrate_velocity(b, sb, accel, torque, h) {
                             // Non-finite: freeze it now, before a contact can
@@ -260,9 +280,10 @@ impl Solve {
                 &mut self.bodies,
                 &mut starts,
                 BODIES_PER_ITEM,
-                |_, bs, sbs, q0s| {
-                    for ((b, sb), q0) in bs.iter_mut().zip(sbs.iter_mut()).zip(q0s.iter()) {
+                |_, bs, sbs, starts| {
+                    for ((b, sb), (q0, push)) in bs.iter_mut().zip(sbs.iter_mut()).zip(starts) {
                         integrate_position(b, sb, *q0, h);
+                        *push += sb.v * h;
                     }
                 },
             );
@@ -273,6 +294,18 @@ impl Solve {
         }
         self.wide.unpack(&mut self.constraints);
         self.accel = accel;
+        self.push_velocity = starts
+            .iter()
+            .zip(&self.bodies)
+            .zip(&self.movable)
+            .map(|(((_, push), sb), &movable)| {
+                if movable {
+                    (*push - sb.v * h) / inputs.dt
+                } else {
+                    DVec3::ZERO
+                }
+            })
+            .collect();
         let threshold = cfg.restitution_threshold;
         if self.constraints.iter().any(|c| c.restitution != 0.0) {
             self.contacts(|c, a, b| c.restitute(a, b, threshold));
