@@ -18,6 +18,7 @@
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::pipeline::BodyIndex;
 
 /// When bodies fall asleep.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -99,8 +100,11 @@ fn find(parent: &mut [usize], mut i: usize) -> usize {
 /// by slot) are under the tolerances: push-out moves a body out of an
 /// overlap without giving it velocity, and a body still being pushed out
 /// of the ground is not resting.
+///
+/// Each pair costs two slot lookups (`index`); only awake bodies are timed.
 pub(crate) fn update(
     bodies: &mut Arena<RigidBody>,
+    index: &BodyIndex,
     touching: impl Iterator<Item = (BodyHandle, BodyHandle)>,
     start: &[(glam::DVec3, glam::DQuat)],
     cfg: &SleepConfig,
@@ -109,21 +113,24 @@ pub(crate) fn update(
     if !cfg.enabled {
         return;
     }
-    // Nothing awake: nothing to time or put to sleep (a settled world costs
-    // nothing here).
-    let awake = |b: &RigidBody| b.kind == BodyKind::Dynamic && !b.sleeping && !b.quarantined;
-    if !bodies.iter().any(|(_, _, b)| awake(b)) {
+    // Awake dynamic bodies by slot; with none, nothing to time or put to
+    // sleep (a settled world costs nothing here). Islands join dynamic
+    // bodies, asleep or not (a sleeping body touched this step can bridge
+    // two awake ones).
+    let awake: Vec<bool> = bodies
+        .iter()
+        .map(|(_, _, b)| b.kind == BodyKind::Dynamic && !b.sleeping && !b.quarantined)
+        .collect();
+    if !awake.contains(&true) {
         return;
     }
-    let slots: Vec<(u32, u32)> = bodies.iter().map(|(i, g, _)| (i, g)).collect();
-    let index_of = |h: BodyHandle| slots.binary_search(&(h.index, h.generation)).ok();
-    let mut parent: Vec<usize> = (0..slots.len()).collect();
     let dynamic: Vec<bool> = bodies
         .iter()
         .map(|(_, _, b)| b.kind == BodyKind::Dynamic)
         .collect();
+    let mut parent: Vec<usize> = (0..awake.len()).collect();
     for (a, b) in touching {
-        if let (Some(i), Some(j)) = (index_of(a), index_of(b)) {
+        if let (Some(i), Some(j)) = (index.slot(a), index.slot(b)) {
             if dynamic[i] && dynamic[j] {
                 let (ri, rj) = (find(&mut parent, i), find(&mut parent, j));
                 if ri != rj {
@@ -133,10 +140,10 @@ pub(crate) fn update(
         }
     }
     // Timers, and the least rested body of each island.
-    let mut island_min = vec![f64::INFINITY; slots.len()];
-    let mut can_sleep = vec![true; slots.len()];
+    let mut island_min = vec![f64::INFINITY; awake.len()];
+    let mut can_sleep = vec![true; awake.len()];
     for (k, (_, _, b)) in bodies.iter_mut().enumerate() {
-        if !dynamic[k] || b.sleeping || b.quarantined {
+        if !awake[k] {
             continue;
         }
         // A body the game is pushing (scripted force or torque) never rests.
@@ -158,7 +165,7 @@ pub(crate) fn update(
         can_sleep[root] &= b.can_sleep;
     }
     for (k, (_, _, b)) in bodies.iter_mut().enumerate() {
-        if !dynamic[k] || b.sleeping || b.quarantined {
+        if !awake[k] {
             continue;
         }
         let root = find(&mut parent, k);

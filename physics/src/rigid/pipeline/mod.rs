@@ -32,6 +32,7 @@
 //! either; nor does it depend on history the state does not record.
 
 mod bodies;
+pub(crate) use bodies::BodyIndex;
 mod cache;
 mod finish;
 mod manifolds;
@@ -448,6 +449,7 @@ pub(crate) fn step(
     let links = bodies::Links::new(joints, &contacts.touching);
     crate::rigid::island::update(
         bodies,
+        &index,
         links.all(),
         &out.start,
         &inputs.cfg.sleep,

@@ -154,8 +154,13 @@ pub(crate) struct WideContacts {
     colours: Vec<(Range<usize>, bool)>,
     /// Where each stored constraint is: its batch and lane.
     lanes: Vec<(u32, u8)>,
-    /// The bodies by slot, then one at rest that padding lanes read.
+    /// The bodies by slot, then one at rest that padding lanes read; only
+    /// those in `used` are loaded (the others are never read).
     hot: Vec<HotBody>,
+    /// The slots of the bodies the constraints join, in order: all that
+    /// the passes load and store, so bodies no contact touches (a sleeping
+    /// crowd beside a few moving ones) cost nothing in them.
+    used: Vec<u32>,
 }
 
 /// `x` as `f32` lanes of a vector.
@@ -222,6 +227,15 @@ impl WideContacts {
             }
             self.colours.push((start..self.batches.len(), overflow));
         }
+        // The bodies the constraints join.
+        let mut seen = vec![false; movable.len()];
+        for c in constraints {
+            seen[c.a] = true;
+            seen[c.b] = true;
+        }
+        self.used.clear();
+        self.used
+            .extend((0..movable.len() as u32).filter(|&k| seen[k as usize]));
         // The contents, batch by batch in parallel.
         self.points.clear();
         self.points.resize(points as usize, WidePoint::default());
@@ -269,27 +283,31 @@ impl WideContacts {
         });
     }
 
-    /// Copies the bodies into the hot state (all of each: the integration
-    /// moves them and may freeze one between passes).
+    /// Copies the bodies the constraints join into the hot state (all of
+    /// each: the integration moves them and may freeze one between passes).
     pub(crate) fn load(&mut self, bodies: &[SolverBody]) {
         self.hot.resize(bodies.len() + 1, HotBody::default());
-        let (hot, rest) = self.hot.split_at_mut(bodies.len());
-        rest[0] = HotBody::default();
-        crate::parallel::par_map_chunks(hot, BODY_ITEM, |base, chunk| {
-            for (h, b) in chunk.iter_mut().zip(&bodies[base..]) {
-                *h = HotBody::of(b);
+        self.hot[bodies.len()] = HotBody::default();
+        let hot = Shared::new(&mut self.hot);
+        crate::parallel::par_map_chunks(&mut self.used, BODY_ITEM, |_, chunk| {
+            for &k in chunk.iter() {
+                // SAFETY: each slot is once in `used`.
+                unsafe { *hot.get(k as usize) = HotBody::of(&bodies[k as usize]) };
             }
         });
     }
 
-    /// Copies the hot state's velocities into the `movable` bodies.
-    pub(crate) fn store(&self, bodies: &mut [SolverBody], movable: &[bool]) {
-        let hot = &self.hot;
-        crate::parallel::par_map_chunks(bodies, BODY_ITEM, |base, chunk| {
-            for ((b, h), &m) in chunk.iter_mut().zip(&hot[base..]).zip(&movable[base..]) {
-                if m {
-                    b.v = h.v();
-                    b.w = h.w();
+    /// Copies the hot state's velocities into the `movable` bodies the
+    /// constraints join.
+    pub(crate) fn store(&mut self, bodies: &mut [SolverBody], movable: &[bool]) {
+        let (hot, out) = (&self.hot, Shared::new(bodies));
+        crate::parallel::par_map_chunks(&mut self.used, BODY_ITEM, |_, chunk| {
+            for &k in chunk.iter() {
+                if movable[k as usize] {
+                    // SAFETY: each slot is once in `used`.
+                    let b = unsafe { out.get(k as usize) };
+                    b.v = hot[k as usize].v();
+                    b.w = hot[k as usize].w();
                 }
             }
         });
