@@ -625,6 +625,20 @@ impl ContactConstraint {
         stick_speed: f64,
         solve: &ContactPass,
     ) {
+        self.prepare_rows(a, b, accel, stick_speed);
+        self.block = self.factor_block(a, b, solve).map(Box::new);
+    }
+
+    /// [`Self::prepare`] but for the normal block, which is left out (the
+    /// wide passes factor it where they pack the constraint, into their
+    /// own lanes, so that the step allocates nothing for it).
+    pub(crate) fn prepare_rows(
+        &mut self,
+        a: &SolverBody,
+        b: &SolverBody,
+        accel: DVec3,
+        stick_speed: f64,
+    ) {
         let n = self.normal;
         let linear = n.dot(b.v - a.v);
         let closing_accel = (-n.dot(accel)).max(0.0);
@@ -647,7 +661,7 @@ impl ContactConstraint {
         self.twist.prepare_angular(a, b, n);
         let dv = relative_velocity(a, b, ca, cb);
         self.sticking = (dv - n * n.dot(dv)).length() < stick_speed;
-        self.block = self.factor_block(a, b, solve).map(Box::new);
+        self.block = None;
     }
 
     /// The normal block `K_ij = J_i M⁻¹ J_jᵀ` of the points (how a unit
@@ -656,7 +670,7 @@ impl ContactConstraint {
     /// K_ii`, see [`Self::solve_normals_block`]) or the relax pass barely
     /// regularised; factored for both passes.
     #[allow(clippy::needless_range_loop)] // i, j index a symmetric matrix
-    fn factor_block(
+    pub(crate) fn factor_block(
         &self,
         a: &SolverBody,
         b: &SolverBody,

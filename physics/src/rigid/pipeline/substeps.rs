@@ -108,17 +108,16 @@ impl Solve {
         let (in_pair_order, solve_order) = into_solve_order(&mut colours, &mut groups);
         let prepare = |c: &mut ContactConstraint| {
             let relative = accel[c.b] - accel[c.a];
-            c.prepare(
+            c.prepare_rows(
                 &solver_bodies[c.a],
                 &solver_bodies[c.b],
                 relative,
                 stick_speed,
-                solve,
             );
         };
         found.place_in(&solve_order, &mut placed, prepare);
         let shock = Shock::new(&mut placed, &solver_bodies, &movable, stick_speed);
-        wide.pack(&placed, &groups, &colours, &movable);
+        wide.pack(&placed, &groups, &colours, &movable, &solver_bodies, solve);
         let start = bodies
             .iter()
             .map(|(_, _, b)| (b.com, b.principal_rotation()))

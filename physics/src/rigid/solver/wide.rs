@@ -169,15 +169,19 @@ fn f32s(v: glam::DVec3) -> [f32; 3] {
 }
 
 impl WideContacts {
-    /// Batches of the `constraints` (stored colour by colour, as `groups`
-    /// and `colours` say), between bodies whose `movable` flags are given
-    /// by slot; in the room of `self`, whatever it held.
+    /// Batches of the prepared `constraints` (stored colour by colour, as
+    /// `groups` and `colours` say), between `bodies` whose `movable` flags
+    /// are given by slot, each with the normal block of its points
+    /// factored for the `solve` pass's softness (and the relax pass's); in
+    /// the room of `self`, whatever it held.
     pub(crate) fn pack(
         &mut self,
         constraints: &[ContactConstraint],
         groups: &Groups,
         colours: &[u8],
         movable: &[bool],
+        bodies: &[SolverBody],
+        solve: &ContactPass,
     ) {
         let rest = movable.len() as u32;
         // The layout, in order: which constraints each batch takes (a
@@ -274,8 +278,9 @@ impl WideContacts {
                     unsafe { *lanes.get(k as usize) = (at as u32, l as u8) };
                     let c = &constraints[k as usize];
                     batch.set_lane(l, c, movable, pts);
-                    if let (Some(wide), Some(factors)) = (&mut block, &c.block) {
-                        wide.set_lane(l, factors, batch.count as usize);
+                    let factors = || c.factor_block(&bodies[c.a], &bodies[c.b], solve);
+                    if let (Some(wide), Some(factors)) = (&mut block, factors()) {
+                        wide.set_lane(l, &factors, batch.count as usize);
                         batch.has_block.as_mut_array()[l] = f32::from_bits(u32::MAX);
                     }
                 }
@@ -288,6 +293,16 @@ impl WideContacts {
     pub(crate) fn load(&mut self, bodies: &[SolverBody]) {
         self.hot.resize(bodies.len() + 1, HotBody::default());
         self.hot[bodies.len()] = HotBody::default();
+        if self.used.len() == bodies.len() {
+            // Every body: straight through.
+            let hot = &mut self.hot[..bodies.len()];
+            crate::parallel::par_map_chunks(hot, BODY_ITEM, |base, chunk| {
+                for (h, b) in chunk.iter_mut().zip(&bodies[base..]) {
+                    *h = HotBody::of(b);
+                }
+            });
+            return;
+        }
         let hot = Shared::new(&mut self.hot);
         crate::parallel::par_map_chunks(&mut self.used, BODY_ITEM, |_, chunk| {
             for &k in chunk.iter() {
@@ -300,7 +315,19 @@ impl WideContacts {
     /// Copies the hot state's velocities into the `movable` bodies the
     /// constraints join.
     pub(crate) fn store(&mut self, bodies: &mut [SolverBody], movable: &[bool]) {
-        let (hot, out) = (&self.hot, Shared::new(bodies));
+        let hot = &self.hot;
+        if self.used.len() == bodies.len() {
+            crate::parallel::par_map_chunks(bodies, BODY_ITEM, |base, chunk| {
+                for ((b, h), &m) in chunk.iter_mut().zip(&hot[base..]).zip(&movable[base..]) {
+                    if m {
+                        b.v = h.v();
+                        b.w = h.w();
+                    }
+                }
+            });
+            return;
+        }
+        let out = Shared::new(bodies);
         crate::parallel::par_map_chunks(&mut self.used, BODY_ITEM, |_, chunk| {
             for &k in chunk.iter() {
                 if movable[k as usize] {
@@ -889,7 +916,7 @@ mod tests {
 
         let (mut wide_bodies, mut unpacked) = (bodies.clone(), constraints.clone());
         let mut wide = WideContacts::default();
-        wide.pack(&constraints, &groups, &colours, &movable);
+        wide.pack(&constraints, &groups, &colours, &movable, &bodies, &solve);
         wide.load(&wide_bodies);
         wide.warm_start();
         wide.solve(&WidePass::new(&solve));
