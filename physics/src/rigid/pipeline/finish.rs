@@ -77,10 +77,11 @@ pub(crate) fn finish(
     // (and so those that pushed) and the impulses to keep.
     let mut manifolds = found.manifolds;
     let walked = walk(
+        in_pair_order.len(),
         manifolds
-            .drain_all()
+            .take_kept()
             .zip(&in_pair_order)
-            .map(|(f, &at)| (f.key, f.kept, &constraints[at as usize])),
+            .map(|((key, kept), &at)| (key, kept, &constraints[at as usize])),
     );
 
     // Pairs pushed apart count as touching even if they started a hair
@@ -214,14 +215,15 @@ struct Walked {
     cache: Vec<(ContactKey, CachedManifold)>,
 }
 
-/// Reads what finish needs from each manifold and its solved constraint
-/// (in pair order), once.
+/// Reads what finish needs from each of the `count` manifolds and its
+/// solved constraint (in pair order), once.
 fn walk<'a>(
+    count: usize,
     manifolds: impl Iterator<Item = (ContactKey, CachedManifold, &'a ContactConstraint)>,
 ) -> Walked {
     let mut w = Walked {
-        pairs: Vec::new(),
-        cache: Vec::new(),
+        pairs: Vec::with_capacity(count),
+        cache: Vec::with_capacity(count),
     };
     // The impulse of the hardest-pushing manifold of the last pair, N·s.
     let mut hardest = 0.0;
@@ -338,7 +340,7 @@ mod tests {
             manifold(1, DVec3::Y, 1.5),
             manifold(2, DVec3::Z, 2.0),
         ];
-        let walked = walk(found.iter().map(|(k, m, c)| (*k, m.clone(), c)));
+        let walked = walk(found.len(), found.iter().map(|(k, m, c)| (*k, m.clone(), c)));
         assert_eq!(walked.pairs.len(), 1);
         let p = walked.pairs[0];
         assert_eq!(p.normal, DVec3::Z);

@@ -66,10 +66,14 @@ impl Found {
         self.runs.iter().flatten()
     }
 
-    /// The manifolds, in pair order, taken out (the runs' memory stays,
-    /// for [`Self::into_memory`]).
-    pub(crate) fn drain_all(&mut self) -> impl Iterator<Item = FoundManifold> + '_ {
-        self.runs.iter_mut().flat_map(|run| run.drain(..))
+    /// Each manifold's key and what the cache keeps of it, in pair order,
+    /// taken out (the rest stays where it is, and the runs' memory, for
+    /// [`Self::into_memory`]).
+    pub(crate) fn take_kept(&mut self) -> impl Iterator<Item = (ContactKey, CachedManifold)> + '_ {
+        self.runs
+            .iter_mut()
+            .flatten()
+            .map(|f| (f.key, std::mem::take(&mut f.kept)))
     }
 
     /// The runs, emptied, with their memory: what the next step's narrow

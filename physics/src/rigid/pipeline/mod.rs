@@ -91,7 +91,7 @@ pub(crate) struct CachedPoint {
 /// A manifold kept from one step to the next (world state: saved and
 /// hashed): its points with their impulses, and what lets the narrow
 /// phase use it again instead of colliding the shapes.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct CachedManifold {
     /// The normal from A to B, in A's body frame.
     pub(crate) normal_a: DVec3,
