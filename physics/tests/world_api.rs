@@ -56,10 +56,16 @@ fn issue_13_gravity_is_set_once_for_bodies_and_particles() {
     let particle = fall(w.particle(p).unwrap().position.y);
     // g t² / 2 over one second, to the integrators' first-order error.
     assert!((body - 4.905).abs() < 0.1, "body fell {body} m");
-    assert!((particle - body).abs() < 0.1, "particle {particle} m, body {body} m");
+    assert!(
+        (particle - body).abs() < 0.1,
+        "particle {particle} m, body {body} m"
+    );
     assert_eq!(w.particle(q).unwrap().position.y, 10.0, "scale 0 floats");
     let twice = fall(w.particle(r).unwrap().position.y);
-    assert!((twice - 2.0 * particle).abs() < 1e-6, "{twice} m against {particle} m");
+    assert!(
+        (twice - 2.0 * particle).abs() < 1e-6,
+        "{twice} m against {particle} m"
+    );
 }
 
 /// A bad gravity is refused and changes nothing; a particle system's
@@ -117,7 +123,10 @@ fn issue_13_push_out_velocity_can_be_read() {
     let push = b.push_velocity();
     // 0.2 m deep: the solver pushes out at up to its push-out speed.
     assert!(push.y > 0.1, "pushed up at {push} m/s");
-    assert!(push.x.abs().max(push.z.abs()) < 0.05 * push.y, "mostly up: {push}");
+    assert!(
+        push.x.abs().max(push.z.abs()) < 0.05 * push.y,
+        "mostly up: {push}"
+    );
     assert!(
         b.linear_velocity().y < push.y,
         "the push is not in its velocity ({} m/s)",
@@ -129,7 +138,11 @@ fn issue_13_push_out_velocity_can_be_read() {
     }
     let rest = w.body(sunk).unwrap();
     assert!(rest.pose().translation.y > 0.49, "pushed out");
-    assert!(rest.push_velocity().length() < 0.01, "{}", rest.push_velocity());
+    assert!(
+        rest.push_velocity().length() < 0.01,
+        "{}",
+        rest.push_velocity()
+    );
 }
 
 /// The contact pairs are saved: a restored world reports what the saved
@@ -156,11 +169,14 @@ fn issue_13_contact_pairs_survive_a_save_and_restore() {
         w.step(DT).unwrap();
     }
     let saved = w.save();
-    let mut restored = World::from_saved(w.config().clone(), &saved).unwrap();
+    let mut restored = World::from_saved(*w.config(), &saved).unwrap();
     let pairs = |w: &World| -> Vec<_> { w.contacts_of(boxes[0]).collect() };
     assert_eq!(pairs(&w).len(), 2, "on the ground, under the second box");
     assert_eq!(pairs(&restored), pairs(&w));
-    assert_eq!(restored.contact_between(boxes[0], g), w.contact_between(boxes[0], g));
+    assert_eq!(
+        restored.contact_between(boxes[0], g),
+        w.contact_between(boxes[0], g)
+    );
     assert_eq!(restored.state_hash(), w.state_hash());
     for _ in 0..30 {
         w.step(DT).unwrap();

@@ -6,8 +6,8 @@
 //! fresh [`Params`] and refuses, before anything is dispatched, what the
 //! shaders cannot do.
 
-use glam::DVec3;
 use bytemuck::Zeroable;
+use glam::DVec3;
 use inertia_shaders::layout as wgsl;
 
 use crate::error::PhysicsError;

@@ -554,7 +554,10 @@ impl Reader<'_> {
             if key(a) >= key(b) {
                 return invalid("a contact pair's bodies are not in handle order");
             }
-            if pairs.last().is_some_and(|q| (key(q.a), key(q.b)) >= (key(a), key(b))) {
+            if pairs
+                .last()
+                .is_some_and(|q| (key(q.a), key(q.b)) >= (key(a), key(b)))
+            {
                 return invalid("contact pairs are not in handle order");
             }
             if (normal.length() - 1.0).abs() > 1e-6 || impulse < 0.0 || points == 0 {

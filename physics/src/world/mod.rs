@@ -346,7 +346,8 @@ impl World {
         for (_, _, s) in self.systems.iter_mut() {
             match s.backend {
                 Backend::Cpu => {
-                    let (kinetic, gravity, quarantined) = step_cpu_system(s, self.gravity, t, dt, profile);
+                    let (kinetic, gravity, quarantined) =
+                        step_cpu_system(s, self.gravity, t, dt, profile);
                     energy.kinetic += kinetic;
                     energy.gravity_uniform += gravity;
                     if quarantined {

@@ -340,7 +340,10 @@ mod tests {
             manifold(1, DVec3::Y, 1.5),
             manifold(2, DVec3::Z, 2.0),
         ];
-        let walked = walk(found.len(), found.iter().map(|(k, m, c)| (*k, m.clone(), c)));
+        let walked = walk(
+            found.len(),
+            found.iter().map(|(k, m, c)| (*k, m.clone(), c)),
+        );
         assert_eq!(walked.pairs.len(), 1);
         let p = walked.pairs[0];
         assert_eq!(p.normal, DVec3::Z);
