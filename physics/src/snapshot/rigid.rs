@@ -516,14 +516,8 @@ impl Reader<'_> {
         let n = self.count(16)?;
         let mut set = BTreeSet::new();
         for _ in 0..n {
-            let a = BodyHandle {
-                index: self.u32()?,
-                generation: self.u32()?,
-            };
-            let b = BodyHandle {
-                index: self.u32()?,
-                generation: self.u32()?,
-            };
+            let a = self.body_handle()?;
+            let b = self.body_handle()?;
             set.insert((a, b));
         }
         Ok(set)
@@ -539,14 +533,8 @@ impl Reader<'_> {
         let mut pairs: Vec<PairContact> = Vec::with_capacity(n);
         let key = |h: BodyHandle| (h.index, h.generation);
         for _ in 0..n {
-            let a = BodyHandle {
-                index: self.u32()?,
-                generation: self.u32()?,
-            };
-            let b = BodyHandle {
-                index: self.u32()?,
-                generation: self.u32()?,
-            };
+            let a = self.body_handle()?;
+            let b = self.body_handle()?;
             let normal = self.vec3("contact pair normal")?;
             let separation = self.finite("contact pair separation")?;
             let impulse = self.finite("contact pair impulse")?;
@@ -573,6 +561,14 @@ impl Reader<'_> {
             });
         }
         Ok(pairs)
+    }
+
+    /// A body handle: its arena index, then its generation.
+    fn body_handle(&mut self) -> Result<BodyHandle, SnapshotError> {
+        Ok(BodyHandle {
+            index: self.u32()?,
+            generation: self.u32()?,
+        })
     }
 
     pub(super) fn bounds(&mut self) -> Result<Option<Aabb>, SnapshotError> {
@@ -681,14 +677,8 @@ impl Reader<'_> {
     }
 
     pub(super) fn joint(&mut self) -> Result<Joint, SnapshotError> {
-        let a = BodyHandle {
-            index: self.u32()?,
-            generation: self.u32()?,
-        };
-        let b = BodyHandle {
-            index: self.u32()?,
-            generation: self.u32()?,
-        };
+        let a = self.body_handle()?;
+        let b = self.body_handle()?;
         let anchor_a = self.vec3("joint anchor")?;
         let anchor_b = self.vec3("joint anchor")?;
         let break_force = self.finite("joint break force")?;
@@ -780,10 +770,7 @@ impl Reader<'_> {
             slot: self.u32()?,
             generation: self.u32()?,
         };
-        let body = BodyHandle {
-            index: self.u32()?,
-            generation: self.u32()?,
-        };
+        let body = self.body_handle()?;
         let anchor = self.vec3("attachment anchor")?;
         let params = crate::spring::SpringParams {
             rest_length: self.finite("attachment rest length")?,

@@ -278,8 +278,8 @@ impl WideContacts {
                     unsafe { *lanes.get(k as usize) = (at as u32, l as u8) };
                     let c = &constraints[k as usize];
                     batch.set_lane(l, c, movable, pts);
-                    let factors = || c.factor_block(&bodies[c.a], &bodies[c.b], solve);
-                    if let (Some(wide), Some(factors)) = (&mut block, factors()) {
+                    let Some(wide) = &mut block else { continue };
+                    if let Some(factors) = c.factor_block(&bodies[c.a], &bodies[c.b], solve) {
                         wide.set_lane(l, &factors, batch.count as usize);
                         batch.has_block.as_mut_array()[l] = f32::from_bits(u32::MAX);
                     }
@@ -304,8 +304,8 @@ impl WideContacts {
             return;
         }
         let hot = Shared::new(&mut self.hot);
-        crate::parallel::par_map_chunks(&mut self.used, BODY_ITEM, |_, chunk| {
-            for &k in chunk.iter() {
+        crate::parallel::for_each_item(&self.used, BODY_ITEM, |chunk| {
+            for &k in chunk {
                 // SAFETY: each slot is once in `used`.
                 unsafe { *hot.get(k as usize) = HotBody::of(&bodies[k as usize]) };
             }
@@ -314,7 +314,7 @@ impl WideContacts {
 
     /// Copies the hot state's velocities into the `movable` bodies the
     /// constraints join.
-    pub(crate) fn store(&mut self, bodies: &mut [SolverBody], movable: &[bool]) {
+    pub(crate) fn store(&self, bodies: &mut [SolverBody], movable: &[bool]) {
         let hot = &self.hot;
         if self.used.len() == bodies.len() {
             crate::parallel::par_map_chunks(bodies, BODY_ITEM, |base, chunk| {
@@ -328,8 +328,8 @@ impl WideContacts {
             return;
         }
         let out = Shared::new(bodies);
-        crate::parallel::par_map_chunks(&mut self.used, BODY_ITEM, |_, chunk| {
-            for &k in chunk.iter() {
+        crate::parallel::for_each_item(&self.used, BODY_ITEM, |chunk| {
+            for &k in chunk {
                 if movable[k as usize] {
                     // SAFETY: each slot is once in `used`.
                     let b = unsafe { out.get(k as usize) };
