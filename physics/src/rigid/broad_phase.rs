@@ -303,6 +303,11 @@ pub struct BroadPhase {
     pairs: Vec<Pair>,
     added: Vec<Pair>,
     removed: Vec<Pair>,
+    /// By key: whether the proxy is touched, set during a pair update only.
+    marks: Vec<bool>,
+    /// The pair list before the last update, emptied: the next update's
+    /// memory.
+    spare: Vec<Pair>,
 }
 
 impl BroadPhase {
@@ -494,15 +499,7 @@ impl BroadPhase {
         let mut fresh: Vec<Pair> = found.into_iter().flatten().collect();
         fresh.sort_unstable();
         fresh.dedup();
-
-        let is_touched = |k: u32| touched.binary_search(&k).is_ok();
-        let (stale, kept): (Vec<Pair>, Vec<Pair>) = self
-            .pairs
-            .iter()
-            .partition(|p| is_touched(p.a) || is_touched(p.b));
-        self.added = sorted_difference(&fresh, &stale);
-        self.removed = sorted_difference(&stale, &fresh);
-        self.pairs = sorted_union(&kept, &fresh);
+        self.merge_pairs(&touched, &fresh);
 
         for (_, id) in &movers {
             if let Some(Some(p)) = self.info.get_mut(id.index()) {
@@ -511,6 +508,56 @@ impl BroadPhase {
         }
         touched.clear();
         self.touched = touched;
+    }
+
+    /// The pair set after the proxies `touched` (sorted) moved and found
+    /// the pairs `fresh` (sorted): the old pairs of untouched proxies are
+    /// kept, those of touched ones give way to `fresh`. One walk over the
+    /// old pairs and `fresh` (a pile of thousands has a hundred thousand
+    /// pairs, of which a step touches a few), which also sorts out the
+    /// pairs added and removed.
+    fn merge_pairs(&mut self, touched: &[u32], fresh: &[Pair]) {
+        let top = touched.last().map_or(0, |&k| k as usize + 1);
+        if self.marks.len() < top {
+            self.marks.resize(top, false);
+        }
+        for &k in touched {
+            self.marks[k as usize] = true;
+        }
+        let marks = &self.marks;
+        let is_touched = |k: u32| marks.get(k as usize).copied().unwrap_or(false);
+        let old = std::mem::take(&mut self.pairs);
+        let mut out = std::mem::take(&mut self.spare);
+        out.clear();
+        out.reserve(old.len() + fresh.len());
+        self.added.clear();
+        self.removed.clear();
+        let mut fresh = fresh.iter().copied().peekable();
+        for &p in &old {
+            while let Some(q) = fresh.next_if(|&q| q < p) {
+                // New: no old pair has it.
+                out.push(q);
+                self.added.push(q);
+            }
+            if fresh.next_if_eq(&p).is_some() {
+                // Found again: kept, neither added nor removed.
+                out.push(p);
+            } else if is_touched(p.a) || is_touched(p.b) {
+                // A touched proxy's pair not found again: the boxes parted.
+                self.removed.push(p);
+            } else {
+                out.push(p);
+            }
+        }
+        for q in fresh {
+            out.push(q);
+            self.added.push(q);
+        }
+        for &k in touched {
+            self.marks[k as usize] = false;
+        }
+        self.pairs = out;
+        self.spare = old;
     }
 
     /// Every overlapping pair of fat boxes as of the last
@@ -594,33 +641,4 @@ impl BroadPhase {
         }
         Ok(())
     }
-}
-
-/// `a \ b` for sorted, deduplicated lists.
-fn sorted_difference(a: &[Pair], b: &[Pair]) -> Vec<Pair> {
-    a.iter()
-        .filter(|p| b.binary_search(p).is_err())
-        .copied()
-        .collect()
-}
-
-/// `a ∪ b` for sorted lists, sorted.
-fn sorted_union(a: &[Pair], b: &[Pair]) -> Vec<Pair> {
-    let mut out = Vec::with_capacity(a.len() + b.len());
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        if a[i] <= b[j] {
-            if a[i] == b[j] {
-                j += 1;
-            }
-            out.push(a[i]);
-            i += 1;
-        } else {
-            out.push(b[j]);
-            j += 1;
-        }
-    }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
-    out
 }

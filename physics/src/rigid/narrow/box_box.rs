@@ -266,7 +266,7 @@ fn routed(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> (Option<Contact>, Route)
                     // Apart, and the closest points of the edges' lines
                     // lie off the edges: a vertex is nearest and the axis
                     // only bounds the gap. GJK, as in the generic path.
-                    return (convex_convex(a, b, spec), Route::Gjk);
+                    return (convex_convex(a, b, spec, &mut None), Route::Gjk);
                 }
             }
             // A face within 26° of the normal: clip, as the generic
@@ -508,7 +508,7 @@ fn clip_by_plane(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::rigid::narrow::collide;
     use crate::rigid::narrow::sat::polytope_polytope;
@@ -516,7 +516,7 @@ mod tests {
     use glam::DQuat;
 
     /// splitmix64, as in the integration tests' generator.
-    struct Rng(u64);
+    pub(in crate::rigid::narrow) struct Rng(pub u64);
 
     impl Rng {
         fn next_u64(&mut self) -> u64 {
@@ -526,19 +526,19 @@ mod tests {
             z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
             z ^ (z >> 31)
         }
-        fn f64(&mut self) -> f64 {
+        pub(in crate::rigid::narrow) fn f64(&mut self) -> f64 {
             (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
         }
-        fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        pub(in crate::rigid::narrow) fn range(&mut self, lo: f64, hi: f64) -> f64 {
             lo + (hi - lo) * self.f64()
         }
         fn below(&mut self, n: u64) -> u64 {
             self.next_u64() % n
         }
-        fn in_cube(&mut self, h: f64) -> DVec3 {
+        pub(in crate::rigid::narrow) fn in_cube(&mut self, h: f64) -> DVec3 {
             DVec3::new(self.range(-h, h), self.range(-h, h), self.range(-h, h))
         }
-        fn unit(&mut self) -> DVec3 {
+        pub(in crate::rigid::narrow) fn unit(&mut self) -> DVec3 {
             loop {
                 let v = self.in_cube(1.0);
                 let l = v.length();
@@ -547,7 +547,7 @@ mod tests {
                 }
             }
         }
-        fn rotation(&mut self) -> DQuat {
+        pub(in crate::rigid::narrow) fn rotation(&mut self) -> DQuat {
             loop {
                 let q = DQuat::from_xyzw(
                     self.range(-1.0, 1.0),
@@ -707,7 +707,7 @@ mod tests {
             for round in 0..2000 {
                 let (a, b) = random_pair(&mut rng, spec);
                 let scale = a.size().max(b.size());
-                let g = non_empty(polytope_polytope(&a, &b, spec));
+                let g = non_empty(polytope_polytope(&a, &b, spec, &mut None));
                 let (f, route) = routed(&a, &b, spec);
                 let f = non_empty(f);
                 *routes.entry(format!("{route:?}")).or_default() += 1;
@@ -878,7 +878,7 @@ mod tests {
             v
         };
         assert_eq!(ids(&c0), ids(&c1), "{c0:?}\n{c1:?}");
-        let g = polytope_polytope(&a, &tilt(-2e-2, 1.003), 0.01).unwrap();
+        let g = polytope_polytope(&a, &tilt(-2e-2, 1.003), 0.01, &mut None).unwrap();
         assert_eq!(ids(&g), ids(&c0));
     }
 
@@ -1011,7 +1011,7 @@ mod tests {
         let spec = 0.01;
         let generic: usize = pairs
             .iter()
-            .map(|(a, b)| polytope_polytope(a, b, spec).map_or(0, |c| c.points.len()))
+            .map(|(a, b)| polytope_polytope(a, b, spec, &mut None).map_or(0, |c| c.points.len()))
             .sum();
         let fast: usize = pairs
             .iter()

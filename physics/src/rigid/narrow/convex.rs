@@ -8,7 +8,7 @@ use std::borrow::Cow;
 use glam::DVec3;
 
 use super::epa::epa;
-use super::gjk::{gjk_within, GjkResult};
+use super::gjk::{gjk_or_axis, GjkResult};
 use super::{pack_id, reduce, Contact};
 use crate::rigid::hull::{ConvexHull, Face};
 use crate::rigid::pose::Pose;
@@ -326,15 +326,28 @@ impl Polytope<'_> {
 }
 
 /// Contact between two convex shapes in the common frame, by GJK/EPA on
-/// the cores and feature clipping. `None` when farther apart than `spec`.
-pub(crate) fn convex_convex(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Option<Contact> {
+/// the cores and feature clipping. `None` when farther apart than `spec`,
+/// with `apart` set to the axis that showed it where GJK stopped early
+/// (see [`super::Apart`]).
+pub(crate) fn convex_convex(
+    a: &Convex<'_>,
+    b: &Convex<'_>,
+    spec: f64,
+    apart: &mut super::Apart,
+) -> Option<Contact> {
     let scale = a.size().max(b.size()).max(1e-12);
     let sa = |d: DVec3| a.core_support(d);
     let sb = |d: DVec3| b.core_support(d);
     // Cores farther apart than the radii and the speculative distance
     // make no contact: GJK stops as soon as it proves that.
-    let found = gjk_within(&sa, &sb, gjk_start(a, b), scale, spec + a.radius + b.radius)?;
-    convex_convex_from(a, b, spec, scale, found)
+    let limit = spec + a.radius + b.radius;
+    match gjk_or_axis(&sa, &sb, gjk_start(a, b), scale, limit) {
+        Ok(found) => convex_convex_from(a, b, spec, scale, found),
+        Err(axis) => {
+            *apart = Some(axis);
+            None
+        }
+    }
 }
 
 /// The direction GJK starts from for `a` against `b`: from B's centre

@@ -164,6 +164,23 @@ where
     FA: Fn(DVec3) -> DVec3,
     FB: Fn(DVec3) -> DVec3,
 {
+    gjk_or_axis(sa, sb, initial_dir, scale, limit).ok()
+}
+
+/// [`gjk_within`], answering "more than `limit` apart" with the axis that
+/// showed it: `Err(n)`, a unit vector from A towards B with
+/// `min(B·n) − max(A·n) > limit`.
+pub(crate) fn gjk_or_axis<FA, FB>(
+    sa: &FA,
+    sb: &FB,
+    initial_dir: DVec3,
+    scale: f64,
+    limit: f64,
+) -> Result<GjkResult, DVec3>
+where
+    FA: Fn(DVec3) -> DVec3,
+    FB: Fn(DVec3) -> DVec3,
+{
     let abs_tol = (1e-10 * scale).max(1e-300);
     // Below the touching tolerance `gjk` may answer "overlapping": never
     // stop early there. The relative margin keeps the bound's rounding
@@ -182,7 +199,7 @@ where
     for _ in 0..MAX_ITERATIONS {
         let v2 = v.length_squared();
         if v2 <= abs_tol * abs_tol {
-            return Some(GjkResult::Overlapping(simplex));
+            return Ok(GjkResult::Overlapping(simplex));
         }
         dir = -v;
         let w = support(sa, sb, dir);
@@ -190,8 +207,9 @@ where
         let vw = v.dot(w.w);
         if vw > 0.0 && vw * vw > limit * limit * v2 {
             // Every point of A − B is farther than `limit` from the origin
-            // (and the distance `gjk` would report is at least as large).
-            return None;
+            // along v (and the distance `gjk` would report is at least as
+            // large): A lies beyond B along v.
+            return Err(-v / v2.sqrt());
         }
         if v2 - vw <= REL_TOL * v2 + abs_tol * abs_tol {
             break;
@@ -204,7 +222,7 @@ where
         }
         simplex.push(w);
         let Some((new_simplex, new_weights)) = closest_on_simplex(&simplex) else {
-            return Some(GjkResult::Overlapping(simplex));
+            return Ok(GjkResult::Overlapping(simplex));
         };
         let nv: DVec3 = new_simplex
             .iter()
@@ -225,9 +243,9 @@ where
     let point_b = simplex.iter().zip(&weights).map(|(s, &l)| s.b * l).sum();
     let distance = v.length();
     if distance <= abs_tol {
-        return Some(GjkResult::Overlapping(simplex));
+        return Ok(GjkResult::Overlapping(simplex));
     }
-    Some(GjkResult::Separated {
+    Ok(GjkResult::Separated {
         distance,
         point_a,
         point_b,

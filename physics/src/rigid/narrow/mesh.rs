@@ -48,7 +48,7 @@ pub(crate) fn surface_convex(surface: &Shape, b: &Convex<'_>, spec: f64) -> Opti
         let mut c = if one_sided {
             front_side(&a, tri, b, spec)
         } else {
-            convex_pair(&a, b, spec)
+            convex_pair(&a, b, spec, &mut None)
         };
         if c.points.is_empty() {
             return;
@@ -144,7 +144,7 @@ fn front_side(a: &Convex<'_>, tri: [DVec3; 3], b: &Convex<'_>, spec: f64) -> Con
     let offset = front.dot(tri[0]);
     let centre = b.pose.translation;
     if front.dot(centre) >= offset || !over_triangle(tri, DVec3::Y, centre) {
-        return convex_pair(a, b, spec);
+        return convex_pair(a, b, spec, &mut None);
     }
     let q = b.core_support(-front);
     let gap = front.dot(q) - offset;

@@ -100,6 +100,29 @@ use convex::{Convex, Core};
 
 pub use gjk::GjkResult;
 
+/// An axis along which two convex shapes were found farther apart than the
+/// speculative distance: a unit vector in the common (A's shape) frame,
+/// from A towards B, with `min(B·n) − max(A·n)` beyond it. Projecting the
+/// two shapes on it again (two support queries) shows whether they still
+/// are, long before GJK or the separating-axis test would; `None` where
+/// the test that found them apart gives no such axis (an edge pair of the
+/// separating-axis test, or shapes with their own closed form).
+pub(crate) type Apart = Option<DVec3>;
+
+/// Relative margin by which a cached axis must show a pair apart before
+/// the full test is skipped: it covers the rounding of the two support
+/// queries, so that a skipped test could never have found a contact.
+const APART_MARGIN: f64 = 1e-9;
+
+/// Whether `a` and `b` are still farther apart than `spec` along `axis`
+/// (see [`Apart`]).
+fn still_apart(a: &Convex<'_>, b: &Convex<'_>, axis: DVec3, spec: f64) -> bool {
+    let top_a = a.core_support(axis).dot(axis) + a.radius;
+    let bottom_b = b.core_support(-axis).dot(axis) - b.radius;
+    let slack = APART_MARGIN * (a.size() + b.size() + top_a.abs() + spec);
+    bottom_b - top_a > spec + slack
+}
+
 /// A manifold under construction, in the common (A's shape) frame: the
 /// normal A→B and points `(on A, on B, separation, id)`.
 #[derive(Debug, Clone, Default)]
@@ -142,6 +165,25 @@ pub fn collide(
     pose_b: &Pose,
     speculative: f64,
 ) -> Result<Manifold, ContactError> {
+    collide_apart(a, pose_a, b, pose_b, speculative, &mut None)
+}
+
+/// [`collide`] for a pair of shapes that may have been found apart before
+/// along `apart` (in A's shape frame). When that axis still shows them
+/// farther apart than `speculative`, the manifold is empty at the cost of
+/// two support queries, and `apart` stays; otherwise the shapes are
+/// collided, and `apart` becomes the axis that showed them apart, if they
+/// are and one did. The manifold is always the one [`collide`] returns:
+/// the axis only ever skips a test whose answer is "apart" (the margin
+/// [`APART_MARGIN`] covers rounding), so nothing found depends on it.
+pub(crate) fn collide_apart(
+    a: &Shape,
+    pose_a: &Pose,
+    b: &Shape,
+    pose_b: &Pose,
+    speculative: f64,
+    apart: &mut Apart,
+) -> Result<Manifold, ContactError> {
     if !pose_a.is_valid() {
         return Err(ContactError::BadPose { which: "a" });
     }
@@ -160,15 +202,23 @@ pub fn collide(
             let (Some(ca), Some(cb)) = (to_convex(a, Pose::IDENTITY), to_convex(b, rel)) else {
                 return Err(unsupported(a, b));
             };
-            convex_pair(&ca, &cb, speculative)
+            if let Some(axis) = *apart {
+                if still_apart(&ca, &cb, axis, speculative) {
+                    return Ok(Manifold::empty());
+                }
+            }
+            *apart = None;
+            convex_pair(&ca, &cb, speculative, apart)
         }
         (false, true) => {
+            *apart = None;
             let Some(cb) = to_convex(b, rel) else {
                 return Err(unsupported(a, b));
             };
             mesh::surface_convex(a, &cb, speculative).ok_or_else(|| unsupported(a, b))?
         }
         (true, false) => {
+            *apart = None;
             // Collide in B's frame with B as the surface, then flip.
             let Some(ca) = to_convex(a, rel.inverse()) else {
                 return Err(unsupported(a, b));
@@ -243,8 +293,10 @@ pub(crate) fn to_convex(s: &Shape, pose: Pose) -> Option<Convex<'_>> {
     Some(Convex { core, radius, pose })
 }
 
-/// Dispatch between two convex shapes in the common frame.
-pub(crate) fn convex_pair(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Contact {
+/// Dispatch between two convex shapes in the common frame; where they are
+/// farther apart than `spec`, the contact has no points and `apart` may
+/// hold the axis that showed it.
+pub(crate) fn convex_pair(a: &Convex<'_>, b: &Convex<'_>, spec: f64, apart: &mut Apart) -> Contact {
     use Core::*;
     let flip = |c: Option<Contact>| c.map(Contact::flipped);
     let c = match (a.core, b.core) {
@@ -260,9 +312,9 @@ pub(crate) fn convex_pair(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Contact 
             box_box::box_box(a, b, spec)
         }
         (Cuboid(_) | Hull(_) | Triangle(_), Cuboid(_) | Hull(_) | Triangle(_)) => {
-            sat::polytope_polytope(a, b, spec)
+            sat::polytope_polytope(a, b, spec, apart)
         }
-        _ => convex::convex_convex(a, b, spec),
+        _ => convex::convex_convex(a, b, spec, apart),
     };
     c.unwrap_or_default()
 }
@@ -470,6 +522,70 @@ pub(crate) fn reduce_in_place(n: DVec3, pts: &mut [(DVec3, DVec3, f64, u32)]) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A pair found apart keeps the axis that showed it; colliding the
+    /// pair again a little later with that axis gives exactly the manifold
+    /// colliding it afresh gives, whether the axis still shows it apart
+    /// (and the test is skipped) or not. Hulls, boxes, cylinders, capsules
+    /// and spheres in every pairing, near the speculative distance.
+    #[test]
+    fn issue_13_a_cached_separating_axis_changes_no_manifold() {
+        let mut rng = box_box::tests::Rng(13);
+        let points: Vec<DVec3> = (0..24).map(|_| rng.in_cube(0.5)).collect();
+        let shapes = [
+            Shape::convex_hull(&points).unwrap(),
+            Shape::Cuboid {
+                half_extents: DVec3::new(0.5, 0.3, 0.4),
+            },
+            Shape::Cylinder {
+                half_height: 0.4,
+                radius: 0.3,
+            },
+            Shape::Capsule {
+                half_height: 0.3,
+                radius: 0.2,
+            },
+            Shape::Sphere { radius: 0.4 },
+        ];
+        let (mut skipped, mut apart_found, mut touching) = (0, 0, 0);
+        for case in 0..4000 {
+            let a = &shapes[case % shapes.len()];
+            let b = &shapes[(case / shapes.len()) % shapes.len()];
+            let pose_a = Pose::new(rng.in_cube(0.2), rng.rotation());
+            let pose_b = Pose::new(rng.unit() * rng.range(0.6, 1.6), rng.rotation());
+            let spec = rng.range(0.0, 0.1);
+            let mut apart = None;
+            let first = collide_apart(a, &pose_a, b, &pose_b, spec, &mut apart).unwrap();
+            assert_eq!(first, collide(a, &pose_a, b, &pose_b, spec).unwrap());
+            let Some(axis) = apart else {
+                continue;
+            };
+            apart_found += 1;
+            assert!(first.is_empty(), "found apart, yet with points");
+            // B drifts and turns a little; the axis is asked again.
+            let drift = Pose::new(
+                rng.in_cube(0.05),
+                rng.rotation().slerp(glam::DQuat::IDENTITY, 0.97),
+            );
+            let later = pose_b.mul(&drift);
+            let again = collide_apart(a, &pose_a, b, &later, spec, &mut apart).unwrap();
+            assert_eq!(
+                again,
+                collide(a, &pose_a, b, &later, spec).unwrap(),
+                "case {case}"
+            );
+            if apart == Some(axis) {
+                skipped += 1;
+                assert!(again.is_empty());
+            }
+            if !again.is_empty() {
+                touching += 1;
+            }
+        }
+        assert!(apart_found > 500, "{apart_found} pairs found apart");
+        assert!(skipped > 200, "the axis skipped only {skipped} tests");
+        assert!(touching > 20, "only {touching} pairs came to touch");
+    }
 
     /// A box tilted on another's face bears on its low side: of six
     /// clipped points, three lie within a millimetre of the deepest and

@@ -18,7 +18,7 @@ use glam::DVec3;
 use super::convex::{
     convex_convex, convex_convex_from, gjk_start, manifold_from_features, Convex, Feature, Polytope,
 };
-use super::gjk::{gjk, gjk_within, GjkResult};
+use super::gjk::{gjk, gjk_or_axis, GjkResult};
 use super::{pack_id, Contact};
 
 /// Vertices of a polytope mapped into the common frame.
@@ -47,8 +47,14 @@ enum Axis {
 }
 
 /// Contact between two polytope shapes (`a`, `b` with radius 0) in the
-/// common frame; `None` when farther apart than `spec`.
-pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Option<Contact> {
+/// common frame; `None` when farther apart than `spec`, with `apart` set
+/// to the axis that showed it where there is one (see [`super::Apart`]).
+pub(crate) fn polytope_polytope(
+    a: &Convex<'_>,
+    b: &Convex<'_>,
+    spec: f64,
+    apart: &mut super::Apart,
+) -> Option<Contact> {
     let scale = a.size().max(b.size()).max(1e-12);
     // Most pairs the broad phase hands over are apart: for hulls, GJK (a
     // few support queries) settles that before the separating-axis test
@@ -58,9 +64,20 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
     let early = if matches!(a.core, super::convex::Core::Hull(_))
         || matches!(b.core, super::convex::Core::Hull(_))
     {
-        match gjk_within(&sa, &sb, gjk_start(a, b), scale, spec)? {
-            GjkResult::Separated { distance, .. } if distance > spec => return None,
-            r => Some(r),
+        match gjk_or_axis(&sa, &sb, gjk_start(a, b), scale, spec) {
+            Err(axis) => {
+                *apart = Some(axis);
+                return None;
+            }
+            Ok(GjkResult::Separated {
+                distance,
+                point_a,
+                point_b,
+            }) if distance > spec => {
+                *apart = Some((point_b - point_a) / distance);
+                return None;
+            }
+            Ok(r) => Some(r),
         }
     } else {
         None
@@ -68,9 +85,9 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
     // GJK/EPA and the features along its normal, from the answer above
     // when there is one (polytopes have no radius, so it is the answer
     // `convex_convex` would find).
-    let general = |early: Option<GjkResult>| match early {
+    let general = |early: Option<GjkResult>, apart: &mut super::Apart| match early {
         Some(found) if a.radius + b.radius == 0.0 => convex_convex_from(a, b, spec, scale, found),
-        _ => convex_convex(a, b, spec),
+        _ => convex_convex(a, b, spec, apart),
     };
     let pa = a.polytope()?;
     let pb = b.polytope()?;
@@ -78,7 +95,7 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
         // Many-sided hulls: the edge-pair test would dominate; GJK/EPA and
         // the features along its normal give the manifold instead (as
         // Rapier does for every convex pair).
-        return general(early);
+        return general(early, apart);
     }
     let va = world_verts(&pa);
     let vb = world_verts(&pb);
@@ -113,6 +130,12 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
     }
     let (sat_sep, axis) = best;
     if sat_sep.is_nan() || sat_sep > spec {
+        // A face's normal (outward from A, or B's turned) separates them.
+        *apart = match axis {
+            Axis::FaceA(i) => Some(pa.pose.transform_vector(pa.faces[i].normal)),
+            Axis::FaceB(i) => Some(-pb.pose.transform_vector(pb.faces[i].normal)),
+            Axis::Edge => None,
+        };
         return None;
     }
     if sat_sep > 0.0 {
@@ -127,10 +150,11 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
             point_b,
         } = result
         {
+            let n = (point_b - point_a) / distance;
             if distance > spec {
+                *apart = Some(n);
                 return None;
             }
-            let n = (point_b - point_a) / distance;
             if (distance - sat_sep).abs() > 1e-6 * scale || matches!(axis, Axis::Edge) {
                 return Some(manifold_from_features(
                     a, b, n, distance, point_a, point_b, spec,
@@ -150,7 +174,7 @@ pub(crate) fn polytope_polytope(a: &Convex<'_>, b: &Convex<'_>, spec: f64) -> Op
         }),
         // Edge against edge: EPA on the polytopes is exact and gives the
         // witness points of the two edges.
-        Axis::Edge => return general(early),
+        Axis::Edge => return general(early, apart),
     }
     .map(super::reduce)
 }

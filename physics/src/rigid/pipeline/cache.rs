@@ -72,10 +72,7 @@ impl ContactCache {
 
     /// A cursor from the first key not below `from`.
     pub(crate) fn cursor_from(&self, from: &ContactKey) -> Cursor<'_> {
-        let at = self.entries.partition_point(|(k, _)| k < from);
-        Cursor {
-            rest: &self.entries[at..],
-        }
+        Cursor::from(&self.entries, from)
     }
 }
 
@@ -87,16 +84,25 @@ impl From<BTreeMap<ContactKey, CachedManifold>> for ContactCache {
     }
 }
 
-/// Walks the cache in key order alongside a run of pairs (which ask for
-/// keys in increasing order): each lookup is a step or two instead of a
-/// search.
-pub(crate) struct Cursor<'a> {
-    rest: &'a [(ContactKey, CachedManifold)],
+/// Walks entries in key order (the cache's, or the separating axes')
+/// alongside a run of pairs, which ask for keys in increasing order: each
+/// lookup is a step or two instead of a search.
+pub(crate) struct Cursor<'a, V = CachedManifold> {
+    rest: &'a [(ContactKey, V)],
 }
 
-impl<'a> Cursor<'a> {
-    /// The manifold of `key` (keys asked for must not decrease).
-    pub(crate) fn get(&mut self, key: &ContactKey) -> Option<&'a CachedManifold> {
+impl<'a, V> Cursor<'a, V> {
+    /// A cursor over `entries` (in increasing key order) from the first
+    /// key not below `from`.
+    pub(crate) fn from(entries: &'a [(ContactKey, V)], from: &ContactKey) -> Self {
+        let at = entries.partition_point(|(k, _)| k < from);
+        Cursor {
+            rest: &entries[at..],
+        }
+    }
+
+    /// The entry of `key` (keys asked for must not decrease).
+    pub(crate) fn get(&mut self, key: &ContactKey) -> Option<&'a V> {
         while let Some(((k, _), rest)) = self.rest.split_first() {
             if k >= key {
                 break;

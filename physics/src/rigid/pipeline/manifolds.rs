@@ -4,6 +4,9 @@
 
 use std::collections::BTreeSet;
 
+use glam::DVec3;
+
+use super::apart::SeparatingAxes;
 use super::bodies::{BodyIndex, Links};
 use super::cache::Cursor;
 use super::pairs::{leaves, pair_bodies, speculative_distance};
@@ -17,7 +20,7 @@ use crate::rigid::body::{CombineRule, RigidBody};
 use crate::rigid::broad_phase::{BroadPhase, Pair};
 use crate::rigid::contact::{ContactPoint, Manifold, ManifoldCount};
 use crate::rigid::joint::{Joint, JointConstraint};
-use crate::rigid::narrow::collide;
+use crate::rigid::narrow::{collide, collide_apart};
 use crate::rigid::pose::Pose;
 use crate::rigid::solver::{ContactConstraint, ContactSource, PointConstraint, MAX_POINTS};
 
@@ -127,6 +130,17 @@ pub(crate) struct Narrow {
     pub(crate) deepest: f64,
     /// Shape pairs collided and manifolds used again.
     pub(crate) count: ManifoldCount,
+    /// Shape pairs found apart, with the axis that showed it (A's body
+    /// frame), in key order: the next step's [`SeparatingAxes`].
+    pub(crate) apart: Vec<(ContactKey, DVec3)>,
+}
+
+/// What a run of pairs looks up from the last step, in key order.
+struct Lookups<'a> {
+    /// The contact cache.
+    manifolds: Cursor<'a>,
+    /// The separating axes.
+    axes: Cursor<'a, DVec3>,
 }
 
 /// The first cache key a pair could have.
@@ -153,9 +167,11 @@ pub(crate) fn find(
     links: &Links<'_>,
     broad: &BroadPhase,
     cache: &ContactCache,
+    axes: &SeparatingAxes,
     touched: &BTreeSet<(BodyHandle, BodyHandle)>,
     dt: f64,
     memory: &mut Vec<Vec<FoundManifold>>,
+    apart: Vec<(ContactKey, DVec3)>,
 ) -> Narrow {
     // Each run of pairs with a list to fill, from the last step's memory.
     let mut runs: Vec<(&[Pair], Vec<FoundManifold>)> = broad
@@ -176,7 +192,11 @@ pub(crate) fn find(
         let Some(first) = run.first() else {
             return out;
         };
-        let mut cursor = cache.cursor_from(&first_key(index, first));
+        let from = first_key(index, first);
+        let mut lookups = Lookups {
+            manifolds: cache.cursor_from(&from),
+            axes: axes.cursor_from(&from),
+        };
         for pair in run {
             one_pair(
                 bodies,
@@ -184,7 +204,7 @@ pub(crate) fn find(
                 links,
                 broad,
                 pair,
-                &mut cursor,
+                &mut lookups,
                 touched,
                 dt,
                 &mut out,
@@ -192,8 +212,13 @@ pub(crate) fn find(
         }
         out
     });
-    let mut narrow = Narrow::default();
+    let mut narrow = Narrow {
+        apart,
+        ..Narrow::default()
+    };
+    narrow.apart.clear();
     for out in outs {
+        narrow.apart.extend(out.apart);
         narrow.touching.extend(out.touching);
         narrow.constraints.runs.extend(out.constraints.runs);
         narrow.carried.extend(out.carried);
@@ -211,7 +236,7 @@ fn one_pair(
     links: &Links<'_>,
     broad: &BroadPhase,
     pair: &Pair,
-    cache: &mut Cursor<'_>,
+    lookups: &mut Lookups<'_>,
     touched: &BTreeSet<(BodyHandle, BodyHandle)>,
     dt: f64,
     out: &mut Narrow,
@@ -283,12 +308,14 @@ fn one_pair(
         // The last manifold again while the bodies have barely moved
         // relative to each other (see `Reference`); else the shapes
         // collided, with room for the next steps' drift.
-        let cached = cache.get(&ContactKey {
+        let key = ContactKey {
             a: ka,
             b: kb,
             child_a: 0,
             child_b: 0,
-        });
+        };
+        let cached = lookups.manifolds.get(&key);
+        let axis = lookups.axes.get(&key);
         let recycled = cached.and_then(|c| {
             let r = c.reference?;
             r.holds(ba, bb, speculative)
@@ -302,9 +329,15 @@ fn one_pair(
             None => {
                 out.count.collided += 1;
                 let reach = speculative + RECYCLE_DRIFT;
-                let Ok(m) = collide(sa, &pose_a, sb, &pose_b, reach) else {
+                // Two support queries along last step's separating axis
+                // settle most pairs that stay apart.
+                let mut apart = axis.copied();
+                let Ok(m) = collide_apart(sa, &pose_a, sb, &pose_b, reach, &mut apart) else {
                     return;
                 };
+                if let Some(axis) = apart {
+                    out.apart.push((key, axis));
+                }
                 (m, Reference::between(ba, bb, reach))
             }
         };
@@ -333,7 +366,7 @@ fn one_pair(
                     child_b: cb as u32,
                 };
                 if !m.is_empty() {
-                    let cached = cache.get(&key);
+                    let cached = lookups.manifolds.get(&key);
                     add((ca, pa), (cb, pb), m, None, cached);
                 }
             }

@@ -10,7 +10,8 @@
 //! 3. **narrow phase** ([`manifolds`]) — each pair (each pair of child
 //!    shapes for compounds) whose tight boxes meet gives a manifold, in
 //!    parallel; its points take the impulses they had last step (matched
-//!    by feature id) for warm starting.
+//!    by feature id) for warm starting. A pair the last step found apart
+//!    is first projected on the axis that showed it ([`apart`]).
 //! 4. **colouring** ([`colouring`](super::colouring)) — the contact
 //!    constraints are grouped so that no two of a group move the same
 //!    body, and stored colour by colour (the order they are solved in).
@@ -31,6 +32,7 @@
 //! none of which depends on the number of threads, so the result does not
 //! either; nor does it depend on history the state does not record.
 
+mod apart;
 mod bodies;
 pub(crate) use bodies::BodyIndex;
 mod cache;
@@ -287,6 +289,9 @@ pub(crate) struct Contacts {
     pub(crate) touching: std::collections::BTreeSet<(BodyHandle, BodyHandle)>,
     /// The broad phase; derived from the bodies and rebuilt after a restore.
     broad: Option<BroadPhase>,
+    /// The axes that showed pairs apart at the last step (derived: nothing
+    /// found depends on them; forgotten with the broad phase).
+    apart: apart::SeparatingAxes,
     /// The pairs in contact at the last step, in handle order (world
     /// state: saved and hashed, since the rules read them). Pairs that
     /// stayed put (both asleep or fixed) keep the entries of the step that
@@ -304,9 +309,11 @@ pub(crate) struct Contacts {
 }
 
 impl Contacts {
-    /// Forgets the broad phase (after a restore or a removal it is rebuilt).
+    /// Forgets the broad phase and the separating axes (after a restore or
+    /// a removal the broad phase is rebuilt).
     pub(crate) fn reset_broad_phase(&mut self) {
         self.broad = None;
+        self.apart.clear();
     }
 
     /// Drops everything about a removed body.
@@ -315,7 +322,7 @@ impl Contacts {
         self.cache.retain(|k| k.a != id && k.b != id);
         self.touching.retain(|(a, b)| *a != h && *b != h);
         self.pairs.retain(|p| p.a != h && p.b != h);
-        self.broad = None;
+        self.reset_broad_phase();
     }
 
     /// Number of manifolds touching last step.
@@ -398,16 +405,21 @@ pub(crate) fn step(
     profile.broad_phase = clock.lap();
 
     let mut memory = std::mem::take(&mut contacts.memory);
+    let spare_axes = contacts.apart.take_spare();
     let narrow = manifolds::find(
         bodies,
         &index,
         &links,
         broad,
         &contacts.cache,
+        &contacts.apart,
         &contacts.touching,
         inputs.dt,
         &mut memory.found,
+        spare_axes,
     );
+    let mut narrow = narrow;
+    contacts.apart.replace(std::mem::take(&mut narrow.apart));
     manifolds::joint_rows(bodies, &index, joints, &mut memory.joint_rows);
     profile.narrow_phase = clock.lap();
 

@@ -4,11 +4,15 @@
 use super::bodies::BodyIndex;
 use super::{AABB_MARGIN, SPECULATIVE_DISTANCE};
 use crate::arena::Arena;
+use crate::rigid::aabb::Aabb;
 use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::broad_phase::{BroadPhase, Pair};
 use crate::rigid::narrow::collide;
 use crate::rigid::pose::Pose;
 use crate::rigid::shape::Shape;
+
+/// Bodies whose boxes one parallel work item computes.
+const BOXES_PER_ITEM: usize = 256;
 
 /// Brings the broad phase up to date with the bodies (creating it after a
 /// restore) and returns it with this step's overlapping pairs.
@@ -34,16 +38,27 @@ pub(crate) fn update<'a>(
             let _ = broad.remove(key);
         }
     }
-    for (k, (_, _, b)) in bodies.iter().enumerate() {
-        let Some(shape) = &b.shape else { continue };
-        let key = index.handles[k].index;
-        // Sleeping and static bodies do not move: their boxes stand.
-        if (b.sleeping || b.kind == BodyKind::Static) && broad.contains(key) {
-            continue;
+    // Each moving body's box (in parallel: a hull's box turns every
+    // vertex), then the tree takes them in body order.
+    let mut moving: Vec<(u32, &RigidBody, Option<Aabb>)> = bodies
+        .iter()
+        .enumerate()
+        .filter(|(k, (_, _, b))| {
+            // Sleeping and static bodies do not move: their boxes stand.
+            let stands = b.sleeping || b.kind == BodyKind::Static;
+            b.shape.is_some() && !(stands && broad.contains(index.handles[*k].index))
+        })
+        .map(|(k, (_, _, b))| (index.handles[k].index, b, None))
+        .collect();
+    crate::parallel::par_map_chunks(&mut moving, BOXES_PER_ITEM, |_, run| {
+        for (_, b, aabb) in run {
+            let reach = (b.linvel.length() + b.angvel.length() * b.shape_radius()) * dt
+                + SPECULATIVE_DISTANCE;
+            *aabb = b.shape.as_ref().map(|s| s.aabb(&b.pose()).expanded(reach));
         }
-        let reach =
-            (b.linvel.length() + b.angvel.length() * b.shape_radius()) * dt + SPECULATIVE_DISTANCE;
-        let aabb = shape.aabb(&b.pose()).expanded(reach);
+    });
+    for (key, b, aabb) in moving {
+        let Some(aabb) = aabb else { continue };
         let ok = if broad.contains(key) {
             broad.update(key, aabb, b.linvel * dt).is_ok()
         } else {
