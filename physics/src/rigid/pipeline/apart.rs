@@ -51,11 +51,10 @@ impl SeparatingAxes {
         Cursor::from(&self.entries, from)
     }
 
-    /// An empty list to fill with this step's axes, taken out.
+    /// An empty list to fill with this step's axes, taken out (emptied
+    /// where [`Self::replace`] put it aside).
     pub(crate) fn take_spare(&mut self) -> Vec<(ContactKey, DVec3)> {
-        let mut spare = std::mem::take(&mut self.spare);
-        spare.clear();
-        spare
+        std::mem::take(&mut self.spare)
     }
 
     /// This step's axes replace the last step's (`entries` in increasing

@@ -212,11 +212,11 @@ pub(crate) fn find(
         }
         out
     });
+    // `apart` comes empty, with the memory of an earlier step's axes.
     let mut narrow = Narrow {
         apart,
         ..Narrow::default()
     };
-    narrow.apart.clear();
     for out in outs {
         narrow.apart.extend(out.apart);
         narrow.touching.extend(out.touching);

@@ -406,7 +406,7 @@ pub(crate) fn step(
 
     let mut memory = std::mem::take(&mut contacts.memory);
     let spare_axes = contacts.apart.take_spare();
-    let narrow = manifolds::find(
+    let mut narrow = manifolds::find(
         bodies,
         &index,
         &links,
@@ -418,7 +418,6 @@ pub(crate) fn step(
         &mut memory.found,
         spare_axes,
     );
-    let mut narrow = narrow;
     contacts.apart.replace(std::mem::take(&mut narrow.apart));
     manifolds::joint_rows(bodies, &index, joints, &mut memory.joint_rows);
     profile.narrow_phase = clock.lap();
