@@ -25,6 +25,8 @@ use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::{Path, PathBuf};
 
 use clap::Parser;
+
+use crate::orchestrator::{Orchestrating, OrchestratorMode};
 use serde::Deserialize;
 
 /// Default UDP port of the QUIC game and admin endpoint.
@@ -157,6 +159,10 @@ pub struct ConfigLayer {
     /// Log line format: text or json (default text).
     #[arg(long, value_enum)]
     pub log_format: Option<LogFormat>,
+    /// Who runs this process: auto (Agones when AGONES_SDK_HTTP_PORT is
+    /// set, else standalone), standalone or agones (default auto).
+    #[arg(long, value_enum)]
+    pub orchestrator: Option<OrchestratorMode>,
     /// Most ticks one loop of the tick thread may run to catch up (1..=1000,
     /// default 5); beyond it the backlog is dropped and an overrun counted.
     #[arg(long)]
@@ -268,6 +274,11 @@ pub struct ServerConfig {
     pub admin_token_file: Option<PathBuf>,
     /// Log line format.
     pub log_format: LogFormat,
+    /// How the orchestrator is chosen ([`crate::orchestrator`]).
+    pub orchestrator: OrchestratorMode,
+    /// The Agones SDK server's REST port, from `AGONES_SDK_HTTP_PORT`
+    /// (which Agones sets; not a setting of its own).
+    pub agones_sdk_port: Option<u16>,
     /// Most ticks one loop of the tick thread may run to catch up.
     pub max_catch_up_ticks: u32,
     /// Snapshot position grid step, mm.
@@ -317,6 +328,8 @@ impl Default for ServerConfig {
             cert_key_file: None,
             admin_token_file: None,
             log_format: LogFormat::Text,
+            orchestrator: OrchestratorMode::Auto,
+            agones_sdk_port: None,
             max_catch_up_ticks: DEFAULT_MAX_CATCH_UP_TICKS,
             position_resolution_mm: DEFAULT_POSITION_RESOLUTION_MM,
             record: true,
@@ -472,7 +485,8 @@ impl ServerConfig {
             None => ConfigLayer::default(),
         };
         let merged = args.layer.clone().or(env_layer).or(file_layer);
-        let config = ServerConfig::default().with(merged);
+        let mut config = ServerConfig::default().with(merged);
+        config.agones_sdk_port = agones_sdk_port(&env)?;
         config.validate()?;
         Ok(config)
     }
@@ -498,6 +512,8 @@ impl ServerConfig {
             cert_key_file: layer.cert_key_file.or(self.cert_key_file),
             admin_token_file: layer.admin_token_file.or(self.admin_token_file),
             log_format: layer.log_format.unwrap_or(self.log_format),
+            orchestrator: layer.orchestrator.unwrap_or(self.orchestrator),
+            agones_sdk_port: self.agones_sdk_port,
             max_catch_up_ticks: layer.max_catch_up_ticks.unwrap_or(self.max_catch_up_ticks),
             position_resolution_mm: layer
                 .position_resolution_mm
@@ -594,6 +610,12 @@ impl ServerConfig {
         self.data_dir.join("recording")
     }
 
+    /// The orchestrator this server works with: [`Self::orchestrator`]
+    /// with the Agones environment.
+    pub fn orchestrating(&self) -> Orchestrating {
+        Orchestrating::choose(self.orchestrator, self.agones_sdk_port)
+    }
+
     /// The threads that step the physics: as configured, else half the
     /// machine's cores, at least one. On a machine of few cores shared
     /// with the snapshot encoders and the network a second thread costs
@@ -662,6 +684,7 @@ impl ConfigLayer {
             cert_key_file: self.cert_key_file.or(lower.cert_key_file),
             admin_token_file: self.admin_token_file.or(lower.admin_token_file),
             log_format: self.log_format.or(lower.log_format),
+            orchestrator: self.orchestrator.or(lower.orchestrator),
             max_catch_up_ticks: self.max_catch_up_ticks.or(lower.max_catch_up_ticks),
             position_resolution_mm: self.position_resolution_mm.or(lower.position_resolution_mm),
             record: self.record.or(lower.record),
@@ -729,6 +752,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         cert_key_file: get(env, "INERTIA_CERT_KEY_FILE")?,
         admin_token_file: get(env, "INERTIA_ADMIN_TOKEN_FILE")?,
         log_format: get(env, "INERTIA_LOG_FORMAT")?,
+        orchestrator: get(env, "INERTIA_ORCHESTRATOR")?,
         position_resolution_mm: get(env, "INERTIA_POSITION_RESOLUTION_MM")?,
         max_catch_up_ticks: get(env, "INERTIA_MAX_CATCH_UP_TICKS")?,
         record: get(env, "INERTIA_RECORD")?,
@@ -740,6 +764,23 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         seek_memory_mb: get(env, "INERTIA_SEEK_MEMORY_MB")?,
         checkpoint_ticks: get(env, "INERTIA_CHECKPOINT_TICKS")?,
     })
+}
+
+/// `AGONES_SDK_HTTP_PORT`, which Agones sets in a game server's
+/// container: its SDK server's REST port.
+fn agones_sdk_port(env: &impl Fn(&str) -> Option<String>) -> Result<Option<u16>, ConfigError> {
+    const VAR: &str = "AGONES_SDK_HTTP_PORT";
+    match env(VAR).filter(|v| !v.trim().is_empty()) {
+        None => Ok(None),
+        Some(value) => match value.trim().parse::<u16>() {
+            Ok(port) if port > 0 => Ok(Some(port)),
+            _ => Err(ConfigError::Env {
+                var: VAR.to_string(),
+                value,
+                why: "expected a port number, 1..=65535".to_string(),
+            }),
+        },
+    }
 }
 
 #[cfg(test)]
@@ -760,6 +801,47 @@ mod tests {
         let p = dir.join(name);
         std::fs::write(&p, text).unwrap();
         p
+    }
+
+    #[test]
+    fn the_orchestrator_is_agones_where_agones_sets_its_port() {
+        let none = ServerConfig::from_args(["inertia-server"], env_of(&[])).unwrap();
+        assert_eq!(none.orchestrating(), Orchestrating::Standalone);
+        let agones_env = [("AGONES_SDK_HTTP_PORT", "9400")];
+        let auto = ServerConfig::from_args(["inertia-server"], env_of(&agones_env)).unwrap();
+        assert_eq!(
+            auto.orchestrating(),
+            Orchestrating::Agones { sdk_port: 9400 }
+        );
+        let off = ServerConfig::from_args(
+            ["inertia-server", "--orchestrator", "standalone"],
+            env_of(&agones_env),
+        )
+        .unwrap();
+        assert_eq!(off.orchestrating(), Orchestrating::Standalone);
+        let asked = ServerConfig::from_args(
+            ["inertia-server"],
+            env_of(&[("INERTIA_ORCHESTRATOR", "agones")]),
+        )
+        .unwrap();
+        assert_eq!(
+            asked.orchestrating(),
+            Orchestrating::Agones {
+                sdk_port: crate::orchestrator::sdk::DEFAULT_HTTP_PORT
+            }
+        );
+        for bad in ["0", "70000", "port"] {
+            let e = ServerConfig::from_args(
+                ["inertia-server"],
+                env_of(&[("AGONES_SDK_HTTP_PORT", bad)]),
+            )
+            .unwrap_err();
+            assert!(e.to_string().contains("AGONES_SDK_HTTP_PORT"), "{e}");
+        }
+        assert!(
+            ServerConfig::from_args(["inertia-server", "--orchestrator", "k8s"], env_of(&[]))
+                .is_err()
+        );
     }
 
     #[test]

@@ -8,6 +8,7 @@ pub mod credentials;
 pub mod health;
 pub mod metrics;
 pub mod net;
+pub mod orchestrator;
 pub mod priority;
 pub mod process;
 pub mod record;

@@ -79,6 +79,10 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
         let reloads = tokio::spawn(reload_on_hangup(hangups, server.admin_tokens()));
         let code = tokio::select! {
             () = wait_for_stop() => ExitCode::SUCCESS,
+            () = server.match_over() => {
+                tracing::info!("the match is over; draining");
+                ExitCode::SUCCESS
+            }
             why = server.failed() => {
                 eprintln!("inertia-server: {why}; exiting for a restart");
                 ExitCode::from(EXIT_SIMULATION_FAILED)

@@ -21,6 +21,7 @@ use crate::credentials::{self, CredentialFiles, CredentialsError};
 use crate::health::Health;
 use crate::metrics::{self, Metrics};
 use crate::net::{self, NetShared};
+use crate::orchestrator::{Allocation, Orchestrator, Probe};
 use crate::replay::checkpoint::CheckpointDir;
 use crate::rules::{GameRules, SandboxRules, SandboxSettings};
 use crate::scene::{demo::DEMO_RON, Scene, SceneError, SceneFormat};
@@ -95,6 +96,7 @@ pub struct RunningServer {
     health: Arc<Health>,
     endpoint: quinn::Endpoint,
     tasks: Vec<JoinHandle<()>>,
+    orchestrator: Orchestrator,
 }
 
 impl std::fmt::Debug for RunningServer {
@@ -321,6 +323,9 @@ pub async fn start_with_rules(
         shutdown.clone(),
     )));
     health.set_ready(true);
+    // Ready for the orchestrator too: the scene is built, the port bound.
+    let orchestrator =
+        Orchestrator::start(config.orchestrating(), probe(&shared, config.max_clients));
     info!(
         %addr,
         %metrics_addr,
@@ -340,7 +345,29 @@ pub async fn start_with_rules(
         health,
         endpoint,
         tasks,
+        orchestrator,
     })
+}
+
+/// What the orchestrator reads of the server: the tick loop's turns and
+/// the clients connected.
+fn probe(shared: &Arc<NetShared>, capacity: u32) -> Probe {
+    let (a, b) = (shared.clone(), shared.clone());
+    Probe {
+        loops: Arc::new(move || {
+            a.sim
+                .stats()
+                .loops
+                .load(std::sync::atomic::Ordering::Relaxed)
+        }),
+        players: Arc::new(move || {
+            b.connected
+                .lock()
+                .map(|c| c.keys().copied().collect())
+                .unwrap_or_default()
+        }),
+        capacity,
+    }
 }
 
 /// Watches the tick thread. If it ever stops other than by a shutdown
@@ -467,6 +494,18 @@ impl RunningServer {
         self.health.failed().await
     }
 
+    /// The match the orchestrator allocated this server for, once it has
+    /// (Agones; never standalone).
+    pub fn allocation(&self) -> Option<Allocation> {
+        self.orchestrator.allocation()
+    }
+
+    /// Waits until the allocated match's length has passed (never returns
+    /// for a match without one): then the process drains and shuts down.
+    pub async fn match_over(&self) {
+        self.orchestrator.match_over().await
+    }
+
     /// Clients connected now.
     pub fn clients(&self) -> usize {
         self.shared.connected.lock().map_or(0, |c| c.len())
@@ -510,6 +549,8 @@ impl RunningServer {
                  on disk)"
             );
         }
+        // Last: under Agones, Shutdown deletes the pod.
+        self.orchestrator.shutdown().await;
         info!("stopped");
     }
 }

@@ -13,6 +13,10 @@ pub const RATE_WINDOW: Duration = Duration::from_secs(1);
 pub struct SimStats {
     /// Ticks run.
     pub ticks: AtomicU64,
+    /// Turns of the tick thread's loop, paused or not: a count that stops
+    /// moving means the loop is stuck (what the orchestrator's health
+    /// pings watch).
+    pub loops: AtomicU64,
     /// Loops that hit the catch-up cap.
     pub overruns: AtomicU64,
     /// Simulation ticks dropped by overruns.

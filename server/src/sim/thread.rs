@@ -128,10 +128,12 @@ fn run_loop(
 ) {
     let mut last = Instant::now();
     let mut early: Option<Command> = None;
+    let stats = sim.stats();
     loop {
         if stopping.load(Ordering::SeqCst) {
             break;
         }
+        stats.loops.fetch_add(1, Ordering::Relaxed);
         let mut changed = false;
         let mut budget = sim.config.max_control_per_loop.max(1);
         if let Some(cmd) = early.take() {
