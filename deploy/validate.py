@@ -10,7 +10,9 @@
   template inside every GameServer spec) with kubernetes-validate, strict.
 - The Kustomize overlays, rendered first (see render_kustomization for the
   subset of Kustomize they may use).
-- The project's own invariants: the game port is UDP everywhere; container
+- The project's own invariants: a server listening beyond loopback is
+  given its key and certificate (dev mode would refuse to start); the game
+  port is UDP everywhere; container
   ports equal the ports in the server's --listen and --metrics flags;
   probes on /readyz and /healthz at the metrics port;
   terminationGracePeriodSeconds (and compose's stop_grace_period) longer
@@ -318,6 +320,18 @@ def quantity(q):
     return float(q)
 
 
+def refuses_dev_mode(where, args, env):
+    """The server runs in dev mode without a key and certificate, and dev
+    mode refuses to listen beyond loopback: such a manifest never starts."""
+    listen = flag(args, "--listen") or ""
+    if listen.startswith(("127.", "[::1]", "localhost")):
+        return
+    for name in ("key-file", "cert-file", "cert-key-file"):
+        var = "INERTIA_" + name.upper().replace("-", "_")
+        if flag(args, "--" + name) is None and var not in env:
+            problem(where, f"--listen {listen} needs --{name} (or {var}): dev mode listens on loopback only")
+
+
 def check_pod(where, pod, game_port_from_agones=None):
     drain = drain_seconds()
     grace = pod.get("terminationGracePeriodSeconds", 30)
@@ -333,6 +347,7 @@ def check_pod(where, pod, game_port_from_agones=None):
     if listen is None or metrics is None:
         problem(where, "the server's --listen and --metrics must be given (ports the manifest publishes)")
         return
+    refuses_dev_mode(where, args, {e["name"]: e.get("value") for e in c.get("env", [])})
     ports = {p["containerPort"]: p for p in c.get("ports", [])}
     if game_port_from_agones is not None:
         if game_port_from_agones != listen:
@@ -382,6 +397,7 @@ def check_compose(path):
     s = c["services"]["inertia-server"]
     cmd = s["command"]
     listen, metrics = port_of(flag(cmd, "--listen")), port_of(flag(cmd, "--metrics"))
+    refuses_dev_mode(path, cmd, s.get("environment", {}))
     ports = s.get("ports", [])
     if not any(p.endswith(f":{listen}/udp") for p in ports):
         problem(path, f"the game port {listen} must be published as UDP")

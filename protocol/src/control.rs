@@ -253,6 +253,9 @@ pub mod close_code {
     pub const SIMULATION_STOPPED: u32 = 5;
     /// Nothing was heard from the client for too long.
     pub const TIMEOUT: u32 = 6;
+    /// The match is over (its time is up, or the game rules ended it);
+    /// the reason text says why.
+    pub const MATCH_OVER: u32 = 7;
 }
 
 /// The prefix of the reason text of a [`close_code::SIMULATION_STOPPED`]
@@ -278,6 +281,7 @@ impl DisconnectReason {
             Ok(close_code::PROTOCOL) => DisconnectReason::ProtocolError { what: text },
             Ok(close_code::GOODBYE) => DisconnectReason::ClientLeft,
             Ok(close_code::TIMEOUT) => DisconnectReason::Timeout,
+            Ok(close_code::MATCH_OVER) => DisconnectReason::MatchOver { reason: text },
             _ => DisconnectReason::Kicked { reason: text },
         }
     }
@@ -295,6 +299,7 @@ impl DisconnectReason {
             DisconnectReason::ClientLeft => "goodbye".to_string(),
             DisconnectReason::ProtocolError { what } => what.clone(),
             DisconnectReason::SimulationStopped { reason } => reason.clone(),
+            DisconnectReason::MatchOver { reason } => reason.clone(),
         };
         truncate_utf8(&mut text, MAX_REASON_BYTES);
         match self {
@@ -303,6 +308,7 @@ impl DisconnectReason {
             DisconnectReason::Timeout => (close_code::TIMEOUT, text),
             DisconnectReason::ClientLeft => (close_code::GOODBYE, text),
             DisconnectReason::ProtocolError { .. } => (close_code::PROTOCOL, text),
+            DisconnectReason::MatchOver { .. } => (close_code::MATCH_OVER, text),
             DisconnectReason::SimulationStopped { .. } => (
                 close_code::SIMULATION_STOPPED,
                 format!("{SIMULATION_STOPPED_PREFIX}{text}"),
@@ -334,6 +340,12 @@ pub enum DisconnectReason {
     /// (and resumes from its recording), so reconnecting later works.
     SimulationStopped {
         /// What failed, for logs (at most [`MAX_REASON_BYTES`]).
+        reason: String,
+    },
+    /// The match is over: its time is up, or the game rules ended it. The
+    /// server drains and stops (under Agones, its game server is deleted).
+    MatchOver {
+        /// Why, for the player (at most [`MAX_REASON_BYTES`]).
         reason: String,
     },
 }
@@ -646,6 +658,9 @@ impl ControlMessage for ServerControl {
                 }
                 DisconnectReason::SimulationStopped { reason } => {
                     check_len("failure reason", reason.len(), MAX_REASON_BYTES)
+                }
+                DisconnectReason::MatchOver { reason } => {
+                    check_len("match-over reason", reason.len(), MAX_REASON_BYTES)
                 }
                 DisconnectReason::ServerShutdown
                 | DisconnectReason::Timeout

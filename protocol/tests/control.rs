@@ -102,6 +102,7 @@ fn reason() -> impl Strategy<Value = DisconnectReason> {
         Just(DisconnectReason::ClientLeft),
         "\\PC{0,40}".prop_map(|what| DisconnectReason::ProtocolError { what }),
         "\\PC{0,40}".prop_map(|reason| DisconnectReason::SimulationStopped { reason }),
+        "\\PC{0,40}".prop_map(|reason| DisconnectReason::MatchOver { reason }),
     ]
 }
 

@@ -163,6 +163,12 @@ pub struct ConfigLayer {
     /// set, else standalone), standalone or agones (default auto).
     #[arg(long, value_enum)]
     pub orchestrator: Option<OrchestratorMode>,
+    /// The match ends (drain, goodbye `MatchOver`, exit 0) this many
+    /// seconds after the start, or under Agones after the allocation,
+    /// unless the allocation sets its own length (1..=86400; default: no
+    /// limit).
+    #[arg(long)]
+    pub match_seconds: Option<u64>,
     /// Most ticks one loop of the tick thread may run to catch up (1..=1000,
     /// default 5); beyond it the backlog is dropped and an overrun counted.
     #[arg(long)]
@@ -276,6 +282,8 @@ pub struct ServerConfig {
     pub log_format: LogFormat,
     /// How the orchestrator is chosen ([`crate::orchestrator`]).
     pub orchestrator: OrchestratorMode,
+    /// Length of the match, s (see [`ConfigLayer::match_seconds`]).
+    pub match_seconds: Option<u64>,
     /// The Agones SDK server's REST port, from `AGONES_SDK_HTTP_PORT`
     /// (which Agones sets; not a setting of its own).
     pub agones_sdk_port: Option<u16>,
@@ -329,6 +337,7 @@ impl Default for ServerConfig {
             admin_token_file: None,
             log_format: LogFormat::Text,
             orchestrator: OrchestratorMode::Auto,
+            match_seconds: None,
             agones_sdk_port: None,
             max_catch_up_ticks: DEFAULT_MAX_CATCH_UP_TICKS,
             position_resolution_mm: DEFAULT_POSITION_RESOLUTION_MM,
@@ -384,6 +393,9 @@ pub enum ConfigError {
     /// `tick_hz` outside 1..=1000.
     #[error("tick_hz must be in 1..={MAX_TICK_HZ}, got {0}")]
     TickHz(u32),
+    /// `match_seconds` out of range.
+    #[error("match_seconds must be in 1..={max}, got {0}", max = crate::orchestrator::allocation::MAX_MATCH_SECONDS)]
+    MatchSeconds(u64),
     /// `snapshot_hz` zero or above the tick rate (a snapshot between two
     /// ticks would repeat the last one).
     #[error("snapshot_hz must be in 1..=tick_hz ({tick_hz}), got {snapshot_hz}")]
@@ -513,6 +525,7 @@ impl ServerConfig {
             admin_token_file: layer.admin_token_file.or(self.admin_token_file),
             log_format: layer.log_format.unwrap_or(self.log_format),
             orchestrator: layer.orchestrator.unwrap_or(self.orchestrator),
+            match_seconds: layer.match_seconds.or(self.match_seconds),
             agones_sdk_port: self.agones_sdk_port,
             max_catch_up_ticks: layer.max_catch_up_ticks.unwrap_or(self.max_catch_up_ticks),
             position_resolution_mm: layer
@@ -534,6 +547,11 @@ impl ServerConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
         if !(1..=MAX_TICK_HZ).contains(&self.tick_hz) {
             return Err(ConfigError::TickHz(self.tick_hz));
+        }
+        if let Some(s) = self.match_seconds {
+            if !(1..=crate::orchestrator::allocation::MAX_MATCH_SECONDS).contains(&s) {
+                return Err(ConfigError::MatchSeconds(s));
+            }
         }
         if self.snapshot_hz == 0 || self.snapshot_hz > self.tick_hz {
             return Err(ConfigError::SnapshotHz {
@@ -685,6 +703,7 @@ impl ConfigLayer {
             admin_token_file: self.admin_token_file.or(lower.admin_token_file),
             log_format: self.log_format.or(lower.log_format),
             orchestrator: self.orchestrator.or(lower.orchestrator),
+            match_seconds: self.match_seconds.or(lower.match_seconds),
             max_catch_up_ticks: self.max_catch_up_ticks.or(lower.max_catch_up_ticks),
             position_resolution_mm: self.position_resolution_mm.or(lower.position_resolution_mm),
             record: self.record.or(lower.record),
@@ -753,6 +772,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         admin_token_file: get(env, "INERTIA_ADMIN_TOKEN_FILE")?,
         log_format: get(env, "INERTIA_LOG_FORMAT")?,
         orchestrator: get(env, "INERTIA_ORCHESTRATOR")?,
+        match_seconds: get(env, "INERTIA_MATCH_SECONDS")?,
         position_resolution_mm: get(env, "INERTIA_POSITION_RESOLUTION_MM")?,
         max_catch_up_ticks: get(env, "INERTIA_MAX_CATCH_UP_TICKS")?,
         record: get(env, "INERTIA_RECORD")?,
@@ -842,6 +862,16 @@ mod tests {
             ServerConfig::from_args(["inertia-server", "--orchestrator", "k8s"], env_of(&[]))
                 .is_err()
         );
+        let timed =
+            ServerConfig::from_args(["inertia-server", "--match-seconds", "900"], env_of(&[]))
+                .unwrap();
+        assert_eq!(timed.match_seconds, Some(900));
+        for bad in ["0", "86401"] {
+            let e =
+                ServerConfig::from_args(["inertia-server", "--match-seconds", bad], env_of(&[]))
+                    .unwrap_err();
+            assert!(e.to_string().contains("match_seconds"), "{e}");
+        }
     }
 
     #[test]

@@ -77,10 +77,11 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
             );
         }
         let reloads = tokio::spawn(reload_on_hangup(hangups, server.admin_tokens()));
+        let mut ended = None;
         let code = tokio::select! {
             () = wait_for_stop() => ExitCode::SUCCESS,
-            () = server.match_over() => {
-                tracing::info!("the match is over; draining");
+            why = server.match_over() => {
+                ended = Some(why);
                 ExitCode::SUCCESS
             }
             why = server.failed() => {
@@ -89,7 +90,10 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
             }
         };
         reloads.abort();
-        server.shutdown().await;
+        match ended {
+            Some(why) => server.end_match(why).await,
+            None => server.shutdown().await,
+        }
         code
     });
     // Blocking work still running (a save's file, say) does not hold up

@@ -525,6 +525,15 @@ pub trait GameRules: Send {
     /// After each physics step.
     fn after_tick(&mut self, _ctx: &mut SimContext<'_>) {}
 
+    /// Whether the game is over, and why (for the players, at most
+    /// [`MAX_REASON_BYTES`](inertia_protocol::control::MAX_REASON_BYTES)):
+    /// asked after each live tick; once it says so, the server drains,
+    /// telling every client `MatchOver` with the reason, and stops. Rules
+    /// that never end a match keep the default.
+    fn match_over(&self) -> Option<String> {
+        None
+    }
+
     /// Events the rules gathered since the last call (drained).
     fn events(&mut self) -> Vec<GameEvent> {
         Vec::new()

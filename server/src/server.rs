@@ -97,6 +97,8 @@ pub struct RunningServer {
     endpoint: quinn::Endpoint,
     tasks: Vec<JoinHandle<()>>,
     orchestrator: Orchestrator,
+    /// `--match-seconds`.
+    match_length: Option<Duration>,
 }
 
 impl std::fmt::Debug for RunningServer {
@@ -346,6 +348,7 @@ pub async fn start_with_rules(
         endpoint,
         tasks,
         orchestrator,
+        match_length: config.match_seconds.map(Duration::from_secs),
     })
 }
 
@@ -500,10 +503,35 @@ impl RunningServer {
         self.orchestrator.allocation()
     }
 
-    /// Waits until the allocated match's length has passed (never returns
-    /// for a match without one): then the process drains and shuts down.
-    pub async fn match_over(&self) {
-        self.orchestrator.match_over().await
+    /// Waits until the match is over and says why: the game rules ended
+    /// it ([`crate::rules::GameRules::match_over`]), or its length passed
+    /// (`--match-seconds`, or the allocation's). Never returns for a
+    /// match with neither. The process then ends it with
+    /// [`RunningServer::end_match`].
+    pub async fn match_over(&self) -> String {
+        let mut rules = self.shared.sim.match_over();
+        let ended_by_rules = async {
+            match rules.wait_for(Option::is_some).await {
+                Ok(why) => why.clone().unwrap_or_default(),
+                Err(_) => std::future::pending().await,
+            }
+        };
+        tokio::select! {
+            why = ended_by_rules => why,
+            () = self.orchestrator.match_over(self.match_length) => {
+                "the match's time is up".to_string()
+            }
+        }
+    }
+
+    /// Ends the match: every client is told `MatchOver` with `reason`,
+    /// then the server shuts down as [`RunningServer::shutdown`] does.
+    pub async fn end_match(self, reason: String) {
+        let mut told = reason;
+        truncate_utf8(&mut told, MAX_REASON_BYTES);
+        info!(reason = %told, "the match is over; draining");
+        stop_clients(&self.shutdown, DisconnectReason::MatchOver { reason: told });
+        self.shutdown().await
     }
 
     /// Clients connected now.

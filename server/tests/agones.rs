@@ -413,12 +413,13 @@ async fn issue_14_an_allocation_sets_the_match_and_its_length_ends_it() {
     assert_eq!(settings.scene.as_deref(), Some("scenes/arena.ron"));
     assert_eq!(settings.rules.as_deref(), Some("ctf"));
     assert_eq!(settings.replay_seed, None, "a bad value is left out");
-    tokio::time::timeout(Duration::from_secs(5), server.match_over())
+    let why = tokio::time::timeout(Duration::from_secs(5), server.match_over())
         .await
         .expect("the match ends");
+    assert_eq!(why, "the match's time is up");
     let over = allocated_at.elapsed();
     assert!(over >= Duration::from_millis(900), "{over:?}");
-    server.shutdown().await;
+    server.end_match(why).await;
     assert_eq!(
         fake.whats().last().map(String::as_str),
         Some("POST /shutdown")

@@ -29,7 +29,7 @@ pub mod sdk;
 mod agones;
 
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use serde::Deserialize;
 use tokio::sync::watch;
@@ -119,6 +119,8 @@ pub struct Allocation {
 #[derive(Debug)]
 pub struct Orchestrator {
     agones: Option<agones::Agones>,
+    /// When the server became ready.
+    started: Instant,
     allocation: watch::Receiver<Option<Allocation>>,
 }
 
@@ -135,7 +137,11 @@ impl Orchestrator {
                 allocated,
             )),
         };
-        Orchestrator { agones, allocation }
+        Orchestrator {
+            agones,
+            started: Instant::now(),
+            allocation,
+        }
     }
 
     /// The match the server was allocated for, once it has been.
@@ -143,16 +149,20 @@ impl Orchestrator {
         self.allocation.borrow().clone()
     }
 
-    /// Waits until the allocated match's length has passed; never returns
-    /// for a match without a length (or a server never allocated).
-    pub async fn match_over(&self) {
-        let mut allocation = self.allocation.clone();
-        let end = match allocation
-            .wait_for(|a| a.as_ref().is_some_and(|a| a.settings.length.is_some()))
-            .await
-        {
-            Ok(a) => a.as_ref().and_then(|a| Some(a.at + a.settings.length?)),
-            Err(_) => None,
+    /// Waits until the match's length has passed: under Agones from the
+    /// allocation (its own length, else `length`), standalone from the
+    /// start (`length`). Never returns for a match without a length, nor
+    /// for a game server never allocated.
+    pub async fn match_over(&self, length: Option<Duration>) {
+        let end = if self.agones.is_none() {
+            length.map(|l| self.started + l)
+        } else {
+            let mut allocation = self.allocation.clone();
+            let allocated = match allocation.wait_for(Option::is_some).await {
+                Ok(a) => a.clone(),
+                Err(_) => None,
+            };
+            allocated.and_then(|a| Some(a.at + a.settings.length.or(length)?))
         };
         match end {
             Some(end) => tokio::time::sleep_until(end.into()).await,

@@ -225,6 +225,11 @@ impl SimHandle {
         self.frames.clone()
     }
 
+    /// Why the game rules ended the match, once they have.
+    pub fn match_over(&self) -> watch::Receiver<Option<String>> {
+        self.stats.match_over.subscribe()
+    }
+
     /// The shared counters.
     pub fn stats(&self) -> &SimStats {
         &self.stats

@@ -345,6 +345,20 @@ impl Simulation {
         &mut self.shown_mut().clock
     }
 
+    /// Whether the game rules have ended the match, and why: asked of the
+    /// live timeline only (history shown never ends it).
+    pub fn match_over(&self) -> Option<String> {
+        if self.view.is_some() {
+            return None;
+        }
+        let mut why = self.rules.match_over()?;
+        inertia_protocol::control::truncate_utf8(
+            &mut why,
+            inertia_protocol::control::MAX_REASON_BYTES,
+        );
+        Some(why)
+    }
+
     /// The shared counters.
     pub fn stats(&self) -> Arc<SimStats> {
         self.stats.clone()

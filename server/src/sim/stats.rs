@@ -33,6 +33,9 @@ pub struct SimStats {
     pub clients: AtomicU64,
     /// Physics steps that returned an error (should stay 0).
     pub step_errors: AtomicU64,
+    /// Why the game rules ended the match, once they have
+    /// ([`crate::rules::GameRules::match_over`]).
+    pub match_over: tokio::sync::watch::Sender<Option<String>>,
     /// Recordings stopped because the recorder dropped a record.
     pub record_gaps: AtomicU64,
 }

@@ -168,6 +168,12 @@ fn run_loop(
         let now = Instant::now();
         let ran = sim.advance(now - last);
         last = now;
+        if ran > 0 && stats.match_over.borrow().is_none() {
+            if let Some(why) = sim.match_over() {
+                tracing::info!(reason = %why, "the game rules ended the match");
+                stats.match_over.send_replace(Some(why));
+            }
+        }
         // What changed between ticks (joins, edits while paused) reaches
         // the recording now, not at the next tick.
         sim.flush_journal();

@@ -9,7 +9,8 @@
 //! declare is 404, a count out of range 400. [`FakeAgones::allocate_with`]
 //! does what a `GameServerAllocation` with metadata does.
 
-#![allow(dead_code)] // each test file uses its own subset
+#![allow(dead_code)]
+// each test file uses its own subset
 // A refusal is a whole response: the fake answers with it as it is.
 #![allow(clippy::result_large_err)]
 
