@@ -15,5 +15,6 @@ pub mod record;
 pub mod replay;
 pub mod rules;
 pub mod scene;
+pub mod secrets;
 pub mod server;
 pub mod sim;

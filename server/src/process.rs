@@ -1,7 +1,8 @@
 //! The `inertia-server` process around a [`GameRules`]: configuration from
 //! the command line, environment and TOML, logging, the I/O runtime, serving
-//! until SIGTERM or Ctrl-C, re-reading the admin token file on SIGHUP
-//! ([`AdminTokenStore::reload`]), and the exit status an orchestrator acts
+//! until SIGTERM, Ctrl-C or the end of the match, re-reading the secrets
+//! on SIGHUP ([`crate::secrets`]; only the admin token file in dev mode,
+//! [`AdminTokenStore::reload`]), and the exit status an orchestrator acts
 //! on.
 //! A studio's own server binary is `fn main() -> ExitCode { run(my_rules) }`,
 //! best with the allocator `inertia-server` declares
@@ -22,6 +23,7 @@ use tracing_subscriber::EnvFilter;
 use crate::admin::tokens::AdminTokenStore;
 use crate::config::{LogFormat, ServerConfig};
 use crate::rules::GameRules;
+use crate::secrets::Secrets;
 
 /// Exit status after the simulation failed while serving.
 pub const EXIT_SIMULATION_FAILED: u8 = 3;
@@ -76,7 +78,11 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
                 path.display()
             );
         }
-        let reloads = tokio::spawn(reload_on_hangup(hangups, server.admin_tokens()));
+        let reloads = tokio::spawn(reload_on_hangup(
+            hangups,
+            server.secrets(),
+            server.admin_tokens(),
+        ));
         let mut ended = None;
         let code = tokio::select! {
             () = wait_for_stop() => ExitCode::SUCCESS,
@@ -129,21 +135,33 @@ fn hangups() -> Hangups {
     }
 }
 
-/// Reloads the admin token file at each SIGHUP (the reload logs and
-/// counts its outcome), on the blocking pool.
-async fn reload_on_hangup(hangups: Hangups, tokens: std::sync::Arc<AdminTokenStore>) {
+/// At each SIGHUP, reads the secrets again (outside dev mode: token key,
+/// certificate, and the admin token file; see [`crate::secrets`]), or
+/// only the admin token file in dev mode. On the blocking pool; each
+/// reload logs its outcome.
+async fn reload_on_hangup(
+    hangups: Hangups,
+    secrets: Option<std::sync::Arc<Secrets>>,
+    tokens: std::sync::Arc<AdminTokenStore>,
+) {
     #[cfg(unix)]
     {
         let Some(mut hangups) = hangups else { return };
         while hangups.recv().await.is_some() {
-            tracing::info!(target: "inertia::admin", "SIGHUP: reloading the admin token file");
-            let tokens = tokens.clone();
-            let _ = tokio::task::spawn_blocking(move || tokens.reload()).await;
+            tracing::info!(target: "inertia::admin", "SIGHUP: reloading the secrets");
+            let (secrets, tokens) = (secrets.clone(), tokens.clone());
+            let _ = tokio::task::spawn_blocking(move || match secrets {
+                Some(secrets) => secrets.reload_logged(),
+                None => {
+                    let _ = tokens.reload();
+                }
+            })
+            .await;
         }
     }
     #[cfg(not(unix))]
     {
-        let _ = (hangups, tokens);
+        let _ = (hangups, secrets, tokens);
     }
 }
 

@@ -25,6 +25,7 @@ use crate::orchestrator::{Allocation, Orchestrator, Probe};
 use crate::replay::checkpoint::CheckpointDir;
 use crate::rules::{GameRules, SandboxRules, SandboxSettings};
 use crate::scene::{demo::DEMO_RON, Scene, SceneError, SceneFormat};
+use crate::secrets::Secrets;
 use crate::sim::resume::read_for_resume;
 use crate::sim::{Frame, SimConfig, SimExit, SimHandle, Simulation};
 
@@ -97,6 +98,8 @@ pub struct RunningServer {
     endpoint: quinn::Endpoint,
     tasks: Vec<JoinHandle<()>>,
     orchestrator: Orchestrator,
+    /// The secret files, outside dev mode.
+    secrets: Option<Arc<Secrets>>,
     /// `--match-seconds`.
     match_length: Option<Duration>,
 }
@@ -165,15 +168,15 @@ pub async fn start_with_rules(
         addr: listen,
         source,
     })?;
+    let files = CredentialFiles {
+        key_file: config.key_file.clone(),
+        cert_file: config.cert_file.clone(),
+        cert_key_file: config.cert_key_file.clone(),
+    };
     let (creds, credentials_path) = if dev {
         let (creds, path) = credentials::make_dev(&config.data_dir, addr)?;
         (creds, Some(path))
     } else {
-        let files = CredentialFiles {
-            key_file: config.key_file.clone(),
-            cert_file: config.cert_file.clone(),
-            cert_key_file: config.cert_key_file.clone(),
-        };
         (credentials::load(&files)?, None)
     };
 
@@ -324,6 +327,19 @@ pub async fn start_with_rules(
         health.clone(),
         shutdown.clone(),
     )));
+    // Outside dev mode the secrets are read again when their files change
+    // (and on SIGHUP, by the process).
+    let secrets = (!dev).then(|| {
+        Arc::new(Secrets::new(
+            files,
+            endpoint.clone(),
+            shared.clone(),
+            creds.fingerprint,
+        ))
+    });
+    if let Some(secrets) = &secrets {
+        tasks.push(tokio::spawn(secrets.clone().watch()));
+    }
     health.set_ready(true);
     // Ready for the orchestrator too: the scene is built, the port bound.
     let orchestrator =
@@ -348,6 +364,7 @@ pub async fn start_with_rules(
         endpoint,
         tasks,
         orchestrator,
+        secrets,
         match_length: config.match_seconds.map(Duration::from_secs),
     })
 }
@@ -458,6 +475,12 @@ impl RunningServer {
     /// Blocking (it reads a file).
     pub fn reload_admin_tokens(&self) -> Result<usize, TokenFileError> {
         self.shared.admin_tokens.reload()
+    }
+
+    /// The server's secret files and their reload (outside dev mode):
+    /// what SIGHUP does, and what a change to the files does by itself.
+    pub fn secrets(&self) -> Option<Arc<Secrets>> {
+        self.secrets.clone()
     }
 
     /// Where `save` and `load` keep checkpoints.

@@ -26,7 +26,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use glam::DVec3;
 use inertia_protocol::control::{
     encode_frame, handshake, truncate_utf8, ClientControl, DisconnectReason, FrameDecoder, Refusal,
-    ServerControl, SnapshotParams, MAX_REASON_BYTES,
+    ServerControl, SnapshotParams, TokenRefusal, MAX_REASON_BYTES,
 };
 use inertia_protocol::{EntityId, EntityKind, ServerSession, SessionConfig};
 use tracing::{debug, info, info_span, warn, Instrument};
@@ -59,7 +59,7 @@ pub const GOODBYE_WAIT: Duration = Duration::from_secs(1);
 /// QUIC close codes the server uses (the protocol's).
 pub use inertia_protocol::control::close_code;
 
-fn unix_now() -> u64 {
+pub(crate) fn unix_now() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| d.as_secs())
@@ -212,15 +212,20 @@ async fn hello(connection: &quinn::Connection, id: u64, shared: &NetShared) -> O
     };
     let result = match msg {
         Ok(hello) => {
+            let now = unix_now();
+            let keys = shared.token_keys.read().unwrap_or_else(|e| e.into_inner());
             let mut guard = shared.guard.lock().unwrap_or_else(|e| e.into_inner());
-            handshake(
-                &hello,
-                unix_now(),
-                &shared.token_key,
-                &shared.public_addr,
-                id,
-                &mut guard,
-            )
+            // The current key, then a replaced one still in its grace
+            // period: a token only one of them seals is forged under the
+            // other.
+            let mut result = Err(Refusal::Token(TokenRefusal::Forged));
+            for key in keys.at(now) {
+                result = handshake(&hello, now, key, &shared.public_addr, id, &mut guard);
+                if !matches!(result, Err(Refusal::Token(TokenRefusal::Forged))) {
+                    break;
+                }
+            }
+            result
         }
         Err(e) => {
             debug!(error = %e, "malformed hello");

@@ -12,6 +12,7 @@ pub mod gate;
 pub mod governor;
 pub mod snapshots;
 pub mod tls;
+pub mod token_keys;
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -21,6 +22,7 @@ use inertia_protocol::admin::ADMIN_ALPN;
 use inertia_protocol::control::DisconnectReason;
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::{ReplayGuard, TokenKey};
+use token_keys::TokenKeys;
 use tokio::sync::{oneshot, watch};
 use tracing::{debug, info};
 
@@ -40,8 +42,10 @@ pub struct NetShared {
     pub sim: SimHandle,
     /// Metrics.
     pub metrics: Metrics,
-    /// The key connect tokens are sealed with.
-    pub token_key: TokenKey,
+    /// The keys connect tokens are opened with (the current one, and a
+    /// replaced one for its grace period), rotated by
+    /// [`crate::server::RunningServer::reload_secrets`].
+    pub token_keys: std::sync::RwLock<TokenKeys>,
     /// The address tokens must name (the server's public `ip:port`).
     pub public_addr: String,
     /// Tokens already used, by connection.
@@ -107,7 +111,7 @@ impl NetShared {
             admin_tokens: Arc::new(AdminTokenStore::none(metrics.clone())),
             admin_throttle: Mutex::new(HelloThrottle::default()),
             metrics,
-            token_key,
+            token_keys: std::sync::RwLock::new(TokenKeys::new(token_key)),
             public_addr,
             guard: Mutex::new(ReplayGuard::new(REPLAY_GUARD_CAPACITY)),
             snapshot,
