@@ -229,6 +229,20 @@ pub enum AdminRequest {
         /// re-simulated from the recording.
         tick: Option<u64>,
     },
+    /// List the finished matches whose recordings the server keeps
+    /// ([`AdminResponse::Matches`]).
+    Matches,
+    /// Read part of a kept match's recording
+    /// ([`AdminResponse::RecordingPart`]): file `file` (its files in name
+    /// order, from 0), from byte `offset`.
+    FetchRecording {
+        /// The match.
+        name: MatchName,
+        /// Which file of its recording.
+        file: u32,
+        /// From which byte.
+        offset: u64,
+    },
 }
 
 /// The name of a checkpoint in the server's checkpoint directory: 1 to
@@ -256,21 +270,7 @@ impl CheckpointName {
 
     /// Checks the name (see the type's docs).
     pub fn check(&self) -> Checked {
-        let name = &self.0;
-        if name.is_empty() {
-            return Err(AdminValidationError::EmptyName);
-        }
-        check_len("checkpoint name", name.len(), MAX_CHECKPOINT_NAME_BYTES)?;
-        if let Some(c) = name
-            .chars()
-            .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-')))
-        {
-            return Err(AdminValidationError::NameCharacter(c));
-        }
-        if name.starts_with('.') {
-            return Err(AdminValidationError::NameStartsWithDot);
-        }
-        Ok(())
+        check_file_name("checkpoint name", &self.0)
     }
 
     /// The name.
@@ -278,6 +278,75 @@ impl CheckpointName {
         &self.0
     }
 }
+
+/// Checks a name that will name a file or directory inside one of the
+/// server's directories: 1 to [`MAX_CHECKPOINT_NAME_BYTES`] characters of
+/// `A-Z a-z 0-9 . _ -`, not starting with `.` (so never a path).
+fn check_file_name(what: &'static str, name: &str) -> Checked {
+    if name.is_empty() {
+        return Err(AdminValidationError::EmptyName);
+    }
+    check_len(what, name.len(), MAX_CHECKPOINT_NAME_BYTES)?;
+    if let Some(c) = name
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-')))
+    {
+        return Err(AdminValidationError::NameCharacter(c));
+    }
+    if name.starts_with('.') {
+        return Err(AdminValidationError::NameStartsWithDot);
+    }
+    Ok(())
+}
+
+/// The name of a finished match's recording, kept in the server's
+/// matches directory (`<data-dir>/matches/<name>/`); the rules of a
+/// [`CheckpointName`], so it is never a path either.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct MatchName(String);
+
+impl MatchName {
+    /// `name`, if it is a valid match name.
+    pub fn new(name: impl Into<String>) -> Result<MatchName, AdminValidationError> {
+        let name = MatchName(name.into());
+        name.check()?;
+        Ok(name)
+    }
+
+    /// Checks the name (see the type's docs).
+    pub fn check(&self) -> Checked {
+        check_file_name("match name", &self.0)
+    }
+
+    /// The name.
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+impl std::fmt::Display for MatchName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// A finished match whose recording the server keeps.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct KeptMatch {
+    /// Its name.
+    pub name: MatchName,
+    /// Files in its recording.
+    pub files: u32,
+    /// Their bytes in all.
+    pub bytes: u64,
+}
+
+/// Most matches one [`AdminResponse::Matches`] lists (the newest, by
+/// name): a listing fits one control frame.
+pub const MAX_MATCHES_LISTED: usize = 256;
+/// Most bytes of a recording one [`AdminResponse::RecordingPart`] carries.
+pub const MAX_RECORDING_PART: usize = 32 * 1024;
 
 impl std::fmt::Display for CheckpointName {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -373,6 +442,22 @@ pub enum AdminResponse {
     Spawned {
         /// The new entity.
         id: EntityId,
+    },
+    /// The answer to [`AdminRequest::Matches`], newest last (at most
+    /// [`MAX_MATCHES_LISTED`]).
+    Matches(Vec<KeptMatch>),
+    /// The answer to [`AdminRequest::FetchRecording`].
+    RecordingPart {
+        /// Files in the recording.
+        files: u32,
+        /// This file's name (a [`MatchName`]'s characters).
+        file_name: String,
+        /// This file's length, bytes.
+        file_len: u64,
+        /// Where `data` starts in it.
+        offset: u64,
+        /// At most [`MAX_RECORDING_PART`] bytes; empty at the file's end.
+        data: Vec<u8>,
     },
     /// The request was not carried out.
     Error(AdminError),
@@ -698,7 +783,9 @@ impl AdminRequest {
             | AdminRequest::Seek { .. }
             | AdminRequest::Record { .. }
             | AdminRequest::Despawn { .. }
-            | AdminRequest::Hash { .. } => Ok(()),
+            | AdminRequest::Hash { .. }
+            | AdminRequest::Matches => Ok(()),
+            AdminRequest::FetchRecording { name, .. } => name.check(),
             AdminRequest::Step { ticks } => {
                 if *ticks == 0 {
                     return Err(AdminValidationError::OutOfRange { what: "step ticks" });
@@ -760,6 +847,16 @@ impl AdminResponse {
             AdminResponse::Status(report) => report.check(),
             AdminResponse::Ok | AdminResponse::Hash { .. } | AdminResponse::Spawned { .. } => {
                 Ok(())
+            }
+            AdminResponse::Matches(list) => {
+                check_len("matches listed", list.len(), MAX_MATCHES_LISTED)?;
+                list.iter().try_for_each(|m| m.name.check())
+            }
+            AdminResponse::RecordingPart {
+                file_name, data, ..
+            } => {
+                check_file_name("recording file name", file_name)?;
+                check_len("recording part", data.len(), MAX_RECORDING_PART)
             }
             AdminResponse::Error(e) => {
                 check_len("admin error", e.message.len(), MAX_ADMIN_ERROR_BYTES)

@@ -628,6 +628,12 @@ impl ServerConfig {
         self.data_dir.join("recording")
     }
 
+    /// Where finished matches' recordings are kept
+    /// ([`crate::record::matches`]).
+    pub fn matches_dir(&self) -> PathBuf {
+        self.data_dir.join("matches")
+    }
+
     /// The orchestrator this server works with: [`Self::orchestrator`]
     /// with the Agones environment.
     pub fn orchestrating(&self) -> Orchestrating {

@@ -97,7 +97,9 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
         };
         reloads.abort();
         match ended {
-            Some(why) => server.end_match(why).await,
+            Some(why) => {
+                server.end_match(why).await;
+            }
             None => server.shutdown().await,
         }
         code

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use inertia_physics::WorldConfig;
+use inertia_protocol::admin::MatchName;
 use inertia_protocol::control::{truncate_utf8, DisconnectReason, MAX_REASON_BYTES};
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::TokenKey;
@@ -22,6 +23,7 @@ use crate::health::Health;
 use crate::metrics::{self, Metrics};
 use crate::net::{self, NetShared};
 use crate::orchestrator::{Allocation, Orchestrator, Probe};
+use crate::record::matches::MatchesDir;
 use crate::replay::checkpoint::CheckpointDir;
 use crate::rules::{GameRules, SandboxRules, SandboxSettings};
 use crate::scene::{demo::DEMO_RON, Scene, SceneError, SceneFormat};
@@ -102,6 +104,8 @@ pub struct RunningServer {
     secrets: Option<Arc<Secrets>>,
     /// `--match-seconds`.
     match_length: Option<Duration>,
+    /// The live recording, kept under the match's name when it ends.
+    recording_dir: PathBuf,
 }
 
 impl std::fmt::Debug for RunningServer {
@@ -304,6 +308,7 @@ pub async fn start_with_rules(
         )
         .with_admin_tokens(admin_tokens)
         .with_checkpoint_dir(CheckpointDir::new(config.checkpoint_dir()))
+        .with_matches_dir(MatchesDir::new(config.matches_dir()))
         .with_frame_history(config.frame_history),
     );
     if config.frame_history > 0 {
@@ -366,6 +371,7 @@ pub async fn start_with_rules(
         orchestrator,
         secrets,
         match_length: config.match_seconds.map(Duration::from_secs),
+        recording_dir: config.recording_dir(),
     })
 }
 
@@ -548,13 +554,30 @@ impl RunningServer {
     }
 
     /// Ends the match: every client is told `MatchOver` with `reason`,
-    /// then the server shuts down as [`RunningServer::shutdown`] does.
-    pub async fn end_match(self, reason: String) {
+    /// then the server shuts down as [`RunningServer::shutdown`] does, and
+    /// the match's recording, ended, is kept under its own name in the
+    /// matches directory ([`crate::record::matches`]). Returns that name
+    /// (`None` without a recording).
+    pub async fn end_match(self, reason: String) -> Option<MatchName> {
         let mut told = reason;
         truncate_utf8(&mut told, MAX_REASON_BYTES);
         info!(reason = %told, "the match is over; draining");
         stop_clients(&self.shutdown, DisconnectReason::MatchOver { reason: told });
-        self.shutdown().await
+        let (matches, recording) = (self.shared.matches.clone(), self.recording_dir.clone());
+        self.shutdown().await;
+        let now = crate::net::connection::unix_now();
+        match tokio::task::spawn_blocking(move || matches.keep(&recording, now)).await {
+            Ok(Ok(Some(name))) => {
+                info!(%name, "the match's recording is kept");
+                Some(name)
+            }
+            Ok(Ok(None)) => None,
+            Ok(Err(e)) => {
+                warn!(error = %e, "the match's recording could not be kept under its name; it stays where it was");
+                None
+            }
+            Err(_) => None,
+        }
     }
 
     /// Clients connected now.

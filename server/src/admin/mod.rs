@@ -34,6 +34,7 @@ pub mod client;
 pub mod throttle;
 pub mod tokens;
 
+use crate::record::matches::MatchesError;
 use std::net::{IpAddr, SocketAddr};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
@@ -90,6 +91,8 @@ pub fn action_name(request: &AdminRequest) -> &'static str {
         AdminRequest::Impulse { .. } => "impulse",
         AdminRequest::Kick { .. } => "kick",
         AdminRequest::Hash { .. } => "hash",
+        AdminRequest::Matches => "matches",
+        AdminRequest::FetchRecording { .. } => "fetch_recording",
     }
 }
 
@@ -495,6 +498,27 @@ impl Session<'_> {
                 let (from, to, speed) = (*from, *to, *speed);
                 self.travel(move |s| s.replay(from, to, speed)).await
             }
+            AdminRequest::Matches => {
+                let matches = self.shared.matches.clone();
+                let list = blocking(move || matches.list())
+                    .await?
+                    .map_err(matches_error)?;
+                Ok(AdminResponse::Matches(list))
+            }
+            AdminRequest::FetchRecording { name, file, offset } => {
+                let (matches, name, file, offset) =
+                    (self.shared.matches.clone(), name.clone(), *file, *offset);
+                let part = blocking(move || matches.read(&name, file, offset))
+                    .await?
+                    .map_err(matches_error)?;
+                Ok(AdminResponse::RecordingPart {
+                    files: part.files,
+                    file_name: part.file_name,
+                    file_len: part.file_len,
+                    offset: part.offset,
+                    data: part.data,
+                })
+            }
             AdminRequest::Save { name, overwrite } => {
                 // The state is captured on the tick thread; encoded,
                 // packed and written off it.
@@ -656,6 +680,15 @@ async fn blocking<R: Send + 'static>(
 /// The admin error for a refused save or load.
 fn checkpoint_error(e: CheckpointError) -> AdminError {
     AdminError::new(e.kind(), e.to_string())
+}
+
+/// The admin error for a kept match that could not be read.
+fn matches_error(e: MatchesError) -> AdminError {
+    let kind = match e {
+        MatchesError::NotFound(_) => AdminErrorKind::NotFound,
+        MatchesError::Io { .. } => AdminErrorKind::Io,
+    };
+    AdminError::new(kind, e.to_string())
 }
 
 /// The admin error for a refused time-travel request.

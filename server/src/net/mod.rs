@@ -23,6 +23,8 @@ use inertia_protocol::control::DisconnectReason;
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::{ReplayGuard, TokenKey};
 use token_keys::TokenKeys;
+
+use crate::record::matches::MatchesDir;
 use tokio::sync::{oneshot, watch};
 use tracing::{debug, info};
 
@@ -79,6 +81,8 @@ pub struct NetShared {
     pub admin_throttle: Mutex<HelloThrottle>,
     /// Where `save` and `load` keep checkpoints.
     pub checkpoints: CheckpointDir,
+    /// Where finished matches' recordings are kept.
+    pub matches: MatchesDir,
     /// The clients the snapshot stage serves ([`snapshots::run`]).
     pub served: Arc<snapshots::ServedClients>,
 }
@@ -127,6 +131,7 @@ impl NetShared {
             checkpoints: CheckpointDir::new(
                 crate::config::ServerConfig::default().checkpoint_dir(),
             ),
+            matches: MatchesDir::new(crate::config::ServerConfig::default().matches_dir()),
             served: Arc::default(),
         }
     }
@@ -154,6 +159,12 @@ impl NetShared {
     /// The same, keeping checkpoints in `dir`.
     pub fn with_checkpoint_dir(mut self, dir: CheckpointDir) -> Self {
         self.checkpoints = dir;
+        self
+    }
+
+    /// The same, keeping finished matches' recordings in `dir`.
+    pub fn with_matches_dir(mut self, dir: MatchesDir) -> Self {
+        self.matches = dir;
         self
     }
 

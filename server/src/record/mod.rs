@@ -110,6 +110,7 @@ pub mod compress;
 pub mod crc32;
 mod error;
 mod frame;
+pub mod matches;
 mod reader;
 pub mod recorder;
 mod segment;

@@ -20,7 +20,7 @@ use std::time::Duration;
 
 use clap::{Parser, Subcommand};
 use inertia_protocol::admin::{
-    AdminRequest, AdminResponse, CheckpointName, SpawnDesc, StatusReport,
+    AdminRequest, AdminResponse, CheckpointName, MatchName, SpawnDesc, StatusReport,
 };
 use inertia_protocol::credentials::{hex32, DevCredentials, DEV_CREDENTIALS_PATH};
 use inertia_server::admin::client::{
@@ -176,6 +176,17 @@ enum Cmd {
         /// The tick.
         tick: Option<u64>,
     },
+    /// The finished matches whose recordings the server keeps
+    Matches,
+    /// Copy a kept match's recording here, to replay or verify offline
+    /// (`replay-file verify DIR`)
+    FetchRecording {
+        /// The match (as `matches` lists it).
+        name: String,
+        /// Where to put it (default: ./NAME); must not exist yet.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Offline tools for a recording directory (no server needed).
     #[command(subcommand)]
     ReplayFile(replay_file::ReplayFileCmd),
@@ -266,6 +277,13 @@ fn request(cmd: &Cmd) -> Result<AdminRequest, Failure> {
             reason: reason.clone(),
         },
         Cmd::Hash { tick } => AdminRequest::Hash { tick: *tick },
+        Cmd::Matches => AdminRequest::Matches,
+        Cmd::FetchRecording { name, .. } => AdminRequest::FetchRecording {
+            name: MatchName::new(name.as_str())
+                .map_err(|e| usage(format!("match {name:?}: {e}")))?,
+            file: 0,
+            offset: 0,
+        },
         Cmd::ReplayFile(_) => {
             return Err(usage("replay-file works offline, not on a server".into()))
         }
@@ -330,6 +348,14 @@ async fn run(args: &Args) -> Result<(serde_json::Value, String), Failure> {
     })?;
     let mut client = connect(args).await?;
     let tick_hz = client.welcome().tick_hz;
+    if let (Cmd::FetchRecording { name, out }, AdminRequest::FetchRecording { name: m, .. }) =
+        (&args.command, &request)
+    {
+        let out = out.clone().unwrap_or_else(|| PathBuf::from(name));
+        let fetched = fetch_recording(&mut client, m, &out).await;
+        client.close().await;
+        return fetched;
+    }
     let response = client.call(request.clone()).await?;
     let out = match response {
         AdminResponse::Error(e) => {
@@ -350,6 +376,22 @@ async fn run(args: &Args) -> Result<(serde_json::Value, String), Failure> {
             json!({ "ok": true, "spawned": id }),
             format!("spawned entity {id}"),
         ),
+        AdminResponse::Matches(list) => (
+            json!({ "matches": list.iter().map(|m| json!({
+                "name": m.name.as_str(), "files": m.files, "bytes": m.bytes,
+            })).collect::<Vec<_>>() }),
+            if list.is_empty() {
+                "no finished match kept".to_string()
+            } else {
+                list.iter()
+                    .map(|m| format!("{}  {} files, {} bytes", m.name, m.files, m.bytes))
+                    .collect::<Vec<_>>()
+                    .join("\n")
+            },
+        ),
+        AdminResponse::RecordingPart { .. } => {
+            (json!({ "ok": true }), "a part of a recording".to_string())
+        }
         AdminResponse::Ok => match &args.command {
             Cmd::Speed { x } => {
                 // The rate is a second's average: give the new speed a
@@ -478,6 +520,89 @@ fn hash_output(
         value,
         format!("{reached} tick {tick}: state hash {state_hash:016x}, {verdict}"),
     )
+}
+
+/// Copies match `name`'s recording into the new directory `out`, file by
+/// file, part by part; the JSON object and the text to print.
+async fn fetch_recording(
+    client: &mut AdminClient,
+    name: &MatchName,
+    out: &std::path::Path,
+) -> Result<(serde_json::Value, String), Failure> {
+    let failed = |code, kind, message: String| Failure {
+        code,
+        kind,
+        message,
+    };
+    std::fs::create_dir(out).map_err(|e| {
+        failed(
+            1,
+            "io",
+            format!("{}: {e} (it must not exist yet)", out.display()),
+        )
+    })?;
+    let (mut file, mut offset, mut bytes, mut files) = (0u32, 0u64, 0u64, 1u32);
+    let mut writer: Option<std::fs::File> = None;
+    while file < files {
+        let request = AdminRequest::FetchRecording {
+            name: name.clone(),
+            file,
+            offset,
+        };
+        match client.call(request).await? {
+            AdminResponse::RecordingPart {
+                files: total,
+                file_name,
+                file_len,
+                offset: at,
+                data,
+            } => {
+                files = total;
+                if at != offset {
+                    return Err(failed(
+                        1,
+                        "protocol",
+                        format!("asked for byte {offset}, got {at}"),
+                    ));
+                }
+                // The name is checked by the protocol: a plain file name.
+                let w = match writer.as_mut() {
+                    Some(w) => w,
+                    None => writer.insert(
+                        std::fs::File::create_new(out.join(&file_name))
+                            .map_err(|e| failed(1, "io", format!("{file_name}: {e}")))?,
+                    ),
+                };
+                use std::io::Write;
+                w.write_all(&data)
+                    .map_err(|e| failed(1, "io", format!("{file_name}: {e}")))?;
+                offset += data.len() as u64;
+                bytes += data.len() as u64;
+                if offset >= file_len || data.is_empty() {
+                    writer = None;
+                    file += 1;
+                    offset = 0;
+                }
+            }
+            AdminResponse::Error(e) => {
+                return Err(failed(1, error_kind_name(e.kind), e.message));
+            }
+            other => {
+                return Err(failed(
+                    1,
+                    "protocol",
+                    format!("unexpected answer {other:?}"),
+                ));
+            }
+        }
+    }
+    Ok((
+        json!({ "ok": true, "match": name.as_str(), "files": files, "bytes": bytes, "out": out.display().to_string() }),
+        format!(
+            "fetched {name}: {files} files, {bytes} bytes into {}",
+            out.display()
+        ),
+    ))
 }
 
 fn done_text(cmd: &Cmd) -> String {
