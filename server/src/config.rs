@@ -163,6 +163,11 @@ pub struct ConfigLayer {
     /// set, else standalone), standalone or agones (default auto).
     #[arg(long, value_enum)]
     pub orchestrator: Option<OrchestratorMode>,
+    /// Directory of the scenes an Agones allocation may ask for by name
+    /// (`inertia.dev/scene`: a file name in it, `.ron` or `.json`); none:
+    /// an allocation's scene is not applied.
+    #[arg(long, value_name = "DIR")]
+    pub scenes_dir: Option<PathBuf>,
     /// The match ends (drain, goodbye `MatchOver`, exit 0) this many
     /// seconds after the start, or under Agones after the allocation,
     /// unless the allocation sets its own length (1..=86400; default: no
@@ -284,6 +289,8 @@ pub struct ServerConfig {
     pub orchestrator: OrchestratorMode,
     /// Length of the match, s (see [`ConfigLayer::match_seconds`]).
     pub match_seconds: Option<u64>,
+    /// Scenes an allocation may ask for (see [`ConfigLayer::scenes_dir`]).
+    pub scenes_dir: Option<PathBuf>,
     /// The Agones SDK server's REST port, from `AGONES_SDK_HTTP_PORT`
     /// (which Agones sets; not a setting of its own).
     pub agones_sdk_port: Option<u16>,
@@ -338,6 +345,7 @@ impl Default for ServerConfig {
             log_format: LogFormat::Text,
             orchestrator: OrchestratorMode::Auto,
             match_seconds: None,
+            scenes_dir: None,
             agones_sdk_port: None,
             max_catch_up_ticks: DEFAULT_MAX_CATCH_UP_TICKS,
             position_resolution_mm: DEFAULT_POSITION_RESOLUTION_MM,
@@ -526,6 +534,7 @@ impl ServerConfig {
             log_format: layer.log_format.unwrap_or(self.log_format),
             orchestrator: layer.orchestrator.unwrap_or(self.orchestrator),
             match_seconds: layer.match_seconds.or(self.match_seconds),
+            scenes_dir: layer.scenes_dir.or(self.scenes_dir),
             agones_sdk_port: self.agones_sdk_port,
             max_catch_up_ticks: layer.max_catch_up_ticks.unwrap_or(self.max_catch_up_ticks),
             position_resolution_mm: layer
@@ -628,6 +637,15 @@ impl ServerConfig {
         self.data_dir.join("recording")
     }
 
+    /// The physics world's settings: the body limit and the threads.
+    pub fn world_config(&self) -> inertia_physics::WorldConfig {
+        inertia_physics::WorldConfig {
+            max_bodies: self.max_bodies,
+            threads: self.physics_threads_now(),
+            ..inertia_physics::WorldConfig::default()
+        }
+    }
+
     /// Where finished matches' recordings are kept
     /// ([`crate::record::matches`]).
     pub fn matches_dir(&self) -> PathBuf {
@@ -710,6 +728,7 @@ impl ConfigLayer {
             log_format: self.log_format.or(lower.log_format),
             orchestrator: self.orchestrator.or(lower.orchestrator),
             match_seconds: self.match_seconds.or(lower.match_seconds),
+            scenes_dir: self.scenes_dir.or(lower.scenes_dir),
             max_catch_up_ticks: self.max_catch_up_ticks.or(lower.max_catch_up_ticks),
             position_resolution_mm: self.position_resolution_mm.or(lower.position_resolution_mm),
             record: self.record.or(lower.record),
@@ -779,6 +798,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         log_format: get(env, "INERTIA_LOG_FORMAT")?,
         orchestrator: get(env, "INERTIA_ORCHESTRATOR")?,
         match_seconds: get(env, "INERTIA_MATCH_SECONDS")?,
+        scenes_dir: get(env, "INERTIA_SCENES_DIR")?,
         position_resolution_mm: get(env, "INERTIA_POSITION_RESOLUTION_MM")?,
         max_catch_up_ticks: get(env, "INERTIA_MAX_CATCH_UP_TICKS")?,
         record: get(env, "INERTIA_RECORD")?,

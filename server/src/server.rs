@@ -7,7 +7,6 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-use inertia_physics::WorldConfig;
 use inertia_protocol::admin::MatchName;
 use inertia_protocol::control::{truncate_utf8, DisconnectReason, MAX_REASON_BYTES};
 use inertia_protocol::snapshot::SnapshotConfig;
@@ -25,6 +24,7 @@ use crate::net::{self, NetShared};
 use crate::orchestrator::{Allocation, Orchestrator, Probe};
 use crate::record::matches::MatchesDir;
 use crate::replay::checkpoint::CheckpointDir;
+use crate::replay::state::SimState;
 use crate::rules::{GameRules, SandboxRules, SandboxSettings};
 use crate::scene::{demo::DEMO_RON, Scene, SceneError, SceneFormat};
 use crate::secrets::Secrets;
@@ -141,11 +141,7 @@ pub async fn start_with_rules(
     // written.
     // Built once, under the body limit: a file that would make millions of
     // bodies is refused at the one past the limit.
-    let world_config = WorldConfig {
-        max_bodies: config.max_bodies,
-        threads: config.physics_threads_now(),
-        ..WorldConfig::default()
-    };
+    let world_config = config.world_config();
     let built = match &config.scene {
         Some(path) => Scene::read_file(path)?
             .build_with(world_config)
@@ -349,6 +345,12 @@ pub async fn start_with_rules(
     // Ready for the orchestrator too: the scene is built, the port bound.
     let orchestrator =
         Orchestrator::start(config.orchestrating(), probe(&shared, config.max_clients));
+    tasks.push(tokio::spawn(apply_allocated_scene(
+        orchestrator.watch_allocation(),
+        shared.clone(),
+        config.scenes_dir.clone(),
+        config.world_config(),
+    )));
     info!(
         %addr,
         %metrics_addr,
@@ -373,6 +375,70 @@ pub async fn start_with_rules(
         match_length: config.match_seconds.map(Duration::from_secs),
         recording_dir: config.recording_dir(),
     })
+}
+
+/// Under Agones, the scene an allocation asks for (`inertia.dev/scene`, a
+/// file in `--scenes-dir`) replaces the one the server started with, as
+/// the admin's `load` replaces a world: the recording starts a new
+/// session, and anyone already connected is placed in the new world.
+/// Refused (logged, nothing changed) without a scenes directory, or when
+/// the file does not build within the body limit.
+async fn apply_allocated_scene(
+    mut allocation: watch::Receiver<Option<Allocation>>,
+    shared: Arc<NetShared>,
+    scenes: Option<PathBuf>,
+    world: inertia_physics::WorldConfig,
+) {
+    let scene = match allocation.wait_for(Option::is_some).await {
+        Ok(a) => a.as_ref().and_then(|a| a.settings.scene.clone()),
+        Err(_) => None,
+    };
+    let Some(scene) = scene else { return };
+    let Some(dir) = scenes else {
+        warn!(%scene, "the allocation asks for a scene, but no --scenes-dir is set; the scene the server started with plays");
+        return;
+    };
+    let path = dir.join(&scene);
+    let built = tokio::task::spawn_blocking(move || {
+        Scene::read_file(&path).and_then(|s| s.build_with(world).map_err(|e| e.in_file(&path)))
+    })
+    .await;
+    let built = match built {
+        Ok(Ok(built)) => built,
+        Ok(Err(e)) => {
+            warn!(%scene, error = %e, "the allocation's scene is refused; the scene the server started with plays");
+            return;
+        }
+        Err(_) => return,
+    };
+    let (name, entities) = (built.name.clone(), built.entities.len());
+    let state_world = built.world.save();
+    let tick = built.world.tick();
+    let (table, spawn_points) = (built.entities, built.spawn_points);
+    let loaded = shared.sim.call(move |sim| {
+        let state = SimState {
+            tick,
+            applied: 0,
+            world: state_world,
+            entities: table,
+            spawn_points,
+            clients: Vec::new(),
+            rules: sim.checkpoint().rules,
+        };
+        sim.load(&state, "allocation")
+    });
+    match loaded {
+        Ok(done) => match done.await {
+            Ok(Ok(_)) => info!(%scene, name = %name, entities, "the allocation's scene is loaded"),
+            Ok(Err(e)) => {
+                warn!(%scene, error = %e, "the allocation's scene did not load; the scene the server started with plays")
+            }
+            Err(_) => {}
+        },
+        Err(e) => {
+            warn!(%scene, error = %e, "the allocation's scene could not be handed to the tick thread")
+        }
+    }
 }
 
 /// What the orchestrator reads of the server: the tick loop's turns and

@@ -26,6 +26,15 @@ async fn wait_for(what: &str, timeout: Duration, mut done: impl FnMut() -> bool)
 /// A dev-mode server on loopback, under Agones with the SDK server on
 /// `sdk_port`.
 async fn server_under_agones(what: &str, sdk_port: u16) -> RunningServer {
+    server_with_scenes(what, sdk_port, None).await
+}
+
+/// [`server_under_agones`], allocations' scenes taken from `scenes`.
+async fn server_with_scenes(
+    what: &str,
+    sdk_port: u16,
+    scenes: Option<std::path::PathBuf>,
+) -> RunningServer {
     let dir = std::env::temp_dir().join(format!("inertia-agones-{what}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let config = ServerConfig {
@@ -36,6 +45,7 @@ async fn server_under_agones(what: &str, sdk_port: u16) -> RunningServer {
         max_clients: 16,
         orchestrator: OrchestratorMode::Agones,
         agones_sdk_port: Some(sdk_port),
+        scenes_dir: scenes,
         ..ServerConfig::default()
     };
     start(config).await.expect("the server starts")
@@ -399,7 +409,7 @@ async fn issue_14_an_allocation_sets_the_match_and_its_length_ends_it() {
         &[("inertia.dev/rules", "ctf")],
         &[
             ("inertia.dev/match-seconds", "1"),
-            ("inertia.dev/scene", "scenes/arena.ron"),
+            ("inertia.dev/scene", "arena.ron"),
             ("inertia.dev/replay-seed", "not a seed"),
         ],
     );
@@ -410,7 +420,7 @@ async fn issue_14_an_allocation_sets_the_match_and_its_length_ends_it() {
     .await;
     let settings = server.allocation().unwrap().settings;
     assert_eq!(settings.length, Some(Duration::from_secs(1)));
-    assert_eq!(settings.scene.as_deref(), Some("scenes/arena.ron"));
+    assert_eq!(settings.scene.as_deref(), Some("arena.ron"));
     assert_eq!(settings.rules.as_deref(), Some("ctf"));
     assert_eq!(settings.replay_seed, None, "a bad value is left out");
     let why = tokio::time::timeout(Duration::from_secs(5), server.match_over())
@@ -424,4 +434,49 @@ async fn issue_14_an_allocation_sets_the_match_and_its_length_ends_it() {
         fake.whats().last().map(String::as_str),
         Some("POST /shutdown")
     );
+}
+
+/// The scene an allocation names is loaded from the scenes directory in
+/// place of the one the server started with; one that is a path is
+/// refused and changes nothing.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue_14_an_allocation_s_scene_replaces_the_starting_one() {
+    use inertia_server::scene::Scene;
+    use std::sync::atomic::Ordering;
+    let scenes = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let pyramid = Scene::read_file(scenes.join("pyramid.json"))
+        .expect("the pyramid scene")
+        .build_with(inertia_physics::WorldConfig::default())
+        .expect("builds")
+        .world
+        .bodies()
+        .count() as u64;
+    for (scene, applied) in [("../scenes/pyramid.json", false), ("pyramid.json", true)] {
+        let fake = FakeAgones::start(0, game_server(1), vec![], vec![]).await;
+        let server = server_with_scenes("scene", fake.addr.port(), Some(scenes.clone())).await;
+        wait_for("the watch", Duration::from_secs(10), || {
+            fake.count("GET /watch/gameserver") >= 1
+        })
+        .await;
+        let bodies = || server.sim().stats().bodies.load(Ordering::Relaxed);
+        wait_for("the demo scene", Duration::from_secs(5), || bodies() > 0).await;
+        let demo = bodies();
+        assert_ne!(demo, pyramid, "the demo and the pyramid differ");
+        fake.allocate_with(&[], &[("inertia.dev/scene", scene)]);
+        wait_for("the allocation", Duration::from_secs(5), || {
+            server.allocation().is_some()
+        })
+        .await;
+        if applied {
+            wait_for("the pyramid", Duration::from_secs(10), || {
+                bodies() == pyramid
+            })
+            .await;
+        } else {
+            assert_eq!(server.allocation().unwrap().settings.scene, None);
+            tokio::time::sleep(Duration::from_millis(500)).await;
+            assert_eq!(bodies(), demo, "a path is refused; the demo plays on");
+        }
+        server.shutdown().await;
+    }
 }

@@ -9,7 +9,7 @@
 //! | key | meaning |
 //! |---|---|
 //! | `inertia.dev/match-seconds` | the match ends (drain, then Shutdown) this many wall seconds after the allocation (1..=86400) |
-//! | `inertia.dev/scene` | the scene the match asks for, a name or path (at most 256 bytes) |
+//! | `inertia.dev/scene` | the scene the match asks for: a file name (`.ron` or `.json`) in the server's `--scenes-dir`, never a path |
 //! | `inertia.dev/rules` | the rules variant the match asks for (at most 256 bytes) |
 //! | `inertia.dev/replay-seed` | the seed the match's random choices start from (a u64) |
 //!
@@ -59,6 +59,9 @@ pub enum SettingError {
     /// Empty, too long, or with control characters.
     #[error("{key}: expected 1..={MAX_NAME_BYTES} bytes of printable text, got {len} bytes")]
     Name { key: &'static str, len: usize },
+    /// A scene that is not a plain `.ron` or `.json` file name.
+    #[error("{key} = {value:?}: expected a file name of A-Z a-z 0-9 . _ - ending .ron or .json, not a path")]
+    SceneFile { key: &'static str, value: String },
 }
 
 impl MatchSettings {
@@ -100,6 +103,21 @@ impl MatchSettings {
         };
         let scene = name(SCENE);
         let rules = name(RULES);
+        // A scene names a file in the scenes directory: a plain name.
+        let scene = scene.and_then(|s| {
+            let plain = !s.starts_with('.')
+                && s.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'));
+            if plain && (s.ends_with(".ron") || s.ends_with(".json")) {
+                Some(s)
+            } else {
+                errors.push(SettingError::SceneFile {
+                    key: SCENE,
+                    value: s.chars().take(64).collect(),
+                });
+                None
+            }
+        });
         (
             MatchSettings {
                 length,
@@ -128,12 +146,12 @@ mod tests {
         let labels = map(&[(MATCH_SECONDS, "600"), (RULES, "ctf")]);
         let annotations = map(&[
             (MATCH_SECONDS, "900"),
-            (SCENE, "scenes/arena.ron"),
+            (SCENE, "arena.ron"),
             (REPLAY_SEED, "not a number"),
         ]);
         let (s, errors) = MatchSettings::from_metadata(&labels, &annotations);
         assert_eq!(s.length, Some(Duration::from_secs(900)));
-        assert_eq!(s.scene.as_deref(), Some("scenes/arena.ron"));
+        assert_eq!(s.scene.as_deref(), Some("arena.ron"));
         assert_eq!(s.rules.as_deref(), Some("ctf"));
         assert_eq!(s.replay_seed, None);
         assert_eq!(errors.len(), 1);
@@ -149,7 +167,15 @@ mod tests {
             assert_eq!(errors.len(), 1, "{bad:?}");
         }
         let long = "x".repeat(MAX_NAME_BYTES + 1);
-        for bad in ["", "a\nb", long.as_str()] {
+        for bad in [
+            "",
+            "a\nb",
+            long.as_str(),
+            "../x.ron",
+            "/etc/x.json",
+            "arena",
+            ".hidden.ron",
+        ] {
             let (s, errors) = MatchSettings::from_metadata(&map(&[]), &map(&[(SCENE, bad)]));
             assert_eq!(s.scene, None);
             assert_eq!(errors.len(), 1);

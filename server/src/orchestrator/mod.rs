@@ -144,6 +144,11 @@ impl Orchestrator {
         }
     }
 
+    /// The allocation, to wait for.
+    pub fn watch_allocation(&self) -> watch::Receiver<Option<Allocation>> {
+        self.allocation.clone()
+    }
+
     /// The match the server was allocated for, once it has been.
     pub fn allocation(&self) -> Option<Allocation> {
         self.allocation.borrow().clone()
