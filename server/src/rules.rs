@@ -525,6 +525,21 @@ pub trait GameRules: Send {
     /// After each physics step.
     fn after_tick(&mut self, _ctx: &mut SimContext<'_>) {}
 
+    /// An orchestrator allocated this server for a match with `settings`
+    /// (Agones: the allocation's labels and annotations, see
+    /// [`crate::orchestrator::allocation`]): set the rules variant and seed
+    /// the match's random choices. Called on the tick thread, after the
+    /// allocation's scene (if any) is loaded and before the match's
+    /// players join. An error is logged and changes nothing the rules did
+    /// not. Rules with no variants and no randomness keep the default.
+    fn configure_match(
+        &mut self,
+        _settings: &crate::orchestrator::MatchSettings,
+        _ctx: &mut SimContext<'_>,
+    ) -> Result<(), String> {
+        Ok(())
+    }
+
     /// Whether the game is over, and why (for the players, at most
     /// [`MAX_REASON_BYTES`](inertia_protocol::control::MAX_REASON_BYTES)):
     /// asked after each live tick; once it says so, the server drains,

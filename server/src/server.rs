@@ -345,7 +345,7 @@ pub async fn start_with_rules(
     // Ready for the orchestrator too: the scene is built, the port bound.
     let orchestrator =
         Orchestrator::start(config.orchestrating(), probe(&shared, config.max_clients));
-    tasks.push(tokio::spawn(apply_allocated_scene(
+    tasks.push(tokio::spawn(apply_allocation(
         orchestrator.watch_allocation(),
         shared.clone(),
         config.scenes_dir.clone(),
@@ -377,28 +377,54 @@ pub async fn start_with_rules(
     })
 }
 
-/// Under Agones, the scene an allocation asks for (`inertia.dev/scene`, a
-/// file in `--scenes-dir`) replaces the one the server started with, as
-/// the admin's `load` replaces a world: the recording starts a new
-/// session, and anyone already connected is placed in the new world.
-/// Refused (logged, nothing changed) without a scenes directory, or when
-/// the file does not build within the body limit.
-async fn apply_allocated_scene(
+/// Under Agones, applies what an allocation asks for, before the match's
+/// players join:
+/// - the scene (`inertia.dev/scene`, a file in `--scenes-dir`) replaces the
+///   one the server started with, as the admin's `load` replaces a world:
+///   the recording starts a new session, and anyone already connected is
+///   placed in the new world. Refused (logged, nothing changed) without a
+///   scenes directory, or when the file does not build within the body
+///   limit;
+/// - then the whole settings go to the game rules
+///   ([`GameRules::configure_match`]: the rules variant, the seed).
+async fn apply_allocation(
     mut allocation: watch::Receiver<Option<Allocation>>,
     shared: Arc<NetShared>,
     scenes: Option<PathBuf>,
     world: inertia_physics::WorldConfig,
 ) {
-    let scene = match allocation.wait_for(Option::is_some).await {
-        Ok(a) => a.as_ref().and_then(|a| a.settings.scene.clone()),
+    let settings = match allocation.wait_for(Option::is_some).await {
+        Ok(a) => a.as_ref().map(|a| a.settings.clone()),
         Err(_) => None,
     };
-    let Some(scene) = scene else { return };
+    let Some(settings) = settings else { return };
+    if let Some(scene) = &settings.scene {
+        load_scene(&shared, scene, scenes, world).await;
+    }
+    let configured = shared.sim.call(move |sim| sim.configure_match(&settings));
+    match configured {
+        Ok(done) => match done.await {
+            Ok(Ok(())) => info!("the match is configured"),
+            Ok(Err(e)) => warn!(error = %e, "the game rules refused the match's settings"),
+            Err(_) => {}
+        },
+        Err(e) => warn!(error = %e, "the match's settings could not be handed to the tick thread"),
+    }
+}
+
+/// Loads `scene` from the `scenes` directory in place of the world (see
+/// [`apply_allocation`]).
+async fn load_scene(
+    shared: &Arc<NetShared>,
+    scene: &str,
+    scenes: Option<PathBuf>,
+    world: inertia_physics::WorldConfig,
+) {
     let Some(dir) = scenes else {
         warn!(%scene, "the allocation asks for a scene, but no --scenes-dir is set; the scene the server started with plays");
         return;
     };
-    let path = dir.join(&scene);
+    let path = dir.join(scene);
     let built = tokio::task::spawn_blocking(move || {
         Scene::read_file(&path).and_then(|s| s.build_with(world).map_err(|e| e.in_file(&path)))
     })

@@ -480,3 +480,97 @@ async fn issue_14_an_allocation_s_scene_replaces_the_starting_one() {
         server.shutdown().await;
     }
 }
+
+/// The sandbox, remembering the match settings it was given.
+struct Configured {
+    inner: inertia_server::rules::SandboxRules,
+    seen: std::sync::Arc<std::sync::Mutex<Option<inertia_server::orchestrator::MatchSettings>>>,
+}
+
+impl inertia_server::rules::GameRules for Configured {
+    fn on_connect(
+        &mut self,
+        c: inertia_server::rules::ClientId,
+        ctx: &mut inertia_server::rules::SimContext<'_>,
+    ) -> Result<inertia_protocol::EntityId, inertia_server::rules::Refusal> {
+        self.inner.on_connect(c, ctx)
+    }
+    fn on_disconnect(
+        &mut self,
+        c: inertia_server::rules::ClientId,
+        ctx: &mut inertia_server::rules::SimContext<'_>,
+    ) {
+        self.inner.on_disconnect(c, ctx)
+    }
+    fn on_input(
+        &mut self,
+        c: inertia_server::rules::ClientId,
+        input: &inertia_protocol::PlayerInput,
+        ctx: &mut inertia_server::rules::SimContext<'_>,
+    ) -> Result<(), inertia_server::rules::InputError> {
+        self.inner.on_input(c, input, ctx)
+    }
+    fn configure_match(
+        &mut self,
+        settings: &inertia_server::orchestrator::MatchSettings,
+        _ctx: &mut inertia_server::rules::SimContext<'_>,
+    ) -> Result<(), String> {
+        *self.seen.lock().unwrap() = Some(settings.clone());
+        Ok(())
+    }
+}
+
+/// The allocation's rules variant and seed reach the game rules.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue_14_an_allocation_s_rules_and_seed_reach_the_game_rules() {
+    let fake = FakeAgones::start(0, game_server(1), vec![], vec![]).await;
+    let dir = std::env::temp_dir().join(format!("inertia-agones-rules-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let config = ServerConfig {
+        listen: Some("127.0.0.1:0".parse().expect("literal")),
+        metrics: "127.0.0.1:0".parse().expect("literal"),
+        data_dir: dir.clone(),
+        record: true,
+        orchestrator: OrchestratorMode::Agones,
+        agones_sdk_port: Some(fake.addr.port()),
+        ..ServerConfig::default()
+    };
+    let seen = std::sync::Arc::default();
+    let rules = Configured {
+        inner: inertia_server::rules::SandboxRules::default(),
+        seen: std::sync::Arc::clone(&seen),
+    };
+    let server = inertia_server::server::start_with_rules(config, Box::new(rules))
+        .await
+        .expect("starts");
+    wait_for("the watch", Duration::from_secs(10), || {
+        fake.count("GET /watch/gameserver") >= 1
+    })
+    .await;
+    fake.allocate_with(
+        &[("inertia.dev/rules", "ctf")],
+        &[("inertia.dev/replay-seed", "42")],
+    );
+    wait_for("the rules configured", Duration::from_secs(5), || {
+        seen.lock().unwrap().is_some()
+    })
+    .await;
+    let got = seen.lock().unwrap().clone().unwrap();
+    assert_eq!(got.rules.as_deref(), Some("ctf"));
+    assert_eq!(got.replay_seed, Some(42));
+    assert!(server.failure().is_none());
+    server.shutdown().await;
+    // The recording started a new session, with the configured rules in
+    // its first keyframe, and reads back whole.
+    let records: Vec<_> = inertia_server::record::RecordReader::open(dir.join("recording"))
+        .expect("the recording")
+        .iter()
+        .collect::<Result<_, _>>()
+        .expect("intact");
+    let sessions = records
+        .iter()
+        .filter(|r| matches!(r, inertia_server::record::Record::SessionStart { .. }))
+        .count();
+    assert_eq!(sessions, 2, "the start, then the configured match");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -345,6 +345,25 @@ impl Simulation {
         &mut self.shown_mut().clock
     }
 
+    /// Hands an allocation's match settings to the game rules
+    /// ([`GameRules::configure_match`]), on the live timeline. While
+    /// recording, the recording restarts so its new session begins with a
+    /// keyframe holding the rules as configured (as a `load` does).
+    pub fn configure_match(
+        &mut self,
+        settings: &crate::orchestrator::MatchSettings,
+    ) -> Result<(), String> {
+        self.go_live();
+        self.flush_journal();
+        self.with_ctx(|rules, ctx| rules.configure_match(settings, ctx))?;
+        if self.recording.is_some() {
+            self.record_admin_edit("allocation", "match configured");
+            self.stop_recording();
+            self.start_recording()?;
+        }
+        Ok(())
+    }
+
     /// Whether the game rules have ended the match, and why: asked of the
     /// live timeline only (history shown never ends it).
     pub fn match_over(&self) -> Option<String> {
