@@ -163,6 +163,11 @@ pub struct ConfigLayer {
     /// set, else standalone), standalone or agones (default auto).
     #[arg(long, value_enum)]
     pub orchestrator: Option<OrchestratorMode>,
+    /// Where finished matches' recordings are kept and served from
+    /// (default <data-dir>/matches). A volume shared by a fleet's game
+    /// servers keeps every match's recording past its pod.
+    #[arg(long, value_name = "DIR")]
+    pub matches_dir: Option<PathBuf>,
     /// Directory of the scenes an Agones allocation may ask for by name
     /// (`inertia.dev/scene`: a file name in it, `.ron` or `.json`); none:
     /// an allocation's scene is not applied.
@@ -291,6 +296,9 @@ pub struct ServerConfig {
     pub match_seconds: Option<u64>,
     /// Scenes an allocation may ask for (see [`ConfigLayer::scenes_dir`]).
     pub scenes_dir: Option<PathBuf>,
+    /// Kept matches' directory, when not <data-dir>/matches (see
+    /// [`ConfigLayer::matches_dir`]).
+    pub matches_dir: Option<PathBuf>,
     /// The Agones SDK server's REST port, from `AGONES_SDK_HTTP_PORT`
     /// (which Agones sets; not a setting of its own).
     pub agones_sdk_port: Option<u16>,
@@ -346,6 +354,7 @@ impl Default for ServerConfig {
             orchestrator: OrchestratorMode::Auto,
             match_seconds: None,
             scenes_dir: None,
+            matches_dir: None,
             agones_sdk_port: None,
             max_catch_up_ticks: DEFAULT_MAX_CATCH_UP_TICKS,
             position_resolution_mm: DEFAULT_POSITION_RESOLUTION_MM,
@@ -535,6 +544,7 @@ impl ServerConfig {
             orchestrator: layer.orchestrator.unwrap_or(self.orchestrator),
             match_seconds: layer.match_seconds.or(self.match_seconds),
             scenes_dir: layer.scenes_dir.or(self.scenes_dir),
+            matches_dir: layer.matches_dir.or(self.matches_dir),
             agones_sdk_port: self.agones_sdk_port,
             max_catch_up_ticks: layer.max_catch_up_ticks.unwrap_or(self.max_catch_up_ticks),
             position_resolution_mm: layer
@@ -649,7 +659,9 @@ impl ServerConfig {
     /// Where finished matches' recordings are kept
     /// ([`crate::record::matches`]).
     pub fn matches_dir(&self) -> PathBuf {
-        self.data_dir.join("matches")
+        self.matches_dir
+            .clone()
+            .unwrap_or_else(|| self.data_dir.join("matches"))
     }
 
     /// The orchestrator this server works with: [`Self::orchestrator`]
@@ -729,6 +741,7 @@ impl ConfigLayer {
             orchestrator: self.orchestrator.or(lower.orchestrator),
             match_seconds: self.match_seconds.or(lower.match_seconds),
             scenes_dir: self.scenes_dir.or(lower.scenes_dir),
+            matches_dir: self.matches_dir.or(lower.matches_dir),
             max_catch_up_ticks: self.max_catch_up_ticks.or(lower.max_catch_up_ticks),
             position_resolution_mm: self.position_resolution_mm.or(lower.position_resolution_mm),
             record: self.record.or(lower.record),
@@ -799,6 +812,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         orchestrator: get(env, "INERTIA_ORCHESTRATOR")?,
         match_seconds: get(env, "INERTIA_MATCH_SECONDS")?,
         scenes_dir: get(env, "INERTIA_SCENES_DIR")?,
+        matches_dir: get(env, "INERTIA_MATCHES_DIR")?,
         position_resolution_mm: get(env, "INERTIA_POSITION_RESOLUTION_MM")?,
         max_catch_up_ticks: get(env, "INERTIA_MAX_CATCH_UP_TICKS")?,
         record: get(env, "INERTIA_RECORD")?,

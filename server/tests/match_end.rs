@@ -133,3 +133,35 @@ async fn issue_14_the_game_rules_end_the_match_with_their_reason() {
         })
     );
 }
+
+/// A fleet keeps its matches on a volume of their own (`--matches-dir`),
+/// another file system than the data directory: the recording is copied
+/// there whole, and the live one removed.
+#[cfg(target_os = "linux")]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue_14_a_match_is_kept_on_another_file_system() {
+    // /dev/shm is a tmpfs; the data directory is not.
+    let shared = std::path::Path::new("/dev/shm")
+        .join(format!("inertia-matches-elsewhere-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&shared);
+    let mut config = config("elsewhere", Some(1));
+    config.matches_dir = Some(shared.clone());
+    let recording = config.recording_dir();
+    let server = start(config).await.expect("starts");
+    let why = tokio::time::timeout(Duration::from_secs(10), server.match_over())
+        .await
+        .expect("the match ends");
+    let name = server.end_match(why).await.expect("kept");
+    assert!(!recording.exists(), "the live recording is gone");
+    let kept = shared.join(name.as_str());
+    let records: Vec<_> = inertia_server::record::RecordReader::open(&kept)
+        .expect("the kept recording")
+        .iter()
+        .collect::<Result<_, _>>()
+        .expect("whole");
+    assert!(matches!(
+        records.last(),
+        Some(inertia_server::record::Record::Keyframe { .. })
+    ));
+    let _ = std::fs::remove_dir_all(&shared);
+}

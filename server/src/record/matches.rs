@@ -46,7 +46,25 @@ pub struct RecordingPart {
     pub data: Vec<u8>,
 }
 
-/// `<data-dir>/matches`.
+/// `rename`'s error across file systems (EXDEV on Linux and the BSDs).
+const EXDEV: i32 = 18;
+
+/// Copies the regular files of `from` into the new directory `to` (which
+/// must not exist: [`io::ErrorKind::AlreadyExists`] otherwise), each
+/// flushed to disk.
+fn copy_recording(from: &Path, to: &Path) -> io::Result<()> {
+    std::fs::create_dir(to)?;
+    for entry in std::fs::read_dir(from)? {
+        let entry = entry?;
+        if entry.file_type()?.is_file() {
+            std::fs::copy(entry.path(), to.join(entry.file_name()))?;
+            std::fs::File::open(to.join(entry.file_name()))?.sync_all()?;
+        }
+    }
+    Ok(())
+}
+
+/// The kept matches' directory: `<data-dir>/matches`, or `--matches-dir`.
 #[derive(Debug, Clone)]
 pub struct MatchesDir {
     path: PathBuf,
@@ -64,7 +82,9 @@ impl MatchesDir {
     }
 
     /// Moves the finished recording at `recording` in, named after
-    /// `now_unix`; `None` when there is no recording to keep. Blocking.
+    /// `now_unix` (a suffix when another match took the name); `None` when
+    /// there is no recording to keep. Across file systems it is copied,
+    /// then removed. Blocking.
     pub fn keep(&self, recording: &Path, now_unix: u64) -> io::Result<Option<MatchName>> {
         if !std::fs::symlink_metadata(recording).is_ok_and(|m| m.is_dir()) {
             return Ok(None);
@@ -87,8 +107,20 @@ impl MatchesDir {
             if std::fs::symlink_metadata(&to).is_ok() {
                 continue;
             }
-            std::fs::rename(recording, &to)?;
-            return Ok(Some(name));
+            match std::fs::rename(recording, &to) {
+                Ok(()) => return Ok(Some(name)),
+                // Another file system (a volume shared by a fleet): copied.
+                Err(e) if e.raw_os_error() == Some(EXDEV) => match copy_recording(recording, &to) {
+                    Ok(()) => {
+                        std::fs::remove_dir_all(recording)?;
+                        return Ok(Some(name));
+                    }
+                    // Another server took the name meanwhile.
+                    Err(e) if e.kind() == io::ErrorKind::AlreadyExists => continue,
+                    Err(e) => return Err(e),
+                },
+                Err(e) => return Err(e),
+            }
         }
         Err(io::Error::new(
             io::ErrorKind::AlreadyExists,
@@ -332,6 +364,22 @@ mod tests {
             matches.read(&absent, 0, 0),
             Err(MatchesError::NotFound(_))
         ));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_recording_copied_across_file_systems_is_whole_and_never_overwrites() {
+        let dir = scratch("copy");
+        let from = dir.join("recording");
+        std::fs::create_dir_all(&from).unwrap();
+        std::fs::write(from.join("seg-0000"), b"segment").unwrap();
+        copy_recording(&from, &dir.join("match-1")).unwrap();
+        assert_eq!(
+            std::fs::read(dir.join("match-1/seg-0000")).unwrap(),
+            b"segment"
+        );
+        let again = copy_recording(&from, &dir.join("match-1")).unwrap_err();
+        assert_eq!(again.kind(), io::ErrorKind::AlreadyExists);
         let _ = std::fs::remove_dir_all(&dir);
     }
 
