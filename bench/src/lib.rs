@@ -5,6 +5,7 @@
 //! `bench/README.md` for every suite, field and definition.
 
 pub mod copy;
+pub mod plot;
 pub mod report;
 pub mod suites;
 

@@ -90,6 +90,41 @@ struct Cli {
     /// (`soak`; default 4).
     #[arg(long, value_name = "N")]
     bots: Option<u32>,
+    /// Draw the suite's records as SVG into DIR (`physics.svg`,
+    /// `capacity.svg`; other suites have no picture yet).
+    #[arg(long, value_name = "DIR")]
+    plot: Option<std::path::PathBuf>,
+    /// With `--plot`: draw the suite's records in this results file (JSON
+    /// lines, as `--json` prints them) instead of running the suite.
+    #[arg(long, value_name = "FILE", requires = "plot")]
+    from: Option<std::path::PathBuf>,
+}
+
+/// Draws `records` of `suite` into `dir`, saying what it wrote.
+fn draw(
+    suite: &Suite,
+    records: &[inertia_bench::plot::Printed],
+    dir: &std::path::Path,
+) -> ExitCode {
+    match inertia_bench::plot::plot(suite.name(), records, dir) {
+        Ok(written) if written.is_empty() => {
+            eprintln!(
+                "inertia-bench {}: no picture for this suite (or no records)",
+                suite.name()
+            );
+            ExitCode::SUCCESS
+        }
+        Ok(written) => {
+            for path in written {
+                eprintln!("inertia-bench {}: wrote {}", suite.name(), path.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("inertia-bench {}: {e}", suite.name());
+            ExitCode::FAILURE
+        }
+    }
 }
 
 fn main() -> ExitCode {
@@ -107,6 +142,15 @@ fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     let suite = Suite::from(cli.suite);
+    if let (Some(dir), Some(from)) = (&cli.plot, &cli.from) {
+        return match inertia_bench::plot::read_records(from, suite.name()) {
+            Ok(records) => draw(&suite, &records, dir),
+            Err(e) => {
+                eprintln!("inertia-bench {}: {e}", suite.name());
+                ExitCode::FAILURE
+            }
+        };
+    }
     let mut reporter = Reporter::new(suite.name(), Machine::detect(), cli.json);
     match suite.run(
         &Opts {
@@ -122,7 +166,10 @@ fn main() -> ExitCode {
         },
         &mut reporter,
     ) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => match &cli.plot {
+            Some(dir) => draw(&suite, reporter.printed(), dir),
+            None => ExitCode::SUCCESS,
+        },
         Err(e) => {
             eprintln!("inertia-bench {}: {e}", suite.name());
             ExitCode::FAILURE

@@ -98,6 +98,8 @@ pub struct Reporter {
     machine: Machine,
     json: bool,
     printed_header: bool,
+    /// Every record printed, in full (for `--plot`).
+    printed: Vec<Map<String, Value>>,
 }
 
 impl Reporter {
@@ -108,7 +110,13 @@ impl Reporter {
             machine,
             json,
             printed_header: false,
+            printed: Vec::new(),
         }
+    }
+
+    /// Every record printed so far, in full.
+    pub fn printed(&self) -> &[Map<String, Value>] {
+        &self.printed
     }
 
     /// The full record as printed: `suite` and `machine` first, then the
@@ -130,6 +138,7 @@ impl Reporter {
 impl Sink for Reporter {
     fn record(&mut self, r: Record) {
         let m = self.complete(r);
+        self.printed.push(m.clone());
         let mut out = std::io::stdout().lock();
         let line = if self.json {
             serde_json::to_string(&m).expect("records serialize")

@@ -320,3 +320,41 @@ fn replay_suite() {
     // A seek never re-simulates more than one keyframe interval.
     assert!(num(m, "seek_resimulated_max") < 120.0, "{m:?}");
 }
+
+/// `--plot DIR --from FILE` draws a committed results file's records
+/// without running the suite; a file that does not parse is an error.
+#[test]
+fn plots_are_drawn_from_a_results_file() {
+    let dir = std::env::temp_dir().join(format!("inertia-bench-plot-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let results = concat!(env!("CARGO_MANIFEST_DIR"), "/results/xeon-2core.jsonl");
+    for suite in ["physics", "capacity"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_inertia-bench"))
+            .args([suite, "--plot", dir.to_str().unwrap(), "--from", results])
+            .output()
+            .expect("run inertia-bench");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let svg = std::fs::read_to_string(dir.join(format!("{suite}.svg"))).expect("the plot");
+        assert!(svg.starts_with("<svg") && svg.contains("Xeon"), "{suite}");
+    }
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.jsonl");
+    std::fs::write(&bad, "not json\n").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_inertia-bench"))
+        .args([
+            "physics",
+            "--plot",
+            dir.to_str().unwrap(),
+            "--from",
+            bad.to_str().unwrap(),
+        ])
+        .output()
+        .expect("run inertia-bench");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("bad.jsonl:1"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

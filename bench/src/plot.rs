@@ -1,0 +1,361 @@
+//! Pictures of the bench records (SVG, with plotters):
+//! `inertia-bench <suite> --plot DIR` draws the records the run made, and
+//! `--from FILE` draws those of that suite in a committed results file
+//! (`bench/results/<machine>.jsonl`) instead of running.
+//!
+//! - `physics.svg`: ours against rapier3d per scene, ms per step at 1 and 2
+//!   threads (sleeping off), on a log scale, the newest record of each.
+//! - `capacity.svg`: tick p99 and the server's CPU against clients, one
+//!   line per run (the newest three), with the 60 Hz tick budget.
+//!
+//! Other suites have no picture yet.
+
+use std::path::{Path, PathBuf};
+
+use plotters::prelude::*;
+use serde_json::{Map, Value};
+
+use crate::BenchError;
+
+/// A record as printed: `suite`, `machine`, then the suite's fields.
+pub type Printed = Map<String, Value>;
+
+/// The records of `suite` in the JSON-lines file at `path`, in order.
+pub fn read_records(path: &Path, suite: &str) -> Result<Vec<Printed>, BenchError> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut out = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let record: Printed =
+            serde_json::from_str(line).map_err(|e| format!("{}:{}: {e}", path.display(), n + 1))?;
+        if record.get("suite").and_then(Value::as_str) == Some(suite) {
+            out.push(record);
+        }
+    }
+    Ok(out)
+}
+
+/// Draws `suite`'s pictures of `records` into `dir`; the files written
+/// (none for a suite without a picture).
+pub fn plot(suite: &str, records: &[Printed], dir: &Path) -> Result<Vec<PathBuf>, BenchError> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let path = dir.join(format!("{suite}.svg"));
+    let drawn = match suite {
+        "physics" => physics(records, &path)?,
+        "capacity" => capacity(records, &path)?,
+        _ => false,
+    };
+    Ok(if drawn { vec![path] } else { Vec::new() })
+}
+
+fn num(r: &Printed, key: &str) -> Option<f64> {
+    r.get(key).and_then(Value::as_f64)
+}
+
+/// Ours and rapier's ms per step for one scene.
+#[derive(Debug, Clone, Default)]
+struct SceneTimes {
+    scene: String,
+    /// `[ours 1 t, rapier 1 t, ours 2 t, rapier 2 t]`, ms.
+    ms: [Option<f64>; 4],
+}
+
+/// The newest awake record of each scene and thread count, in the order
+/// scenes first appear.
+fn scene_times(records: &[Printed]) -> Vec<SceneTimes> {
+    let mut out: Vec<SceneTimes> = Vec::new();
+    for r in records {
+        let (Some(scene), Some(threads)) = (
+            r.get("scene").and_then(Value::as_str),
+            r.get("threads").and_then(Value::as_u64),
+        ) else {
+            continue;
+        };
+        if r.get("sleeping").and_then(Value::as_bool) != Some(false) || !(1..=2).contains(&threads)
+        {
+            continue;
+        }
+        let at = match out.iter().position(|s| s.scene == scene) {
+            Some(i) => i,
+            None => {
+                out.push(SceneTimes {
+                    scene: scene.to_string(),
+                    ..SceneTimes::default()
+                });
+                out.len() - 1
+            }
+        };
+        let base = 2 * (threads as usize - 1);
+        out[at].ms[base] = num(r, "ours_ms_median");
+        out[at].ms[base + 1] = num(r, "rapier_ms_median");
+    }
+    out
+}
+
+const BAR_COLOURS: [RGBColor; 4] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(114, 170, 214),
+    RGBColor(255, 187, 120),
+];
+const BAR_NAMES: [&str; 4] = [
+    "ours, 1 thread",
+    "rapier3d, 1 thread",
+    "ours, 2 threads",
+    "rapier3d, 2 threads",
+];
+
+fn physics(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
+    let scenes = scene_times(records);
+    if scenes.is_empty() {
+        return Ok(false);
+    }
+    let values = scenes.iter().flat_map(|s| s.ms.iter().flatten().copied());
+    let (lo, hi) = values.fold((f64::MAX, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let (lo, hi) = (lo.max(1e-3) / 2.0, hi * 2.0);
+    let n = scenes.len();
+    let root = SVGBackend::new(path, (1100, 520)).into_drawing_area();
+    root.fill(&WHITE).map_err(plot_error)?;
+    let machine = machine_name(records);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!("inertia-bench physics: ms per step, ours and rapier3d ({machine})"),
+            ("sans-serif", 20),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(-0.5f64..n as f64 - 0.5, (lo..hi).log_scale())
+        .map_err(plot_error)?;
+    let names: Vec<String> = scenes.iter().map(|s| s.scene.clone()).collect();
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(n)
+        .x_label_formatter(&|x| {
+            let i = x.round();
+            if (x - i).abs() < 1e-6 && i >= 0.0 {
+                names.get(i as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        })
+        .y_desc("ms per step (median, log scale)")
+        .draw()
+        .map_err(plot_error)?;
+    for (k, colour) in BAR_COLOURS.iter().enumerate() {
+        let bars = scenes.iter().enumerate().filter_map(|(i, s)| {
+            let v = s.ms[k]?;
+            let left = i as f64 - 0.4 + 0.2 * k as f64;
+            Some(Rectangle::new(
+                [(left, lo), (left + 0.18, v)],
+                colour.filled(),
+            ))
+        });
+        chart
+            .draw_series(bars)
+            .map_err(plot_error)?
+            .label(BAR_NAMES[k])
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(plot_error)?;
+    root.present().map_err(plot_error)?;
+    Ok(true)
+}
+
+/// One capacity run: (clients, tick p99 ms, server CPU %) per step.
+type Run = Vec<(f64, f64, f64)>;
+
+/// The runs in `records`: a step with no more clients than the one before
+/// starts a new run.
+fn capacity_runs(records: &[Printed]) -> Vec<Run> {
+    let mut runs: Vec<Run> = Vec::new();
+    for r in records {
+        let (Some(k), Some(p99), Some(cpu)) = (
+            num(r, "clients"),
+            num(r, "tick_ms_p99"),
+            num(r, "server_cpu_percent"),
+        ) else {
+            continue;
+        };
+        match runs.last_mut() {
+            Some(run) if run.last().is_some_and(|&(prev, _, _)| k > prev) => {
+                run.push((k, p99, cpu))
+            }
+            _ => runs.push(vec![(k, p99, cpu)]),
+        }
+    }
+    runs
+}
+
+fn capacity(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
+    let runs = capacity_runs(records);
+    let runs = &runs[runs.len().saturating_sub(3)..];
+    if runs.is_empty() {
+        return Ok(false);
+    }
+    let steps = runs.iter().flatten();
+    let k_max = steps.clone().map(|s| s.0).fold(1.0, f64::max) * 1.05;
+    let p99_max = steps.clone().map(|s| s.1).fold(16.7, f64::max) * 1.15;
+    let cpu_max = steps.map(|s| s.2).fold(100.0, f64::max) * 1.1;
+    let root = SVGBackend::new(path, (1000, 700)).into_drawing_area();
+    root.fill(&WHITE).map_err(plot_error)?;
+    let machine = machine_name(records);
+    let root = root
+        .titled(
+            &format!("inertia-bench capacity: 1000 moving bodies, 60 Hz ticks, 30 Hz snapshots ({machine})"),
+            ("sans-serif", 20),
+        )
+        .map_err(plot_error)?;
+    let (top, bottom) = root.split_vertically(340);
+    let colours = [
+        RGBColor(31, 119, 180),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+    ];
+    let mut chart = ChartBuilder::on(&top)
+        .margin(12)
+        .x_label_area_size(30)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..k_max, 0.0..p99_max)
+        .map_err(plot_error)?;
+    chart
+        .configure_mesh()
+        .x_desc("clients")
+        .y_desc("tick p99, ms")
+        .draw()
+        .map_err(plot_error)?;
+    chart
+        .draw_series(LineSeries::new(
+            [(0.0, 16.7), (k_max, 16.7)],
+            BLACK.mix(0.5),
+        ))
+        .map_err(plot_error)?
+        .label("tick budget (16.7 ms)")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.mix(0.5)));
+    for (i, run) in runs.iter().enumerate() {
+        let c = colours[i % colours.len()];
+        chart
+            .draw_series(LineSeries::new(
+                run.iter().map(|s| (s.0, s.1)),
+                c.stroke_width(2),
+            ))
+            .map_err(plot_error)?
+            .label(format!("run {}", i + 1))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
+        chart
+            .draw_series(run.iter().map(|s| Circle::new((s.0, s.1), 3, c.filled())))
+            .map_err(plot_error)?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(plot_error)?;
+    let mut chart = ChartBuilder::on(&bottom)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..k_max, 0.0..cpu_max)
+        .map_err(plot_error)?;
+    chart
+        .configure_mesh()
+        .x_desc("clients")
+        .y_desc("server CPU, % of one core")
+        .draw()
+        .map_err(plot_error)?;
+    for (i, run) in runs.iter().enumerate() {
+        let c = colours[i % colours.len()];
+        chart
+            .draw_series(LineSeries::new(
+                run.iter().map(|s| (s.0, s.2)),
+                c.stroke_width(2),
+            ))
+            .map_err(plot_error)?;
+        chart
+            .draw_series(run.iter().map(|s| Circle::new((s.0, s.2), 3, c.filled())))
+            .map_err(plot_error)?;
+    }
+    root.present().map_err(plot_error)?;
+    Ok(true)
+}
+
+/// The CPU the records were measured on (the newest record's).
+fn machine_name(records: &[Printed]) -> String {
+    records
+        .iter()
+        .rev()
+        .find_map(|r| r.get("machine")?.get("cpu")?.as_str().map(str::to_string))
+        .unwrap_or_else(|| "unknown machine".into())
+}
+
+fn plot_error<E: std::fmt::Display>(e: E) -> BenchError {
+    format!("plot: {e}").into()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(text: &str) -> Printed {
+        serde_json::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn the_newest_awake_record_of_each_scene_is_drawn() {
+        let records = [
+            record(
+                r#"{"scene":"a","threads":1,"sleeping":false,"ours_ms_median":9.0,"rapier_ms_median":3.0}"#,
+            ),
+            record(
+                r#"{"scene":"a","threads":1,"sleeping":false,"ours_ms_median":2.0,"rapier_ms_median":1.0}"#,
+            ),
+            record(
+                r#"{"scene":"a","threads":1,"sleeping":true,"ours_ms_median":0.1,"rapier_ms_median":0.1}"#,
+            ),
+            record(
+                r#"{"scene":"b","threads":2,"sleeping":false,"ours_ms_median":4.0,"rapier_ms_median":5.0}"#,
+            ),
+            record(r#"{"scene":"demo","threads":1,"ours_ms_median":0.3}"#),
+        ];
+        let times = scene_times(&records);
+        assert_eq!(times.len(), 2);
+        assert_eq!(times[0].ms, [Some(2.0), Some(1.0), None, None]);
+        assert_eq!(times[1].ms, [None, None, Some(4.0), Some(5.0)]);
+        let dir = std::env::temp_dir().join(format!("inertia-plot-{}", std::process::id()));
+        let written = plot("physics", &records, &dir).unwrap();
+        let svg = std::fs::read_to_string(&written[0]).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains("rapier3d, 2 threads"));
+        assert!(plot("nbody", &records, &dir).unwrap().is_empty());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn capacity_runs_start_where_the_clients_go_down() {
+        let step = |k: u32| {
+            record(&format!(
+                r#"{{"clients":{k},"tick_ms_p99":4.0,"server_cpu_percent":30.0}}"#
+            ))
+        };
+        let records = [
+            step(50),
+            step(100),
+            step(50),
+            step(100),
+            step(300),
+            record(r#"{"max_clients_at_60hz":300}"#),
+        ];
+        let runs = capacity_runs(&records);
+        assert_eq!(runs.iter().map(Vec::len).collect::<Vec<_>>(), [2, 3]);
+    }
+}
