@@ -7,6 +7,9 @@
 //!   threads (sleeping off), on a log scale, the newest record of each.
 //! - `capacity.svg`: tick p99 and the server's CPU against clients, one
 //!   line per run (the newest three), with the 60 Hz tick budget.
+//! - `bandwidth.svg`: the snapshot stream's kbit/s second by second, with
+//!   the budget, the mean and when the client's view first held every
+//!   entity (the newest record that has the series).
 //!
 //! Other suites have no picture yet.
 
@@ -45,6 +48,7 @@ pub fn plot(suite: &str, records: &[Printed], dir: &Path) -> Result<Vec<PathBuf>
     let drawn = match suite {
         "physics" => physics(records, &path)?,
         "capacity" => capacity(records, &path)?,
+        "bandwidth" => bandwidth(records, &path)?,
         _ => false,
     };
     Ok(if drawn { vec![path] } else { Vec::new() })
@@ -286,6 +290,81 @@ fn capacity(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
             .draw_series(run.iter().map(|s| Circle::new((s.0, s.2), 3, c.filled())))
             .map_err(plot_error)?;
     }
+    root.present().map_err(plot_error)?;
+    Ok(true)
+}
+
+fn bandwidth(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
+    let Some(r) = records.iter().rev().find(|r| r.contains_key("kbps_per_s")) else {
+        return Ok(false);
+    };
+    let series: Vec<f64> = r["kbps_per_s"]
+        .as_array()
+        .map(|a| a.iter().filter_map(Value::as_f64).collect())
+        .unwrap_or_default();
+    if series.is_empty() {
+        return Ok(false);
+    }
+    let budget = num(r, "budget_kbps").unwrap_or(0.0);
+    let mean = num(r, "kbps_mean").unwrap_or(0.0);
+    let joined = num(r, "full_view_after_s").filter(|s| s.is_finite());
+    let seconds = series.len() as f64;
+    let y_max = series.iter().copied().fold(budget, f64::max) * 1.15;
+    let root = SVGBackend::new(path, (1000, 450)).into_drawing_area();
+    root.fill(&WHITE).map_err(plot_error)?;
+    let machine = machine_name(records);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!("inertia-bench bandwidth: Fiedler's 901 cubes, 60 Hz, 5 % loss ({machine})"),
+            ("sans-serif", 20),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..seconds, 0.0..y_max)
+        .map_err(plot_error)?;
+    chart
+        .configure_mesh()
+        .x_desc("seconds")
+        .y_desc("kbit/s (each second's snapshots)")
+        .draw()
+        .map_err(plot_error)?;
+    let blue = RGBColor(31, 119, 180);
+    chart
+        .draw_series(LineSeries::new(
+            series.iter().enumerate().map(|(i, &k)| (i as f64 + 0.5, k)),
+            blue.stroke_width(2),
+        ))
+        .map_err(plot_error)?
+        .label("sent")
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], blue));
+    for (value, label, colour) in [
+        (budget, format!("budget ({budget:.0} kbit/s)"), RED),
+        (mean, format!("mean ({mean:.1} kbit/s)"), GREEN),
+    ] {
+        chart
+            .draw_series(LineSeries::new(
+                [(0.0, value), (seconds, value)],
+                colour.mix(0.7),
+            ))
+            .map_err(plot_error)?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+    }
+    if let Some(t) = joined {
+        chart
+            .draw_series(LineSeries::new([(t, 0.0), (t, y_max)], BLACK.mix(0.4)))
+            .map_err(plot_error)?
+            .label(format!("every entity in view ({t:.1} s)"))
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.mix(0.4)));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(plot_error)?;
     root.present().map_err(plot_error)?;
     Ok(true)
 }

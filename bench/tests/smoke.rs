@@ -358,3 +358,22 @@ fn plots_are_drawn_from_a_results_file() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("bad.jsonl:1"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn bandwidth_suite_gives_its_seconds_in_order() {
+    let all = run("bandwidth");
+    let m = &all[0];
+    let per_second = m["kbps_per_s"].as_array().expect("kbps_per_s");
+    assert_eq!(
+        per_second.len() as u64,
+        m["seconds"].as_u64().expect("seconds")
+    );
+    assert!(per_second
+        .iter()
+        .all(|k| k.as_f64().expect("a number") > 0.0));
+    let max = per_second
+        .iter()
+        .filter_map(Value::as_f64)
+        .fold(0.0, f64::max);
+    assert_eq!(max, num(m, "kbps_max_1s"));
+}

@@ -324,6 +324,8 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         .map(|w| w.iter().sum::<f64>() / 1000.0)
         .collect();
     let window_max = windows.iter().copied().fold(0.0, f64::max);
+    // In time order, before the quantile sorts them.
+    let per_second = windows.clone();
     let uncompressed = f64::from(GRID * GRID + 1) * FIEDLER_BITS_PER_CUBE * hz / 1000.0
         + FIEDLER_HEADER_BYTES * 8.0 * hz / 1000.0;
     let stats = decoder.stats();
@@ -350,6 +352,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
             .num("kbps_p95", kbps(quantile(&mut bits_per_snapshot, 0.95)))
             .num("kbps_p95_1s", quantile(&mut windows, 0.95))
             .num("kbps_max_1s", window_max)
+            .field("kbps_per_s", per_second)
             .num("bytes_per_snapshot_mean", mean_bits / 8.0)
             .num("pos_err_mm_p99", quantile(&mut pos_err, 0.99))
             .num("pos_err_mm_max", pos_err.last().copied().unwrap_or(0.0))
