@@ -10,6 +10,8 @@
 //! - `bandwidth.svg`: the snapshot stream's kbit/s second by second, with
 //!   the budget, the mean and when the client's view first held every
 //!   entity (the newest record that has the series).
+//! - `replay.svg`: how long seeks took, a histogram per keyframe interval
+//!   (the newest record of each that has the seek times).
 //!
 //! Other suites have no picture yet.
 
@@ -49,6 +51,7 @@ pub fn plot(suite: &str, records: &[Printed], dir: &Path) -> Result<Vec<PathBuf>
         "physics" => physics(records, &path)?,
         "capacity" => capacity(records, &path)?,
         "bandwidth" => bandwidth(records, &path)?,
+        "replay" => replay(records, &path)?,
         _ => false,
     };
     Ok(if drawn { vec![path] } else { Vec::new() })
@@ -369,6 +372,106 @@ fn bandwidth(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
     Ok(true)
 }
 
+/// Seek times, ms, by keyframe interval: the newest record of each.
+fn seek_times(records: &[Printed]) -> Vec<(u64, Vec<f64>)> {
+    let mut out: Vec<(u64, Vec<f64>)> = Vec::new();
+    for r in records {
+        let (Some(k), Some(seeks)) = (
+            r.get("keyframe_ticks").and_then(Value::as_u64),
+            r.get("seek_ms").and_then(Value::as_array),
+        ) else {
+            continue;
+        };
+        let seeks: Vec<f64> = seeks.iter().filter_map(Value::as_f64).collect();
+        match out.iter_mut().find(|(kk, _)| *kk == k) {
+            Some(slot) => slot.1 = seeks,
+            None => out.push((k, seeks)),
+        }
+    }
+    out.retain(|(_, s)| !s.is_empty());
+    out.sort_by_key(|(k, _)| *k);
+    out
+}
+
+/// Bins of seek times: `BINS` equal ones from 0 to the slowest.
+const BINS: usize = 24;
+
+fn replay(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
+    let runs = seek_times(records);
+    if runs.is_empty() {
+        return Ok(false);
+    }
+    let slowest = runs
+        .iter()
+        .flat_map(|(_, s)| s.iter().copied())
+        .fold(1e-3, f64::max);
+    let width = slowest / BINS as f64 * 1.0001;
+    let counts: Vec<(u64, [u32; BINS])> = runs
+        .iter()
+        .map(|(k, seeks)| {
+            let mut bins = [0u32; BINS];
+            for &s in seeks {
+                bins[((s / width) as usize).min(BINS - 1)] += 1;
+            }
+            (*k, bins)
+        })
+        .collect();
+    let y_max = counts
+        .iter()
+        .flat_map(|(_, b)| b.iter().copied())
+        .max()
+        .unwrap_or(1) as f64
+        * 1.15;
+    let root = SVGBackend::new(path, (1000, 450)).into_drawing_area();
+    root.fill(&WHITE).map_err(plot_error)?;
+    let machine = machine_name(records);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!("inertia-bench replay: seek times into a recorded game ({machine})"),
+            ("sans-serif", 20),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..slowest * 1.02, 0.0..y_max)
+        .map_err(plot_error)?;
+    chart
+        .configure_mesh()
+        .x_desc("seek time, ms")
+        .y_desc("seeks")
+        .draw()
+        .map_err(plot_error)?;
+    let n = counts.len() as f64;
+    for (i, (k, bins)) in counts.iter().enumerate() {
+        let c = BAR_COLOURS[i % BAR_COLOURS.len()];
+        let bars = bins
+            .iter()
+            .enumerate()
+            .filter(|(_, &n)| n > 0)
+            .map(|(b, &count)| {
+                let left = b as f64 * width + width * i as f64 / n;
+                Rectangle::new(
+                    [(left, 0.0), (left + width / n, f64::from(count))],
+                    c.filled(),
+                )
+            });
+        chart
+            .draw_series(bars)
+            .map_err(plot_error)?
+            .label(format!("keyframe every {k} ticks"))
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], c.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(plot_error)?;
+    root.present().map_err(plot_error)?;
+    Ok(true)
+}
+
 /// The CPU the records were measured on (the newest record's).
 fn machine_name(records: &[Printed]) -> String {
     records
@@ -416,6 +519,24 @@ mod tests {
         let svg = std::fs::read_to_string(&written[0]).unwrap();
         assert!(svg.starts_with("<svg") && svg.contains("rapier3d, 2 threads"));
         assert!(plot("nbody", &records, &dir).unwrap().is_empty());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn seek_histograms_keep_the_newest_record_of_each_interval() {
+        let records = [
+            record(r#"{"keyframe_ticks":600,"seek_ms":[90.0]}"#),
+            record(r#"{"keyframe_ticks":60,"seek_ms":[1.0,2.0,30.0]}"#),
+            record(r#"{"keyframe_ticks":600,"seek_ms":[10.0,20.0]}"#),
+            record(r#"{"keyframe_ticks":300,"seek_ms_median":5.0}"#),
+        ];
+        let runs = seek_times(&records);
+        assert_eq!(runs, [(60, vec![1.0, 2.0, 30.0]), (600, vec![10.0, 20.0])]);
+        let dir = std::env::temp_dir().join(format!("inertia-plot-replay-{}", std::process::id()));
+        let written = plot("replay", &records, &dir).unwrap();
+        assert!(std::fs::read_to_string(&written[0])
+            .unwrap()
+            .contains("keyframe every 600 ticks"));
         let _ = std::fs::remove_dir_all(&dir);
     }
 

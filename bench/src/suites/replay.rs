@@ -629,6 +629,7 @@ fn run_one(scene: &Scene, plan: &Plan, k: u64, sink: &mut dyn Sink) -> Result<Ou
         .num("seek_ms_p99", seek_p99)
         .num("seek_ms_max", seek_ms.iter().copied().fold(0.0, f64::max))
         .num("seek_ms_mean", mean(&seek_ms))
+        .field("seek_ms", seek_ms.clone())
         .field("seek_hash_mismatches", mismatches)
         .num("seek_resimulated_mean", mean(&resimulated))
         .num(
