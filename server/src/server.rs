@@ -655,10 +655,13 @@ impl RunningServer {
         truncate_utf8(&mut told, MAX_REASON_BYTES);
         info!(reason = %told, "the match is over; draining");
         stop_clients(&self.shutdown, DisconnectReason::MatchOver { reason: told });
+        self.drain().await;
+        // Kept before the orchestrator hears of the end: under Agones,
+        // Shutdown deletes the pod, and a copy to a shared volume must be
+        // done by then.
         let (matches, recording) = (self.shared.matches.clone(), self.recording_dir.clone());
-        self.shutdown().await;
         let now = crate::net::connection::unix_now();
-        match tokio::task::spawn_blocking(move || matches.keep(&recording, now)).await {
+        let kept = match tokio::task::spawn_blocking(move || matches.keep(&recording, now)).await {
             Ok(Ok(Some(name))) => {
                 info!(%name, "the match's recording is kept");
                 Some(name)
@@ -669,7 +672,10 @@ impl RunningServer {
                 None
             }
             Err(_) => None,
-        }
+        };
+        self.orchestrator.shutdown().await;
+        info!("stopped");
+        kept
     }
 
     /// Clients connected now.
@@ -685,6 +691,14 @@ impl RunningServer {
     /// not stopped by then is left behind (logged) to end with the
     /// process.
     pub async fn shutdown(self) {
+        self.drain().await;
+        // Last: under Agones, Shutdown deletes the pod.
+        self.orchestrator.shutdown().await;
+        info!("stopped");
+    }
+
+    /// [`RunningServer::shutdown`] but for telling the orchestrator.
+    async fn drain(&self) {
         info!("shutting down");
         let deadline = tokio::time::Instant::now() + SHUTDOWN_DEADLINE;
         self.health.set_ready(false);
@@ -715,9 +729,6 @@ impl RunningServer {
                  on disk)"
             );
         }
-        // Last: under Agones, Shutdown deletes the pod.
-        self.orchestrator.shutdown().await;
-        info!("stopped");
     }
 }
 

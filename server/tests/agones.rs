@@ -574,3 +574,40 @@ async fn issue_14_an_allocation_s_rules_and_seed_reach_the_game_rules() {
     assert_eq!(sessions, 2, "the start, then the configured match");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The match's recording is kept (moved to the matches directory, which a
+/// fleet mounts from a shared volume) before Agones hears `Shutdown` and
+/// deletes the pod with its data.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue_14_a_match_s_recording_is_kept_before_agones_deletes_the_pod() {
+    let fake = FakeAgones::start(0, game_server(1), vec![], vec![]).await;
+    let dir = std::env::temp_dir().join(format!("inertia-agones-kept-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let config = ServerConfig {
+        listen: Some("127.0.0.1:0".parse().expect("literal")),
+        metrics: "127.0.0.1:0".parse().expect("literal"),
+        data_dir: dir.clone(),
+        record: true,
+        orchestrator: OrchestratorMode::Agones,
+        agones_sdk_port: Some(fake.addr.port()),
+        ..ServerConfig::default()
+    };
+    let matches = config.matches_dir();
+    fake.look_into_at_shutdown(matches);
+    let server = start(config).await.expect("starts");
+    wait_for("the watch", Duration::from_secs(10), || {
+        fake.count("GET /watch/gameserver") >= 1
+    })
+    .await;
+    fake.allocate_with(&[], &[("inertia.dev/match-seconds", "1")]);
+    let why = tokio::time::timeout(Duration::from_secs(10), server.match_over())
+        .await
+        .expect("the match ends");
+    let kept = server.end_match(why).await.expect("kept");
+    assert_eq!(
+        fake.seen_at_shutdown(),
+        Some(vec![kept.as_str().to_string()]),
+        "the recording was in place when Shutdown came"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -45,6 +45,9 @@ struct State {
     counters: BTreeMap<String, Counter>,
     lists: BTreeMap<String, List>,
     watchers: Vec<mpsc::UnboundedSender<GameServer>>,
+    /// A directory to look into when `Shutdown` comes, and what it held
+    /// then (what the pod's volumes hold when Agones deletes it).
+    at_shutdown: (Option<std::path::PathBuf>, Option<Vec<String>>),
 }
 
 impl State {
@@ -130,6 +133,18 @@ impl FakeAgones {
         self.calls().iter().filter(|c| c.what == what).count()
     }
 
+    /// Looks into `dir` when `Shutdown` comes; [`Self::seen_at_shutdown`]
+    /// says what it held.
+    pub fn look_into_at_shutdown(&self, dir: std::path::PathBuf) {
+        self.state.lock().unwrap().at_shutdown.0 = Some(dir);
+    }
+
+    /// The names in the directory of [`Self::look_into_at_shutdown`] when
+    /// `Shutdown` came (`None` before it has).
+    pub fn seen_at_shutdown(&self) -> Option<Vec<String>> {
+        self.state.lock().unwrap().at_shutdown.1.clone()
+    }
+
     /// The game server now.
     pub fn game_server(&self) -> GameServer {
         self.state.lock().unwrap().game_server.clone()
@@ -212,7 +227,20 @@ fn answer(s: &mut State, method: &Method, path: &str, body: &Bytes) -> Result<Re
     match (method.as_str(), path) {
         ("POST", "/ready") => Ok(set_state(s, "Ready")),
         ("POST", "/allocate") => Ok(set_state(s, "Allocated")),
-        ("POST", "/shutdown") => Ok(set_state(s, "Shutdown")),
+        ("POST", "/shutdown") => {
+            // The first Shutdown is the one Agones acts on.
+            if let (Some(dir), None) = (&s.at_shutdown.0, &s.at_shutdown.1) {
+                let mut names: Vec<String> = std::fs::read_dir(dir)
+                    .into_iter()
+                    .flatten()
+                    .flatten()
+                    .filter_map(|e| e.file_name().into_string().ok())
+                    .collect();
+                names.sort();
+                s.at_shutdown.1 = Some(names);
+            }
+            Ok(set_state(s, "Shutdown"))
+        }
         ("POST", "/health") => Ok(empty()),
         ("POST", "/reserve") => {
             let r: Reservation = parse(body)?;
