@@ -24,7 +24,6 @@ use crate::net::{self, NetShared};
 use crate::orchestrator::{Allocation, Orchestrator, Probe};
 use crate::record::matches::MatchesDir;
 use crate::replay::checkpoint::CheckpointDir;
-use crate::replay::state::SimState;
 use crate::rules::{GameRules, SandboxRules, SandboxSettings};
 use crate::scene::{demo::DEMO_RON, Scene, SceneError, SceneFormat};
 use crate::secrets::Secrets;
@@ -438,21 +437,9 @@ async fn load_scene(
         Err(_) => return,
     };
     let (name, entities) = (built.name.clone(), built.entities.len());
-    let state_world = built.world.save();
-    let tick = built.world.tick();
-    let (table, spawn_points) = (built.entities, built.spawn_points);
-    let loaded = shared.sim.call(move |sim| {
-        let state = SimState {
-            tick,
-            applied: 0,
-            world: state_world,
-            entities: table,
-            spawn_points,
-            clients: Vec::new(),
-            rules: sim.checkpoint().rules,
-        };
-        sim.load(&state, "allocation")
-    });
+    let loaded = shared
+        .sim
+        .call(move |sim| sim.load_scene(built, "allocation"));
     match loaded {
         Ok(done) => match done.await {
             Ok(Ok(_)) => info!(%scene, name = %name, entities, "the allocation's scene is loaded"),

@@ -345,6 +345,23 @@ impl Simulation {
         &mut self.shown_mut().clock
     }
 
+    /// Replaces the world with a freshly built scene, as [`Self::load`]
+    /// replaces it with a checkpoint: the rules keep their state, nobody is
+    /// in the new world until the connected clients join it again, and a
+    /// recording goes on as a new session. Returns the new state hash.
+    pub fn load_scene(&mut self, built: BuiltScene, operator: &str) -> Result<u64, StateError> {
+        let state = SimState {
+            tick: built.world.tick(),
+            applied: 0,
+            world: built.world.save(),
+            entities: built.entities,
+            spawn_points: built.spawn_points,
+            clients: Vec::new(),
+            rules: self.rules.save_state(),
+        };
+        self.load(&state, operator)
+    }
+
     /// Hands an allocation's match settings to the game rules
     /// ([`GameRules::configure_match`]), on the live timeline. While
     /// recording, the recording restarts so its new session begins with a
