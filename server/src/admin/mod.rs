@@ -34,7 +34,6 @@ pub mod client;
 pub mod throttle;
 pub mod tokens;
 
-use crate::record::matches::MatchesError;
 use std::net::{IpAddr, SocketAddr};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
@@ -47,6 +46,7 @@ use inertia_protocol::control::{encode_frame, ControlMessage, FrameDecoder};
 use tracing::{debug, info, warn};
 
 use crate::net::NetShared;
+use crate::record::matches::MatchesError;
 use crate::replay::checkpoint::CheckpointError;
 use crate::replay::WorldEdit;
 use crate::sim::edit::EditOutcome;

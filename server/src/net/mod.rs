@@ -22,18 +22,17 @@ use inertia_protocol::admin::ADMIN_ALPN;
 use inertia_protocol::control::DisconnectReason;
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::{ReplayGuard, TokenKey};
-use token_keys::TokenKeys;
-
-use crate::record::matches::MatchesDir;
 use tokio::sync::{oneshot, watch};
 use tracing::{debug, info};
 
 use crate::admin::throttle::{HelloThrottle, ThrottleConfig};
 use crate::admin::tokens::AdminTokenStore;
 use crate::metrics::Metrics;
+use crate::record::matches::MatchesDir;
 use crate::replay::checkpoint::CheckpointDir;
 use crate::sim::{Frame, SimHandle};
 use gate::{Admission, GateConfig, HandshakeGate};
+use token_keys::TokenKeys;
 
 /// How many tokens the replay guard remembers at once.
 pub const REPLAY_GUARD_CAPACITY: usize = 65_536;
@@ -46,7 +45,7 @@ pub struct NetShared {
     pub metrics: Metrics,
     /// The keys connect tokens are opened with (the current one, and a
     /// replaced one for its grace period), rotated by
-    /// [`crate::server::RunningServer::reload_secrets`].
+    /// [`crate::secrets::Secrets::reload`].
     pub token_keys: std::sync::RwLock<TokenKeys>,
     /// The address tokens must name (the server's public `ip:port`).
     pub public_addr: String,
