@@ -17,6 +17,7 @@
 
 use std::path::{Path, PathBuf};
 
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use serde_json::{Map, Value};
 
@@ -123,17 +124,13 @@ fn physics(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
     let (lo, hi) = values.fold((f64::MAX, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
     let (lo, hi) = (lo.max(1e-3) / 2.0, hi * 2.0);
     let n = scenes.len();
-    let root = SVGBackend::new(path, (1100, 520)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_error)?;
+    let root = canvas(path, (1100, 520))?;
     let machine = machine_name(records);
-    let mut chart = ChartBuilder::on(&root)
+    let mut chart = axes(&root)
         .caption(
             format!("inertia-bench physics: ms per step, ours and rapier3d ({machine})"),
             ("sans-serif", 20),
         )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
         .build_cartesian_2d(-0.5f64..n as f64 - 0.5, (lo..hi).log_scale())
         .map_err(plot_error)?;
     let names: Vec<String> = scenes.iter().map(|s| s.scene.clone()).collect();
@@ -167,19 +164,17 @@ fn physics(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
             .label(BAR_NAMES[k])
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour.filled()));
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(plot_error)?;
+    legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
     root.present().map_err(plot_error)?;
     Ok(true)
 }
 
-/// One capacity run: (clients, tick p99 ms, server CPU %) per step.
-type Run = Vec<(f64, f64, f64)>;
+/// One step of a capacity run: clients, tick p99 (ms), server CPU (%).
+type Step = (f64, f64, f64);
+/// One capacity run, its steps in order.
+type Run = Vec<Step>;
+/// Which value of a step a panel draws.
+type Pick = fn(&Step) -> f64;
 
 /// The runs in `records`: a step with no more clients than the one before
 /// starts a new run.
@@ -213,8 +208,7 @@ fn capacity(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
     let k_max = steps.clone().map(|s| s.0).fold(1.0, f64::max) * 1.05;
     let p99_max = steps.clone().map(|s| s.1).fold(16.7, f64::max) * 1.15;
     let cpu_max = steps.map(|s| s.2).fold(100.0, f64::max) * 1.1;
-    let root = SVGBackend::new(path, (1000, 700)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_error)?;
+    let root = canvas(path, (1000, 700))?;
     let machine = machine_name(records);
     let root = root
         .titled(
@@ -228,70 +222,51 @@ fn capacity(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
         RGBColor(44, 160, 44),
         RGBColor(214, 39, 40),
     ];
-    let mut chart = ChartBuilder::on(&top)
-        .margin(12)
-        .x_label_area_size(30)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0.0..k_max, 0.0..p99_max)
-        .map_err(plot_error)?;
-    chart
-        .configure_mesh()
-        .x_desc("clients")
-        .y_desc("tick p99, ms")
-        .draw()
-        .map_err(plot_error)?;
-    chart
-        .draw_series(LineSeries::new(
-            [(0.0, 16.7), (k_max, 16.7)],
-            BLACK.mix(0.5),
-        ))
-        .map_err(plot_error)?
-        .label("tick budget (16.7 ms)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.mix(0.5)));
-    for (i, run) in runs.iter().enumerate() {
-        let c = colours[i % colours.len()];
-        chart
-            .draw_series(LineSeries::new(
-                run.iter().map(|s| (s.0, s.1)),
-                c.stroke_width(2),
-            ))
-            .map_err(plot_error)?
-            .label(format!("run {}", i + 1))
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
-        chart
-            .draw_series(run.iter().map(|s| Circle::new((s.0, s.1), 3, c.filled())))
-            .map_err(plot_error)?;
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(plot_error)?;
-    let mut chart = ChartBuilder::on(&bottom)
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0.0..k_max, 0.0..cpu_max)
-        .map_err(plot_error)?;
-    chart
-        .configure_mesh()
-        .x_desc("clients")
-        .y_desc("server CPU, % of one core")
-        .draw()
-        .map_err(plot_error)?;
-    for (i, run) in runs.iter().enumerate() {
-        let c = colours[i % colours.len()];
-        chart
-            .draw_series(LineSeries::new(
-                run.iter().map(|s| (s.0, s.2)),
-                c.stroke_width(2),
-            ))
+    // Tick p99 over its budget, with the legend; then the server's CPU.
+    let panels: [(_, _, _, Pick, _); 2] = [
+        (&top, "tick p99, ms", p99_max, |s| s.1, Some(16.7)),
+        (&bottom, "server CPU, % of one core", cpu_max, |s| s.2, None),
+    ];
+    for (area, y_desc, y_max, pick, budget) in panels {
+        let mut chart = axes(area)
+            .build_cartesian_2d(0.0..k_max, 0.0..y_max)
             .map_err(plot_error)?;
         chart
-            .draw_series(run.iter().map(|s| Circle::new((s.0, s.2), 3, c.filled())))
+            .configure_mesh()
+            .x_desc("clients")
+            .y_desc(y_desc)
+            .draw()
             .map_err(plot_error)?;
+        if let Some(budget) = budget {
+            chart
+                .draw_series(LineSeries::new(
+                    [(0.0, budget), (k_max, budget)],
+                    BLACK.mix(0.5),
+                ))
+                .map_err(plot_error)?
+                .label(format!("tick budget ({budget} ms)"))
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.mix(0.5)));
+        }
+        for (i, run) in runs.iter().enumerate() {
+            let c = colours[i % colours.len()];
+            chart
+                .draw_series(LineSeries::new(
+                    run.iter().map(|s| (s.0, pick(s))),
+                    c.stroke_width(2),
+                ))
+                .map_err(plot_error)?
+                .label(format!("run {}", i + 1))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
+            chart
+                .draw_series(
+                    run.iter()
+                        .map(|s| Circle::new((s.0, pick(s)), 3, c.filled())),
+                )
+                .map_err(plot_error)?;
+        }
+        if budget.is_some() {
+            legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
+        }
     }
     root.present().map_err(plot_error)?;
     Ok(true)
@@ -313,17 +288,13 @@ fn bandwidth(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
     let joined = num(r, "full_view_after_s").filter(|s| s.is_finite());
     let seconds = series.len() as f64;
     let y_max = series.iter().copied().fold(budget, f64::max) * 1.15;
-    let root = SVGBackend::new(path, (1000, 450)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_error)?;
+    let root = canvas(path, (1000, 450))?;
     let machine = machine_name(records);
-    let mut chart = ChartBuilder::on(&root)
+    let mut chart = axes(&root)
         .caption(
             format!("inertia-bench bandwidth: Fiedler's 901 cubes, 60 Hz, 5 % loss ({machine})"),
             ("sans-serif", 20),
         )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
         .build_cartesian_2d(0.0..seconds, 0.0..y_max)
         .map_err(plot_error)?;
     chart
@@ -361,13 +332,7 @@ fn bandwidth(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
             .label(format!("every entity in view ({t:.1} s)"))
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.mix(0.4)));
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(plot_error)?;
+    legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     root.present().map_err(plot_error)?;
     Ok(true)
 }
@@ -422,17 +387,13 @@ fn replay(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
         .max()
         .unwrap_or(1) as f64
         * 1.15;
-    let root = SVGBackend::new(path, (1000, 450)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_error)?;
+    let root = canvas(path, (1000, 450))?;
     let machine = machine_name(records);
-    let mut chart = ChartBuilder::on(&root)
+    let mut chart = axes(&root)
         .caption(
             format!("inertia-bench replay: seek times into a recorded game ({machine})"),
             ("sans-serif", 20),
         )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
         .build_cartesian_2d(0.0..slowest * 1.02, 0.0..y_max)
         .map_err(plot_error)?;
     chart
@@ -461,13 +422,7 @@ fn replay(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
             .label(format!("keyframe every {k} ticks"))
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], c.filled()));
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(plot_error)?;
+    legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     root.present().map_err(plot_error)?;
     Ok(true)
 }
@@ -479,6 +434,38 @@ fn machine_name(records: &[Printed]) -> String {
         .rev()
         .find_map(|r| r.get("machine")?.get("cpu")?.as_str().map(str::to_string))
         .unwrap_or_else(|| "unknown machine".into())
+}
+
+/// A white canvas of `size` pixels, drawn to `path`.
+fn canvas(path: &Path, size: (u32, u32)) -> Result<DrawingArea<SVGBackend<'_>, Shift>, BenchError> {
+    let root = SVGBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE).map_err(plot_error)?;
+    Ok(root)
+}
+
+/// A chart on `area` with the margin and the room for axis labels that
+/// every picture has.
+fn axes<'a, 'b, DB: DrawingBackend>(area: &'a DrawingArea<DB, Shift>) -> ChartBuilder<'a, 'b, DB> {
+    let mut builder = ChartBuilder::on(area);
+    builder
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60);
+    builder
+}
+
+/// The series' legend, boxed, at `at`.
+fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    at: SeriesLabelPosition,
+) -> Result<(), BenchError> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(at)
+        .draw()
+        .map_err(plot_error)
 }
 
 fn plot_error<E: std::fmt::Display>(e: E) -> BenchError {
