@@ -145,73 +145,83 @@ impl Link {
     }
 }
 
+/// What Agones holds of one of the players' counter and list.
+#[derive(Debug)]
+enum Told<T> {
+    /// The game server does not declare it: never sent again.
+    Undeclared,
+    /// Not known (nothing sent yet, or the last send failed): sent whole.
+    Unknown,
+    /// This, as last sent.
+    Is(T),
+}
+
 /// The players as Agones last heard of them, in the counter and the list
-/// `players`; either is dropped for good when the game server does not
-/// declare it.
+/// `players`.
 #[derive(Debug)]
 struct Players {
     capacity: i64,
-    counter: Option<Option<i64>>,
-    list: Option<Option<BTreeSet<u64>>>,
+    counter: Told<i64>,
+    list: Told<BTreeSet<u64>>,
 }
 
 impl Players {
     fn new(capacity: u32) -> Players {
         Players {
             capacity: i64::from(capacity),
-            counter: Some(None),
-            list: Some(None),
+            counter: Told::Unknown,
+            list: Told::Unknown,
         }
     }
 
     async fn sync(&mut self, sdk: &Sdk, now: Vec<u64>) {
         let now: BTreeSet<u64> = now.into_iter().collect();
         let count = now.len() as i64;
-        if let Some(told) = self.counter {
-            if told != Some(count) {
-                let update = CounterUpdate {
-                    count: Some(count),
-                    capacity: Some(self.capacity),
-                    count_diff: None,
-                };
-                match sdk.update_counter(PLAYERS, &update).await {
-                    Ok(_) => self.counter = Some(Some(count)),
-                    Err(e) if e.is_not_found() => {
-                        info!(
-                            "the game server declares no `players` counter; not counting players"
-                        );
-                        self.counter = None;
-                    }
-                    Err(e) => debug!(error = %e, "players counter not updated; retrying"),
-                }
-            }
-        }
-        if let Some(told) = &self.list {
-            let result = match told {
-                // The first time, the list is replaced whole.
-                None => sdk
-                    .update_list(&List {
-                        name: PLAYERS.to_string(),
-                        capacity: self.capacity,
-                        values: now.iter().map(u64::to_string).collect(),
-                    })
-                    .await
-                    .map(drop),
-                Some(told) => change_list(sdk, told, &now).await,
+        let counter_due = match self.counter {
+            Told::Undeclared => false,
+            Told::Unknown => true,
+            Told::Is(told) => told != count,
+        };
+        if counter_due {
+            let update = CounterUpdate {
+                count: Some(count),
+                capacity: Some(self.capacity),
+                count_diff: None,
             };
-            match result {
-                Ok(()) => self.list = Some(Some(now)),
+            match sdk.update_counter(PLAYERS, &update).await {
+                Ok(_) => self.counter = Told::Is(count),
                 Err(e) if e.is_not_found() => {
-                    info!("the game server declares no `players` list; not listing players");
-                    self.list = None;
+                    info!("the game server declares no `players` counter; not counting players");
+                    self.counter = Told::Undeclared;
                 }
-                // Resent whole next time: what Agones holds is unsure.
-                Err(e) => {
-                    debug!(error = %e, "players list not updated; retrying");
-                    self.list = Some(None);
-                }
+                Err(e) => debug!(error = %e, "players counter not updated; retrying"),
             }
         }
+        let result = match &self.list {
+            Told::Undeclared => return,
+            Told::Is(told) if *told == now => return,
+            // Replaced whole when what Agones holds is unknown.
+            Told::Unknown => sdk
+                .update_list(&List {
+                    name: PLAYERS.to_string(),
+                    capacity: self.capacity,
+                    values: now.iter().map(u64::to_string).collect(),
+                })
+                .await
+                .map(drop),
+            Told::Is(told) => change_list(sdk, told, &now).await,
+        };
+        self.list = match result {
+            Ok(()) => Told::Is(now),
+            Err(e) if e.is_not_found() => {
+                info!("the game server declares no `players` list; not listing players");
+                Told::Undeclared
+            }
+            Err(e) => {
+                debug!(error = %e, "players list not updated; retrying");
+                Told::Unknown
+            }
+        };
     }
 }
 
