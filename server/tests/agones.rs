@@ -35,20 +35,28 @@ async fn server_with_scenes(
     sdk_port: u16,
     scenes: Option<std::path::PathBuf>,
 ) -> RunningServer {
+    let config = ServerConfig {
+        record: false,
+        max_clients: 16,
+        scenes_dir: scenes,
+        ..agones_config(what, sdk_port)
+    };
+    start(config).await.expect("the server starts")
+}
+
+/// A dev-mode server's settings on loopback, under Agones with the SDK
+/// server on `sdk_port`, its data directory (emptied) named after `what`.
+fn agones_config(what: &str, sdk_port: u16) -> ServerConfig {
     let dir = std::env::temp_dir().join(format!("inertia-agones-{what}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let config = ServerConfig {
+    ServerConfig {
         listen: Some("127.0.0.1:0".parse().expect("literal")),
         metrics: "127.0.0.1:0".parse().expect("literal"),
         data_dir: dir,
-        record: false,
-        max_clients: 16,
         orchestrator: OrchestratorMode::Agones,
         agones_sdk_port: Some(sdk_port),
-        scenes_dir: scenes,
         ..ServerConfig::default()
-    };
-    start(config).await.expect("the server starts")
+    }
 }
 
 /// A loopback port nothing listens on (for now).
@@ -524,17 +532,8 @@ impl inertia_server::rules::GameRules for Configured {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn issue_14_an_allocation_s_rules_and_seed_reach_the_game_rules() {
     let fake = FakeAgones::start(0, game_server(1), vec![], vec![]).await;
-    let dir = std::env::temp_dir().join(format!("inertia-agones-rules-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let config = ServerConfig {
-        listen: Some("127.0.0.1:0".parse().expect("literal")),
-        metrics: "127.0.0.1:0".parse().expect("literal"),
-        data_dir: dir.clone(),
-        record: true,
-        orchestrator: OrchestratorMode::Agones,
-        agones_sdk_port: Some(fake.addr.port()),
-        ..ServerConfig::default()
-    };
+    let config = agones_config("rules", fake.addr.port());
+    let dir = config.data_dir.clone();
     let seen = std::sync::Arc::default();
     let rules = Configured {
         inner: inertia_server::rules::SandboxRules::default(),
@@ -581,17 +580,8 @@ async fn issue_14_an_allocation_s_rules_and_seed_reach_the_game_rules() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn issue_14_a_match_s_recording_is_kept_before_agones_deletes_the_pod() {
     let fake = FakeAgones::start(0, game_server(1), vec![], vec![]).await;
-    let dir = std::env::temp_dir().join(format!("inertia-agones-kept-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let config = ServerConfig {
-        listen: Some("127.0.0.1:0".parse().expect("literal")),
-        metrics: "127.0.0.1:0".parse().expect("literal"),
-        data_dir: dir.clone(),
-        record: true,
-        orchestrator: OrchestratorMode::Agones,
-        agones_sdk_port: Some(fake.addr.port()),
-        ..ServerConfig::default()
-    };
+    let config = agones_config("kept", fake.addr.port());
+    let dir = config.data_dir.clone();
     let matches = config.matches_dir();
     fake.look_into_at_shutdown(matches);
     let server = start(config).await.expect("starts");
