@@ -55,6 +55,9 @@ impl Sink for StateHasher {
     fn u64(&mut self, v: u64) {
         self.write_u64(v);
     }
+    fn f32(&mut self, v: f32) {
+        self.write_u64(u64::from(v.to_bits()));
+    }
     fn f64(&mut self, v: f64) {
         self.write_u64(v.to_bits());
     }

@@ -34,19 +34,21 @@ use crate::particle_system::{
     Backend, ParticleSystem, Slot, FLAG_PINNED, FLAG_QUARANTINED, FREE, MAX_GROUPS,
 };
 use crate::rigid::body::RigidBody;
-use crate::rigid::pipeline::{CachedManifold, ContactCache, ContactKey, PairContact};
+use crate::rigid::pipeline::{CachedManifold, ContactCache, ContactKey};
 use crate::rigid::solver::SolverConfig;
 use crate::spring::{Spring, SpringParams};
 
 const MAGIC: &[u8; 8] = b"INRTWRLD";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 /// The oldest format version this build reads. Version 3 kept each
 /// manifold's impulses only: its manifolds are collided afresh on the
 /// first step after a restore. Version 4 had no world gravity on
 /// particles (its systems restore with a gravity scale of 0, as their own
 /// forces carried their gravity), no push-out velocities and no contact
-/// pairs (the queries report none until the world steps).
+/// pairs (the queries report none until the world steps). Versions 4 and
+/// 5 kept the contact cache in double precision, which is rounded to the
+/// single precision it is now kept in.
 pub const OLDEST_FORMAT_VERSION: u32 = 3;
 
 /// Why a saved state could not be restored. The world is unchanged.
@@ -84,6 +86,7 @@ pub(crate) trait Sink {
     fn u8(&mut self, v: u8);
     fn u32(&mut self, v: u32);
     fn u64(&mut self, v: u64);
+    fn f32(&mut self, v: f32);
     fn f64(&mut self, v: f64);
     fn vec3(&mut self, v: DVec3) {
         self.f64(v.x);
@@ -105,6 +108,9 @@ impl Sink for ByteSink {
     }
     fn u64(&mut self, v: u64) {
         self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f32(&mut self, v: f32) {
+        self.0.extend_from_slice(&v.to_bits().to_le_bytes());
     }
     fn f64(&mut self, v: f64) {
         self.0.extend_from_slice(&v.to_bits().to_le_bytes());
@@ -258,7 +264,6 @@ pub(crate) struct StateRef<'a> {
     pub(crate) solver: &'a SolverConfig,
     pub(crate) contacts: &'a ContactCache,
     pub(crate) touching: &'a BTreeSet<(BodyHandle, BodyHandle)>,
-    pub(crate) pairs: &'a [PairContact],
     pub(crate) body_bounds: Option<Aabb>,
     pub(crate) joints: &'a Arena<crate::rigid::joint::Joint>,
     pub(crate) attachments: &'a Arena<crate::rigid::attachment::Attachment>,
@@ -275,7 +280,6 @@ pub(crate) fn encode_world<S: Sink>(s: &mut S, w: &StateRef<'_>) {
     rigid::solver(s, w.solver);
     rigid::contacts(s, w.contacts);
     rigid::touching(s, w.touching);
-    rigid::pairs(s, w.pairs);
     rigid::bounds(s, w.body_bounds);
     arena(s, w.joints, rigid::joint);
     arena(s, w.attachments, rigid::attachment);
@@ -307,7 +311,6 @@ pub(crate) struct DecodedWorld {
     pub(crate) solver: SolverConfig,
     pub(crate) contacts: BTreeMap<ContactKey, CachedManifold>,
     pub(crate) touching: BTreeSet<(BodyHandle, BodyHandle)>,
-    pub(crate) pairs: Vec<PairContact>,
     pub(crate) body_bounds: Option<Aabb>,
     pub(crate) joints: Arena<crate::rigid::joint::Joint>,
     pub(crate) attachments: Arena<crate::rigid::attachment::Attachment>,
@@ -351,6 +354,14 @@ impl<'a> Reader<'a> {
     }
     fn finite(&mut self, what: &str) -> Result<f64, SnapshotError> {
         let v = self.f64()?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            invalid(format!("{what} is not finite"))
+        }
+    }
+    fn finite32(&mut self, what: &str) -> Result<f32, SnapshotError> {
+        let v = f32::from_bits(self.u32()?);
         if v.is_finite() {
             Ok(v)
         } else {
@@ -687,9 +698,11 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     let bodies = r.arena(|r| r.body())?;
     let body_forces = r.arena(|r| Ok(ForceEntry { force: r.force()? }))?;
     let solver = r.solver()?;
-    let contacts = r.contacts()?;
+    let mut contacts = r.contacts()?;
     let touching = r.touching()?;
-    let pairs = r.pairs()?;
+    if version == 5 {
+        r.pairs_into(&mut contacts)?;
+    }
     let body_bounds = r.bounds()?;
     let joints = r.arena(|r| r.joint())?;
     let attachments = r.arena(|r| r.attachment())?;
@@ -706,7 +719,6 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         solver,
         contacts,
         touching,
-        pairs,
         body_bounds,
         joints,
         attachments,

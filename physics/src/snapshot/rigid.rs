@@ -8,7 +8,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use glam::{DQuat, DVec3};
+use glam::{DQuat, DVec3, Quat, Vec3};
 
 use super::{invalid, Reader, Sink, SnapshotError};
 use crate::handle::BodyHandle;
@@ -16,9 +16,7 @@ use crate::rigid::aabb::Aabb;
 use crate::rigid::attachment::Attachment;
 use crate::rigid::body::{BodyKind, CombineRule, RigidBody};
 use crate::rigid::joint::{Joint, JointDesc, JointKind};
-use crate::rigid::pipeline::{
-    CachedManifold, CachedPoint, ContactCache, ContactKey, PairContact, Reference,
-};
+use crate::rigid::pipeline::{CachedManifold, CachedPoint, ContactCache, ContactKey, Reference};
 use crate::rigid::pose::Pose;
 use crate::rigid::shape::Shape;
 use crate::rigid::solver::SolverConfig;
@@ -334,31 +332,46 @@ pub(super) fn solver<S: Sink>(s: &mut S, c: &SolverConfig) {
     s.f64(c.sleep.time_to_sleep);
 }
 
+fn vec3f<S: Sink>(s: &mut S, v: Vec3) {
+    for c in v.to_array() {
+        s.f32(c);
+    }
+}
+
+/// The contact cache: each manifold's key, its normal in A's frame, its
+/// reference (when it can be used again), its impulse and separation at
+/// the step that last solved it (what the pair queries read) and its
+/// points, all in single precision as the cache keeps them (see
+/// [`CachedPoint`]).
 pub(super) fn contacts<S: Sink>(s: &mut S, cache: &ContactCache) {
     s.u64(cache.len() as u64);
     for (k, m) in cache.iter() {
         for v in [k.a.0, k.a.1, k.b.0, k.b.1, k.child_a, k.child_b] {
             s.u32(v);
         }
-        s.vec3(m.normal_a);
+        vec3f(s, m.normal_a);
         match &m.reference {
             None => s.u8(0),
             Some(r) => {
                 s.u8(if r.in_a { 1 } else { 2 });
-                s.vec3(r.translation);
-                quat(s, r.rotation);
-                s.f64(r.reach);
+                vec3f(s, r.translation);
+                for c in r.rotation.to_array() {
+                    s.f32(c);
+                }
+                s.f32(r.reach);
             }
         }
-        s.u64(m.points.len() as u64);
+        s.f32(m.impulse);
+        s.f32(m.separation);
+        s.u8(m.points.len() as u8);
         for p in &m.points {
             s.u32(p.id);
-            s.vec3(p.anchor_a);
-            s.vec3(p.anchor_b);
-            s.f64(p.gap);
-            s.f64(p.normal);
-            s.f64(p.tangent[0]);
-            s.f64(p.tangent[1]);
+            vec3f(s, p.anchor_a);
+            vec3f(s, p.anchor_b);
+            s.f32(p.gap);
+            s.f32(p.normal);
+            s.f32(p.tangent[0]);
+            s.f32(p.tangent[1]);
         }
     }
 }
@@ -398,12 +411,37 @@ impl Reader<'_> {
         Ok(c)
     }
 
+    /// A real as this version keeps it in the contact cache: single
+    /// precision from version 6, double before (rounded).
+    fn cached_real(&mut self, what: &str) -> Result<f32, SnapshotError> {
+        if self.version >= 6 {
+            self.finite32(what)
+        } else {
+            Ok(self.finite(what)? as f32)
+        }
+    }
+
+    fn cached_vec3(&mut self, what: &str) -> Result<Vec3, SnapshotError> {
+        Ok(Vec3::new(
+            self.cached_real(what)?,
+            self.cached_real(what)?,
+            self.cached_real(what)?,
+        ))
+    }
+
+    /// The contact cache (see [`contacts`]; earlier versions below).
     pub(super) fn contacts(
         &mut self,
     ) -> Result<BTreeMap<ContactKey, CachedManifold>, SnapshotError> {
         // Version 3 kept each point's id, anchor on A and impulses only.
         let whole = self.version >= 4;
-        let n = self.count(32)?;
+        // Bytes of the smallest manifold and point.
+        let (manifold_size, point_size) = match self.version {
+            3 => (32, 52),
+            4 | 5 => (57, 84),
+            _ => (46, 44),
+        };
+        let n = self.count(manifold_size)?;
         let mut cache = BTreeMap::new();
         for _ in 0..n {
             let key = ContactKey {
@@ -413,18 +451,28 @@ impl Reader<'_> {
                 child_b: self.u32()?,
             };
             let (normal_a, reference) = if whole {
-                let normal_a = self.vec3("contact normal")?;
-                if (normal_a.length() - 1.0).abs() > 1e-6 {
+                let normal_a = self.cached_vec3("contact normal")?;
+                if (normal_a.as_dvec3().length() - 1.0).abs() > 1e-6 {
                     return invalid("a cached contact normal is not a unit vector");
                 }
                 let reference = match self.u8()? {
                     0 => None,
                     tag @ (1 | 2) => {
+                        let translation = self.cached_vec3("contact reference translation")?;
+                        let rotation = Quat::from_array([
+                            self.cached_real("contact reference rotation")?,
+                            self.cached_real("contact reference rotation")?,
+                            self.cached_real("contact reference rotation")?,
+                            self.cached_real("contact reference rotation")?,
+                        ]);
+                        if (rotation.as_dquat().length() - 1.0).abs() > 1e-6 {
+                            return invalid("contact reference rotation is not a unit quaternion");
+                        }
                         let r = Reference {
                             in_a: tag == 1,
-                            translation: self.vec3("contact reference translation")?,
-                            rotation: self.quat("contact reference rotation")?,
-                            reach: self.finite("contact reach")?,
+                            translation,
+                            rotation,
+                            reach: self.cached_real("contact reach")?,
                         };
                         if r.reach < 0.0 {
                             return invalid("a cached manifold's reach is negative");
@@ -435,30 +483,50 @@ impl Reader<'_> {
                 };
                 (normal_a, reference)
             } else {
-                (DVec3::ZERO, None)
+                (Vec3::ZERO, None)
             };
-            let m = self.count(if whole { 84 } else { 52 })?;
+            // Before version 6 the pair queries' figures were kept apart,
+            // by pair (see `pairs_into`).
+            let (impulse, separation) = if self.version >= 6 {
+                (
+                    self.finite32("contact impulse")?,
+                    self.finite32("contact separation")?,
+                )
+            } else {
+                (0.0, 0.0)
+            };
+            if impulse < 0.0 {
+                return invalid("a cached manifold's impulse is negative");
+            }
+            let m = if self.version >= 6 {
+                usize::from(self.u8()?)
+            } else {
+                self.count(point_size)?
+            };
             if m > crate::rigid::contact::MAX_POINTS {
                 return invalid("too many points in a cached manifold");
             }
             let points = (0..m)
                 .map(|_| {
                     let id = self.u32()?;
-                    let anchor_a = self.vec3("contact anchor")?;
+                    let anchor_a = self.cached_vec3("contact anchor")?;
                     let (anchor_b, gap) = if whole {
-                        (self.vec3("contact anchor")?, self.finite("contact gap")?)
+                        (
+                            self.cached_vec3("contact anchor")?,
+                            self.cached_real("contact gap")?,
+                        )
                     } else {
-                        (DVec3::ZERO, 0.0)
+                        (Vec3::ZERO, 0.0)
                     };
                     Ok(CachedPoint {
                         id,
                         anchor_a,
                         anchor_b,
                         gap,
-                        normal: self.finite("contact impulse")?,
+                        normal: self.cached_real("contact impulse")?,
                         tangent: [
-                            self.finite("friction impulse")?,
-                            self.finite("friction impulse")?,
+                            self.cached_real("friction impulse")?,
+                            self.cached_real("friction impulse")?,
                         ],
                     })
                 })
@@ -467,6 +535,8 @@ impl Reader<'_> {
                 normal_a,
                 reference,
                 points,
+                impulse,
+                separation,
             };
             if cache.insert(key, kept).is_some() {
                 return invalid("duplicate cached manifold");
@@ -482,21 +552,6 @@ pub(super) fn touching<S: Sink>(s: &mut S, set: &BTreeSet<(BodyHandle, BodyHandl
         for v in [a.index, a.generation, b.index, b.generation] {
             s.u32(v);
         }
-    }
-}
-
-/// The pairs in contact at the last step, as the rules' queries report them
-/// (in handle order).
-pub(super) fn pairs<S: Sink>(s: &mut S, pairs: &[PairContact]) {
-    s.u64(pairs.len() as u64);
-    for p in pairs {
-        for v in [p.a.index, p.a.generation, p.b.index, p.b.generation] {
-            s.u32(v);
-        }
-        s.vec3(p.normal);
-        s.f64(p.separation);
-        s.f64(p.impulse);
-        s.u32(p.points as u32);
     }
 }
 
@@ -523,14 +578,17 @@ impl Reader<'_> {
         Ok(set)
     }
 
-    /// The pairs in contact (version 5 on; none before, and a restored
-    /// world's queries then report nothing until it steps).
-    pub(super) fn pairs(&mut self) -> Result<Vec<PairContact>, SnapshotError> {
-        if self.version < 5 {
-            return Ok(Vec::new());
-        }
+    /// The pairs in contact that version 5 kept apart from the contact
+    /// cache (handle order; the figures the pair queries report), put
+    /// back into the pairs' manifolds: the first of a pair's manifolds
+    /// takes the pair's impulse, and all its separation. (Its normal is
+    /// read from the manifold, turned with A.)
+    pub(super) fn pairs_into(
+        &mut self,
+        cache: &mut BTreeMap<ContactKey, CachedManifold>,
+    ) -> Result<(), SnapshotError> {
         let n = self.count(60)?;
-        let mut pairs: Vec<PairContact> = Vec::with_capacity(n);
+        let mut last: Option<(BodyHandle, BodyHandle)> = None;
         let key = |h: BodyHandle| (h.index, h.generation);
         for _ in 0..n {
             let a = self.body_handle()?;
@@ -538,29 +596,31 @@ impl Reader<'_> {
             let normal = self.vec3("contact pair normal")?;
             let separation = self.finite("contact pair separation")?;
             let impulse = self.finite("contact pair impulse")?;
-            let points = self.u32()? as usize;
-            if key(a) >= key(b) {
-                return invalid("a contact pair's bodies are not in handle order");
-            }
-            if pairs
-                .last()
-                .is_some_and(|q| (key(q.a), key(q.b)) >= (key(a), key(b)))
-            {
+            let points = self.u32()?;
+            if key(a) >= key(b) || last.is_some_and(|(p, q)| (key(p), key(q)) >= (key(a), key(b))) {
                 return invalid("contact pairs are not in handle order");
             }
             if (normal.length() - 1.0).abs() > 1e-6 || impulse < 0.0 || points == 0 {
                 return invalid("a contact pair's normal, impulse or point count is out of range");
             }
-            pairs.push(PairContact {
-                a,
-                b,
-                normal,
-                separation,
-                impulse,
-                points,
-            });
+            last = Some((a, b));
+            let from = ContactKey {
+                a: key(a),
+                b: key(b),
+                child_a: 0,
+                child_b: 0,
+            };
+            let mut first = true;
+            for (_, m) in cache
+                .range_mut(from..)
+                .take_while(|(k, _)| (k.a, k.b) == (key(a), key(b)))
+            {
+                m.impulse = if first { impulse as f32 } else { 0.0 };
+                m.separation = separation as f32;
+                first = false;
+            }
         }
-        Ok(pairs)
+        Ok(())
     }
 
     /// A body handle: its arena index, then its generation.

@@ -248,22 +248,24 @@ impl World {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn contacts_of(&self, h: BodyHandle) -> impl Iterator<Item = PairContact> + '_ {
-        self.contacts
-            .pairs
+        let id = (h.index, h.generation);
+        let of_h = self
+            .contacts
+            .cache
             .iter()
-            .filter(move |p| p.a == h || p.b == h)
-            .map(move |p| {
-                if p.a == h {
-                    *p
-                } else {
-                    PairContact {
-                        a: p.b,
-                        b: p.a,
-                        normal: -p.normal,
-                        ..*p
-                    }
+            .filter(move |(k, _)| k.a == id || k.b == id);
+        crate::rigid::pipeline::pair_contacts(of_h, &self.bodies).map(move |p| {
+            if p.a == h {
+                p
+            } else {
+                PairContact {
+                    a: p.b,
+                    b: p.a,
+                    normal: -p.normal,
+                    ..p
                 }
-            })
+            }
+        })
     }
 
     /// The contact between `a` and `b` at the last step, seen from `a`

@@ -19,7 +19,6 @@ impl World {
             solver: &self.solver,
             contacts: &self.contacts.cache,
             touching: &self.contacts.touching,
-            pairs: &self.contacts.pairs,
             body_bounds: self.body_bounds,
             joints: &self.joints,
             attachments: &self.attachments,
@@ -91,7 +90,6 @@ impl World {
         self.solver = decoded.solver;
         self.contacts.cache = decoded.contacts.into();
         self.contacts.touching = decoded.touching;
-        self.contacts.pairs = decoded.pairs;
         self.body_bounds = decoded.body_bounds;
         self.joints = decoded.joints;
         self.attachments = decoded.attachments;

@@ -9,7 +9,10 @@
 
 use std::collections::BTreeMap;
 
-use super::{CachedManifold, ContactKey};
+use super::{CachedManifold, ContactKey, PairContact};
+use crate::arena::Arena;
+use crate::handle::BodyHandle;
+use crate::rigid::body::RigidBody;
 
 /// Each manifold of the last step, in increasing key order, keys unique.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -76,6 +79,52 @@ impl ContactCache {
     }
 }
 
+/// The pairs of bodies that `manifolds` (in key order) join, each with
+/// what its manifolds found at the step that last solved them: their
+/// impulses summed, their smallest separation, their points counted, and
+/// the normal of the one that pushed hardest (of the deepest while none
+/// has pushed), turned with A as it stands in `bodies`.
+pub(crate) fn pair_contacts<'a>(
+    manifolds: impl Iterator<Item = (&'a ContactKey, &'a CachedManifold)> + 'a,
+    bodies: &'a Arena<RigidBody>,
+) -> impl Iterator<Item = PairContact> + 'a {
+    let handle = |(index, generation): (u32, u32)| BodyHandle { index, generation };
+    let normal = move |k: &ContactKey, m: &CachedManifold| {
+        let n = m.normal_a.as_dvec3();
+        match bodies.get(k.a.0, k.a.1) {
+            Some(a) => (a.rotation * n).normalize(),
+            None => n,
+        }
+    };
+    let mut manifolds = manifolds.peekable();
+    std::iter::from_fn(move || {
+        let (key, first) = manifolds.next()?;
+        let mut pair = PairContact {
+            a: handle(key.a),
+            b: handle(key.b),
+            normal: normal(key, first),
+            separation: f64::from(first.separation),
+            impulse: f64::from(first.impulse),
+            points: first.points.len(),
+        };
+        // The impulse of the hardest-pushing manifold so far, N·s.
+        let mut hardest = pair.impulse;
+        while let Some((k, m)) = manifolds.next_if(|(k, _)| (k.a, k.b) == (key.a, key.b)) {
+            let (impulse, separation) = (f64::from(m.impulse), f64::from(m.separation));
+            let harder = impulse > hardest;
+            let deeper = hardest == 0.0 && impulse == 0.0 && separation < pair.separation;
+            if harder || deeper {
+                pair.normal = normal(k, m);
+            }
+            hardest = hardest.max(impulse);
+            pair.impulse += impulse;
+            pair.separation = pair.separation.min(separation);
+            pair.points += m.points.len();
+        }
+        Some(pair)
+    })
+}
+
 impl From<BTreeMap<ContactKey, CachedManifold>> for ContactCache {
     fn from(map: BTreeMap<ContactKey, CachedManifold>) -> Self {
         Self {
@@ -132,11 +181,10 @@ mod tests {
         }
     }
 
-    fn manifold(x: f64) -> CachedManifold {
+    fn manifold(x: f32) -> CachedManifold {
         CachedManifold {
-            normal_a: glam::DVec3::new(x, 0.0, 0.0),
-            reference: None,
-            points: Vec::new(),
+            normal_a: glam::Vec3::new(x, 0.0, 0.0),
+            ..CachedManifold::default()
         }
     }
 
@@ -147,7 +195,7 @@ mod tests {
             (key(1, 0), manifold(2.0)),
             (key(3, 0), manifold(3.0)),
         ]);
-        let got: Vec<(u32, f64)> = c.iter().map(|(k, m)| (k.a.0, m.normal_a.x)).collect();
+        let got: Vec<(u32, f32)> = c.iter().map(|(k, m)| (k.a.0, m.normal_a.x)).collect();
         assert_eq!(got, [(1, 2.0), (3, 3.0)]);
     }
 
@@ -159,15 +207,70 @@ mod tests {
             (key(5, 0), manifold(50.0)),
             (key(9, 0), manifold(9.0)),
         ]);
-        let got: Vec<(u32, f64)> = c.iter().map(|(k, m)| (k.a.0, m.normal_a.x)).collect();
+        let got: Vec<(u32, f32)> = c.iter().map(|(k, m)| (k.a.0, m.normal_a.x)).collect();
         assert_eq!(got, [(0, 0.5), (1, 1.0), (5, 50.0), (9, 9.0)]);
+    }
+
+    /// A compound pressed on through several manifolds reports the normal
+    /// of the one that pushed hardest, not of the first whose impulse
+    /// outgrew the sum so far; the pair's impulse is their sum, its
+    /// separation their smallest, and the next pair starts afresh.
+    #[test]
+    fn issue_13_a_pair_contact_takes_the_normal_of_its_hardest_manifold() {
+        let mut bodies = Arena::default();
+        let body = || {
+            crate::rigid::body::RigidBodyDesc::fixed(
+                crate::rigid::shape::Shape::sphere(1.0).unwrap(),
+                crate::rigid::pose::Pose::IDENTITY,
+            )
+            .build()
+            .unwrap()
+        };
+        for _ in 0..3 {
+            bodies.insert(body());
+        }
+        let pressed = |child: u32, normal: glam::Vec3, impulse: f32, separation: f32| {
+            let key = ContactKey {
+                a: (1, 0),
+                b: (2, 0),
+                child_a: child,
+                child_b: 0,
+            };
+            let m = CachedManifold {
+                normal_a: normal,
+                impulse,
+                separation,
+                points: vec![Default::default(); 2],
+                ..CachedManifold::default()
+            };
+            (key, m)
+        };
+        let mut found = vec![
+            pressed(0, glam::Vec3::X, 1.0, -0.01),
+            pressed(1, glam::Vec3::Y, 1.5, 0.0),
+            pressed(2, glam::Vec3::Z, 2.0, -0.02),
+        ];
+        let mut other = pressed(0, glam::Vec3::NEG_X, 0.0, 0.01);
+        other.0.b = (0, 0);
+        other.0.a = (0, 0);
+        found.insert(0, other);
+        let cache = ContactCache::new(found);
+        let pairs: Vec<PairContact> = pair_contacts(cache.iter(), &bodies).collect();
+        assert_eq!(pairs.len(), 2);
+        assert_eq!(pairs[0].normal, glam::DVec3::NEG_X);
+        let p = pairs[1];
+        assert_eq!((p.a.index, p.b.index), (1, 2));
+        assert_eq!(p.normal, glam::DVec3::Z);
+        assert_eq!(p.impulse, 4.5);
+        assert_eq!(p.separation, f64::from(-0.02f32));
+        assert_eq!(p.points, 6);
     }
 
     #[test]
     fn a_cursor_finds_keys_asked_in_order() {
         let c = ContactCache::new(
             (0..10)
-                .map(|i| (key(2 * i, 0), manifold(i as f64)))
+                .map(|i| (key(2 * i, 0), manifold(i as f32)))
                 .collect(),
         );
         let mut cursor = c.cursor_from(&key(3, 0));

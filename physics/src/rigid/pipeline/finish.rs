@@ -31,10 +31,6 @@ pub(crate) struct Found {
     pub(crate) quarantined: Vec<BodyHandle>,
 }
 
-fn handle((index, generation): (u32, u32)) -> BodyHandle {
-    BodyHandle { index, generation }
-}
-
 pub(crate) fn finish(
     bodies: &mut Arena<RigidBody>,
     joints: &mut Arena<Joint>,
@@ -73,10 +69,11 @@ pub(crate) fn finish(
     }
 
     // One walk over the constraints in pair order (a pair's compound
-    // children next to each other), each read once: the pairs in contact
-    // (and so those that pushed) and the impulses to keep.
+    // children next to each other), each read once: the impulses to keep,
+    // and what the pairs in contact (and so those that pushed) are read
+    // from.
     let mut manifolds = found.manifolds;
-    let walked = walk(
+    let fresh = walk(
         in_pair_order.len(),
         manifolds
             .take_kept()
@@ -88,7 +85,9 @@ pub(crate) fn finish(
     // apart; their total normal force feeds the force events. Both these
     // and the narrow phase's touching pairs are sorted, so they merge in
     // one walk.
-    let pushed = || walked.pairs.iter().filter(|p| p.impulse > 0.0);
+    let pairs: Vec<PairContact> =
+        super::cache::pair_contacts(fresh.iter().map(|(k, m)| (k, m)), bodies).collect();
+    let pushed = || pairs.iter().filter(|p| p.impulse > 0.0);
     let threshold = |h: BodyHandle| {
         bodies
             .get(h.index, h.generation)
@@ -137,24 +136,9 @@ pub(crate) fn finish(
     contacts.touching = touching.into_iter().map(|t| t.0).collect();
     contacts.deepest_penetration = found.deepest;
 
-    // The pairs in contact, for the rules' queries; pairs that stayed put
-    // keep theirs.
-    let mut pairs = walked.pairs;
-    if !found.carried.is_empty() {
-        let mut kept = found.carried.iter().peekable();
-        let key = |h: BodyHandle| (h.index, h.generation);
-        pairs.extend(contacts.pairs.iter().copied().filter(|p| {
-            let k = (key(p.a), key(p.b));
-            while kept.next_if(|&&c| c < k).is_some() {}
-            kept.peek().is_some_and(|&&c| c == k)
-        }));
-        pairs.sort_by_key(|p| (key(p.a), key(p.b)));
-    }
-    contacts.pairs = pairs;
-
-    // The impulses, for the next step's warm start. Pairs that stayed put
-    // keep their entries; every other entry is replaced by this step's.
-    let fresh = walked.cache;
+    // The impulses, for the next step's warm start and the rules' pair
+    // queries. Pairs that stayed put keep their entries; every other entry
+    // is replaced by this step's.
     if found.carried.is_empty() {
         contacts.cache = super::ContactCache::new(fresh);
     } else {
@@ -206,65 +190,26 @@ pub(crate) fn finish(
     out
 }
 
-/// What finish reads from the constraints.
-struct Walked {
-    /// One entry a pair of bodies with a manifold (a compound's manifolds
-    /// merged), in pair order; those with an impulse pushed.
-    pairs: Vec<PairContact>,
-    /// Each manifold with its impulses, for the next step.
-    cache: Vec<(ContactKey, CachedManifold)>,
-}
-
-/// Reads what finish needs from each of the `count` manifolds and its
-/// solved constraint (in pair order), once.
+/// Each of the `count` manifolds (in pair order) with the impulses its
+/// solved constraint ended the step with, for the next step's warm start,
+/// and what the pair queries read of it: its impulse over the step and its
+/// separation at the start.
 fn walk<'a>(
     count: usize,
     manifolds: impl Iterator<Item = (ContactKey, CachedManifold, &'a ContactConstraint)>,
-) -> Walked {
-    let mut w = Walked {
-        pairs: Vec::with_capacity(count),
-        cache: Vec::with_capacity(count),
-    };
-    // The impulse of the hardest-pushing manifold of the last pair, N·s.
-    let mut hardest = 0.0;
+) -> Vec<(ContactKey, CachedManifold)> {
+    let mut cache = Vec::with_capacity(count);
     for (key, mut kept, c) in manifolds {
-        let (a, b) = (handle(key.a), handle(key.b));
-        let impulse = c.total_normal_impulse();
-        let separation = c.start_separation();
-        match w.pairs.last_mut() {
-            Some(p) if (p.a, p.b) == (a, b) => {
-                // The normal of the manifold that pushed hardest; while
-                // none has pushed, of the deepest.
-                let harder = impulse > hardest;
-                let deeper = hardest == 0.0 && impulse == 0.0 && separation < p.separation;
-                if harder || deeper {
-                    p.normal = c.normal;
-                }
-                hardest = f64::max(hardest, impulse);
-                p.impulse += impulse;
-                p.separation = p.separation.min(separation);
-                p.points += c.len;
-            }
-            _ => {
-                hardest = impulse;
-                w.pairs.push(PairContact {
-                    a,
-                    b,
-                    normal: c.normal,
-                    separation,
-                    impulse,
-                    points: c.len,
-                });
-            }
-        }
+        kept.impulse = c.total_normal_impulse() as f32;
+        kept.separation = c.start_separation() as f32;
         let shares = c.point_tangent_impulses();
         for (i, p) in kept.points.iter_mut().enumerate() {
-            p.normal = c.normal_impulse(i);
-            p.tangent = shares[i];
+            p.normal = c.normal_impulse(i) as f32;
+            p.tangent = shares[i].map(|t| t as f32);
         }
-        w.cache.push((key, kept));
+        cache.push((key, kept));
     }
-    w
+    cache
 }
 
 /// The union of the narrow phase's touching pairs (sorted, with their
@@ -284,71 +229,4 @@ fn merge_touching(
     }
     out.extend(pushed.map(|p| (p, false)));
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::super::CachedPoint;
-    use super::*;
-    use crate::rigid::solver::{ContactSource, PointConstraint, MAX_POINTS};
-
-    /// A one-point manifold between bodies 1 and 2 (child `child`) along
-    /// `normal` that pushed with `impulse` N·s.
-    fn manifold(
-        child: u32,
-        normal: DVec3,
-        impulse: f64,
-    ) -> (ContactKey, CachedManifold, ContactConstraint) {
-        let key = ContactKey {
-            a: (1, 0),
-            b: (2, 0),
-            child_a: child,
-            child_b: 0,
-        };
-        let mut points = [PointConstraint::default(); MAX_POINTS];
-        points[0] = PointConstraint::new(DVec3::ZERO, DVec3::ZERO, 0.0, [0.0; 2]);
-        let mut c = ContactConstraint::new(&ContactSource {
-            ends: (0, 1),
-            normal,
-            materials: (0.5, 0.5, 0.0),
-            points,
-            len: 1,
-        });
-        c.rows.total_impulse[0] = impulse;
-        let kept = CachedManifold {
-            normal_a: normal,
-            reference: None,
-            points: vec![CachedPoint {
-                id: 0,
-                anchor_a: DVec3::ZERO,
-                anchor_b: DVec3::ZERO,
-                gap: 0.0,
-                normal: 0.0,
-                tangent: [0.0; 2],
-            }],
-        };
-        (key, kept, c)
-    }
-
-    /// A compound pressed on through several manifolds reports the normal
-    /// of the one that pushed hardest, not of the first whose impulse
-    /// outgrew the sum so far; the pair's impulse is their sum.
-    #[test]
-    fn issue_13_a_pair_contact_takes_the_normal_of_its_hardest_manifold() {
-        let found = [
-            manifold(0, DVec3::X, 1.0),
-            manifold(1, DVec3::Y, 1.5),
-            manifold(2, DVec3::Z, 2.0),
-        ];
-        let walked = walk(
-            found.len(),
-            found.iter().map(|(k, m, c)| (*k, m.clone(), c)),
-        );
-        assert_eq!(walked.pairs.len(), 1);
-        let p = walked.pairs[0];
-        assert_eq!(p.normal, DVec3::Z);
-        assert_eq!(p.impulse, 4.5);
-        assert_eq!(p.points, 3);
-        assert_eq!(walked.cache.len(), 3);
-    }
 }

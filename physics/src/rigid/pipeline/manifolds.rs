@@ -12,7 +12,6 @@ use super::cache::Cursor;
 use super::pairs::{leaves, pair_bodies, speculative_distance};
 use super::{
     CachedManifold, CachedPoint, ContactCache, ContactKey, Reference, ANCHOR_MATCH_DISTANCE,
-    RECYCLE_DRIFT,
 };
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
@@ -328,7 +327,7 @@ fn one_pair(
             }
             None => {
                 out.count.collided += 1;
-                let reach = speculative + RECYCLE_DRIFT;
+                let reach = Reference::reach(speculative);
                 // Two support queries along last step's separating axis
                 // settle most pairs that stay apart.
                 let mut apart = axis.copied();
@@ -402,7 +401,7 @@ fn kept_and_source(
         let warm = cached.map(|c| &c.points).and_then(|c| {
             c.iter().find(|q| q.id == p.id).or_else(|| {
                 c.iter()
-                    .map(|q| (q, (q.anchor_a - anchor_a).length()))
+                    .map(|q| (q, (q.anchor_a.as_dvec3() - anchor_a).length()))
                     .filter(|(_, d)| *d < ANCHOR_MATCH_DISTANCE)
                     .min_by(|x, y| x.1.total_cmp(&y.1))
                     .map(|(q, _)| q)
@@ -413,15 +412,15 @@ fn kept_and_source(
             ..PointConstraint::new(
                 ra,
                 rb,
-                warm.map_or(0.0, |q| q.normal),
-                warm.map_or([0.0; 2], |q| q.tangent),
+                warm.map_or(0.0, |q| f64::from(q.normal)),
+                warm.map_or([0.0; 2], |q| q.tangent.map(f64::from)),
             )
         };
         kept.push(CachedPoint {
             id: p.id,
-            anchor_a,
-            anchor_b: child_b.transform_point(p.local_b),
-            gap: p.separation - n.dot(wb - wa),
+            anchor_a: anchor_a.as_vec3(),
+            anchor_b: child_b.transform_point(p.local_b).as_vec3(),
+            gap: (p.separation - n.dot(wb - wa)) as f32,
             normal: 0.0,
             tangent: [0.0; 2],
         });
@@ -447,9 +446,11 @@ fn kept_and_source(
         len,
     };
     let kept = CachedManifold {
-        normal_a: a.pose().rotation.inverse() * n,
+        normal_a: (a.pose().rotation.inverse() * n).as_vec3(),
         reference,
         points: kept,
+        impulse: 0.0,
+        separation: 0.0,
     };
     (kept, source)
 }
@@ -459,19 +460,21 @@ impl CachedManifold {
     /// now (`pose_a`, `pose_b`: body frames, which are the shapes' frames
     /// of a manifold that is used again).
     fn manifold(&self, pose_a: &Pose, pose_b: &Pose) -> Manifold {
-        let normal = pose_a.rotation * self.normal_a;
+        // Unit again in full precision.
+        let normal = (pose_a.rotation * self.normal_a.as_dvec3()).normalize();
         let points = self
             .points
             .iter()
             .map(|p| {
+                let (local_a, local_b) = (p.anchor_a.as_dvec3(), p.anchor_b.as_dvec3());
                 let (wa, wb) = (
-                    pose_a.transform_point(p.anchor_a),
-                    pose_b.transform_point(p.anchor_b),
+                    pose_a.transform_point(local_a),
+                    pose_b.transform_point(local_b),
                 );
                 ContactPoint {
-                    local_a: p.anchor_a,
-                    local_b: p.anchor_b,
-                    separation: p.gap + normal.dot(wb - wa),
+                    local_a,
+                    local_b,
+                    separation: f64::from(p.gap) + normal.dot(wb - wa),
                     id: p.id,
                 }
             })
