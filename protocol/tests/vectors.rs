@@ -13,7 +13,7 @@
 //! format: both header forms, every size class of every field.
 //!
 //! Each stream lists its config and its snapshots in the order they were
-//! sent. Before a snapshot, `acked` names the snapshot the client
+//! sent (ticks, 64-bit, as decimal text). Before a snapshot, `acked` names the snapshot the client
 //! acknowledged (the encoder's baseline from then on); a decoder that has
 //! read every earlier snapshot of the stream holds the baseline each one
 //! names.
@@ -251,7 +251,8 @@ fn run(name: &str, config: SnapshotConfig, steps: Vec<Step>) -> Value {
             "bytes": hex,
             "sequence": d.sequence,
             "baseline": d.baseline,
-            "tick": d.tick,
+            // A u64: as decimal text, which every JSON reader keeps exact.
+            "tick": d.tick.to_string(),
             "time_scale": d.time_scale,
             "paused": d.paused,
             "removed": d.removed,
@@ -383,11 +384,9 @@ fn golden_vectors_cover_every_code_of_the_format() {
             see(format!("baseline {}", base_seq.is_some()));
             see(format!("paused {}", snap["paused"]));
             see(format!("time scale one {}", snap["time_scale"] == 1.0));
-            let tick = snap["tick"].as_u64().unwrap();
-            let base_tick = base_seq.map(|b| {
-                let s = &stream["snapshots"][b as usize];
-                s["tick"].as_u64().unwrap()
-            });
+            let tick_of = |s: &Value| s["tick"].as_str().unwrap().parse::<u64>().unwrap();
+            let tick = tick_of(snap);
+            let base_tick = base_seq.map(|b| tick_of(&stream["snapshots"][b as usize]));
             match base_tick.and_then(|t| tick.checked_sub(t)) {
                 Some(d) if d < (1 << 16) + (1 << 8) + (1 << 4) => {
                     see(format!("tick class {}", varuint_class(d, &TICK_CLASSES)))
