@@ -48,13 +48,14 @@ fn asleep(w: &World, bodies: &[BodyHandle]) -> usize {
         .count()
 }
 
-#[test]
-fn issue_13_a_settled_heap_of_a_hundred_boxes_sleeps() {
+/// Four layers of 5 × 5 boxes, a little apart and a little turned (by the
+/// generator seeded `seed`), so that they land on each other unevenly and
+/// settle as a heap: when every box sleeps, s (`None` within 30 s), and
+/// how many sleep then.
+fn heap_sleeps(seed: u64) -> (Option<f64>, usize) {
     let mut w = world_with_ground();
-    let mut r = common::Rng(13);
+    let mut r = common::Rng(seed);
     let mut boxes = Vec::new();
-    // Four layers of 5 × 5 boxes, a little apart and a little turned, so
-    // they land on each other unevenly and settle as a heap.
     for layer in 0..4 {
         for i in 0..5 {
             for k in 0..5 {
@@ -74,19 +75,39 @@ fn issue_13_a_settled_heap_of_a_hundred_boxes_sleeps() {
         }
     }
     assert_eq!(boxes.len(), 100);
-    let mut all_asleep_at = None;
     for step in 0..(30.0 / DT) as usize {
         w.step(DT).unwrap();
         if asleep(&w, &boxes) == boxes.len() {
-            all_asleep_at = Some(step as f64 * DT);
-            break;
+            return (Some(step as f64 * DT), boxes.len());
         }
     }
+    (None, asleep(&w, &boxes))
+}
+
+#[test]
+fn issue_13_a_settled_heap_of_a_hundred_boxes_sleeps() {
+    let (all_asleep_at, asleep) = heap_sleeps(13);
     assert!(
         all_asleep_at.is_some_and(|t| t < 15.0),
-        "{} of 100 asleep after 30 s",
-        asleep(&w, &boxes)
+        "{asleep} of 100 asleep after 30 s"
     );
+}
+
+/// Heaps in which a box rests beside the heap, its kept contact with a
+/// heap box a hair apart while the shapes collided afresh just touch:
+/// each time the heap fell asleep, the resting box woke it (taken for a
+/// body about to hit it), and the heap stayed awake for ever (two of 400
+/// seeds; a third never sleeps for another reason, a box that keeps
+/// rocking on the heap's edge).
+#[test]
+fn issue_13_a_heap_and_a_box_resting_against_it_do_not_wake_each_other() {
+    for seed in [49, 99] {
+        let (all_asleep_at, asleep) = heap_sleeps(seed);
+        assert!(
+            all_asleep_at.is_some_and(|t| t < 15.0),
+            "heap {seed}: {asleep} of 100 asleep after 30 s"
+        );
+    }
 }
 
 #[test]

@@ -433,7 +433,7 @@ pub(crate) fn step(
     profile.forces = clock.lap();
 
     let broad = pairs::update(bodies, &index, &mut contacts.broad, inputs.dt);
-    if pairs::wake_before_contact(bodies, &index, broad, inputs.dt) {
+    if pairs::wake_before_contact(bodies, &index, broad, inputs.dt, &inputs.cfg.sleep) {
         links.wake(bodies);
     }
     profile.broad_phase = clock.lap();

@@ -90,18 +90,23 @@ pub(crate) fn pair_bodies<'a>(
 }
 
 /// An awake body about to hit a sleeping one wakes it before anything is
-/// solved: one that can close the gap between them this step
+/// solved: one that moves faster than a resting body (`sleep`'s
+/// tolerances) and can close the gap between them this step
 /// ([`wake_reach`]). A resting body beside a sleeping one, however near,
 /// does not wake it; were it to, two resting neighbours a centimetre apart
 /// would wake each other in turn for ever (the one awake wakes the other
-/// as it falls asleep). If they do meet, the contact wakes the sleeper at
-/// the next step. Returns whether any body woke (so the caller wakes their
-/// islands).
+/// as it falls asleep). Nor does one resting against it: the shapes
+/// collided afresh here may touch where the pair's kept manifold, which
+/// decides their islands, has them a hair apart, and a heap and a box
+/// resting beside it then woke each other as each fell asleep. If they do
+/// meet, the contact wakes the sleeper at the next step. Returns whether
+/// any body woke (so the caller wakes their islands).
 pub(crate) fn wake_before_contact(
     bodies: &mut Arena<RigidBody>,
     index: &BodyIndex,
     broad: &BroadPhase,
     dt: f64,
+    sleep: &crate::rigid::island::SleepConfig,
 ) -> bool {
     if !bodies.iter().any(|(_, _, b)| b.sleeping) {
         return false;
@@ -111,8 +116,13 @@ pub(crate) fn wake_before_contact(
         let Some(((ia, ba), (ib, bb))) = pair_bodies(bodies, index, pair) else {
             continue;
         };
-        let awake_dynamic =
-            |b: &RigidBody| b.kind == BodyKind::Dynamic && !b.sleeping && !b.quarantined;
+        let awake_dynamic = |b: &RigidBody| {
+            b.kind == BodyKind::Dynamic
+                && !b.sleeping
+                && !b.quarantined
+                && (b.linvel.length() >= sleep.linear_tolerance
+                    || b.angvel.length() >= sleep.angular_tolerance)
+        };
         let sleeper = if ba.sleeping && awake_dynamic(bb) {
             ia
         } else if bb.sleeping && awake_dynamic(ba) {
