@@ -132,3 +132,27 @@ fn issue_13_a_state_saved_in_format_5_restores_with_its_pair_contacts() {
     let saved = w.save();
     assert_eq!(u32::from_le_bytes(saved[8..12].try_into().unwrap()), 6);
 }
+
+/// A format 5 state whose pair impulse lies beyond single precision is
+/// refused: kept, it would become an infinity in the contact cache, and
+/// the world could no longer be saved and restored.
+#[test]
+fn issue_13_a_format_5_figure_beyond_single_precision_is_refused() {
+    let mut bytes = include_bytes!("data/world_format_5.bin").to_vec();
+    let last = include_str!("data/world_format_5.pairs")
+        .lines()
+        .last()
+        .unwrap();
+    let impulse: f64 = last.split(' ').nth(2).unwrap().parse().unwrap();
+    let at = bytes
+        .windows(8)
+        .position(|w| w == impulse.to_bits().to_le_bytes())
+        .expect("the last pair's impulse");
+    bytes[at..at + 8].copy_from_slice(&1e300f64.to_bits().to_le_bytes());
+    assert!(inertia_physics::snapshot::reseal(&mut bytes));
+    let mut w = ground_world();
+    let before = w.state_hash();
+    let err = w.restore(&bytes).unwrap_err();
+    assert!(err.to_string().contains("beyond single precision"), "{err}");
+    assert_eq!(w.state_hash(), before, "a refused restore changes nothing");
+}

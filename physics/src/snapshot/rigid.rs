@@ -332,6 +332,18 @@ pub(super) fn solver<S: Sink>(s: &mut S, c: &SolverConfig) {
     s.f64(c.sleep.time_to_sleep);
 }
 
+/// `x` in single precision, which the contact cache keeps; an error
+/// where it is beyond single precision's range (it would be saved as an
+/// infinity, which no save may hold).
+fn single(x: f64, what: &str) -> Result<f32, SnapshotError> {
+    let y = x as f32;
+    if y.is_finite() {
+        Ok(y)
+    } else {
+        invalid(format!("{what} is beyond single precision"))
+    }
+}
+
 fn vec3f<S: Sink>(s: &mut S, v: Vec3) {
     for c in v.to_array() {
         s.f32(c);
@@ -417,7 +429,7 @@ impl Reader<'_> {
         if self.version >= 6 {
             self.finite32(what)
         } else {
-            Ok(self.finite(what)? as f32)
+            single(self.finite(what)?, what)
         }
     }
 
@@ -615,8 +627,12 @@ impl Reader<'_> {
                 .range_mut(from..)
                 .take_while(|(k, _)| (k.a, k.b) == (key(a), key(b)))
             {
-                m.impulse = if first { impulse as f32 } else { 0.0 };
-                m.separation = separation as f32;
+                m.impulse = if first {
+                    single(impulse, "contact pair impulse")?
+                } else {
+                    0.0
+                };
+                m.separation = single(separation, "contact pair separation")?;
                 first = false;
             }
         }
