@@ -45,6 +45,14 @@ impl Default for SleepConfig {
     }
 }
 
+impl SleepConfig {
+    /// Whether a body moving at `linear` m/s and turning at `angular`
+    /// rad/s moves as slowly as a resting one.
+    pub(crate) fn slow(&self, linear: f64, angular: f64) -> bool {
+        linear < self.linear_tolerance && angular < self.angular_tolerance
+    }
+}
+
 /// Wakes every sleeping dynamic body connected through `touching` to an
 /// awake, moving dynamic body (or that the caller already woke). Returns
 /// whether anything woke.
@@ -152,9 +160,8 @@ pub(crate) fn update(
             let turned = principal.angle_between(b.rotation * b.principal);
             ((b.com - *com).length() / dt, turned / dt)
         });
-        let resting = !pushed
-            && b.linvel.length().max(speed) < cfg.linear_tolerance
-            && b.angvel.length().max(spin) < cfg.angular_tolerance;
+        let resting =
+            !pushed && cfg.slow(b.linvel.length().max(speed), b.angvel.length().max(spin));
         b.sleep_time = if resting && b.can_sleep {
             b.sleep_time + dt
         } else {

@@ -120,8 +120,7 @@ pub(crate) fn wake_before_contact(
             b.kind == BodyKind::Dynamic
                 && !b.sleeping
                 && !b.quarantined
-                && (b.linvel.length() >= sleep.linear_tolerance
-                    || b.angvel.length() >= sleep.angular_tolerance)
+                && !sleep.slow(b.linvel.length(), b.angvel.length())
         };
         let sleeper = if ba.sleeping && awake_dynamic(bb) {
             ia
