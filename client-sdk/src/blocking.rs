@@ -73,6 +73,16 @@ impl BlockingClient {
         self.client().sample_at(local_time)
     }
 
+    /// See [`Client::with_entities`].
+    pub fn with_entities<R>(&self, f: impl FnOnce(&crate::entities::EntityTable) -> R) -> R {
+        self.client().with_entities(f)
+    }
+
+    /// See [`Client::timeline`].
+    pub fn timeline(&self) -> Option<crate::clock::SnapshotMeta> {
+        self.client().timeline()
+    }
+
     /// See [`Client::entities`].
     pub fn entities(&self) -> Vec<EntityDesc> {
         self.client().entities()

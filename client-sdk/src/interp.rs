@@ -593,8 +593,16 @@ impl InterpolationBuffer {
             } else {
                 self.config.correction_time
             };
-            let speed = (1.0 + lag / time).clamp(0.0, self.config.max_speedup);
-            u + rate * speed * dt
+            // The rule is d(render)/dt = rate × (1 + lag / time), under which
+            // a lag decays as exp(−t / time). `lag` is the last picture's,
+            // measured now: it already counts the frame that has passed
+            // since, which is what moving on by a frame makes up. So the
+            // error left is `lag − dt`, corrected over the whole step (not
+            // as one Euler step): a frame longer than `time`, as at 10
+            // frames a second, then lands on the delay, not past it.
+            let error = lag - dt;
+            let advance = dt + error * (1.0 - (-dt / time).exp());
+            u + rate * advance.clamp(0.0, self.config.max_speedup * dt)
         };
         if let Some((turn, _)) = turn {
             self.extrapolating = false;
@@ -1160,6 +1168,8 @@ mod reverse_tests {
         next_send: f64,
         in_flight: Vec<(f64, Snapshot)>,
         next_frame: f64,
+        /// Local time between two samples, s (the game's frame interval).
+        frame_interval: f64,
         wall: f64,
         frames: Vec<Rendered>,
         events: Vec<(f64, InterpEvent)>,
@@ -1181,6 +1191,7 @@ mod reverse_tests {
                 next_send: 0.001,
                 in_flight: Vec::new(),
                 next_frame: 0.0,
+                frame_interval: FRAME,
                 wall: 0.0,
                 frames: Vec::new(),
                 events: Vec::new(),
@@ -1233,7 +1244,7 @@ mod reverse_tests {
                     self.observed_cuts += usize::from(matches!(obs, Observation::Discontinuity(_)));
                 }
                 if wall >= self.next_frame {
-                    self.next_frame += FRAME;
+                    self.next_frame += self.frame_interval;
                     let newest = self.buffer.clock().newest_tick().map_or(0.0, |n| n as f64);
                     let frame = self.buffer.sample(wall + LOCAL_OFFSET);
                     if let Some(e) = frame.get(1) {
@@ -1296,6 +1307,37 @@ mod reverse_tests {
             .windows(2)
             .map(|w| (w[1].position - w[0].position).length())
             .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn issue_15_a_game_drawing_at_10_frames_a_second_stays_behind_the_newest_snapshot() {
+        // A frame (0.1 s) longer than the render delay: the catch-up taken
+        // as one long step used to overshoot the arrival edge and run on
+        // past the newest snapshot, extrapolating every other frame.
+        for frame_interval in [0.1, 1.0 / 15.0, 1.0 / 30.0] {
+            let mut sim = Sim::new(true, false, 7);
+            sim.frame_interval = frame_interval;
+            sim.run(10.0, &[]);
+            let frames = sim.between(3.0, 10.0);
+            assert!(frames.len() as f64 > 6.0 / frame_interval);
+            let ahead = frames.iter().filter(|f| f.tick > f.newest).count();
+            assert_eq!(
+                ahead,
+                0,
+                "{ahead} of {} frames at {frame_interval:.3} s drawn past the newest snapshot",
+                frames.len()
+            );
+            // Steady: each frame moves the picture on by about a frame of ticks.
+            let per_frame = HZ * frame_interval;
+            for w in frames.windows(2) {
+                let step = w[1].tick - w[0].tick;
+                assert!(
+                    (step - per_frame).abs() < 0.35 * per_frame,
+                    "a step of {step:.2} ticks at {:.2} s (a frame is {per_frame:.2})",
+                    w[1].wall
+                );
+            }
+        }
     }
 
     /// Forwards to 4 s, backwards at speed 1 to 10 s, forwards to 14 s.

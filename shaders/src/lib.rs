@@ -1,6 +1,7 @@
 //! # inertia-shaders
 //!
-//! Inertia's WGSL compute shaders, kept as real `.wgsl` files under `wgsl/`
+//! Inertia's WGSL shaders (the engine's compute passes and the viewer's
+//! drawing), kept as real `.wgsl` files under `wgsl/`
 //! (so editors and `naga` can read them) and exported here as source strings.
 //! `tests/validate.rs` parses and validates every one with naga and checks
 //! that the layouts they declare match the byte sizes in [`layout`], which
@@ -25,7 +26,14 @@ pub const PARTICLE_INTERACTIONS: &str = include_str!("../wgsl/particle_interacti
 /// Pass 3 of a GPU particle step: field forces and Euler integration.
 pub const PARTICLE_INTEGRATE: &str = include_str!("../wgsl/particle_integrate.wgsl");
 
-/// Every shader as `(file name, source)`, for validation and tooling.
+/// The viewer's scene shader (`inertia-viewer`): lit, instanced meshes
+/// (`vs_main`, `fs_main`) and the ground's grid (`fs_ground`).
+pub const VIEWER_SCENE: &str = include_str!("../wgsl/viewer_scene.wgsl");
+
+/// Every drawing (vertex and fragment) shader as `(file name, source)`.
+pub const DRAWING: &[(&str, &str)] = &[("viewer_scene.wgsl", VIEWER_SCENE)];
+
+/// Every compute shader as `(file name, source)`, for validation and tooling.
 pub const ALL: &[(&str, &str)] = &[
     ("particle_springs.wgsl", PARTICLE_SPRINGS),
     ("particle_interactions.wgsl", PARTICLE_INTERACTIONS),

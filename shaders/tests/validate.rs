@@ -3,7 +3,7 @@
 //! sizes in `inertia_shaders::layout` (which the engine's `#[repr(C)]`
 //! mirrors assert at compile time).
 
-use inertia_shaders::{layout, ALL};
+use inertia_shaders::{layout, ALL, DRAWING};
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 
 fn parse(name: &str, src: &str) -> naga::Module {
@@ -19,6 +19,20 @@ fn every_shader_parses_and_validates() {
         Validator::new(ValidationFlags::all(), Capabilities::empty())
             .validate(&module)
             .unwrap_or_else(|e| panic!("{name} does not validate:\n{}", e.emit_to_string(src)));
+    }
+}
+
+#[test]
+fn every_drawing_shader_validates_with_its_vertex_and_fragment_entry_points() {
+    assert!(!DRAWING.is_empty());
+    for (name, src) in DRAWING {
+        let module = parse(name, src);
+        Validator::new(ValidationFlags::all(), Capabilities::empty())
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{name} does not validate:\n{}", e.emit_to_string(src)));
+        let stages: Vec<_> = module.entry_points.iter().map(|e| e.stage).collect();
+        assert!(stages.contains(&naga::ShaderStage::Vertex), "{name}");
+        assert!(stages.contains(&naga::ShaderStage::Fragment), "{name}");
     }
 }
 

@@ -56,6 +56,8 @@ pub(crate) struct State {
     pub entities: EntityTable,
     /// The newest snapshot decoded: its tick and sequence number.
     pub latest: Option<(u64, u16)>,
+    /// The newest snapshot's timing header (tick, time scale, paused).
+    pub latest_meta: Option<SnapshotMeta>,
     pub events: VecDeque<ClientEvent>,
     pub disconnected: Option<DisconnectReason>,
     pub stats: StatsRecorder,
@@ -69,6 +71,7 @@ impl State {
             interp: InterpolationBuffer::new(f64::from(info.tick_hz)),
             entities: EntityTable::new(),
             latest: None,
+            latest_meta: None,
             events: VecDeque::new(),
             disconnected: None,
             stats: StatsRecorder::new(),
@@ -108,6 +111,7 @@ impl State {
                     }
                     self.entities.update_all(snap.tick, &snap.updated);
                     self.latest = Some((snap.tick, snap.sequence));
+                    self.latest_meta = Some(meta);
                 }
                 // Only the states this snapshot carried: the rest of the
                 // view is what earlier snapshots said, no news of this

@@ -296,6 +296,13 @@ impl Client {
         Some((tick, s.session.decoder().entities(sequence)?))
     }
 
+    /// How the server's clock ran at the newest snapshot: its tick, its
+    /// time scale (negative while history plays backwards) and whether it
+    /// was paused. `None` before the first snapshot.
+    pub fn timeline(&self) -> Option<crate::clock::SnapshotMeta> {
+        self.lock().latest_meta
+    }
+
     /// Every entity the server has described to us, by id.
     pub fn entities(&self) -> Vec<inertia_protocol::EntityDesc> {
         self.lock()

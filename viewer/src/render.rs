@@ -1,0 +1,480 @@
+//! Draws a [`DrawList`] with wgpu: one mesh per shape, its entities drawn
+//! as instances (frame and colour per instance), lit by `viewer_scene.wgsl`,
+//! multisampled where the adapter can, then the HUD (egui) on top. The same
+//! renderer draws into a window's surface and into an off-screen texture.
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+use inertia_protocol::ShapeDesc;
+use wgpu::util::DeviceExt;
+
+use crate::camera::OrbitCamera;
+use crate::mesh::{mesh_of, Vertex};
+use crate::scene::{shape_key, Catalogue, DrawList, ShapeKey};
+
+/// The sky (clear colour and fog), linear RGB.
+pub const SKY: [f32; 3] = [0.42, 0.56, 0.78];
+/// Fog density, 1/m.
+const FOG_DENSITY: f32 = 0.004;
+/// Samples per pixel when the adapter allows it.
+const WANTED_SAMPLES: u32 = 4;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// One instance as the vertex shader reads it (locations 2 to 6).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Instance {
+    model: [[f32; 4]; 4],
+    color: [f32; 4],
+}
+
+/// The uniform block `Camera` of the scene shader.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct CameraBlock {
+    view_proj: [[f32; 4]; 4],
+    eye: [f32; 4],
+    sun: [f32; 4],
+    sky: [f32; 4],
+}
+
+struct GpuMesh {
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+}
+
+/// What the HUD drew this frame, ready for egui's renderer.
+pub struct HudPaint {
+    /// Tessellated shapes.
+    pub primitives: Vec<egui::ClippedPrimitive>,
+    /// Font and image textures to upload or free.
+    pub textures: egui::TexturesDelta,
+    /// Pixels per egui point.
+    pub pixels_per_point: f32,
+}
+
+impl std::fmt::Debug for HudPaint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("HudPaint")
+            .field("primitives", &self.primitives.len())
+            .field("pixels_per_point", &self.pixels_per_point)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Attachments sized to the target.
+struct Attachments {
+    size: (u32, u32),
+    depth: wgpu::TextureView,
+    /// The multisampled colour, resolved into the target (none at 1 sample).
+    color: Option<wgpu::TextureView>,
+}
+
+/// The scene and HUD renderer for one device and target format.
+pub struct Renderer {
+    format: wgpu::TextureFormat,
+    samples: u32,
+    opaque: wgpu::RenderPipeline,
+    ground: wgpu::RenderPipeline,
+    translucent: wgpu::RenderPipeline,
+    camera: wgpu::Buffer,
+    camera_group: wgpu::BindGroup,
+    meshes: HashMap<ShapeKey, GpuMesh>,
+    instances: Option<wgpu::Buffer>,
+    attachments: Option<Attachments>,
+    hud: egui_wgpu::Renderer,
+    ground_key: ShapeKey,
+}
+
+impl std::fmt::Debug for Renderer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Renderer")
+            .field("format", &self.format)
+            .field("samples", &self.samples)
+            .field("meshes", &self.meshes.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Renderer {
+    /// A renderer for targets of `format` on `adapter`'s `device`.
+    pub fn new(
+        adapter: &wgpu::Adapter,
+        device: &wgpu::Device,
+        format: wgpu::TextureFormat,
+    ) -> Self {
+        let multisample_ok = adapter
+            .get_texture_format_features(format)
+            .flags
+            .sample_count_supported(WANTED_SAMPLES)
+            && adapter
+                .get_texture_format_features(DEPTH_FORMAT)
+                .flags
+                .sample_count_supported(WANTED_SAMPLES);
+        let samples = if multisample_ok { WANTED_SAMPLES } else { 1 };
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("viewer_scene.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(inertia_shaders::VIEWER_SCENE.into()),
+        });
+        let camera_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("camera"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let camera = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("camera"),
+            size: std::mem::size_of::<CameraBlock>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let camera_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("camera"),
+            layout: &camera_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: camera.as_entire_binding(),
+            }],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("scene"),
+            bind_group_layouts: &[Some(&camera_layout)],
+            immediate_size: 0,
+        });
+        let vertex_attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+        let instance_attributes = wgpu::vertex_attr_array![
+            2 => Float32x4, 3 => Float32x4, 4 => Float32x4, 5 => Float32x4, 6 => Float32x4
+        ];
+        let buffers = [
+            Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<Vertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &vertex_attributes,
+            }),
+            Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<Instance>() as u64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &instance_attributes,
+            }),
+        ];
+        let pipeline = |label: &str, fragment: &str, blend: Option<wgpu::BlendState>| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &shader,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &buffers,
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    front_face: wgpu::FrontFace::Ccw,
+                    // Both sides: scenery meshes are often open.
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(blend.is_none()),
+                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: wgpu::MultisampleState {
+                    count: samples,
+                    ..Default::default()
+                },
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some(fragment),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format,
+                        blend,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let opaque = pipeline("opaque", "fs_main", None);
+        let ground = pipeline("ground", "fs_ground", None);
+        let translucent = pipeline(
+            "translucent",
+            "fs_main",
+            Some(wgpu::BlendState::ALPHA_BLENDING),
+        );
+        let hud = egui_wgpu::Renderer::new(device, format, egui_wgpu::RendererOptions::default());
+        Self {
+            format,
+            samples,
+            opaque,
+            ground,
+            translucent,
+            camera,
+            camera_group,
+            meshes: HashMap::new(),
+            instances: None,
+            attachments: None,
+            hud,
+            ground_key: shape_key(&ShapeDesc::Ground),
+        }
+    }
+
+    /// The target format this renderer draws.
+    pub fn format(&self) -> wgpu::TextureFormat {
+        self.format
+    }
+
+    /// Samples per pixel (4, or 1 where the adapter cannot multisample).
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    /// Makes the depth and multisampled attachments for `size` unless they
+    /// are already that size.
+    fn attachments(&mut self, device: &wgpu::Device, size: (u32, u32)) {
+        if self.attachments.as_ref().is_none_or(|a| a.size != size) {
+            let texture = |label: &str, format| {
+                device
+                    .create_texture(&wgpu::TextureDescriptor {
+                        label: Some(label),
+                        size: wgpu::Extent3d {
+                            width: size.0,
+                            height: size.1,
+                            depth_or_array_layers: 1,
+                        },
+                        mip_level_count: 1,
+                        sample_count: self.samples,
+                        dimension: wgpu::TextureDimension::D2,
+                        format,
+                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                        view_formats: &[],
+                    })
+                    .create_view(&Default::default())
+            };
+            self.attachments = Some(Attachments {
+                size,
+                depth: texture("depth", DEPTH_FORMAT),
+                color: (self.samples > 1).then(|| texture("multisampled colour", self.format)),
+            });
+        }
+    }
+
+    fn upload_meshes(&mut self, device: &wgpu::Device, catalogue: &Catalogue, list: &DrawList) {
+        for item in &list.items {
+            if self.meshes.contains_key(&item.shape) {
+                continue;
+            }
+            let Some(shape) = catalogue.shape(item.shape) else {
+                continue;
+            };
+            let mesh = mesh_of(shape);
+            if mesh.indices.is_empty() {
+                continue;
+            }
+            let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("mesh vertices"),
+                contents: bytemuck::cast_slice(&mesh.vertices),
+                usage: wgpu::BufferUsages::VERTEX,
+            });
+            let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("mesh indices"),
+                contents: bytemuck::cast_slice(&mesh.indices),
+                usage: wgpu::BufferUsages::INDEX,
+            });
+            self.meshes.insert(
+                item.shape,
+                GpuMesh {
+                    vertices,
+                    indices,
+                    index_count: mesh.indices.len() as u32,
+                },
+            );
+        }
+    }
+
+    /// Records the drawing of `list` seen by `camera`, and `hud` over it,
+    /// into `target` (a view of a texture of `size` pixels in this
+    /// renderer's format).
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        size: (u32, u32),
+        catalogue: &Catalogue,
+        list: &DrawList,
+        camera: &OrbitCamera,
+        hud: Option<HudPaint>,
+    ) {
+        self.upload_meshes(device, catalogue, list);
+        let sun = Vec3::new(0.45, 0.8, 0.3).normalize();
+        let block = CameraBlock {
+            view_proj: camera
+                .view_proj(size.0 as f32 / size.1.max(1) as f32)
+                .to_cols_array_2d(),
+            eye: camera.eye().extend(1.0).to_array(),
+            sun: sun.extend(0.0).to_array(),
+            sky: [SKY[0], SKY[1], SKY[2], FOG_DENSITY],
+        };
+        queue.write_buffer(&self.camera, 0, bytemuck::bytes_of(&block));
+
+        // Instances of the drawable items, in the list's order: runs of
+        // one shape each.
+        let mut instances = Vec::with_capacity(list.items.len());
+        let mut runs: Vec<(ShapeKey, bool, std::ops::Range<u32>)> = Vec::new();
+        for item in list
+            .items
+            .iter()
+            .filter(|i| self.meshes.contains_key(&i.shape))
+        {
+            let k = instances.len() as u32;
+            instances.push(Instance {
+                model: item.model.to_cols_array_2d(),
+                color: item.color,
+            });
+            match runs.last_mut() {
+                Some((shape, translucent, range))
+                    if *shape == item.shape && *translucent == item.translucent =>
+                {
+                    range.end = k + 1;
+                }
+                _ => runs.push((item.shape, item.translucent, k..k + 1)),
+            }
+        }
+        let bytes = std::mem::size_of_val(instances.as_slice()) as u64;
+        if self.instances.as_ref().is_none_or(|b| b.size() < bytes) {
+            self.instances = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("instances"),
+                size: bytes.next_power_of_two().max(4096),
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        self.attachments(device, size);
+        let instance_buffer = self.instances.as_ref().expect("just made");
+        if !instances.is_empty() {
+            queue.write_buffer(instance_buffer, 0, bytemuck::cast_slice(&instances));
+        }
+        let attachments = self.attachments.as_ref().expect("just made");
+        let (view, resolve) = match &attachments.color {
+            Some(ms) => (ms, Some(target)),
+            None => (target, None),
+        };
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("scene"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: resolve,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: f64::from(SKY[0]),
+                            g: f64::from(SKY[1]),
+                            b: f64::from(SKY[2]),
+                            a: 1.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &attachments.depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.camera_group, &[]);
+            pass.set_vertex_buffer(1, instance_buffer.slice(..));
+            for (shape, translucent, range) in runs {
+                let mesh = &self.meshes[&shape];
+                let pipeline = if translucent {
+                    &self.translucent
+                } else if shape == self.ground_key {
+                    &self.ground
+                } else {
+                    &self.opaque
+                };
+                pass.set_pipeline(pipeline);
+                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..mesh.index_count, 0, range);
+            }
+        }
+
+        if let Some(hud) = hud {
+            self.draw_hud(device, queue, encoder, target, size, hud);
+        }
+    }
+
+    fn draw_hud(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        size: (u32, u32),
+        mut hud: HudPaint,
+    ) {
+        let screen = egui_wgpu::ScreenDescriptor {
+            size_in_pixels: [size.0, size.1],
+            pixels_per_point: hud.pixels_per_point,
+        };
+        for (id, deltas) in &hud.textures.set {
+            for delta in deltas {
+                self.hud.update_texture(device, queue, *id, delta);
+            }
+        }
+        let extra = self
+            .hud
+            .update_buffers(device, queue, encoder, &hud.primitives, &screen);
+        if !extra.is_empty() {
+            queue.submit(extra);
+        }
+        {
+            let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("hud"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            let mut pass = pass.forget_lifetime();
+            self.hud.render(&mut pass, &hud.primitives, &screen);
+        }
+        for id in &hud.textures.free {
+            self.hud.free_texture(id);
+        }
+        // Applied: egui checks that no delta is dropped unseen.
+        hud.textures.clear();
+    }
+}
