@@ -27,7 +27,8 @@ pub const PARTICLE_INTERACTIONS: &str = include_str!("../wgsl/particle_interacti
 pub const PARTICLE_INTEGRATE: &str = include_str!("../wgsl/particle_integrate.wgsl");
 
 /// The viewer's scene shader (`inertia-viewer`): lit, instanced meshes
-/// (`vs_main`, `fs_main`) and the ground's grid (`fs_ground`).
+/// (`vs_main`, `fs_main`) and static scenery with a metre grid
+/// (`fs_gridded`).
 pub const VIEWER_SCENE: &str = include_str!("../wgsl/viewer_scene.wgsl");
 
 /// Every drawing (vertex and fragment) shader as `(file name, source)`.

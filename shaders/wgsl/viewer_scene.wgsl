@@ -1,4 +1,4 @@
-// The viewer's scene: lit, instanced meshes and the ground's grid.
+// The viewer's scene: lit, instanced meshes, and a metre grid on scenery.
 //
 // One directional light (the sun) with a sky/ground hemisphere fill and a
 // little specular, then distance fog towards the sky colour. Colours are
@@ -75,17 +75,26 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     return vec4<f32>(shade(in.color.rgb, in.world, in.normal, front), in.color.a);
 }
 
-// The ground: its colour in a checker of 1 m squares, with darker lines
-// every 10 m, faded out with distance so it does not shimmer.
+// Static scenery (the ground, walls, posts): its colour in a checker of
+// 1 m squares with darker lines every 10 m, laid on the two world axes
+// across the surface's normal, faded out with distance so it does not
+// shimmer.
 @fragment
-fn fs_ground(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
-    let cell = floor(in.world.xz);
+fn fs_gridded(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    let n = abs(normalize(in.normal));
+    var plane = in.world.xz;
+    if (n.x > n.y && n.x > n.z) {
+        plane = in.world.zy;
+    } else if (n.z > n.y) {
+        plane = in.world.xy;
+    }
+    let cell = floor(plane);
     let checker = abs((cell.x + cell.y) % 2.0);
-    let ten = abs(fract(in.world.xz / 10.0 + 0.5) - 0.5) * 10.0;
-    let width = fwidth(in.world.xz) * 1.5;
-    let line = 1.0 - min(min(ten.x / max(width.x, 1e-4), ten.y / max(width.y, 1e-4)), 1.0);
-    let fade = exp(-length(camera.eye.xyz - in.world) * 0.02);
-    let pattern = (checker * 0.08 - line * 0.25) * fade;
+    let ten = abs(fract(plane / 10.0 + 0.5) - 0.5) * 10.0;
+    let width = max(fwidth(plane) * 1.5, vec2<f32>(1e-4));
+    let line = 1.0 - min(min(ten.x / width.x, ten.y / width.y), 1.0);
+    let fade = exp(-length(camera.eye.xyz - in.world) * 0.015);
+    let pattern = (checker * 0.12 - line * 0.3) * fade;
     let base = in.color.rgb * (1.0 + pattern);
     return vec4<f32>(shade(base, in.world, in.normal, front), in.color.a);
 }

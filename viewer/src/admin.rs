@@ -1,7 +1,8 @@
 //! The operator's link: the admin connection on a thread of its own, so the
-//! picture never waits for the server. It polls the server's status four
-//! times a second and sends the HUD's clock requests (pause, step, speed,
-//! reverse, seek) in order.
+//! picture never waits for the server. It sends the HUD's clock requests
+//! (pause, step, speed, reverse, seek) in order, asks for the server's
+//! status after each, and otherwise once a second (every call is in the
+//! server's audit log, so the viewer asks no more often than that).
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -12,8 +13,8 @@ use inertia_protocol::admin::{AdminRequest, AdminResponse, StatusReport};
 use inertia_server::admin::client::AdminClient;
 use tokio::sync::mpsc;
 
-/// How often the status is asked for.
-const STATUS_EVERY: Duration = Duration::from_millis(250);
+/// How often the status is asked for when nothing else is sent.
+const STATUS_EVERY: Duration = Duration::from_secs(1);
 /// How long to wait before connecting again after a failure.
 const RECONNECT_AFTER: Duration = Duration::from_secs(2);
 /// The operator name the server logs for the viewer's calls.
@@ -101,6 +102,7 @@ async fn run(
                 },
                 _ = tick.tick() => AdminRequest::Status,
             };
+            let status_after = request != AdminRequest::Status;
             match client.call(request.clone()).await {
                 Ok(AdminResponse::Status(report)) => update(&view, |v| v.status = Some(report)),
                 Ok(AdminResponse::Error(e)) => update(&view, |v| {
@@ -108,6 +110,15 @@ async fn run(
                 }),
                 Ok(_) => update(&view, |v| v.last_error = None),
                 Err(e) => break e,
+            }
+            if status_after {
+                // What the request changed, shown at once.
+                match client.call(AdminRequest::Status).await {
+                    Ok(AdminResponse::Status(report)) => update(&view, |v| v.status = Some(report)),
+                    Ok(_) => {}
+                    Err(e) => break e,
+                }
+                tick.reset();
             }
         };
         update(&view, |v| {

@@ -104,7 +104,7 @@ pub fn show(ui: &mut egui::Ui, model: &HudModel, state: &mut HudState) -> Vec<Hu
         });
     }
     egui::Window::new("Inertia")
-        .anchor(egui::Align2::LEFT_TOP, [8.0, 8.0])
+        .anchor(egui::Align2::RIGHT_TOP, [-8.0, 8.0])
         .resizable(false)
         .collapsible(true)
         .show(ui.ctx(), |ui| {

@@ -2,7 +2,7 @@
 //!
 //! Watches an Inertia server as a game client would: it joins through the
 //! SDK, draws the interpolated world with wgpu (every shape the server
-//! describes, lit, with the ground's grid), shows a HUD of the connection
+//! describes, lit, with a metre grid on static scenery), shows a HUD of the connection
 //! and the server's clock, and, with the admin credential, drives the clock
 //! (pause, step, speed, reverse, seek) from a bottom panel.
 //!

@@ -6,12 +6,11 @@
 use std::collections::HashMap;
 
 use glam::Vec3;
-use inertia_protocol::ShapeDesc;
 use wgpu::util::DeviceExt;
 
 use crate::camera::OrbitCamera;
 use crate::mesh::{mesh_of, Vertex};
-use crate::scene::{shape_key, Catalogue, DrawList, ShapeKey};
+use crate::scene::{Catalogue, DrawList, ShapeKey};
 
 /// The sky (clear colour and fog), linear RGB.
 pub const SKY: [f32; 3] = [0.42, 0.56, 0.78];
@@ -77,7 +76,7 @@ pub struct Renderer {
     format: wgpu::TextureFormat,
     samples: u32,
     opaque: wgpu::RenderPipeline,
-    ground: wgpu::RenderPipeline,
+    gridded: wgpu::RenderPipeline,
     translucent: wgpu::RenderPipeline,
     camera: wgpu::Buffer,
     camera_group: wgpu::BindGroup,
@@ -85,7 +84,14 @@ pub struct Renderer {
     instances: Option<wgpu::Buffer>,
     attachments: Option<Attachments>,
     hud: egui_wgpu::Renderer,
-    ground_key: ShapeKey,
+}
+
+/// Which pipeline draws an instance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Look {
+    Plain,
+    Gridded,
+    Translucent,
 }
 
 impl std::fmt::Debug for Renderer {
@@ -209,7 +215,7 @@ impl Renderer {
             })
         };
         let opaque = pipeline("opaque", "fs_main", None);
-        let ground = pipeline("ground", "fs_ground", None);
+        let gridded = pipeline("gridded", "fs_gridded", None);
         let translucent = pipeline(
             "translucent",
             "fs_main",
@@ -220,7 +226,7 @@ impl Renderer {
             format,
             samples,
             opaque,
-            ground,
+            gridded,
             translucent,
             camera,
             camera_group,
@@ -228,7 +234,6 @@ impl Renderer {
             instances: None,
             attachments: None,
             hud,
-            ground_key: shape_key(&ShapeDesc::Ground),
         }
     }
 
@@ -336,7 +341,8 @@ impl Renderer {
         // Instances of the drawable items, in the list's order: runs of
         // one shape each.
         let mut instances = Vec::with_capacity(list.items.len());
-        let mut runs: Vec<(ShapeKey, bool, std::ops::Range<u32>)> = Vec::new();
+        // (shape, pipeline, instances)
+        let mut runs: Vec<(ShapeKey, Look, std::ops::Range<u32>)> = Vec::new();
         for item in list
             .items
             .iter()
@@ -347,13 +353,18 @@ impl Renderer {
                 model: item.model.to_cols_array_2d(),
                 color: item.color,
             });
+            let look = if item.translucent {
+                Look::Translucent
+            } else if item.gridded {
+                Look::Gridded
+            } else {
+                Look::Plain
+            };
             match runs.last_mut() {
-                Some((shape, translucent, range))
-                    if *shape == item.shape && *translucent == item.translucent =>
-                {
+                Some((shape, l, range)) if *shape == item.shape && *l == look => {
                     range.end = k + 1;
                 }
-                _ => runs.push((item.shape, item.translucent, k..k + 1)),
+                _ => runs.push((item.shape, look, k..k + 1)),
             }
         }
         let bytes = std::mem::size_of_val(instances.as_slice()) as u64;
@@ -406,14 +417,12 @@ impl Renderer {
             });
             pass.set_bind_group(0, &self.camera_group, &[]);
             pass.set_vertex_buffer(1, instance_buffer.slice(..));
-            for (shape, translucent, range) in runs {
+            for (shape, look, range) in runs {
                 let mesh = &self.meshes[&shape];
-                let pipeline = if translucent {
-                    &self.translucent
-                } else if shape == self.ground_key {
-                    &self.ground
-                } else {
-                    &self.opaque
+                let pipeline = match look {
+                    Look::Translucent => &self.translucent,
+                    Look::Gridded => &self.gridded,
+                    Look::Plain => &self.opaque,
                 };
                 pass.set_pipeline(pipeline);
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));

@@ -87,6 +87,9 @@ pub struct DrawItem {
     pub color: [f32; 4],
     /// Drawn see-through after everything else (water volumes).
     pub translucent: bool,
+    /// Static scenery: drawn with a metre grid, so that motion over it
+    /// shows.
+    pub gridded: bool,
 }
 
 /// Everything to draw in one picture.
@@ -202,8 +205,8 @@ impl Catalogue {
         // Opaque first, then see-through; within each, by mesh (so each
         // mesh's instances are one run), then by position for a stable order.
         items.sort_by(|a, b| {
-            (a.translucent, a.shape)
-                .cmp(&(b.translucent, b.shape))
+            (a.translucent, a.gridded, a.shape)
+                .cmp(&(b.translucent, b.gridded, b.shape))
                 .then_with(|| {
                     let (pa, pb) = (a.model.w_axis.to_array(), b.model.w_axis.to_array());
                     pa.partial_cmp(&pb).unwrap_or(std::cmp::Ordering::Equal)
@@ -220,6 +223,7 @@ fn item(look: &Look, model: Mat4) -> DrawItem {
         model,
         color: look.color,
         translucent,
+        gridded: look.kind == EntityKind::Static && !translucent,
     }
 }
 
@@ -298,6 +302,7 @@ mod tests {
             .find(|i| i.shape == shape_key(&ShapeDesc::Ground))
             .unwrap();
         assert_eq!(ground.model.w_axis.truncate(), Vec3::new(0.0, 5.0, 0.0));
+        assert!(ground.gridded && !moved.gridded, "only scenery is gridded");
     }
 
     #[test]
