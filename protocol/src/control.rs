@@ -32,6 +32,16 @@ use crate::token::{self, OpenedToken, ReplayGuard, TokenError, TokenKey, MAX_TOK
 pub const PROTOCOL_VERSION: u16 = 1;
 /// The QUIC ALPN protocol id of the game connection.
 pub const ALPN: &[u8] = b"inertia";
+
+/// The ALPN of HTTP/3, on which browsers open WebTransport sessions; the
+/// game port takes it beside [`ALPN`].
+pub const WEB_TRANSPORT_ALPN: &[u8] = b"h3";
+
+/// The path of the game's WebTransport session
+/// (`https://HOST:PORT/inertia`). Inside it the protocol is the same as on
+/// raw QUIC: the client opens one bidirectional control stream, and
+/// snapshots and inputs travel as datagrams.
+pub const WEB_TRANSPORT_PATH: &str = "/inertia";
 /// Largest postcard payload of one control frame, bytes (the length
 /// prefix's 4 bytes not included).
 pub const MAX_CONTROL_FRAME: usize = 64 * 1024;

@@ -3,7 +3,9 @@
 //!
 //! In dev mode (no key configured) the server makes all of them at start-up
 //! and writes them to `<data-dir>/dev-credentials.json` with mode 0600 (see
-//! [`inertia_protocol::credentials`]). Outside dev mode the key and the
+//! [`inertia_protocol::credentials`]). Its certificate is one a browser can
+//! pin by hash for WebTransport (ECDSA P-256, valid for less than 14 days);
+//! the server renews it a day before it expires ([`renew_dev`]). Outside dev mode the key and the
 //! certificate must be given, and the server refuses to start without
 //! them; operators' admin credentials come from the admin token file
 //! ([`crate::admin::tokens`]).
@@ -115,6 +117,46 @@ fn random32() -> [u8; 32] {
     out
 }
 
+/// How long a dev certificate is valid, days. A browser pins a
+/// certificate by its hash (WebTransport's `serverCertificateHashes`) only
+/// when it is valid for at most 14 days, and only for ECDSA keys.
+pub const DEV_CERTIFICATE_DAYS: i64 = 13;
+
+/// How long before its end a dev certificate is replaced, days.
+pub const DEV_CERTIFICATE_RENEW_DAYS_BEFORE: i64 = 1;
+
+/// The certificate's parameters for a dev server started at `now`: for
+/// `localhost` and the loopback addresses, valid from an hour before `now`
+/// (for clocks a little behind) for [`DEV_CERTIFICATE_DAYS`].
+pub fn dev_certificate_params(now: time::OffsetDateTime) -> rcgen::CertificateParams {
+    let mut params = rcgen::CertificateParams::default();
+    params.subject_alt_names = vec![
+        rcgen::SanType::DnsName("localhost".try_into().expect("a valid DNS name")),
+        rcgen::SanType::IpAddress(std::net::Ipv4Addr::LOCALHOST.into()),
+        rcgen::SanType::IpAddress(std::net::Ipv6Addr::LOCALHOST.into()),
+    ];
+    params
+        .distinguished_name
+        .push(rcgen::DnType::CommonName, "inertia dev server");
+    params.not_before = now - time::Duration::hours(1);
+    params.not_after = params.not_before + time::Duration::days(DEV_CERTIFICATE_DAYS);
+    params
+}
+
+/// A fresh dev certificate and its key (ECDSA P-256 with SHA-256).
+fn dev_certificate(
+    now: time::OffsetDateTime,
+) -> Result<(CertificateDer<'static>, PrivateKeyDer<'static>), CredentialsError> {
+    let generate = |e: rcgen::Error| CredentialsError::Generate(e.to_string());
+    let key = rcgen::KeyPair::generate_for(&rcgen::PKCS_ECDSA_P256_SHA256).map_err(generate)?;
+    let cert = dev_certificate_params(now)
+        .self_signed(&key)
+        .map_err(generate)?;
+    let cert_key = PrivateKeyDer::try_from(key.serialize_der())
+        .map_err(|e| CredentialsError::Generate(e.to_string()))?;
+    Ok((cert.der().clone(), cert_key))
+}
+
 /// Makes fresh dev credentials for a server at `addr` and writes them to
 /// `<data_dir>/dev-credentials.json` (mode 0600, replacing any earlier
 /// file). Returns the credentials and the file's path.
@@ -122,11 +164,7 @@ pub fn make_dev(
     data_dir: &Path,
     addr: SocketAddr,
 ) -> Result<(Credentials, PathBuf), CredentialsError> {
-    let certified = rcgen::generate_simple_self_signed(vec!["localhost".to_string()])
-        .map_err(|e| CredentialsError::Generate(e.to_string()))?;
-    let cert = certified.cert.der().clone();
-    let cert_key = PrivateKeyDer::try_from(certified.signing_key.serialize_der())
-        .map_err(|e| CredentialsError::Generate(e.to_string()))?;
+    let (cert, cert_key) = dev_certificate(time::OffsetDateTime::now_utc())?;
     let creds = Credentials {
         token_key: random32(),
         fingerprint: fingerprint(&cert),
@@ -134,6 +172,37 @@ pub fn make_dev(
         cert_key,
         admin_token: Some(to_hex(&random32())),
     };
+    let path = write_dev(data_dir, addr, &creds)?;
+    Ok((creds, path))
+}
+
+/// Dev credentials like `creds` with a new certificate (the token key and
+/// the admin credential kept), written to the dev credentials file in
+/// place of the old: clients that read the file from now on pin the new
+/// certificate, and those connected keep their connections.
+pub fn renew_dev(
+    creds: &Credentials,
+    data_dir: &Path,
+    addr: SocketAddr,
+) -> Result<Credentials, CredentialsError> {
+    let (cert, cert_key) = dev_certificate(time::OffsetDateTime::now_utc())?;
+    let renewed = Credentials {
+        token_key: creds.token_key,
+        fingerprint: fingerprint(&cert),
+        cert,
+        cert_key,
+        admin_token: creds.admin_token.clone(),
+    };
+    write_dev(data_dir, addr, &renewed)?;
+    Ok(renewed)
+}
+
+/// Writes `creds` as the dev credentials file of a server at `addr`.
+fn write_dev(
+    data_dir: &Path,
+    addr: SocketAddr,
+    creds: &Credentials,
+) -> Result<PathBuf, CredentialsError> {
     let file = DevCredentials {
         server_addr: addr.to_string(),
         cert_fingerprint: to_hex(&creds.fingerprint),
@@ -152,7 +221,7 @@ pub fn make_dev(
     })?;
     let json = serde_json::to_vec_pretty(&file).expect("plain strings serialise");
     write_private(&path, &json).map_err(io)?;
-    Ok((creds, path))
+    Ok(path)
 }
 
 /// Writes `bytes` to `path` readable by its owner only (0600 on Unix): the
@@ -244,6 +313,37 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("inertia-creds-{name}-{}", std::process::id()));
         let _ = fs::remove_dir_all(&dir);
         dir
+    }
+
+    #[test]
+    fn the_dev_certificate_is_one_a_browser_pins_by_hash_and_renews_keeping_the_secrets() {
+        // WebTransport's serverCertificateHashes: ECDSA, valid at most 14 days.
+        let now = time::OffsetDateTime::now_utc();
+        let params = dev_certificate_params(now);
+        let valid = params.not_after - params.not_before;
+        assert!(valid <= time::Duration::days(14), "valid for {valid}");
+        assert!(valid >= time::Duration::days(DEV_CERTIFICATE_RENEW_DAYS_BEFORE + 1));
+        assert!(params.not_before <= now && now < params.not_after);
+
+        let dir = temp_dir("renew");
+        let addr = "127.0.0.1:7777".parse().unwrap();
+        let (creds, path) = make_dev(&dir, addr).unwrap();
+        ring::signature::EcdsaKeyPair::from_pkcs8(
+            &ring::signature::ECDSA_P256_SHA256_ASN1_SIGNING,
+            creds.cert_key.secret_der(),
+            &SystemRandom::new(),
+        )
+        .expect("a P-256 key");
+
+        let renewed = renew_dev(&creds, &dir, addr).unwrap();
+        assert_ne!(renewed.fingerprint, creds.fingerprint, "a new certificate");
+        assert_eq!(renewed.fingerprint, fingerprint(&renewed.cert));
+        assert_eq!(renewed.token_key, creds.token_key, "tokens stay valid");
+        assert_eq!(renewed.admin_token, creds.admin_token);
+        let file: DevCredentials = serde_json::from_slice(&fs::read(&path).unwrap()).unwrap();
+        assert_eq!(file.fingerprint().unwrap(), renewed.fingerprint);
+        assert_eq!(file.token_key_bytes().unwrap(), creds.token_key);
+        fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

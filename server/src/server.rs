@@ -359,11 +359,20 @@ pub async fn start_with_rules(
         snapshot_hz = config.snapshot_hz,
         "server ready"
     );
+    let admin_token = creds.admin_token.clone().unwrap_or_default();
+    if dev {
+        tasks.push(tokio::spawn(renew_dev_certificate(
+            creds,
+            config.data_dir.clone(),
+            addr,
+            endpoint.clone(),
+        )));
+    }
     Ok(RunningServer {
         addr,
         metrics_addr,
         credentials_path,
-        admin_token: creds.admin_token.unwrap_or_default(),
+        admin_token,
         shared,
         shutdown,
         health,
@@ -374,6 +383,39 @@ pub async fn start_with_rules(
         match_length: config.match_seconds.map(Duration::from_secs),
         recording_dir: config.recording_dir(),
     })
+}
+
+/// Renews a dev server's certificate a day before it expires, for as long
+/// as the server runs: browsers pin it by hash only while it is valid for
+/// at most 14 days. New connections get the new certificate; those
+/// connected keep theirs.
+async fn renew_dev_certificate(
+    mut creds: credentials::Credentials,
+    data_dir: PathBuf,
+    addr: SocketAddr,
+    endpoint: quinn::Endpoint,
+) {
+    let days = credentials::DEV_CERTIFICATE_DAYS - credentials::DEV_CERTIFICATE_RENEW_DAYS_BEFORE;
+    let every = Duration::from_secs(days.unsigned_abs() * 86_400);
+    loop {
+        tokio::time::sleep(every).await;
+        let renewed = credentials::renew_dev(&creds, &data_dir, addr).and_then(|renewed| {
+            net::tls::server_config(&renewed)
+                .map(|config| (renewed, config))
+                .map_err(credentials::CredentialsError::Generate)
+        });
+        match renewed {
+            Ok((renewed, config)) => {
+                endpoint.set_server_config(Some(config));
+                info!(
+                    fingerprint = %inertia_protocol::credentials::to_hex(&renewed.fingerprint),
+                    "dev certificate renewed"
+                );
+                creds = renewed;
+            }
+            Err(e) => warn!(error = %e, "the dev certificate could not be renewed"),
+        }
+    }
 }
 
 /// Under Agones, applies what an allocation asks for, before the match's

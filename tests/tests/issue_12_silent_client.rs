@@ -19,6 +19,12 @@ async fn issue_12_a_silent_client_is_let_go_and_its_avatar_leaves() {
     let server = start_server(test_config(None, "issue12-silent")).await;
     let client = endpoint(game_config(&server));
     let (connection, _send, mut recv, mut frames) = joined(&client, &server, 77).await;
+    // The avatar is in the first frame published after the join, which
+    // may come a tick after the welcome.
+    let deadline = std::time::Instant::now() + Duration::from_secs(2);
+    while !owns_an_avatar(&server, 77) && std::time::Instant::now() < deadline {
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
     assert!(owns_an_avatar(&server, 77), "joined with an avatar");
 
     // Read the control stream (the catalog, then the goodbye) but send

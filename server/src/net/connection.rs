@@ -31,6 +31,7 @@ use inertia_protocol::control::{
 use inertia_protocol::{EntityId, EntityKind, ServerSession, SessionConfig};
 use tracing::{debug, info, info_span, warn, Instrument};
 
+use super::link::{Link, LinkError, LinkRecv, LinkSend};
 use super::snapshots::Served;
 use super::NetShared;
 use crate::rules;
@@ -69,7 +70,7 @@ pub(crate) fn unix_now() -> u64 {
 #[derive(Debug)]
 enum End {
     /// The connection closed or failed.
-    Closed(quinn::ConnectionError),
+    Closed(String),
     /// The client said goodbye.
     Goodbye,
     /// The client broke the protocol on the control stream.
@@ -80,7 +81,7 @@ enum End {
     Kicked(String),
 }
 
-async fn write(send: &mut quinn::SendStream, msg: &ServerControl) -> Result<usize, String> {
+async fn write(send: &mut LinkSend, msg: &ServerControl) -> Result<usize, String> {
     let bytes = encode_frame(msg).map_err(|e| e.to_string())?;
     send.write_all(&bytes).await.map_err(|e| e.to_string())?;
     Ok(bytes.len())
@@ -149,8 +150,8 @@ fn not_running(shared: &NetShared) -> Option<Refusal> {
 }
 
 /// Serves one game connection to its end.
-pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared>) {
-    let span = info_span!("connection", id, remote = %connection.remote_address(), client = tracing::field::Empty);
+pub async fn serve(connection: Link, id: u64, shared: Arc<NetShared>) {
+    let span = info_span!("connection", id, remote = %connection.remote_address(), web = connection.is_web_transport(), client = tracing::field::Empty);
     async move {
         if let Some(admitted) = hello(&connection, id, &shared).await {
             run(connection, admitted, &shared).await
@@ -162,18 +163,18 @@ pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared
 
 /// Lets go of a client that did not say hello, or take the answer, in
 /// time.
-fn too_slow(connection: &quinn::Connection, shared: &NetShared) {
+fn too_slow(connection: &Link, shared: &NetShared) {
     debug!("no hello in time");
     shared.metrics.refused("hello_timeout");
-    connection.close(close_code::REFUSED.into(), b"no hello in time");
+    connection.close(close_code::REFUSED, b"no hello in time");
 }
 
 /// A client past its hello.
 struct Admitted {
     client: u64,
     avatar: EntityId,
-    send: quinn::SendStream,
-    recv: quinn::RecvStream,
+    send: LinkSend,
+    recv: LinkRecv,
     frames: FrameDecoder,
 }
 
@@ -182,7 +183,7 @@ struct Admitted {
 /// hello, taking the answer) is bounded by [`HELLO_TIMEOUT`]; the join,
 /// the tick thread's part, is not. A client that joined but did not take
 /// its welcome leaves again.
-async fn hello(connection: &quinn::Connection, id: u64, shared: &NetShared) -> Option<Admitted> {
+async fn hello(connection: &Link, id: u64, shared: &NetShared) -> Option<Admitted> {
     let read = async {
         let (send, mut recv) = connection.accept_bi().await.ok()?;
         let mut frames = FrameDecoder::new();
@@ -280,9 +281,9 @@ async fn hello(connection: &quinn::Connection, id: u64, shared: &NetShared) -> O
             shared.metrics.refused(refusal_reason(&refusal));
             let refused = ServerControl::Refused(refusal);
             let _ = tokio::time::timeout(GOODBYE_WAIT, write(&mut send, &refused)).await;
-            let _ = send.finish();
+            send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
-            connection.close(close_code::REFUSED.into(), b"refused");
+            connection.close(close_code::REFUSED, b"refused");
             None
         }
     }
@@ -357,7 +358,7 @@ impl Outbox {
 
     /// Writes what the client's flow-control window takes now, without
     /// waiting for it to open (the connection loop writes the rest).
-    fn write_now(&mut self, send: &mut quinn::SendStream) -> Result<(), quinn::WriteError> {
+    fn write_now(&mut self, send: &mut LinkSend) -> Result<(), LinkError> {
         let waker = std::task::Waker::noop();
         let mut cx = std::task::Context::from_waker(waker);
         while !self.is_empty() {
@@ -375,7 +376,7 @@ impl Outbox {
     }
 
     /// Writes everything queued; false when the stream failed.
-    async fn flush(&mut self, send: &mut quinn::SendStream) -> bool {
+    async fn flush(&mut self, send: &mut LinkSend) -> bool {
         while !self.is_empty() {
             match send.write(self.pending()).await {
                 Ok(n) => self.advance(n),
@@ -387,7 +388,7 @@ impl Outbox {
 
     /// Queues `msg` and writes it out behind whatever waits, within
     /// [`GOODBYE_WAIT`]; whether it all went.
-    async fn say_last(&mut self, send: &mut quinn::SendStream, msg: &ServerControl) -> bool {
+    async fn say_last(&mut self, send: &mut LinkSend, msg: &ServerControl) -> bool {
         if self.push(msg).is_err() {
             return false;
         }
@@ -398,7 +399,7 @@ impl Outbox {
     }
 }
 
-async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShared) {
+async fn run(connection: Link, admitted: Admitted, shared: &NetShared) {
     let Admitted {
         client,
         avatar,
@@ -442,13 +443,13 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
         End::Shutdown(reason) => {
             let goodbye = ServerControl::Goodbye(reason.clone());
             outbox.say_last(&mut send, &goodbye).await;
-            let _ = send.finish();
+            send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
             close_saying(&connection, &reason);
             info!(client, "client told of shutdown");
         }
         End::Goodbye => {
-            connection.close(close_code::GOODBYE.into(), b"goodbye");
+            connection.close(close_code::GOODBYE, b"goodbye");
             info!(client, "client left");
         }
         End::Protocol(what) => {
@@ -458,7 +459,7 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
                 .say_last(&mut send, &ServerControl::Goodbye(reason.clone()))
                 .await;
             // Closing at once would drop the goodbye in flight.
-            let _ = send.finish();
+            send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
             close_saying(&connection, &reason);
         }
@@ -469,7 +470,7 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
             outbox
                 .say_last(&mut send, &ServerControl::Goodbye(said.clone()))
                 .await;
-            let _ = send.finish();
+            send.finish();
             let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
             close_saying(&connection, &said);
             info!(client, %reason, "client kicked");
@@ -489,19 +490,19 @@ async fn run(connection: quinn::Connection, admitted: Admitted, shared: &NetShar
 /// Closes `connection` with a code and text that say `reason` on their
 /// own: a client that sees the close before the goodbye (a close discards
 /// what is still in flight) learns the same reason from it.
-fn close_saying(connection: &quinn::Connection, reason: &DisconnectReason) {
+fn close_saying(connection: &Link, reason: &DisconnectReason) {
     let (code, text) = reason.to_close();
-    connection.close(code.into(), text.as_bytes());
+    connection.close(code, text.as_bytes());
 }
 
 #[allow(clippy::too_many_arguments)]
 async fn session(
-    connection: &quinn::Connection,
+    connection: &Link,
     client: u64,
     avatar: EntityId,
-    send: &mut quinn::SendStream,
+    send: &mut LinkSend,
     outbox: &mut Outbox,
-    recv: &mut quinn::RecvStream,
+    recv: &mut LinkRecv,
     frames: &mut FrameDecoder,
     mut kick: tokio::sync::oneshot::Receiver<String>,
     shared: &NetShared,
@@ -559,7 +560,7 @@ async fn session(
                         }
                     }
                 }
-                Err(e) => return End::Closed(e),
+                Err(e) => return End::Closed(e.to_string()),
             },
             read = recv.read(&mut buf) => match read {
                 Ok(Some(n)) => {
@@ -581,12 +582,12 @@ async fn session(
                 // The client will send nothing more, not even a goodbye:
                 // it has left.
                 Ok(None) => return End::Goodbye,
-                Err(quinn::ReadError::ConnectionLost(e)) => return End::Closed(e),
+                Err(LinkError::Lost(e)) => return End::Closed(e),
                 Err(e) => return End::Protocol(format!("control stream: {e}")),
             },
             written = send.write(outbox.pending()), if !outbox.is_empty() => match written {
                 Ok(n) => outbox.advance(n),
-                Err(quinn::WriteError::ConnectionLost(e)) => return End::Closed(e),
+                Err(LinkError::Lost(e)) => return End::Closed(e),
                 Err(e) => return End::Protocol(format!("control stream: {e}")),
             },
             _ = tokio::time::sleep_until(stall.unwrap_or_else(tokio::time::Instant::now)), if stall.is_some() => {
@@ -632,7 +633,7 @@ async fn session(
 fn send_slot(
     served: &Served,
     outbox: &mut Outbox,
-    send: &mut quinn::SendStream,
+    send: &mut LinkSend,
     shared: &NetShared,
 ) -> Result<(), End> {
     let datagram = {
@@ -653,7 +654,7 @@ fn send_slot(
         )));
     }
     outbox.write_now(send).map_err(|e| match e {
-        quinn::WriteError::ConnectionLost(e) => End::Closed(e),
+        LinkError::Lost(e) => End::Closed(e),
         e => End::Protocol(format!("control stream: {e}")),
     })?;
     if let Some(bytes) = datagram {

@@ -10,9 +10,11 @@ pub mod connection;
 pub mod events;
 pub mod gate;
 pub mod governor;
+pub mod link;
 pub mod snapshots;
 pub mod tls;
 pub mod token_keys;
+pub mod web_transport;
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -20,6 +22,7 @@ use std::sync::{Arc, Mutex};
 
 use inertia_protocol::admin::ADMIN_ALPN;
 use inertia_protocol::control::DisconnectReason;
+use inertia_protocol::control::WEB_TRANSPORT_ALPN;
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::{ReplayGuard, TokenKey};
 use tokio::sync::{oneshot, watch};
@@ -266,10 +269,10 @@ async fn route(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>, hands
         }
     };
     drop(handshake);
-    if negotiated_alpn(&connection).as_deref() == Some(ADMIN_ALPN) {
-        crate::admin::serve(connection, id, shared).await;
-    } else {
-        connection::serve(connection, id, shared).await;
+    match negotiated_alpn(&connection).as_deref() {
+        Some(ADMIN_ALPN) => crate::admin::serve(connection, id, shared).await,
+        Some(WEB_TRANSPORT_ALPN) => web_transport::serve(connection, id, shared).await,
+        _ => connection::serve(link::Link::Quic(connection), id, shared).await,
     }
 }
 

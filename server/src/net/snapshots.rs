@@ -56,7 +56,7 @@ use crate::sim::Frame;
 #[derive(Debug)]
 pub struct Served {
     /// Its connection, for the path's datagram size.
-    pub connection: quinn::Connection,
+    pub connection: super::link::Link,
     /// Its client id.
     pub client: u64,
     /// Its session (encoder, priorities, inputs), shared with its
@@ -71,7 +71,7 @@ pub struct Served {
 impl Served {
     /// A client joined at `frame`, to be served through `session`.
     pub fn new(
-        connection: quinn::Connection,
+        connection: super::link::Link,
         client: u64,
         session: ServerSession,
         frame: &Frame,
@@ -352,9 +352,9 @@ fn serve(
 
 /// Queues snapshot `bytes` on `connection` for quinn to send, and counts
 /// it.
-pub fn send_datagram(connection: &quinn::Connection, bytes: Vec<u8>, shared: &NetShared) {
+pub fn send_datagram(connection: &super::link::Link, bytes: Vec<u8>, shared: &NetShared) {
     let len = bytes.len();
-    if connection.send_datagram(bytes.into()).is_ok() {
+    if connection.send_datagram(bytes.into()) {
         shared.metrics.bytes_sent.inc_by(len as u64);
         shared.metrics.packets_sent.inc();
         shared.metrics.snapshot_size.observe(len as f64);

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use inertia_protocol::admin::ADMIN_ALPN;
-use inertia_protocol::control::{ALPN, MAX_CONTROL_FRAME};
+use inertia_protocol::control::{ALPN, MAX_CONTROL_FRAME, WEB_TRANSPORT_ALPN};
 
 use crate::credentials::Credentials;
 
@@ -22,7 +22,11 @@ pub fn server_config(creds: &Credentials) -> Result<quinn::ServerConfig, String>
         .with_no_client_auth()
         .with_single_cert(vec![creds.cert.clone()], creds.cert_key.clone_key())
         .map_err(|e| format!("certificate or key rejected: {e}"))?;
-    tls.alpn_protocols = vec![ALPN.to_vec(), ADMIN_ALPN.to_vec()];
+    tls.alpn_protocols = vec![
+        ALPN.to_vec(),
+        ADMIN_ALPN.to_vec(),
+        WEB_TRANSPORT_ALPN.to_vec(),
+    ];
     tls.max_early_data_size = 0;
     let crypto =
         quinn::crypto::rustls::QuicServerConfig::try_from(tls).map_err(|e| e.to_string())?;
@@ -39,7 +43,9 @@ pub const STREAM_WINDOW: u32 = MAX_CONTROL_FRAME as u32 + 4;
 /// protocol uses (one bidirectional control stream from the peer, which
 /// the game client and the admin tool each open once; no unidirectional
 /// streams) and receive windows of one largest legal frame. Streams the
-/// server would never read cannot be opened, so they hold no memory.
+/// server would never read cannot be opened, so they hold no memory. A
+/// browser's HTTP/3 connection is granted the few more it needs once it
+/// has chosen HTTP/3 ([`super::web_transport`]).
 pub fn server_transport() -> quinn::TransportConfig {
     let mut t = transport();
     t.max_concurrent_bidi_streams(1u32.into());
