@@ -60,3 +60,56 @@ export class BitReader {
     return raw >= sign ? raw - 2 * sign : raw;
   }
 }
+
+/** Writing bit-packed fields, least significant bit first, as
+ * `protocol/src/bits.rs` writes them; the last byte is padded with zeros. */
+export class BitWriter {
+  private readonly bytes: number[] = [];
+  /** Bits of the last, unfinished byte. */
+  private used = 0;
+
+  /** An unsigned field of 1 to 32 bits. */
+  write(value: number, bits: number): void {
+    if (bits < 1 || bits > 32) {
+      throw new RangeError(`bit width ${bits} outside 1..=32`);
+    }
+    if (!Number.isInteger(value) || value < 0 || value >= 2 ** bits) {
+      throw new RangeError(`${value} does not fit ${bits} bits`);
+    }
+    let left = bits;
+    let v = value;
+    while (left > 0) {
+      if (this.used === 0) {
+        this.bytes.push(0);
+      }
+      const take = Math.min(8 - this.used, left);
+      const part = v % 2 ** take;
+      const i = this.bytes.length - 1;
+      this.bytes[i] = (this.bytes[i] ?? 0) | (part << this.used);
+      v = Math.floor(v / 2 ** take);
+      left -= take;
+      this.used = (this.used + take) % 8;
+    }
+  }
+
+  /** An unsigned field of up to 64 bits. */
+  writeBig(value: bigint, bits: number): void {
+    let v = value;
+    let left = bits;
+    while (left > 0) {
+      const take = Math.min(32, left);
+      this.write(Number(v & ((1n << BigInt(take)) - 1n)), take);
+      v >>= BigInt(take);
+      left -= take;
+    }
+  }
+
+  writeBool(value: boolean): void {
+    this.write(value ? 1 : 0, 1);
+  }
+
+  /** The bytes written. */
+  finish(): Uint8Array {
+    return Uint8Array.from(this.bytes);
+  }
+}

@@ -1,0 +1,135 @@
+//! Golden vectors of the client's input datagram
+//! (`tests/vectors/inputs.json`): datagrams the Rust encoder writes for
+//! acknowledgements and inputs of every form the layout has (no ack; an
+//! ack with its bits; one input; eight, with sequence and tick steps of
+//! one and of more, backwards ticks, turns past a whole circle and every
+//! button). The browser client's encoder (`web/src/input.ts`) must write
+//! the same bytes from the same fields.
+//!
+//! Ticks are decimal text (64-bit). A change to the layout that means to
+//! change the datagrams rewrites the file with
+//! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test input_vectors`.
+
+use inertia_protocol::entity::buttons;
+use inertia_protocol::{InputDatagram, PlayerInput};
+use serde_json::{json, Value};
+
+mod support;
+use support::same;
+
+const FILE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/vectors/inputs.json");
+
+fn input(sequence: u32, tick: u64, movement: [f32; 2], yaw: f32, pressed: u8) -> PlayerInput {
+    PlayerInput {
+        sequence,
+        tick,
+        movement,
+        yaw,
+        buttons: pressed,
+    }
+}
+
+fn datagrams() -> Vec<(&'static str, InputDatagram)> {
+    let eight: Vec<PlayerInput> = (0..8u32)
+        .map(|k| {
+            // Sequences step by one and then by more; ticks by one, by
+            // none, by more and backwards.
+            let sequence = 1_000_000 - k * k;
+            let tick = [
+                90_000u64, 89_999, 89_999, 89_990, 89_991, 89_000, 88_999, 70_000,
+            ][k as usize];
+            input(
+                sequence,
+                tick,
+                [k as f32 / 7.0 * 2.0 - 1.0, 0.3 - k as f32 * 0.1],
+                -7.0 + k as f32 * 1.9,
+                [0, buttons::JUMP, buttons::PUSH, buttons::ALL][k as usize % 4],
+            )
+        })
+        .collect();
+    vec![
+        ("nothing yet", InputDatagram::default()),
+        (
+            "an ack alone",
+            InputDatagram {
+                ack: Some(65_535),
+                ack_bits: 0b1011,
+                inputs: vec![],
+            },
+        ),
+        (
+            "one input, no ack",
+            InputDatagram {
+                ack: None,
+                ack_bits: 0,
+                inputs: vec![input(7, 123, [1.0, -1.0], 3.25, buttons::JUMP)],
+            },
+        ),
+        (
+            "one input far in",
+            InputDatagram {
+                ack: Some(12),
+                ack_bits: u32::MAX,
+                inputs: vec![input(u32::MAX, (1 << 40) + 3, [0.0, 0.5], 0.0, 0)],
+            },
+        ),
+        (
+            "eight inputs",
+            InputDatagram {
+                ack: Some(300),
+                ack_bits: 0x8000_0001,
+                inputs: eight,
+            },
+        ),
+    ]
+}
+
+fn vectors() -> Value {
+    let list: Vec<Value> = datagrams()
+        .into_iter()
+        .map(|(name, d)| {
+            let bytes = d.encode().expect("a valid datagram");
+            assert_eq!(
+                InputDatagram::decode(&bytes)
+                    .expect("decodes")
+                    .encode()
+                    .unwrap(),
+                bytes,
+                "{name}: canonical"
+            );
+            let inputs: Vec<Value> = d
+                .inputs
+                .iter()
+                .map(|i| {
+                    json!({
+                        "sequence": i.sequence,
+                        "tick": i.tick.to_string(),
+                        "movement": i.movement,
+                        "yaw": i.yaw,
+                        "buttons": i.buttons,
+                    })
+                })
+                .collect();
+            json!({
+                "name": name,
+                "bytes": bytes.iter().map(|b| format!("{b:02x}")).collect::<String>(),
+                "ack": d.ack,
+                "ack_bits": d.ack_bits,
+                "inputs": inputs,
+            })
+        })
+        .collect();
+    json!({ "datagrams": list })
+}
+
+#[test]
+fn input_vectors_are_what_the_encoder_writes() {
+    let now = vectors();
+    if std::env::var_os("INERTIA_WRITE_VECTORS").is_some() {
+        let text = serde_json::to_string_pretty(&now).unwrap() + "\n";
+        std::fs::write(FILE, text).unwrap();
+    }
+    let text = std::fs::read_to_string(FILE).expect("the vectors file");
+    let stored: Value = serde_json::from_str(&text).unwrap();
+    same(&stored, &now, "inputs");
+}

@@ -1,0 +1,171 @@
+// The client's datagram, as `protocol/src/input.rs` lays it out: which
+// snapshots arrived (the server codes the next ones against them) and the
+// newest inputs, each repeated in the next few datagrams against loss.
+
+import { BitWriter } from "./bits.js";
+
+/** The first byte of every input datagram. */
+export const INPUT_DATAGRAM_TAG = 0x49;
+/** The most inputs one datagram carries. */
+export const MAX_REDUNDANT_INPUTS = 8;
+/** Defined buttons: jump 1, push 2. */
+export const BUTTONS = { JUMP: 1, PUSH: 2, ALL: 3 } as const;
+
+const MOVEMENT_BITS = 8;
+const YAW_BITS = 12;
+const MOVEMENT_STEPS = 127;
+
+/** One tick's worth of a player's intent. */
+export interface PlayerInput {
+  /** Increases by one per input (wraps at 2^32). */
+  sequence: number;
+  /** The server tick it is meant for. */
+  tick: bigint;
+  /** Movement in the horizontal plane (x, z), each in [−1, 1]. */
+  movement: [number, number];
+  /** Facing angle about +Y, rad. */
+  yaw: number;
+  /** Held buttons ({@link BUTTONS}). */
+  buttons: number;
+}
+
+export interface InputDatagram {
+  /** The newest snapshot sequence received, if any yet. */
+  ack: number | null;
+  /** Bit i: snapshot `ack − 1 − i` (wrapping) received too. */
+  ackBits: number;
+  /** The newest inputs, newest first, at most {@link MAX_REDUNDANT_INPUTS}. */
+  inputs: PlayerInput[];
+}
+
+/** A movement axis on the wire's grid (NaN as 0, clamped to [−1, 1]). */
+function movementIndex(x: number): number {
+  const f = Math.fround(x);
+  const c = Number.isNaN(f) ? 0 : Math.min(1, Math.max(-1, f));
+  return Math.round((c + 1) * MOVEMENT_STEPS);
+}
+
+/** The yaw in 4096ths of a turn (not finite as 0). */
+function yawIndex(yaw: number): number {
+  const f = Math.fround(yaw);
+  if (!Number.isFinite(f)) {
+    return 0;
+  }
+  const turns = f / (2 * Math.PI);
+  const frac = turns - Math.floor(turns);
+  return Math.round(frac * 2 ** YAW_BITS) % 2 ** YAW_BITS;
+}
+
+function writeVarint(w: BitWriter, value: bigint): void {
+  let v = value;
+  for (;;) {
+    const group = Number(v & 0x7fn);
+    v >>= 7n;
+    w.writeBool(v !== 0n);
+    w.write(group, 7);
+    if (v === 0n) {
+      return;
+    }
+  }
+}
+
+function zigzag(v: bigint): bigint {
+  return v >= 0n ? v << 1n : ((-v) << 1n) - 1n;
+}
+
+function writeBody(w: BitWriter, input: PlayerInput): void {
+  for (const m of input.movement) {
+    w.write(movementIndex(m), MOVEMENT_BITS);
+  }
+  w.write(yawIndex(input.yaw), YAW_BITS);
+  w.write(input.buttons, 8);
+}
+
+/** The datagram's bytes. Throws a `RangeError` for what the layout cannot
+ * carry: too many inputs, ack bits without an ack, undefined buttons, a
+ * sequence repeated. */
+export function encodeInputDatagram(d: InputDatagram): Uint8Array {
+  if (d.inputs.length > MAX_REDUNDANT_INPUTS) {
+    throw new RangeError(`${d.inputs.length} inputs, the most is ${MAX_REDUNDANT_INPUTS}`);
+  }
+  const w = new BitWriter();
+  w.write(INPUT_DATAGRAM_TAG, 8);
+  if (d.ack === null) {
+    if (d.ackBits !== 0) {
+      throw new RangeError("ack bits without an ack");
+    }
+    w.writeBool(false);
+  } else {
+    w.writeBool(true);
+    w.write(d.ack, 16);
+    w.write(d.ackBits >>> 0, 32);
+  }
+  w.write(d.inputs.length, 4);
+  let prev: PlayerInput | null = null;
+  for (const input of d.inputs) {
+    if ((input.buttons & ~BUTTONS.ALL) !== 0) {
+      throw new RangeError(`undefined buttons ${input.buttons}`);
+    }
+    if (prev === null) {
+      w.write(input.sequence >>> 0, 32);
+      writeVarint(w, input.tick);
+    } else {
+      const step = (prev.sequence - input.sequence) >>> 0;
+      if (step === 0) {
+        throw new RangeError("a sequence repeated");
+      }
+      if (step === 1) {
+        w.writeBool(true);
+      } else {
+        w.writeBool(false);
+        writeVarint(w, BigInt(step - 2));
+      }
+      // Ticks wrap at 2^64, as the Rust encoder's do.
+      const raw = BigInt.asIntN(64, input.tick - prev.tick);
+      if (raw === -1n) {
+        w.writeBool(true);
+      } else {
+        w.writeBool(false);
+        writeVarint(w, zigzag(raw));
+      }
+    }
+    writeBody(w, input);
+    prev = input;
+  }
+  return w.finish();
+}
+
+/** Which snapshots arrived, as the datagram tells the server: the newest
+ * sequence number and a bit for each of the 32 before it. */
+export class Acks {
+  private newest: number | null = null;
+  private bits = 0;
+
+  /** A snapshot with sequence `seq` (16-bit, wrapping) arrived. */
+  received(seq: number): void {
+    if (this.newest === null) {
+      this.newest = seq;
+      this.bits = 0;
+      return;
+    }
+    const ahead = (seq - this.newest) & 0xffff;
+    if (ahead === 0) {
+      return;
+    }
+    if (ahead < 0x8000) {
+      // Newer: shift the window on, the old newest becoming bit ahead − 1.
+      this.bits = ahead > 32 ? 0 : ahead === 32 ? 2 ** 31 : ((this.bits << ahead) | (1 << (ahead - 1))) >>> 0;
+      this.newest = seq;
+    } else {
+      const behind = (this.newest - seq) & 0xffff;
+      if (behind <= 32) {
+        this.bits = (this.bits | (1 << (behind - 1))) >>> 0;
+      }
+    }
+  }
+
+  /** The datagram's `ack` and `ackBits`. */
+  get(): { ack: number | null; ackBits: number } {
+    return { ack: this.newest, ackBits: this.newest === null ? 0 : this.bits };
+  }
+}
