@@ -173,6 +173,11 @@ pub struct ConfigLayer {
     /// an allocation's scene is not applied.
     #[arg(long, value_name = "DIR")]
     pub scenes_dir: Option<PathBuf>,
+    /// Directory of the browser page's modules (`web/`'s TypeScript build,
+    /// `web/dist/src`), served at `/play` on the metrics listener (default:
+    /// `web/dist/src` when it exists under the working directory).
+    #[arg(long, value_name = "DIR")]
+    pub web_dir: Option<PathBuf>,
     /// The match ends (drain, goodbye `MatchOver`, exit 0) this many
     /// seconds after the start, or under Agones after the allocation,
     /// unless the allocation sets its own length (1..=86400; default: no
@@ -296,6 +301,8 @@ pub struct ServerConfig {
     pub match_seconds: Option<u64>,
     /// Scenes an allocation may ask for (see [`ConfigLayer::scenes_dir`]).
     pub scenes_dir: Option<PathBuf>,
+    /// The browser page's modules (see [`ConfigLayer::web_dir`]).
+    pub web_dir: Option<PathBuf>,
     /// Kept matches' directory, when not <data-dir>/matches (see
     /// [`ConfigLayer::matches_dir`]).
     pub matches_dir: Option<PathBuf>,
@@ -354,6 +361,7 @@ impl Default for ServerConfig {
             orchestrator: OrchestratorMode::Auto,
             match_seconds: None,
             scenes_dir: None,
+            web_dir: None,
             matches_dir: None,
             agones_sdk_port: None,
             max_catch_up_ticks: DEFAULT_MAX_CATCH_UP_TICKS,
@@ -544,6 +552,7 @@ impl ServerConfig {
             orchestrator: layer.orchestrator.unwrap_or(self.orchestrator),
             match_seconds: layer.match_seconds.or(self.match_seconds),
             scenes_dir: layer.scenes_dir.or(self.scenes_dir),
+            web_dir: layer.web_dir.or(self.web_dir),
             matches_dir: layer.matches_dir.or(self.matches_dir),
             agones_sdk_port: self.agones_sdk_port,
             max_catch_up_ticks: layer.max_catch_up_ticks.unwrap_or(self.max_catch_up_ticks),
@@ -741,6 +750,7 @@ impl ConfigLayer {
             orchestrator: self.orchestrator.or(lower.orchestrator),
             match_seconds: self.match_seconds.or(lower.match_seconds),
             scenes_dir: self.scenes_dir.or(lower.scenes_dir),
+            web_dir: self.web_dir.or(lower.web_dir),
             matches_dir: self.matches_dir.or(lower.matches_dir),
             max_catch_up_ticks: self.max_catch_up_ticks.or(lower.max_catch_up_ticks),
             position_resolution_mm: self.position_resolution_mm.or(lower.position_resolution_mm),
@@ -812,6 +822,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         orchestrator: get(env, "INERTIA_ORCHESTRATOR")?,
         match_seconds: get(env, "INERTIA_MATCH_SECONDS")?,
         scenes_dir: get(env, "INERTIA_SCENES_DIR")?,
+        web_dir: get(env, "INERTIA_WEB_DIR")?,
         matches_dir: get(env, "INERTIA_MATCHES_DIR")?,
         position_resolution_mm: get(env, "INERTIA_POSITION_RESOLUTION_MM")?,
         max_catch_up_ticks: get(env, "INERTIA_MAX_CATCH_UP_TICKS")?,

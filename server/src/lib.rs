@@ -9,6 +9,7 @@ pub mod health;
 pub mod metrics;
 pub mod net;
 pub mod orchestrator;
+pub mod play;
 pub mod priority;
 pub mod process;
 pub mod record;

@@ -431,21 +431,33 @@ async fn ready_handler(State(s): State<AppState>) -> impl IntoResponse {
     }
 }
 
-/// Binds `addr` and serves the routes until the future is dropped. Binding
-/// happens when the future is first polled; bind errors end it.
-pub async fn serve(addr: SocketAddr, metrics: Metrics, health: Arc<Health>) -> std::io::Result<()> {
+/// Binds `addr` and serves the routes, and the page's
+/// ([`crate::play`]), until the future is dropped. Binding happens when the
+/// future is first polled; bind errors end it.
+pub async fn serve(
+    addr: SocketAddr,
+    metrics: Metrics,
+    health: Arc<Health>,
+    play: crate::play::PlayConfig,
+) -> std::io::Result<()> {
     let listener = tokio::net::TcpListener::bind(addr).await?;
-    serve_on(listener, metrics, health).await
+    serve_on(listener, metrics, health, play).await
 }
 
-/// Serves the routes on an already bound listener (lets a caller bind port
-/// 0 and learn the port first).
+/// Serves the routes, and the page's, on an already bound listener (lets a
+/// caller bind port 0 and learn the port first).
 pub async fn serve_on(
     listener: tokio::net::TcpListener,
     metrics: Metrics,
     health: Arc<Health>,
+    play: crate::play::PlayConfig,
 ) -> std::io::Result<()> {
-    axum::serve(listener, router(metrics, health)).await
+    let app = router(metrics, health).merge(crate::play::router(play));
+    axum::serve(
+        listener,
+        app.into_make_service_with_connect_info::<SocketAddr>(),
+    )
+    .await
 }
 
 #[cfg(test)]
@@ -474,10 +486,25 @@ mod tests {
         let addr = listener.local_addr().unwrap();
         let metrics = Metrics::new();
         let health = Arc::new(Health::new());
-        let server = tokio::spawn(serve_on(listener, metrics.clone(), health.clone()));
+        let server = tokio::spawn(serve_on(
+            listener,
+            metrics.clone(),
+            health.clone(),
+            crate::play::PlayConfig::default(),
+        ));
 
         let (status, body) = get(addr, "/healthz").await;
         assert_eq!((status, body.trim()), (200, "ok"));
+        // The page: always its HTML; no modules unless built, and no
+        // session outside dev mode.
+        let (status, body) = get(addr, "/play").await;
+        assert_eq!(status, 200);
+        assert!(body.contains("/play/play.js"), "{body}");
+        let (status, body) = get(addr, "/play/play.js").await;
+        assert_eq!(status, 404);
+        assert!(body.contains("npm run build"), "{body}");
+        assert_eq!(get(addr, "/play/session").await.0, 404);
+        assert_eq!(get(addr, "/play/..%2fCargo.toml").await.0, 404);
         assert_eq!(get(addr, "/readyz").await.0, 503);
         health.set_ready(true);
         assert_eq!(get(addr, "/readyz").await.0, 200);

@@ -251,8 +251,12 @@ pub async fn start_with_rules(
     let mut tasks = Vec::new();
     {
         let (metrics, health) = (metrics.clone(), health.clone());
+        let play = crate::play::PlayConfig {
+            web_dir: crate::play::PlayConfig::find_web_dir(config.web_dir.as_deref()),
+            dev_credentials: credentials_path.clone(),
+        };
         tasks.push(tokio::spawn(async move {
-            if let Err(e) = metrics::serve_on(metrics_listener, metrics, health).await {
+            if let Err(e) = metrics::serve_on(metrics_listener, metrics, health, play).await {
                 warn!(error = %e, "metrics endpoint stopped");
             }
         }));

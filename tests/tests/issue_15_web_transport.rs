@@ -1,8 +1,10 @@
 //! A browser's way in, acted by a WebTransport client in the test: the
-//! game port takes HTTP/3 (ALPN `h3`) beside raw QUIC, a session at
-//! `/inertia` with the dev certificate pinned by its hash (as a browser's
-//! `serverCertificateHashes` pins it) joins like any client, and snapshots
-//! and inputs travel as the session's datagrams.
+//! page's session from `/play/session` (a dev server's, to a loopback
+//! peer), then on the game port HTTP/3 (ALPN `h3`) beside raw QUIC: a
+//! session at `/inertia` with the dev certificate pinned by its hash (as a
+//! browser's `serverCertificateHashes` pins it) joins like any client with
+//! the session's token, and snapshots and inputs travel as the session's
+//! datagrams.
 
 use std::time::Duration;
 
@@ -12,7 +14,7 @@ use inertia_protocol::control::{
 };
 use inertia_protocol::credentials::DevCredentials;
 use inertia_protocol::MAX_REDUNDANT_INPUTS;
-use inertia_tests::server::{start_server, test_config, token};
+use inertia_tests::server::{http_get, start_server, test_config};
 
 fn url(port: u16, path: &str) -> url::Url {
     format!("https://127.0.0.1:{port}{path}")
@@ -26,8 +28,24 @@ async fn issue_15_a_web_transport_session_joins_on_the_game_port_and_gets_snapsh
     let path = server.credentials_path().expect("dev mode");
     let creds: DevCredentials =
         serde_json::from_slice(&std::fs::read(path).expect("written")).expect("JSON");
+    let (status, body) = http_get(server.metrics_addr(), "/play/session").await;
+    assert_eq!(status, 200, "{body}");
+    let session: serde_json::Value = serde_json::from_str(&body).expect("JSON");
+    let field = |name: &str| session[name].as_str().expect(name).to_string();
+    assert_eq!(
+        field("cert_hash"),
+        creds.cert_fingerprint,
+        "the certificate to pin"
+    );
     let hash = creds.fingerprint().expect("a SHA-256");
-    let (addr, token) = token(&server, 4242);
+    let addr = server.addr();
+    assert_eq!(
+        field("url"),
+        format!("https://127.0.0.1:{}{WEB_TRANSPORT_PATH}", addr.port())
+    );
+    let token = hex::decode(field("token")).expect("hex");
+    let session_client = session["client_id"].as_u64().expect("a client id");
+    assert!(session_client < 1 << 53, "a JavaScript number holds it");
     let client = web_transport_quinn::ClientBuilder::new()
         .with_server_certificate_hashes(vec![hash.to_vec()])
         .expect("a client");
@@ -46,7 +64,7 @@ async fn issue_15_a_web_transport_session_joins_on_the_game_port_and_gets_snapsh
     let (mut send, mut recv) = session.open_bi().await.expect("a control stream");
     let hello = ClientControl::Hello {
         version: PROTOCOL_VERSION,
-        token: token.to_bytes(),
+        token,
     };
     send.write_all(&encode_frame(&hello).expect("encodes"))
         .await
@@ -76,7 +94,7 @@ async fn issue_15_a_web_transport_session_joins_on_the_game_port_and_gets_snapsh
     else {
         panic!("expected a welcome, got {welcome:?}");
     };
-    assert_eq!(client_id, 4242);
+    assert_eq!(client_id, session_client);
     let mut game = ClientSession::new(
         ClientConfig {
             snapshot: snapshot.config(position_resolution, position_bound),

@@ -251,6 +251,16 @@ impl Drop for InFlight {
     }
 }
 
+/// Stops every unidirectional stream the peer of a raw QUIC connection
+/// opens, unread: its protocols have none, and the endpoint grants them
+/// only for HTTP/3's sake ([`tls::server_transport`]). Ends with the
+/// connection.
+pub async fn refuse_uni_streams(connection: quinn::Connection) {
+    while let Ok(mut stream) = connection.accept_uni().await {
+        let _ = stream.stop(0u32.into());
+    }
+}
+
 /// Finishes the QUIC handshake of one incoming connection and serves it
 /// as the protocol it chose: the admin channel or a game client.
 async fn route(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>, handshake: InFlight) {
@@ -269,6 +279,9 @@ async fn route(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>, hands
         }
     };
     drop(handshake);
+    if negotiated_alpn(&connection).as_deref() != Some(WEB_TRANSPORT_ALPN) {
+        tokio::spawn(refuse_uni_streams(connection.clone()));
+    }
     match negotiated_alpn(&connection).as_deref() {
         Some(ADMIN_ALPN) => crate::admin::serve(connection, id, shared).await,
         Some(WEB_TRANSPORT_ALPN) => web_transport::serve(connection, id, shared).await,

@@ -40,16 +40,20 @@ pub fn server_config(creds: &Credentials) -> Result<quinn::ServerConfig, String>
 pub const STREAM_WINDOW: u32 = MAX_CONTROL_FRAME as u32 + 4;
 
 /// The server's transport limits: [`transport`], with only the streams the
-/// protocol uses (one bidirectional control stream from the peer, which
-/// the game client and the admin tool each open once; no unidirectional
-/// streams) and receive windows of one largest legal frame. Streams the
-/// server would never read cannot be opened, so they hold no memory. A
-/// browser's HTTP/3 connection is granted the few more it needs once it
-/// has chosen HTTP/3 ([`super::web_transport`]).
+/// protocols use and receive windows of one largest legal frame (for the
+/// whole connection too). The game client and the admin tool open one
+/// bidirectional control stream and no unidirectional one; a browser's
+/// HTTP/3 connection needs three unidirectional streams (its control
+/// stream and QPACK's two), which browsers insist on from the handshake,
+/// before the protocol is known. So three are granted to every
+/// connection, and on a raw QUIC connection each one opened is stopped at
+/// once, unread ([`super::refuse_uni_streams`]). A browser's connection
+/// is granted its second bidirectional stream once it has chosen HTTP/3
+/// ([`super::web_transport`]).
 pub fn server_transport() -> quinn::TransportConfig {
     let mut t = transport();
     t.max_concurrent_bidi_streams(1u32.into());
-    t.max_concurrent_uni_streams(0u32.into());
+    t.max_concurrent_uni_streams(3u32.into());
     t.stream_receive_window(STREAM_WINDOW.into());
     t.receive_window(STREAM_WINDOW.into());
     t

@@ -20,19 +20,14 @@ const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
 /// Bidirectional streams a browser may open: the CONNECT request, then the
 /// game's control stream inside the session.
 const BIDI_STREAMS: u32 = 2;
-/// Unidirectional streams a browser may open: its HTTP/3 control stream
-/// and QPACK's encoder and decoder streams.
-const UNI_STREAMS: u32 = 3;
 
 /// Serves one HTTP/3 connection: its WebTransport session, if it asks for
 /// one at the game's path.
 pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared>) {
     let remote = connection.remote_address();
-    // The endpoint grants every connection one bidirectional stream and no
-    // unidirectional one (the raw QUIC protocols need no more); HTTP/3
-    // needs a few more, and only those are added.
+    // The endpoint grants every connection one bidirectional stream (the
+    // raw QUIC protocols need no more); HTTP/3 needs a second.
     connection.set_max_concurrent_bi_streams(BIDI_STREAMS.into());
-    connection.set_max_concurrent_uni_streams(UNI_STREAMS.into());
     let request = match tokio::time::timeout(
         CONNECT_TIMEOUT,
         web_transport_quinn::Request::accept(connection.clone()),

@@ -1,0 +1,190 @@
+// The page at /play in a real browser: Debian's Chromium, headless, driven
+// by playwright-core, against a real dev server on loopback. The page must
+// join over WebTransport, receive at least 60 snapshots, draw the demo's
+// objects, and freeze when `inertia-admin pause` is issued.
+//
+// Run by `npm run test:browser` (the server built first: `.ci/run` has
+// built it; INERTIA_SERVER_BIN and INERTIA_ADMIN_BIN name other builds,
+// CHROMIUM_BIN another browser).
+
+import assert from "node:assert/strict";
+import { spawn, spawnSync, type ChildProcess } from "node:child_process";
+import { mkdtempSync, rmSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
+import { createInterface } from "node:readline";
+import { after, before, test } from "node:test";
+import { fileURLToPath } from "node:url";
+
+import { chromium, type Browser, type Page } from "playwright-core";
+
+const ROOT = fileURLToPath(new URL("../../../", import.meta.url));
+const SERVER = process.env.INERTIA_SERVER_BIN ?? join(ROOT, "target/debug/inertia-server");
+const ADMIN = process.env.INERTIA_ADMIN_BIN ?? join(ROOT, "target/debug/inertia-admin");
+const BROWSER = process.env.CHROMIUM_BIN ?? "/usr/bin/chromium";
+
+interface Progress {
+  state: string;
+  error: string | null;
+  snapshots: number;
+  tick: number;
+  paused: boolean;
+  frames: number;
+  entities: number;
+}
+
+let server: ChildProcess;
+let dataDir: string;
+let metrics: string;
+let browser: Browser;
+let page: Page;
+
+async function progress(): Promise<Progress> {
+  return page.evaluate(() => (window as unknown as { inertia: Progress }).inertia);
+}
+
+async function until(what: string, limitMs: number, done: (p: Progress) => boolean): Promise<Progress> {
+  const start = Date.now();
+  for (;;) {
+    const p = await progress();
+    if (p.state === "failed") {
+      assert.fail(`the page failed: ${p.error}`);
+    }
+    if (done(p)) {
+      return p;
+    }
+    if (Date.now() - start > limitMs) {
+      assert.fail(`${what}: not within ${limitMs} ms (${JSON.stringify(p)})`);
+    }
+    await new Promise((r) => setTimeout(r, 100));
+  }
+}
+
+/** The canvas's pixels (without the HUD over it), as a digest. */
+async function canvasDigest(): Promise<string> {
+  return page.evaluate(() => {
+    const canvas = document.getElementById("world") as HTMLCanvasElement;
+    const copy = document.createElement("canvas");
+    copy.width = canvas.width;
+    copy.height = canvas.height;
+    const ctx = copy.getContext("2d")!;
+    ctx.drawImage(canvas, 0, 0);
+    const px = ctx.getImageData(0, 0, copy.width, copy.height).data;
+    let h = 0x811c9dc5;
+    for (const b of px) {
+      h = Math.imul(h ^ b, 0x01000193) >>> 0;
+    }
+    return `${copy.width}x${copy.height}:${h.toString(16)}`;
+  });
+}
+
+function admin(...args: string[]): void {
+  const run = spawnSync(ADMIN, ["--credentials", join(dataDir, "dev-credentials.json"), ...args], {
+    encoding: "utf8",
+    timeout: 30_000,
+  });
+  assert.equal(run.status, 0, `inertia-admin ${args.join(" ")}: ${run.stderr}`);
+}
+
+before(async () => {
+  dataDir = mkdtempSync(join(tmpdir(), "inertia-browser-"));
+  server = spawn(
+    SERVER,
+    [
+      "--listen", "127.0.0.1:0",
+      "--metrics", "127.0.0.1:0",
+      "--data-dir", dataDir,
+      "--web-dir", join(ROOT, "web/dist/src"),
+      "--log-format", "json",
+    ],
+    { stdio: ["ignore", "pipe", "inherit"] },
+  );
+  metrics = await new Promise<string>((resolve, reject) => {
+    const lines = createInterface({ input: server.stdout! });
+    const timer = setTimeout(() => reject(new Error("the server did not get ready in 60 s")), 60_000);
+    lines.on("line", (line) => {
+      try {
+        const fields = JSON.parse(line).fields ?? {};
+        if (fields.message === "server ready" && typeof fields.metrics_addr === "string") {
+          clearTimeout(timer);
+          resolve(fields.metrics_addr);
+        }
+      } catch {
+        // Not a log line of ours.
+      }
+    });
+    server.on("exit", (code) => reject(new Error(`the server exited with ${code}`)));
+  });
+  browser = await chromium.launch({
+    executablePath: BROWSER,
+    headless: true,
+    // No GPU here: WebGL2 through SwiftShader.
+    args: ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"],
+  });
+  page = await browser.newPage({ viewport: { width: 960, height: 540 } });
+});
+
+after(async () => {
+  await browser?.close();
+  server?.kill("SIGTERM");
+  if (dataDir) {
+    rmSync(dataDir, { recursive: true, force: true });
+  }
+});
+
+test("the page joins over WebTransport and receives snapshots", async () => {
+  await page.goto(`http://${metrics}/play/`);
+  const p = await until("60 snapshots", 30_000, (p) => p.snapshots >= 60);
+  assert.equal(p.state, "joined");
+  assert.ok(p.entities > 100, `${p.entities} entities described`);
+});
+
+test("the picture shows the demo's objects", async () => {
+  await until("frames drawn", 10_000, (p) => p.frames >= 10);
+  // Colour classes of the demo's bodies, counted in the canvas's pixels.
+  const counts = await page.evaluate(() => {
+    const canvas = document.getElementById("world") as HTMLCanvasElement;
+    const copy = document.createElement("canvas");
+    copy.width = canvas.width;
+    copy.height = canvas.height;
+    const ctx = copy.getContext("2d")!;
+    ctx.drawImage(canvas, 0, 0);
+    const px = ctx.getImageData(0, 0, copy.width, copy.height).data;
+    const c = { sky: 0, ground: 0, blue: 0, brown: 0, total: px.length / 4 };
+    for (let i = 0; i < px.length; i += 4) {
+      const [r, g, b] = [px[i]!, px[i + 1]!, px[i + 2]!];
+      if (b > 180 && r > 150 && g > 170 && b > r) c.sky++;
+      else if (g > r + 15 && g > b + 15) c.ground++;
+      else if (b > r + 40 && b > g + 10) c.blue++;
+      else if (r > g + 20 && g > b + 10) c.brown++;
+    }
+    return c;
+  });
+  assert.ok(counts.sky > counts.total * 0.1, `sky: ${JSON.stringify(counts)}`);
+  assert.ok(counts.ground > counts.total * 0.2, `ground: ${JSON.stringify(counts)}`);
+  // Bodies cover a good part of the picture, among them the pyramid's
+  // blue boxes and the bridge's and crates' wood.
+  const bodies = counts.total - counts.sky - counts.ground;
+  assert.ok(bodies > counts.total * 0.03, `bodies: ${JSON.stringify(counts)}`);
+  for (const body of ["blue", "brown"] as const) {
+    assert.ok(counts[body] > 500, `${body} bodies: ${JSON.stringify(counts)}`);
+  }
+});
+
+test("the picture freezes when the server is paused", async () => {
+  admin("pause");
+  const paused = await until("the pause", 10_000, (p) => p.paused);
+  await new Promise((r) => setTimeout(r, 500));
+  const a = await progress();
+  const shotA = await canvasDigest();
+  await new Promise((r) => setTimeout(r, 1000));
+  const b = await progress();
+  const shotB = await canvasDigest();
+  assert.ok(b.frames > a.frames, "the page goes on drawing");
+  assert.ok(b.snapshots > a.snapshots, "snapshots go on arriving");
+  assert.equal(b.tick, a.tick, "the tick moved while paused");
+  assert.ok(a.tick >= paused.tick);
+  assert.equal(shotA, shotB, "the picture changed while paused");
+  admin("resume");
+  await until("running again", 10_000, (p) => !p.paused && p.tick > b.tick);
+});

@@ -1,0 +1,320 @@
+// The page at /play: asks the server for a session (a dev server hands one
+// out), joins over WebTransport with the certificate pinned by its hash,
+// decodes snapshots, and draws the world with WebGL2 and a HUD.
+//
+// Progress is published on `window.inertia` (snapshots received, the tick
+// drawn, frames drawn, the clock), which the browser test reads.
+
+import {
+  decodeServerControl,
+  encodeClientControl,
+  FrameDecoder,
+  PROTOCOL_VERSION,
+  type EntityDesc,
+  type ServerControl,
+  type Welcome,
+} from "./control.js";
+import { Acks, encodeInputDatagram, type PlayerInput } from "./input.js";
+import { meshOf, type Mesh } from "./mesh.js";
+import { SnapshotDecoder, type SnapshotConfig } from "./snapshot.js";
+import { Renderer, type Pose } from "./render.js";
+
+interface Session {
+  url: string;
+  cert_hash: string;
+  token: string;
+  client_id: number;
+}
+
+/** What the page has done, for people and for tests. */
+export interface Progress {
+  state: "connecting" | "joined" | "closed" | "failed";
+  error: string | null;
+  snapshots: number;
+  tick: number;
+  paused: boolean;
+  timeScale: number;
+  entities: number;
+  frames: number;
+}
+
+const progress: Progress = {
+  state: "connecting",
+  error: null,
+  snapshots: 0,
+  tick: 0,
+  paused: false,
+  timeScale: 1,
+  entities: 0,
+  frames: 0,
+};
+(window as unknown as { inertia: Progress }).inertia = progress;
+
+function bytesOfHex(hex: string): Uint8Array<ArrayBuffer> {
+  return Uint8Array.from(hex.match(/../g) ?? [], (b) => parseInt(b, 16));
+}
+
+/** One entity's last two poses, with their arrival times (ms). */
+interface Track {
+  desc: EntityDesc;
+  mesh: Mesh;
+  before: Pose;
+  after: Pose;
+  at: number;
+}
+
+class World {
+  readonly tracks = new Map<number, Track>();
+  /** Snapshot interval seen lately, ms. */
+  interval = 33;
+  private lastArrival = 0;
+
+  describe(desc: EntityDesc): void {
+    const pose: Pose = { position: desc.position, rotation: desc.rotation };
+    this.tracks.set(desc.id, { desc, mesh: meshOf(desc.shape), before: pose, after: pose, at: 0 });
+  }
+
+  forget(id: number): void {
+    this.tracks.delete(id);
+  }
+
+  arrived(now: number): void {
+    if (this.lastArrival > 0) {
+      const gap = now - this.lastArrival;
+      this.interval += (Math.min(Math.max(gap, 5), 200) - this.interval) * 0.1;
+    }
+    this.lastArrival = now;
+  }
+
+  move(id: number, pose: Pose, now: number): void {
+    const t = this.tracks.get(id);
+    if (!t) {
+      return;
+    }
+    t.before = this.poseAt(t, now);
+    t.after = pose;
+    t.at = now;
+  }
+
+  /** Where `t` is drawn at `now`: from its previous pose to its newest
+   * over one snapshot interval after the newest arrived. */
+  poseAt(t: Track, now: number): Pose {
+    const u = Math.min(Math.max((now - t.at) / this.interval, 0), 1);
+    return lerpPose(t.before, t.after, u);
+  }
+}
+
+function lerpPose(a: Pose, b: Pose, u: number): Pose {
+  const p = a.position.map((x, i) => x + ((b.position[i] ?? x) - x) * u) as [number, number, number];
+  // Normalised linear blend along the shorter arc: enough between two
+  // snapshots a frame or two apart.
+  const dot = a.rotation.reduce((s, x, i) => s + x * (b.rotation[i] ?? 0), 0);
+  const sign = dot < 0 ? -1 : 1;
+  const q = a.rotation.map((x, i) => x + (sign * (b.rotation[i] ?? 0) - x) * u);
+  const n = Math.hypot(...q) || 1;
+  return { position: p, rotation: q.map((x) => x / n) as [number, number, number, number] };
+}
+
+function snapshotConfig(w: Welcome): SnapshotConfig {
+  return {
+    grid: { resolution: w.position_resolution, bound: w.position_bound },
+    rotationBits: w.snapshot.rotation_bits,
+    velocities: w.snapshot.velocity_resolution !== null,
+    velocityGrid: { resolution: w.snapshot.velocity_resolution ?? 0.01, bound: w.snapshot.velocity_bound },
+    maxDatagram: w.snapshot.max_datagram,
+  };
+}
+
+function setStatus(text: string): void {
+  const el = document.getElementById("status");
+  if (el) {
+    el.textContent = text;
+  }
+}
+
+function showFigures(rows: [string, string][]): void {
+  const table = document.getElementById("figures");
+  if (!table) {
+    return;
+  }
+  table.innerHTML = rows.map(([k, v]) => `<tr><td>${k}</td><td>${v}</td></tr>`).join("");
+}
+
+async function main(): Promise<void> {
+  const answer = await fetch("/play/session", { cache: "no-store" });
+  if (!answer.ok) {
+    throw new Error(`no session: ${answer.status} ${await answer.text()}`);
+  }
+  const session = (await answer.json()) as Session;
+  const transport = new WebTransport(session.url, {
+    serverCertificateHashes: [{ algorithm: "sha-256", value: bytesOfHex(session.cert_hash) }],
+  });
+  await transport.ready;
+  const stream = await transport.createBidirectionalStream();
+  const control = stream.writable.getWriter();
+  await control.write(encodeClientControl({ Hello: { version: PROTOCOL_VERSION, token: bytesOfHex(session.token) } }));
+
+  const world = new World();
+  const frames = new FrameDecoder();
+  const reader = stream.readable.getReader();
+  let welcome: Welcome | null = null;
+  const handle = (msg: ServerControl): void => {
+    if ("Welcome" in msg) {
+      welcome = msg.Welcome;
+    } else if ("Spawn" in msg) {
+      world.describe(msg.Spawn);
+    } else if ("Despawn" in msg) {
+      world.forget(msg.Despawn.id);
+    } else if ("Refused" in msg) {
+      throw new Error(`refused: ${JSON.stringify(msg.Refused)}`);
+    } else if ("Goodbye" in msg) {
+      progress.state = "closed";
+      setStatus(`the server said goodbye: ${JSON.stringify(msg.Goodbye)}`);
+    }
+  };
+  const readControl = async (): Promise<void> => {
+    for (;;) {
+      const { value, done } = await reader.read();
+      if (done) {
+        return;
+      }
+      frames.push(value);
+      for (let payload = frames.next(); payload; payload = frames.next()) {
+        handle(decodeServerControl(payload));
+      }
+    }
+  };
+  // The welcome first: nothing decodes before it.
+  while (!welcome) {
+    const { value, done } = await reader.read();
+    if (done) {
+      throw new Error("the server closed the control stream before its welcome");
+    }
+    frames.push(value);
+    for (let payload = frames.next(); payload; payload = frames.next()) {
+      handle(decodeServerControl(payload));
+    }
+  }
+  const joined: Welcome = welcome;
+  void readControl().catch((e: unknown) => fail(e));
+  progress.state = "joined";
+  setStatus("");
+
+  const decoder = new SnapshotDecoder(snapshotConfig(joined));
+  const acks = new Acks();
+  let received = 0;
+  let bytesWindow: [number, number][] = [];
+  const datagrams = transport.datagrams.readable.getReader();
+  const readSnapshots = async (): Promise<void> => {
+    for (;;) {
+      const { value, done } = await datagrams.read();
+      if (done) {
+        return;
+      }
+      const now = performance.now();
+      bytesWindow.push([now, value.length]);
+      try {
+        const snap = decoder.decode(value);
+        acks.received(snap.sequence);
+        received++;
+        progress.snapshots = received;
+        progress.paused = snap.paused;
+        progress.timeScale = snap.timeScale;
+        if (Number(snap.tick) >= progress.tick) {
+          progress.tick = Number(snap.tick);
+          world.arrived(now);
+        }
+        for (const id of snap.removed) {
+          world.forget(id);
+        }
+        for (const e of snap.updated) {
+          world.move(e.id, { position: e.position, rotation: e.rotation }, now);
+        }
+      } catch {
+        // A datagram that does not decode (its baseline was lost): the
+        // next ones will.
+      }
+    }
+  };
+  void readSnapshots().catch((e: unknown) => fail(e));
+
+  // Inputs at the tick rate, with the acknowledgements the server codes
+  // against; the last few repeated.
+  const sender = transport.datagrams.writable.getWriter();
+  const recent: PlayerInput[] = [];
+  let sequence = 0;
+  const keys = new Set<string>();
+  addEventListener("keydown", (e) => keys.add(e.key.toLowerCase()));
+  addEventListener("keyup", (e) => keys.delete(e.key.toLowerCase()));
+  setInterval(() => {
+    const x = (keys.has("d") ? 1 : 0) - (keys.has("a") ? 1 : 0);
+    const z = (keys.has("s") ? 1 : 0) - (keys.has("w") ? 1 : 0);
+    sequence = (sequence + 1) >>> 0;
+    recent.unshift({ sequence, tick: BigInt(progress.tick), movement: [x, z], yaw: 0, buttons: keys.has(" ") ? 1 : 0 });
+    recent.length = Math.min(recent.length, 8);
+    const { ack, ackBits } = acks.get();
+    void sender.write(encodeInputDatagram({ ack, ackBits, inputs: recent })).catch(() => {});
+  }, 1000 / joined.tick_hz);
+
+  const canvas = document.getElementById("world") as HTMLCanvasElement;
+  const renderer = new Renderer(canvas);
+  let drag: [number, number] | null = null;
+  canvas.addEventListener("pointerdown", (e) => (drag = [e.clientX, e.clientY]));
+  addEventListener("pointerup", () => (drag = null));
+  addEventListener("pointermove", (e) => {
+    if (drag) {
+      renderer.camera.orbit(e.clientX - drag[0], e.clientY - drag[1]);
+      drag = [e.clientX, e.clientY];
+    }
+  });
+  canvas.addEventListener("wheel", (e) => renderer.camera.zoom(-Math.sign(e.deltaY)), { passive: true });
+
+  const frame = (): void => {
+    const now = performance.now();
+    const items = [...world.tracks.values()].map((t) => ({
+      id: t.desc.id,
+      mesh: t.mesh,
+      color: t.desc.color,
+      kind: t.desc.kind,
+      pose: world.poseAt(t, now),
+    }));
+    renderer.draw(items);
+    progress.frames++;
+    progress.entities = items.length;
+    bytesWindow = bytesWindow.filter(([t]) => now - t < 1000);
+    const kbps = (bytesWindow.reduce((s, [, n]) => s + n, 0) * 8) / 1000;
+    const clock = progress.paused
+      ? "paused"
+      : progress.timeScale < 0
+        ? `reverse ×${-progress.timeScale}`
+        : `running ×${progress.timeScale}`;
+    showFigures([
+      ["server", new URL(session.url).host],
+      ["client", session.client_id.toString(16)],
+      ["tick", progress.tick.toString()],
+      ["sim time", `${(progress.tick / joined.tick_hz).toFixed(2)} s`],
+      ["clock", clock],
+      ["entities", items.length.toString()],
+      ["snapshots", received.toString()],
+      ["received", `${kbps.toFixed(0)} kbit/s`],
+    ]);
+    if (progress.state === "joined") {
+      requestAnimationFrame(frame);
+    }
+  };
+  requestAnimationFrame(frame);
+  void transport.closed
+    .then(() => {
+      progress.state = "closed";
+      setStatus("disconnected");
+    })
+    .catch((e: unknown) => fail(e));
+}
+
+function fail(e: unknown): void {
+  progress.state = "failed";
+  progress.error = e instanceof Error ? e.message : String(e);
+  setStatus(`failed: ${progress.error}`);
+}
+
+main().catch(fail);
