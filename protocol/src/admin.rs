@@ -946,7 +946,8 @@ mod tests {
             | ShapeDesc::TriMesh { .. }
             | ShapeDesc::Compound { .. }
             | ShapeDesc::Particle { .. }
-            | ShapeDesc::Ground => {}
+            | ShapeDesc::Ground
+            | ShapeDesc::HeightField { .. } => {}
         }
     }
 

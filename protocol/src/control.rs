@@ -29,7 +29,7 @@ use crate::token::{self, OpenedToken, ReplayGuard, TokenError, TokenKey, MAX_TOK
 
 /// The version of the whole wire protocol (control, datagrams and tokens).
 /// A client and server speak only when theirs are equal.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub const PROTOCOL_VERSION: u16 = 2;
 /// The QUIC ALPN protocol id of the game connection.
 pub const ALPN: &[u8] = b"inertia";
 
@@ -575,6 +575,25 @@ fn validate_shape(shape: &ShapeDesc, nested: bool) -> Result<(), ControlError> {
             Ok(())
         }
         ShapeDesc::Ground => Ok(()),
+        ShapeDesc::HeightField {
+            rows,
+            cols,
+            size,
+            heights,
+        } => {
+            check_count("heightfield samples", heights.len(), ShapeDesc::MAX_POINTS)?;
+            if *rows < 2 || *cols < 2 || u64::from(*rows) * u64::from(*cols) != heights.len() as u64
+            {
+                return Err(ControlError::OutOfRange {
+                    what: "heightfield rows and columns",
+                });
+            }
+            size.iter()
+                .try_for_each(|&s| check_size("heightfield size", s))?;
+            heights
+                .iter()
+                .try_for_each(|h| check_finite("heightfield height", &[*h]))
+        }
     }
 }
 
@@ -922,6 +941,12 @@ enum WireShape<P> {
         radius: f32,
     },
     Ground,
+    HeightField {
+        rows: u32,
+        cols: u32,
+        size: [f32; 2],
+        heights: Vec<f32>,
+    },
 }
 
 impl<P: Into<ShapeDesc>> From<WireShape<P>> for ShapeDesc {
@@ -959,6 +984,17 @@ impl<P: Into<ShapeDesc>> From<WireShape<P>> for ShapeDesc {
             },
             WireShape::Particle { radius } => ShapeDesc::Particle { radius },
             WireShape::Ground => ShapeDesc::Ground,
+            WireShape::HeightField {
+                rows,
+                cols,
+                size,
+                heights,
+            } => ShapeDesc::HeightField {
+                rows,
+                cols,
+                size,
+                heights,
+            },
         }
     }
 }

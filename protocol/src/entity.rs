@@ -83,6 +83,19 @@ pub enum ShapeDesc {
     },
     /// An infinite ground plane through the origin, normal +Y.
     Ground,
+    /// Terrain: heights on a regular grid centred on the origin, rows
+    /// along Z and columns along X (as the engine's heightfields), at most
+    /// [`ShapeDesc::MAX_POINTS`] samples (a server thins a larger field).
+    HeightField {
+        /// Samples along Z (at least 2).
+        rows: u32,
+        /// Samples along X (at least 2).
+        cols: u32,
+        /// The whole field's size along X and Z, m.
+        size: [f32; 2],
+        /// Heights, m, row after row (`rows × cols`).
+        heights: Vec<f32>,
+    },
 }
 
 impl ShapeDesc {

@@ -231,6 +231,19 @@ fn server_messages() -> Vec<(&'static str, ServerControl)> {
             ServerControl::Spawn(entity(9, EntityKind::Static, ShapeDesc::Ground)),
         ),
         ("spawn: water", ServerControl::Spawn(water)),
+        (
+            "spawn: heightfield",
+            ServerControl::Spawn(entity(
+                12,
+                EntityKind::Static,
+                ShapeDesc::HeightField {
+                    rows: 2,
+                    cols: 3,
+                    size: [40.0, 20.0],
+                    heights: vec![0.0, 1.5, -0.25, 3.0, 0.125, 2.0],
+                },
+            )),
+        ),
         ("despawn", ServerControl::Despawn { id: 4_000_000_000 }),
         (
             "event: contact",
@@ -406,6 +419,7 @@ fn control_vectors_cover_every_message_and_every_shape() {
         "Compound",
         "Particle",
         "Ground",
+        "HeightField",
     ] {
         assert!(shapes.iter().any(|s| s == shape), "no {shape}");
     }

@@ -107,7 +107,49 @@ pub fn mesh_of(shape: &ShapeDesc) -> Mesh {
             out
         }
         ShapeDesc::Ground => ground(),
+        ShapeDesc::HeightField {
+            rows,
+            cols,
+            size,
+            heights,
+        } => height_field(*rows as usize, *cols as usize, *size, heights),
     }
+}
+
+/// Terrain: one corner per sample, smooth normals from the neighbouring
+/// samples, two triangles per cell. A field whose heights do not match its
+/// rows and columns draws nothing.
+fn height_field(rows: usize, cols: usize, size: [f32; 2], heights: &[f32]) -> Mesh {
+    let mut mesh = Mesh::default();
+    if rows < 2 || cols < 2 || heights.len() != rows * cols {
+        return mesh;
+    }
+    let (dx, dz) = (size[0] / (cols - 1) as f32, size[1] / (rows - 1) as f32);
+    let at = |r: usize, c: usize| {
+        Vec3::new(
+            c as f32 * dx - size[0] * 0.5,
+            heights[r * cols + c],
+            r as f32 * dz - size[1] * 0.5,
+        )
+    };
+    for r in 0..rows {
+        for c in 0..cols {
+            // Central differences (one-sided at the edges).
+            let (c0, c1) = (c.saturating_sub(1), (c + 1).min(cols - 1));
+            let (r0, r1) = (r.saturating_sub(1), (r + 1).min(rows - 1));
+            let along_x = at(r, c1) - at(r, c0);
+            let along_z = at(r1, c) - at(r0, c);
+            mesh.push(at(r, c), along_z.cross(along_x));
+        }
+    }
+    for r in 0..rows - 1 {
+        for c in 0..cols - 1 {
+            let a = (r * cols + c) as u32;
+            let (b, d, e) = (a + 1, a + cols as u32, a + cols as u32 + 1);
+            mesh.indices.extend([a, d, b, b, d, e]);
+        }
+    }
+    mesh
 }
 
 /// A ball of `radius`, or a capsule when `half_height` > 0 (the two
@@ -375,6 +417,34 @@ mod tests {
         });
         assert_eq!(mesh.triangle_count(), 1);
         assert_eq!(mesh.vertices[0].normal, [0.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn a_heightfield_spans_its_size_with_its_heights_and_faces_up() {
+        let mesh = mesh_of(&ShapeDesc::HeightField {
+            rows: 3,
+            cols: 4,
+            size: [6.0, 2.0],
+            heights: vec![0.0, 0.5, 1.0, 0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.5, 1.0, 2.0],
+        });
+        assert_eq!(mesh.vertices.len(), 12);
+        assert_eq!(mesh.triangle_count(), 2 * 2 * 3);
+        assert_eq!(mesh.vertices[0].position, [-3.0, 0.0, -1.0]);
+        assert_eq!(mesh.vertices[11].position, [3.0, 2.0, 1.0]);
+        for v in &mesh.vertices {
+            assert!(v.normal[1] > 0.0, "{:?} faces down", v.normal);
+        }
+        for t in mesh.indices.chunks(3) {
+            let [a, b, c] = [0, 1, 2].map(|k| Vec3::from(mesh.vertices[t[k] as usize].position));
+            assert!((b - a).cross(c - a).y > 0.0, "a triangle faces down");
+        }
+        let bad = mesh_of(&ShapeDesc::HeightField {
+            rows: 3,
+            cols: 3,
+            size: [1.0, 1.0],
+            heights: vec![0.0; 4],
+        });
+        assert!(bad.indices.is_empty());
     }
 
     #[test]

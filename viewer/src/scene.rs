@@ -58,6 +58,15 @@ fn hash_shape(shape: &ShapeDesc, h: &mut impl Hasher) {
             }
         }
         ShapeDesc::Ground => {}
+        ShapeDesc::HeightField {
+            rows,
+            cols,
+            size,
+            heights,
+        } => {
+            (rows, cols).hash(h);
+            hash_floats(size.iter().chain(heights).copied(), h);
+        }
     }
 }
 

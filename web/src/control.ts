@@ -17,7 +17,7 @@ export class ControlError extends Error {}
 export const MAX_CONTROL_FRAME = 64 * 1024;
 
 /** The protocol version this client speaks (`PROTOCOL_VERSION`). */
-export const PROTOCOL_VERSION = 1;
+export const PROTOCOL_VERSION = 2;
 
 // ---- the messages ----
 
@@ -33,7 +33,8 @@ export type ShapeDesc =
   | { TriMesh: { vertices: Vec3[]; triangles: Vec3[] } }
   | { Compound: { parts: [Vec3, Quat, ShapeDesc][] } }
   | { Particle: { radius: number } }
-  | "Ground";
+  | "Ground"
+  | { HeightField: { rows: number; cols: number; size: [number, number]; heights: number[] } };
 
 export type EntityKind = "Static" | "Dynamic" | "Kinematic" | "Avatar" | "Water";
 
@@ -287,7 +288,7 @@ class Writer {
 const SHAPE_DEPTH_LIMIT = 2;
 
 function shape(r: Reader, depth: number): ShapeDesc {
-  switch (r.variant("ShapeDesc", 9)) {
+  switch (r.variant("ShapeDesc", 10)) {
     case 0:
       return { Sphere: { radius: r.f32() } };
     case 1:
@@ -318,8 +319,14 @@ function shape(r: Reader, depth: number): ShapeDesc {
     }
     case 7:
       return { Particle: { radius: r.f32() } };
-    default:
+    case 8:
       return "Ground";
+    default: {
+      const rows = r.u32();
+      const cols = r.u32();
+      const size: [number, number] = [r.f32(), r.f32()];
+      return { HeightField: { rows, cols, size, heights: r.list(() => r.f32()) } };
+    }
   }
 }
 

@@ -1,7 +1,7 @@
 // Triangle meshes for the shapes a server describes, in the entity's own
 // frame (m), as `viewer/src/mesh.rs` makes them for the native viewer:
-// flat faces with a normal each, round surfaces smooth. A convex hull is
-// drawn as its bounding box here.
+// flat faces with a normal each, round surfaces and terrain smooth. A
+// convex hull is drawn as its bounding box here.
 
 import type { ShapeDesc, Vec3 } from "./control.js";
 
@@ -178,6 +178,35 @@ function build(b: Builder, shape: ShapeDesc, depth: number): void {
       const pd = v[d];
       if (pa && pc && pd) {
         b.triangle(pa, pc, pd);
+      }
+    }
+  } else if ("HeightField" in shape) {
+    const { rows, cols, size, heights } = shape.HeightField;
+    if (rows < 2 || cols < 2 || heights.length !== rows * cols) {
+      return;
+    }
+    const at = (r: number, c: number): Vec3 => [
+      (c * size[0]) / (cols - 1) - size[0] / 2,
+      heights[r * cols + c] ?? 0,
+      (r * size[1]) / (rows - 1) - size[1] / 2,
+    ];
+    const base = b.v.length / 6;
+    for (let r = 0; r < rows; r++) {
+      for (let c = 0; c < cols; c++) {
+        const x0 = at(r, Math.max(c - 1, 0));
+        const x1 = at(r, Math.min(c + 1, cols - 1));
+        const z0 = at(Math.max(r - 1, 0), c);
+        const z1 = at(Math.min(r + 1, rows - 1), c);
+        const ax: Vec3 = [x1[0] - x0[0], x1[1] - x0[1], x1[2] - x0[2]];
+        const az: Vec3 = [z1[0] - z0[0], z1[1] - z0[1], z1[2] - z0[2]];
+        // along_z × along_x: up.
+        b.push(at(r, c), [az[1] * ax[2] - az[2] * ax[1], az[2] * ax[0] - az[0] * ax[2], az[0] * ax[1] - az[1] * ax[0]]);
+      }
+    }
+    for (let r = 0; r < rows - 1; r++) {
+      for (let c = 0; c < cols - 1; c++) {
+        const a = base + r * cols + c;
+        b.i.push(a, a + cols, a + 1, a + 1, a + cols, a + cols + 1);
       }
     }
   } else if ("Compound" in shape && depth === 0) {

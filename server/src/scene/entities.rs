@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::BodyKind;
-use inertia_physics::rigid::shape::Shape;
+use inertia_physics::rigid::shape::{HeightField, Shape};
 use inertia_physics::{BodyHandle, ParticleHandle, World};
 use inertia_protocol::control::truncate_utf8;
 use inertia_protocol::{EntityDesc, EntityId, EntityKind, EntityState, ShapeDesc};
@@ -340,8 +340,9 @@ pub fn entity_kind(kind: BodyKind) -> EntityKind {
 }
 
 /// How a client draws `shape`. Shapes beyond the protocol's limits (too
-/// many points or parts, nested compounds, heightfields) are drawn as their
-/// bounding box.
+/// many points or parts, nested compounds) are drawn as their bounding
+/// box; a heightfield of more samples than a description holds is thinned
+/// ([`height_field_desc`]).
 pub fn shape_desc(shape: &Shape) -> ShapeDesc {
     exact_shape_desc(shape, true).unwrap_or_else(|| bounding_box(shape))
 }
@@ -392,7 +393,7 @@ fn exact_shape_desc(shape: &Shape, top: bool) -> Option<ShapeDesc> {
                 triangles: mesh.triangles().to_vec(),
             }
         }
-        Shape::HeightField(_) => return None,
+        Shape::HeightField(field) => height_field_desc(field),
         Shape::Compound(parts) => {
             if !top || parts.len() > ShapeDesc::MAX_PARTS {
                 return None;
@@ -409,6 +410,41 @@ fn exact_shape_desc(shape: &Shape, top: bool) -> Option<ShapeDesc> {
             ShapeDesc::Compound { parts: out }
         }
     })
+}
+
+/// A heightfield's description: every sample when they fit in
+/// [`ShapeDesc::MAX_POINTS`], else every `step`-th row and column (the last
+/// ones always kept, so the field keeps its size), the smallest step that
+/// fits.
+pub fn height_field_desc(field: &HeightField) -> ShapeDesc {
+    let (rows, cols) = (field.rows(), field.cols());
+    let picks = |n: usize, step: usize| -> Vec<usize> {
+        let mut v: Vec<usize> = (0..n).step_by(step).collect();
+        if v.last() != Some(&(n - 1)) {
+            v.push(n - 1);
+        }
+        v
+    };
+    let mut step = 1;
+    let (rs, cs) = loop {
+        let (rs, cs) = (picks(rows, step), picks(cols, step));
+        if rs.len() * cs.len() <= ShapeDesc::MAX_POINTS {
+            break (rs, cs);
+        }
+        step += 1;
+    };
+    let scale = field.scale();
+    let heights = rs
+        .iter()
+        .flat_map(|&r| cs.iter().map(move |&c| (r, c)))
+        .map(|(r, c)| (field.heights()[r * cols + c] * scale.y) as f32)
+        .collect();
+    ShapeDesc::HeightField {
+        rows: rs.len() as u32,
+        cols: cs.len() as u32,
+        size: [scale.x as f32, scale.z as f32],
+        heights,
+    }
 }
 
 fn bounding_box(shape: &Shape) -> ShapeDesc {
@@ -430,6 +466,50 @@ fn bounding_box(shape: &Shape) -> ShapeDesc {
 mod tests {
     use super::*;
     use inertia_physics::rigid::pose::Pose;
+
+    #[test]
+    fn a_heightfield_is_described_whole_or_thinned_to_fit_keeping_its_corners() {
+        let field = |n: usize| {
+            let heights = (0..n * n).map(|k| (k % 7) as f64).collect();
+            HeightField::new(heights, n, n, DVec3::new(40.0, 0.5, 20.0)).unwrap()
+        };
+        let small = field(10);
+        let ShapeDesc::HeightField {
+            rows,
+            cols,
+            size,
+            heights,
+        } = shape_desc(&Shape::HeightField(std::sync::Arc::new(small.clone())))
+        else {
+            panic!("a heightfield");
+        };
+        assert_eq!((rows, cols, size), (10, 10, [40.0, 20.0]));
+        assert_eq!(heights[11], (small.heights()[11] * 0.5) as f32);
+
+        let large = field(200);
+        let ShapeDesc::HeightField {
+            rows,
+            cols,
+            heights,
+            ..
+        } = height_field_desc(&large)
+        else {
+            panic!("a heightfield");
+        };
+        assert!(heights.len() <= ShapeDesc::MAX_POINTS);
+        assert!(
+            rows >= 50 && cols >= 50,
+            "{rows}×{cols}: thinned no more than needed"
+        );
+        assert_eq!(heights.len(), (rows * cols) as usize);
+        let h = |r: usize, c: usize| (large.heights()[r * 200 + c] * 0.5) as f32;
+        assert_eq!(heights[0], h(0, 0));
+        assert_eq!(
+            heights[heights.len() - 1],
+            h(199, 199),
+            "the far corner kept"
+        );
+    }
 
     #[test]
     fn ids_start_at_one_and_are_not_reused() {

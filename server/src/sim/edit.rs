@@ -98,6 +98,17 @@ pub fn shape_from_desc(desc: &ShapeDesc) -> Result<Shape, String> {
         }
         ShapeDesc::Particle { .. } => return Err("a particle is not a body shape".into()),
         ShapeDesc::Ground => return Err("a ground plane cannot be spawned".into()),
+        ShapeDesc::HeightField {
+            rows,
+            cols,
+            size,
+            heights,
+        } => Shape::heightfield(
+            heights.iter().map(|&h| f64::from(h)).collect(),
+            *rows as usize,
+            *cols as usize,
+            DVec3::new(f64::from(size[0]), 1.0, f64::from(size[1])),
+        ),
     };
     shape.map_err(|e| e.to_string())
 }
