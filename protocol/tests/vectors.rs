@@ -27,7 +27,7 @@ use inertia_protocol::{
 use serde_json::{json, Value};
 
 mod support;
-use support::same;
+use support::check_vectors;
 
 const FILE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/vectors/snapshots.json");
 
@@ -291,14 +291,7 @@ fn vectors() -> Value {
 
 #[test]
 fn golden_vectors_are_what_the_codec_writes_and_reads() {
-    let now = vectors();
-    if std::env::var_os("INERTIA_WRITE_VECTORS").is_some() {
-        let text = serde_json::to_string_pretty(&now).unwrap() + "\n";
-        std::fs::write(FILE, text).unwrap();
-    }
-    let text = std::fs::read_to_string(FILE).expect("the vectors file");
-    let stored: Value = serde_json::from_str(&text).unwrap();
-    same(&stored, &now, "vectors");
+    check_vectors(FILE, &vectors(), "vectors");
 }
 
 /// The widths of each size class (as `protocol/src/snapshot/code.rs`

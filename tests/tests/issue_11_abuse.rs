@@ -817,7 +817,8 @@ async fn issue_11_unread_and_ungranted_streams_hold_nothing_and_the_player_keeps
     let greedy = endpoint(game_config(server));
     let (a, _a_send, _a_recv, _) = joined(&greedy, server, 20).await;
     let extra_bi = tokio::time::timeout(Duration::from_millis(1500), a.open_bi());
-    let extra_uni = tokio::time::timeout(Duration::from_millis(1500), {
+    // (A task: it runs while the rest of the test goes on.)
+    let extra_uni = tokio::spawn(tokio::time::timeout(Duration::from_millis(1500), {
         let a = a.clone();
         async move {
             let mut stream = a.open_uni().await.expect("granted");
@@ -828,7 +829,7 @@ async fn issue_11_unread_and_ungranted_streams_hold_nothing_and_the_player_keeps
                 }
             }
         }
-    });
+    }));
     // Garbage datagrams, 2000 a second, while the streams wait.
     let datagrams = {
         let a = a.clone();
@@ -897,7 +898,7 @@ async fn issue_11_unread_and_ungranted_streams_hold_nothing_and_the_player_keeps
         extra_bi.await.is_err(),
         "a second bidirectional stream was granted"
     );
-    match extra_uni.await {
+    match extra_uni.await.expect("the stream task") {
         Ok(quinn::WriteError::Stopped(_)) => {}
         other => panic!("a unidirectional stream was not stopped: {other:?}"),
     }

@@ -60,8 +60,16 @@ async function until(what: string, limitMs: number, done: (p: Progress) => boole
   }
 }
 
-/** The canvas's pixels (without the HUD over it), as a digest. */
-async function canvasDigest(): Promise<string> {
+interface Pixels {
+  /** A digest of every pixel. */
+  digest: string;
+  /** Pixels by colour class. */
+  counts: { sky: number; ground: number; blue: number; brown: number; total: number };
+}
+
+/** The canvas's pixels (without the HUD over it): a digest, and counts of
+ * the colour classes of the demo's sky, ground and bodies. */
+async function canvasPixels(): Promise<Pixels> {
   return page.evaluate(() => {
     const canvas = document.getElementById("world") as HTMLCanvasElement;
     const copy = document.createElement("canvas");
@@ -70,11 +78,19 @@ async function canvasDigest(): Promise<string> {
     const ctx = copy.getContext("2d")!;
     ctx.drawImage(canvas, 0, 0);
     const px = ctx.getImageData(0, 0, copy.width, copy.height).data;
+    const counts = { sky: 0, ground: 0, blue: 0, brown: 0, total: px.length / 4 };
     let h = 0x811c9dc5;
-    for (const b of px) {
-      h = Math.imul(h ^ b, 0x01000193) >>> 0;
+    for (let i = 0; i < px.length; i += 4) {
+      const [r, g, b] = [px[i]!, px[i + 1]!, px[i + 2]!];
+      for (const x of [r, g, b, px[i + 3]!]) {
+        h = Math.imul(h ^ x, 0x01000193) >>> 0;
+      }
+      if (b > 180 && r > 150 && g > 170 && b > r) counts.sky++;
+      else if (g > r + 15 && g > b + 15) counts.ground++;
+      else if (b > r + 40 && b > g + 10) counts.blue++;
+      else if (r > g + 20 && g > b + 10) counts.brown++;
     }
-    return `${copy.width}x${copy.height}:${h.toString(16)}`;
+    return { digest: `${copy.width}x${copy.height}:${h.toString(16)}`, counts };
   });
 }
 
@@ -141,25 +157,7 @@ test("the page joins over WebTransport and receives snapshots", async () => {
 
 test("the picture shows the demo's objects", async () => {
   await until("frames drawn", 10_000, (p) => p.frames >= 10);
-  // Colour classes of the demo's bodies, counted in the canvas's pixels.
-  const counts = await page.evaluate(() => {
-    const canvas = document.getElementById("world") as HTMLCanvasElement;
-    const copy = document.createElement("canvas");
-    copy.width = canvas.width;
-    copy.height = canvas.height;
-    const ctx = copy.getContext("2d")!;
-    ctx.drawImage(canvas, 0, 0);
-    const px = ctx.getImageData(0, 0, copy.width, copy.height).data;
-    const c = { sky: 0, ground: 0, blue: 0, brown: 0, total: px.length / 4 };
-    for (let i = 0; i < px.length; i += 4) {
-      const [r, g, b] = [px[i]!, px[i + 1]!, px[i + 2]!];
-      if (b > 180 && r > 150 && g > 170 && b > r) c.sky++;
-      else if (g > r + 15 && g > b + 15) c.ground++;
-      else if (b > r + 40 && b > g + 10) c.blue++;
-      else if (r > g + 20 && g > b + 10) c.brown++;
-    }
-    return c;
-  });
+  const { counts } = await canvasPixels();
   assert.ok(counts.sky > counts.total * 0.1, `sky: ${JSON.stringify(counts)}`);
   assert.ok(counts.ground > counts.total * 0.2, `ground: ${JSON.stringify(counts)}`);
   // Bodies cover a good part of the picture, among them the pyramid's
@@ -176,10 +174,10 @@ test("the picture freezes when the server is paused", async () => {
   const paused = await until("the pause", 10_000, (p) => p.paused);
   await new Promise((r) => setTimeout(r, 500));
   const a = await progress();
-  const shotA = await canvasDigest();
+  const shotA = (await canvasPixels()).digest;
   await new Promise((r) => setTimeout(r, 1000));
   const b = await progress();
-  const shotB = await canvasDigest();
+  const shotB = (await canvasPixels()).digest;
   assert.ok(b.frames > a.frames, "the page goes on drawing");
   assert.ok(b.snapshots > a.snapshots, "snapshots go on arriving");
   assert.equal(b.tick, a.tick, "the tick moved while paused");

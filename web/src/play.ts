@@ -269,6 +269,20 @@ async function main(): Promise<void> {
   });
   canvas.addEventListener("wheel", (e) => renderer.camera.zoom(-Math.sign(e.deltaY)), { passive: true });
 
+  // The round trip, where the browser reports it (WebTransport's stats).
+  let rttMs: number | null = null;
+  const stats = (transport as unknown as { getStats?: () => Promise<{ smoothedRtt?: number }> }).getStats;
+  if (stats) {
+    setInterval(() => {
+      stats
+        .call(transport)
+        .then((s) => {
+          rttMs = typeof s.smoothedRtt === "number" ? s.smoothedRtt : null;
+        })
+        .catch(() => {});
+    }, 1000);
+  }
+
   const frame = (): void => {
     const now = performance.now();
     const items = [...world.tracks.values()].map((t) => ({
@@ -288,6 +302,14 @@ async function main(): Promise<void> {
       : progress.timeScale < 0
         ? `reverse ×${-progress.timeScale}`
         : `running ×${progress.timeScale}`;
+    // Loss: the share of the 32 sequence numbers before the newest that
+    // did not arrive (once 33 have been sent).
+    const { ackBits } = acks.get();
+    let seen = 0;
+    for (let k = 0; k < 32; k++) {
+      seen += (ackBits >>> k) & 1;
+    }
+    const loss = received > 32 ? ((32 - seen) / 32) * 100 : 0;
     showFigures([
       ["server", new URL(session.url).host],
       ["client", session.client_id.toString(16)],
@@ -296,7 +318,10 @@ async function main(): Promise<void> {
       ["clock", clock],
       ["entities", items.length.toString()],
       ["snapshots", received.toString()],
+      ["RTT", rttMs === null ? "—" : `${rttMs.toFixed(1)} ms`],
       ["received", `${kbps.toFixed(0)} kbit/s`],
+      ["buffer", `${world.interval.toFixed(0)} ms`],
+      ["loss", `${loss.toFixed(1)} %`],
     ]);
     if (progress.state === "joined") {
       requestAnimationFrame(frame);

@@ -33,3 +33,15 @@ pub fn same(a: &Value, b: &Value, at: &str) {
         _ => assert_eq!(a, b, "{at}"),
     }
 }
+
+/// Compares `now` with the vectors stored in `file` (rewriting the file
+/// first when `INERTIA_WRITE_VECTORS` is set), naming `what` on a mismatch.
+pub fn check_vectors(file: &str, now: &Value, what: &str) {
+    if std::env::var_os("INERTIA_WRITE_VECTORS").is_some() {
+        let text = serde_json::to_string_pretty(now).unwrap() + "\n";
+        std::fs::write(file, text).unwrap();
+    }
+    let text = std::fs::read_to_string(file).expect("the vectors file");
+    let stored: Value = serde_json::from_str(&text).unwrap();
+    same(&stored, now, what);
+}
