@@ -9,8 +9,6 @@
 //! `tick`, `entities`, `snapshots_received`, `kbps`, `rtt_ms`, `buffer_ms`
 //! and more.
 
-use std::net::SocketAddr;
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
@@ -20,12 +18,8 @@ use inertia_client::{dev, BlockingClient, ClientEvent};
 #[derive(Debug, Parser)]
 #[command(about = "Watch what an Inertia server streams")]
 struct Args {
-    /// Where to send (default: the address in the credentials file).
-    #[arg(long)]
-    server: Option<SocketAddr>,
-    /// The dev credentials file.
-    #[arg(long, default_value = dev::DEV_CREDENTIALS_PATH)]
-    credentials: PathBuf,
+    #[command(flatten)]
+    dev: dev::DevArgs,
     /// Stop after this many seconds (default: run until interrupted).
     #[arg(long)]
     seconds: Option<f64>,
@@ -36,14 +30,14 @@ struct Args {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    let (addr, token, _) = match dev::dev_token(&args.credentials, None) {
+    let (addr, token, _) = match dev::dev_token(&args.dev.credentials, None) {
         Ok(t) => t,
         Err(e) => {
             eprintln!("watch: {e}");
             return ExitCode::FAILURE;
         }
     };
-    let addr = args.server.unwrap_or(addr);
+    let addr = args.dev.server.unwrap_or(addr);
     let client = match BlockingClient::connect(addr, &token) {
         Ok(c) => c,
         Err(e) => {

@@ -8,9 +8,21 @@ use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use inertia_protocol::credentials::DevCredentials;
-use inertia_protocol::token::{mint, ConnectToken, TokenKey};
+use inertia_protocol::token::ConnectToken;
 
 pub use inertia_protocol::credentials::DEV_CREDENTIALS_PATH;
+
+/// The options a dev tool joins with (`watch`, the viewer): flatten them
+/// into its own clap arguments.
+#[derive(Debug, Clone, clap::Args)]
+pub struct DevArgs {
+    /// Where to connect (default: the address in the credentials file).
+    #[arg(long)]
+    pub server: Option<SocketAddr>,
+    /// The dev credentials file a dev-mode server writes.
+    #[arg(long, default_value = DEV_CREDENTIALS_PATH)]
+    pub credentials: PathBuf,
+}
 
 /// How long a dev token stays valid, s.
 pub const DEV_TOKEN_TTL: u64 = 3600;
@@ -56,26 +68,13 @@ pub fn dev_token(
         .server_addr
         .parse()
         .map_err(|e| invalid(format!("server_addr: {e}")))?;
-    let key = TokenKey::from_bytes(
-        creds
-            .token_key_bytes()
-            .map_err(|e| invalid(e.to_string()))?,
-    );
-    let fingerprint = creds.fingerprint().map_err(|e| invalid(e.to_string()))?;
     let now = SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
     let client_id = client_id.unwrap_or_else(random_client_id);
-    let token = mint(
-        &key,
-        client_id,
-        &creds.server_addr,
-        fingerprint,
-        DEV_TOKEN_TTL,
-        b"",
-        now,
-    )
-    .map_err(|e| invalid(format!("minting a token: {e}")))?;
+    let token = creds
+        .mint_token(client_id, DEV_TOKEN_TTL, now)
+        .map_err(|e| invalid(e.to_string()))?;
     Ok((addr, token, creds))
 }
 

@@ -9,6 +9,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::token::{mint, ConnectToken, MintError, TokenKey};
+
 /// The default path of the dev credentials file, relative to the working
 /// directory (the server's default data directory is `./inertia-data`).
 pub const DEV_CREDENTIALS_PATH: &str = "inertia-data/dev-credentials.json";
@@ -51,6 +53,39 @@ impl DevCredentials {
     pub fn token_key_bytes(&self) -> Result<[u8; 32], CredentialsFieldError> {
         hex32("token_key", &self.token_key)
     }
+
+    /// A connect token for `client_id`, valid for `ttl_secs` from
+    /// `now_unix` (s), sealed with this file's key for its server and
+    /// certificate: what dev tools, and a dev server's page, join with.
+    pub fn mint_token(
+        &self,
+        client_id: u64,
+        ttl_secs: u64,
+        now_unix: u64,
+    ) -> Result<ConnectToken, DevTokenError> {
+        let key = TokenKey::from_bytes(self.token_key_bytes()?);
+        let token = mint(
+            &key,
+            client_id,
+            &self.server_addr,
+            self.fingerprint()?,
+            ttl_secs,
+            b"",
+            now_unix,
+        )?;
+        Ok(token)
+    }
+}
+
+/// Why a token could not be minted from dev credentials.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DevTokenError {
+    /// A field of the file is not valid.
+    #[error(transparent)]
+    Field(#[from] CredentialsFieldError),
+    /// The token could not be sealed.
+    #[error("minting a token: {0}")]
+    Mint(#[from] MintError),
 }
 
 /// Lowercase hex of `bytes`.

@@ -18,7 +18,6 @@ use axum::routing::get;
 use axum::Router;
 use inertia_protocol::control::WEB_TRANSPORT_PATH;
 use inertia_protocol::credentials::{to_hex, DevCredentials};
-use inertia_protocol::token::{mint, TokenKey};
 
 /// The page, with the modules it loads from beside it.
 pub const PAGE_HTML: &str = include_str!("../../web/play/index.html");
@@ -145,8 +144,6 @@ pub fn mint_session(path: &Path) -> Result<String, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let creds: DevCredentials =
         serde_json::from_slice(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
-    let key = TokenKey::from_bytes(creds.token_key_bytes().map_err(|e| e.to_string())?);
-    let fingerprint = creds.fingerprint().map_err(|e| e.to_string())?;
     let addr: SocketAddr = creds
         .server_addr
         .parse()
@@ -159,19 +156,13 @@ pub fn mint_session(path: &Path) -> Result<String, String> {
         .map_err(|_| "no randomness for a client id".to_string())?;
     // Below 2^53: a JavaScript number holds it.
     let client_id = u64::from_le_bytes(id) >> 11;
-    let token = mint(
-        &key,
-        client_id,
-        &creds.server_addr,
-        fingerprint,
-        SESSION_TOKEN_TTL,
-        b"",
-        now,
-    )
-    .map_err(|e| format!("minting a token: {e}"))?;
+    let token = creds
+        .mint_token(client_id, SESSION_TOKEN_TTL, now)
+        .map_err(|e| e.to_string())?;
     Ok(serde_json::json!({
         "url": format!("https://{}:{}{WEB_TRANSPORT_PATH}", host(addr), addr.port()),
-        "cert_hash": to_hex(&fingerprint),
+        // Checked by the minting, which seals it into the token.
+        "cert_hash": creds.cert_fingerprint,
         "token": to_hex(&token.to_bytes()),
         "client_id": client_id,
     })

@@ -273,7 +273,10 @@ pub fn wait_for(view: &mut View, when: When) -> Result<(), ViewerError> {
     };
     let mut first_snapshot: Option<Instant> = None;
     loop {
-        let frame = view.client().sample();
+        // Takes in what was described (the catalogue) and samples the
+        // world, as each frame on screen would; no picture is drawn until
+        // the wait is over.
+        let frame = view.update();
         if let Some(reason) = view.client().disconnected() {
             return Err(ViewerError::Connect(format!("disconnected: {reason:?}")));
         }
@@ -297,9 +300,6 @@ pub fn wait_for(view: &mut View, when: When) -> Result<(), ViewerError> {
                 frame.render_tick
             )));
         }
-        // Keeps the catalogue and the HUD up to date; no picture is drawn
-        // until the wait is over.
-        view.update();
         std::thread::sleep(Duration::from_millis(33));
     }
 }

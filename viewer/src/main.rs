@@ -6,7 +6,6 @@
 //! inertia-viewer --headless --frames DIR --seconds S [--fps 30]
 //! ```
 
-use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -20,12 +19,8 @@ use inertia_viewer::{window, ViewerError};
 #[derive(Debug, Parser)]
 #[command(about = "Watch an Inertia server: the world drawn live, a HUD, and the clock's controls")]
 struct Args {
-    /// Where to connect (default: the address in the credentials file).
-    #[arg(long)]
-    server: Option<SocketAddr>,
-    /// The dev credentials file a dev-mode server writes.
-    #[arg(long, default_value = dev::DEV_CREDENTIALS_PATH)]
-    credentials: PathBuf,
+    #[command(flatten)]
+    dev: dev::DevArgs,
     /// Watch as a player only: no admin connection, no clock controls.
     #[arg(long)]
     no_admin: bool,
@@ -95,8 +90,8 @@ fn run(args: Args) -> Result<(), ViewerError> {
         ));
     }
     let mut view = View::connect(&ConnectArgs {
-        server: args.server,
-        credentials: args.credentials.clone(),
+        server: args.dev.server,
+        credentials: args.dev.credentials.clone(),
         admin: !args.no_admin,
     })?;
     if let Some(camera) = args.camera {

@@ -10,7 +10,7 @@ use wgpu::util::DeviceExt;
 
 use crate::camera::OrbitCamera;
 use crate::mesh::{mesh_of, Vertex};
-use crate::scene::{Catalogue, DrawList, ShapeKey};
+use crate::scene::{Catalogue, DrawList, Finish, ShapeKey};
 
 /// The sky (clear colour and fog), linear RGB.
 pub const SKY: [f32; 3] = [0.42, 0.56, 0.78];
@@ -84,14 +84,6 @@ pub struct Renderer {
     instances: Option<wgpu::Buffer>,
     attachments: Option<Attachments>,
     hud: egui_wgpu::Renderer,
-}
-
-/// Which pipeline draws an instance.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Look {
-    Plain,
-    Gridded,
-    Translucent,
 }
 
 impl std::fmt::Debug for Renderer {
@@ -341,8 +333,8 @@ impl Renderer {
         // Instances of the drawable items, in the list's order: runs of
         // one shape each.
         let mut instances = Vec::with_capacity(list.items.len());
-        // (shape, pipeline, instances)
-        let mut runs: Vec<(ShapeKey, Look, std::ops::Range<u32>)> = Vec::new();
+        // (shape, finish, instances)
+        let mut runs: Vec<(ShapeKey, Finish, std::ops::Range<u32>)> = Vec::new();
         for item in list
             .items
             .iter()
@@ -353,18 +345,11 @@ impl Renderer {
                 model: item.model.to_cols_array_2d(),
                 color: item.color,
             });
-            let look = if item.translucent {
-                Look::Translucent
-            } else if item.gridded {
-                Look::Gridded
-            } else {
-                Look::Plain
-            };
             match runs.last_mut() {
-                Some((shape, l, range)) if *shape == item.shape && *l == look => {
+                Some((shape, finish, range)) if *shape == item.shape && *finish == item.finish => {
                     range.end = k + 1;
                 }
-                _ => runs.push((item.shape, look, k..k + 1)),
+                _ => runs.push((item.shape, item.finish, k..k + 1)),
             }
         }
         let bytes = std::mem::size_of_val(instances.as_slice()) as u64;
@@ -417,12 +402,12 @@ impl Renderer {
             });
             pass.set_bind_group(0, &self.camera_group, &[]);
             pass.set_vertex_buffer(1, instance_buffer.slice(..));
-            for (shape, look, range) in runs {
+            for (shape, finish, range) in runs {
                 let mesh = &self.meshes[&shape];
-                let pipeline = match look {
-                    Look::Translucent => &self.translucent,
-                    Look::Gridded => &self.gridded,
-                    Look::Plain => &self.opaque,
+                let pipeline = match finish {
+                    Finish::Translucent => &self.translucent,
+                    Finish::Gridded => &self.gridded,
+                    Finish::Plain => &self.opaque,
                 };
                 pass.set_pipeline(pipeline);
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));

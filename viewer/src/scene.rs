@@ -94,11 +94,22 @@ pub struct DrawItem {
     pub model: Mat4,
     /// Linear RGBA.
     pub color: [f32; 4],
-    /// Drawn see-through after everything else (water volumes).
-    pub translucent: bool,
-    /// Static scenery: drawn with a metre grid, so that motion over it
-    /// shows.
-    pub gridded: bool,
+    /// How its surface is drawn.
+    pub finish: Finish,
+}
+
+/// How a surface is drawn, in drawing order: opaque ones first, then the
+/// see-through ones over them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Finish {
+    /// Lit, its colour alone.
+    Plain,
+    /// Static scenery: a metre grid over its colour, so that motion over
+    /// it shows.
+    Gridded,
+    /// Drawn see-through after everything else (water volumes, colours
+    /// with alpha).
+    Translucent,
 }
 
 /// Everything to draw in one picture.
@@ -214,25 +225,28 @@ impl Catalogue {
         // Opaque first, then see-through; within each, by mesh (so each
         // mesh's instances are one run), then by position for a stable order.
         items.sort_by(|a, b| {
-            (a.translucent, a.gridded, a.shape)
-                .cmp(&(b.translucent, b.gridded, b.shape))
-                .then_with(|| {
-                    let (pa, pb) = (a.model.w_axis.to_array(), b.model.w_axis.to_array());
-                    pa.partial_cmp(&pb).unwrap_or(std::cmp::Ordering::Equal)
-                })
+            (a.finish, a.shape).cmp(&(b.finish, b.shape)).then_with(|| {
+                let (pa, pb) = (a.model.w_axis.to_array(), b.model.w_axis.to_array());
+                pa.partial_cmp(&pb).unwrap_or(std::cmp::Ordering::Equal)
+            })
         });
         DrawList { items }
     }
 }
 
 fn item(look: &Look, model: Mat4) -> DrawItem {
-    let translucent = look.kind == EntityKind::Water || look.color[3] < 0.99;
+    let finish = if look.kind == EntityKind::Water || look.color[3] < 0.99 {
+        Finish::Translucent
+    } else if look.kind == EntityKind::Static {
+        Finish::Gridded
+    } else {
+        Finish::Plain
+    };
     DrawItem {
         shape: look.shape,
         model,
         color: look.color,
-        translucent,
-        gridded: look.kind == EntityKind::Static && !translucent,
+        finish,
     }
 }
 
@@ -311,7 +325,10 @@ mod tests {
             .find(|i| i.shape == shape_key(&ShapeDesc::Ground))
             .unwrap();
         assert_eq!(ground.model.w_axis.truncate(), Vec3::new(0.0, 5.0, 0.0));
-        assert!(ground.gridded && !moved.gridded, "only scenery is gridded");
+        assert!(
+            ground.finish == Finish::Gridded && moved.finish != Finish::Gridded,
+            "only scenery is gridded"
+        );
     }
 
     #[test]
@@ -326,7 +343,10 @@ mod tests {
         ));
         cat.learn(&desc(2, EntityKind::Static, ShapeDesc::Ground));
         let list = cat.draw_list(&Frame::default());
-        assert!(!list.items[0].translucent && list.items[1].translucent);
+        assert!(
+            list.items[0].finish != Finish::Translucent
+                && list.items[1].finish == Finish::Translucent
+        );
     }
 
     #[test]

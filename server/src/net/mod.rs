@@ -279,10 +279,11 @@ async fn route(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>, hands
         }
     };
     drop(handshake);
-    if negotiated_alpn(&connection).as_deref() != Some(WEB_TRANSPORT_ALPN) {
+    let alpn = negotiated_alpn(&connection);
+    if alpn.as_deref() != Some(WEB_TRANSPORT_ALPN) {
         tokio::spawn(refuse_uni_streams(connection.clone()));
     }
-    match negotiated_alpn(&connection).as_deref() {
+    match alpn.as_deref() {
         Some(ADMIN_ALPN) => crate::admin::serve(connection, id, shared).await,
         Some(WEB_TRANSPORT_ALPN) => web_transport::serve(connection, id, shared).await,
         _ => connection::serve(link::Link::Quic(connection), id, shared).await,
