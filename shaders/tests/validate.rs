@@ -11,14 +11,20 @@ fn parse(name: &str, src: &str) -> naga::Module {
         .unwrap_or_else(|e| panic!("{name} does not parse:\n{}", e.emit_to_string(src)))
 }
 
+/// `src` parsed and validated (panicking with naga's report otherwise).
+fn validated(name: &str, src: &str) -> naga::Module {
+    let module = parse(name, src);
+    Validator::new(ValidationFlags::all(), Capabilities::empty())
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{name} does not validate:\n{}", e.emit_to_string(src)));
+    module
+}
+
 #[test]
 fn every_shader_parses_and_validates() {
     assert!(!ALL.is_empty());
     for (name, src) in ALL {
-        let module = parse(name, src);
-        Validator::new(ValidationFlags::all(), Capabilities::empty())
-            .validate(&module)
-            .unwrap_or_else(|e| panic!("{name} does not validate:\n{}", e.emit_to_string(src)));
+        validated(name, src);
     }
 }
 
@@ -26,10 +32,7 @@ fn every_shader_parses_and_validates() {
 fn every_drawing_shader_validates_with_its_vertex_and_fragment_entry_points() {
     assert!(!DRAWING.is_empty());
     for (name, src) in DRAWING {
-        let module = parse(name, src);
-        Validator::new(ValidationFlags::all(), Capabilities::empty())
-            .validate(&module)
-            .unwrap_or_else(|e| panic!("{name} does not validate:\n{}", e.emit_to_string(src)));
+        let module = validated(name, src);
         let stages: Vec<_> = module.entry_points.iter().map(|e| e.stage).collect();
         assert!(stages.contains(&naga::ShaderStage::Vertex), "{name}");
         assert!(stages.contains(&naga::ShaderStage::Fragment), "{name}");
