@@ -47,6 +47,7 @@ pub mod soft_body;
 pub mod spring;
 mod step;
 pub mod world;
+pub mod xpbd;
 
 pub use energy::Energy;
 pub use error::PhysicsError;

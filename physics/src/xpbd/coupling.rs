@@ -1,0 +1,336 @@
+//! Rigid bodies as the particles of a soft body or a fluid see them over
+//! one step: the surfaces they are kept out of, with friction, and the
+//! impulses they give back.
+//!
+//! The soft stage runs after the rigid stage, so the bodies stand at their
+//! new poses with their new velocities. Within the soft stage's substeps a
+//! body does not move: a particle is projected out of its shape completely
+//! (a body is stiff, and a soft body's substeps are short), and the
+//! impulse that takes is summed for the body. At the end of the stage the
+//! body takes the opposite impulse, at the contact points, on its velocity
+//! (and wakes). The body's share is weighted by the pair's effective mass,
+//! `j = Δx / (h (w_p + w_b))` for a correction `Δx` over a substep `h`,
+//! where `w_b = 1/M + (r × n) · I⁻¹ (r × n)` is the body's inverse mass
+//! along the normal: a particle resting on a heavy body weighs on it with
+//! its full weight (momentum is exchanged exactly as `w_b → 0`), and a
+//! heavy particle cannot throw a light body harder than a collision of the
+//! two would.
+//!
+//! Candidates are found once a step: every body whose bounding box,
+//! widened by how far a particle can reach over the step, holds the
+//! particle. Bodies are taken in handle order and particles in index order,
+//! and impulses are summed per chunk of particles, chunk after chunk, so
+//! the result does not depend on the thread count.
+
+use glam::{DMat3, DVec3, Vec3};
+
+use crate::arena::Arena;
+use crate::parallel::{par_map_chunks, CHUNK};
+use crate::rigid::aabb::Aabb;
+use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::pose::Pose;
+use crate::rigid::query::project_point_shape;
+use crate::rigid::shape::Shape;
+
+/// A body as the particles see it.
+pub(crate) struct Target<'a> {
+    /// Arena index and generation.
+    pub(crate) key: (u32, u32),
+    shape: &'a Shape,
+    pose: Pose,
+    /// The shape's box, widened by the reach.
+    aabb: Aabb,
+    com: DVec3,
+    linvel: DVec3,
+    angvel: DVec3,
+    /// 1/kg; 0 for bodies that particles cannot move (static, kinematic).
+    inv_mass: f64,
+    inv_inertia: DMat3,
+    /// The body's dynamic friction coefficient (the pair takes the larger
+    /// of the body's and the particles').
+    pub(crate) friction: f64,
+}
+
+impl Target<'_> {
+    /// Velocity of the body's material at `p`, m/s.
+    pub(crate) fn velocity_at(&self, p: DVec3) -> DVec3 {
+        self.linvel + self.angvel.cross(p - self.com)
+    }
+
+    /// `1/M + (r × d) · I⁻¹ (r × d)`, 1/kg.
+    pub(crate) fn inv_mass_along(&self, p: DVec3, d: DVec3) -> f64 {
+        if self.inv_mass == 0.0 {
+            return 0.0;
+        }
+        let c = (p - self.com).cross(d);
+        self.inv_mass + c.dot(self.inv_inertia * c)
+    }
+
+    /// Whether particles can move the body.
+    pub(crate) fn movable(&self) -> bool {
+        self.inv_mass > 0.0
+    }
+}
+
+/// The surface of a body nearest a particle.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Surface {
+    /// Index into [`Coupling::targets`].
+    pub(crate) target: u32,
+    /// The nearest point of the body's surface, m.
+    pub(crate) point: DVec3,
+    /// Unit normal out of the body, towards the particle.
+    pub(crate) normal: DVec3,
+    /// Signed distance of the particle from the surface, m (negative
+    /// inside the solid).
+    pub(crate) distance: f64,
+}
+
+/// An impulse and its moment about the body's centre of mass, N·s and
+/// N·m·s, summed for one target.
+pub(crate) type Load = (DVec3, DVec3);
+
+/// The bodies near one soft body or fluid over one step.
+#[derive(Default)]
+pub(crate) struct Coupling<'a> {
+    pub(crate) targets: Vec<Target<'a>>,
+    /// Per particle, where its candidates start in `candidates`; one more
+    /// entry than particles.
+    start: Vec<u32>,
+    /// Indices into `targets`.
+    candidates: Vec<u32>,
+    /// What the particles gave each target so far.
+    loads: Vec<Load>,
+}
+
+impl<'a> Coupling<'a> {
+    /// The bodies within `reach` (m) of the particles `x` that can move
+    /// (inverse mass `w > 0`), with every body in `always` (attachments) as
+    /// a target whether near or not.
+    pub(crate) fn gather(
+        bodies: &'a Arena<RigidBody>,
+        x: &[Vec3],
+        w: &[f32],
+        reach: f32,
+        always: &[(u32, u32)],
+    ) -> Self {
+        if bodies.len() == 0 || x.is_empty() {
+            return Self::default();
+        }
+        let Some(bounds) = particle_bounds(x) else {
+            return Self::default();
+        };
+        let reach = f64::from(reach);
+        let bounds = bounds.expanded(reach);
+        let targets: Vec<Target<'a>> = bodies
+            .iter()
+            .filter(|(_, _, b)| !b.sensor)
+            .filter_map(|(index, generation, b)| {
+                let shape = b.shape.as_ref()?;
+                let pose = b.pose();
+                let aabb = shape.aabb(&pose).expanded(reach);
+                let wanted = always.contains(&(index, generation));
+                if !wanted && !aabb.intersects(&bounds) {
+                    return None;
+                }
+                let movable = b.kind == BodyKind::Dynamic && !b.quarantined;
+                Some(Target {
+                    key: (index, generation),
+                    shape,
+                    pose,
+                    aabb,
+                    com: b.com,
+                    linvel: b.linvel,
+                    angvel: b.angvel,
+                    inv_mass: if movable { b.inv_mass } else { 0.0 },
+                    inv_inertia: if movable {
+                        b.inverse_inertia_world()
+                    } else {
+                        DMat3::ZERO
+                    },
+                    friction: b.friction_dynamic,
+                })
+            })
+            .collect();
+        let mut start = Vec::with_capacity(x.len() + 1);
+        let mut candidates = Vec::new();
+        if !targets.is_empty() {
+            let mut x_copy = x.to_vec();
+            let found = par_map_chunks(&mut x_copy, CHUNK, |base, xs| {
+                let mut counts = Vec::with_capacity(xs.len());
+                let mut list = Vec::new();
+                for (k, p) in xs.iter().enumerate() {
+                    let before = list.len();
+                    if w[base + k] > 0.0 {
+                        let p = p.as_dvec3();
+                        for (t, target) in targets.iter().enumerate() {
+                            if target.aabb.contains_point(p) {
+                                list.push(t as u32);
+                            }
+                        }
+                    }
+                    counts.push((list.len() - before) as u32);
+                }
+                (counts, list)
+            });
+            let mut at = 0u32;
+            for (counts, list) in found {
+                for n in counts {
+                    start.push(at);
+                    at += n;
+                }
+                candidates.extend(list);
+            }
+            start.push(at);
+        }
+        let loads = vec![(DVec3::ZERO, DVec3::ZERO); targets.len()];
+        Self {
+            targets,
+            start,
+            candidates,
+            loads,
+        }
+    }
+
+    /// Whether no particle has a body near it.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.candidates.is_empty()
+    }
+
+    /// The index of the target for body `key`, if it is one.
+    pub(crate) fn target_of(&self, key: (u32, u32)) -> Option<usize> {
+        self.targets.iter().position(|t| t.key == key)
+    }
+
+    /// The candidate bodies of particle `i`.
+    pub(crate) fn candidates(&self, i: usize) -> &[u32] {
+        if self.start.is_empty() {
+            return &[];
+        }
+        &self.candidates[self.start[i] as usize..self.start[i + 1] as usize]
+    }
+
+    /// The surface of candidate `target` nearest `x`, if the particle is
+    /// within `within` (m) of it or inside.
+    pub(crate) fn surface(&self, target: u32, x: Vec3, within: f64) -> Option<Surface> {
+        let t = &self.targets[target as usize];
+        let x = x.as_dvec3();
+        let p = project_point_shape(t.shape, &t.pose, x)?;
+        if !p.inside && p.distance >= within {
+            return None;
+        }
+        let to = x - p.point;
+        let len = to.length();
+        if len <= 1e-12 || !len.is_finite() {
+            return None;
+        }
+        let normal = if p.inside { -to / len } else { to / len };
+        Some(Surface {
+            target,
+            point: p.point,
+            normal,
+            distance: if p.inside { -p.distance } else { p.distance },
+        })
+    }
+
+    /// Keeps particle `i` (at `x`, where it stood at `prev` at the start of
+    /// the substep of `h` seconds, inverse mass `w`) `radius` out of every
+    /// candidate body, with Coulomb friction `mu` (the larger of it and the
+    /// body's) against the body's motion. The body's share of each
+    /// correction's impulse is added to `loads`.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn push_out(
+        &self,
+        i: usize,
+        x: &mut Vec3,
+        prev: Vec3,
+        w: f32,
+        radius: f32,
+        mu: f32,
+        h: f32,
+        loads: &mut [Load],
+    ) {
+        for &target in self.candidates(i) {
+            let Some(s) = self.surface(target, *x, f64::from(radius)) else {
+                continue;
+            };
+            let t = &self.targets[target as usize];
+            let depth = f64::from(radius) - s.distance;
+            let mut dx = s.normal * depth;
+            // Friction: the slide relative to the surface over the substep,
+            // undone up to `mu` times the normal correction.
+            let mu = f64::from(mu).max(t.friction);
+            if mu > 0.0 {
+                let moved = (*x - prev).as_dvec3() + dx - t.velocity_at(s.point) * f64::from(h);
+                let slide = moved - s.normal * moved.dot(s.normal);
+                let len = slide.length();
+                if len > 1e-12 {
+                    let cap = mu * depth;
+                    dx -= slide * (cap / len).min(1.0);
+                }
+            }
+            let new = (x.as_dvec3() + dx).as_vec3();
+            if !new.is_finite() {
+                continue;
+            }
+            *x = new;
+            if t.movable() {
+                let n = dx.normalize_or_zero();
+                let k = f64::from(w) + t.inv_mass_along(s.point, n);
+                if k > 0.0 {
+                    let j = -dx / (f64::from(h) * k);
+                    let load = &mut loads[target as usize];
+                    load.0 += j;
+                    load.1 += (s.point - t.com).cross(j);
+                }
+            }
+        }
+    }
+
+    /// A fresh per-chunk accumulator of loads.
+    pub(crate) fn new_loads(&self) -> Vec<Load> {
+        vec![(DVec3::ZERO, DVec3::ZERO); self.targets.len()]
+    }
+
+    /// Adds a chunk's loads (call in chunk order).
+    pub(crate) fn add_loads(&mut self, loads: &[Load]) {
+        for (sum, l) in self.loads.iter_mut().zip(loads) {
+            sum.0 += l.0;
+            sum.1 += l.1;
+        }
+    }
+
+    /// Gives every movable body what the particles gave it, and wakes the
+    /// bodies that took something.
+    pub(crate) fn apply(self, bodies: &mut Arena<RigidBody>) {
+        for (t, (j, moment)) in self.targets.iter().zip(self.loads) {
+            if !t.movable() || (j == DVec3::ZERO && moment == DVec3::ZERO) {
+                continue;
+            }
+            if !j.is_finite() || !moment.is_finite() {
+                continue;
+            }
+            if let Some(b) = bodies.get_mut(t.key.0, t.key.1) {
+                if b.sleeping {
+                    b.wake();
+                }
+                b.linvel += j * b.inv_mass;
+                b.angvel += b.inverse_inertia_world() * moment;
+            }
+        }
+    }
+}
+
+/// The box around `x`, m.
+pub(crate) fn particle_bounds(x: &[Vec3]) -> Option<Aabb> {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for p in x {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    (lo.is_finite() && hi.is_finite()).then(|| Aabb {
+        min: lo.as_dvec3(),
+        max: hi.as_dvec3(),
+    })
+}
