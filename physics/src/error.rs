@@ -80,6 +80,9 @@ pub enum PhysicsError {
     /// The attachment handle is stale or was never issued.
     #[error("unknown attachment {0:?}")]
     UnknownAttachment(crate::handle::AttachmentHandle),
+    /// The soft body handle is stale or was never issued.
+    #[error("unknown soft body {0:?}")]
+    UnknownSoftBody(crate::handle::SoftBodyHandle),
     /// The joint handle is stale or was never issued.
     #[error("unknown joint {0:?}")]
     UnknownJoint(JointHandle),

@@ -119,3 +119,23 @@ impl BodyHandle {
         Self { index, generation }
     }
 }
+
+/// A soft body in a [`World`](crate::World).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct SoftBodyHandle {
+    pub(crate) index: u32,
+    pub(crate) generation: u32,
+}
+
+impl SoftBodyHandle {
+    /// The handle as `[slot index, generation]`.
+    pub fn to_raw(self) -> [u32; 2] {
+        [self.index, self.generation]
+    }
+
+    /// A handle from [`SoftBodyHandle::to_raw`]'s numbers. A made-up one is
+    /// harmless: it looks up to `None`.
+    pub fn from_raw([index, generation]: [u32; 2]) -> Self {
+        Self { index, generation }
+    }
+}

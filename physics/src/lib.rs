@@ -58,7 +58,7 @@ pub use forces::{
 pub use glam;
 pub use handle::{
     AttachmentHandle, BodyForceHandle, BodyHandle, ForceHandle, JointHandle, ParticleHandle,
-    SpringHandle, SystemHandle,
+    SoftBodyHandle, SpringHandle, SystemHandle,
 };
 pub use integrator::Integrator;
 pub use particle_system::{
@@ -69,3 +69,7 @@ pub use snapshot::SnapshotError;
 pub use soft_body::{build_cloth, build_rope, Cloth, ClothDesc, Rope, RopeDesc, SpringStiffness};
 pub use spring::SpringParams;
 pub use world::{QueryIndex, StepReport, World, WorldConfig};
+pub use xpbd::soft::{
+    EdgeDesc, HingeDesc, Plasticity, PressureDesc, SoftBody, SoftBodyDesc, SoftCloth,
+    SoftMaterial, SoftRope, SoftSolid, SolidShape, TetDesc, TetherDesc,
+};

@@ -19,6 +19,9 @@ pub struct StepProfile {
     pub bodies: Duration,
     /// The parts of [`Self::bodies`].
     pub rigid: RigidProfile,
+    /// Soft bodies and fluids (XPBD small steps), their contacts with
+    /// rigid bodies included.
+    pub soft: Duration,
     /// Collecting and reporting quarantined particles.
     pub quarantine: Duration,
     /// Spring and mutual-gravity potential energy.
@@ -82,6 +85,7 @@ impl ProfileTotals {
         s.gpu += p.gpu;
         s.bodies += p.bodies;
         s.rigid.add(&p.rigid);
+        s.soft += p.soft;
         s.quarantine += p.quarantine;
         s.energy += p.energy;
         s.total += p.total;

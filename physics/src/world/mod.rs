@@ -10,7 +10,9 @@
 //!    dispatches.
 //! 3. **bodies** — rigid bodies move (gravity, damping, scripted forces,
 //!    rotation); particles and bodies that went non-finite are reported.
-//! 4. **energy** — spring and mutual-gravity potential (kinetic and uniform
+//! 4. **soft** — soft bodies and fluids take their small steps against
+//!    the bodies' new poses, and give the bodies their impulses back.
+//! 5. **energy** — spring and mutual-gravity potential (kinetic and uniform
 //!    gravity come free from the integrate pass).
 //!
 //! Every mutating call validates its input first and changes nothing when it
@@ -22,6 +24,7 @@ mod particles;
 mod query;
 mod query_index;
 mod rigid;
+mod soft;
 mod state;
 
 pub use query_index::QueryIndex;
@@ -124,6 +127,8 @@ pub struct World {
     attachments: Arena<crate::rigid::attachment::Attachment>,
     /// Forces and torques on bodies from attachments this step (derived).
     attachment_loads: std::collections::BTreeMap<BodyHandle, (DVec3, DVec3)>,
+    /// Soft bodies (XPBD).
+    soft_bodies: Arena<crate::xpbd::soft::SoftBody>,
     /// Contact solver settings (state: they change the motion).
     solver: SolverConfig,
     /// Warm-start cache and broad phase.
@@ -176,6 +181,7 @@ impl World {
             joints: Arena::default(),
             attachments: Arena::default(),
             attachment_loads: Default::default(),
+            soft_bodies: Arena::default(),
             solver: SolverConfig::default(),
             contacts: Contacts::default(),
             body_energy: None,
@@ -292,6 +298,10 @@ impl World {
         }
         profile.rigid.particle_contacts = t1.elapsed();
         profile.bodies = t0.elapsed();
+
+        let t0 = Instant::now();
+        self.stage_soft(dt, &mut energy);
+        profile.soft = t0.elapsed();
 
         if self.config.energy_accounting {
             let t0 = Instant::now();

@@ -49,6 +49,41 @@ pub(crate) struct Target<'a> {
     /// The body's dynamic friction coefficient (the pair takes the larger
     /// of the body's and the particles').
     pub(crate) friction: f64,
+    /// How far attachments moved the body within the stage: translation
+    /// (m) and rotation vector (rad), and the velocities that came with
+    /// it (m/s, rad/s).
+    moved: Motion,
+}
+
+/// What attachments did to a body within the stage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Motion {
+    /// Translation of the centre of mass, m.
+    dx: DVec3,
+    /// Rotation about the centre of mass, applied after the body's own.
+    dq: glam::DQuat,
+    /// Change of linear velocity, m/s.
+    dv: DVec3,
+    /// Change of angular velocity, rad/s.
+    dw: DVec3,
+}
+
+impl Default for Motion {
+    fn default() -> Self {
+        Self {
+            dx: DVec3::ZERO,
+            dq: glam::DQuat::IDENTITY,
+            dv: DVec3::ZERO,
+            dw: DVec3::ZERO,
+        }
+    }
+}
+
+/// `q` turned by the rotation vector `theta` (rad), to first order and
+/// normalised.
+fn turned(q: glam::DQuat, theta: DVec3) -> glam::DQuat {
+    let t = glam::DQuat::from_xyzw(theta.x, theta.y, theta.z, 0.0) * q;
+    (q + t * 0.5).normalize()
 }
 
 impl Target<'_> {
@@ -69,6 +104,37 @@ impl Target<'_> {
     /// Whether particles can move the body.
     pub(crate) fn movable(&self) -> bool {
         self.inv_mass > 0.0
+    }
+
+    /// A point given in the body's frame, in the world, m (with what
+    /// attachments moved the body within the stage, to first order).
+    pub(crate) fn world_point(&self, local: DVec3) -> DVec3 {
+        let p = self.pose.transform_point(local);
+        self.com + self.moved.dx + self.moved.dq * (p - self.com)
+    }
+
+    /// Starts a substep of `h` seconds: the velocity attachments gave the
+    /// body moves it on (the rigid stage already moved it by the velocity
+    /// it had).
+    pub(crate) fn advance(&mut self, h: f64) {
+        self.moved.dx += self.moved.dv * h;
+        self.moved.dq = turned(self.moved.dq, self.moved.dw * h);
+    }
+
+    /// Moves the body by a positional impulse `p` (N·s·s: impulse times
+    /// the substep) at `point`, over a substep of `h` seconds (XPBD: the
+    /// move is the body's share of a constraint's correction, and its
+    /// velocity changes by the move over the substep).
+    pub(crate) fn move_by(&mut self, point: DVec3, p: DVec3, h: f64) {
+        if !self.movable() {
+            return;
+        }
+        let dx = p * self.inv_mass;
+        let dtheta = self.inv_inertia * (point - self.com - self.moved.dx).cross(p);
+        self.moved.dx += dx;
+        self.moved.dq = turned(self.moved.dq, dtheta);
+        self.moved.dv += dx / h;
+        self.moved.dw += dtheta / h;
     }
 }
 
@@ -149,6 +215,7 @@ impl<'a> Coupling<'a> {
                         DMat3::ZERO
                     },
                     friction: b.friction_dynamic,
+                    moved: Motion::default(),
                 })
             })
             .collect();
@@ -278,13 +345,17 @@ impl<'a> Coupling<'a> {
                 let n = dx.normalize_or_zero();
                 let k = f64::from(w) + t.inv_mass_along(s.point, n);
                 if k > 0.0 {
-                    let j = -dx / (f64::from(h) * k);
-                    let load = &mut loads[target as usize];
-                    load.0 += j;
-                    load.1 += (s.point - t.com).cross(j);
+                    self.add_impulse(loads, target as usize, s.point, -dx / (f64::from(h) * k));
                 }
             }
         }
+    }
+
+    /// Adds impulse `j` (N·s) at `point` (m) on target `target` to `loads`.
+    pub(crate) fn add_impulse(&self, loads: &mut [Load], target: usize, point: DVec3, j: DVec3) {
+        let load = &mut loads[target];
+        load.0 += j;
+        load.1 += (point - self.targets[target].com).cross(j);
     }
 
     /// A fresh per-chunk accumulator of loads.
@@ -300,23 +371,52 @@ impl<'a> Coupling<'a> {
         }
     }
 
-    /// Gives every movable body what the particles gave it, and wakes the
-    /// bodies that took something.
-    pub(crate) fn apply(self, bodies: &mut Arena<RigidBody>) {
-        for (t, (j, moment)) in self.targets.iter().zip(self.loads) {
-            if !t.movable() || (j == DVec3::ZERO && moment == DVec3::ZERO) {
-                continue;
+    /// What the particles did to each movable body, by body key.
+    pub(crate) fn finish(self) -> Vec<BodyChange> {
+        self.targets
+            .iter()
+            .zip(self.loads)
+            .filter(|(t, load)| t.movable() && (*load != (DVec3::ZERO, DVec3::ZERO) || t.moved != Motion::default()))
+            .map(|(t, load)| BodyChange {
+                key: t.key,
+                load,
+                moved: t.moved,
+            })
+            .collect()
+    }
+}
+
+/// What the particles did to one body over the stage.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BodyChange {
+    key: (u32, u32),
+    /// Impulses of contacts.
+    load: Load,
+    /// Moves of attachments.
+    moved: Motion,
+}
+
+/// Gives every body what the particles did to it ([`Coupling::finish`]),
+/// and wakes the bodies that took something. A change that is not finite
+/// is dropped.
+pub(crate) fn apply_changes(bodies: &mut Arena<RigidBody>, changes: &[BodyChange]) {
+    for c in changes {
+        let (j, moment) = c.load;
+        let m = c.moved;
+        let finite = [j, moment, m.dx, m.dv, m.dw].iter().all(|v| v.is_finite())
+            && m.dq.is_finite();
+        if !finite {
+            continue;
+        }
+        if let Some(b) = bodies.get_mut(c.key.0, c.key.1) {
+            if b.sleeping {
+                b.wake();
             }
-            if !j.is_finite() || !moment.is_finite() {
-                continue;
-            }
-            if let Some(b) = bodies.get_mut(t.key.0, t.key.1) {
-                if b.sleeping {
-                    b.wake();
-                }
-                b.linvel += j * b.inv_mass;
-                b.angvel += b.inverse_inertia_world() * moment;
-            }
+            let inv_inertia = b.inverse_inertia_world();
+            b.linvel += j * b.inv_mass + m.dv;
+            b.angvel += inv_inertia * moment + m.dw;
+            b.com += m.dx;
+            b.rotation = (m.dq * b.rotation).normalize();
         }
     }
 }

@@ -23,3 +23,4 @@
 pub(crate) mod colouring;
 pub(crate) mod coupling;
 pub(crate) mod scatter;
+pub mod soft;

@@ -1,0 +1,160 @@
+//! Soft bodies (XPBD) in the world: adding, reading, pinning, attaching,
+//! and the **soft** stage of the step.
+
+use glam::DVec3;
+
+use super::World;
+use crate::energy::Energy;
+use crate::error::{finite3, non_negative, PhysicsError};
+use crate::handle::{BodyHandle, SoftBodyHandle};
+use crate::xpbd::coupling::{apply_changes, Coupling};
+use crate::xpbd::soft::{self, SoftAttachment, SoftBody, SoftBodyDesc};
+
+impl World {
+    /// Adds a soft body; refused with a typed error (nothing added) when
+    /// the description is inconsistent: indices out of range, degenerate
+    /// edges or tetrahedra, negative compliance, a pressure shell that
+    /// encloses nothing, ...
+    pub fn add_soft_body(&mut self, desc: &SoftBodyDesc) -> Result<SoftBodyHandle, PhysicsError> {
+        let body = SoftBody::new(desc)?;
+        let (index, generation) = self.soft_bodies.insert(body);
+        Ok(SoftBodyHandle { index, generation })
+    }
+
+    /// Removes a soft body.
+    pub fn remove_soft_body(&mut self, h: SoftBodyHandle) -> Result<(), PhysicsError> {
+        self.soft_bodies
+            .remove(h.index, h.generation)
+            .map(|_| ())
+            .ok_or(PhysicsError::UnknownSoftBody(h))
+    }
+
+    /// A soft body, or `None` for a stale handle.
+    pub fn soft_body(&self, h: SoftBodyHandle) -> Option<&SoftBody> {
+        self.soft_bodies.get(h.index, h.generation)
+    }
+
+    /// Every soft body, in handle order.
+    pub fn soft_bodies(&self) -> impl Iterator<Item = (SoftBodyHandle, &SoftBody)> {
+        self.soft_bodies
+            .iter()
+            .map(|(index, generation, b)| (SoftBodyHandle { index, generation }, b))
+    }
+
+    fn soft_mut(&mut self, h: SoftBodyHandle) -> Result<&mut SoftBody, PhysicsError> {
+        self.soft_bodies
+            .get_mut(h.index, h.generation)
+            .ok_or(PhysicsError::UnknownSoftBody(h))
+    }
+
+    /// Moves pinned particle `particle` of soft body `h` to `position`
+    /// (m): a scripted anchor, such as the top of a flag on a moving
+    /// pole. Refused for a particle that is not pinned.
+    pub fn set_soft_pin(
+        &mut self,
+        h: SoftBodyHandle,
+        particle: u32,
+        position: DVec3,
+    ) -> Result<(), PhysicsError> {
+        finite3("soft pin position", position)?;
+        let body = self.soft_mut(h)?;
+        let i = particle as usize;
+        if i >= body.len() || body.w[i] != 0.0 {
+            return Err(PhysicsError::Invalid {
+                what: "soft pin",
+                why: format!("particle {particle} is not a pinned particle of the body"),
+            });
+        }
+        body.set_pin(i, position.as_vec3());
+        Ok(())
+    }
+
+    /// Holds particle `particle` of soft body `h` to the point of rigid
+    /// body `body` now at `at` (m, world), with compliance `compliance`
+    /// (m/N; 0 = rigid). Both ways: the body is pulled by the particle.
+    pub fn attach_soft_to_body(
+        &mut self,
+        h: SoftBodyHandle,
+        particle: u32,
+        body: BodyHandle,
+        at: DVec3,
+        compliance: f64,
+    ) -> Result<(), PhysicsError> {
+        finite3("soft attachment point", at)?;
+        non_negative("soft attachment compliance", compliance)?;
+        let local = self
+            .bodies
+            .get(body.index, body.generation)
+            .ok_or(PhysicsError::UnknownBody(body))?
+            .pose()
+            .inverse_transform_point(at);
+        let soft = self.soft_mut(h)?;
+        if particle as usize >= soft.len() {
+            return Err(PhysicsError::Invalid {
+                what: "soft attachment",
+                why: format!("particle {particle} of {}", soft.len()),
+            });
+        }
+        soft.attachments.push(SoftAttachment {
+            particle,
+            body,
+            local,
+            compliance: compliance as f32,
+        });
+        Ok(())
+    }
+
+    /// Stage 4: every soft body, in handle order, takes its small steps
+    /// against the rigid bodies as they now stand; the bodies then take
+    /// the impulses the particles gave them.
+    pub(super) fn stage_soft(&mut self, dt: f64, energy: &mut Energy) {
+        if self.soft_bodies.len() == 0 {
+            return;
+        }
+        let gravity = self.gravity.as_vec3();
+        let World {
+            soft_bodies,
+            bodies,
+            config,
+            ..
+        } = self;
+        let mut all_loads = Vec::new();
+        for (_, _, body) in soft_bodies.iter_mut() {
+            body.attachments
+                .retain(|a| bodies.get(a.body.index, a.body.generation).is_some());
+            let fastest = body
+                .v
+                .iter()
+                .map(|v| v.length_squared())
+                .fold(0.0f32, f32::max)
+                .sqrt();
+            let g = gravity.length() * body.material.gravity_scale.abs() as f32;
+            let dt32 = dt as f32;
+            let reach = body.material.collision_radius as f32 + (fastest + g * dt32) * dt32 + 1e-3;
+            let always: Vec<(u32, u32)> = body
+                .attachments
+                .iter()
+                .map(|a| (a.body.index, a.body.generation))
+                .collect();
+            let wants_bodies = body.material.collision_radius > 0.0 || !always.is_empty();
+            let mut coupling = if wants_bodies {
+                Coupling::gather(bodies, &body.x, &body.w, reach, &always)
+            } else {
+                Coupling::default()
+            };
+            soft::step(body, dt32, gravity, &mut coupling);
+            all_loads.extend(coupling.finish());
+            if config.energy_accounting {
+                let g = gravity.as_dvec3() * body.material.gravity_scale;
+                for (x, (v, w)) in body.x.iter().zip(body.v.iter().zip(&body.w)) {
+                    if *w > 0.0 {
+                        let m = 1.0 / f64::from(*w);
+                        energy.kinetic += 0.5 * m * f64::from(v.length_squared());
+                        energy.gravity_uniform -= m * g.dot(x.as_dvec3());
+                    }
+                }
+            }
+        }
+        apply_changes(bodies, &all_loads);
+    }
+}

@@ -1,0 +1,240 @@
+//! One step of a soft body: small steps of predict, project, collide,
+//! update velocities; then plastic flow and tearing.
+
+use glam::Vec3;
+
+use crate::parallel::{par_map_chunks, par_map_chunks3, CHUNK};
+
+use super::super::coupling::{Coupling, Load};
+use super::super::scatter::Scatter;
+use super::{SoftBody, MAX_TEARS_PER_STEP};
+
+/// Steps `body` by `dt` seconds under `gravity` (m/s², the world's), with
+/// the rigid bodies of `coupling` as obstacles and anchors.
+pub(crate) fn step(body: &mut SoftBody, dt: f32, gravity: Vec3, coupling: &mut Coupling<'_>) {
+    let n = body.material.substeps.max(1);
+    let h = dt / n as f32;
+    let inv_h2 = 1.0 / (h * h);
+    let g = gravity * body.material.gravity_scale as f32;
+    let keep = (1.0 - body.material.damping as f32 * h).max(0.0);
+    let radius = body.material.collision_radius as f32;
+    let friction = body.material.friction as f32;
+    // Attachments whose body is a target of the step.
+    let attached: Vec<(usize, usize)> = body
+        .attachments
+        .iter()
+        .enumerate()
+        .filter_map(|(k, a)| {
+            coupling
+                .target_of((a.body.index, a.body.generation))
+                .map(|t| (k, t))
+        })
+        .collect();
+    let mut grad = Vec::new();
+    for _ in 0..n {
+        predict(body, g, h);
+        project_constraints(body, inv_h2, &mut grad);
+        for &(_, t) in &attached {
+            coupling.targets[t].advance(f64::from(h));
+        }
+        for &(k, t) in &attached {
+            attach(body, k, t, coupling, h, inv_h2);
+        }
+        if radius > 0.0 && !coupling.is_empty() {
+            collide(body, coupling, radius, friction, h);
+        }
+        update_velocities(body, h, keep);
+    }
+    if let Some(p) = body.material.plasticity {
+        let rate = (p.creep as f32 * dt).min(1.0);
+        let (yield_strain, max) = (p.yield_strain as f32, p.max_strain as f32);
+        let x = &body.x;
+        for d in &mut body.distance.items {
+            let len = (x[d.p[1] as usize] - x[d.p[0] as usize]).length();
+            let strain = len / d.rest - 1.0;
+            if strain.abs() > yield_strain {
+                let target = len / (1.0 + yield_strain * strain.signum());
+                let rest = d.rest + (target - d.rest) * rate;
+                d.rest = rest.clamp(d.rest0 * (1.0 - max).max(0.01), d.rest0 * (1.0 + max));
+            }
+        }
+    }
+    if let Some(t) = body.material.tear_strain {
+        tear(body, t as f32);
+    }
+}
+
+/// `v += g h`, `prev = x`, `x += v h` for every particle that can move.
+fn predict(body: &mut SoftBody, g: Vec3, h: f32) {
+    let w = &body.w;
+    par_map_chunks3(
+        &mut body.x,
+        &mut body.v,
+        &mut body.prev,
+        CHUNK,
+        |base, xs, vs, ps| {
+            for k in 0..xs.len() {
+                ps[k] = xs[k];
+                if w[base + k] > 0.0 {
+                    vs[k] += g * h;
+                    xs[k] += vs[k] * h;
+                } else {
+                    vs[k] = Vec3::ZERO;
+                }
+            }
+        },
+    );
+}
+
+/// Every constraint once, kind after kind, colour after colour.
+fn project_constraints(body: &mut SoftBody, inv_h2: f32, grad: &mut Vec<Vec3>) {
+    let SoftBody {
+        x,
+        w,
+        distance,
+        bend,
+        tets,
+        tethers,
+        ..
+    } = body;
+    let w = &w[..];
+    let xs = Scatter::new(x);
+    distance.project(|c| c.project(xs, w, inv_h2));
+    bend.project(|c| c.project(xs, w, inv_h2));
+    tets.project(|c| c.project(xs, w, inv_h2));
+    tethers.project(|c| c.project(xs, w));
+    if let Some(p) = body.pressure {
+        project_pressure(body, p.target, p.compliance * inv_h2, grad);
+    }
+}
+
+/// The enclosed volume kept at `target` m³ (one global constraint).
+fn project_pressure(body: &mut SoftBody, target: f32, alpha: f32, grad: &mut Vec<Vec3>) {
+    grad.clear();
+    grad.resize(body.x.len(), Vec3::ZERO);
+    let mut volume = 0.0f32;
+    for t in &body.triangles {
+        let [a, b, c] = t.map(|i| body.x[i as usize]);
+        volume += a.dot(b.cross(c)) / 6.0;
+        grad[t[0] as usize] += b.cross(c) / 6.0;
+        grad[t[1] as usize] += c.cross(a) / 6.0;
+        grad[t[2] as usize] += a.cross(b) / 6.0;
+    }
+    let mut k = alpha;
+    for (g, w) in grad.iter().zip(&body.w) {
+        k += w * g.length_squared();
+    }
+    if k <= 1e-30 {
+        return;
+    }
+    let dl = -(volume - target) / k;
+    for ((x, g), w) in body.x.iter_mut().zip(grad.iter()).zip(&body.w) {
+        *x += *g * (w * dl);
+    }
+}
+
+/// Attachment `k` to target `t`: a zero-length compliant constraint from
+/// the particle to the body's point, both moved by their shares.
+fn attach(body: &mut SoftBody, k: usize, t: usize, coupling: &mut Coupling<'_>, h: f32, inv_h2: f32) {
+    let a = body.attachments[k];
+    let i = a.particle as usize;
+    let target = &mut coupling.targets[t];
+    let anchor = target.world_point(a.local);
+    let d = body.x[i].as_dvec3() - anchor;
+    let len = d.length();
+    if len < 1e-9 || !len.is_finite() {
+        return;
+    }
+    let n = d / len;
+    let wp = f64::from(body.w[i]);
+    let k = wp + target.inv_mass_along(anchor, n) + f64::from(a.compliance * inv_h2);
+    if k <= 0.0 {
+        return;
+    }
+    let dl = -len / k;
+    body.x[i] = (body.x[i].as_dvec3() + n * (wp * dl)).as_vec3();
+    target.move_by(anchor, -n * dl, f64::from(h));
+}
+
+/// Particles kept out of the rigid bodies.
+fn collide(body: &mut SoftBody, coupling: &mut Coupling<'_>, radius: f32, mu: f32, h: f32) {
+    let (prev, w) = (&body.prev, &body.w);
+    let c: &Coupling<'_> = coupling;
+    let chunk_loads = par_map_chunks(&mut body.x, CHUNK, |base, xs| {
+        let mut loads: Option<Vec<Load>> = None;
+        for (k, x) in xs.iter_mut().enumerate() {
+            let i = base + k;
+            if c.candidates(i).is_empty() {
+                continue;
+            }
+            let loads = loads.get_or_insert_with(|| c.new_loads());
+            c.push_out(i, x, prev[i], w[i], radius, mu, h, loads);
+        }
+        loads
+    });
+    for loads in chunk_loads.into_iter().flatten() {
+        coupling.add_loads(&loads);
+    }
+}
+
+/// `v = (x − prev) / h`, damped; a particle gone non-finite goes back to
+/// where it stood, at rest.
+fn update_velocities(body: &mut SoftBody, h: f32, keep: f32) {
+    let w = &body.w;
+    let inv_h = 1.0 / h;
+    par_map_chunks3(
+        &mut body.x,
+        &mut body.v,
+        &mut body.prev,
+        CHUNK,
+        |base, xs, vs, ps| {
+            for k in 0..xs.len() {
+                if w[base + k] <= 0.0 {
+                    continue;
+                }
+                let v = (xs[k] - ps[k]) * inv_h * keep;
+                if v.is_finite() && xs[k].is_finite() {
+                    vs[k] = v;
+                } else {
+                    xs[k] = ps[k];
+                    vs[k] = Vec3::ZERO;
+                }
+            }
+        },
+    );
+}
+
+/// The distance constraints stretched past `limit` break, the most
+/// strained first, with what lies on their edge.
+fn tear(body: &mut SoftBody, limit: f32) {
+    let x = &body.x;
+    let mut over: Vec<(f32, [u32; 2])> = body
+        .distance
+        .items
+        .iter()
+        .filter_map(|d| {
+            let s = (x[d.p[1] as usize] - x[d.p[0] as usize]).length() / d.rest - 1.0;
+            (s > limit).then_some((s, d.p))
+        })
+        .collect();
+    if over.is_empty() {
+        return;
+    }
+    // Most strained first; ties by the edge's particles (a total order).
+    over.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    over.truncate(MAX_TEARS_PER_STEP);
+    let broken: Vec<[u32; 2]> = over.iter().map(|(_, p)| sorted(*p)).collect();
+    let on_edge = |ps: &[u32]| {
+        broken
+            .iter()
+            .any(|[a, b]| ps.contains(a) && ps.contains(b))
+    };
+    body.distance.retain(|d| !broken.contains(&sorted(d.p)));
+    body.triangles.retain(|t| !on_edge(t));
+    body.bend.retain(|b| !on_edge(&[b.p[0], b.p[1], b.p[2]]) && !on_edge(&[b.p[0], b.p[1], b.p[3]]));
+    body.tets.retain(|t| !on_edge(&t.p));
+}
+
+fn sorted([a, b]: [u32; 2]) -> [u32; 2] {
+    [a.min(b), a.max(b)]
+}

@@ -1,0 +1,398 @@
+//! Soft bodies on XPBD small steps: what issue 16 asks of them.
+
+use inertia_physics::glam::{DQuat, DVec3};
+use inertia_physics::rigid::body::RigidBodyDesc;
+use inertia_physics::rigid::pose::Pose;
+use inertia_physics::rigid::shape::Shape;
+use inertia_physics::{
+    BodyHandle, PhysicsError, Plasticity, SoftBodyDesc, SoftCloth, SoftMaterial, SoftRope,
+    SoftSolid, SolidShape, World, WorldConfig,
+};
+
+const DT: f64 = 1.0 / 60.0;
+
+fn world(threads: usize) -> World {
+    let mut w = World::new(WorldConfig {
+        threads,
+        ..WorldConfig::default()
+    })
+    .unwrap();
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w
+}
+
+fn ground(w: &mut World) -> BodyHandle {
+    let pose = Pose {
+        translation: DVec3::new(0.0, -0.5, 0.0),
+        rotation: DQuat::IDENTITY,
+    };
+    w.add_body(&RigidBodyDesc::fixed(Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(), pose))
+        .unwrap()
+}
+
+#[test]
+fn issue_16_a_rope_of_50_segments_holding_10_kg_at_60_hz_stretches_under_1_percent() {
+    let mut w = world(1);
+    let rope = SoftRope {
+        start: DVec3::new(0.0, 10.0, 0.0),
+        end: DVec3::new(5.0, 10.0, 0.0),
+        segments: 50,
+        mass: 0.5,
+        compliance: 0.0,
+        pin_start: true,
+        pin_end: false,
+        tethers: true,
+        // A 1000:1 mass ratio along a chain: more, shorter substeps.
+        material: SoftMaterial {
+            substeps: 40,
+            ..SoftMaterial::default()
+        },
+    };
+    let mut desc = rope.build().unwrap();
+    // The load: 10 kg on the free end.
+    *desc.masses.last_mut().unwrap() = 10.0;
+    let h = w.add_soft_body(&desc).unwrap();
+    // Let go level, it swings down and comes to hang.
+    let mut worst = 0.0f32;
+    for _ in 0..600 {
+        w.step(DT).unwrap();
+        worst = worst.max(w.soft_body(h).unwrap().max_strain());
+    }
+    let b = w.soft_body(h).unwrap();
+    let x = b.positions();
+    let length: f32 = x.windows(2).map(|p| (p[1] - p[0]).length()).sum();
+    let stretch = length / 5.0 - 1.0;
+    let hanging = b.max_strain();
+    println!(
+        "rope: stretch {:.4} % hanging (worst segment {:.4} %), worst segment while swinging {:.4} %",
+        stretch * 100.0,
+        hanging * 100.0,
+        worst * 100.0
+    );
+    assert!(stretch < 0.01, "the rope stretched {} %", stretch * 100.0);
+    assert!(hanging < 0.01, "a segment stretched {} %", hanging * 100.0);
+    // Taut: the load is the rope's length from the pin.
+    let reach = (x[0] - x[50]).length();
+    assert!(reach > 4.95, "the load is {reach} m from the pin");
+}
+
+#[test]
+fn issue_16_cloth_under_gravity_stretches_under_2_percent_at_60_hz() {
+    let mut w = world(2);
+    let cloth = SoftCloth {
+        corner: DVec3::new(-1.0, 3.0, 0.0),
+        across: DVec3::new(2.0, 0.0, 0.0),
+        down: DVec3::new(0.0, -2.0, 0.0),
+        rows: 32,
+        cols: 32,
+        mass: 1.0,
+        stretch_compliance: 0.0,
+        shear_compliance: 1e-6,
+        bend_compliance: 10.0,
+        pinned: vec![[0, 0], [0, 31]],
+        tethers: true,
+        material: SoftMaterial::default(),
+    };
+    let h = w.add_soft_body(&cloth.build().unwrap()).unwrap();
+    let mut worst = 0.0f32;
+    for _ in 0..240 {
+        w.step(DT).unwrap();
+        worst = worst.max(w.soft_body(h).unwrap().max_strain());
+    }
+    let b = w.soft_body(h).unwrap();
+    let lowest = b.positions().iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+    println!("cloth: worst strain {:.3} %, lowest point {lowest:.2} m", worst * 100.0);
+    assert!(lowest < 1.1, "the cloth hangs down ({lowest})");
+    assert!(worst < 0.02, "the cloth stretched {} %", worst * 100.0);
+}
+
+fn jelly(w: &mut World, at: DVec3) -> inertia_physics::SoftBodyHandle {
+    let solid = SoftSolid {
+        shape: SolidShape::Box {
+            half_extents: DVec3::splat(0.25),
+        },
+        position: at,
+        cell: 0.1,
+        density: 1000.0,
+        edge_compliance: 1e-3,
+        volume_compliance: 0.0,
+        material: SoftMaterial {
+            collision_radius: 0.01,
+            damping: 1.0,
+            ..SoftMaterial::default()
+        },
+        ..SoftSolid::default()
+    };
+    w.add_soft_body(&solid.build().unwrap()).unwrap()
+}
+
+fn height(b: &inertia_physics::SoftBody) -> f32 {
+    let ys = b.positions().iter().map(|p| p.y);
+    let hi = ys.clone().fold(f32::NEG_INFINITY, f32::max);
+    let lo = ys.fold(f32::INFINITY, f32::min);
+    hi - lo
+}
+
+#[test]
+fn issue_16_a_resting_soft_cube_keeps_its_volume_and_recovers_from_a_squash() {
+    let mut w = world(1);
+    ground(&mut w);
+    let h = jelly(&mut w, DVec3::new(0.0, 0.27, 0.0));
+    for _ in 0..120 {
+        w.step(DT).unwrap();
+    }
+    let b = w.soft_body(h).unwrap();
+    let rest_height = height(b);
+    let kept = b.volume() / b.rest_volume();
+    println!("resting: volume {:.2} % of rest, height {:.3} of {rest_height:.3} m", kept * 100.0, height(b));
+    assert!(kept >= 0.97, "the cube kept {} % of its volume", kept * 100.0);
+    // Squash it under a 400 kg press for a second, then lift the press.
+    let press = w
+        .add_body(
+            &RigidBodyDesc::dynamic(
+                Shape::cuboid(DVec3::new(0.5, 0.05, 0.5)).unwrap(),
+                1.0,
+                Pose {
+                    translation: DVec3::new(0.0, 0.6, 0.0),
+                    rotation: DQuat::IDENTITY,
+                },
+            )
+            .unwrap()
+            .with_mass(400.0)
+            .unwrap(),
+        )
+        .unwrap();
+    for _ in 0..60 {
+        w.step(DT).unwrap();
+    }
+    let squashed = height(w.soft_body(h).unwrap());
+    w.remove_body(press).unwrap();
+    for _ in 0..180 {
+        w.step(DT).unwrap();
+    }
+    let b = w.soft_body(h).unwrap();
+    let recovered = height(b);
+    let kept = b.volume() / b.rest_volume();
+    println!(
+        "squashed to {squashed:.3} m, recovered to {recovered:.3} m of {rest_height:.3} m, volume {:.2} %",
+        kept * 100.0
+    );
+    assert!(squashed < 0.95 * rest_height, "the press squashed it ({squashed})");
+    assert!((recovered - rest_height).abs() < 0.03 * rest_height, "it recovered to {recovered}");
+    assert!(kept >= 0.97);
+}
+
+/// A cantilever bar 1 m long pinned at x = 0, in no gravity; its tip is
+/// held by a kinematic body that pushes it down by `push` m over a second
+/// and holds it there a second, then lets go. Returns the tip's sag (m)
+/// while held and two seconds after it was let go.
+fn bend_bar(push: f64) -> (f32, f32) {
+    let mut w = world(1);
+    w.set_gravity(DVec3::ZERO).unwrap();
+    let solid = SoftSolid {
+        shape: SolidShape::Box {
+            half_extents: DVec3::new(0.5, 0.05, 0.05),
+        },
+        position: DVec3::new(0.5, 1.0, 0.0),
+        cell: 0.05,
+        density: 500.0,
+        edge_compliance: 1e-8,
+        volume_compliance: 0.0,
+        material: SoftMaterial {
+            damping: 2.0,
+            substeps: 20,
+            plasticity: Some(Plasticity {
+                yield_strain: 0.01,
+                creep: 20.0,
+                max_strain: 0.3,
+            }),
+            ..SoftMaterial::default()
+        },
+        ..SoftSolid::default()
+    };
+    let mut desc = solid.build().unwrap();
+    let mut tip = Vec::new();
+    for (k, p) in desc.positions.iter().enumerate() {
+        if p.x < 1e-6 {
+            desc.masses[k] = 0.0;
+        }
+        if p.x > 1.0 - 1e-6 {
+            tip.push(k as u32);
+        }
+    }
+    let h = w.add_soft_body(&desc).unwrap();
+    let tip_y = |w: &World| -> f32 {
+        let b = w.soft_body(h).unwrap();
+        tip.iter().map(|&k| b.positions()[k as usize].y).sum::<f32>() / tip.len() as f32
+    };
+    let start = tip_y(&w);
+    let at = |y: f64| Pose {
+        translation: DVec3::new(1.0, y, 0.0),
+        rotation: DQuat::IDENTITY,
+    };
+    let hand = w
+        .add_body(&RigidBodyDesc::kinematic(Shape::sphere(0.02).unwrap(), at(1.0)))
+        .unwrap();
+    for &k in &tip {
+        let p = w.soft_body(h).unwrap().positions()[k as usize].as_dvec3();
+        w.attach_soft_to_body(h, k, hand, p, 0.0).unwrap();
+    }
+    for step in 1..=120 {
+        let f = (step as f64 / 60.0).min(1.0);
+        w.set_body_pose(hand, at(1.0 - push * f)).unwrap();
+        w.step(DT).unwrap();
+    }
+    let held = start - tip_y(&w);
+    w.remove_body(hand).unwrap();
+    for _ in 0..120 {
+        w.step(DT).unwrap();
+    }
+    (held, start - tip_y(&w))
+}
+
+#[test]
+fn issue_16_a_bar_bent_past_yield_keeps_a_set_and_one_bent_below_it_returns() {
+    let (light_held, light_after) = bend_bar(0.02);
+    let (heavy_held, heavy_after) = bend_bar(0.3);
+    println!(
+        "below yield: held {light_held:.4} m, after {light_after:.4} m; past yield: held {heavy_held:.4} m, after {heavy_after:.4} m"
+    );
+    assert!(light_held > 0.015, "the bar was bent ({light_held} m)");
+    assert!(heavy_held > 0.25, "the bar was bent ({heavy_held} m)");
+    // Within 1 % of its length (1 m) of where it started.
+    assert!(light_after.abs() < 0.01, "the bar bent below yield stayed bent {light_after} m");
+    assert!(heavy_after > 0.3 * heavy_held, "the bar bent past yield kept a set ({heavy_after} of {heavy_held} m)");
+}
+
+#[test]
+fn issue_16_a_tearing_cloth_tears_where_the_strain_is_highest() {
+    let mut w = world(1);
+    let n = 20;
+    let cloth = SoftCloth {
+        corner: DVec3::new(-1.0, 3.0, 0.0),
+        across: DVec3::new(2.0, 0.0, 0.0),
+        down: DVec3::new(0.0, -2.0, 0.0),
+        rows: n,
+        cols: n,
+        mass: 2.0,
+        stretch_compliance: 1e-3,
+        shear_compliance: 1e-3,
+        bend_compliance: 100.0,
+        pinned: vec![[0, 0], [0, n - 1]],
+        tethers: false,
+        material: SoftMaterial {
+            tear_strain: Some(0.08),
+            ..SoftMaterial::default()
+        },
+    };
+    let desc = cloth.build().unwrap();
+    let h = w.add_soft_body(&desc).unwrap();
+    let edges0 = w.soft_body(h).unwrap().constraint_counts()[0];
+    let mut most_strained = None;
+    let mut torn = None;
+    for _ in 0..600 {
+        let b = w.soft_body(h).unwrap();
+        let before: Vec<[u32; 2]> = b.edges().map(|e| e.0).collect();
+        most_strained = b
+            .edges()
+            .max_by(|a, b| (a.1 / a.2).total_cmp(&(b.1 / b.2)))
+            .map(|e| e.0);
+        w.step(DT).unwrap();
+        let after: Vec<[u32; 2]> = w.soft_body(h).unwrap().edges().map(|e| e.0).collect();
+        if after.len() < before.len() {
+            torn = Some(before.into_iter().filter(|e| !after.contains(e)).collect::<Vec<_>>());
+            break;
+        }
+    }
+    let torn = torn.expect("the cloth tore");
+    let most = most_strained.unwrap();
+    println!("{edges0} edges; first torn {torn:?}; most strained before {most:?}");
+    // The tear starts next to a pin, where a hanging sheet's strain gathers.
+    let near_pin = |i: u32| {
+        let (r, c) = (i / n, i % n);
+        r <= 2 && (c <= 2 || c >= n - 3)
+    };
+    assert!(torn.iter().all(|e| near_pin(e[0]) || near_pin(e[1])), "{torn:?}");
+    let b = w.soft_body(h).unwrap();
+    assert!(b.triangles().len() < desc.triangles.len(), "the torn edge's triangles went with it");
+}
+
+#[test]
+fn issue_16_soft_bodies_step_alike_on_one_and_two_threads() {
+    let run = |threads| {
+        let mut w = world(threads);
+        ground(&mut w);
+        jelly(&mut w, DVec3::new(0.0, 0.6, 0.0));
+        let cloth = SoftCloth {
+            corner: DVec3::new(-1.0, 1.5, -1.0),
+            across: DVec3::new(2.0, 0.0, 0.0),
+            down: DVec3::new(0.0, 0.0, 2.0),
+            rows: 80,
+            cols: 80,
+            material: SoftMaterial {
+                collision_radius: 0.01,
+                ..SoftMaterial::default()
+            },
+            ..SoftCloth::default()
+        };
+        let h = w.add_soft_body(&cloth.build().unwrap()).unwrap();
+        for _ in 0..60 {
+            w.step(DT).unwrap();
+        }
+        (w.state_hash(), w.soft_body(h).unwrap().positions().to_vec())
+    };
+    let (h1, x1) = run(1);
+    let (h2, x2) = run(2);
+    assert!(x1.iter().zip(&x2).all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)));
+    assert_eq!(h1, h2);
+}
+
+#[test]
+fn issue_16_bad_soft_bodies_are_refused_with_typed_errors() {
+    let mut w = world(1);
+    let ok = SoftRope::default().build().unwrap();
+    let mut bad = ok.clone();
+    bad.edges[0].compliance = -1.0;
+    assert!(matches!(w.add_soft_body(&bad), Err(PhysicsError::Negative { .. })));
+    let mut bad = ok.clone();
+    bad.edges[0].particles = [0, 99];
+    assert!(matches!(w.add_soft_body(&bad), Err(PhysicsError::Invalid { .. })));
+    let mut bad = ok.clone();
+    bad.positions[1] = bad.positions[0];
+    assert!(matches!(w.add_soft_body(&bad), Err(PhysicsError::DegenerateSpring(_))));
+    let mut bad = ok.clone();
+    bad.material.substeps = 0;
+    assert!(w.add_soft_body(&bad).is_err());
+    // A flat tetrahedron.
+    let flat = SoftBodyDesc {
+        positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(1.0, 1.0, 0.0)],
+        masses: vec![1.0; 4],
+        tetrahedra: vec![inertia_physics::TetDesc {
+            particles: [0, 1, 2, 3],
+            compliance: 0.0,
+        }],
+        ..SoftBodyDesc::default()
+    };
+    assert!(matches!(w.add_soft_body(&flat), Err(PhysicsError::Invalid { .. })));
+    // A pressure shell that encloses nothing (one open triangle).
+    let open = SoftBodyDesc {
+        positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y],
+        masses: vec![1.0; 3],
+        triangles: vec![[0, 1, 2]],
+        pressure: Some(inertia_physics::PressureDesc {
+            pressure: 1.0,
+            compliance: 0.0,
+        }),
+        ..SoftBodyDesc::default()
+    };
+    assert!(matches!(w.add_soft_body(&open), Err(PhysicsError::Invalid { .. })));
+    let mesh = SoftSolid {
+        shape: SolidShape::Mesh {
+            vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y],
+            triangles: vec![[0, 1, 2]],
+        },
+        ..SoftSolid::default()
+    };
+    assert!(mesh.build().is_err(), "a mesh that encloses no volume");
+    assert_eq!(w.soft_bodies().count(), 0, "nothing was added");
+}
