@@ -32,6 +32,8 @@ enum SuiteArg {
     Replay,
     /// An hour of simulated time at fast-forward with recording and client churn: memory and file handles bounded.
     Soak,
+    /// Soft bodies and fluids on XPBD small steps: cloth 64², 128², 387², a jelly, fluid 10k and 100k; 1 and 2 threads.
+    Soft,
 }
 
 impl From<SuiteArg> for Suite {
@@ -45,6 +47,7 @@ impl From<SuiteArg> for Suite {
             SuiteArg::Capacity => Suite::Capacity,
             SuiteArg::Replay => Suite::Replay,
             SuiteArg::Soak => Suite::Soak,
+            SuiteArg::Soft => Suite::Soft,
         }
     }
 }

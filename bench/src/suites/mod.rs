@@ -9,6 +9,7 @@ pub mod particles;
 pub mod physics;
 pub mod replay;
 pub mod soak;
+pub mod soft;
 
 use crate::report::Sink;
 use crate::{BenchError, Opts};
@@ -32,11 +33,13 @@ pub enum Suite {
     Replay,
     /// An hour of simulated time at fast-forward: memory and file handles bounded.
     Soak,
+    /// Soft bodies and fluids on XPBD small steps: cloth, jelly, fluid.
+    Soft,
 }
 
 impl Suite {
     /// Every suite.
-    pub const ALL: [Suite; 8] = [
+    pub const ALL: [Suite; 9] = [
         Suite::Integrators,
         Suite::Particles,
         Suite::Nbody,
@@ -45,6 +48,7 @@ impl Suite {
         Suite::Capacity,
         Suite::Replay,
         Suite::Soak,
+        Suite::Soft,
     ];
 
     /// The command-line name, also the `suite` field of every record.
@@ -58,6 +62,7 @@ impl Suite {
             Suite::Capacity => "capacity",
             Suite::Replay => "replay",
             Suite::Soak => "soak",
+            Suite::Soft => "soft",
         }
     }
 
@@ -72,6 +77,7 @@ impl Suite {
             Suite::Capacity => capacity::run(opts, sink),
             Suite::Replay => replay::run(opts, sink),
             Suite::Soak => soak::run(opts, sink),
+            Suite::Soft => soft::run(opts, sink),
         }
     }
 }

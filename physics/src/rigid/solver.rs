@@ -47,7 +47,7 @@
 use glam::{DMat3, DQuat, DVec3};
 
 mod hot;
-mod lanes;
+pub(crate) mod lanes;
 mod wide;
 
 pub(crate) use wide::{WideContacts, WidePass};

@@ -176,6 +176,30 @@ impl<C: Touches + Clone + Sync> Coloured<C> {
         }
     }
 
+    /// Like [`Coloured::project`], four constraints at a time (`four`)
+    /// where a colour has four left, one at a time (`one`) for the rest.
+    pub(crate) fn project_lanes(
+        &self,
+        four: impl Fn(&[C; 4]) + Sync + Send,
+        one: impl Fn(&C) + Sync + Send,
+    ) {
+        let n = self.ends.len();
+        let run = |chunk: &[C]| {
+            let mut quads = chunk.chunks_exact(4);
+            for q in &mut quads {
+                four(q.try_into().expect("chunks of four"));
+            }
+            quads.remainder().iter().for_each(&one);
+        };
+        for (k, colour) in self.colours().enumerate() {
+            if self.overflow && k + 1 == n {
+                colour.iter().for_each(&one);
+            } else {
+                for_each_item(colour, CHUNK, run);
+            }
+        }
+    }
+
     /// Keeps the constraints for which `keep` is true; the colouring stays
     /// valid (a subset of a colour moves each particle at most once).
     pub(crate) fn retain(&mut self, mut keep: impl FnMut(&C) -> bool) {

@@ -17,6 +17,7 @@
 
 mod build;
 pub(crate) mod constraints;
+mod lanes;
 mod step;
 mod tetra;
 

@@ -7,7 +7,7 @@ use crate::parallel::{par_map_chunks, par_map_chunks3, CHUNK};
 
 use super::super::coupling::{Coupling, Load};
 use super::super::scatter::Scatter;
-use super::{SoftBody, MAX_TEARS_PER_STEP};
+use super::{lanes, SoftBody, MAX_TEARS_PER_STEP};
 
 /// Steps `body` by `dt` seconds under `gravity` (m/s², the world's), with
 /// the rigid bodies of `coupling` as obstacles and anchors.
@@ -99,8 +99,14 @@ fn project_constraints(body: &mut SoftBody, inv_h2: f32, grad: &mut Vec<Vec3>) {
     } = body;
     let w = &w[..];
     let xs = Scatter::new(x);
-    distance.project(|c| c.project(xs, w, inv_h2));
-    bend.project(|c| c.project(xs, w, inv_h2));
+    distance.project_lanes(
+        |four| lanes::project_distances(four, xs, w, inv_h2),
+        |c| c.project(xs, w, inv_h2),
+    );
+    bend.project_lanes(
+        |four| lanes::project_bends(four, xs, w, inv_h2),
+        |c| c.project(xs, w, inv_h2),
+    );
     tets.project(|c| c.project(xs, w, inv_h2));
     tethers.project(|c| c.project(xs, w));
     if let Some(p) = body.pressure {

@@ -1,0 +1,187 @@
+//! `inertia-bench soft`: soft bodies and fluids on XPBD small steps, on
+//! the CPU at 1 and 2 threads (interleaved: one world per thread count,
+//! stepped in turn, so machine noise falls on both alike).
+//!
+//! ## Cases
+//!
+//! * `cloth_64`, `cloth_128`, `cloth_387`: [`SoftCloth`] `n` × `n`, 2 cm
+//!   spacing, inextensible stretch, stiff shear, bending, tethers to its
+//!   two pinned corners, 10 substeps, hanging under gravity (387² ≈ 150k
+//!   particles is the cloth of Macklin et al., "Small Steps in Physics
+//!   Simulation", 2019: 13.5 ms a frame on their GPU).
+//! * `jelly_20`: a [`SoftSolid`] box of 20³ cells (six tetrahedra a cell)
+//!   resting on the ground, 10 substeps.
+//!
+//! Each record: `particles`, `constraints` (projected each substep),
+//! `substeps`, `ms_per_step` (median over the timed steps), `max_strain`
+//! (the largest strain of a distance constraint at the end; cloth) or
+//! `volume_kept` (jelly), and the share of the step in the soft stage.
+//!
+//! `--quick` shrinks the cases (`cloth_32`, `jelly_6`) and the steps.
+
+use std::time::Instant;
+
+use inertia_physics::glam::{DQuat, DVec3};
+use inertia_physics::rigid::body::RigidBodyDesc;
+use inertia_physics::rigid::pose::Pose;
+use inertia_physics::rigid::shape::Shape;
+use inertia_physics::{
+    SoftBodyHandle, SoftCloth, SoftMaterial, SoftSolid, SolidShape, World, WorldConfig,
+};
+
+use crate::report::{median, note, progress, Record, Sink, Suspended};
+use crate::{BenchError, Opts};
+
+/// A 60 Hz tick, s.
+const DT: f64 = 1.0 / 60.0;
+
+/// A scene of the suite.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Scene {
+    /// An `n` × `n` cloth hanging from two corners.
+    Cloth(u32),
+    /// A jelly of `n`³ cells on the ground.
+    Jelly(u32),
+}
+
+impl Scene {
+    fn name(self) -> String {
+        match self {
+            Scene::Cloth(n) => format!("cloth_{n}"),
+            Scene::Jelly(n) => format!("jelly_{n}"),
+        }
+    }
+
+    fn build(self, threads: usize) -> Result<(World, SoftBodyHandle), BenchError> {
+        let mut w = World::new(WorldConfig {
+            threads,
+            energy_accounting: false,
+            ..WorldConfig::default()
+        })?;
+        w.set_gravity(DVec3::new(0.0, -9.81, 0.0))?;
+        let material = SoftMaterial {
+            substeps: 10,
+            ..SoftMaterial::default()
+        };
+        let h = match self {
+            Scene::Cloth(n) => {
+                let side = 0.02 * f64::from(n - 1);
+                let cloth = SoftCloth {
+                    corner: DVec3::new(-side / 2.0, side + 1.0, 0.0),
+                    across: DVec3::new(side, 0.0, 0.0),
+                    down: DVec3::new(0.0, 0.0, side),
+                    rows: n,
+                    cols: n,
+                    mass: 0.1 * side * side,
+                    stretch_compliance: 0.0,
+                    shear_compliance: 1e-6,
+                    bend_compliance: 1.0,
+                    pinned: vec![[0, 0], [0, n - 1]],
+                    tethers: true,
+                    material,
+                };
+                w.add_soft_body(&cloth.build()?)?
+            }
+            Scene::Jelly(n) => {
+                w.add_body(&RigidBodyDesc::fixed(
+                    Shape::cuboid(DVec3::new(10.0, 0.5, 10.0))?,
+                    Pose {
+                        translation: DVec3::new(0.0, -0.5, 0.0),
+                        rotation: DQuat::IDENTITY,
+                    },
+                ))?;
+                let solid = SoftSolid {
+                    shape: SolidShape::Box {
+                        half_extents: DVec3::splat(0.5),
+                    },
+                    position: DVec3::new(0.0, 0.52, 0.0),
+                    cell: 1.0 / f64::from(n),
+                    edge_compliance: 1e-4,
+                    material: SoftMaterial {
+                        collision_radius: 0.01,
+                        ..material
+                    },
+                    ..SoftSolid::default()
+                };
+                w.add_soft_body(&solid.build()?)?
+            }
+        };
+        Ok((w, h))
+    }
+}
+
+fn scenes(opts: &Opts) -> Vec<Scene> {
+    if opts.quick {
+        vec![Scene::Cloth(32), Scene::Jelly(6)]
+    } else {
+        vec![
+            Scene::Cloth(64),
+            Scene::Cloth(128),
+            Scene::Cloth(387),
+            Scene::Jelly(20),
+        ]
+    }
+}
+
+/// Runs the suite.
+pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
+    let scenes: Vec<Scene> = scenes(opts)
+        .into_iter()
+        .filter(|s| opts.wants(&s.name()))
+        .collect();
+    let (warmup, steps) = if opts.quick { (2, 6) } else { (30, 120) };
+    let threads = [1usize, 2];
+    let pb = progress(scenes.len() as u64, "soft");
+    let mut sink = Suspended::new(&pb, sink);
+    for scene in scenes {
+        pb.set_message(scene.name());
+        let mut worlds = Vec::new();
+        for &t in &threads {
+            worlds.push(scene.build(t)?);
+        }
+        for _ in 0..warmup {
+            for (w, _) in &mut worlds {
+                w.step(DT)?;
+            }
+        }
+        let mut times = vec![Vec::with_capacity(steps); threads.len()];
+        let mut soft = vec![0.0; threads.len()];
+        for s in 0..steps {
+            // Alternate which thread count goes first.
+            for k in 0..threads.len() {
+                let k = if s % 2 == 0 { k } else { threads.len() - 1 - k };
+                let (w, _) = &mut worlds[k];
+                let t0 = Instant::now();
+                w.step(DT)?;
+                times[k].push(t0.elapsed().as_secs_f64());
+                soft[k] += w.profile().soft.as_secs_f64();
+            }
+        }
+        let hashes: Vec<u64> = worlds.iter().map(|(w, _)| w.state_hash()).collect();
+        if hashes.windows(2).any(|h| h[0] != h[1]) {
+            note(&pb, &format!("{}: the thread counts disagree", scene.name()));
+        }
+        for (k, (w, h)) in worlds.iter().enumerate() {
+            let b = w.soft_body(*h).ok_or("soft body vanished")?;
+            let total: f64 = times[k].iter().sum();
+            let mut r = Record::new()
+                .field("case", scene.name())
+                .field("backend", "cpu")
+                .field("threads", threads[k])
+                .field("particles", b.len())
+                .field("constraints", b.constraints())
+                .field("substeps", b.material().substeps)
+                .num("ms_per_step", median(&times[k]) * 1e3)
+                .num("soft_share", soft[k] / total.max(1e-12))
+                .field("same_bits_on_1_and_2_threads", hashes.windows(2).all(|h| h[0] == h[1]));
+            r = match scene {
+                Scene::Cloth(_) => r.num("max_strain", f64::from(b.max_strain())),
+                Scene::Jelly(_) => r.num("volume_kept", f64::from(b.volume() / b.rest_volume())),
+            };
+            sink.record(r);
+        }
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    Ok(())
+}
