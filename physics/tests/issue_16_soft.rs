@@ -396,3 +396,103 @@ fn issue_16_bad_soft_bodies_are_refused_with_typed_errors() {
     assert!(mesh.build().is_err(), "a mesh that encloses no volume");
     assert_eq!(w.soft_bodies().count(), 0, "nothing was added");
 }
+
+#[test]
+fn issue_16_a_restored_soft_world_steps_on_with_the_same_bits() {
+    let build = || {
+        let mut w = world(2);
+        ground(&mut w);
+        let h = jelly(&mut w, DVec3::new(0.0, 0.6, 0.0));
+        let mut rope = SoftRope {
+            start: DVec3::new(2.0, 2.0, 0.0),
+            end: DVec3::new(3.0, 2.0, 0.0),
+            segments: 12,
+            ..SoftRope::default()
+        };
+        rope.material.plasticity = Some(Plasticity {
+            yield_strain: 0.01,
+            creep: 1.0,
+            max_strain: 0.2,
+        });
+        rope.material.tear_strain = Some(0.5);
+        let r = w.add_soft_body(&rope.build().unwrap()).unwrap();
+        let ball = w
+            .add_body(
+                &RigidBodyDesc::dynamic(
+                    Shape::sphere(0.1).unwrap(),
+                    500.0,
+                    Pose {
+                        translation: DVec3::new(3.0, 2.0, 0.0),
+                        rotation: DQuat::IDENTITY,
+                    },
+                )
+                .unwrap(),
+            )
+            .unwrap();
+        w.attach_soft_to_body(r, 12, ball, DVec3::new(3.0, 2.0, 0.0), 0.0).unwrap();
+        (w, h)
+    };
+    let (mut a, h) = build();
+    for _ in 0..30 {
+        a.step(DT).unwrap();
+    }
+    let saved = a.save();
+    let (mut b, _) = build();
+    b.restore(&saved).unwrap();
+    assert_eq!(a.state_hash(), b.state_hash());
+    for _ in 0..30 {
+        a.step(DT).unwrap();
+        b.step(DT).unwrap();
+    }
+    assert_eq!(a.state_hash(), b.state_hash());
+    assert_eq!(a.soft_body(h).unwrap().positions(), b.soft_body(h).unwrap().positions());
+    // The hash sees the soft bodies: one particle moved changes it.
+    let before = a.state_hash();
+    a.set_soft_pin(
+        inertia_physics::SoftBodyHandle::from_raw([1, 0]),
+        0,
+        DVec3::new(2.0, 2.1, 0.0),
+    )
+    .unwrap();
+    assert_ne!(a.state_hash(), before);
+}
+
+#[test]
+fn issue_16_a_saved_soft_body_with_a_broken_colouring_is_refused() {
+    let mut w = world(1);
+    let cloth = SoftCloth {
+        rows: 4,
+        cols: 4,
+        ..SoftCloth::default()
+    };
+    w.add_soft_body(&cloth.build().unwrap()).unwrap();
+    let saved = w.save();
+    // Find the edge from particle 0 to 1 (written as the two particles,
+    // its rest length twice and its compliance) and point it at
+    // particles 0 and 4 instead, so that its colour moves particle 4 twice.
+    let (p, _, rest, _) = w
+        .soft_bodies()
+        .next()
+        .unwrap()
+        .1
+        .edges()
+        .find(|e| e.0 == [0, 1])
+        .unwrap();
+    let needle: Vec<u8> = [p[0], p[1], rest.to_bits(), rest.to_bits()]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let at = saved.windows(16).position(|s| s == needle.as_slice()).expect("the edge");
+    let mut bad = saved.clone();
+    bad[at + 4..at + 8].copy_from_slice(&4u32.to_le_bytes());
+    inertia_physics::snapshot::reseal(&mut bad);
+    let mut other = world(1);
+    let err = other.restore(&bad);
+    assert!(
+        matches!(&err, Err(inertia_physics::SnapshotError::Invalid(m)) if m.contains("colouring")),
+        "{err:?}"
+    );
+    assert_eq!(other.soft_bodies().count(), 0, "nothing was restored");
+    other.restore(&saved).unwrap();
+    assert_eq!(other.soft_bodies().count(), 1);
+}

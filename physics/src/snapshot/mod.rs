@@ -14,6 +14,7 @@
 //! nothing is applied unless the whole file decodes.
 
 mod rigid;
+mod soft;
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -40,7 +41,7 @@ use crate::spring::{Spring, SpringParams};
 
 const MAGIC: &[u8; 8] = b"INRTWRLD";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 7;
 /// The oldest format version this build reads. Version 3 kept each
 /// manifold's impulses only: its manifolds are collided afresh on the
 /// first step after a restore. Version 4 had no world gravity on
@@ -48,7 +49,8 @@ pub const FORMAT_VERSION: u32 = 6;
 /// forces carried their gravity), no push-out velocities and no contact
 /// pairs (the queries report none until the world steps). Versions 4 and
 /// 5 kept the contact cache in double precision, which is rounded to the
-/// single precision it is now kept in.
+/// single precision it is now kept in. Versions before 7 had no soft
+/// bodies.
 pub const OLDEST_FORMAT_VERSION: u32 = 3;
 
 /// Why a saved state could not be restored. The world is unchanged.
@@ -267,6 +269,7 @@ pub(crate) struct StateRef<'a> {
     pub(crate) body_bounds: Option<Aabb>,
     pub(crate) joints: &'a Arena<crate::rigid::joint::Joint>,
     pub(crate) attachments: &'a Arena<crate::rigid::attachment::Attachment>,
+    pub(crate) soft_bodies: &'a Arena<crate::xpbd::soft::SoftBody>,
 }
 
 /// The one walk over the world state, shared by save and hash.
@@ -283,6 +286,7 @@ pub(crate) fn encode_world<S: Sink>(s: &mut S, w: &StateRef<'_>) {
     rigid::bounds(s, w.body_bounds);
     arena(s, w.joints, rigid::joint);
     arena(s, w.attachments, rigid::attachment);
+    arena(s, w.soft_bodies, soft::soft_body);
 }
 
 /// The complete saved file for a state.
@@ -314,6 +318,7 @@ pub(crate) struct DecodedWorld {
     pub(crate) body_bounds: Option<Aabb>,
     pub(crate) joints: Arena<crate::rigid::joint::Joint>,
     pub(crate) attachments: Arena<crate::rigid::attachment::Attachment>,
+    pub(crate) soft_bodies: Arena<crate::xpbd::soft::SoftBody>,
 }
 
 struct Reader<'a> {
@@ -706,6 +711,11 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     let body_bounds = r.bounds()?;
     let joints = r.arena(|r| r.joint())?;
     let attachments = r.arena(|r| r.attachment())?;
+    let soft_bodies = if version >= 7 {
+        r.arena(|r| r.soft_body())?
+    } else {
+        Arena::default()
+    };
     if r.pos != r.b.len() {
         return Err(SnapshotError::Trailing(r.b.len() - r.pos));
     }
@@ -722,5 +732,6 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         body_bounds,
         joints,
         attachments,
+        soft_bodies,
     })
 }

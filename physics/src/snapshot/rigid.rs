@@ -640,7 +640,7 @@ impl Reader<'_> {
     }
 
     /// A body handle: its arena index, then its generation.
-    fn body_handle(&mut self) -> Result<BodyHandle, SnapshotError> {
+    pub(super) fn body_handle(&mut self) -> Result<BodyHandle, SnapshotError> {
         Ok(BodyHandle {
             index: self.u32()?,
             generation: self.u32()?,

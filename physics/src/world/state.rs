@@ -22,6 +22,7 @@ impl World {
             body_bounds: self.body_bounds,
             joints: &self.joints,
             attachments: &self.attachments,
+            soft_bodies: &self.soft_bodies,
         }
     }
 
@@ -93,6 +94,7 @@ impl World {
         self.body_bounds = decoded.body_bounds;
         self.joints = decoded.joints;
         self.attachments = decoded.attachments;
+        self.soft_bodies = decoded.soft_bodies;
         self.contacts.reset_broad_phase();
         Ok(())
     }

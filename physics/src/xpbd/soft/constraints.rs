@@ -35,12 +35,6 @@ impl Touches for Distance {
 }
 
 impl Distance {
-    /// Length now over rest length, minus one.
-    pub(crate) fn strain(&self, x: &[Vec3]) -> f32 {
-        let [a, b] = self.p;
-        (x[b as usize] - x[a as usize]).length() / self.rest - 1.0
-    }
-
     /// One projection.
     #[inline(always)]
     pub(crate) fn project(&self, x: Scatter<'_, Vec3>, w: &[f32], inv_h2: f32) {

@@ -12,6 +12,7 @@ use crate::rigid::solver::lanes::{F4, V3};
 use super::super::scatter::Scatter;
 use super::constraints::{Bend, Distance};
 
+#[inline(always)]
 fn gather(x: Scatter<'_, Vec3>, idx: [usize; 4]) -> V3 {
     let mut v = V3::ZERO;
     for (l, &i) in idx.iter().enumerate() {
@@ -22,6 +23,7 @@ fn gather(x: Scatter<'_, Vec3>, idx: [usize; 4]) -> V3 {
     v
 }
 
+#[inline(always)]
 fn scatter(x: Scatter<'_, Vec3>, idx: [usize; 4], v: V3) {
     let (xs, ys, zs) = (v.x.to_array(), v.y.to_array(), v.z.to_array());
     for (l, &i) in idx.iter().enumerate() {
@@ -30,19 +32,21 @@ fn scatter(x: Scatter<'_, Vec3>, idx: [usize; 4], v: V3) {
     }
 }
 
+#[inline(always)]
 fn weights(w: &[f32], idx: [usize; 4]) -> F4 {
-    F4::from(idx.map(|i| w[i]))
+    F4::from([w[idx[0]], w[idx[1]], w[idx[2]], w[idx[3]]])
 }
 
 /// Four distance constraints of one colour.
 #[inline]
 pub(crate) fn project_distances(c: &[Distance; 4], x: Scatter<'_, Vec3>, w: &[f32], inv_h2: f32) {
-    let ia = c.clone().map(|d| d.p[0] as usize);
-    let ib = c.clone().map(|d| d.p[1] as usize);
+    let ia = [c[0].p[0], c[1].p[0], c[2].p[0], c[3].p[0]].map(|i| i as usize);
+    let ib = [c[0].p[1], c[1].p[1], c[2].p[1], c[3].p[1]].map(|i| i as usize);
     let (xa, xb) = (gather(x, ia), gather(x, ib));
     let (wa, wb) = (weights(w, ia), weights(w, ib));
-    let rest = F4::from(c.clone().map(|d| d.rest));
-    let alpha = F4::from(c.clone().map(|d| d.compliance)) * F4::splat(inv_h2);
+    let rest = F4::from([c[0].rest, c[1].rest, c[2].rest, c[3].rest]);
+    let alpha = F4::from([c[0].compliance, c[1].compliance, c[2].compliance, c[3].compliance])
+        * F4::splat(inv_h2);
     let d = xb - xa;
     let len = d.dot(d).sqrt();
     let k = wa + wb + alpha;
@@ -76,9 +80,22 @@ fn atan2(y: F4, x: F4) -> F4 {
 #[inline]
 pub(crate) fn project_bends(c: &[Bend; 4], x: Scatter<'_, Vec3>, w: &[f32], inv_h2: f32) {
     use std::f32::consts::{PI, TAU};
-    let idx: [[usize; 4]; 4] = std::array::from_fn(|v| c.clone().map(|b| b.p[v] as usize));
-    let xs: [V3; 4] = idx.map(|i| gather(x, i));
-    let ws: [F4; 4] = idx.map(|i| weights(w, i));
+    let mut idx = [[0usize; 4]; 4];
+    for (v, row) in idx.iter_mut().enumerate() {
+        *row = [c[0].p[v], c[1].p[v], c[2].p[v], c[3].p[v]].map(|i| i as usize);
+    }
+    let xs = [
+        gather(x, idx[0]),
+        gather(x, idx[1]),
+        gather(x, idx[2]),
+        gather(x, idx[3]),
+    ];
+    let ws = [
+        weights(w, idx[0]),
+        weights(w, idx[1]),
+        weights(w, idx[2]),
+        weights(w, idx[3]),
+    ];
     let [x0, x1, x2, x3] = xs;
     let e = x1 - x0;
     let e_len = e.dot(e).sqrt();
@@ -100,10 +117,11 @@ pub(crate) fn project_bends(c: &[Bend; 4], x: Scatter<'_, Vec3>, w: &[f32], inv_
     let g0 = -(n1 * ((x2 - x1).dot(e_hat) * il1) + n2 * ((x3 - x1).dot(e_hat) * il2));
     let g1 = n1 * ((x2 - x0).dot(e_hat) * il1) + n2 * ((x3 - x0).dot(e_hat) * il2);
     let grads = [g0, g1, g2, g3];
-    let mut c_now = angle - F4::from(c.clone().map(|b| b.rest));
+    let mut c_now = angle - F4::from([c[0].rest, c[1].rest, c[2].rest, c[3].rest]);
     c_now = c_now.simd_gt(F4::splat(PI)).select(c_now - F4::splat(TAU), c_now);
     c_now = c_now.simd_le(F4::splat(-PI)).select(c_now + F4::splat(TAU), c_now);
-    let mut k = F4::from(c.clone().map(|b| b.compliance)) * F4::splat(inv_h2);
+    let mut k = F4::from([c[0].compliance, c[1].compliance, c[2].compliance, c[3].compliance])
+        * F4::splat(inv_h2);
     for v in 0..4 {
         k += ws[v] * grads[v].dot(grads[v]);
     }
