@@ -94,7 +94,8 @@ struct Cli {
     #[arg(long, value_name = "N")]
     bots: Option<u32>,
     /// Draw the suite's records as SVG into DIR (`physics.svg`,
-    /// `capacity.svg`; other suites have no picture yet).
+    /// `capacity.svg`, `bandwidth.svg`, `replay.svg`, `soft.svg`; other
+    /// suites have no picture yet).
     #[arg(long, value_name = "DIR")]
     plot: Option<std::path::PathBuf>,
     /// With `--plot`: draw the suite's records in this results file (JSON

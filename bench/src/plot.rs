@@ -12,6 +12,9 @@
 //!   entity (the newest record that has the series).
 //! - `replay.svg`: how long seeks took, a histogram per keyframe interval
 //!   (the newest record of each that has the seek times).
+//! - `soft.svg`: ms per step of each soft-body and fluid case, per backend
+//!   and thread count, on a log scale, with the 8 ms target of the 128²
+//!   cloth and the 10k fluid (the newest record of each).
 //!
 //! Other suites have no picture yet.
 
@@ -53,6 +56,7 @@ pub fn plot(suite: &str, records: &[Printed], dir: &Path) -> Result<Vec<PathBuf>
         "capacity" => capacity(records, &path)?,
         "bandwidth" => bandwidth(records, &path)?,
         "replay" => replay(records, &path)?,
+        "soft" => soft(records, &path)?,
         _ => false,
     };
     Ok(if drawn { vec![path] } else { Vec::new() })
@@ -423,6 +427,99 @@ fn replay(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], c.filled()));
     }
     legend(&mut chart, SeriesLabelPosition::UpperRight)?;
+    root.present().map_err(plot_error)?;
+    Ok(true)
+}
+
+/// The series of `soft.svg`: a backend and a thread count.
+const SOFT_SERIES: [(&str, u64, &str); 3] = [
+    ("cpu", 1, "CPU, 1 thread"),
+    ("cpu", 2, "CPU, 2 threads"),
+    ("gpu", 0, "GPU"),
+];
+
+fn soft(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
+    // The newest ms per step of each case and series, cases in the order
+    // they first appear.
+    let mut cases: Vec<(String, [Option<f64>; 3])> = Vec::new();
+    for r in records {
+        let (Some(case), Some(backend), Some(ms)) = (
+            r.get("case").and_then(Value::as_str),
+            r.get("backend").and_then(Value::as_str),
+            num(r, "ms_per_step"),
+        ) else {
+            continue;
+        };
+        let threads = r.get("threads").and_then(Value::as_u64).unwrap_or(0);
+        let Some(k) = SOFT_SERIES
+            .iter()
+            .position(|(b, t, _)| *b == backend && (*b == "gpu" || *t == threads))
+        else {
+            continue;
+        };
+        let at = match cases.iter().position(|c| c.0 == case) {
+            Some(i) => i,
+            None => {
+                cases.push((case.to_string(), [None; 3]));
+                cases.len() - 1
+            }
+        };
+        cases[at].1[k] = Some(ms);
+    }
+    if cases.is_empty() {
+        return Ok(false);
+    }
+    let values = cases.iter().flat_map(|c| c.1.iter().flatten().copied());
+    let (lo, hi) = values.fold((f64::MAX, 8.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let (lo, hi) = (lo.max(1e-3) / 2.0, hi * 2.0);
+    let n = cases.len();
+    let root = canvas(path, (1100, 520))?;
+    let machine = machine_name(records);
+    let mut chart = axes(&root)
+        .caption(
+            format!("inertia-bench soft: ms per step at 60 Hz ({machine})"),
+            ("sans-serif", 20),
+        )
+        .build_cartesian_2d(-0.5f64..n as f64 - 0.5, (lo..hi).log_scale())
+        .map_err(plot_error)?;
+    let names: Vec<String> = cases.iter().map(|c| c.0.clone()).collect();
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(n)
+        .x_label_formatter(&|x| {
+            let i = x.round();
+            if (x - i).abs() < 1e-6 && i >= 0.0 {
+                names.get(i as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        })
+        .y_desc("ms per step (median, log scale)")
+        .draw()
+        .map_err(plot_error)?;
+    for (k, (_, _, label)) in SOFT_SERIES.iter().enumerate() {
+        let colour = BAR_COLOURS[k];
+        let bars = cases.iter().enumerate().filter_map(|(i, c)| {
+            let v = c.1[k]?;
+            let left = i as f64 - 0.4 + 0.27 * k as f64;
+            Some(Rectangle::new([(left, lo), (left + 0.25, v)], colour.filled()))
+        });
+        chart
+            .draw_series(bars)
+            .map_err(plot_error)?
+            .label(*label)
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour.filled()));
+    }
+    chart
+        .draw_series(LineSeries::new(
+            [(-0.5, 8.0), (n as f64 - 0.5, 8.0)],
+            RED.stroke_width(2),
+        ))
+        .map_err(plot_error)?
+        .label("target: 8 ms (cloth 128², fluid 10k, 2 threads)")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], RED.stroke_width(2)));
+    legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
     root.present().map_err(plot_error)?;
     Ok(true)
 }

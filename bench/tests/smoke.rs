@@ -380,3 +380,45 @@ fn bandwidth_suite_gives_its_seconds_in_order() {
         .fold(0.0, f64::max);
     assert_eq!(max, num(m, "kbps_max_1s"));
 }
+
+#[test]
+fn soft_suite() {
+    let lines = run("soft");
+    let cases: Vec<(&str, u64)> = lines
+        .iter()
+        .map(|m| (m["case"].as_str().unwrap(), m["threads"].as_u64().unwrap()))
+        .collect();
+    assert_eq!(
+        cases,
+        [("cloth_32", 1), ("cloth_32", 2), ("jelly_6", 1), ("jelly_6", 2)]
+    );
+    for m in &lines {
+        assert_eq!(m["backend"], "cpu");
+        positive(m, "ms_per_step");
+        assert!(m["particles"].as_u64().unwrap() > 0 && m["constraints"].as_u64().unwrap() > 0);
+        assert_eq!(m["same_bits_on_1_and_2_threads"], true, "{m:?}");
+        let share = num(m, "soft_share");
+        assert!((0.0..=1.0).contains(&share), "{m:?}");
+    }
+    let strain = num(&lines[0], "max_strain");
+    assert!((0.0..1.0).contains(&strain), "{strain}");
+    let kept = num(&lines[2], "volume_kept");
+    assert!((0.9..1.1).contains(&kept), "{kept}");
+    // Its picture, from a results file of these records.
+    let dir = std::env::temp_dir().join(format!("inertia-bench-soft-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let results = dir.join("soft.jsonl");
+    let text: String = lines
+        .iter()
+        .map(|m| serde_json::to_string(m).unwrap() + "\n")
+        .collect();
+    std::fs::write(&results, text).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_inertia-bench"))
+        .args(["soft", "--plot", dir.to_str().unwrap(), "--from", results.to_str().unwrap()])
+        .output()
+        .expect("run inertia-bench");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let svg = std::fs::read_to_string(dir.join("soft.svg")).expect("the plot");
+    assert!(svg.starts_with("<svg") && svg.contains("cloth_32"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
