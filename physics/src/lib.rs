@@ -70,6 +70,6 @@ pub use soft_body::{build_cloth, build_rope, Cloth, ClothDesc, Rope, RopeDesc, S
 pub use spring::SpringParams;
 pub use world::{QueryIndex, StepReport, World, WorldConfig};
 pub use xpbd::soft::{
-    EdgeDesc, HingeDesc, Plasticity, PressureDesc, SoftBody, SoftBodyDesc, SoftCloth,
+    EdgeDesc, HingeDesc, Plasticity, PressureDesc, SoftBalloon, SoftBody, SoftBodyDesc, SoftCloth,
     SoftMaterial, SoftRope, SoftSolid, SolidShape, TetDesc, TetherDesc,
 };

@@ -327,3 +327,158 @@ pub(crate) fn edges_and_hinges(triangles: &[[u32; 3]]) -> (Vec<[u32; 2]>, Vec<[u
         hinges.into_iter().map(|(_, h)| h).collect(),
     )
 }
+
+/// An inflated shell: a sphere's surface (an icosahedron subdivided
+/// `subdivisions` times and pushed out onto the sphere), with stretch and
+/// bending constraints along its triangles and a pressure constraint that
+/// keeps the volume it encloses at `pressure` times its rest volume.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SoftBalloon {
+    /// Centre, m.
+    pub centre: DVec3,
+    /// Radius, m.
+    pub radius: f64,
+    /// Times each triangle of the icosahedron is cut in four, 0..=6
+    /// (12, 42, 162, 642, 2562, 10242, 40962 particles).
+    pub subdivisions: u32,
+    /// Total mass, kg.
+    pub mass: f64,
+    /// Compliance of the edges, m/N.
+    pub stretch_compliance: f64,
+    /// Compliance of the bending hinges, rad/(N·m).
+    pub bend_compliance: f64,
+    /// Volume kept over rest volume (1: as built; above 1: inflated).
+    pub pressure: f64,
+    /// Compliance of the volume, 1/Pa.
+    pub pressure_compliance: f64,
+    /// How it moves as a whole.
+    pub material: SoftMaterial,
+}
+
+impl Default for SoftBalloon {
+    fn default() -> Self {
+        Self {
+            centre: DVec3::ZERO,
+            radius: 0.5,
+            subdivisions: 3,
+            mass: 1.0,
+            stretch_compliance: 1e-4,
+            bend_compliance: 10.0,
+            pressure: 1.0,
+            pressure_compliance: 0.0,
+            material: SoftMaterial::default(),
+        }
+    }
+}
+
+impl SoftBalloon {
+    /// The balloon's description.
+    pub fn build(&self) -> Result<SoftBodyDesc, PhysicsError> {
+        finite3("balloon centre", self.centre)?;
+        positive("balloon radius", self.radius)?;
+        positive("balloon mass", self.mass)?;
+        non_negative("balloon stretch compliance", self.stretch_compliance)?;
+        non_negative("balloon bend compliance", self.bend_compliance)?;
+        positive("balloon pressure", self.pressure)?;
+        non_negative("balloon pressure compliance", self.pressure_compliance)?;
+        if self.subdivisions > 6 {
+            return Err(PhysicsError::Invalid {
+                what: "balloon subdivisions",
+                why: format!("{} is more than 6", self.subdivisions),
+            });
+        }
+        let (unit, triangles) = icosphere(self.subdivisions);
+        let positions: Vec<DVec3> = unit.iter().map(|p| self.centre + *p * self.radius).collect();
+        let masses = vec![self.mass / positions.len() as f64; positions.len()];
+        let (edges, hinges) = edges_and_hinges(&triangles);
+        Ok(SoftBodyDesc {
+            positions,
+            masses,
+            edges: edges
+                .into_iter()
+                .map(|particles| EdgeDesc {
+                    particles,
+                    compliance: self.stretch_compliance,
+                })
+                .collect(),
+            hinges: hinges
+                .into_iter()
+                .map(|particles| HingeDesc {
+                    particles,
+                    compliance: self.bend_compliance,
+                })
+                .collect(),
+            triangles,
+            pressure: Some(super::PressureDesc {
+                pressure: self.pressure,
+                compliance: self.pressure_compliance,
+            }),
+            material: self.material.clone(),
+            ..SoftBodyDesc::default()
+        })
+    }
+}
+
+/// A unit sphere's surface: an icosahedron, each triangle cut in four
+/// `subdivisions` times, the new vertices pushed out onto the sphere;
+/// triangles counter-clockwise seen from outside.
+fn icosphere(subdivisions: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut v: Vec<DVec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
+    .collect();
+    let mut f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..subdivisions {
+        let mut middle: BTreeMap<[u32; 2], u32> = BTreeMap::new();
+        let mut mid = |a: u32, b: u32, v: &mut Vec<DVec3>| {
+            *middle.entry([a.min(b), a.max(b)]).or_insert_with(|| {
+                v.push(((v[a as usize] + v[b as usize]) * 0.5).normalize());
+                (v.len() - 1) as u32
+            })
+        };
+        let mut next = Vec::with_capacity(f.len() * 4);
+        for [a, b, c] in f {
+            let ab = mid(a, b, &mut v);
+            let bc = mid(b, c, &mut v);
+            let ca = mid(c, a, &mut v);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    (v, f)
+}

@@ -21,7 +21,7 @@ mod lanes;
 mod step;
 mod tetra;
 
-pub use build::{SoftCloth, SoftRope};
+pub use build::{SoftBalloon, SoftCloth, SoftRope};
 pub(crate) use step::step;
 pub use tetra::{SoftSolid, SolidShape};
 
