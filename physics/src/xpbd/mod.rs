@@ -22,4 +22,5 @@
 
 pub(crate) mod colouring;
 pub(crate) mod coupling;
+pub(crate) mod grid;
 pub(crate) mod scatter;
