@@ -287,6 +287,24 @@ impl<'a> Coupling<'a> {
         }
     }
 
+    /// Whether the candidate lists were gathered for `n` particles (or
+    /// hold none at all).
+    pub(crate) fn covers(&self, n: usize) -> bool {
+        self.start.is_empty() || self.start.len() == n + 1
+    }
+
+    /// Adds `impulse` (N·s), given to target `target` at `point` (m), to
+    /// `loads`. Bodies that particles cannot move take nothing.
+    pub(crate) fn add_load(&self, loads: &mut [Load], target: u32, point: DVec3, impulse: DVec3) {
+        let t = &self.targets[target as usize];
+        if !t.movable() || !impulse.is_finite() {
+            return;
+        }
+        let load = &mut loads[target as usize];
+        load.0 += impulse;
+        load.1 += (point - t.com).cross(impulse);
+    }
+
     /// A fresh per-chunk accumulator of loads.
     pub(crate) fn new_loads(&self) -> Vec<Load> {
         vec![(DVec3::ZERO, DVec3::ZERO); self.targets.len()]
@@ -298,6 +316,18 @@ impl<'a> Coupling<'a> {
             sum.0 += l.0;
             sum.1 += l.1;
         }
+    }
+
+    /// What the particles gave each movable body that took something:
+    /// the body's key and its load. For callers that must let go of the
+    /// bodies' borrow before changing them (see [`apply_loads`]).
+    pub(crate) fn into_loads(self) -> Vec<((u32, u32), Load)> {
+        self.targets
+            .iter()
+            .zip(self.loads)
+            .filter(|(t, (j, m))| t.movable() && (*j != DVec3::ZERO || *m != DVec3::ZERO))
+            .map(|(t, l)| (t.key, l))
+            .collect()
     }
 
     /// Gives every movable body what the particles gave it, and wakes the
@@ -333,4 +363,24 @@ pub(crate) fn particle_bounds(x: &[Vec3]) -> Option<Aabb> {
         min: lo.as_dvec3(),
         max: hi.as_dvec3(),
     })
+}
+
+/// Gives each body of `loads` (from [`Coupling::into_loads`]) its load on
+/// its velocity, and wakes it. Non-finite loads and stale keys are skipped.
+pub(crate) fn apply_loads(loads: &[((u32, u32), Load)], bodies: &mut Arena<RigidBody>) {
+    for &((index, generation), (j, moment)) in loads {
+        if !j.is_finite() || !moment.is_finite() {
+            continue;
+        }
+        if let Some(b) = bodies.get_mut(index, generation) {
+            if b.kind != BodyKind::Dynamic || b.quarantined {
+                continue;
+            }
+            if b.sleeping {
+                b.wake();
+            }
+            b.linvel += j * b.inv_mass;
+            b.angvel += b.inverse_inertia_world() * moment;
+        }
+    }
 }
