@@ -226,3 +226,31 @@ where
         .enumerate()
         .for_each(|(k, a)| f(k * chunk, a));
 }
+
+/// Runs `f(base, len, state)` over the index range `0..n` cut into
+/// `chunk`-sized pieces, piece `k` (`base = k · chunk`, `len` indices) with
+/// `states[k]`, in parallel when there are at least two pieces. For passes
+/// that fill per-chunk lists and write no per-index slice. `states` must
+/// hold at least `n.div_ceil(chunk)` elements.
+pub(crate) fn for_each_range_with<S, F>(n: usize, chunk: usize, states: &mut [S], f: F)
+where
+    S: Send,
+    F: Fn(usize, usize, &mut S) + Sync + Send,
+{
+    let pieces = n.div_ceil(chunk);
+    debug_assert!(states.len() >= pieces);
+    let held = states.len();
+    let states = &mut states[..pieces.min(held)];
+    let run = |k: usize, s: &mut S| {
+        let base = k * chunk;
+        f(base, chunk.min(n - base), s);
+    };
+    if pieces <= 1 || inline() {
+        states.iter_mut().enumerate().for_each(|(k, s)| run(k, s));
+        return;
+    }
+    states
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(k, s)| run(k, s));
+}

@@ -293,6 +293,12 @@ impl<'a> Coupling<'a> {
         self.start.is_empty() || self.start.len() == n + 1
     }
 
+    /// Whether target `target`'s shape is convex (its nearest surface
+    /// point moves smoothly, and the plane there bounds the whole body).
+    pub(crate) fn is_convex(&self, target: u32) -> bool {
+        self.targets[target as usize].shape.is_convex()
+    }
+
     /// Adds `impulse` (N·s), given to target `target` at `point` (m), to
     /// `loads`. Bodies that particles cannot move take nothing.
     pub(crate) fn add_load(&self, loads: &mut [Load], target: u32, point: DVec3, impulse: DVec3) {

@@ -12,14 +12,17 @@
 //! grid is a function of the positions alone, never of timing.
 //!
 //! [`Neighbours`] lists, for every point, the other points within a radius,
-//! ascending by index, as one compressed (CSR) array. Points are taken in
-//! chunks of a fixed size, each chunk on one thread with its own list, and
-//! the lists are joined in chunk order: the same bits on any number of
-//! threads.
+//! ascending by index, as one compressed (CSR) array. It walks the points
+//! in cell order, so the points of a cell share one gathering of the 27
+//! cells around it and filter those candidates eight at a time, then copies
+//! the lists into index order. Both passes cut their work into chunks of a
+//! fixed size, each chunk on one thread with its own lists, joined in chunk
+//! order: the same bits on any number of threads.
 
 use glam::Vec3;
+use wide::f32x8;
 
-use crate::parallel::for_each_chunk_with;
+use crate::parallel::{for_each_chunk_with, for_each_range_with};
 
 /// Points per parallel work item of [`Neighbours::build`].
 pub(crate) const CHUNK: usize = 1024;
@@ -28,6 +31,9 @@ pub(crate) const CHUNK: usize = 1024;
 const DENSE_CELLS_PER_POINT: i64 = 4;
 /// Fewest cells of a dense box or entries of a hash table.
 const MIN_TABLE: usize = 1024;
+
+/// Most runs of slots a box grid's query visits: 5 × 5 rows of cells.
+const RUNS: usize = 25;
 
 /// How cell coordinates become keys.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -188,28 +194,49 @@ impl Grid {
         }
         self.start[0] = 0;
         self.sorted.clear();
-        self.sorted.extend(self.order.iter().map(|&i| x[i as usize]));
+        self.sorted
+            .extend(self.order.iter().map(|&i| x[i as usize]));
     }
 
-    /// The points of the sorted slots `from..to`.
-    #[inline(always)]
-    fn visit(&self, from: u32, to: u32, f: &mut impl FnMut(u32, Vec3)) {
-        let (from, to) = (from as usize, to as usize);
-        for (&i, &q) in self.order[from..to].iter().zip(&self.sorted[from..to]) {
-            f(i, q);
+    /// The runs of sorted slots (`from..to`) whose cells meet the cube of
+    /// half-edge `r` (m) around `p`, in a box grid: one run per row of
+    /// cells, at most 25 (`r` capped at two cell edges). `None` for a
+    /// hashed grid.
+    fn runs(&self, p: Vec3, r: f32, runs: &mut [(u32, u32); RUNS]) -> Option<usize> {
+        let Layout::Dense { origin, dims } = self.layout else {
+            return None;
+        };
+        let r = r.min(2.0 * self.cell);
+        let lo = cell_of(p - Vec3::splat(r), self.inv_cell);
+        let hi = cell_of(p + Vec3::splat(r), self.inv_cell);
+        let lo = [lo[0] - origin[0], lo[1] - origin[1], lo[2] - origin[2]];
+        let hi = [hi[0] - origin[0], hi[1] - origin[1], hi[2] - origin[2]];
+        let x0 = lo[0].max(0);
+        let x1 = hi[0].min(dims[0] - 1);
+        let mut n = 0;
+        if x0 > x1 {
+            return Some(0);
         }
+        for z in lo[2].max(0)..=hi[2].min(dims[2] - 1) {
+            for y in lo[1].max(0)..=hi[1].min(dims[1] - 1) {
+                // A row of cells is one run of slots.
+                let row = dims[0] * (y + dims[1] * z);
+                if n < runs.len() {
+                    runs[n] = (
+                        self.start[(row + x0) as usize],
+                        self.start[(row + x1 + 1) as usize],
+                    );
+                    n += 1;
+                }
+            }
+        }
+        Some(n)
     }
 
-    /// Calls `f(index, position)` for every point in the 27 cells around
-    /// the cell of `p`: a superset of the points within one cell edge of
-    /// `p`. Each point comes once, in an order fixed by the built points
-    /// and `p` (box cells row by row; hashed cells by ascending key, a
-    /// key shared by several cells visited once).
-    pub(crate) fn for_each_candidate(&self, p: Vec3, mut f: impl FnMut(u32, Vec3)) {
-        if self.order.is_empty() {
-            return;
-        }
-        let c = cell_of(p, self.inv_cell);
+    /// Calls `f(from, to)` for the runs of sorted slots of the 27 cells
+    /// around cell `c` (m), each slot once: box cells row by row, hashed
+    /// cells by ascending key.
+    fn for_each_block_run(&self, c: [i64; 3], mut f: impl FnMut(u32, u32)) {
         match self.layout {
             Layout::Dense { origin, dims } => {
                 let d = [c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]];
@@ -220,11 +247,11 @@ impl Grid {
                 }
                 for z in (d[2] - 1).max(0)..=(d[2] + 1).min(dims[2] - 1) {
                     for y in (d[1] - 1).max(0)..=(d[1] + 1).min(dims[1] - 1) {
-                        // A row of up to three cells is one run of slots.
                         let row = dims[0] * (y + dims[1] * z);
-                        let from = self.start[(row + x0) as usize];
-                        let to = self.start[(row + x1 + 1) as usize];
-                        self.visit(from, to, &mut f);
+                        f(
+                            self.start[(row + x0) as usize],
+                            self.start[(row + x1 + 1) as usize],
+                        );
                     }
                 }
             }
@@ -242,6 +269,65 @@ impl Grid {
                 keys.sort_unstable();
                 let mut last = None;
                 for &key in &keys {
+                    if last != Some(key) {
+                        last = Some(key);
+                        f(self.start[key as usize], self.start[key as usize + 1]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The points of the sorted slots `from..to`.
+    #[inline(always)]
+    fn visit(&self, from: u32, to: u32, f: &mut impl FnMut(u32, Vec3)) {
+        let (from, to) = (from as usize, to as usize);
+        for (&i, &q) in self.order[from..to].iter().zip(&self.sorted[from..to]) {
+            f(i, q);
+        }
+    }
+
+    /// Calls `f(index, position)` for every point in the cells that meet
+    /// the cube of half-edge `r` (m) around `p`: a superset of the points
+    /// within `r` of `p`. `r` is capped at two cell edges (a larger one
+    /// finds only the points within two cell edges). Each point comes
+    /// once, in an order fixed by the built points, `p` and `r` (box cells
+    /// row by row; hashed cells by ascending key, a key that several cells
+    /// share visited once).
+    pub(crate) fn for_each_near(&self, p: Vec3, r: f32, mut f: impl FnMut(u32, Vec3)) {
+        if self.order.is_empty() || r.is_nan() || r < 0.0 {
+            return;
+        }
+        let mut runs = [(0u32, 0u32); RUNS];
+        if let Some(n) = self.runs(p, r, &mut runs) {
+            for &(from, to) in &runs[..n] {
+                self.visit(from, to, &mut f);
+            }
+            return;
+        }
+        let r = r.min(2.0 * self.cell);
+        let lo = cell_of(p - Vec3::splat(r), self.inv_cell);
+        let hi = cell_of(p + Vec3::splat(r), self.inv_cell);
+        match self.layout {
+            Layout::Dense { .. } => {}
+            Layout::Hashed { mask } => {
+                // At most 5 cells a side: r is capped at two cell edges.
+                let mut keys = [0u32; 125];
+                let mut k = 0;
+                for z in lo[2]..=hi[2] {
+                    for y in lo[1]..=hi[1] {
+                        for x in lo[0]..=hi[0] {
+                            if k < keys.len() {
+                                keys[k] = hash([x, y, z]) & mask;
+                                k += 1;
+                            }
+                        }
+                    }
+                }
+                let keys = &mut keys[..k];
+                keys.sort_unstable();
+                let mut last = None;
+                for &key in keys.iter() {
                     if last == Some(key) {
                         continue;
                     }
@@ -255,16 +341,101 @@ impl Grid {
     }
 
     /// Calls `f(index, position)` for every point closer than `r` (m) to
-    /// `p`, in [`Grid::for_each_candidate`]'s order. `r` is at most the
-    /// cell edge: a larger one finds only the points within a cell edge.
+    /// `p`, in [`Grid::for_each_near`]'s order (`r` capped alike).
     pub(crate) fn for_each_within(&self, p: Vec3, r: f32, mut f: impl FnMut(u32, Vec3)) {
-        let r = r.min(self.cell);
+        let r = r.min(2.0 * self.cell);
         let r2 = r * r;
-        self.for_each_candidate(p, |i, q| {
+        self.for_each_near(p, r, |i, q| {
             if (q - p).length_squared() < r2 {
                 f(i, q);
             }
         });
+    }
+}
+
+/// Room for the neighbours of one point before they go to its list.
+const BUFFER: usize = 256;
+
+/// Candidates filtered at a time.
+const LANES: usize = 8;
+
+/// The work of one chunk of sorted slots: its points' neighbour lists, in
+/// slot order, and the candidates of the cell block at hand.
+#[derive(Debug, Clone, Default)]
+struct SlotPiece {
+    /// The lists, one after another.
+    lists: Vec<u32>,
+    /// Per slot of the chunk, where its list starts in `lists` and its
+    /// length.
+    spans: Vec<(u32, u32)>,
+    /// The points of the 27 cells around the current cell, by component.
+    ids: Vec<u32>,
+    xs: Vec<f32>,
+    ys: Vec<f32>,
+    zs: Vec<f32>,
+}
+
+impl SlotPiece {
+    /// Takes the points of the cells `(from, to)` runs as the candidates.
+    fn gather(&mut self, grid: &Grid, c: [i64; 3]) {
+        self.ids.clear();
+        self.xs.clear();
+        self.ys.clear();
+        self.zs.clear();
+        grid.for_each_block_run(c, |from, to| {
+            let (from, to) = (from as usize, to as usize);
+            self.ids.extend_from_slice(&grid.order[from..to]);
+            for q in &grid.sorted[from..to] {
+                self.xs.push(q.x);
+                self.ys.push(q.y);
+                self.zs.push(q.z);
+            }
+        });
+    }
+
+    /// Appends the candidates closer than `√r2` to `p`, but `skip`, to
+    /// `lists`, ascending. Eight candidates at a time, and branch-free:
+    /// every candidate is written and the count moves on for the near
+    /// ones only.
+    fn filter(&mut self, p: Vec3, r2: f32, skip: u32) {
+        let at = self.lists.len();
+        let mut buf = [0u32; BUFFER];
+        let mut m = 0;
+        let (px, py, pz) = (f32x8::splat(p.x), f32x8::splat(p.y), f32x8::splat(p.z));
+        let limit = f32x8::splat(r2);
+        let full = self.ids.len() / LANES * LANES;
+        let mut k = 0;
+        while k < full {
+            if m + LANES > BUFFER {
+                self.lists.extend_from_slice(&buf[..m]);
+                m = 0;
+            }
+            let lane = |v: &[f32]| {
+                f32x8::from(<[f32; LANES]>::try_from(&v[k..k + LANES]).unwrap_or_default())
+            };
+            let dx = lane(&self.xs) - px;
+            let dy = lane(&self.ys) - py;
+            let dz = lane(&self.zs) - pz;
+            let near = (dx * dx + dy * dy + dz * dz).simd_lt(limit).to_bitmask();
+            for (l, &j) in self.ids[k..k + LANES].iter().enumerate() {
+                buf[m] = j;
+                m += ((near >> l) & 1) as usize & usize::from(j != skip);
+            }
+            k += LANES;
+        }
+        for k in full..self.ids.len() {
+            if m + 1 > BUFFER {
+                self.lists.extend_from_slice(&buf[..m]);
+                m = 0;
+            }
+            let j = self.ids[k];
+            let q = Vec3::new(self.xs[k], self.ys[k], self.zs[k]);
+            buf[m] = j;
+            m += usize::from(j != skip && (q - p).length_squared() < r2);
+        }
+        self.lists.extend_from_slice(&buf[..m]);
+        self.lists[at..].sort_unstable();
+        self.spans.push((at as u32, (self.lists.len() - at) as u32));
     }
 }
 
@@ -277,14 +448,23 @@ pub(crate) struct Neighbours {
     start: Vec<u32>,
     /// Neighbour indices, point after point.
     index: Vec<u32>,
-    /// One list per chunk of points, joined in chunk order.
+    /// One list per chunk of points (by index), joined in chunk order.
     pieces: Vec<Vec<u32>>,
+    /// One per chunk of sorted slots.
+    slot_pieces: Vec<SlotPiece>,
+    /// Each point's sorted slot.
+    slot_of: Vec<u32>,
 }
 
 impl Neighbours {
     /// Lists, for every point of `x` (m), the other points closer than `r`
     /// (m), ascending by index. Builds `grid` over `x` with cells of edge
     /// `r` on the way. An `r` that is not finite and > 0 lists nothing.
+    ///
+    /// The points are taken cell by cell, in chunks of sorted slots: the
+    /// points of one cell share the candidates of the 27 cells around it,
+    /// gathered once. The lists are then copied into index order, chunk by
+    /// chunk of points.
     pub(crate) fn build(&mut self, grid: &mut Grid, x: &[Vec3], r: f32) {
         let n = x.len();
         self.start.clear();
@@ -294,12 +474,34 @@ impl Neighbours {
         if !(r.is_finite() && r > 0.0) || n == 0 {
             return;
         }
+        let grid = &*grid;
+        let r2 = r * r;
+        self.slot_of.resize(n, 0);
+        for (s, &i) in grid.order.iter().enumerate() {
+            self.slot_of[i as usize] = s as u32;
+        }
         let pieces = n.div_ceil(CHUNK);
+        if self.slot_pieces.len() < pieces {
+            self.slot_pieces.resize_with(pieces, SlotPiece::default);
+        }
         if self.pieces.len() < pieces {
             self.pieces.resize_with(pieces, Vec::new);
         }
-        let grid = &*grid;
-        let r2 = r * r;
+        for_each_range_with(n, CHUNK, &mut self.slot_pieces, |base, len, piece| {
+            piece.lists.clear();
+            piece.spans.clear();
+            let mut current = None;
+            for s in base..base + len {
+                let p = grid.sorted[s];
+                let c = cell_of(p, grid.inv_cell);
+                if current != Some(c) {
+                    current = Some(c);
+                    piece.gather(grid, c);
+                }
+                piece.filter(p, r2, grid.order[s]);
+            }
+        });
+        let (slot_of, slot_pieces) = (&self.slot_of, &self.slot_pieces);
         for_each_chunk_with(
             &mut self.start[1..],
             CHUNK,
@@ -307,16 +509,11 @@ impl Neighbours {
             |base, counts, list| {
                 list.clear();
                 for (k, count) in counts.iter_mut().enumerate() {
-                    let i = base + k;
-                    let p = x[i];
-                    let before = list.len();
-                    grid.for_each_candidate(p, |j, q| {
-                        if j as usize != i && (q - p).length_squared() < r2 {
-                            list.push(j);
-                        }
-                    });
-                    list[before..].sort_unstable();
-                    *count = (list.len() - before) as u32;
+                    let s = slot_of[base + k] as usize;
+                    let piece = &slot_pieces[s / CHUNK];
+                    let (at, len) = piece.spans[s % CHUNK];
+                    list.extend_from_slice(&piece.lists[at as usize..(at + len) as usize]);
+                    *count = len;
                 }
             },
         );
@@ -392,7 +589,7 @@ mod tests {
         // The query visits each point at most once.
         for &p in x.iter().take(200) {
             let mut seen = Vec::new();
-            grid.for_each_candidate(p, |j, _| seen.push(j));
+            grid.for_each_near(p, 0.3, |j, _| seen.push(j));
             let n = seen.len();
             seen.sort_unstable();
             seen.dedup();
@@ -438,7 +635,7 @@ mod tests {
         assert_eq!(nb.total(), 0);
         nb.build(&mut grid, &[], 0.5);
         assert_eq!(nb.len(), 0);
-        grid.for_each_candidate(Vec3::ZERO, |_, _| panic!("empty grid"));
+        grid.for_each_near(Vec3::ZERO, 1.0, |_, _| panic!("empty grid"));
     }
 
     #[test]

@@ -124,8 +124,16 @@ impl WallTable {
         }
         let half = half * f64::from(volume);
         let (phi, _) = self.integral(0.5 * spacing);
-        let scale = if phi > 0.0 { (1.0 - half) / f64::from(phi) } else { 1.0 };
-        self.scale = if scale.is_finite() { scale.clamp(0.5, 1.5) as f32 } else { 1.0 };
+        let scale = if phi > 0.0 {
+            (1.0 - half) / f64::from(phi)
+        } else {
+            1.0
+        };
+        self.scale = if scale.is_finite() {
+            scale.clamp(0.5, 1.5) as f32
+        } else {
+            1.0
+        };
     }
 
     /// The lattice calibration.

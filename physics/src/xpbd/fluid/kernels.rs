@@ -20,6 +20,8 @@
 
 use std::f64::consts::PI;
 
+use wide::f32x8;
+
 /// Poly6 and spiky for one support radius.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Kernels {
@@ -81,6 +83,44 @@ impl Kernels {
         sum * s * s * s
     }
 
+    /// `(W_spiky, dW_spiky/dr / r)` at squared distance `r2` (m²): the
+    /// density pass's two kernel values for one pair. Both 0 from `h` out;
+    /// the gradient's 0 at `r = 0`.
+    #[inline(always)]
+    pub(crate) fn spiky_pair(&self, r2: f32) -> (f32, f32) {
+        if r2 >= self.h2 {
+            return (0.0, 0.0);
+        }
+        let r = r2.sqrt();
+        let t = self.h - r;
+        let g = if r > 0.0 {
+            self.spiky_grad * t * t / r
+        } else {
+            0.0
+        };
+        (self.spiky * t * t * t, g)
+    }
+
+    /// [`Kernels::spiky_pair`] for eight offsets `(dx, dy, dz)` (m) at
+    /// once.
+    #[inline(always)]
+    pub(crate) fn spiky_pair_x8(&self, dx: f32x8, dy: f32x8, dz: f32x8) -> (f32x8, f32x8) {
+        let r2 = dx * dx + dy * dy + dz * dz;
+        let r = r2.sqrt();
+        let t = (f32x8::splat(self.h) - r).max(f32x8::ZERO);
+        let t2 = t * t;
+        let w = f32x8::splat(self.spiky) * t2 * t;
+        let g = f32x8::splat(self.spiky_grad) * t2 / r;
+        (w, r.simd_gt(f32x8::ZERO).select(g, f32x8::ZERO))
+    }
+
+    /// `W_poly6` for eight squared distances `r2` (m²) at once.
+    #[inline(always)]
+    pub(crate) fn poly6_x8(&self, r2: f32x8) -> f32x8 {
+        let d = (f32x8::splat(self.h2) - r2).max(f32x8::ZERO);
+        f32x8::splat(self.poly6) * d * d * d
+    }
+
     /// `W_spiky = 15 / (π h⁶) (h − r)³` at distance `r` (m), 1/m³; 0 from
     /// `h` out.
     pub(crate) fn spiky(&self, r: f32) -> f32 {
@@ -131,6 +171,26 @@ mod tests {
             assert_eq!(k.poly6(h * h), 0.0);
             assert_eq!(k.spiky_grad_over_r(h), 0.0);
             assert_eq!(k.spiky_grad_over_r(0.0), 0.0);
+            let rs = [
+                0.0,
+                0.3 * h,
+                0.9 * h,
+                h,
+                2.0 * h,
+                0.5 * h,
+                0.1 * h,
+                0.99 * h,
+            ];
+            let (w8, g8) = k.spiky_pair_x8(f32x8::from(rs), f32x8::ZERO, f32x8::ZERO);
+            let p8 = k.poly6_x8(f32x8::from(rs.map(|r| r * r)));
+            for (l, r) in rs.into_iter().enumerate() {
+                let (w, g) = k.spiky_pair(r * r);
+                assert!((w - k.spiky(r)).abs() <= 1e-6 * w.abs());
+                assert!((g - k.spiky_grad_over_r(r)).abs() <= 1e-5 * g.abs());
+                assert!((w8.as_array()[l] - w).abs() <= 1e-6 * w.abs());
+                assert!((g8.as_array()[l] - g).abs() <= 1e-5 * g.abs());
+                assert!((p8.as_array()[l] - k.poly6(r * r)).abs() <= 1e-5 * k.poly6(r * r));
+            }
         }
         let sum = Kernels::new(0.2).lattice_sum(0.1);
         // Spiky's peak at the particle itself weighs heavily on a lattice

@@ -138,7 +138,7 @@ impl FluidDesc {
         let mut total = 1usize;
         for a in 0..3 {
             let n = (size[a] / spacing + 1e-6).floor();
-            if !(n >= 1.0) {
+            if n.is_nan() || n < 1.0 {
                 return Err(PhysicsError::Invalid {
                     what: "fluid block",
                     why: format!(
@@ -266,12 +266,7 @@ impl FluidDesc {
                 max: MAX_FLUID_PARTICLES as f64,
             });
         }
-        check_particles(
-            &self.positions,
-            &self.velocities,
-            0,
-            self.max_particles,
-        )
+        check_particles(&self.positions, &self.velocities, 0, self.max_particles)
     }
 }
 
@@ -326,6 +321,33 @@ pub(crate) struct ChunkScratch {
     contacts: Vec<WallContact>,
     /// Per coupling target, N·s and N·m·s.
     loads: Vec<Load>,
+    /// `dW_spiky/dr / r` of every pair in the chunk's neighbour lists, in
+    /// their order, from the density pass for the correction pass, 1/m⁵.
+    pair: Vec<f32>,
+    /// Per particle of the chunk, a lower bound on its distance to every
+    /// body (the kernel radius when no surface is nearer), m.
+    gap: Vec<f32>,
+    /// The surfaces near the chunk's particles over this step, in particle
+    /// order.
+    planes: Vec<WallPlane>,
+}
+
+/// The surface of a body near a particle over one step, as a plane: the
+/// tangent plane at the surface point nearest the particle at the start of
+/// the step (bodies hold still through the substeps).
+#[derive(Debug, Clone, Copy)]
+struct WallPlane {
+    particle: u32,
+    /// Index into the coupling's targets.
+    target: u32,
+    /// A point of the plane, m.
+    point: DVec3,
+    /// The plane's normal, out of the body.
+    normal: DVec3,
+    /// Whether the whole body lies behind the plane (a convex body and a
+    /// particle outside it), so that the particle's distance from the
+    /// plane bounds its distance from the body.
+    bounds: bool,
 }
 
 /// A wall within a kernel radius of a particle, over one substep.

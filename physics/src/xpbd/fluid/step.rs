@@ -32,9 +32,12 @@
 //! impulses are summed per chunk and handed over in chunk order.
 
 use glam::Vec3;
+use wide::f32x8;
 
-use super::{ChunkScratch, Fluid, WallContact, CHUNK};
-use crate::parallel::{for_each_chunk, for_each_chunk2_with, for_each_chunk_with, par_map_chunks3};
+use super::{ChunkScratch, Fluid, WallContact, WallPlane, CHUNK};
+use crate::parallel::{
+    for_each_chunk, for_each_chunk2_with, for_each_chunk_with, for_each_range_with, par_map_chunks3,
+};
 use crate::xpbd::coupling::Coupling;
 
 /// Largest position correction a particle takes in one substep, in
@@ -71,6 +74,32 @@ fn wall_union(contacts: &mut [WallContact]) -> (f32, Vec3) {
     (1.0 - outside, total)
 }
 
+/// Neighbours a pass takes at a time.
+const LANES: usize = 8;
+
+/// The offsets `p − x[j]` (m) of up to eight neighbours `js`, by
+/// component; lanes past the end of `js` hold `(pad, 0, 0)`.
+#[inline(always)]
+fn offsets(p: Vec3, x: &[Vec3], js: &[u32], pad: f32) -> (f32x8, f32x8, f32x8) {
+    let mut ox = [pad; LANES];
+    let mut oy = [0.0f32; LANES];
+    let mut oz = [0.0f32; LANES];
+    for (l, &j) in js.iter().enumerate() {
+        let d = p - x[j as usize];
+        ox[l] = d.x;
+        oy[l] = d.y;
+        oz[l] = d.z;
+    }
+    (f32x8::from(ox), f32x8::from(oy), f32x8::from(oz))
+}
+
+/// The sum of the lanes, in lane order (the same bits on any machine).
+#[inline(always)]
+fn lanes_sum(v: f32x8) -> f32 {
+    let a = v.as_array();
+    ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7]))
+}
+
 impl Fluid {
     /// Advances the fluid by `dt` seconds under `gravity` (m/s², scaled by
     /// the gravity scale) against the bodies of `coupling` (gathered for
@@ -103,13 +132,16 @@ impl Fluid {
         self.neighbours
             .build(&mut self.grid, &self.next, self.kernels.h);
 
+        if walls {
+            self.find_walls(dt, g, coupling);
+        }
+
         let hs = dt / self.substeps as f32;
         for _ in 0..self.substeps {
             self.predict(hs, g);
-            self.find_densities(coupling, walls);
+            self.find_densities(walls);
             self.corrections(hs, coupling);
             std::mem::swap(&mut self.x, &mut self.next);
-
             self.collide(hs, coupling, walls);
         }
         if self.vorticity > 0.0 {
@@ -166,9 +198,38 @@ impl Fluid {
         );
     }
 
+    /// The surfaces each particle may come within a kernel radius of over
+    /// the step, from the positions at its start.
+    fn find_walls(&mut self, dt: f32, g: Vec3, coupling: &Coupling<'_>) {
+        let (x, v) = (&self.x, &self.v);
+        let base_reach = self.kernels.h + self.spacing;
+        let fall = g.length() * dt * dt;
+        for_each_range_with(x.len(), CHUNK, &mut self.chunks, |base, len, scratch| {
+            scratch.planes.clear();
+            for i in base..base + len {
+                let candidates = coupling.candidates(i);
+                if candidates.is_empty() {
+                    continue;
+                }
+                let within = f64::from(base_reach + v[i].length() * dt + fall);
+                for &target in candidates {
+                    if let Some(s) = coupling.surface(target, x[i], within) {
+                        scratch.planes.push(WallPlane {
+                            particle: i as u32,
+                            target,
+                            point: s.point,
+                            normal: s.normal,
+                            bounds: s.distance >= 0.0 && coupling.is_convex(target),
+                        });
+                    }
+                }
+            }
+        });
+    }
+
     /// Densities and constraint multipliers at the current positions, and
     /// the walls within a kernel radius of each particle.
-    fn find_densities(&mut self, coupling: &Coupling<'_>, walls: bool) {
+    fn find_densities(&mut self, walls: bool) {
         let x = &self.x;
         let nb = &self.neighbours;
         let kernels = self.kernels;
@@ -176,63 +237,101 @@ impl Fluid {
         let (volume, rest, eps) = (self.volume, self.rest_density, self.relaxation);
         let h = kernels.h;
         let self_weight = kernels.spiky(0.0);
+        // Where the lanes past a list's end stand: out of the kernel's reach.
+        let far = 2.0 * h;
         for_each_chunk2_with(
             &mut self.lambda,
             &mut self.density,
             CHUNK,
             &mut self.chunks,
             |base, lambda, density, scratch| {
-                scratch.contacts.clear();
+                let ChunkScratch {
+                    contacts,
+                    pair,
+                    gap: gaps,
+                    planes,
+                    ..
+                } = scratch;
+                contacts.clear();
+                pair.clear();
+                gaps.clear();
+                let mut next_plane = 0;
                 for k in 0..lambda.len() {
                     let i = base + k;
                     let p = x[i];
                     let mut sum_w = self_weight;
                     let mut grad = Vec3::ZERO;
                     let mut sum_sq = 0.0f32;
-                    for &j in nb.of(i) {
-                        let d = p - x[j as usize];
-                        let r2 = d.length_squared();
-                        if r2 >= kernels.h2 {
-                            continue;
+                    let list = nb.of(i);
+                    let at = pair.len();
+                    pair.resize(at + list.len(), 0.0);
+                    // Eight neighbours at a time, each lane summing its own
+                    // and the lanes added in order at the end.
+                    let (mut w8, mut sq8) = (f32x8::ZERO, f32x8::ZERO);
+                    let (mut gx8, mut gy8, mut gz8) = (f32x8::ZERO, f32x8::ZERO, f32x8::ZERO);
+                    for (js, out) in list.chunks(LANES).zip(pair[at..].chunks_mut(LANES)) {
+                        let (dx, dy, dz) = offsets(p, x, js, far);
+                        let (w, g) = kernels.spiky_pair_x8(dx, dy, dz);
+                        let (gx, gy, gz) = (dx * g, dy * g, dz * g);
+                        w8 += w;
+                        gx8 += gx;
+                        gy8 += gy;
+                        gz8 += gz;
+                        sq8 += gx * gx + gy * gy + gz * gz;
+                        if let Ok(out) = <&mut [f32; LANES]>::try_from(&mut *out) {
+                            *out = *g.as_array();
+                        } else {
+                            for (o, &gl) in out.iter_mut().zip(g.as_array()) {
+                                *o = gl;
+                            }
                         }
-                        let r = r2.sqrt();
-                        sum_w += kernels.spiky(r);
-                        let gw = d * kernels.spiky_grad_over_r(r);
-                        grad += gw;
-                        sum_sq += gw.length_squared();
                     }
+                    sum_w += lanes_sum(w8);
+                    grad += Vec3::new(lanes_sum(gx8), lanes_sum(gy8), lanes_sum(gz8));
+                    sum_sq += lanes_sum(sq8);
                     let mut frac = volume * sum_w;
                     let mut grad = grad * volume;
                     let sum_sq = sum_sq * volume * volume;
+                    let mut gap = h;
                     if walls {
-                        let first = scratch.contacts.len();
-                        for &t in coupling.candidates(i) {
-                            let Some(s) = coupling.surface(t, p, f64::from(h)) else {
+                        let first = contacts.len();
+                        while next_plane < planes.len() && planes[next_plane].particle as usize == i
+                        {
+                            let plane = planes[next_plane];
+                            next_plane += 1;
+                            let d = (p.as_dvec3() - plane.point).dot(plane.normal);
+                            let d = d as f32;
+                            gap = gap.min(if plane.bounds { d } else { f32::NEG_INFINITY });
+                            if d.is_nan() || d >= h {
                                 continue;
-                            };
-                            let (phi, psi) = table.at(s.distance as f32);
+                            }
+                            let (phi, psi) = table.at(d);
                             if phi <= 0.0 && psi == 0.0 {
                                 continue;
                             }
-                            scratch.contacts.push(WallContact {
+                            contacts.push(WallContact {
                                 particle: i as u32,
-                                target: t,
-                                point: s.point,
-                                normal: s.normal.as_vec3(),
+                                target: plane.target,
+                                point: p.as_dvec3() - plane.normal * f64::from(d),
+                                normal: plane.normal.as_vec3(),
                                 phi,
                                 psi,
                                 grad: Vec3::ZERO,
                             });
                         }
-                        let touching = &mut scratch.contacts[first..];
-                        let (phi, wall_grad) = wall_union(touching);
+                        let (phi, wall_grad) = wall_union(&mut contacts[first..]);
                         frac += phi;
                         grad += wall_grad;
                     }
+                    gaps.push(gap);
                     density[k] = rest * frac;
                     let c = frac - 1.0;
                     let denom = grad.length_squared() + sum_sq + eps;
-                    let l = if c > 0.0 && denom > 0.0 { -c / denom } else { 0.0 };
+                    let l = if c > 0.0 && denom > 0.0 {
+                        -c / denom
+                    } else {
+                        0.0
+                    };
                     lambda[k] = if l.is_finite() { l } else { 0.0 };
                 }
             },
@@ -250,62 +349,91 @@ impl Fluid {
         let cap = MAX_CORRECTION * self.spacing;
         let tensile = self.tensile_k > 0.0 && self.tensile_inv_w > 0.0;
         let s_scale = -self.tensile_k * kernels.h2;
-        let (inv_w, power) = (self.tensile_inv_w, self.tensile_n);
+        let (inv_w, power) = (self.tensile_inv_w, self.tensile_n.max(1));
         let w_p = f64::from(1.0 / self.mass);
         let hs = f64::from(hs);
-        for_each_chunk_with(&mut self.next, CHUNK, &mut self.chunks, |base, next, scratch| {
-            let ChunkScratch { contacts, loads } = scratch;
-            let mut c = 0;
-            for k in 0..next.len() {
-                let i = base + k;
-                let p = x[i];
-                let li = lambda[i];
-                let mut dx = Vec3::ZERO;
-                for &j in nb.of(i) {
-                    let d = p - x[j as usize];
-                    let r2 = d.length_squared();
-                    if r2 >= kernels.h2 {
-                        continue;
-                    }
-                    let mut s = li + lambda[j as usize];
-                    if tensile {
-                        s += s_scale * (kernels.poly6(r2) * inv_w).powi(power);
-                    }
-                    if s != 0.0 {
-                        dx += d * (s * kernels.spiky_grad_over_r(r2.sqrt()));
-                    }
-                }
-                dx *= volume;
-                let first = c;
-                while c < contacts.len() && contacts[c].particle as usize == i {
-                    dx += contacts[c].grad * li;
-                    c += 1;
-                }
-                let len = dx.length();
-                let scale = if !len.is_finite() {
-                    0.0
-                } else if len > cap {
-                    cap / len
-                } else {
-                    1.0
-                };
-                next[k] = p + dx * scale;
-                if li < 0.0 && scale > 0.0 {
-                    for contact in &contacts[first..c] {
-                        let target = &coupling.targets[contact.target as usize];
-                        if !target.movable() {
-                            continue;
+        for_each_chunk_with(
+            &mut self.next,
+            CHUNK,
+            &mut self.chunks,
+            |base, next, scratch| {
+                let ChunkScratch {
+                    contacts,
+                    loads,
+                    pair,
+                    ..
+                } = scratch;
+                let mut c = 0;
+                let mut at = 0;
+                for (k, out) in next.iter_mut().enumerate() {
+                    let i = base + k;
+                    let p = x[i];
+                    let li = lambda[i];
+                    let list = nb.of(i);
+                    // The kernel gradients the density pass found, pair by pair.
+                    let grads = &pair[at..at + list.len()];
+                    at += list.len();
+                    let (mut cx, mut cy, mut cz) = (f32x8::ZERO, f32x8::ZERO, f32x8::ZERO);
+                    for (js, gs) in list.chunks(LANES).zip(grads.chunks(LANES)) {
+                        let (ox, oy, oz) = offsets(p, x, js, 0.0);
+                        let mut lam = [0.0f32; LANES];
+                        let mut g = [0.0f32; LANES];
+                        for (l, (&j, &gj)) in js.iter().zip(gs).enumerate() {
+                            lam[l] = lambda[j as usize];
+                            g[l] = gj;
                         }
-                        let moved = (contact.grad * (li * scale)).as_dvec3();
-                        let normal = contact.normal.as_dvec3();
-                        let k = w_p + target.inv_mass_along(contact.point, normal);
-                        if k > 0.0 {
-                            coupling.add_load(loads, contact.target, contact.point, -moved / (hs * k));
+                        let mut s = f32x8::splat(li) + f32x8::from(lam);
+                        if tensile {
+                            let ratio =
+                                kernels.poly6_x8(ox * ox + oy * oy + oz * oz) * f32x8::splat(inv_w);
+                            let mut pow = ratio;
+                            for _ in 1..power {
+                                pow *= ratio;
+                            }
+                            s += f32x8::splat(s_scale) * pow;
+                        }
+                        let f = s * f32x8::from(g);
+                        cx += ox * f;
+                        cy += oy * f;
+                        cz += oz * f;
+                    }
+                    let mut dx = Vec3::new(lanes_sum(cx), lanes_sum(cy), lanes_sum(cz)) * volume;
+                    let first = c;
+                    while c < contacts.len() && contacts[c].particle as usize == i {
+                        dx += contacts[c].grad * li;
+                        c += 1;
+                    }
+                    let len = dx.length();
+                    let scale = if !len.is_finite() {
+                        0.0
+                    } else if len > cap {
+                        cap / len
+                    } else {
+                        1.0
+                    };
+                    *out = p + dx * scale;
+                    if li < 0.0 && scale > 0.0 {
+                        for contact in &contacts[first..c] {
+                            let target = &coupling.targets[contact.target as usize];
+                            if !target.movable() {
+                                continue;
+                            }
+                            let moved = (contact.grad * (li * scale)).as_dvec3();
+                            let normal = contact.normal.as_dvec3();
+                            let w = w_p + target.inv_mass_along(contact.point, normal);
+                            if w > 0.0 {
+                                coupling.add_load(
+                                    loads,
+                                    contact.target,
+                                    contact.point,
+                                    -moved / (hs * w),
+                                );
+                            }
                         }
                     }
                 }
-            }
-        });
+            },
+        );
     }
 
     /// Keeps the particles out of the bodies and takes the velocities from
@@ -313,6 +441,8 @@ impl Fluid {
     /// found it, at rest.
     fn collide(&mut self, hs: f32, coupling: &Coupling<'_>, walls: bool) {
         let prev = &self.prev;
+        // The positions before the corrections (swapped out of `x`).
+        let before = &self.next;
         let w = 1.0 / self.mass;
         let (radius, mu) = (self.collision_radius, self.friction);
         for_each_chunk2_with(
@@ -325,7 +455,10 @@ impl Fluid {
                     let i = base + k;
                     let q = prev[i];
                     let mut p = x[k];
-                    if walls {
+                    // A particle that stood farther from every surface than
+                    // the collision radius and its correction together
+                    // cannot be within it.
+                    if walls && scratch.gap[k] - (p - before[i]).length() < radius {
                         coupling.push_out(i, &mut p, q, w, radius, mu, hs, &mut scratch.loads);
                     }
                     let mut vel = (p - q) / hs;
@@ -345,18 +478,22 @@ impl Fluid {
         let (x, v, nb) = (&self.x, &self.v, &self.neighbours);
         let kernels = self.kernels;
         let scale = self.viscosity * self.volume;
+        let far = 2.0 * kernels.h;
         for_each_chunk(&mut self.next, CHUNK, |base, next| {
             for (k, out) in next.iter_mut().enumerate() {
                 let i = base + k;
                 let (p, vi) = (x[i], v[i]);
-                let mut acc = Vec3::ZERO;
-                for &j in nb.of(i) {
-                    let j = j as usize;
-                    let w = kernels.poly6((p - x[j]).length_squared());
-                    if w > 0.0 {
-                        acc += (v[j] - vi) * w;
-                    }
+                let (mut ax, mut ay, mut az) = (f32x8::ZERO, f32x8::ZERO, f32x8::ZERO);
+                for js in nb.of(i).chunks(LANES) {
+                    let (dx, dy, dz) = offsets(p, x, js, far);
+                    let w = kernels.poly6_x8(dx * dx + dy * dy + dz * dz);
+                    // `v_i − v_j`, so the sum is taken with the sign turned.
+                    let (ux, uy, uz) = offsets(vi, v, js, 0.0);
+                    ax -= ux * w;
+                    ay -= uy * w;
+                    az -= uz * w;
                 }
+                let acc = Vec3::new(lanes_sum(ax), lanes_sum(ay), lanes_sum(az));
                 let nv = vi + acc * scale;
                 *out = if nv.is_finite() { nv } else { vi };
             }

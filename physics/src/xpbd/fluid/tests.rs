@@ -21,10 +21,8 @@ fn tank(bodies: &mut Arena<RigidBody>, min: DVec3, max: DVec3) {
     let size = max - min;
     let centre = (min + max) * 0.5;
     let mut add = |centre: DVec3, half: DVec3| {
-        let desc = RigidBodyDesc::fixed(
-            Shape::cuboid(half).unwrap(),
-            Pose::from_translation(centre),
-        );
+        let desc =
+            RigidBodyDesc::fixed(Shape::cuboid(half).unwrap(), Pose::from_translation(centre));
         bodies.insert(desc.build().unwrap());
     };
     // The floor runs under the walls.
@@ -48,8 +46,13 @@ fn tank(bodies: &mut Arena<RigidBody>, min: DVec3, max: DVec3) {
 fn step(fluid: &mut Fluid, bodies: &mut Arena<RigidBody>) {
     let reach = fluid.reach(DT, G);
     let loads = {
-        let mut coupling =
-            Coupling::gather(bodies, fluid.positions(), fluid.inverse_masses(), reach, &[]);
+        let mut coupling = Coupling::gather(
+            bodies,
+            fluid.positions(),
+            fluid.inverse_masses(),
+            reach,
+            &[],
+        );
         fluid.step(DT, G, &mut coupling);
         coupling.into_loads()
     };
@@ -147,7 +150,11 @@ fn float_box(density: f64, seconds: f32) -> f64 {
     let fluid_desc = FluidDesc::block(DVec3::ZERO, size, s).unwrap();
     let mut fluid = Fluid::new(fluid_desc).unwrap();
     let mut bodies = Arena::default();
-    tank(&mut bodies, DVec3::ZERO, DVec3::new(size.x, 2.5 * size.y, size.z));
+    tank(
+        &mut bodies,
+        DVec3::ZERO,
+        DVec3::new(size.x, 2.5 * size.y, size.z),
+    );
     let half = DVec3::new(0.3, 0.15, 0.3);
     let centre = DVec3::new(size.x / 2.0, size.y + half.y, size.z / 2.0);
     let desc = RigidBodyDesc::dynamic(
@@ -196,8 +203,14 @@ fn float_box(density: f64, seconds: f32) -> f64 {
 #[test]
 fn a_box_of_half_the_fluids_density_floats_half_submerged() {
     let fraction = float_box(500.0, 6.0);
-    eprintln!("a box of 500 kg/m³ on water floats {:.3} submerged", fraction);
-    assert!((fraction - 0.5).abs() < 0.05, "submerged fraction {fraction}");
+    eprintln!(
+        "a box of 500 kg/m³ on water floats {:.3} submerged",
+        fraction
+    );
+    assert!(
+        (fraction - 0.5).abs() < 0.05,
+        "submerged fraction {fraction}"
+    );
 }
 
 /// The positions and velocities of a tank with a floating box after a
@@ -333,9 +346,10 @@ fn emitters_are_all_or_nothing_and_capped() {
     let at = [DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.1, 0.0, 0.0)];
     let bad = [DVec3::new(1.0, 0.0, 0.0), DVec3::new(f64::NAN, 0.0, 0.0)];
     assert!(fluid.add_particles(&bad, &[]).is_err());
-    assert!(fluid
-        .add_particles(&at, &[DVec3::X])
-        .is_err(), "one velocity for two");
+    assert!(
+        fluid.add_particles(&at, &[DVec3::X]).is_err(),
+        "one velocity for two"
+    );
     assert_eq!(fluid.len(), 8);
     fluid.add_particles(&at, &[DVec3::X, DVec3::Y]).unwrap();
     assert_eq!(fluid.len(), 10);
