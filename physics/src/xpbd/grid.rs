@@ -620,6 +620,28 @@ mod tests {
     }
 
     #[test]
+    fn point_queries_match_brute_force_up_to_two_cells() {
+        // Dense and hashed grids, queried with radii up to two cell edges.
+        let mut scattered = points(1500, 40.0, 5);
+        scattered.extend(points(1500, 1.5, 6));
+        for (x, cell) in [(points(3000, 2.0, 7), 0.1), (scattered, 0.1)] {
+            let mut grid = Grid::default();
+            grid.build(&x, cell);
+            for r in [0.05, 0.1, 0.2] {
+                for &p in x.iter().step_by(37) {
+                    let mut got = Vec::new();
+                    grid.for_each_within(p, r, |j, _| got.push(j));
+                    got.sort_unstable();
+                    let want: Vec<u32> = (0..x.len() as u32)
+                        .filter(|&j| (x[j as usize] - p).length_squared() < r * r)
+                        .collect();
+                    assert_eq!(got, want, "r = {r} at {p}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn bad_input_does_not_panic() {
         let mut grid = Grid::default();
         let mut nb = Neighbours::default();

@@ -8,11 +8,11 @@
 //! `C_i = ρ_i / ρ0 − 1`, kept only where it is positive (the fluid resists
 //! compression but never pulls, so the free surface does not clump). Walls
 //! and floating bodies are the world's rigid bodies, seen through
-//! [`Coupling`](super::coupling::Coupling): they add to a particle's
-//! density as solid fluid would ([`boundary`]), keep the particles out of
+//! the coupling (`xpbd::coupling`): they add to a particle's
+//! density as solid fluid would (see `boundary`), keep the particles out of
 //! them with friction, and take the impulses the particles give them.
 //!
-//! The stepping is in [`step`]; [`FluidDesc`] describes a fluid and
+//! The stepping is in `step`; [`FluidDesc`] describes a fluid and
 //! [`Fluid`] holds one.
 
 pub(crate) mod boundary;
@@ -73,9 +73,12 @@ pub struct FluidDesc {
     /// Vorticity confinement `ε`, m/s (default 0, off): the acceleration
     /// `ε (N × ω)` that feeds back the swirl (`ω`, 1/s) damping loses.
     pub vorticity: f64,
-    /// Tensile correction strength `k` (default 0.1, as in the paper), in
-    /// units of `h²` of the constraint multiplier: a short-range
-    /// repulsion `k (W(r) / W(Δq))ⁿ` that keeps particles from pairing.
+    /// Tensile correction strength `k`, in units of `h²` of the constraint
+    /// multiplier (the paper's `k = 0.1`): a short-range repulsion
+    /// `k (W(r) / W(Δq))ⁿ` that keeps particles from pairing. Default 0,
+    /// off: the density constraint here is one-sided and never pulls, so
+    /// particles do not clump, and the term, a push applied every substep,
+    /// lifts the free surface more the more substeps a step takes.
     pub tensile_k: f64,
     /// Tensile correction exponent `n`, 1 to 16 (default 4).
     pub tensile_n: u32,
@@ -83,8 +86,10 @@ pub struct FluidDesc {
     /// kernel radius, in (0, 1) (default 0.2).
     pub tensile_dq: f64,
     /// Constraint relaxation `ε` (the constraint force mixing term of the
-    /// paper's `λ_i = −C_i / (Σ |∇C_i|² + ε)`), in units of `1/h²`, ≥ 0
-    /// (default 0.01). Larger values soften the fluid.
+    /// paper's `λ_i = −C_i / (Σ |∇C_i|² + ε)`), in units of `1/h²` (so the
+    /// paper's 600 at `h = 0.1` would be 6), ≥ 0. Default 1.5: about
+    /// `Σ |∇C_i|²` itself, which one Jacobi iteration a substep needs to
+    /// stay stable (see the step's notes); larger values soften the fluid.
     pub relaxation: f64,
     /// Multiplies the world's gravity for the fluid (default 1).
     pub gravity_scale: f64,
