@@ -96,6 +96,22 @@ const LANES: usize = 8;
 /// component; lanes past the end of `js` hold `(pad, 0, 0)`.
 #[inline(always)]
 fn offsets(p: Vec3, x: &[Vec3], js: &[u32], pad: f32) -> (f32x8, f32x8, f32x8) {
+    if let [j0, j1, j2, j3, j4, j5, j6, j7] = *js {
+        // A full set, built from registers (no round trip through memory).
+        let d0 = p - x[j0 as usize];
+        let d1 = p - x[j1 as usize];
+        let d2 = p - x[j2 as usize];
+        let d3 = p - x[j3 as usize];
+        let d4 = p - x[j4 as usize];
+        let d5 = p - x[j5 as usize];
+        let d6 = p - x[j6 as usize];
+        let d7 = p - x[j7 as usize];
+        return (
+            f32x8::new([d0.x, d1.x, d2.x, d3.x, d4.x, d5.x, d6.x, d7.x]),
+            f32x8::new([d0.y, d1.y, d2.y, d3.y, d4.y, d5.y, d6.y, d7.y]),
+            f32x8::new([d0.z, d1.z, d2.z, d3.z, d4.z, d5.z, d6.z, d7.z]),
+        );
+    }
     let mut ox = [pad; LANES];
     let mut oy = [0.0f32; LANES];
     let mut oz = [0.0f32; LANES];
@@ -106,6 +122,26 @@ fn offsets(p: Vec3, x: &[Vec3], js: &[u32], pad: f32) -> (f32x8, f32x8, f32x8) {
         oz[l] = d.z;
     }
     (f32x8::from(ox), f32x8::from(oy), f32x8::from(oz))
+}
+
+/// The multipliers `λ_j` of up to eight neighbours `js` and their kernel
+/// gradients `gs`; lanes past the end hold zeros.
+#[inline(always)]
+fn multipliers(lambda: &[f32], js: &[u32], gs: &[f32]) -> (f32x8, f32x8) {
+    if let (&[j0, j1, j2, j3, j4, j5, j6, j7], Ok(g)) = (js, <[f32; LANES]>::try_from(gs)) {
+        let l = |j: u32| lambda[j as usize];
+        return (
+            f32x8::new([l(j0), l(j1), l(j2), l(j3), l(j4), l(j5), l(j6), l(j7)]),
+            f32x8::new(g),
+        );
+    }
+    let mut lam = [0.0f32; LANES];
+    let mut g = [0.0f32; LANES];
+    for (l, (&j, &gj)) in js.iter().zip(gs).enumerate() {
+        lam[l] = lambda[j as usize];
+        g[l] = gj;
+    }
+    (f32x8::from(lam), f32x8::from(g))
 }
 
 /// The sum of the lanes, in lane order (the same bits on any machine).
@@ -391,13 +427,8 @@ impl Fluid {
                     let (mut cx, mut cy, mut cz) = (f32x8::ZERO, f32x8::ZERO, f32x8::ZERO);
                     for (js, gs) in list.chunks(LANES).zip(grads.chunks(LANES)) {
                         let (ox, oy, oz) = offsets(p, x, js, 0.0);
-                        let mut lam = [0.0f32; LANES];
-                        let mut g = [0.0f32; LANES];
-                        for (l, (&j, &gj)) in js.iter().zip(gs).enumerate() {
-                            lam[l] = lambda[j as usize];
-                            g[l] = gj;
-                        }
-                        let mut s = f32x8::splat(li) + f32x8::from(lam);
+                        let (lam, g) = multipliers(lambda, js, gs);
+                        let mut s = f32x8::splat(li) + lam;
                         if tensile {
                             let ratio =
                                 kernels.poly6_x8(ox * ox + oy * oy + oz * oz) * f32x8::splat(inv_w);
@@ -407,7 +438,7 @@ impl Fluid {
                             }
                             s += f32x8::splat(s_scale) * pow;
                         }
-                        let f = s * f32x8::from(g);
+                        let f = s * g;
                         cx += ox * f;
                         cy += oy * f;
                         cz += oz * f;
