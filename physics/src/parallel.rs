@@ -151,3 +151,106 @@ where
         .map(|(k, (a, b, c, d))| f(k * chunk, a, b, c, d))
         .collect()
 }
+
+/// Runs `f(base, piece, state)` over `chunk`-sized pieces of `a`, piece `k`
+/// with `states[k]` as its own scratch (per-chunk lists, accumulators), in
+/// parallel when there are at least two pieces. `states` must hold at least
+/// `a.len().div_ceil(chunk)` elements; pieces past its end are not run.
+/// Allocates nothing.
+pub(crate) fn for_each_chunk_with<A, S, F>(a: &mut [A], chunk: usize, states: &mut [S], f: F)
+where
+    A: Send,
+    S: Send,
+    F: Fn(usize, &mut [A], &mut S) + Sync + Send,
+{
+    debug_assert!(states.len() >= a.len().div_ceil(chunk));
+    if a.len() <= chunk || inline() {
+        a.chunks_mut(chunk)
+            .zip(states.iter_mut())
+            .enumerate()
+            .for_each(|(k, (a, s))| f(k * chunk, a, s));
+        return;
+    }
+    a.par_chunks_mut(chunk)
+        .zip(states.par_iter_mut())
+        .enumerate()
+        .for_each(|(k, (a, s))| f(k * chunk, a, s));
+}
+
+/// Like [`for_each_chunk_with`] over two equally long slices, chunked
+/// alike.
+pub(crate) fn for_each_chunk2_with<A, B, S, F>(
+    a: &mut [A],
+    b: &mut [B],
+    chunk: usize,
+    states: &mut [S],
+    f: F,
+) where
+    A: Send,
+    B: Send,
+    S: Send,
+    F: Fn(usize, &mut [A], &mut [B], &mut S) + Sync + Send,
+{
+    debug_assert!(a.len() == b.len());
+    debug_assert!(states.len() >= a.len().div_ceil(chunk));
+    if a.len() <= chunk || inline() {
+        a.chunks_mut(chunk)
+            .zip(b.chunks_mut(chunk))
+            .zip(states.iter_mut())
+            .enumerate()
+            .for_each(|(k, ((a, b), s))| f(k * chunk, a, b, s));
+        return;
+    }
+    a.par_chunks_mut(chunk)
+        .zip(b.par_chunks_mut(chunk))
+        .zip(states.par_iter_mut())
+        .enumerate()
+        .for_each(|(k, ((a, b), s))| f(k * chunk, a, b, s));
+}
+
+/// Runs `f(base, piece)` over `chunk`-sized pieces of `a`, in parallel when
+/// there are at least two pieces. Every piece writes only its own elements,
+/// so the result does not depend on the thread count. Allocates nothing.
+pub(crate) fn for_each_chunk<A, F>(a: &mut [A], chunk: usize, f: F)
+where
+    A: Send,
+    F: Fn(usize, &mut [A]) + Sync + Send,
+{
+    if a.len() <= chunk || inline() {
+        a.chunks_mut(chunk)
+            .enumerate()
+            .for_each(|(k, a)| f(k * chunk, a));
+        return;
+    }
+    a.par_chunks_mut(chunk)
+        .enumerate()
+        .for_each(|(k, a)| f(k * chunk, a));
+}
+
+/// Runs `f(base, len, state)` over the index range `0..n` cut into
+/// `chunk`-sized pieces, piece `k` (`base = k · chunk`, `len` indices) with
+/// `states[k]`, in parallel when there are at least two pieces. For passes
+/// that fill per-chunk lists and write no per-index slice. `states` must
+/// hold at least `n.div_ceil(chunk)` elements.
+pub(crate) fn for_each_range_with<S, F>(n: usize, chunk: usize, states: &mut [S], f: F)
+where
+    S: Send,
+    F: Fn(usize, usize, &mut S) + Sync + Send,
+{
+    let pieces = n.div_ceil(chunk);
+    debug_assert!(states.len() >= pieces);
+    let held = states.len();
+    let states = &mut states[..pieces.min(held)];
+    let run = |k: usize, s: &mut S| {
+        let base = k * chunk;
+        f(base, chunk.min(n - base), s);
+    };
+    if pieces <= 1 || inline() {
+        states.iter_mut().enumerate().for_each(|(k, s)| run(k, s));
+        return;
+    }
+    states
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(k, s)| run(k, s));
+}

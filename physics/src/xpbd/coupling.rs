@@ -345,17 +345,34 @@ impl<'a> Coupling<'a> {
                 let n = dx.normalize_or_zero();
                 let k = f64::from(w) + t.inv_mass_along(s.point, n);
                 if k > 0.0 {
-                    self.add_impulse(loads, target as usize, s.point, -dx / (f64::from(h) * k));
+                    self.add_load(loads, target, s.point, -dx / (f64::from(h) * k));
                 }
             }
         }
     }
 
-    /// Adds impulse `j` (N·s) at `point` (m) on target `target` to `loads`.
-    pub(crate) fn add_impulse(&self, loads: &mut [Load], target: usize, point: DVec3, j: DVec3) {
-        let load = &mut loads[target];
-        load.0 += j;
-        load.1 += (point - self.targets[target].com).cross(j);
+    /// Whether the candidate lists were gathered for `n` particles (or
+    /// hold none at all).
+    pub(crate) fn covers(&self, n: usize) -> bool {
+        self.start.is_empty() || self.start.len() == n + 1
+    }
+
+    /// Whether target `target`'s shape is convex (its nearest surface
+    /// point moves smoothly, and the plane there bounds the whole body).
+    pub(crate) fn is_convex(&self, target: u32) -> bool {
+        self.targets[target as usize].shape.is_convex()
+    }
+
+    /// Adds `impulse` (N·s), given to target `target` at `point` (m), to
+    /// `loads`. Bodies that particles cannot move take nothing.
+    pub(crate) fn add_load(&self, loads: &mut [Load], target: u32, point: DVec3, impulse: DVec3) {
+        let t = &self.targets[target as usize];
+        if !t.movable() || !impulse.is_finite() {
+            return;
+        }
+        let load = &mut loads[target as usize];
+        load.0 += impulse;
+        load.1 += (point - t.com).cross(impulse);
     }
 
     /// A fresh per-chunk accumulator of loads.

@@ -22,5 +22,7 @@
 
 pub(crate) mod colouring;
 pub(crate) mod coupling;
+pub mod fluid;
+pub(crate) mod grid;
 pub(crate) mod scatter;
 pub mod soft;
