@@ -83,6 +83,9 @@ pub enum PhysicsError {
     /// The soft body handle is stale or was never issued.
     #[error("unknown soft body {0:?}")]
     UnknownSoftBody(crate::handle::SoftBodyHandle),
+    /// The fluid handle is stale or was never issued.
+    #[error("unknown fluid {0:?}")]
+    UnknownFluid(crate::handle::FluidHandle),
     /// The joint handle is stale or was never issued.
     #[error("unknown joint {0:?}")]
     UnknownJoint(JointHandle),

@@ -139,3 +139,23 @@ impl SoftBodyHandle {
         Self { index, generation }
     }
 }
+
+/// A fluid in a [`World`](crate::World).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct FluidHandle {
+    pub(crate) index: u32,
+    pub(crate) generation: u32,
+}
+
+impl FluidHandle {
+    /// The handle as `[slot index, generation]`.
+    pub fn to_raw(self) -> [u32; 2] {
+        [self.index, self.generation]
+    }
+
+    /// A handle from [`FluidHandle::to_raw`]'s numbers. A made-up one is
+    /// harmless: it looks up to `None`.
+    pub fn from_raw([index, generation]: [u32; 2]) -> Self {
+        Self { index, generation }
+    }
+}

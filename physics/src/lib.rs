@@ -57,8 +57,8 @@ pub use forces::{
 /// Re-export of the math library used in the public API.
 pub use glam;
 pub use handle::{
-    AttachmentHandle, BodyForceHandle, BodyHandle, ForceHandle, JointHandle, ParticleHandle,
-    SoftBodyHandle, SpringHandle, SystemHandle,
+    AttachmentHandle, BodyForceHandle, BodyHandle, FluidHandle, ForceHandle, JointHandle,
+    ParticleHandle, SoftBodyHandle, SpringHandle, SystemHandle,
 };
 pub use integrator::Integrator;
 pub use particle_system::{
@@ -69,6 +69,7 @@ pub use snapshot::SnapshotError;
 pub use soft_body::{build_cloth, build_rope, Cloth, ClothDesc, Rope, RopeDesc, SpringStiffness};
 pub use spring::SpringParams;
 pub use world::{QueryIndex, StepReport, World, WorldConfig};
+pub use xpbd::fluid::{Fluid, FluidDesc};
 pub use xpbd::soft::{
     EdgeDesc, HingeDesc, Plasticity, PressureDesc, SoftBalloon, SoftBody, SoftBodyDesc, SoftCloth,
     SoftMaterial, SoftRope, SoftSolid, SolidShape, TetDesc, TetherDesc,

@@ -584,3 +584,60 @@ fn issue_16_solids_fill_a_ball_and_a_closed_mesh() {
     assert!((b.rest_volume() - 1.0).abs() < 1e-4, "{}", b.rest_volume());
     assert!((b.enclosed_volume() - 1.0).abs() < 1e-4, "the surface faces outwards: {}", b.enclosed_volume());
 }
+
+/// A sheet folded in two lies on the ground, its upper half 3 cm above
+/// its lower half: with self-collision the upper half rests on the lower;
+/// without, it falls through it to the ground.
+#[test]
+fn issue_16_cloth_with_self_collision_keeps_its_layers_apart() {
+    let run = |self_collision: bool| {
+        let mut w = world(2);
+        ground(&mut w);
+        let r = 0.012;
+        let cloth = SoftCloth {
+            corner: DVec3::new(-0.25, 0.02, 0.0),
+            across: DVec3::new(0.5, 0.0, 0.0),
+            down: DVec3::new(0.0, 0.0, 0.95),
+            rows: 20,
+            cols: 11,
+            mass: 0.3,
+            stretch_compliance: 0.0,
+            shear_compliance: 1e-5,
+            bend_compliance: 10.0,
+            pinned: Vec::new(),
+            tethers: false,
+            material: SoftMaterial {
+                collision_radius: r,
+                self_collision,
+                friction: 0.5,
+                ..SoftMaterial::default()
+            },
+        };
+        let mut desc = cloth.build().unwrap();
+        // Fold rows 10..20 back over rows 0..10, 3 cm higher.
+        for row in 10..20 {
+            for col in 0..11 {
+                let i = row * 11 + col;
+                let under = (19 - row) * 11 + col;
+                desc.positions[i] = desc.positions[under] + DVec3::new(0.0, 0.03, 0.0);
+            }
+        }
+        let h = w.add_soft_body(&desc).unwrap();
+        for _ in 0..90 {
+            w.step(DT).unwrap();
+        }
+        let b = w.soft_body(h).unwrap();
+        let x = b.positions();
+        // The mean height of the upper half, away from the fold.
+        let upper: Vec<f32> = (12..20)
+            .flat_map(|row| (0..11).map(move |col| row * 11 + col))
+            .map(|i| x[i].y)
+            .collect();
+        upper.iter().sum::<f32>() / upper.len() as f32
+    };
+    let with = run(true);
+    let without = run(false);
+    println!("the upper half lies {with:.4} m high with self-collision, {without:.4} m without");
+    assert!(with > 0.012 + 0.8 * 0.024, "it rests on the lower half ({with} m)");
+    assert!(without < 0.02, "without self-collision it falls through ({without} m)");
+}

@@ -13,6 +13,7 @@
 //! left, every value is validated as if it came through the public API, and
 //! nothing is applied unless the whole file decodes.
 
+mod fluid;
 mod rigid;
 mod soft;
 
@@ -41,7 +42,7 @@ use crate::spring::{Spring, SpringParams};
 
 const MAGIC: &[u8; 8] = b"INRTWRLD";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 7;
+pub const FORMAT_VERSION: u32 = 8;
 /// The oldest format version this build reads. Version 3 kept each
 /// manifold's impulses only: its manifolds are collided afresh on the
 /// first step after a restore. Version 4 had no world gravity on
@@ -50,7 +51,7 @@ pub const FORMAT_VERSION: u32 = 7;
 /// pairs (the queries report none until the world steps). Versions 4 and
 /// 5 kept the contact cache in double precision, which is rounded to the
 /// single precision it is now kept in. Versions before 7 had no soft
-/// bodies.
+/// bodies, and before 8 no fluids.
 pub const OLDEST_FORMAT_VERSION: u32 = 3;
 
 /// Why a saved state could not be restored. The world is unchanged.
@@ -270,6 +271,7 @@ pub(crate) struct StateRef<'a> {
     pub(crate) joints: &'a Arena<crate::rigid::joint::Joint>,
     pub(crate) attachments: &'a Arena<crate::rigid::attachment::Attachment>,
     pub(crate) soft_bodies: &'a Arena<crate::xpbd::soft::SoftBody>,
+    pub(crate) fluids: &'a Arena<crate::xpbd::fluid::Fluid>,
 }
 
 /// The one walk over the world state, shared by save and hash.
@@ -287,6 +289,7 @@ pub(crate) fn encode_world<S: Sink>(s: &mut S, w: &StateRef<'_>) {
     arena(s, w.joints, rigid::joint);
     arena(s, w.attachments, rigid::attachment);
     arena(s, w.soft_bodies, soft::soft_body);
+    arena(s, w.fluids, fluid::fluid);
 }
 
 /// The complete saved file for a state.
@@ -319,6 +322,7 @@ pub(crate) struct DecodedWorld {
     pub(crate) joints: Arena<crate::rigid::joint::Joint>,
     pub(crate) attachments: Arena<crate::rigid::attachment::Attachment>,
     pub(crate) soft_bodies: Arena<crate::xpbd::soft::SoftBody>,
+    pub(crate) fluids: Arena<crate::xpbd::fluid::Fluid>,
 }
 
 struct Reader<'a> {
@@ -716,6 +720,11 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     } else {
         Arena::default()
     };
+    let fluids = if version >= 8 {
+        r.arena(|r| r.fluid())?
+    } else {
+        Arena::default()
+    };
     if r.pos != r.b.len() {
         return Err(SnapshotError::Trailing(r.b.len() - r.pos));
     }
@@ -733,5 +742,6 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         joints,
         attachments,
         soft_bodies,
+        fluids,
     })
 }

@@ -317,6 +317,7 @@ impl Reader<'_> {
             .validate()
             .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
         Ok(SoftBody {
+            self_collision: Default::default(),
             prev: x.clone(),
             x,
             v,

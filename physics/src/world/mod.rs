@@ -23,6 +23,7 @@ mod joints;
 mod particles;
 mod query;
 mod query_index;
+mod fluid;
 mod rigid;
 mod soft;
 mod state;
@@ -129,6 +130,8 @@ pub struct World {
     attachment_loads: std::collections::BTreeMap<BodyHandle, (DVec3, DVec3)>,
     /// Soft bodies (XPBD).
     soft_bodies: Arena<crate::xpbd::soft::SoftBody>,
+    /// Fluids (position-based fluids).
+    fluids: Arena<crate::xpbd::fluid::Fluid>,
     /// Contact solver settings (state: they change the motion).
     solver: SolverConfig,
     /// Warm-start cache and broad phase.
@@ -182,6 +185,7 @@ impl World {
             attachments: Arena::default(),
             attachment_loads: Default::default(),
             soft_bodies: Arena::default(),
+            fluids: Arena::default(),
             solver: SolverConfig::default(),
             contacts: Contacts::default(),
             body_energy: None,

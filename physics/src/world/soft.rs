@@ -104,21 +104,23 @@ impl World {
         Ok(())
     }
 
-    /// Stage 4: every soft body, in handle order, takes its small steps
-    /// against the rigid bodies as they now stand; the bodies then take
-    /// the impulses the particles gave them.
+    /// Stage 4: every soft body, then every fluid, in handle order, takes
+    /// its small steps against the rigid bodies as they now stand; the
+    /// bodies then take what the particles gave them.
     pub(super) fn stage_soft(&mut self, dt: f64, energy: &mut Energy) {
-        if self.soft_bodies.len() == 0 {
+        if self.soft_bodies.len() == 0 && self.fluids.len() == 0 {
             return;
         }
         let gravity = self.gravity.as_vec3();
+        let dt32 = dt as f32;
         let World {
             soft_bodies,
+            fluids,
             bodies,
             config,
             ..
         } = self;
-        let mut all_loads = Vec::new();
+        let mut changes = Vec::new();
         for (_, _, body) in soft_bodies.iter_mut() {
             body.attachments
                 .retain(|a| bodies.get(a.body.index, a.body.generation).is_some());
@@ -129,7 +131,6 @@ impl World {
                 .fold(0.0f32, f32::max)
                 .sqrt();
             let g = gravity.length() * body.material.gravity_scale.abs() as f32;
-            let dt32 = dt as f32;
             let reach = body.material.collision_radius as f32 + (fastest + g * dt32) * dt32 + 1e-3;
             let always: Vec<(u32, u32)> = body
                 .attachments
@@ -143,18 +144,33 @@ impl World {
                 Coupling::default()
             };
             soft::step(body, dt32, gravity, &mut coupling);
-            all_loads.extend(coupling.finish());
+            changes.extend(coupling.finish());
             if config.energy_accounting {
                 let g = gravity.as_dvec3() * body.material.gravity_scale;
-                for (x, (v, w)) in body.x.iter().zip(body.v.iter().zip(&body.w)) {
-                    if *w > 0.0 {
-                        let m = 1.0 / f64::from(*w);
-                        energy.kinetic += 0.5 * m * f64::from(v.length_squared());
-                        energy.gravity_uniform -= m * g.dot(x.as_dvec3());
-                    }
-                }
+                add_energy(energy, &body.x, &body.v, &body.w, g);
             }
         }
-        apply_changes(bodies, &all_loads);
+        for (_, _, fluid) in fluids.iter_mut() {
+            let reach = fluid.reach(dt32, gravity);
+            let mut coupling = Coupling::gather(bodies, &fluid.x, fluid.inverse_masses(), reach, &[]);
+            fluid.step(dt32, gravity, &mut coupling);
+            changes.extend(coupling.finish());
+            if config.energy_accounting {
+                let g = gravity.as_dvec3() * fluid.params().gravity_scale;
+                add_energy(energy, &fluid.x, &fluid.v, fluid.inverse_masses(), g);
+            }
+        }
+        apply_changes(bodies, &changes);
+    }
+}
+
+/// Adds the kinetic and uniform-gravity energy of particles (J) to `energy`.
+fn add_energy(energy: &mut Energy, x: &[glam::Vec3], v: &[glam::Vec3], w: &[f32], g: DVec3) {
+    for ((x, v), w) in x.iter().zip(v).zip(w) {
+        if *w > 0.0 {
+            let m = 1.0 / f64::from(*w);
+            energy.kinetic += 0.5 * m * f64::from(v.length_squared());
+            energy.gravity_uniform -= m * g.dot(x.as_dvec3());
+        }
     }
 }

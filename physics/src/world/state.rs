@@ -23,6 +23,7 @@ impl World {
             joints: &self.joints,
             attachments: &self.attachments,
             soft_bodies: &self.soft_bodies,
+            fluids: &self.fluids,
         }
     }
 
@@ -95,6 +96,7 @@ impl World {
         self.joints = decoded.joints;
         self.attachments = decoded.attachments;
         self.soft_bodies = decoded.soft_bodies;
+        self.fluids = decoded.fluids;
         self.contacts.reset_broad_phase();
         Ok(())
     }

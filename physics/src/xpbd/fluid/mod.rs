@@ -421,6 +421,9 @@ pub struct Fluid {
     collision_radius: f32,
     friction: f32,
     max_particles: usize,
+    /// The description it was made from, without its particles (what a
+    /// saved state keeps).
+    params: FluidDesc,
 }
 
 impl Fluid {
@@ -474,6 +477,11 @@ impl Fluid {
             collision_radius: desc.collision_radius() as f32,
             friction: desc.friction as f32,
             max_particles: desc.max_particles,
+            params: FluidDesc {
+                positions: Vec::new(),
+                velocities: Vec::new(),
+                ..desc.clone()
+            },
         };
         fluid.push(&desc.positions, &desc.velocities);
         Ok(fluid)
@@ -573,6 +581,11 @@ impl Fluid {
     /// Most particles the fluid may hold.
     pub fn max_particles(&self) -> usize {
         self.max_particles
+    }
+
+    /// The description it was made from, without its particles.
+    pub fn params(&self) -> &FluidDesc {
+        &self.params
     }
 
     /// Every particle's inverse mass, 1/kg (what the coupling asks for).

@@ -18,6 +18,7 @@
 mod build;
 pub(crate) mod constraints;
 mod lanes;
+mod self_collision;
 mod step;
 mod tetra;
 
@@ -219,6 +220,8 @@ pub struct SoftBody {
     pub(crate) material: SoftMaterial,
     /// Positions at the start of the substep (scratch).
     pub(crate) prev: Vec<Vec3>,
+    /// Self-collision's candidates (derived).
+    pub(crate) self_collision: self_collision::SelfCollision,
 }
 
 fn invalid(what: &'static str, why: impl Into<String>) -> PhysicsError {
@@ -426,6 +429,7 @@ impl SoftBody {
             triangles: desc.triangles.clone(),
             attachments: Vec::new(),
             material: desc.material.clone(),
+            self_collision: Default::default(),
             prev: x.clone(),
             x,
             v,

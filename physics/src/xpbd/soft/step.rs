@@ -31,6 +31,13 @@ pub(crate) fn step(body: &mut SoftBody, dt: f32, gravity: Vec3, coupling: &mut C
         })
         .collect();
     let mut grad = Vec::new();
+    let self_collide = body.material.self_collision && radius > 0.0;
+    let mut self_collision = std::mem::take(&mut body.self_collision);
+    if self_collide {
+        let fastest = body.v.iter().map(|v| v.length_squared()).fold(0.0f32, f32::max).sqrt();
+        let reach = 2.0 * radius + 2.0 * (fastest + g.length() * dt) * dt;
+        self_collision.prepare(body, reach);
+    }
     for _ in 0..n {
         predict(body, g, h);
         project_constraints(body, inv_h2, &mut grad);
@@ -43,8 +50,12 @@ pub(crate) fn step(body: &mut SoftBody, dt: f32, gravity: Vec3, coupling: &mut C
         if radius > 0.0 && !coupling.is_empty() {
             collide(body, coupling, radius, friction, h);
         }
+        if self_collide {
+            self_collision.project(body, radius);
+        }
         update_velocities(body, h, keep);
     }
+    body.self_collision = self_collision;
     if let Some(p) = body.material.plasticity {
         let rate = (p.creep as f32 * dt).min(1.0);
         let (yield_strain, max) = (p.yield_strain as f32, p.max_strain as f32);

@@ -1,0 +1,91 @@
+//! Fluids in the saved state: their description and their particles'
+//! positions and velocities. A restored fluid is rebuilt through
+//! [`Fluid::new`], so every parameter is checked as the API checks it.
+
+use glam::DVec3;
+
+use super::{invalid, Reader, Sink, SnapshotError};
+use crate::xpbd::fluid::{Fluid, FluidDesc, MAX_FLUID_PARTICLES};
+
+fn option<S: Sink>(s: &mut S, v: Option<f64>) {
+    match v {
+        None => s.u8(0),
+        Some(x) => {
+            s.u8(1);
+            s.f64(x);
+        }
+    }
+}
+
+pub(super) fn fluid<S: Sink>(s: &mut S, f: &Fluid) {
+    let d = f.params();
+    s.f64(d.spacing);
+    option(s, d.kernel_radius);
+    s.f64(d.rest_density);
+    s.u32(d.substeps);
+    s.f64(d.viscosity);
+    s.f64(d.vorticity);
+    s.f64(d.tensile_k);
+    s.u32(d.tensile_n);
+    s.f64(d.tensile_dq);
+    s.f64(d.relaxation);
+    s.f64(d.gravity_scale);
+    option(s, d.collision_radius);
+    s.f64(d.friction);
+    s.u64(d.max_particles as u64);
+    s.u64(f.len() as u64);
+    for (x, v) in f.positions().iter().zip(f.velocities()) {
+        for c in x.to_array().into_iter().chain(v.to_array()) {
+            s.f32(c);
+        }
+    }
+}
+
+impl Reader<'_> {
+    fn fluid_option(&mut self, what: &str) -> Result<Option<f64>, SnapshotError> {
+        match self.u8()? {
+            0 => Ok(None),
+            1 => Ok(Some(self.finite(what)?)),
+            t => invalid(format!("{what} tag {t}")),
+        }
+    }
+
+    pub(super) fn fluid(&mut self) -> Result<Fluid, SnapshotError> {
+        let mut d = FluidDesc::new(self.finite("fluid spacing")?);
+        d.kernel_radius = self.fluid_option("fluid kernel radius")?;
+        d.rest_density = self.finite("fluid rest density")?;
+        d.substeps = self.u32()?;
+        d.viscosity = self.finite("fluid viscosity")?;
+        d.vorticity = self.finite("fluid vorticity")?;
+        d.tensile_k = self.finite("fluid tensile k")?;
+        d.tensile_n = self.u32()?;
+        d.tensile_dq = self.finite("fluid tensile dq")?;
+        d.relaxation = self.finite("fluid relaxation")?;
+        d.gravity_scale = self.finite("fluid gravity scale")?;
+        d.collision_radius = self.fluid_option("fluid collision radius")?;
+        d.friction = self.finite("fluid friction")?;
+        let cap = self.u64()?;
+        if cap == 0 || cap > MAX_FLUID_PARTICLES as u64 {
+            return invalid(format!("a fluid cap of {cap} particles"));
+        }
+        d.max_particles = cap as usize;
+        let n = self.count(24)?;
+        d.positions.reserve(n);
+        d.velocities.reserve(n);
+        for _ in 0..n {
+            let x = [
+                self.finite32("fluid position")?,
+                self.finite32("fluid position")?,
+                self.finite32("fluid position")?,
+            ];
+            let v = [
+                self.finite32("fluid velocity")?,
+                self.finite32("fluid velocity")?,
+                self.finite32("fluid velocity")?,
+            ];
+            d.positions.push(DVec3::from(x.map(f64::from)));
+            d.velocities.push(DVec3::from(v.map(f64::from)));
+        }
+        Fluid::new(d).map_err(|e| SnapshotError::Invalid(e.to_string()))
+    }
+}
