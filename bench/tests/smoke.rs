@@ -390,7 +390,14 @@ fn soft_suite() {
         .collect();
     assert_eq!(
         cases,
-        [("cloth_32", 1), ("cloth_32", 2), ("jelly_6", 1), ("jelly_6", 2)]
+        [
+            ("cloth_32", 1),
+            ("cloth_32", 2),
+            ("jelly_6", 1),
+            ("jelly_6", 2),
+            ("fluid_2k", 1),
+            ("fluid_2k", 2)
+        ]
     );
     for m in &lines {
         assert_eq!(m["backend"], "cpu");
@@ -404,6 +411,8 @@ fn soft_suite() {
     assert!((0.0..1.0).contains(&strain), "{strain}");
     let kept = num(&lines[2], "volume_kept");
     assert!((0.9..1.1).contains(&kept), "{kept}");
+    let error = num(&lines[4], "density_error");
+    assert!(error.abs() < 0.2, "{error}");
     // Its picture, from a results file of these records.
     let dir = std::env::temp_dir().join(format!("inertia-bench-soft-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

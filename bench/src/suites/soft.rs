@@ -13,13 +13,19 @@
 //!   Simulation", 2019: 13.5 ms a frame on their GPU).
 //! * `jelly_20`: a [`SoftSolid`] box of 20³ cells (six tetrahedra a cell)
 //!   resting on the ground, 10 substeps.
+//! * `fluid_10k`, `fluid_100k`: a dam of about that many particles 5 cm
+//!   apart breaking from one end of a tank four times as long
+//!   (position-based fluids, 4 substeps, the walls static boxes).
 //!
 //! Each record: `particles`, `constraints` (projected each substep),
 //! `substeps`, `ms_per_step` (median over the timed steps), `max_strain`
-//! (the largest strain of a distance constraint at the end; cloth) or
-//! `volume_kept` (jelly), and the share of the step in the soft stage.
+//! (the largest strain of a distance constraint at the end; cloth),
+//! `volume_kept` (jelly) or `density_error` (fluid: mean density over rest
+//! density, minus one, at the end), and the share of the step in the soft
+//! stage.
 //!
-//! `--quick` shrinks the cases (`cloth_32`, `jelly_6`) and the steps.
+//! `--quick` shrinks the cases (`cloth_32`, `jelly_6`, `fluid_2000`) and
+//! the steps.
 
 use std::time::Instant;
 
@@ -28,7 +34,8 @@ use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{
-    SoftBodyHandle, SoftCloth, SoftMaterial, SoftSolid, SolidShape, World, WorldConfig,
+    FluidDesc, FluidHandle, SoftBodyHandle, SoftCloth, SoftMaterial, SoftSolid, SolidShape, World,
+    WorldConfig,
 };
 
 use crate::report::{median, note, progress, Record, Sink, Suspended};
@@ -44,6 +51,8 @@ enum Scene {
     Cloth(u32),
     /// A jelly of `n`³ cells on the ground.
     Jelly(u32),
+    /// About `n` fluid particles breaking from one end of a tank.
+    Fluid(u32),
 }
 
 impl Scene {
@@ -51,10 +60,12 @@ impl Scene {
         match self {
             Scene::Cloth(n) => format!("cloth_{n}"),
             Scene::Jelly(n) => format!("jelly_{n}"),
+            Scene::Fluid(n) if n % 1000 == 0 => format!("fluid_{}k", n / 1000),
+            Scene::Fluid(n) => format!("fluid_{n}"),
         }
     }
 
-    fn build(self, threads: usize) -> Result<(World, SoftBodyHandle), BenchError> {
+    fn build(self, threads: usize) -> Result<(World, Handle), BenchError> {
         let mut w = World::new(WorldConfig {
             threads,
             energy_accounting: false,
@@ -82,7 +93,7 @@ impl Scene {
                     tethers: true,
                     material,
                 };
-                w.add_soft_body(&cloth.build()?)?
+                Handle::Soft(w.add_soft_body(&cloth.build()?)?)
             }
             Scene::Jelly(n) => {
                 w.add_body(&RigidBodyDesc::fixed(
@@ -105,22 +116,73 @@ impl Scene {
                     },
                     ..SoftSolid::default()
                 };
-                w.add_soft_body(&solid.build()?)?
+                Handle::Soft(w.add_soft_body(&solid.build()?)?)
+            }
+            Scene::Fluid(n) => {
+                // A dam of 2s × s × s particles 5 cm apart (2 s³ ≈ n) at
+                // one end of a tank four times as long.
+                let s = (f64::from(n) / 2.0).cbrt().round();
+                let spacing = 0.05;
+                let block = DVec3::new(2.0 * s, s, s) * spacing;
+                let inside = DVec3::new(8.0 * s, 3.0 * s, s) * spacing;
+                tank(&mut w, inside)?;
+                Handle::Fluid(w.add_fluid(FluidDesc::block(DVec3::ZERO, block, spacing)?)?)
             }
         };
         Ok((w, h))
     }
 }
 
+/// What a scene steps: a soft body or a fluid.
+#[derive(Debug, Clone, Copy)]
+enum Handle {
+    Soft(SoftBodyHandle),
+    Fluid(FluidHandle),
+}
+
+/// A tank open at the top, inside from the origin to `inside` (m): a
+/// floor and four walls of static boxes.
+fn tank(w: &mut World, inside: DVec3) -> Result<(), BenchError> {
+    let t = 0.2;
+    let c = inside * 0.5;
+    let mut add = |centre: DVec3, half: DVec3| -> Result<(), BenchError> {
+        w.add_body(&RigidBodyDesc::fixed(
+            Shape::cuboid(half)?,
+            Pose {
+                translation: centre,
+                rotation: DQuat::IDENTITY,
+            },
+        ))?;
+        Ok(())
+    };
+    add(
+        DVec3::new(c.x, -t / 2.0, c.z),
+        DVec3::new(c.x + t, t / 2.0, c.z + t),
+    )?;
+    for side in [-1.0, 1.0] {
+        add(
+            DVec3::new(c.x + side * (c.x + t / 2.0), c.y, c.z),
+            DVec3::new(t / 2.0, c.y, c.z + t),
+        )?;
+        add(
+            DVec3::new(c.x, c.y, c.z + side * (c.z + t / 2.0)),
+            DVec3::new(c.x, c.y, t / 2.0),
+        )?;
+    }
+    Ok(())
+}
+
 fn scenes(opts: &Opts) -> Vec<Scene> {
     if opts.quick {
-        vec![Scene::Cloth(32), Scene::Jelly(6)]
+        vec![Scene::Cloth(32), Scene::Jelly(6), Scene::Fluid(2000)]
     } else {
         vec![
             Scene::Cloth(64),
             Scene::Cloth(128),
             Scene::Cloth(387),
             Scene::Jelly(20),
+            Scene::Fluid(10_000),
+            Scene::Fluid(100_000),
         ]
     }
 }
@@ -164,23 +226,43 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
             note(&pb, &format!("{}: the thread counts disagree", scene.name()));
         }
         for (k, (w, h)) in worlds.iter().enumerate() {
-            let b = w.soft_body(*h).ok_or("soft body vanished")?;
             let total: f64 = times[k].iter().sum();
-            let mut r = Record::new()
+            let r = Record::new()
                 .field("case", scene.name())
                 .field("backend", "cpu")
-                .field("threads", threads[k])
-                .field("particles", b.len())
-                .field("constraints", b.constraints())
-                .field("substeps", b.material().substeps)
-                .num("ms_per_step", median(&times[k]) * 1e3)
-                .num("soft_share", soft[k] / total.max(1e-12))
-                .field("same_bits_on_1_and_2_threads", hashes.windows(2).all(|h| h[0] == h[1]));
-            r = match scene {
-                Scene::Cloth(_) => r.num("max_strain", f64::from(b.max_strain())),
-                Scene::Jelly(_) => r.num("volume_kept", f64::from(b.volume() / b.rest_volume())),
+                .field("threads", threads[k]);
+            let r = match *h {
+                Handle::Soft(h) => {
+                    let b = w.soft_body(h).ok_or("soft body vanished")?;
+                    let r = r
+                        .field("particles", b.len())
+                        .field("constraints", b.constraints())
+                        .field("substeps", b.material().substeps);
+                    match scene {
+                        Scene::Jelly(_) => {
+                            r.num("volume_kept", f64::from(b.volume() / b.rest_volume()))
+                        }
+                        _ => r.num("max_strain", f64::from(b.max_strain())),
+                    }
+                }
+                Handle::Fluid(h) => {
+                    let f = w.fluid(h).ok_or("fluid vanished")?;
+                    let n = f.len().max(1) as f64;
+                    let mean = f.densities().iter().map(|d| f64::from(*d)).sum::<f64>() / n;
+                    r.field("particles", f.len())
+                        .field("constraints", f.len())
+                        .field("substeps", f.params().substeps)
+                        .num("density_error", mean / f64::from(f.rest_density()) - 1.0)
+                }
             };
-            sink.record(r);
+            sink.record(
+                r.num("ms_per_step", median(&times[k]) * 1e3)
+                    .num("soft_share", soft[k] / total.max(1e-12))
+                    .field(
+                        "same_bits_on_1_and_2_threads",
+                        hashes.windows(2).all(|h| h[0] == h[1]),
+                    ),
+            );
         }
         pb.inc(1);
     }
