@@ -38,8 +38,14 @@ pub(crate) fn step(body: &mut SoftBody, dt: f32, gravity: Vec3, coupling: &mut C
         let reach = 2.0 * radius + 2.0 * (fastest + g.length() * dt) * dt;
         self_collision.prepare(body, reach);
     }
-    for _ in 0..n {
-        predict(body, g, h);
+    for k in 0..n {
+        if k == 0 {
+            predict(body, g, h);
+        } else {
+            // The last substep's velocities and this one's prediction in
+            // one pass over the particles.
+            finish_substep(body, h, keep, Some(g));
+        }
         project_constraints(body, inv_h2, &mut grad);
         for &(_, t) in &attached {
             coupling.targets[t].advance(f64::from(h));
@@ -53,8 +59,8 @@ pub(crate) fn step(body: &mut SoftBody, dt: f32, gravity: Vec3, coupling: &mut C
         if self_collide {
             self_collision.project(body, radius);
         }
-        update_velocities(body, h, keep);
     }
+    finish_substep(body, h, keep, None);
     body.self_collision = self_collision;
     if let Some(p) = body.material.plasticity {
         let rate = (p.creep as f32 * dt).min(1.0);
@@ -194,9 +200,11 @@ fn collide(body: &mut SoftBody, coupling: &mut Coupling<'_>, radius: f32, mu: f3
     }
 }
 
-/// `v = (x − prev) / h`, damped; a particle gone non-finite goes back to
-/// where it stood, at rest.
-fn update_velocities(body: &mut SoftBody, h: f32, keep: f32) {
+/// The velocities of the substep just taken, `v = (x − prev) / h`, damped
+/// (a particle gone non-finite goes back to where it stood, at rest);
+/// then, given the next substep's gravity, its prediction (`v += g h`,
+/// `prev = x`, `x += v h`) in the same pass.
+fn finish_substep(body: &mut SoftBody, h: f32, keep: f32, next: Option<Vec3>) {
     let w = &body.w;
     let inv_h = 1.0 / h;
     par_map_chunks3(
@@ -207,6 +215,8 @@ fn update_velocities(body: &mut SoftBody, h: f32, keep: f32) {
         |base, xs, vs, ps| {
             for k in 0..xs.len() {
                 if w[base + k] <= 0.0 {
+                    ps[k] = xs[k];
+                    vs[k] = Vec3::ZERO;
                     continue;
                 }
                 let v = (xs[k] - ps[k]) * inv_h * keep;
@@ -215,6 +225,11 @@ fn update_velocities(body: &mut SoftBody, h: f32, keep: f32) {
                 } else {
                     xs[k] = ps[k];
                     vs[k] = Vec3::ZERO;
+                }
+                if let Some(g) = next {
+                    ps[k] = xs[k];
+                    vs[k] += g * h;
+                    xs[k] += vs[k] * h;
                 }
             }
         },
