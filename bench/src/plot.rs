@@ -499,6 +499,9 @@ fn soft(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
         .draw()
         .map_err(plot_error)?;
     for (k, (_, _, label)) in SOFT_SERIES.iter().enumerate() {
+        if cases.iter().all(|c| c.1[k].is_none()) {
+            continue;
+        }
         let colour = BAR_COLOURS[k];
         let bars = cases.iter().enumerate().filter_map(|(i, c)| {
             let v = c.1[k]?;
