@@ -506,7 +506,10 @@ fn soft(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
         let bars = cases.iter().enumerate().filter_map(|(i, c)| {
             let v = c.1[k]?;
             let left = i as f64 - 0.4 + 0.27 * k as f64;
-            Some(Rectangle::new([(left, lo), (left + 0.25, v)], colour.filled()))
+            Some(Rectangle::new(
+                [(left, lo), (left + 0.25, v)],
+                colour.filled(),
+            ))
         });
         chart
             .draw_series(bars)

@@ -423,10 +423,20 @@ fn soft_suite() {
         .collect();
     std::fs::write(&results, text).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_inertia-bench"))
-        .args(["soft", "--plot", dir.to_str().unwrap(), "--from", results.to_str().unwrap()])
+        .args([
+            "soft",
+            "--plot",
+            dir.to_str().unwrap(),
+            "--from",
+            results.to_str().unwrap(),
+        ])
         .output()
         .expect("run inertia-bench");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let svg = std::fs::read_to_string(dir.join("soft.svg")).expect("the plot");
     assert!(svg.starts_with("<svg") && svg.contains("cloth_32"));
     let _ = std::fs::remove_dir_all(&dir);

@@ -35,8 +35,11 @@ fn tank(w: &mut World, min: DVec3, max: DVec3) {
     let size = max - min;
     let c = (min + max) * 0.5;
     let mut add = |centre: DVec3, half: DVec3| {
-        w.add_body(&RigidBodyDesc::fixed(Shape::cuboid(half).unwrap(), at(centre)))
-            .unwrap();
+        w.add_body(&RigidBodyDesc::fixed(
+            Shape::cuboid(half).unwrap(),
+            at(centre),
+        ))
+        .unwrap();
     };
     add(
         DVec3::new(c.x, min.y - t / 2.0, c.z),
@@ -60,7 +63,9 @@ fn issue_16_a_resting_tank_reaches_rest_density_and_its_level() {
     let s = 0.1;
     let size = DVec3::new(1.2, 1.2, 1.2);
     tank(&mut w, DVec3::ZERO, DVec3::new(1.2, 2.4, 1.2));
-    let h = w.add_fluid(FluidDesc::block(DVec3::ZERO, size, s).unwrap()).unwrap();
+    let h = w
+        .add_fluid(FluidDesc::block(DVec3::ZERO, size, s).unwrap())
+        .unwrap();
     for _ in 0..240 {
         w.step(DT).unwrap();
     }
@@ -72,7 +77,11 @@ fn issue_16_a_resting_tank_reaches_rest_density_and_its_level() {
     // height.
     let level = 2.0 * f.positions().iter().map(|p| f64::from(p.y)).sum::<f64>() / n;
     let expected = n * s * s * s / (size.x * size.z);
-    let fastest = f.velocities().iter().map(|v| v.length()).fold(0.0f32, f32::max);
+    let fastest = f
+        .velocities()
+        .iter()
+        .map(|v| v.length())
+        .fold(0.0f32, f32::max);
     println!(
         "tank: {} particles, mean density {:+.2} % of rest, level {level:.3} m of {expected:.3} m ({:+.2} %), fastest {fastest:.3} m/s",
         f.len(),
@@ -82,7 +91,10 @@ fn issue_16_a_resting_tank_reaches_rest_density_and_its_level() {
     assert!(density_error.abs() < 0.01, "{density_error}");
     assert!((level / expected - 1.0).abs() < 0.02, "{level}");
     assert!(fastest < 0.3, "the tank is at rest ({fastest} m/s)");
-    assert!(f.positions().iter().all(|p| p.y > -0.01 && p.x > -0.01 && p.x < 1.21));
+    assert!(f
+        .positions()
+        .iter()
+        .all(|p| p.y > -0.01 && p.x > -0.01 && p.x < 1.21));
 }
 
 /// A pool with a crate of `density` dropped on it; the crate's mean
@@ -94,7 +106,9 @@ fn float(density: f64, seconds: f64) -> (f64, f64) {
     let s = 0.05;
     let size = DVec3::new(1.6, 0.8, 1.6);
     tank(&mut w, DVec3::ZERO, DVec3::new(1.6, 2.0, 1.6));
-    let h = w.add_fluid(FluidDesc::block(DVec3::ZERO, size, s).unwrap()).unwrap();
+    let h = w
+        .add_fluid(FluidDesc::block(DVec3::ZERO, size, s).unwrap())
+        .unwrap();
     let half = DVec3::new(0.3, 0.15, 0.3);
     let crate_ = w
         .add_body(
@@ -142,8 +156,14 @@ fn float(density: f64, seconds: f64) -> (f64, f64) {
 #[test]
 fn issue_16_a_crate_of_half_the_fluids_density_floats_about_half_submerged() {
     let (fraction, tilt) = float(500.0, 6.0);
-    println!("crate of 500 kg/m³: {fraction:.3} submerged, tilted at most {:.1}°", tilt.to_degrees());
-    assert!((fraction - 0.5).abs() < 0.08, "submerged fraction {fraction}");
+    println!(
+        "crate of 500 kg/m³: {fraction:.3} submerged, tilted at most {:.1}°",
+        tilt.to_degrees()
+    );
+    assert!(
+        (fraction - 0.5).abs() < 0.08,
+        "submerged fraction {fraction}"
+    );
     assert!(tilt < 0.2, "it floats level ({tilt} rad)");
 }
 
@@ -158,8 +178,12 @@ fn issue_16_a_dam_break_pushes_a_crate() {
     let half = DVec3::splat(0.15);
     let crate_ = w
         .add_body(
-            &RigidBodyDesc::dynamic(Shape::cuboid(half).unwrap(), 300.0, at(DVec3::new(2.5, 0.16, 0.5)))
-                .unwrap(),
+            &RigidBodyDesc::dynamic(
+                Shape::cuboid(half).unwrap(),
+                300.0,
+                at(DVec3::new(2.5, 0.16, 0.5)),
+            )
+            .unwrap(),
         )
         .unwrap();
     let start = w.body(crate_).unwrap().center_of_mass();
@@ -168,8 +192,14 @@ fn issue_16_a_dam_break_pushes_a_crate() {
     }
     let end = w.body(crate_).unwrap().center_of_mass();
     let f = w.fluid(h).unwrap();
-    println!("dam break: the crate moved {:.3} m along x", end.x - start.x);
-    assert!(end.x - start.x > 0.2, "the wave pushed the crate ({start} → {end})");
+    println!(
+        "dam break: the crate moved {:.3} m along x",
+        end.x - start.x
+    );
+    assert!(
+        end.x - start.x > 0.2,
+        "the wave pushed the crate ({start} → {end})"
+    );
     assert!(f.positions().iter().all(|p| p.is_finite() && p.y > -0.05));
 }
 
@@ -182,8 +212,12 @@ fn issue_16_fluids_step_alike_on_one_and_two_threads_and_after_a_restore() {
             .add_fluid(FluidDesc::block(DVec3::ZERO, DVec3::new(1.0, 0.8, 0.6), 0.05).unwrap())
             .unwrap();
         w.add_body(
-            &RigidBodyDesc::dynamic(Shape::sphere(0.12).unwrap(), 400.0, at(DVec3::new(0.5, 1.2, 0.5)))
-                .unwrap(),
+            &RigidBodyDesc::dynamic(
+                Shape::sphere(0.12).unwrap(),
+                400.0,
+                at(DVec3::new(0.5, 1.2, 0.5)),
+            )
+            .unwrap(),
         )
         .unwrap();
         let rope = SoftRope {
@@ -215,7 +249,10 @@ fn issue_16_fluids_step_alike_on_one_and_two_threads_and_after_a_restore() {
         restored.step(DT).unwrap();
     }
     assert_eq!(restored.state_hash(), one.state_hash());
-    assert_eq!(restored.fluid(h).unwrap().positions(), one.fluid(h).unwrap().positions());
+    assert_eq!(
+        restored.fluid(h).unwrap().positions(),
+        one.fluid(h).unwrap().positions()
+    );
 }
 
 #[test]
@@ -223,7 +260,10 @@ fn issue_16_bad_fluids_are_refused_and_emitters_keep_to_their_cap() {
     let mut w = world(1);
     let mut bad = FluidDesc::new(0.1);
     bad.spacing = -1.0;
-    assert!(matches!(w.add_fluid(bad), Err(PhysicsError::NotPositive { .. })));
+    assert!(matches!(
+        w.add_fluid(bad),
+        Err(PhysicsError::NotPositive { .. })
+    ));
     let mut bad = FluidDesc::new(0.1);
     bad.positions = vec![DVec3::new(f64::NAN, 0.0, 0.0)];
     assert!(w.add_fluid(bad).is_err());
@@ -234,9 +274,14 @@ fn issue_16_bad_fluids_are_refused_and_emitters_keep_to_their_cap() {
     let mut desc = FluidDesc::new(0.1);
     desc.max_particles = 10;
     let h = w.add_fluid(desc).unwrap();
-    let spout: Vec<DVec3> = (0..8).map(|k| DVec3::new(0.0, 1.0, k as f64 * 0.1)).collect();
+    let spout: Vec<DVec3> = (0..8)
+        .map(|k| DVec3::new(0.0, 1.0, k as f64 * 0.1))
+        .collect();
     w.add_fluid_particles(h, &spout, &[]).unwrap();
-    assert!(w.add_fluid_particles(h, &spout, &[]).is_err(), "past the cap");
+    assert!(
+        w.add_fluid_particles(h, &spout, &[]).is_err(),
+        "past the cap"
+    );
     assert_eq!(w.fluid(h).unwrap().len(), 8, "all or nothing");
     let stale = FluidHandle::from_raw([7, 0]);
     assert!(matches!(

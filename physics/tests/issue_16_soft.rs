@@ -26,8 +26,11 @@ fn ground(w: &mut World) -> BodyHandle {
         translation: DVec3::new(0.0, -0.5, 0.0),
         rotation: DQuat::IDENTITY,
     };
-    w.add_body(&RigidBodyDesc::fixed(Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(), pose))
-        .unwrap()
+    w.add_body(&RigidBodyDesc::fixed(
+        Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
+        pose,
+    ))
+    .unwrap()
 }
 
 #[test]
@@ -100,8 +103,15 @@ fn issue_16_cloth_under_gravity_stretches_under_2_percent_at_60_hz() {
         worst = worst.max(w.soft_body(h).unwrap().max_strain());
     }
     let b = w.soft_body(h).unwrap();
-    let lowest = b.positions().iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
-    println!("cloth: worst strain {:.3} %, lowest point {lowest:.2} m", worst * 100.0);
+    let lowest = b
+        .positions()
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::INFINITY, f32::min);
+    println!(
+        "cloth: worst strain {:.3} %, lowest point {lowest:.2} m",
+        worst * 100.0
+    );
     assert!(lowest < 1.1, "the cloth hangs down ({lowest})");
     assert!(worst < 0.02, "the cloth stretched {} %", worst * 100.0);
 }
@@ -144,8 +154,16 @@ fn issue_16_a_resting_soft_cube_keeps_its_volume_and_recovers_from_a_squash() {
     let b = w.soft_body(h).unwrap();
     let rest_height = height(b);
     let kept = b.volume() / b.rest_volume();
-    println!("resting: volume {:.2} % of rest, height {:.3} of {rest_height:.3} m", kept * 100.0, height(b));
-    assert!(kept >= 0.97, "the cube kept {} % of its volume", kept * 100.0);
+    println!(
+        "resting: volume {:.2} % of rest, height {:.3} of {rest_height:.3} m",
+        kept * 100.0,
+        height(b)
+    );
+    assert!(
+        kept >= 0.97,
+        "the cube kept {} % of its volume",
+        kept * 100.0
+    );
     // Squash it under a 400 kg press for a second, then lift the press.
     let press = w
         .add_body(
@@ -177,8 +195,14 @@ fn issue_16_a_resting_soft_cube_keeps_its_volume_and_recovers_from_a_squash() {
         "squashed to {squashed:.3} m, recovered to {recovered:.3} m of {rest_height:.3} m, volume {:.2} %",
         kept * 100.0
     );
-    assert!(squashed < 0.95 * rest_height, "the press squashed it ({squashed})");
-    assert!((recovered - rest_height).abs() < 0.03 * rest_height, "it recovered to {recovered}");
+    assert!(
+        squashed < 0.95 * rest_height,
+        "the press squashed it ({squashed})"
+    );
+    assert!(
+        (recovered - rest_height).abs() < 0.03 * rest_height,
+        "it recovered to {recovered}"
+    );
     assert!(kept >= 0.97);
 }
 
@@ -223,7 +247,10 @@ fn bend_bar(push: f64) -> (f32, f32) {
     let h = w.add_soft_body(&desc).unwrap();
     let tip_y = |w: &World| -> f32 {
         let b = w.soft_body(h).unwrap();
-        tip.iter().map(|&k| b.positions()[k as usize].y).sum::<f32>() / tip.len() as f32
+        tip.iter()
+            .map(|&k| b.positions()[k as usize].y)
+            .sum::<f32>()
+            / tip.len() as f32
     };
     let start = tip_y(&w);
     let at = |y: f64| Pose {
@@ -231,7 +258,10 @@ fn bend_bar(push: f64) -> (f32, f32) {
         rotation: DQuat::IDENTITY,
     };
     let hand = w
-        .add_body(&RigidBodyDesc::kinematic(Shape::sphere(0.02).unwrap(), at(1.0)))
+        .add_body(&RigidBodyDesc::kinematic(
+            Shape::sphere(0.02).unwrap(),
+            at(1.0),
+        ))
         .unwrap();
     for &k in &tip {
         let p = w.soft_body(h).unwrap().positions()[k as usize].as_dvec3();
@@ -260,8 +290,14 @@ fn issue_16_a_bar_bent_past_yield_keeps_a_set_and_one_bent_below_it_returns() {
     assert!(light_held > 0.015, "the bar was bent ({light_held} m)");
     assert!(heavy_held > 0.25, "the bar was bent ({heavy_held} m)");
     // Within 1 % of its length (1 m) of where it started.
-    assert!(light_after.abs() < 0.01, "the bar bent below yield stayed bent {light_after} m");
-    assert!(heavy_after > 0.3 * heavy_held, "the bar bent past yield kept a set ({heavy_after} of {heavy_held} m)");
+    assert!(
+        light_after.abs() < 0.01,
+        "the bar bent below yield stayed bent {light_after} m"
+    );
+    assert!(
+        heavy_after > 0.3 * heavy_held,
+        "the bar bent past yield kept a set ({heavy_after} of {heavy_held} m)"
+    );
 }
 
 #[test]
@@ -300,7 +336,12 @@ fn issue_16_a_tearing_cloth_tears_where_the_strain_is_highest() {
         w.step(DT).unwrap();
         let after: Vec<[u32; 2]> = w.soft_body(h).unwrap().edges().map(|e| e.0).collect();
         if after.len() < before.len() {
-            torn = Some(before.into_iter().filter(|e| !after.contains(e)).collect::<Vec<_>>());
+            torn = Some(
+                before
+                    .into_iter()
+                    .filter(|e| !after.contains(e))
+                    .collect::<Vec<_>>(),
+            );
             break;
         }
     }
@@ -312,9 +353,15 @@ fn issue_16_a_tearing_cloth_tears_where_the_strain_is_highest() {
         let (r, c) = (i / n, i % n);
         r <= 2 && (c <= 2 || c >= n - 3)
     };
-    assert!(torn.iter().all(|e| near_pin(e[0]) || near_pin(e[1])), "{torn:?}");
+    assert!(
+        torn.iter().all(|e| near_pin(e[0]) || near_pin(e[1])),
+        "{torn:?}"
+    );
     let b = w.soft_body(h).unwrap();
-    assert!(b.triangles().len() < desc.triangles.len(), "the torn edge's triangles went with it");
+    assert!(
+        b.triangles().len() < desc.triangles.len(),
+        "the torn edge's triangles went with it"
+    );
 }
 
 #[test]
@@ -343,7 +390,10 @@ fn issue_16_soft_bodies_step_alike_on_one_and_two_threads() {
     };
     let (h1, x1) = run(1);
     let (h2, x2) = run(2);
-    assert!(x1.iter().zip(&x2).all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)));
+    assert!(x1
+        .iter()
+        .zip(&x2)
+        .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)));
     assert_eq!(h1, h2);
 }
 
@@ -353,13 +403,22 @@ fn issue_16_bad_soft_bodies_are_refused_with_typed_errors() {
     let ok = SoftRope::default().build().unwrap();
     let mut bad = ok.clone();
     bad.edges[0].compliance = -1.0;
-    assert!(matches!(w.add_soft_body(&bad), Err(PhysicsError::Negative { .. })));
+    assert!(matches!(
+        w.add_soft_body(&bad),
+        Err(PhysicsError::Negative { .. })
+    ));
     let mut bad = ok.clone();
     bad.edges[0].particles = [0, 99];
-    assert!(matches!(w.add_soft_body(&bad), Err(PhysicsError::Invalid { .. })));
+    assert!(matches!(
+        w.add_soft_body(&bad),
+        Err(PhysicsError::Invalid { .. })
+    ));
     let mut bad = ok.clone();
     bad.positions[1] = bad.positions[0];
-    assert!(matches!(w.add_soft_body(&bad), Err(PhysicsError::DegenerateSpring(_))));
+    assert!(matches!(
+        w.add_soft_body(&bad),
+        Err(PhysicsError::DegenerateSpring(_))
+    ));
     let mut bad = ok.clone();
     bad.material.substeps = 0;
     assert!(w.add_soft_body(&bad).is_err());
@@ -373,7 +432,10 @@ fn issue_16_bad_soft_bodies_are_refused_with_typed_errors() {
         }],
         ..SoftBodyDesc::default()
     };
-    assert!(matches!(w.add_soft_body(&flat), Err(PhysicsError::Invalid { .. })));
+    assert!(matches!(
+        w.add_soft_body(&flat),
+        Err(PhysicsError::Invalid { .. })
+    ));
     // A pressure shell that encloses nothing (one open triangle).
     let open = SoftBodyDesc {
         positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y],
@@ -385,7 +447,10 @@ fn issue_16_bad_soft_bodies_are_refused_with_typed_errors() {
         }),
         ..SoftBodyDesc::default()
     };
-    assert!(matches!(w.add_soft_body(&open), Err(PhysicsError::Invalid { .. })));
+    assert!(matches!(
+        w.add_soft_body(&open),
+        Err(PhysicsError::Invalid { .. })
+    ));
     let mesh = SoftSolid {
         shape: SolidShape::Mesh {
             vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y],
@@ -429,7 +494,8 @@ fn issue_16_a_restored_soft_world_steps_on_with_the_same_bits() {
                 .unwrap(),
             )
             .unwrap();
-        w.attach_soft_to_body(r, 12, ball, DVec3::new(3.0, 2.0, 0.0), 0.0).unwrap();
+        w.attach_soft_to_body(r, 12, ball, DVec3::new(3.0, 2.0, 0.0), 0.0)
+            .unwrap();
         (w, h)
     };
     let (mut a, h) = build();
@@ -445,7 +511,10 @@ fn issue_16_a_restored_soft_world_steps_on_with_the_same_bits() {
         b.step(DT).unwrap();
     }
     assert_eq!(a.state_hash(), b.state_hash());
-    assert_eq!(a.soft_body(h).unwrap().positions(), b.soft_body(h).unwrap().positions());
+    assert_eq!(
+        a.soft_body(h).unwrap().positions(),
+        b.soft_body(h).unwrap().positions()
+    );
     // The hash sees the soft bodies: one particle moved changes it.
     let before = a.state_hash();
     a.set_soft_pin(
@@ -482,7 +551,10 @@ fn issue_16_a_saved_soft_body_with_a_broken_colouring_is_refused() {
         .iter()
         .flat_map(|v| v.to_le_bytes())
         .collect();
-    let at = saved.windows(16).position(|s| s == needle.as_slice()).expect("the edge");
+    let at = saved
+        .windows(16)
+        .position(|s| s == needle.as_slice())
+        .expect("the edge");
     let mut bad = saved.clone();
     bad[at + 4..at + 8].copy_from_slice(&4u32.to_le_bytes());
     inertia_physics::snapshot::reseal(&mut bad);
@@ -521,12 +593,23 @@ fn issue_16_an_inflated_balloon_keeps_its_volume_on_the_ground() {
     }
     let b = w.soft_body(h).unwrap();
     let kept = b.enclosed_volume() / (1.2 * rest);
-    let lowest = b.positions().iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
-    println!("balloon: {} particles, volume {:.3} of its inflated target, lowest point {lowest:.3} m", b.len(), kept);
+    let lowest = b
+        .positions()
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::INFINITY, f32::min);
+    println!(
+        "balloon: {} particles, volume {:.3} of its inflated target, lowest point {lowest:.3} m",
+        b.len(),
+        kept
+    );
     // The icosphere's volume is a little under the sphere's (3 % at 642
     // particles), and the ground flattens it a little.
     assert!((0.93..1.03).contains(&kept), "{kept}");
-    assert!(lowest > -0.02 && lowest < 0.05, "it rests on the ground ({lowest})");
+    assert!(
+        lowest > -0.02 && lowest < 0.05,
+        "it rests on the ground ({lowest})"
+    );
 }
 
 #[test]
@@ -542,7 +625,11 @@ fn issue_16_solids_fill_a_ball_and_a_closed_mesh() {
     let h = w.add_soft_body(&ball).unwrap();
     let v = w.soft_body(h).unwrap().rest_volume();
     let exact = 4.0 / 3.0 * std::f32::consts::PI * 0.125;
-    println!("ball: {} particles, {} tetrahedra, volume {v:.4} of {exact:.4} m³", ball.positions.len(), ball.tetrahedra.len());
+    println!(
+        "ball: {} particles, {} tetrahedra, volume {v:.4} of {exact:.4} m³",
+        ball.positions.len(),
+        ball.tetrahedra.len()
+    );
     assert!((v / exact - 1.0).abs() < 0.1, "{v}");
     // A unit cube given as a closed mesh.
     let c = [
@@ -582,7 +669,11 @@ fn issue_16_solids_fill_a_ball_and_a_closed_mesh() {
     let h = w.add_soft_body(&mesh).unwrap();
     let b = w.soft_body(h).unwrap();
     assert!((b.rest_volume() - 1.0).abs() < 1e-4, "{}", b.rest_volume());
-    assert!((b.enclosed_volume() - 1.0).abs() < 1e-4, "the surface faces outwards: {}", b.enclosed_volume());
+    assert!(
+        (b.enclosed_volume() - 1.0).abs() < 1e-4,
+        "the surface faces outwards: {}",
+        b.enclosed_volume()
+    );
 }
 
 /// A sheet folded in two lies on the ground, its upper half 3 cm above
@@ -638,6 +729,12 @@ fn issue_16_cloth_with_self_collision_keeps_its_layers_apart() {
     let with = run(true);
     let without = run(false);
     println!("the upper half lies {with:.4} m high with self-collision, {without:.4} m without");
-    assert!(with > 0.012 + 0.8 * 0.024, "it rests on the lower half ({with} m)");
-    assert!(without < 0.02, "without self-collision it falls through ({without} m)");
+    assert!(
+        with > 0.012 + 0.8 * 0.024,
+        "it rests on the lower half ({with} m)"
+    );
+    assert!(
+        without < 0.02,
+        "without self-collision it falls through ({without} m)"
+    );
 }

@@ -223,7 +223,10 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         }
         let hashes: Vec<u64> = worlds.iter().map(|(w, _)| w.state_hash()).collect();
         if hashes.windows(2).any(|h| h[0] != h[1]) {
-            note(&pb, &format!("{}: the thread counts disagree", scene.name()));
+            note(
+                &pb,
+                &format!("{}: the thread counts disagree", scene.name()),
+            );
         }
         for (k, (w, h)) in worlds.iter().enumerate() {
             let total: f64 = times[k].iter().sum();

@@ -13,8 +13,7 @@ use super::{invalid, Reader, Sink, SnapshotError};
 use crate::xpbd::colouring::{Coloured, Touches};
 use crate::xpbd::soft::constraints::{Bend, Distance, Tet, Tether};
 use crate::xpbd::soft::{
-    Plasticity, Pressure, SoftAttachment, SoftBody, SoftMaterial, MAX_SOFT_PARTICLES,
-    MAX_SUBSTEPS,
+    Plasticity, Pressure, SoftAttachment, SoftBody, SoftMaterial, MAX_SOFT_PARTICLES, MAX_SUBSTEPS,
 };
 
 fn vec3s<S: Sink>(s: &mut S, v: &[Vec3]) {

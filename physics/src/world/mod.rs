@@ -19,11 +19,11 @@
 //! returns an error.
 
 mod backend;
+mod fluid;
 mod joints;
 mod particles;
 mod query;
 mod query_index;
-mod fluid;
 mod rigid;
 mod soft;
 mod state;

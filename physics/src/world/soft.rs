@@ -152,7 +152,8 @@ impl World {
         }
         for (_, _, fluid) in fluids.iter_mut() {
             let reach = fluid.reach(dt32, gravity);
-            let mut coupling = Coupling::gather(bodies, &fluid.x, fluid.inverse_masses(), reach, &[]);
+            let mut coupling =
+                Coupling::gather(bodies, &fluid.x, fluid.inverse_masses(), reach, &[]);
             fluid.step(dt32, gravity, &mut coupling);
             changes.extend(coupling.finish());
             if config.energy_accounting {

@@ -72,10 +72,7 @@ impl<C: Touches + Clone + Sync> Coloured<C> {
             counts[colour.min(PARALLEL_COLOURS)] += 1;
         }
         let overflow = counts[PARALLEL_COLOURS] > 0;
-        let last = counts
-            .iter()
-            .rposition(|&n| n > 0)
-            .map_or(0, |k| k + 1);
+        let last = counts.iter().rposition(|&n| n > 0).map_or(0, |k| k + 1);
         let mut starts = vec![0u32; last];
         let mut ends = Vec::with_capacity(last);
         let mut at = 0u32;

@@ -141,8 +141,6 @@ impl Target<'_> {
 /// The surface of a body nearest a particle.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Surface {
-    /// Index into [`Coupling::targets`].
-    pub(crate) target: u32,
     /// The nearest point of the body's surface, m.
     pub(crate) point: DVec3,
     /// Unit normal out of the body, towards the particle.
@@ -293,7 +291,6 @@ impl<'a> Coupling<'a> {
         }
         let normal = if p.inside { -to / len } else { to / len };
         Some(Surface {
-            target,
             point: p.point,
             normal,
             distance: if p.inside { -p.distance } else { p.distance },
@@ -393,7 +390,9 @@ impl<'a> Coupling<'a> {
         self.targets
             .iter()
             .zip(self.loads)
-            .filter(|(t, load)| t.movable() && (*load != (DVec3::ZERO, DVec3::ZERO) || t.moved != Motion::default()))
+            .filter(|(t, load)| {
+                t.movable() && (*load != (DVec3::ZERO, DVec3::ZERO) || t.moved != Motion::default())
+            })
             .map(|(t, load)| BodyChange {
                 key: t.key,
                 load,
@@ -420,8 +419,8 @@ pub(crate) fn apply_changes(bodies: &mut Arena<RigidBody>, changes: &[BodyChange
     for c in changes {
         let (j, moment) = c.load;
         let m = c.moved;
-        let finite = [j, moment, m.dx, m.dv, m.dw].iter().all(|v| v.is_finite())
-            && m.dq.is_finite();
+        let finite =
+            [j, moment, m.dx, m.dv, m.dw].iter().all(|v| v.is_finite()) && m.dq.is_finite();
         if !finite {
             continue;
         }

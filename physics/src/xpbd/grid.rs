@@ -32,6 +32,7 @@ const DENSE_CELLS_PER_POINT: i64 = 4;
 /// Fewest cells of a dense box or entries of a hash table.
 const MIN_TABLE: usize = 1024;
 
+#[cfg(test)]
 /// Most runs of slots a box grid's query visits: 5 × 5 rows of cells.
 const RUNS: usize = 25;
 
@@ -100,16 +101,6 @@ fn hash(c: [i64; 3]) -> u32 {
 }
 
 impl Grid {
-    /// Edge of a cell, m.
-    pub(crate) fn cell(&self) -> f32 {
-        self.cell
-    }
-
-    /// How many points the grid was built over.
-    pub(crate) fn len(&self) -> usize {
-        self.order.len()
-    }
-
     /// The key of cell `c`, if the grid has it (a dense box has only the
     /// cells of its box).
     #[inline(always)]
@@ -198,6 +189,7 @@ impl Grid {
             .extend(self.order.iter().map(|&i| x[i as usize]));
     }
 
+    #[cfg(test)]
     /// The runs of sorted slots (`from..to`) whose cells meet the cube of
     /// half-edge `r` (m) around `p`, in a box grid: one run per row of
     /// cells, at most 25 (`r` capped at two cell edges). `None` for a
@@ -278,6 +270,7 @@ impl Grid {
         }
     }
 
+    #[cfg(test)]
     /// The points of the sorted slots `from..to`.
     #[inline(always)]
     fn visit(&self, from: u32, to: u32, f: &mut impl FnMut(u32, Vec3)) {
@@ -287,6 +280,7 @@ impl Grid {
         }
     }
 
+    #[cfg(test)]
     /// Calls `f(index, position)` for every point in the cells that meet
     /// the cube of half-edge `r` (m) around `p`: a superset of the points
     /// within `r` of `p`. `r` is capped at two cell edges (a larger one
@@ -340,6 +334,7 @@ impl Grid {
         }
     }
 
+    #[cfg(test)]
     /// Calls `f(index, position)` for every point closer than `r` (m) to
     /// `p`, in [`Grid::for_each_near`]'s order (`r` capped alike).
     pub(crate) fn for_each_within(&self, p: Vec3, r: f32, mut f: impl FnMut(u32, Vec3)) {
@@ -526,6 +521,7 @@ impl Neighbours {
     }
 
     /// How many points the lists are for.
+    #[cfg(test)]
     pub(crate) fn len(&self) -> usize {
         self.start.len().saturating_sub(1)
     }
@@ -536,6 +532,7 @@ impl Neighbours {
         &self.index[self.start[i] as usize..self.start[i + 1] as usize]
     }
 
+    #[cfg(test)]
     /// All pairs listed (each pair twice, once from either side).
     pub(crate) fn total(&self) -> usize {
         self.index.len()

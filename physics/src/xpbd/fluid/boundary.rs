@@ -136,6 +136,7 @@ impl WallTable {
         };
     }
 
+    #[cfg(test)]
     /// The lattice calibration.
     pub(crate) fn scale(&self) -> f32 {
         self.scale

@@ -83,6 +83,7 @@ impl Kernels {
         sum * s * s * s
     }
 
+    #[cfg(test)]
     /// `(W_spiky, dW_spiky/dr / r)` at squared distance `r2` (m²): the
     /// density pass's two kernel values for one pair. Both 0 from `h` out;
     /// the gradient's 0 at `r = 0`.

@@ -59,7 +59,11 @@ impl SoftRope {
         if self.segments == 0 || self.segments as usize >= super::MAX_SOFT_PARTICLES {
             return Err(PhysicsError::Invalid {
                 what: "rope segments",
-                why: format!("{} is not within 1..{}", self.segments, super::MAX_SOFT_PARTICLES),
+                why: format!(
+                    "{} is not within 1..{}",
+                    self.segments,
+                    super::MAX_SOFT_PARTICLES
+                ),
             });
         }
         let n = self.segments as usize + 1;
@@ -388,7 +392,10 @@ impl SoftBalloon {
             });
         }
         let (unit, triangles) = icosphere(self.subdivisions);
-        let positions: Vec<DVec3> = unit.iter().map(|p| self.centre + *p * self.radius).collect();
+        let positions: Vec<DVec3> = unit
+            .iter()
+            .map(|p| self.centre + *p * self.radius)
+            .collect();
         let masses = vec![self.mass / positions.len() as f64; positions.len()];
         let (edges, hinges) = edges_and_hinges(&triangles);
         Ok(SoftBodyDesc {

@@ -45,8 +45,12 @@ pub(crate) fn project_distances(c: &[Distance; 4], x: Scatter<'_, Vec3>, w: &[f3
     let (xa, xb) = (gather(x, ia), gather(x, ib));
     let (wa, wb) = (weights(w, ia), weights(w, ib));
     let rest = F4::from([c[0].rest, c[1].rest, c[2].rest, c[3].rest]);
-    let alpha = F4::from([c[0].compliance, c[1].compliance, c[2].compliance, c[3].compliance])
-        * F4::splat(inv_h2);
+    let alpha = F4::from([
+        c[0].compliance,
+        c[1].compliance,
+        c[2].compliance,
+        c[3].compliance,
+    ]) * F4::splat(inv_h2);
     let d = xb - xa;
     let len = d.dot(d).sqrt();
     let k = wa + wb + alpha;
@@ -69,10 +73,15 @@ fn atan2(y: F4, x: F4) -> F4 {
     let s = a * a;
     let poly = F4::splat(0.999_866)
         + s * (F4::splat(-0.330_299_5)
-            + s * (F4::splat(0.180_141) + s * (F4::splat(-0.085_133) + s * F4::splat(0.020_835_1))));
+            + s * (F4::splat(0.180_141)
+                + s * (F4::splat(-0.085_133) + s * F4::splat(0.020_835_1))));
     let mut r = a * poly;
-    r = ay.simd_gt(ax).select(F4::splat(std::f32::consts::FRAC_PI_2) - r, r);
-    r = x.simd_lt(F4::ZERO).select(F4::splat(std::f32::consts::PI) - r, r);
+    r = ay
+        .simd_gt(ax)
+        .select(F4::splat(std::f32::consts::FRAC_PI_2) - r, r);
+    r = x
+        .simd_lt(F4::ZERO)
+        .select(F4::splat(std::f32::consts::PI) - r, r);
     y.simd_lt(F4::ZERO).select(-r, r)
 }
 
@@ -118,10 +127,18 @@ pub(crate) fn project_bends(c: &[Bend; 4], x: Scatter<'_, Vec3>, w: &[f32], inv_
     let g1 = n1 * ((x2 - x0).dot(e_hat) * il1) + n2 * ((x3 - x0).dot(e_hat) * il2);
     let grads = [g0, g1, g2, g3];
     let mut c_now = angle - F4::from([c[0].rest, c[1].rest, c[2].rest, c[3].rest]);
-    c_now = c_now.simd_gt(F4::splat(PI)).select(c_now - F4::splat(TAU), c_now);
-    c_now = c_now.simd_le(F4::splat(-PI)).select(c_now + F4::splat(TAU), c_now);
-    let mut k = F4::from([c[0].compliance, c[1].compliance, c[2].compliance, c[3].compliance])
-        * F4::splat(inv_h2);
+    c_now = c_now
+        .simd_gt(F4::splat(PI))
+        .select(c_now - F4::splat(TAU), c_now);
+    c_now = c_now
+        .simd_le(F4::splat(-PI))
+        .select(c_now + F4::splat(TAU), c_now);
+    let mut k = F4::from([
+        c[0].compliance,
+        c[1].compliance,
+        c[2].compliance,
+        c[3].compliance,
+    ]) * F4::splat(inv_h2);
     for v in 0..4 {
         k += ws[v] * grads[v].dot(grads[v]);
     }
@@ -144,7 +161,9 @@ mod tests {
                 Vec3::new(c * 0.1, 0.02 * (r * 1.7 + c).sin(), r * 0.1 + 0.01 * c)
             })
             .collect();
-        let w = (0..16).map(|i| if i == 5 { 0.0 } else { 1.0 + i as f32 * 0.1 }).collect();
+        let w = (0..16)
+            .map(|i| if i == 5 { 0.0 } else { 1.0 + i as f32 * 0.1 })
+            .collect();
         (x, w)
     }
 

@@ -355,7 +355,10 @@ impl SoftBody {
                 index_ok("soft body hinge", i, n)?;
             }
             let Some((rest, _)) = dihedral(h.particles.map(|i| x[i as usize])) else {
-                return Err(invalid("soft body hinge", "a triangle of the hinge is degenerate"));
+                return Err(invalid(
+                    "soft body hinge",
+                    "a triangle of the hinge is degenerate",
+                ));
             };
             bends.push(Bend {
                 p: h.particles,
@@ -370,7 +373,7 @@ impl SoftBody {
             }
             let rest = tet_volume(t.particles.map(|i| x[i as usize]));
             let scale = (x[t.particles[1] as usize] - x[t.particles[0] as usize]).length();
-            if !(rest > 1e-6 * scale * scale * scale) || rest < 1e-15 {
+            if rest.is_nan() || rest <= 1e-6 * scale * scale * scale || rest < 1e-15 {
                 return Err(invalid(
                     "soft body tetrahedron",
                     format!(
@@ -390,7 +393,10 @@ impl SoftBody {
             let a = index_ok("soft body tether", t.particle, n)?;
             let b = index_ok("soft body tether anchor", t.anchor, n)?;
             if w[b] != 0.0 {
-                return Err(invalid("soft body tether", "its anchor must be a pinned particle"));
+                return Err(invalid(
+                    "soft body tether",
+                    "its anchor must be a pinned particle",
+                ));
             }
             non_negative("tether slack", t.slack)?;
             tethers.push(Tether {
@@ -408,7 +414,7 @@ impl SoftBody {
             Some(p) => {
                 crate::error::positive("pressure", p.pressure)?;
                 let rest = enclosed_volume(&x, &desc.triangles);
-                if !(rest > 1e-9) {
+                if rest.is_nan() || rest <= 1e-9 {
                     return Err(invalid(
                         "soft body pressure",
                         format!("the surface encloses no volume ({rest} m³): it must be closed and face outwards"),

@@ -34,7 +34,12 @@ pub(crate) fn step(body: &mut SoftBody, dt: f32, gravity: Vec3, coupling: &mut C
     let self_collide = body.material.self_collision && radius > 0.0;
     let mut self_collision = std::mem::take(&mut body.self_collision);
     if self_collide {
-        let fastest = body.v.iter().map(|v| v.length_squared()).fold(0.0f32, f32::max).sqrt();
+        let fastest = body
+            .v
+            .iter()
+            .map(|v| v.length_squared())
+            .fold(0.0f32, f32::max)
+            .sqrt();
         let reach = 2.0 * radius + 2.0 * (fastest + g.length() * dt) * dt;
         self_collision.prepare(body, reach);
     }
@@ -158,7 +163,14 @@ fn project_pressure(body: &mut SoftBody, target: f32, alpha: f32, grad: &mut Vec
 
 /// Attachment `k` to target `t`: a zero-length compliant constraint from
 /// the particle to the body's point, both moved by their shares.
-fn attach(body: &mut SoftBody, k: usize, t: usize, coupling: &mut Coupling<'_>, h: f32, inv_h2: f32) {
+fn attach(
+    body: &mut SoftBody,
+    k: usize,
+    t: usize,
+    coupling: &mut Coupling<'_>,
+    h: f32,
+    inv_h2: f32,
+) {
     let a = body.attachments[k];
     let i = a.particle as usize;
     let target = &mut coupling.targets[t];
@@ -256,14 +268,11 @@ fn tear(body: &mut SoftBody, limit: f32) {
     over.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     over.truncate(MAX_TEARS_PER_STEP);
     let broken: Vec<[u32; 2]> = over.iter().map(|(_, p)| sorted(*p)).collect();
-    let on_edge = |ps: &[u32]| {
-        broken
-            .iter()
-            .any(|[a, b]| ps.contains(a) && ps.contains(b))
-    };
+    let on_edge = |ps: &[u32]| broken.iter().any(|[a, b]| ps.contains(a) && ps.contains(b));
     body.distance.retain(|d| !broken.contains(&sorted(d.p)));
     body.triangles.retain(|t| !on_edge(t));
-    body.bend.retain(|b| !on_edge(&[b.p[0], b.p[1], b.p[2]]) && !on_edge(&[b.p[0], b.p[1], b.p[3]]));
+    body.bend
+        .retain(|b| !on_edge(&[b.p[0], b.p[1], b.p[2]]) && !on_edge(&[b.p[0], b.p[1], b.p[3]]));
     body.tets.retain(|t| !on_edge(&t.p));
 }
 

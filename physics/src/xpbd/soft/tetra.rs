@@ -144,9 +144,8 @@ impl SoftSolid {
         }
         // The cubes fill the bounds exactly.
         let step = (hi - lo) / DVec3::new(nx as f64, ny as f64, nz as f64);
-        let corner = |i: usize, j: usize, k: usize| {
-            lo + DVec3::new(i as f64, j as f64, k as f64) * step
-        };
+        let corner =
+            |i: usize, j: usize, k: usize| lo + DVec3::new(i as f64, j as f64, k as f64) * step;
         let mut vertex_of: BTreeMap<(usize, usize, usize), u32> = BTreeMap::new();
         let mut local = Vec::new();
         let mut tets = Vec::new();
@@ -238,7 +237,12 @@ fn surface_of(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
     for t in tets {
         // The faces of a right-handed tetrahedron, each wound so that its
         // normal points away from the vertex it does not hold.
-        for f in [[t[1], t[2], t[3]], [t[0], t[3], t[2]], [t[0], t[1], t[3]], [t[0], t[2], t[1]]] {
+        for f in [
+            [t[1], t[2], t[3]],
+            [t[0], t[3], t[2]],
+            [t[0], t[1], t[3]],
+            [t[0], t[2], t[1]],
+        ] {
             let mut key = f;
             key.sort_unstable();
             faces.entry(key).or_insert((0, f)).0 += 1;
