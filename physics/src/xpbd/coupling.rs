@@ -413,7 +413,8 @@ pub(crate) struct BodyChange {
 }
 
 /// Gives every body what the particles did to it ([`Coupling::finish`]),
-/// and wakes the bodies that took something. A change that is not finite
+/// and wakes the bodies that took something (their rest timers start
+/// again). A change that is not finite
 /// is dropped.
 pub(crate) fn apply_changes(bodies: &mut Arena<RigidBody>, changes: &[BodyChange]) {
     for c in changes {
@@ -425,9 +426,11 @@ pub(crate) fn apply_changes(bodies: &mut Arena<RigidBody>, changes: &[BodyChange
             continue;
         }
         if let Some(b) = bodies.get_mut(c.key.0, c.key.1) {
-            if b.sleeping {
-                b.wake();
-            }
+            // A body the particles push is not at rest: its rest timer
+            // starts again, so it does not fall asleep between two
+            // steps' pushes (asleep, it would skip its weight in the
+            // rigid stage and still take the push).
+            b.wake();
             let inv_inertia = b.inverse_inertia_world();
             b.linvel += j * b.inv_mass + m.dv;
             b.angvel += inv_inertia * moment + m.dw;
