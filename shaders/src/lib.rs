@@ -26,6 +26,12 @@ pub const PARTICLE_INTERACTIONS: &str = include_str!("../wgsl/particle_interacti
 /// Pass 3 of a GPU particle step: field forces and Euler integration.
 pub const PARTICLE_INTEGRATE: &str = include_str!("../wgsl/particle_integrate.wgsl");
 
+/// XPBD soft bodies on the GPU: `predict`, `finish` (velocities, fused
+/// with the next substep's prediction) and one projection entry point
+/// per constraint kind (`distance`, `bending`, `volume`, `tether`),
+/// dispatched colour by colour.
+pub const XPBD_SOFT: &str = include_str!("../wgsl/xpbd_soft.wgsl");
+
 /// The viewer's scene shader (`inertia-viewer`): lit, instanced meshes
 /// (`vs_main`, `fs_main`) and static scenery with a metre grid
 /// (`fs_gridded`).
@@ -39,6 +45,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("particle_springs.wgsl", PARTICLE_SPRINGS),
     ("particle_interactions.wgsl", PARTICLE_INTERACTIONS),
     ("particle_integrate.wgsl", PARTICLE_INTEGRATE),
+    ("xpbd_soft.wgsl", XPBD_SOFT),
 ];
 
 /// Sizes and limits of the data the particle shaders share with the engine.
@@ -61,6 +68,14 @@ pub mod layout {
     pub const SPRING_BYTES: usize = 20;
     /// `struct FieldForce`: three `vec4<f32>`.
     pub const FIELD_FORCE_BYTES: usize = 48;
+    /// `struct Params` of `xpbd_soft.wgsl`: one dispatch's uniform slot.
+    pub const SOFT_PARAMS_BYTES: usize = 48;
+    /// `struct Distance` of `xpbd_soft.wgsl`.
+    pub const SOFT_DISTANCE_BYTES: usize = 16;
+    /// `struct Quad` of `xpbd_soft.wgsl` (hinges and tetrahedra).
+    pub const SOFT_QUAD_BYTES: usize = 32;
+    /// `struct Tether` of `xpbd_soft.wgsl`.
+    pub const SOFT_TETHER_BYTES: usize = 16;
     /// `struct Params`: the per-step uniform block.
     pub const PARAMS_BYTES: usize =
         96 + 16 * MAX_MUTUAL_GRAVITY + FIELD_FORCE_BYTES * MAX_FIELD_FORCES;

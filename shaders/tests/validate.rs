@@ -39,9 +39,14 @@ fn every_drawing_shader_validates_with_its_vertex_and_fragment_entry_points() {
     }
 }
 
+/// The particle step's shaders (one `main` each, one shared layout).
+fn particle_shaders() -> impl Iterator<Item = &'static (&'static str, &'static str)> {
+    ALL.iter().filter(|(name, _)| name.starts_with("particle_"))
+}
+
 #[test]
-fn every_shader_has_one_compute_main_of_the_engine_workgroup_size() {
-    for (name, src) in ALL {
+fn every_particle_shader_has_one_compute_main_of_the_engine_workgroup_size() {
+    for (name, src) in particle_shaders() {
         let module = parse(name, src);
         assert_eq!(module.entry_points.len(), 1, "{name}");
         let ep = &module.entry_points[0];
@@ -72,7 +77,7 @@ fn shared_structs_match_the_engine_layout() {
         ("Spring", layout::SPRING_BYTES),
     ];
     let mut seen = vec![0; expected.len()];
-    for (name, src) in ALL {
+    for (name, src) in particle_shaders() {
         let module = parse(name, src);
         for (k, (ty, bytes)) in expected.iter().enumerate() {
             if let Some(size) = struct_size(&module, ty) {
@@ -111,8 +116,30 @@ fn shared_layout_block_is_identical_in_every_particle_shader() {
 }
 
 #[test]
+fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
+    let module = validated("xpbd_soft.wgsl", inertia_shaders::XPBD_SOFT);
+    let mut names: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
+    names.sort_unstable();
+    assert_eq!(names, ["bending", "distance", "finish", "predict", "tether", "volume"]);
+    for ep in &module.entry_points {
+        assert_eq!(ep.stage, naga::ShaderStage::Compute);
+        assert_eq!(ep.workgroup_size, [layout::WORKGROUP_SIZE, 1, 1], "{}", ep.name);
+    }
+    for (ty, bytes) in [
+        ("SoftParams", layout::SOFT_PARAMS_BYTES),
+        ("Distance", layout::SOFT_DISTANCE_BYTES),
+        ("Quad", layout::SOFT_QUAD_BYTES),
+        ("Tether", layout::SOFT_TETHER_BYTES),
+    ] {
+        assert_eq!(struct_size(&module, ty), Some(bytes), "struct {ty}");
+    }
+    let decl = format!("const WORKGROUP_SIZE: u32 = {}u;", layout::WORKGROUP_SIZE);
+    assert!(inertia_shaders::XPBD_SOFT.contains(&decl));
+}
+
+#[test]
 fn shader_constants_match_the_engine_limits() {
-    for (name, src) in ALL {
+    for (name, src) in particle_shaders() {
         for (constant, value) in [
             ("WORKGROUP_SIZE", layout::WORKGROUP_SIZE as usize),
             ("MAX_FIELD_FORCES", layout::MAX_FIELD_FORCES),

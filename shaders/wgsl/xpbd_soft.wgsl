@@ -1,0 +1,316 @@
+// XPBD soft bodies on small steps (physics/src/xpbd/soft/), on the GPU.
+//
+// Each substep is a run of dispatches, each its own usage scope (so each
+// sees the writes of the one before): `predict` (or `finish` of the last
+// substep fused with this one's prediction), then one dispatch per colour
+// of each constraint kind (distance, bending, volume, tethers), in the
+// CPU's colour order. Within a colour no two constraints move the same
+// particle, so every invocation writes only its own constraint's
+// particles and nothing needs atomics; an overflow colour (a particle in
+// more than 64 constraints of a kind) is projected by one invocation, in
+// order, as the CPU does. The formulas are the CPU's (constraints.rs),
+// operation for operation, the arctangent the same polynomial.
+//
+// A particle is a vec4: xyz position (m) and w its inverse mass (1/kg; 0:
+// pinned). Units: m, s, kg; compliance per constraint as on the CPU.
+
+const WORKGROUP_SIZE: u32 = 64u;
+const PI: f32 = 3.14159265358979;
+const TAU: f32 = 6.28318530717959;
+const HALF_PI: f32 = 1.57079632679490;
+
+// What one dispatch does (a slot of a dynamic-offset uniform buffer).
+struct SoftParams {
+    // Gravity times the body's scale, m/s² (w unused).
+    gravity: vec4<f32>,
+    // Substep, s.
+    h: f32,
+    // 1 / h², 1/s².
+    inv_h2: f32,
+    // The velocity kept after damping over a substep (1 - damping h).
+    keep: f32,
+    // Particles.
+    n: u32,
+    // First constraint of the colour, and how many.
+    offset: u32,
+    count: u32,
+    // 1: the overflow colour, projected by one invocation in order.
+    serial: u32,
+    // `finish`: 1 when the next substep's prediction follows.
+    predict_next: u32,
+}
+
+// Two particles, rest length (m, bits), compliance (m/N, bits).
+struct Distance {
+    p: vec2<u32>,
+    rest: f32,
+    compliance: f32,
+}
+
+// Four particles (a hinge: the edge, then the opposite vertices; a
+// tetrahedron: its corners), the rest angle (rad) or volume (m³), and the
+// compliance.
+struct Quad {
+    p: vec4<u32>,
+    rest: f32,
+    compliance: f32,
+    pad0: f32,
+    pad1: f32,
+}
+
+// A particle, its pinned anchor, the longest distance allowed (m).
+struct Tether {
+    p: vec2<u32>,
+    max_len: f32,
+    pad: f32,
+}
+
+@group(0) @binding(0) var<uniform> params: SoftParams;
+@group(0) @binding(1) var<storage, read_write> x: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> v: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> prev: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> distances: array<Distance>;
+@group(0) @binding(5) var<storage, read> bends: array<Quad>;
+@group(0) @binding(6) var<storage, read> tets: array<Quad>;
+@group(0) @binding(7) var<storage, read> tethers: array<Tether>;
+
+fn linear(id: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return id.x + id.y * groups.x * WORKGROUP_SIZE;
+}
+
+// `v += g h`, `prev = x`, `x += v h` for particles that can move.
+fn predict_one(i: u32) {
+    let p = x[i];
+    prev[i] = p;
+    if (p.w > 0.0) {
+        let vi = v[i].xyz + params.gravity.xyz * params.h;
+        v[i] = vec4<f32>(vi, 0.0);
+        x[i] = vec4<f32>(p.xyz + vi * params.h, p.w);
+    } else {
+        v[i] = vec4<f32>(0.0);
+    }
+}
+
+@compute @workgroup_size(64)
+fn predict(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    predict_one(i);
+}
+
+// The substep's velocities, `v = (x - prev) / h`, damped (a particle gone
+// non-finite goes back, at rest); then, with `predict_next`, the next
+// substep's prediction.
+@compute @workgroup_size(64)
+fn finish(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let p = x[i];
+    if (p.w <= 0.0) {
+        prev[i] = p;
+        v[i] = vec4<f32>(0.0);
+        return;
+    }
+    let vi = (p.xyz - prev[i].xyz) * (1.0 / params.h) * params.keep;
+    // Not finite: NaN fails every comparison; infinities exceed the range.
+    let big = 3.0e38;
+    let finite = all(abs(vi) <= vec3<f32>(big)) && all(abs(p.xyz) <= vec3<f32>(big));
+    if (finite) {
+        v[i] = vec4<f32>(vi, 0.0);
+    } else {
+        x[i] = prev[i];
+        v[i] = vec4<f32>(0.0);
+    }
+    if (params.predict_next == 1u) {
+        predict_one(i);
+    }
+}
+
+fn project_distance(c: Distance) {
+    let a = c.p.x;
+    let b = c.p.y;
+    let xa = x[a];
+    let xb = x[b];
+    let d = xb.xyz - xa.xyz;
+    let len = sqrt(dot(d, d));
+    let k = xa.w + xb.w + c.compliance * params.inv_h2;
+    if (len < 1e-9 || k <= 0.0) {
+        return;
+    }
+    let n = d * (1.0 / len);
+    let dl = -(len - c.rest) / k;
+    x[a] = vec4<f32>(xa.xyz - n * (xa.w * dl), xa.w);
+    x[b] = vec4<f32>(xb.xyz + n * (xb.w * dl), xb.w);
+}
+
+// The polynomial arctangent of constraints.rs (Abramowitz & Stegun 4.4.49).
+fn atan2_poly(y: f32, xx: f32) -> f32 {
+    let ax = abs(xx);
+    let ay = abs(y);
+    let hi = max(ax, ay);
+    if (hi == 0.0) {
+        return 0.0;
+    }
+    let a = min(ax, ay) / hi;
+    let s = a * a;
+    var r = a * (0.999866 + s * (-0.3302995 + s * (0.180141 + s * (-0.085133 + s * 0.0208351))));
+    if (ay > ax) {
+        r = HALF_PI - r;
+    }
+    if (xx < 0.0) {
+        r = PI - r;
+    }
+    if (y < 0.0) {
+        r = -r;
+    }
+    return r;
+}
+
+fn project_bend(c: Quad) {
+    let p0 = x[c.p.x];
+    let p1 = x[c.p.y];
+    let p2 = x[c.p.z];
+    let p3 = x[c.p.w];
+    let x0 = p0.xyz;
+    let x1 = p1.xyz;
+    let x2 = p2.xyz;
+    let x3 = p3.xyz;
+    let e = x1 - x0;
+    let e_len = sqrt(dot(e, e));
+    let n1 = cross(e, x2 - x0);
+    let n2 = cross(x3 - x0, e);
+    let l1 = dot(n1, n1);
+    let l2 = dot(n2, n2);
+    if (e_len < 1e-9 || l1 < 1e-18 || l2 < 1e-18) {
+        return;
+    }
+    let e_hat = e * (1.0 / e_len);
+    let il1 = 1.0 / l1;
+    let il2 = 1.0 / l2;
+    let u1 = n1 * sqrt(il1);
+    let u2 = n2 * sqrt(il2);
+    let angle = atan2_poly(dot(cross(u1, u2), e_hat), dot(u1, u2));
+    let g2 = -(n1 * (e_len * il1));
+    let g3 = -(n2 * (e_len * il2));
+    let g0 = -(n1 * (dot(x2 - x1, e_hat) * il1) + n2 * (dot(x3 - x1, e_hat) * il2));
+    let g1 = n1 * (dot(x2 - x0, e_hat) * il1) + n2 * (dot(x3 - x0, e_hat) * il2);
+    var cv = angle - c.rest;
+    if (cv > PI) {
+        cv = cv - TAU;
+    } else if (cv <= -PI) {
+        cv = cv + TAU;
+    }
+    let k = c.compliance * params.inv_h2 + p0.w * dot(g0, g0) + p1.w * dot(g1, g1)
+        + p2.w * dot(g2, g2) + p3.w * dot(g3, g3);
+    if (k <= 1e-12) {
+        return;
+    }
+    let dl = -cv / k;
+    x[c.p.x] = vec4<f32>(x0 + g0 * (p0.w * dl), p0.w);
+    x[c.p.y] = vec4<f32>(x1 + g1 * (p1.w * dl), p1.w);
+    x[c.p.z] = vec4<f32>(x2 + g2 * (p2.w * dl), p2.w);
+    x[c.p.w] = vec4<f32>(x3 + g3 * (p3.w * dl), p3.w);
+}
+
+fn project_tet(c: Quad) {
+    let p0 = x[c.p.x];
+    let p1 = x[c.p.y];
+    let p2 = x[c.p.z];
+    let p3 = x[c.p.w];
+    let x0 = p0.xyz;
+    let x1 = p1.xyz;
+    let x2 = p2.xyz;
+    let x3 = p3.xyz;
+    let g1 = cross(x2 - x0, x3 - x0) / 6.0;
+    let g2 = cross(x3 - x0, x1 - x0) / 6.0;
+    let g3 = cross(x1 - x0, x2 - x0) / 6.0;
+    let g0 = -(g1 + g2 + g3);
+    let volume = dot(cross(x1 - x0, x2 - x0), x3 - x0) / 6.0;
+    let k = c.compliance * params.inv_h2 + p0.w * dot(g0, g0) + p1.w * dot(g1, g1)
+        + p2.w * dot(g2, g2) + p3.w * dot(g3, g3);
+    if (k <= 1e-30) {
+        return;
+    }
+    let dl = -(volume - c.rest) / k;
+    x[c.p.x] = vec4<f32>(x0 + g0 * (p0.w * dl), p0.w);
+    x[c.p.y] = vec4<f32>(x1 + g1 * (p1.w * dl), p1.w);
+    x[c.p.z] = vec4<f32>(x2 + g2 * (p2.w * dl), p2.w);
+    x[c.p.w] = vec4<f32>(x3 + g3 * (p3.w * dl), p3.w);
+}
+
+fn project_tether(c: Tether) {
+    let pa = x[c.p.x];
+    if (pa.w <= 0.0) {
+        return;
+    }
+    let xb = x[c.p.y].xyz;
+    let d = pa.xyz - xb;
+    let len = sqrt(dot(d, d));
+    if (len <= c.max_len || len < 1e-9) {
+        return;
+    }
+    x[c.p.x] = vec4<f32>(xb + d * (c.max_len / len), pa.w);
+}
+
+// The constraint this invocation projects (or, for the overflow colour,
+// whether this is the one invocation that projects them all): its index,
+// or a value past the colour's end.
+fn item(id: vec3<u32>, groups: vec3<u32>) -> u32 {
+    let k = linear(id, groups);
+    if (params.serial == 1u) {
+        return select(0xffffffffu, params.offset, k == 0u);
+    }
+    return select(0xffffffffu, params.offset + k, k < params.count);
+}
+
+fn last(first: u32) -> u32 {
+    return select(first + 1u, params.offset + params.count, params.serial == 1u);
+}
+
+@compute @workgroup_size(64)
+fn distance(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let first = item(id, groups);
+    if (first == 0xffffffffu) {
+        return;
+    }
+    for (var c = first; c < last(first); c = c + 1u) {
+        project_distance(distances[c]);
+    }
+}
+
+@compute @workgroup_size(64)
+fn bending(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let first = item(id, groups);
+    if (first == 0xffffffffu) {
+        return;
+    }
+    for (var c = first; c < last(first); c = c + 1u) {
+        project_bend(bends[c]);
+    }
+}
+
+@compute @workgroup_size(64)
+fn volume(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let first = item(id, groups);
+    if (first == 0xffffffffu) {
+        return;
+    }
+    for (var c = first; c < last(first); c = c + 1u) {
+        project_tet(tets[c]);
+    }
+}
+
+@compute @workgroup_size(64)
+fn tether(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let first = item(id, groups);
+    if (first == 0xffffffffu) {
+        return;
+    }
+    for (var c = first; c < last(first); c = c + 1u) {
+        project_tether(tethers[c]);
+    }
+}
