@@ -118,12 +118,24 @@ fn shared_layout_block_is_identical_in_every_particle_shader() {
 #[test]
 fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
     let module = validated("xpbd_soft.wgsl", inertia_shaders::XPBD_SOFT);
-    let mut names: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
+    let mut names: Vec<&str> = module
+        .entry_points
+        .iter()
+        .map(|e| e.name.as_str())
+        .collect();
     names.sort_unstable();
-    assert_eq!(names, ["bending", "distance", "finish", "predict", "tether", "volume"]);
+    assert_eq!(
+        names,
+        ["bending", "distance", "finish", "predict", "tether", "volume"]
+    );
     for ep in &module.entry_points {
         assert_eq!(ep.stage, naga::ShaderStage::Compute);
-        assert_eq!(ep.workgroup_size, [layout::WORKGROUP_SIZE, 1, 1], "{}", ep.name);
+        assert_eq!(
+            ep.workgroup_size,
+            [layout::WORKGROUP_SIZE, 1, 1],
+            "{}",
+            ep.name
+        );
     }
     for (ty, bytes) in [
         ("SoftParams", layout::SOFT_PARAMS_BYTES),

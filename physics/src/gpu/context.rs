@@ -41,6 +41,8 @@ pub struct GpuContext {
     pub(crate) springs: wgpu::ComputePipeline,
     pub(crate) interactions: wgpu::ComputePipeline,
     pub(crate) integrate: wgpu::ComputePipeline,
+    /// Soft bodies' pipelines (`gpu/soft.rs`).
+    pub(crate) soft: super::soft::SoftPipelines,
     /// Errors that escaped every error scope (the default handler would
     /// panic); reported by the next call that checks.
     uncaptured: Arc<Mutex<Option<String>>>,
@@ -142,6 +144,7 @@ impl GpuContext {
             inertia_shaders::PARTICLE_INTERACTIONS,
         );
         let integrate = pipeline("particle_integrate", inertia_shaders::PARTICLE_INTEGRATE);
+        let soft = super::soft::SoftPipelines::new(&device);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(PhysicsError::Gpu(format!(
                 "compiling the particle shaders for {} failed: {e}",
@@ -156,6 +159,7 @@ impl GpuContext {
             springs,
             interactions,
             integrate,
+            soft,
             uncaptured,
         })
     }

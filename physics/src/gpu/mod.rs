@@ -64,10 +64,12 @@ mod buffers;
 mod context;
 mod layout;
 mod params;
+pub(crate) mod soft;
 mod system;
 mod tolerance;
 
 pub use context::GpuContext;
+pub use soft::SOFT_GPU_TOLERANCE;
 pub use tolerance::{GpuTolerance, GPU_TOLERANCE};
 
 pub(crate) use buffers::GpuSystem;

@@ -317,6 +317,9 @@ impl Reader<'_> {
             .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
         Ok(SoftBody {
             self_collision: Default::default(),
+            backend: crate::particle_system::Backend::Cpu,
+            #[cfg(feature = "gpu")]
+            gpu: Default::default(),
             prev: x.clone(),
             x,
             v,

@@ -53,13 +53,18 @@ impl World {
         }
     }
 
-    /// Copies every GPU system's state back into its CPU mirror.
+    /// Copies every GPU system's and soft body's state back into its CPU mirror.
     pub fn sync_gpu(&mut self) -> Result<(), PhysicsError> {
         #[cfg(feature = "gpu")]
         if let Some(ctx) = self.gpu.as_ref() {
             for (_, _, s) in self.systems.iter_mut() {
                 if s.backend == Backend::Gpu {
                     crate::gpu::download(ctx, s)?;
+                }
+            }
+            for (_, _, b) in self.soft_bodies.iter_mut() {
+                if let Some(gpu) = b.gpu.0.clone() {
+                    crate::gpu::soft::download(ctx, b, &gpu)?;
                 }
             }
         }

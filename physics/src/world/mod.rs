@@ -304,7 +304,7 @@ impl World {
         profile.bodies = t0.elapsed();
 
         let t0 = Instant::now();
-        self.stage_soft(dt, &mut energy);
+        self.stage_soft(dt, &mut energy)?;
         profile.soft = t0.elapsed();
 
         if self.config.energy_accounting {

@@ -66,7 +66,72 @@ impl World {
             });
         }
         body.set_pin(i, position.as_vec3());
+        #[cfg(feature = "gpu")]
+        if let (Some(gpu), Some(ctx)) = (body.gpu.0.clone(), self.gpu.as_ref()) {
+            crate::gpu::soft::set_pin(ctx, &gpu, i, position.as_vec3());
+        }
         Ok(())
+    }
+
+    /// Moves soft body `h` to `backend`, carrying its state across. On
+    /// the GPU (feature `gpu`) it takes the same small steps in `f32`,
+    /// colour by colour (`gpu/soft.rs`); bodies with contacts, attachments,
+    /// pressure, self-collision, plasticity or tearing are refused there
+    /// ([`PhysicsError::Gpu`]), and so are such changes to a body on the
+    /// GPU. A saved state does not keep the backend: a restored body steps
+    /// on the CPU until moved again. With
+    /// [`WorldConfig::gpu_readback_every_step`](crate::WorldConfig) off,
+    /// call [`World::sync_gpu`] before reading or saving it.
+    pub fn set_soft_backend(
+        &mut self,
+        h: SoftBodyHandle,
+        backend: crate::particle_system::Backend,
+    ) -> Result<(), PhysicsError> {
+        #[cfg(feature = "gpu")]
+        use crate::particle_system::Backend;
+        let current = self
+            .soft_body(h)
+            .ok_or(PhysicsError::UnknownSoftBody(h))?
+            .backend;
+        if current == backend {
+            return Ok(());
+        }
+        #[cfg(feature = "gpu")]
+        {
+            match backend {
+                Backend::Gpu => {
+                    self.gpu_context()?;
+                    let ctx = self.gpu.as_ref().expect("context created above");
+                    let body = self
+                        .soft_bodies
+                        .get_mut(h.index, h.generation)
+                        .expect("checked above");
+                    let gpu = crate::gpu::soft::upload(ctx, body)?;
+                    body.gpu = super::super::xpbd::soft::GpuSlot(Some(gpu));
+                    body.backend = Backend::Gpu;
+                }
+                Backend::Cpu => {
+                    let ctx = self
+                        .gpu
+                        .as_ref()
+                        .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
+                    let body = self
+                        .soft_bodies
+                        .get_mut(h.index, h.generation)
+                        .expect("checked above");
+                    if let Some(gpu) = body.gpu.0.take() {
+                        crate::gpu::soft::download(ctx, body, &gpu)?;
+                    }
+                    body.backend = Backend::Cpu;
+                }
+            }
+            Ok(())
+        }
+        #[cfg(not(feature = "gpu"))]
+        {
+            let _ = backend;
+            Err(PhysicsError::Gpu("this build has no `gpu` feature".into()))
+        }
     }
 
     /// Holds particle `particle` of soft body `h` to the point of rigid
@@ -89,6 +154,11 @@ impl World {
             .pose()
             .inverse_transform_point(at);
         let soft = self.soft_mut(h)?;
+        if soft.backend == crate::particle_system::Backend::Gpu {
+            return Err(PhysicsError::Gpu(
+                "soft bodies with attachments step on the CPU only".into(),
+            ));
+        }
         if particle as usize >= soft.len() {
             return Err(PhysicsError::Invalid {
                 what: "soft attachment",
@@ -107,9 +177,9 @@ impl World {
     /// Stage 4: every soft body, then every fluid, in handle order, takes
     /// its small steps against the rigid bodies as they now stand; the
     /// bodies then take what the particles gave them.
-    pub(super) fn stage_soft(&mut self, dt: f64, energy: &mut Energy) {
+    pub(super) fn stage_soft(&mut self, dt: f64, energy: &mut Energy) -> Result<(), PhysicsError> {
         if self.soft_bodies.len() == 0 && self.fluids.len() == 0 {
-            return;
+            return Ok(());
         }
         let gravity = self.gravity.as_vec3();
         let dt32 = dt as f32;
@@ -118,10 +188,25 @@ impl World {
             fluids,
             bodies,
             config,
+            #[cfg(feature = "gpu")]
+            gpu,
             ..
         } = self;
         let mut changes = Vec::new();
         for (_, _, body) in soft_bodies.iter_mut() {
+            #[cfg(feature = "gpu")]
+            if let Some(on_gpu) = body.gpu.0.clone() {
+                let ctx = gpu
+                    .as_ref()
+                    .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
+                let readback = config.gpu_readback_every_step;
+                crate::gpu::soft::step(ctx, body, &on_gpu, dt32, gravity, readback)?;
+                if readback && config.energy_accounting {
+                    let g = gravity.as_dvec3() * body.material.gravity_scale;
+                    add_energy(energy, &body.x, &body.v, &body.w, g);
+                }
+                continue;
+            }
             body.attachments
                 .retain(|a| bodies.get(a.body.index, a.body.generation).is_some());
             let fastest = body
@@ -162,6 +247,7 @@ impl World {
             }
         }
         apply_changes(bodies, &changes);
+        Ok(())
     }
 }
 

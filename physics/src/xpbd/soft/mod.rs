@@ -222,6 +222,31 @@ pub struct SoftBody {
     pub(crate) prev: Vec<Vec3>,
     /// Self-collision's candidates (derived).
     pub(crate) self_collision: self_collision::SelfCollision,
+    /// Where it steps (not saved: a restored body steps on the CPU).
+    pub(crate) backend: crate::particle_system::Backend,
+    /// Its GPU buffers while it steps there.
+    #[cfg(feature = "gpu")]
+    pub(crate) gpu: GpuSlot,
+}
+
+/// A soft body's GPU buffers, shared by clones; compared as equal (they
+/// are where the state lives, not the state).
+#[cfg(feature = "gpu")]
+#[derive(Clone, Default)]
+pub(crate) struct GpuSlot(pub(crate) Option<std::sync::Arc<crate::gpu::soft::GpuSoftBody>>);
+
+#[cfg(feature = "gpu")]
+impl PartialEq for GpuSlot {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+#[cfg(feature = "gpu")]
+impl std::fmt::Debug for GpuSlot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.is_some() { "on the GPU" } else { "-" })
+    }
 }
 
 fn invalid(what: &'static str, why: impl Into<String>) -> PhysicsError {
@@ -436,6 +461,9 @@ impl SoftBody {
             attachments: Vec::new(),
             material: desc.material.clone(),
             self_collision: Default::default(),
+            backend: crate::particle_system::Backend::Cpu,
+            #[cfg(feature = "gpu")]
+            gpu: GpuSlot::default(),
             prev: x.clone(),
             x,
             v,
@@ -476,6 +504,11 @@ impl SoftBody {
     /// How it moves as a whole.
     pub fn material(&self) -> &SoftMaterial {
         &self.material
+    }
+
+    /// Where it steps.
+    pub fn backend(&self) -> crate::particle_system::Backend {
+        self.backend
     }
 
     /// Constraints by kind: distance, bending, volume, tether.
