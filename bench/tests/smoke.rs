@@ -383,7 +383,8 @@ fn bandwidth_suite_gives_its_seconds_in_order() {
 
 #[test]
 fn soft_suite() {
-    let lines = run("soft");
+    let all = run("soft");
+    let (gpu, lines): (Vec<_>, Vec<_>) = all.iter().cloned().partition(|m| m["backend"] == "gpu");
     let cases: Vec<(&str, u64)> = lines
         .iter()
         .map(|m| (m["case"].as_str().unwrap(), m["threads"].as_u64().unwrap()))
@@ -407,6 +408,14 @@ fn soft_suite() {
         let share = num(m, "soft_share");
         assert!((0.0..=1.0).contains(&share), "{m:?}");
     }
+    // The cloth on the GPU: a row either way, its figures when it ran.
+    assert_eq!(gpu.len(), 1, "{gpu:?}");
+    assert_eq!(gpu[0]["case"], "cloth_32");
+    if gpu[0].get("error").is_none() {
+        positive(&gpu[0], "ms_per_step");
+        let diff = num(&gpu[0], "max_abs_diff_vs_cpu");
+        assert!((0.0..2e-3).contains(&diff), "{diff}");
+    }
     let strain = num(&lines[0], "max_strain");
     assert!((0.0..1.0).contains(&strain), "{strain}");
     let kept = num(&lines[2], "volume_kept");
@@ -417,7 +426,7 @@ fn soft_suite() {
     let dir = std::env::temp_dir().join(format!("inertia-bench-soft-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let results = dir.join("soft.jsonl");
-    let text: String = lines
+    let text: String = all
         .iter()
         .map(|m| serde_json::to_string(m).unwrap() + "\n")
         .collect();

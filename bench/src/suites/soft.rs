@@ -267,8 +267,79 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
                     ),
             );
         }
+        #[cfg(feature = "gpu")]
+        if let (Scene::Cloth(n), (cpu, Handle::Soft(h))) = (scene, &worlds[0]) {
+            gpu_case(scene, n, warmup, steps, cpu, *h, &mut sink, &pb)?;
+        }
         pb.inc(1);
     }
     pb.finish_and_clear();
+    Ok(())
+}
+
+/// The cloth on the GPU (feature `gpu`): stepped as many times as the CPU
+/// worlds, each step waited for; `max_abs_diff_vs_cpu` against the
+/// one-thread CPU world `cpu` at the end. On a CPU adapter (Mesa's
+/// lavapipe) cloths larger than 128² are skipped: it runs the shaders on
+/// the cores the CPU rows measure.
+#[cfg(feature = "gpu")]
+#[allow(clippy::too_many_arguments)]
+fn gpu_case(
+    scene: Scene,
+    n: u32,
+    warmup: usize,
+    steps: usize,
+    cpu: &World,
+    h: SoftBodyHandle,
+    sink: &mut dyn Sink,
+    pb: &indicatif::ProgressBar,
+) -> Result<(), BenchError> {
+    use inertia_physics::Backend;
+    let base = Record::new()
+        .field("case", scene.name())
+        .field("backend", "gpu")
+        .field("threads", crate::report::logical_cores());
+    let (mut w, _) = scene.build(1)?;
+    let adapter = match w.gpu_context() {
+        Ok(ctx) => (ctx.description(), ctx.is_cpu_adapter()),
+        Err(e) => {
+            sink.record(base.field("error", e.to_string()));
+            return Ok(());
+        }
+    };
+    if adapter.1 && n > 128 {
+        note(pb, &format!("{}: skipped on the CPU adapter {}", scene.name(), adapter.0));
+        return Ok(());
+    }
+    if let Err(e) = w.set_soft_backend(h, Backend::Gpu) {
+        sink.record(base.field("error", e.to_string()));
+        return Ok(());
+    }
+    let mut times = Vec::with_capacity(steps);
+    for k in 0..warmup + steps {
+        let t0 = Instant::now();
+        w.step(DT)?;
+        w.gpu_context()?.finish()?;
+        if k >= warmup {
+            times.push(t0.elapsed().as_secs_f64());
+        }
+    }
+    let b = w.soft_body(h).ok_or("soft body vanished")?;
+    let c = cpu.soft_body(h).ok_or("soft body vanished")?;
+    let diff = b
+        .positions()
+        .iter()
+        .zip(c.positions())
+        .map(|(p, q)| (*p - *q).length())
+        .fold(0.0f32, f32::max);
+    sink.record(
+        base.field("adapter", adapter.0)
+            .field("particles", b.len())
+            .field("constraints", b.constraints())
+            .field("substeps", b.material().substeps)
+            .num("max_strain", f64::from(b.max_strain()))
+            .num("ms_per_step", median(&times) * 1e3)
+            .num("max_abs_diff_vs_cpu", f64::from(diff)),
+    );
     Ok(())
 }
