@@ -121,23 +121,57 @@ const BAR_NAMES: [&str; 4] = [
 
 fn physics(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
     let scenes = scene_times(records);
-    if scenes.is_empty() {
+    let names: Vec<String> = scenes.iter().map(|s| s.scene.clone()).collect();
+    let series: Vec<Bars> = (0..4)
+        .map(|k| Bars {
+            label: BAR_NAMES[k],
+            colour: BAR_COLOURS[k],
+            values: scenes.iter().map(|s| s.ms[k]).collect(),
+        })
+        .collect();
+    let machine = machine_name(records);
+    log_bars(
+        path,
+        &format!("inertia-bench physics: ms per step, ours and rapier3d ({machine})"),
+        &names,
+        &series,
+        None,
+    )
+}
+
+/// One series of a bar chart: a value (or none) per case.
+struct Bars {
+    label: &'static str,
+    colour: RGBColor,
+    values: Vec<Option<f64>>,
+}
+
+/// Bars of ms per step per case, a group per case and a bar per series,
+/// on a log scale, with an optional horizontal target line `(ms, label)`.
+/// Draws nothing (false) when there are no cases; series without a value
+/// are left out of the legend.
+fn log_bars(
+    path: &Path,
+    title: &str,
+    names: &[String],
+    series: &[Bars],
+    target: Option<(f64, &str)>,
+) -> Result<bool, BenchError> {
+    if names.is_empty() {
         return Ok(false);
     }
-    let values = scenes.iter().flat_map(|s| s.ms.iter().flatten().copied());
-    let (lo, hi) = values.fold((f64::MAX, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let values = series
+        .iter()
+        .flat_map(|s| s.values.iter().flatten().copied());
+    let floor = target.map_or(0.0, |t| t.0);
+    let (lo, hi) = values.fold((f64::MAX, floor), |(lo, hi), v| (lo.min(v), hi.max(v)));
     let (lo, hi) = (lo.max(1e-3) / 2.0, hi * 2.0);
-    let n = scenes.len();
+    let n = names.len();
     let root = canvas(path, (1100, 520))?;
-    let machine = machine_name(records);
     let mut chart = axes(&root)
-        .caption(
-            format!("inertia-bench physics: ms per step, ours and rapier3d ({machine})"),
-            ("sans-serif", 20),
-        )
+        .caption(title, ("sans-serif", 20))
         .build_cartesian_2d(-0.5f64..n as f64 - 0.5, (lo..hi).log_scale())
         .map_err(plot_error)?;
-    let names: Vec<String> = scenes.iter().map(|s| s.scene.clone()).collect();
     chart
         .configure_mesh()
         .disable_x_mesh()
@@ -153,20 +187,34 @@ fn physics(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
         .y_desc("ms per step (median, log scale)")
         .draw()
         .map_err(plot_error)?;
-    for (k, colour) in BAR_COLOURS.iter().enumerate() {
-        let bars = scenes.iter().enumerate().filter_map(|(i, s)| {
-            let v = s.ms[k]?;
-            let left = i as f64 - 0.4 + 0.2 * k as f64;
+    let width = 0.8 / series.len().max(1) as f64;
+    for (k, s) in series.iter().enumerate() {
+        if s.values.iter().all(Option::is_none) {
+            continue;
+        }
+        let colour = s.colour;
+        let bars = s.values.iter().enumerate().filter_map(|(i, v)| {
+            let left = i as f64 - 0.4 + width * k as f64;
             Some(Rectangle::new(
-                [(left, lo), (left + 0.18, v)],
+                [(left, lo), (left + 0.9 * width, (*v)?)],
                 colour.filled(),
             ))
         });
         chart
             .draw_series(bars)
             .map_err(plot_error)?
-            .label(BAR_NAMES[k])
+            .label(s.label)
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour.filled()));
+    }
+    if let Some((ms, label)) = target {
+        chart
+            .draw_series(LineSeries::new(
+                [(-0.5, ms), (n as f64 - 0.5, ms)],
+                RED.stroke_width(2),
+            ))
+            .map_err(plot_error)?
+            .label(label)
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], RED.stroke_width(2)));
     }
     legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
     root.present().map_err(plot_error)?;
@@ -466,68 +514,24 @@ fn soft(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
         };
         cases[at].1[k] = Some(ms);
     }
-    if cases.is_empty() {
-        return Ok(false);
-    }
-    let values = cases.iter().flat_map(|c| c.1.iter().flatten().copied());
-    let (lo, hi) = values.fold((f64::MAX, 8.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
-    let (lo, hi) = (lo.max(1e-3) / 2.0, hi * 2.0);
-    let n = cases.len();
-    let root = canvas(path, (1100, 520))?;
-    let machine = machine_name(records);
-    let mut chart = axes(&root)
-        .caption(
-            format!("inertia-bench soft: ms per step at 60 Hz ({machine})"),
-            ("sans-serif", 20),
-        )
-        .build_cartesian_2d(-0.5f64..n as f64 - 0.5, (lo..hi).log_scale())
-        .map_err(plot_error)?;
     let names: Vec<String> = cases.iter().map(|c| c.0.clone()).collect();
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_labels(n)
-        .x_label_formatter(&|x| {
-            let i = x.round();
-            if (x - i).abs() < 1e-6 && i >= 0.0 {
-                names.get(i as usize).cloned().unwrap_or_default()
-            } else {
-                String::new()
-            }
+    let series: Vec<Bars> = SOFT_SERIES
+        .iter()
+        .enumerate()
+        .map(|(k, (_, _, label))| Bars {
+            label,
+            colour: BAR_COLOURS[k],
+            values: cases.iter().map(|c| c.1[k]).collect(),
         })
-        .y_desc("ms per step (median, log scale)")
-        .draw()
-        .map_err(plot_error)?;
-    for (k, (_, _, label)) in SOFT_SERIES.iter().enumerate() {
-        if cases.iter().all(|c| c.1[k].is_none()) {
-            continue;
-        }
-        let colour = BAR_COLOURS[k];
-        let bars = cases.iter().enumerate().filter_map(|(i, c)| {
-            let v = c.1[k]?;
-            let left = i as f64 - 0.4 + 0.27 * k as f64;
-            Some(Rectangle::new(
-                [(left, lo), (left + 0.25, v)],
-                colour.filled(),
-            ))
-        });
-        chart
-            .draw_series(bars)
-            .map_err(plot_error)?
-            .label(*label)
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour.filled()));
-    }
-    chart
-        .draw_series(LineSeries::new(
-            [(-0.5, 8.0), (n as f64 - 0.5, 8.0)],
-            RED.stroke_width(2),
-        ))
-        .map_err(plot_error)?
-        .label("target: 8 ms (cloth 128², fluid 10k, 2 threads)")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], RED.stroke_width(2)));
-    legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
-    root.present().map_err(plot_error)?;
-    Ok(true)
+        .collect();
+    let machine = machine_name(records);
+    log_bars(
+        path,
+        &format!("inertia-bench soft: ms per step at 60 Hz ({machine})"),
+        &names,
+        &series,
+        Some((8.0, "target: 8 ms (cloth 128², fluid 10k, 2 threads)")),
+    )
 }
 
 /// The CPU the records were measured on (the newest record's).

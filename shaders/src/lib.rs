@@ -27,9 +27,9 @@ pub const PARTICLE_INTERACTIONS: &str = include_str!("../wgsl/particle_interacti
 pub const PARTICLE_INTEGRATE: &str = include_str!("../wgsl/particle_integrate.wgsl");
 
 /// XPBD soft bodies on the GPU: `predict`, `finish` (velocities, fused
-/// with the next substep's prediction) and one projection entry point
-/// per constraint kind (`distance`, `bending`, `volume`, `tether`),
-/// dispatched colour by colour.
+/// with the next substep's prediction) and `project` (one colour of one
+/// constraint kind: distance, bending, volume, tether), dispatched colour
+/// by colour.
 pub const XPBD_SOFT: &str = include_str!("../wgsl/xpbd_soft.wgsl");
 
 /// The viewer's scene shader (`inertia-viewer`): lit, instanced meshes
@@ -69,7 +69,7 @@ pub mod layout {
     /// `struct FieldForce`: three `vec4<f32>`.
     pub const FIELD_FORCE_BYTES: usize = 48;
     /// `struct Params` of `xpbd_soft.wgsl`: one dispatch's uniform slot.
-    pub const SOFT_PARAMS_BYTES: usize = 48;
+    pub const SOFT_PARAMS_BYTES: usize = 64;
     /// `struct Distance` of `xpbd_soft.wgsl`.
     pub const SOFT_DISTANCE_BYTES: usize = 16;
     /// `struct Quad` of `xpbd_soft.wgsl` (hinges and tetrahedra).

@@ -124,10 +124,7 @@ fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
         .map(|e| e.name.as_str())
         .collect();
     names.sort_unstable();
-    assert_eq!(
-        names,
-        ["bending", "distance", "finish", "predict", "tether", "volume"]
-    );
+    assert_eq!(names, ["finish", "predict", "project"]);
     for ep in &module.entry_points {
         assert_eq!(ep.stage, naga::ShaderStage::Compute);
         assert_eq!(

@@ -2,9 +2,9 @@
 //
 // Each substep is a run of dispatches, each its own usage scope (so each
 // sees the writes of the one before): `predict` (or `finish` of the last
-// substep fused with this one's prediction), then one dispatch per colour
-// of each constraint kind (distance, bending, volume, tethers), in the
-// CPU's colour order. Within a colour no two constraints move the same
+// substep fused with this one's prediction), then one `project` dispatch
+// per colour of each constraint kind (distance, bending, volume, tethers),
+// in the CPU's colour order. Within a colour no two constraints move the same
 // particle, so every invocation writes only its own constraint's
 // particles and nothing needs atomics; an overflow colour (a particle in
 // more than 64 constraints of a kind) is projected by one invocation, in
@@ -38,6 +38,12 @@ struct SoftParams {
     serial: u32,
     // `finish`: 1 when the next substep's prediction follows.
     predict_next: u32,
+    // `project`: the constraint kind (0 distance, 1 bending, 2 volume,
+    // 3 tether).
+    kind: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 // Two particles, rest length (m, bits), compliance (m/N, bits).
@@ -271,46 +277,28 @@ fn last(first: u32) -> u32 {
     return select(first + 1u, params.offset + params.count, params.serial == 1u);
 }
 
+// Projects the colour's constraints of kind `params.kind` (0 distance,
+// 1 bending, 2 volume, 3 tether).
 @compute @workgroup_size(64)
-fn distance(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+fn project(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let first = item(id, groups);
     if (first == 0xffffffffu) {
         return;
     }
     for (var c = first; c < last(first); c = c + 1u) {
-        project_distance(distances[c]);
-    }
-}
-
-@compute @workgroup_size(64)
-fn bending(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let first = item(id, groups);
-    if (first == 0xffffffffu) {
-        return;
-    }
-    for (var c = first; c < last(first); c = c + 1u) {
-        project_bend(bends[c]);
-    }
-}
-
-@compute @workgroup_size(64)
-fn volume(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let first = item(id, groups);
-    if (first == 0xffffffffu) {
-        return;
-    }
-    for (var c = first; c < last(first); c = c + 1u) {
-        project_tet(tets[c]);
-    }
-}
-
-@compute @workgroup_size(64)
-fn tether(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let first = item(id, groups);
-    if (first == 0xffffffffu) {
-        return;
-    }
-    for (var c = first; c < last(first); c = c + 1u) {
-        project_tether(tethers[c]);
+        switch params.kind {
+            case 0u: {
+                project_distance(distances[c]);
+            }
+            case 1u: {
+                project_bend(bends[c]);
+            }
+            case 2u: {
+                project_tet(tets[c]);
+            }
+            default: {
+                project_tether(tethers[c]);
+            }
+        }
     }
 }

@@ -308,7 +308,10 @@ fn gpu_case(
         }
     };
     if adapter.1 && n > 128 {
-        note(pb, &format!("{}: skipped on the CPU adapter {}", scene.name(), adapter.0));
+        note(
+            pb,
+            &format!("{}: skipped on the CPU adapter {}", scene.name(), adapter.0),
+        );
         return Ok(());
     }
     if let Err(e) = w.set_soft_backend(h, Backend::Gpu) {

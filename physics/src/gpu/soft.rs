@@ -50,20 +50,29 @@ struct SoftParams {
     count: u32,
     serial: u32,
     predict_next: u32,
+    kind: u32,
+    pad: [u32; 3],
 }
 
 const _: () =
     assert!(std::mem::size_of::<SoftParams>() == inertia_shaders::layout::SOFT_PARAMS_BYTES);
 
-/// The shader's entry points.
+/// What a dispatch runs: the shader's entry points, `project` by kind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Entry {
     Predict,
     Finish,
-    Distance,
-    Bending,
-    Volume,
-    Tether,
+    /// `project` of one constraint kind (the shader's `params.kind`).
+    Project(Kind),
+}
+
+/// The constraint kinds, numbered as the shader's `params.kind`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Kind {
+    Distance = 0,
+    Bending = 1,
+    Volume = 2,
+    Tether = 3,
 }
 
 /// The soft-body pipelines, sharing one bind group layout.
@@ -72,10 +81,7 @@ pub(crate) struct SoftPipelines {
     layout: wgpu::BindGroupLayout,
     predict: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
-    distance: wgpu::ComputePipeline,
-    bending: wgpu::ComputePipeline,
-    volume: wgpu::ComputePipeline,
-    tether: wgpu::ComputePipeline,
+    project: wgpu::ComputePipeline,
 }
 
 impl SoftPipelines {
@@ -136,10 +142,7 @@ impl SoftPipelines {
         Self {
             predict: pipeline("predict"),
             finish: pipeline("finish"),
-            distance: pipeline("distance"),
-            bending: pipeline("bending"),
-            volume: pipeline("volume"),
-            tether: pipeline("tether"),
+            project: pipeline("project"),
             layout,
         }
     }
@@ -148,10 +151,7 @@ impl SoftPipelines {
         match e {
             Entry::Predict => &self.predict,
             Entry::Finish => &self.finish,
-            Entry::Distance => &self.distance,
-            Entry::Bending => &self.bending,
-            Entry::Volume => &self.volume,
-            Entry::Tether => &self.tether,
+            Entry::Project(_) => &self.project,
         }
     }
 }
@@ -159,7 +159,7 @@ impl SoftPipelines {
 /// One dispatch of a substep.
 #[derive(Debug, Clone, Copy)]
 struct Dispatch {
-    entry: Entry,
+    kind: Kind,
     offset: u32,
     count: u32,
     serial: bool,
@@ -210,11 +210,11 @@ pub(crate) fn check_supported(body: &SoftBody) -> Result<(), PhysicsError> {
     Ok(())
 }
 
-fn colours<C>(c: &Coloured<C>, entry: Entry, out: &mut Vec<Dispatch>) {
+fn colours<C>(c: &Coloured<C>, kind: Kind, out: &mut Vec<Dispatch>) {
     let mut start = 0u32;
     for (k, &end) in c.ends.iter().enumerate() {
         out.push(Dispatch {
-            entry,
+            kind,
             offset: start,
             count: end - start,
             serial: c.overflow && k + 1 == c.ends.len(),
@@ -285,10 +285,10 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
         .map(|t| [t.p[0], t.p[1], t.max.to_bits(), 0])
         .collect();
     let mut plan = Vec::new();
-    colours(&body.distance, Entry::Distance, &mut plan);
-    colours(&body.bend, Entry::Bending, &mut plan);
-    colours(&body.tets, Entry::Volume, &mut plan);
-    colours(&body.tethers, Entry::Tether, &mut plan);
+    colours(&body.distance, Kind::Distance, &mut plan);
+    colours(&body.bend, Kind::Bending, &mut plan);
+    colours(&body.tets, Kind::Volume, &mut plan);
+    colours(&body.tethers, Kind::Tether, &mut plan);
     let slots = plan.len() as u64 + 3;
     if slots * SLOT > ctx.limits.max_buffer_size {
         return Err(PhysicsError::Gpu("too many colours for the GPU".into()));
@@ -427,6 +427,8 @@ pub(crate) fn step(
         count: 0,
         serial: 0,
         predict_next: 0,
+        kind: 0,
+        pad: [0; 3],
     };
     // Slots: 0 predict, 1 finish and predict, 2 finish, then the colours.
     let mut bytes = vec![0u8; (gpu.colours.len() + 3) * SLOT as usize];
@@ -450,6 +452,7 @@ pub(crate) fn step(
                 offset: d.offset,
                 count: d.count,
                 serial: u32::from(d.serial),
+                kind: d.kind as u32,
                 ..base
             },
         );
@@ -484,7 +487,7 @@ pub(crate) fn step(
                     run(Entry::Finish, 1, particles);
                 }
                 for (c, d) in gpu.colours.iter().enumerate() {
-                    run(d.entry, c + 3, grids[c]);
+                    run(Entry::Project(d.kind), c + 3, grids[c]);
                 }
             }
             run(Entry::Finish, 2, particles);
