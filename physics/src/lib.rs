@@ -2,9 +2,10 @@
 //!
 //! The Inertia physics engine: particle systems stored as structure-of-arrays,
 //! composable force generators, a choice of integrators, mass-spring soft
-//! bodies, energy accounting, a state hash and exact save/restore, parallel
-//! and bit-deterministic CPU stepping, and (feature `gpu`) wgpu compute
-//! stepping.
+//! bodies, rigid bodies, XPBD soft bodies and position-based fluids
+//! ([`xpbd`]), energy accounting, a state hash and exact save/restore,
+//! parallel and bit-deterministic CPU stepping, and (feature `gpu`) wgpu
+//! compute stepping.
 //!
 //! No sockets, no async runtime, and no wall clock in the simulation: time is
 //! the `dt` the caller passes to [`World::step`]. Units are SI throughout

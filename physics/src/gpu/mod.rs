@@ -1,4 +1,6 @@
-//! GPU stepping of particle systems through wgpu compute (feature `gpu`).
+//! GPU stepping of particle systems and soft bodies through wgpu compute
+//! (feature `gpu`). Soft bodies are in `gpu/soft.rs`; the note below is about
+//! particle systems.
 //!
 //! # Design note
 //!
