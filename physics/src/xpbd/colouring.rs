@@ -16,8 +16,19 @@ use crate::parallel::for_each_item;
 /// projected in order.
 pub(crate) const PARALLEL_COLOURS: usize = 64;
 
-/// Constraints per parallel work item.
+/// Most constraints per parallel work item.
 const CHUNK: usize = 1024;
+/// Fewest constraints per parallel work item.
+const MIN_CHUNK: usize = 256;
+
+/// Constraints per work item for a colour of `n`: a quarter of the colour
+/// within `MIN_CHUNK..=CHUNK`, a multiple of four (whole lane groups), so
+/// that colours of a few thousand (a tetrahedral mesh has many) still
+/// split across threads. A function of the colour alone, never of the
+/// thread count.
+fn chunk_for(n: usize) -> usize {
+    (n / 4).clamp(MIN_CHUNK, CHUNK).next_multiple_of(4)
+}
 
 /// A constraint's particles.
 pub(crate) trait Touches {
@@ -168,7 +179,9 @@ impl<C: Touches + Clone + Sync> Coloured<C> {
             if self.overflow && k + 1 == n {
                 colour.iter().for_each(&project);
             } else {
-                for_each_item(colour, CHUNK, |chunk| chunk.iter().for_each(&project));
+                for_each_item(colour, chunk_for(colour.len()), |chunk| {
+                    chunk.iter().for_each(&project)
+                });
             }
         }
     }
@@ -192,7 +205,7 @@ impl<C: Touches + Clone + Sync> Coloured<C> {
             if self.overflow && k + 1 == n {
                 colour.iter().for_each(&one);
             } else {
-                for_each_item(colour, CHUNK, run);
+                for_each_item(colour, chunk_for(colour.len()), run);
             }
         }
     }
