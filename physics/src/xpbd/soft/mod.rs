@@ -596,8 +596,8 @@ impl SoftBody {
         }
     }
 
-    /// Moves a pinned particle (a scripted anchor); its velocity is taken
-    /// as the move over `dt`... (set by the world).
+    /// Moves a pinned particle (a scripted anchor) to `p`, m. A pinned
+    /// particle has no velocity: the constraints see only where it is.
     pub(crate) fn set_pin(&mut self, i: usize, p: Vec3) {
         self.x[i] = p;
         self.prev[i] = p;
