@@ -452,33 +452,3 @@ fn vorticity_confinement_keeps_a_swirl_going() {
     );
     assert!(with > without, "{with} <= {without}");
 }
-
-/// Times a step of about ten thousand particles resting in a tank, on one
-/// thread and on two. Run with
-/// `cargo test --release -p inertia-physics --lib fluid_step_timing -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn fluid_step_timing() {
-    let run = || {
-        let (mut fluid, mut bodies) = resting_tank(22, 21, 22, 0.1);
-        for _ in 0..30 {
-            step(&mut fluid, &mut bodies);
-        }
-        let steps = 60;
-        let start = std::time::Instant::now();
-        for _ in 0..steps {
-            step(&mut fluid, &mut bodies);
-        }
-        let ms = start.elapsed().as_secs_f64() * 1e3 / f64::from(steps);
-        (fluid.len(), fluid.neighbours.total() / fluid.len(), ms)
-    };
-    let (n, per, one) = crate::parallel::sequential(run);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
-        .build()
-        .unwrap();
-    let (_, _, two) = pool.install(run);
-    eprintln!(
-        "{n} particles, {per} neighbours each: {one:.2} ms a step on one thread, {two:.2} ms on two"
-    );
-}
