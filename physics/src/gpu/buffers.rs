@@ -54,7 +54,7 @@ pub(crate) struct Contents<'a> {
 }
 
 /// `data` as bytes, padded to at least `min` bytes.
-fn at_least(data: &[u8], min: usize) -> Vec<u8> {
+pub(crate) fn at_least(data: &[u8], min: usize) -> Vec<u8> {
     let mut v = data.to_vec();
     if v.len() < min {
         v.resize(min, 0);
@@ -210,20 +210,7 @@ impl GpuSystem {
             return Ok(Vec::new());
         }
         let bytes = u64::from(self.n) * std::mem::size_of::<Body>() as u64;
-        let slice = self.readback.slice(..bytes);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        ctx.wait()?;
-        rx.recv()
-            .map_err(|_| PhysicsError::Gpu("the readback never completed".into()))?
-            .map_err(|e| PhysicsError::Gpu(format!("mapping the readback buffer failed: {e}")))?;
-        let out = slice
-            .get_mapped_range()
-            .map(|view| bytemuck::pod_collect_to_vec::<u8, Body>(&view))
-            .map_err(|e| PhysicsError::Gpu(format!("reading back particle state: {e}")));
-        self.readback.unmap();
-        out
+        let data = ctx.read_back(&self.readback, bytes, "particle state")?;
+        Ok(bytemuck::pod_collect_to_vec::<u8, Body>(&data))
     }
 }

@@ -242,6 +242,50 @@ impl GpuContext {
         out
     }
 
+    /// Workgroups for `items` invocations, as an `(x, y)` grid when one
+    /// dimension is not enough; the shaders fold `y` back into a linear
+    /// index.
+    pub(crate) fn workgroups(&self, items: u32) -> Result<(u32, u32), PhysicsError> {
+        let groups = items.div_ceil(inertia_shaders::layout::WORKGROUP_SIZE);
+        let max = self.limits.max_compute_workgroups_per_dimension.max(1);
+        if groups <= max {
+            return Ok((groups, 1));
+        }
+        let y = groups.div_ceil(max);
+        if y > max {
+            return Err(PhysicsError::Gpu(format!(
+                "{items} items exceed the adapter's dispatch limits"
+            )));
+        }
+        Ok((max, y))
+    }
+
+    /// Maps the first `bytes` of the staging buffer `staging` (after a
+    /// submitted copy into it), returns them and unmaps it. Blocks until
+    /// the GPU is done; `what` names the data in errors.
+    pub(crate) fn read_back(
+        &self,
+        staging: &wgpu::Buffer,
+        bytes: u64,
+        what: &str,
+    ) -> Result<Vec<u8>, PhysicsError> {
+        let slice = staging.slice(..bytes);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        rx.recv()
+            .map_err(|_| PhysicsError::Gpu(format!("reading back {what} never completed")))?
+            .map_err(|e| PhysicsError::Gpu(format!("mapping {what} for reading failed: {e}")))?;
+        let out = slice
+            .get_mapped_range()
+            .map(|view| view.to_vec())
+            .map_err(|e| PhysicsError::Gpu(format!("reading back {what}: {e}")));
+        staging.unmap();
+        out
+    }
+
     /// Reports (once) an error that escaped every scope.
     pub(crate) fn check_uncaptured(&self) -> Result<(), PhysicsError> {
         match self.uncaptured.lock().ok().and_then(|mut s| s.take()) {

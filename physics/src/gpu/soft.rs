@@ -24,6 +24,7 @@ use crate::error::PhysicsError;
 use crate::xpbd::colouring::Coloured;
 use crate::xpbd::soft::SoftBody;
 
+use super::buffers::at_least;
 use super::context::GpuContext;
 
 /// Largest distance (m) a GPU-stepped soft body's particle may stand from
@@ -224,11 +225,8 @@ fn colours<C>(c: &Coloured<C>, kind: Kind, out: &mut Vec<Dispatch>) {
 }
 
 fn storage(ctx: &GpuContext, label: &str, bytes: &[u8], extra: wgpu::BufferUsages) -> wgpu::Buffer {
-    let mut data = bytes.to_vec();
     // Every binding holds at least one element.
-    if data.len() < 32 {
-        data.resize(32, 0);
-    }
+    let data = at_least(bytes, 32);
     ctx.device
         .create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
@@ -378,25 +376,6 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
     })
 }
 
-/// Workgroups for `items` invocations (as `(x, y)` when one dimension is
-/// not enough).
-fn groups(ctx: &GpuContext, items: u32) -> Result<(u32, u32), PhysicsError> {
-    let g = items
-        .div_ceil(inertia_shaders::layout::WORKGROUP_SIZE)
-        .max(1);
-    let max = ctx.limits.max_compute_workgroups_per_dimension.max(1);
-    if g <= max {
-        return Ok((g, 1));
-    }
-    let y = g.div_ceil(max);
-    if y > max {
-        return Err(PhysicsError::Gpu(format!(
-            "{items} items exceed the dispatch limits"
-        )));
-    }
-    Ok((max, y))
-}
-
 /// Steps `body` on the GPU by `dt` s under `gravity` (m/s², the world's);
 /// with `readback`, copies the new positions and velocities into the CPU
 /// mirror.
@@ -457,11 +436,11 @@ pub(crate) fn step(
             },
         );
     }
-    let particles = groups(ctx, gpu.n)?;
+    let particles = ctx.workgroups(gpu.n)?;
     let grids = gpu
         .colours
         .iter()
-        .map(|d| groups(ctx, if d.serial { 1 } else { d.count }))
+        .map(|d| ctx.workgroups(if d.serial { 1 } else { d.count }))
         .collect::<Result<Vec<_>, _>>()?;
     ctx.scoped("a GPU soft-body step", || {
         ctx.queue.write_buffer(&gpu.params, 0, &bytes);
@@ -493,9 +472,7 @@ pub(crate) fn step(
             run(Entry::Finish, 2, particles);
         }
         if readback {
-            let size = u64::from(gpu.n) * 16;
-            encoder.copy_buffer_to_buffer(&gpu.x, 0, &gpu.readback, 0, size);
-            encoder.copy_buffer_to_buffer(&gpu.v, 0, &gpu.readback, size, size);
+            gpu.record_readback(&mut encoder);
         }
         ctx.queue.submit([encoder.finish()]);
         Ok(())
@@ -508,27 +485,22 @@ pub(crate) fn step(
     Ok(())
 }
 
+impl GpuSoftBody {
+    /// Records a copy of the positions, then the velocities, into the
+    /// staging buffer.
+    fn record_readback(&self, encoder: &mut wgpu::CommandEncoder) {
+        let size = u64::from(self.n) * 16;
+        encoder.copy_buffer_to_buffer(&self.x, 0, &self.readback, 0, size);
+        encoder.copy_buffer_to_buffer(&self.v, 0, &self.readback, size, size);
+    }
+}
+
 /// Copies the GPU's positions and velocities into the CPU mirror (after
-/// a submitted copy into the staging buffer).
+/// a submitted [`GpuSoftBody::record_readback`]).
 fn read(ctx: &GpuContext, body: &mut SoftBody, gpu: &GpuSoftBody) -> Result<(), PhysicsError> {
     let n = gpu.n as usize;
-    let size = 2 * n as u64 * 16;
-    let slice = gpu.readback.slice(..size);
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    ctx.wait()?;
-    rx.recv()
-        .map_err(|_| PhysicsError::Gpu("the readback never completed".into()))?
-        .map_err(|e| PhysicsError::Gpu(format!("mapping the soft readback failed: {e}")))?;
-    let data: Vec<[f32; 4]> = {
-        let view = slice
-            .get_mapped_range()
-            .map_err(|e| PhysicsError::Gpu(format!("reading back a soft body: {e}")))?;
-        bytemuck::pod_collect_to_vec(&view)
-    };
-    gpu.readback.unmap();
+    let bytes = ctx.read_back(&gpu.readback, 2 * n as u64 * 16, "a soft body")?;
+    let data: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
     for i in 0..n {
         let [a, b, c, _] = data[i];
         let [d, e, f, _] = data[n + i];
@@ -552,9 +524,7 @@ pub(crate) fn download(
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("soft download"),
             });
-        let size = u64::from(gpu.n) * 16;
-        encoder.copy_buffer_to_buffer(&gpu.x, 0, &gpu.readback, 0, size);
-        encoder.copy_buffer_to_buffer(&gpu.v, 0, &gpu.readback, size, size);
+        gpu.record_readback(&mut encoder);
         ctx.queue.submit([encoder.finish()]);
         Ok(())
     })?;

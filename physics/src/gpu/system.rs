@@ -88,23 +88,6 @@ fn write_mirror(sys: &mut ParticleSystem, bodies: &[Body]) -> Result<(), Physics
     Ok(())
 }
 
-/// Workgroups for `items` invocations, as an `(x, y)` grid when one
-/// dimension is not enough; the shaders fold `y` back into a linear index.
-fn grid(ctx: &GpuContext, items: u32) -> Result<(u32, u32), PhysicsError> {
-    let groups = items.div_ceil(inertia_shaders::layout::WORKGROUP_SIZE);
-    let max = ctx.limits.max_compute_workgroups_per_dimension.max(1);
-    if groups <= max {
-        return Ok((groups, 1));
-    }
-    let y = groups.div_ceil(max);
-    if y > max {
-        return Err(PhysicsError::Gpu(format!(
-            "{items} items exceed the adapter's dispatch limits"
-        )));
-    }
-    Ok((max, y))
-}
-
 /// Steps one GPU system by `dt` s from time `t` s, cut into the same
 /// substeps as the CPU path (`ParticleSystem::substeps_for`: stiff springs
 /// are stepped at `h = dt / n`, and softened by the same factors when the
@@ -144,8 +127,8 @@ pub(crate) fn step_system(
             "the system changed shape since its upload; move it to the CPU and back".into(),
         ));
     }
-    let springs_grid = grid(ctx, first.n_springs)?;
-    let particles_grid = grid(ctx, first.n)?;
+    let springs_grid = ctx.workgroups(first.n_springs)?;
+    let particles_grid = ctx.workgroups(first.n)?;
     ctx.scoped("a GPU particle step", || {
         for (k, params) in blocks.iter().enumerate() {
             // Written before this submission runs, after the previous one.
