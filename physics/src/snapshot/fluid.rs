@@ -4,23 +4,13 @@
 
 use glam::DVec3;
 
-use super::{invalid, Reader, Sink, SnapshotError};
+use super::{invalid, option_f64, Reader, Sink, SnapshotError};
 use crate::xpbd::fluid::{Fluid, FluidDesc, MAX_FLUID_PARTICLES};
-
-fn option<S: Sink>(s: &mut S, v: Option<f64>) {
-    match v {
-        None => s.u8(0),
-        Some(x) => {
-            s.u8(1);
-            s.f64(x);
-        }
-    }
-}
 
 pub(super) fn fluid<S: Sink>(s: &mut S, f: &Fluid) {
     let d = f.params();
     s.f64(d.spacing);
-    option(s, d.kernel_radius);
+    option_f64(s, d.kernel_radius);
     s.f64(d.rest_density);
     s.u32(d.substeps);
     s.f64(d.viscosity);
@@ -30,7 +20,7 @@ pub(super) fn fluid<S: Sink>(s: &mut S, f: &Fluid) {
     s.f64(d.tensile_dq);
     s.f64(d.relaxation);
     s.f64(d.gravity_scale);
-    option(s, d.collision_radius);
+    option_f64(s, d.collision_radius);
     s.f64(d.friction);
     s.u64(d.max_particles as u64);
     s.u64(f.len() as u64);
@@ -42,17 +32,9 @@ pub(super) fn fluid<S: Sink>(s: &mut S, f: &Fluid) {
 }
 
 impl Reader<'_> {
-    fn fluid_option(&mut self, what: &str) -> Result<Option<f64>, SnapshotError> {
-        match self.u8()? {
-            0 => Ok(None),
-            1 => Ok(Some(self.finite(what)?)),
-            t => invalid(format!("{what} tag {t}")),
-        }
-    }
-
     pub(super) fn fluid(&mut self) -> Result<Fluid, SnapshotError> {
         let mut d = FluidDesc::new(self.finite("fluid spacing")?);
-        d.kernel_radius = self.fluid_option("fluid kernel radius")?;
+        d.kernel_radius = self.option_f64("fluid kernel radius")?;
         d.rest_density = self.finite("fluid rest density")?;
         d.substeps = self.u32()?;
         d.viscosity = self.finite("fluid viscosity")?;
@@ -62,7 +44,7 @@ impl Reader<'_> {
         d.tensile_dq = self.finite("fluid tensile dq")?;
         d.relaxation = self.finite("fluid relaxation")?;
         d.gravity_scale = self.finite("fluid gravity scale")?;
-        d.collision_radius = self.fluid_option("fluid collision radius")?;
+        d.collision_radius = self.option_f64("fluid collision radius")?;
         d.friction = self.finite("fluid friction")?;
         let cap = self.u64()?;
         if cap == 0 || cap > MAX_FLUID_PARTICLES as u64 {

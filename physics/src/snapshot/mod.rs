@@ -124,6 +124,17 @@ fn len<S: Sink>(s: &mut S, n: usize) {
     s.u64(n as u64);
 }
 
+/// An optional number: a tag byte, then the number when present.
+fn option_f64<S: Sink>(s: &mut S, v: Option<f64>) {
+    match v {
+        None => s.u8(0),
+        Some(x) => {
+            s.u8(1);
+            s.f64(x);
+        }
+    }
+}
+
 fn vec3s<S: Sink>(s: &mut S, v: &[DVec3]) {
     len(s, v.len());
     for &x in v {
@@ -392,6 +403,14 @@ impl<'a> Reader<'a> {
             return Err(SnapshotError::Truncated(self.b.len()));
         }
         Ok(n as usize)
+    }
+    /// What [`option_f64`] wrote; a present number must be finite.
+    fn option_f64(&mut self, what: &str) -> Result<Option<f64>, SnapshotError> {
+        match self.u8()? {
+            0 => Ok(None),
+            1 => Ok(Some(self.finite(what)?)),
+            t => invalid(format!("{what} tag {t}")),
+        }
     }
     fn vec3s(&mut self, what: &str) -> Result<Vec<DVec3>, SnapshotError> {
         let n = self.count(24)?;

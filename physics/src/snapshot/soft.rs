@@ -9,7 +9,7 @@
 
 use glam::Vec3;
 
-use super::{invalid, Reader, Sink, SnapshotError};
+use super::{invalid, option_f64, Reader, Sink, SnapshotError};
 use crate::xpbd::colouring::{Coloured, Touches};
 use crate::xpbd::soft::constraints::{Bend, Distance, Tet, Tether};
 use crate::xpbd::soft::{
@@ -42,16 +42,6 @@ fn coloured<S: Sink, C>(s: &mut S, c: &Coloured<C>, mut item: impl FnMut(&mut S,
         s.u32(*e);
     }
     s.u8(u8::from(c.overflow));
-}
-
-fn option<S: Sink>(s: &mut S, v: Option<f64>) {
-    match v {
-        None => s.u8(0),
-        Some(x) => {
-            s.u8(1);
-            s.f64(x);
-        }
-    }
 }
 
 pub(super) fn soft_body<S: Sink>(s: &mut S, b: &SoftBody) {
@@ -116,7 +106,7 @@ pub(super) fn soft_body<S: Sink>(s: &mut S, b: &SoftBody) {
             s.f64(p.max_strain);
         }
     }
-    option(s, m.tear_strain);
+    option_f64(s, m.tear_strain);
 }
 
 impl Reader<'_> {
@@ -166,14 +156,6 @@ impl Reader<'_> {
         };
         Coloured::from_parts(items, ends, overflow, w)
             .ok_or_else(|| SnapshotError::Invalid("a soft body's colouring is not valid".into()))
-    }
-
-    fn option_f64(&mut self, what: &str) -> Result<Option<f64>, SnapshotError> {
-        match self.u8()? {
-            0 => Ok(None),
-            1 => Ok(Some(self.finite(what)?)),
-            t => invalid(format!("{what} tag {t}")),
-        }
     }
 
     pub(super) fn soft_body(&mut self) -> Result<SoftBody, SnapshotError> {
