@@ -55,6 +55,26 @@ where
         .collect()
 }
 
+/// Like [`par_map_chunks`], reading `a` only.
+pub(crate) fn map_chunks<A, R, F>(a: &[A], chunk: usize, f: F) -> Vec<R>
+where
+    A: Sync,
+    R: Send,
+    F: Fn(usize, &[A]) -> R + Sync + Send,
+{
+    if a.len() <= chunk || inline() {
+        return a
+            .chunks(chunk)
+            .enumerate()
+            .map(|(c, a)| f(c * chunk, a))
+            .collect();
+    }
+    a.par_chunks(chunk)
+        .enumerate()
+        .map(|(c, a)| f(c * chunk, a))
+        .collect()
+}
+
 /// Runs `f(chunk)` over `chunk`-sized pieces of `items`, in parallel when
 /// there are at least two pieces. For work whose result does not depend on
 /// the order the pieces run in.

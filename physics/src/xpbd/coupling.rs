@@ -25,7 +25,7 @@
 use glam::{DMat3, DVec3, Vec3};
 
 use crate::arena::Arena;
-use crate::parallel::{par_map_chunks, CHUNK};
+use crate::parallel::{map_chunks, CHUNK};
 use crate::rigid::aabb::Aabb;
 use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::pose::Pose;
@@ -220,8 +220,7 @@ impl<'a> Coupling<'a> {
         let mut start = Vec::with_capacity(x.len() + 1);
         let mut candidates = Vec::new();
         if !targets.is_empty() {
-            let mut x_copy = x.to_vec();
-            let found = par_map_chunks(&mut x_copy, CHUNK, |base, xs| {
+            let found = map_chunks(x, CHUNK, |base, xs| {
                 let mut counts = Vec::with_capacity(xs.len());
                 let mut list = Vec::new();
                 for (k, p) in xs.iter().enumerate() {
