@@ -24,47 +24,14 @@
 //! particle, which is fine for the few bodies cloth and ropes drape over; a
 //! broad-phase query would serve crowds.
 
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 
 use crate::arena::Arena;
 use crate::parallel::{par_map_chunks4, CHUNK};
 use crate::particle_system::ParticleSystem;
-use crate::rigid::aabb::Aabb;
-use crate::rigid::body::{BodyKind, RigidBody};
-use crate::rigid::pose::Pose;
+use crate::rigid::body::RigidBody;
 use crate::rigid::query::project_point_shape;
-use crate::rigid::shape::Shape;
-
-/// A body as the particles see it.
-struct Target<'a> {
-    /// Arena index and generation.
-    key: (u32, u32),
-    shape: &'a Shape,
-    pose: Pose,
-    aabb: Aabb,
-    com: DVec3,
-    linvel: DVec3,
-    angvel: DVec3,
-    /// 0 for bodies that particles cannot move (static, kinematic).
-    inv_mass: f64,
-    inv_inertia: DMat3,
-}
-
-impl Target<'_> {
-    fn velocity_at(&self, p: DVec3) -> DVec3 {
-        self.linvel + self.angvel.cross(p - self.com)
-    }
-
-    /// `1/M + (r × d) · I⁻¹ (r × d)`: the body's share of the inverse
-    /// effective mass along `d` at `p`, 1/kg.
-    fn inv_mass_along(&self, p: DVec3, d: DVec3) -> f64 {
-        if self.inv_mass == 0.0 {
-            return 0.0;
-        }
-        let c = (p - self.com).cross(d);
-        self.inv_mass + c.dot(self.inv_inertia * c)
-    }
-}
+use crate::xpbd::coupling::Target;
 
 /// An impulse a particle gave a body: the body's key, the point (m) and
 /// the impulse (N·s).
@@ -80,27 +47,7 @@ pub(crate) fn resolve(sys: &mut ParticleSystem, bodies: &mut Arena<RigidBody>) -
     let friction = sys.collision_friction;
     let targets: Vec<Target<'_>> = bodies
         .iter()
-        .filter(|(_, _, b)| !b.sensor)
-        .filter_map(|(index, generation, b)| {
-            let shape = b.shape.as_ref()?;
-            let pose = b.pose();
-            let movable = b.kind == BodyKind::Dynamic && !b.quarantined;
-            Some(Target {
-                key: (index, generation),
-                shape,
-                pose,
-                aabb: shape.aabb(&pose).expanded(radius),
-                com: b.com,
-                linvel: b.linvel,
-                angvel: b.angvel,
-                inv_mass: if movable { b.inv_mass } else { 0.0 },
-                inv_inertia: if movable {
-                    b.inverse_inertia_world()
-                } else {
-                    DMat3::ZERO
-                },
-            })
-        })
+        .filter_map(|(index, generation, b)| Target::of((index, generation), b, radius))
         .collect();
     let ParticleSystem {
         position,
@@ -176,7 +123,7 @@ pub(crate) fn resolve(sys: &mut ParticleSystem, bodies: &mut Arena<RigidBody>) -
                     // A particle of infinite mass (pinned) is skipped above by
                     // its flag; w > 0 here.
                     vs[k] += j * w;
-                    if t.inv_mass > 0.0 {
+                    if t.movable() {
                         impulses.push((t.key, p.point, -j));
                     }
                 }

@@ -36,10 +36,10 @@ use crate::rigid::shape::Shape;
 pub(crate) struct Target<'a> {
     /// Arena index and generation.
     pub(crate) key: (u32, u32),
-    shape: &'a Shape,
-    pose: Pose,
+    pub(crate) shape: &'a Shape,
+    pub(crate) pose: Pose,
     /// The shape's box, widened by the reach.
-    aabb: Aabb,
+    pub(crate) aabb: Aabb,
     com: DVec3,
     linvel: DVec3,
     angvel: DVec3,
@@ -86,7 +86,35 @@ fn turned(q: glam::DQuat, theta: DVec3) -> glam::DQuat {
     (q + t * 0.5).normalize()
 }
 
-impl Target<'_> {
+impl<'a> Target<'a> {
+    /// Body `b` (arena key `key`) as particles see it, its box widened by
+    /// `reach` (m); `None` for sensors and bodies without a shape.
+    pub(crate) fn of(key: (u32, u32), b: &'a RigidBody, reach: f64) -> Option<Self> {
+        if b.sensor {
+            return None;
+        }
+        let shape = b.shape.as_ref()?;
+        let pose = b.pose();
+        let movable = b.kind == BodyKind::Dynamic && !b.quarantined;
+        Some(Target {
+            key,
+            shape,
+            aabb: shape.aabb(&pose).expanded(reach),
+            pose,
+            com: b.com,
+            linvel: b.linvel,
+            angvel: b.angvel,
+            inv_mass: if movable { b.inv_mass } else { 0.0 },
+            inv_inertia: if movable {
+                b.inverse_inertia_world()
+            } else {
+                DMat3::ZERO
+            },
+            friction: b.friction_dynamic,
+            moved: Motion::default(),
+        })
+    }
+
     /// Velocity of the body's material at `p`, m/s.
     pub(crate) fn velocity_at(&self, p: DVec3) -> DVec3 {
         self.linvel + self.angvel.cross(p - self.com)
@@ -188,33 +216,10 @@ impl<'a> Coupling<'a> {
         let bounds = bounds.expanded(reach);
         let targets: Vec<Target<'a>> = bodies
             .iter()
-            .filter(|(_, _, b)| !b.sensor)
             .filter_map(|(index, generation, b)| {
-                let shape = b.shape.as_ref()?;
-                let pose = b.pose();
-                let aabb = shape.aabb(&pose).expanded(reach);
+                let t = Target::of((index, generation), b, reach)?;
                 let wanted = always.contains(&(index, generation));
-                if !wanted && !aabb.intersects(&bounds) {
-                    return None;
-                }
-                let movable = b.kind == BodyKind::Dynamic && !b.quarantined;
-                Some(Target {
-                    key: (index, generation),
-                    shape,
-                    pose,
-                    aabb,
-                    com: b.com,
-                    linvel: b.linvel,
-                    angvel: b.angvel,
-                    inv_mass: if movable { b.inv_mass } else { 0.0 },
-                    inv_inertia: if movable {
-                        b.inverse_inertia_world()
-                    } else {
-                        DMat3::ZERO
-                    },
-                    friction: b.friction_dynamic,
-                    moved: Motion::default(),
-                })
+                (wanted || t.aabb.intersects(&bounds)).then_some(t)
             })
             .collect();
         let mut start = Vec::with_capacity(x.len() + 1);
