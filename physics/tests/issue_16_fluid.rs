@@ -1,65 +1,20 @@
 //! Fluids (position-based fluids on small steps) in a world: what issue
 //! 16 asks of them.
 
-use inertia_physics::glam::{DQuat, DVec3};
+use inertia_physics::glam::DVec3;
 use inertia_physics::rigid::body::RigidBodyDesc;
-use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
-use inertia_physics::{
-    BodyHandle, FluidDesc, FluidHandle, PhysicsError, SoftMaterial, SoftRope, World, WorldConfig,
-};
+use inertia_physics::{FluidDesc, FluidHandle, PhysicsError, SoftMaterial, SoftRope};
+
+mod common;
+
+use common::{at, earth_world, tank};
 
 const DT: f64 = 1.0 / 60.0;
 
-fn world(threads: usize) -> World {
-    let mut w = World::new(WorldConfig {
-        threads,
-        ..WorldConfig::default()
-    })
-    .unwrap();
-    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
-    w
-}
-
-fn at(p: DVec3) -> Pose {
-    Pose {
-        translation: p,
-        rotation: DQuat::IDENTITY,
-    }
-}
-
-/// A tank open at the top, inside from `min` to `max` (m): a floor and
-/// four walls of static boxes 0.2 m thick.
-fn tank(w: &mut World, min: DVec3, max: DVec3) {
-    let t = 0.2;
-    let size = max - min;
-    let c = (min + max) * 0.5;
-    let mut add = |centre: DVec3, half: DVec3| {
-        w.add_body(&RigidBodyDesc::fixed(
-            Shape::cuboid(half).unwrap(),
-            at(centre),
-        ))
-        .unwrap();
-    };
-    add(
-        DVec3::new(c.x, min.y - t / 2.0, c.z),
-        DVec3::new(size.x / 2.0 + t, t / 2.0, size.z / 2.0 + t),
-    );
-    for side in [-1.0, 1.0] {
-        add(
-            DVec3::new(c.x + side * (size.x + t) / 2.0, c.y, c.z),
-            DVec3::new(t / 2.0, size.y / 2.0, size.z / 2.0 + t),
-        );
-        add(
-            DVec3::new(c.x, c.y, c.z + side * (size.z + t) / 2.0),
-            DVec3::new(size.x / 2.0, size.y / 2.0, t / 2.0),
-        );
-    }
-}
-
 #[test]
 fn issue_16_a_resting_tank_reaches_rest_density_and_its_level() {
-    let mut w = world(2);
+    let mut w = earth_world(2);
     let s = 0.1;
     let size = DVec3::new(1.2, 1.2, 1.2);
     tank(&mut w, DVec3::ZERO, DVec3::new(1.2, 2.4, 1.2));
@@ -100,7 +55,7 @@ fn issue_16_a_resting_tank_reaches_rest_density_and_its_level() {
 /// A pool with a crate of `density` dropped on it; the crate's mean
 /// submerged fraction over the last two of `seconds`, and its tilt.
 fn float(density: f64, seconds: f64) -> (f64, f64) {
-    let mut w = world(2);
+    let mut w = earth_world(2);
     // Fine enough that the crate is many kernels wide: the walls' density
     // term takes a body's surface as flat, and overcounts at its edges.
     let s = 0.05;
@@ -145,7 +100,6 @@ fn float(density: f64, seconds: f64) -> (f64, f64) {
             tilt = tilt.max(up.angle_between(DVec3::Y));
         }
     }
-    let _: BodyHandle = crate_;
     (sum / count as f64, tilt)
 }
 
@@ -169,7 +123,7 @@ fn issue_16_a_crate_of_half_the_fluids_density_floats_about_half_submerged() {
 
 #[test]
 fn issue_16_a_dam_break_pushes_a_crate() {
-    let mut w = world(2);
+    let mut w = earth_world(2);
     let s = 0.1;
     tank(&mut w, DVec3::ZERO, DVec3::new(4.0, 2.0, 1.0));
     let h = w
@@ -206,7 +160,7 @@ fn issue_16_a_dam_break_pushes_a_crate() {
 #[test]
 fn issue_16_fluids_step_alike_on_one_and_two_threads_and_after_a_restore() {
     let build = |threads| {
-        let mut w = world(threads);
+        let mut w = earth_world(threads);
         tank(&mut w, DVec3::ZERO, DVec3::new(1.0, 2.0, 1.0));
         let h = w
             .add_fluid(FluidDesc::block(DVec3::ZERO, DVec3::new(1.0, 0.8, 0.6), 0.05).unwrap())
@@ -257,7 +211,7 @@ fn issue_16_fluids_step_alike_on_one_and_two_threads_and_after_a_restore() {
 
 #[test]
 fn issue_16_bad_fluids_are_refused_and_emitters_keep_to_their_cap() {
-    let mut w = world(1);
+    let mut w = earth_world(1);
     let mut bad = FluidDesc::new(0.1);
     bad.spacing = -1.0;
     assert!(matches!(

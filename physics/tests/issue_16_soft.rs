@@ -5,37 +5,19 @@ use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{
-    BodyHandle, PhysicsError, Plasticity, SoftBodyDesc, SoftCloth, SoftMaterial, SoftRope,
-    SoftSolid, SolidShape, World, WorldConfig,
+    PhysicsError, Plasticity, SoftBodyDesc, SoftCloth, SoftMaterial, SoftRope, SoftSolid,
+    SolidShape, World,
 };
+
+mod common;
+
+use common::{earth_world, ground};
 
 const DT: f64 = 1.0 / 60.0;
 
-fn world(threads: usize) -> World {
-    let mut w = World::new(WorldConfig {
-        threads,
-        ..WorldConfig::default()
-    })
-    .unwrap();
-    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
-    w
-}
-
-fn ground(w: &mut World) -> BodyHandle {
-    let pose = Pose {
-        translation: DVec3::new(0.0, -0.5, 0.0),
-        rotation: DQuat::IDENTITY,
-    };
-    w.add_body(&RigidBodyDesc::fixed(
-        Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
-        pose,
-    ))
-    .unwrap()
-}
-
 #[test]
 fn issue_16_a_rope_of_50_segments_holding_10_kg_at_60_hz_stretches_under_1_percent() {
-    let mut w = world(1);
+    let mut w = earth_world(1);
     let rope = SoftRope {
         start: DVec3::new(0.0, 10.0, 0.0),
         end: DVec3::new(5.0, 10.0, 0.0),
@@ -81,7 +63,7 @@ fn issue_16_a_rope_of_50_segments_holding_10_kg_at_60_hz_stretches_under_1_perce
 
 #[test]
 fn issue_16_cloth_under_gravity_stretches_under_2_percent_at_60_hz() {
-    let mut w = world(2);
+    let mut w = earth_world(2);
     let cloth = SoftCloth {
         corner: DVec3::new(-1.0, 3.0, 0.0),
         across: DVec3::new(2.0, 0.0, 0.0),
@@ -145,7 +127,7 @@ fn height(b: &inertia_physics::SoftBody) -> f32 {
 
 #[test]
 fn issue_16_a_resting_soft_cube_keeps_its_volume_and_recovers_from_a_squash() {
-    let mut w = world(1);
+    let mut w = earth_world(1);
     ground(&mut w);
     let h = jelly(&mut w, DVec3::new(0.0, 0.27, 0.0));
     for _ in 0..120 {
@@ -211,7 +193,7 @@ fn issue_16_a_resting_soft_cube_keeps_its_volume_and_recovers_from_a_squash() {
 /// and holds it there a second, then lets go. Returns the tip's sag (m)
 /// while held and two seconds after it was let go.
 fn bend_bar(push: f64) -> (f32, f32) {
-    let mut w = world(1);
+    let mut w = earth_world(1);
     w.set_gravity(DVec3::ZERO).unwrap();
     let solid = SoftSolid {
         shape: SolidShape::Box {
@@ -302,7 +284,7 @@ fn issue_16_a_bar_bent_past_yield_keeps_a_set_and_one_bent_below_it_returns() {
 
 #[test]
 fn issue_16_a_tearing_cloth_tears_where_the_strain_is_highest() {
-    let mut w = world(1);
+    let mut w = earth_world(1);
     let n = 20;
     let cloth = SoftCloth {
         corner: DVec3::new(-1.0, 3.0, 0.0),
@@ -367,7 +349,7 @@ fn issue_16_a_tearing_cloth_tears_where_the_strain_is_highest() {
 #[test]
 fn issue_16_soft_bodies_step_alike_on_one_and_two_threads() {
     let run = |threads| {
-        let mut w = world(threads);
+        let mut w = earth_world(threads);
         ground(&mut w);
         jelly(&mut w, DVec3::new(0.0, 0.6, 0.0));
         let cloth = SoftCloth {
@@ -399,7 +381,7 @@ fn issue_16_soft_bodies_step_alike_on_one_and_two_threads() {
 
 #[test]
 fn issue_16_bad_soft_bodies_are_refused_with_typed_errors() {
-    let mut w = world(1);
+    let mut w = earth_world(1);
     let ok = SoftRope::default().build().unwrap();
     let mut bad = ok.clone();
     bad.edges[0].compliance = -1.0;
@@ -465,7 +447,7 @@ fn issue_16_bad_soft_bodies_are_refused_with_typed_errors() {
 #[test]
 fn issue_16_a_restored_soft_world_steps_on_with_the_same_bits() {
     let build = || {
-        let mut w = world(2);
+        let mut w = earth_world(2);
         ground(&mut w);
         let h = jelly(&mut w, DVec3::new(0.0, 0.6, 0.0));
         let mut rope = SoftRope {
@@ -528,7 +510,7 @@ fn issue_16_a_restored_soft_world_steps_on_with_the_same_bits() {
 
 #[test]
 fn issue_16_a_saved_soft_body_with_a_broken_colouring_is_refused() {
-    let mut w = world(1);
+    let mut w = earth_world(1);
     let cloth = SoftCloth {
         rows: 4,
         cols: 4,
@@ -558,7 +540,7 @@ fn issue_16_a_saved_soft_body_with_a_broken_colouring_is_refused() {
     let mut bad = saved.clone();
     bad[at + 4..at + 8].copy_from_slice(&4u32.to_le_bytes());
     inertia_physics::snapshot::reseal(&mut bad);
-    let mut other = world(1);
+    let mut other = earth_world(1);
     let err = other.restore(&bad);
     assert!(
         matches!(&err, Err(inertia_physics::SnapshotError::Invalid(m)) if m.contains("colouring")),
@@ -571,7 +553,7 @@ fn issue_16_a_saved_soft_body_with_a_broken_colouring_is_refused() {
 
 #[test]
 fn issue_16_an_inflated_balloon_keeps_its_volume_on_the_ground() {
-    let mut w = world(1);
+    let mut w = earth_world(1);
     ground(&mut w);
     let balloon = inertia_physics::SoftBalloon {
         centre: DVec3::new(0.0, 1.0, 0.0),
@@ -621,7 +603,7 @@ fn issue_16_solids_fill_a_ball_and_a_closed_mesh() {
     }
     .build()
     .unwrap();
-    let mut w = world(1);
+    let mut w = earth_world(1);
     let h = w.add_soft_body(&ball).unwrap();
     let v = w.soft_body(h).unwrap().rest_volume();
     let exact = 4.0 / 3.0 * std::f32::consts::PI * 0.125;
@@ -682,7 +664,7 @@ fn issue_16_solids_fill_a_ball_and_a_closed_mesh() {
 #[test]
 fn issue_16_cloth_with_self_collision_keeps_its_layers_apart() {
     let run = |self_collision: bool| {
-        let mut w = world(2);
+        let mut w = earth_world(2);
         ground(&mut w);
         let r = 0.012;
         let cloth = SoftCloth {

@@ -6,8 +6,8 @@ use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{
-    GravityMethod, Integrator, MutualGravity, ParticleDesc, ParticleHandle, SpringParams,
-    SystemDesc, SystemHandle, World, WorldConfig,
+    BodyHandle, GravityMethod, Integrator, MutualGravity, ParticleDesc, ParticleHandle,
+    SpringParams, SystemDesc, SystemHandle, World, WorldConfig,
 };
 
 pub fn world() -> World {
@@ -269,4 +269,63 @@ pub fn bounce_ratio(e: f64, h: f64, hz: f64) -> f64 {
         }
     }
     apex / (e * e * h)
+}
+
+// ----- soft bodies and fluids (issue 16) -----
+
+/// A world of `threads` workers under Earth's gravity.
+pub fn earth_world(threads: usize) -> World {
+    let mut w = World::new(WorldConfig {
+        threads,
+        ..WorldConfig::default()
+    })
+    .unwrap();
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    w
+}
+
+/// A pose at `p` (m), unturned.
+pub fn at(p: DVec3) -> Pose {
+    Pose {
+        translation: p,
+        rotation: DQuat::IDENTITY,
+    }
+}
+
+/// A static slab 40 m wide whose top is the plane y = 0.
+pub fn ground(w: &mut World) -> BodyHandle {
+    w.add_body(&RigidBodyDesc::fixed(
+        Shape::cuboid(DVec3::new(20.0, 0.5, 20.0)).unwrap(),
+        at(DVec3::new(0.0, -0.5, 0.0)),
+    ))
+    .unwrap()
+}
+
+/// A tank open at the top, inside from `min` to `max` (m): a floor and
+/// four walls of static boxes 0.2 m thick.
+pub fn tank(w: &mut World, min: DVec3, max: DVec3) {
+    let t = 0.2;
+    let size = max - min;
+    let c = (min + max) * 0.5;
+    let mut add = |centre: DVec3, half: DVec3| {
+        w.add_body(&RigidBodyDesc::fixed(
+            Shape::cuboid(half).unwrap(),
+            at(centre),
+        ))
+        .unwrap();
+    };
+    add(
+        DVec3::new(c.x, min.y - t / 2.0, c.z),
+        DVec3::new(size.x / 2.0 + t, t / 2.0, size.z / 2.0 + t),
+    );
+    for side in [-1.0, 1.0] {
+        add(
+            DVec3::new(c.x + side * (size.x + t) / 2.0, c.y, c.z),
+            DVec3::new(t / 2.0, size.y / 2.0, size.z / 2.0 + t),
+        );
+        add(
+            DVec3::new(c.x, c.y, c.z + side * (size.z + t) / 2.0),
+            DVec3::new(size.x / 2.0, size.y / 2.0, t / 2.0),
+        );
+    }
 }
