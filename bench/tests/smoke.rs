@@ -36,6 +36,21 @@ fn run(suite: &str) -> Vec<Map<String, Value>> {
     lines
 }
 
+/// Runs `inertia-bench SUITE --plot DIR --from RESULTS`.
+fn plot_from(
+    suite: &str,
+    dir: &std::path::Path,
+    results: &std::path::Path,
+) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_inertia-bench"))
+        .args([suite, "--plot"])
+        .arg(dir)
+        .arg("--from")
+        .arg(results)
+        .output()
+        .expect("run inertia-bench")
+}
+
 fn num(m: &Map<String, Value>, k: &str) -> f64 {
     m.get(k)
         .and_then(Value::as_f64)
@@ -332,10 +347,7 @@ fn plots_are_drawn_from_a_results_file() {
     let _ = std::fs::remove_dir_all(&dir);
     let results = concat!(env!("CARGO_MANIFEST_DIR"), "/results/xeon-2core.jsonl");
     for suite in ["physics", "capacity"] {
-        let out = Command::new(env!("CARGO_BIN_EXE_inertia-bench"))
-            .args([suite, "--plot", dir.to_str().unwrap(), "--from", results])
-            .output()
-            .expect("run inertia-bench");
+        let out = plot_from(suite, &dir, results.as_ref());
         assert!(
             out.status.success(),
             "{}",
@@ -347,16 +359,7 @@ fn plots_are_drawn_from_a_results_file() {
     std::fs::create_dir_all(&dir).unwrap();
     let bad = dir.join("bad.jsonl");
     std::fs::write(&bad, "not json\n").unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_inertia-bench"))
-        .args([
-            "physics",
-            "--plot",
-            dir.to_str().unwrap(),
-            "--from",
-            bad.to_str().unwrap(),
-        ])
-        .output()
-        .expect("run inertia-bench");
+    let out = plot_from("physics", &dir, &bad);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("bad.jsonl:1"));
     let _ = std::fs::remove_dir_all(&dir);
@@ -431,16 +434,7 @@ fn soft_suite() {
         .map(|m| serde_json::to_string(m).unwrap() + "\n")
         .collect();
     std::fs::write(&results, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_inertia-bench"))
-        .args([
-            "soft",
-            "--plot",
-            dir.to_str().unwrap(),
-            "--from",
-            results.to_str().unwrap(),
-        ])
-        .output()
-        .expect("run inertia-bench");
+    let out = plot_from("soft", &dir, &results);
     assert!(
         out.status.success(),
         "{}",
