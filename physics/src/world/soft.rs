@@ -209,14 +209,8 @@ impl World {
             }
             body.attachments
                 .retain(|a| bodies.get(a.body.index, a.body.generation).is_some());
-            let fastest = body
-                .v
-                .iter()
-                .map(|v| v.length_squared())
-                .fold(0.0f32, f32::max)
-                .sqrt();
-            let g = gravity.length() * body.material.gravity_scale.abs() as f32;
-            let reach = body.material.collision_radius as f32 + (fastest + g * dt32) * dt32 + 1e-3;
+            let travel = body.travel(dt32, gravity);
+            let reach = body.material.collision_radius as f32 + travel + 1e-3;
             let always: Vec<(u32, u32)> = body
                 .attachments
                 .iter()
@@ -228,7 +222,7 @@ impl World {
             } else {
                 Coupling::default()
             };
-            soft::step(body, dt32, gravity, &mut coupling);
+            soft::step(body, dt32, gravity, travel, &mut coupling);
             changes.extend(coupling.finish());
             if config.energy_accounting {
                 let g = gravity.as_dvec3() * body.material.gravity_scale;

@@ -568,6 +568,20 @@ impl SoftBody {
         enclosed_volume(&self.x, &self.triangles)
     }
 
+    /// How far a particle can go in a step of `dt` s under `gravity`
+    /// (m/s², the world's): the fastest particle's speed and what gravity
+    /// adds over the step, times `dt`, m.
+    pub(crate) fn travel(&self, dt: f32, gravity: Vec3) -> f32 {
+        let fastest = self
+            .v
+            .iter()
+            .map(|v| v.length_squared())
+            .fold(0.0f32, f32::max)
+            .sqrt();
+        let g = gravity.length() * self.material.gravity_scale.abs() as f32;
+        (fastest + g * dt) * dt
+    }
+
     /// Kinetic energy, J.
     pub fn kinetic_energy(&self) -> f64 {
         self.v

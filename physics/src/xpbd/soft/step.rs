@@ -10,8 +10,15 @@ use super::super::scatter::Scatter;
 use super::{lanes, SoftBody, MAX_TEARS_PER_STEP};
 
 /// Steps `body` by `dt` seconds under `gravity` (m/s², the world's), with
-/// the rigid bodies of `coupling` as obstacles and anchors.
-pub(crate) fn step(body: &mut SoftBody, dt: f32, gravity: Vec3, coupling: &mut Coupling<'_>) {
+/// the rigid bodies of `coupling` as obstacles and anchors. `travel` is
+/// how far a particle can go in the step (m, [`SoftBody::travel`]).
+pub(crate) fn step(
+    body: &mut SoftBody,
+    dt: f32,
+    gravity: Vec3,
+    travel: f32,
+    coupling: &mut Coupling<'_>,
+) {
     let n = body.material.substeps.max(1);
     let h = dt / n as f32;
     let inv_h2 = 1.0 / (h * h);
@@ -34,14 +41,8 @@ pub(crate) fn step(body: &mut SoftBody, dt: f32, gravity: Vec3, coupling: &mut C
     let self_collide = body.material.self_collision && radius > 0.0;
     let mut self_collision = std::mem::take(&mut body.self_collision);
     if self_collide {
-        let fastest = body
-            .v
-            .iter()
-            .map(|v| v.length_squared())
-            .fold(0.0f32, f32::max)
-            .sqrt();
-        let reach = 2.0 * radius + 2.0 * (fastest + g.length() * dt) * dt;
-        self_collision.prepare(body, reach);
+        // Both particles of a pair may travel.
+        self_collision.prepare(body, 2.0 * radius + 2.0 * travel);
     }
     for k in 0..n {
         if k == 0 {
@@ -86,7 +87,20 @@ pub(crate) fn step(body: &mut SoftBody, dt: f32, gravity: Vec3, coupling: &mut C
     }
 }
 
-/// `v += g h`, `prev = x`, `x += v h` for every particle that can move.
+/// `prev = x`, then `v += g h` and `x += v h` for a particle that can
+/// move (inverse mass `w > 0`); a pinned one keeps no velocity.
+#[inline(always)]
+fn predict_particle(x: &mut Vec3, v: &mut Vec3, prev: &mut Vec3, w: f32, g: Vec3, h: f32) {
+    *prev = *x;
+    if w > 0.0 {
+        *v += g * h;
+        *x += *v * h;
+    } else {
+        *v = Vec3::ZERO;
+    }
+}
+
+/// The first substep's prediction, every particle.
 fn predict(body: &mut SoftBody, g: Vec3, h: f32) {
     let w = &body.w;
     par_map_chunks3(
@@ -96,13 +110,7 @@ fn predict(body: &mut SoftBody, g: Vec3, h: f32) {
         CHUNK,
         |base, xs, vs, ps| {
             for k in 0..xs.len() {
-                ps[k] = xs[k];
-                if w[base + k] > 0.0 {
-                    vs[k] += g * h;
-                    xs[k] += vs[k] * h;
-                } else {
-                    vs[k] = Vec3::ZERO;
-                }
+                predict_particle(&mut xs[k], &mut vs[k], &mut ps[k], w[base + k], g, h);
             }
         },
     );
@@ -226,22 +234,23 @@ fn finish_substep(body: &mut SoftBody, h: f32, keep: f32, next: Option<Vec3>) {
         CHUNK,
         |base, xs, vs, ps| {
             for k in 0..xs.len() {
-                if w[base + k] <= 0.0 {
-                    ps[k] = xs[k];
-                    vs[k] = Vec3::ZERO;
-                    continue;
+                let wk = w[base + k];
+                if wk > 0.0 {
+                    let v = (xs[k] - ps[k]) * inv_h * keep;
+                    if v.is_finite() && xs[k].is_finite() {
+                        vs[k] = v;
+                    } else {
+                        xs[k] = ps[k];
+                        vs[k] = Vec3::ZERO;
+                    }
                 }
-                let v = (xs[k] - ps[k]) * inv_h * keep;
-                if v.is_finite() && xs[k].is_finite() {
-                    vs[k] = v;
-                } else {
-                    xs[k] = ps[k];
-                    vs[k] = Vec3::ZERO;
-                }
-                if let Some(g) = next {
-                    ps[k] = xs[k];
-                    vs[k] += g * h;
-                    xs[k] += vs[k] * h;
+                match next {
+                    Some(g) => predict_particle(&mut xs[k], &mut vs[k], &mut ps[k], wk, g, h),
+                    None if wk <= 0.0 => {
+                        ps[k] = xs[k];
+                        vs[k] = Vec3::ZERO;
+                    }
+                    None => {}
                 }
             }
         },
