@@ -37,6 +37,9 @@ pub struct Opts {
     pub bodies: Option<u32>,
     /// Clients playing (`replay`).
     pub bots: Option<u32>,
+    /// Run the GPU cases sized for a real GPU (`soft`: `fluid_1m`) on a
+    /// CPU adapter too (minutes on Mesa lavapipe).
+    pub gpu_large: bool,
 }
 
 impl Opts {

@@ -93,6 +93,10 @@ struct Cli {
     /// (`soak`; default 4).
     #[arg(long, value_name = "N")]
     bots: Option<u32>,
+    /// Run the GPU cases sized for a real GPU (`soft`: `fluid_1m`) on a
+    /// CPU adapter (Mesa lavapipe) too, where they take minutes.
+    #[arg(long)]
+    gpu_large: bool,
     /// Draw the suite's records as SVG into DIR (`physics.svg`,
     /// `capacity.svg`, `bandwidth.svg`, `replay.svg`, `soft.svg`; other
     /// suites have no picture yet).
@@ -167,6 +171,7 @@ fn main() -> ExitCode {
             seeks: cli.seeks,
             bodies: cli.bodies,
             bots: cli.bots,
+            gpu_large: cli.gpu_large,
         },
         &mut reporter,
     ) {

@@ -411,13 +411,22 @@ fn soft_suite() {
         let share = num(m, "soft_share");
         assert!((0.0..=1.0).contains(&share), "{m:?}");
     }
-    // The cloth on the GPU: a row either way, its figures when it ran.
-    assert_eq!(gpu.len(), 1, "{gpu:?}");
+    // The cloth and the fluid on the GPU: a row each either way, their
+    // figures when they ran.
+    assert_eq!(gpu.len(), 2, "{gpu:?}");
     assert_eq!(gpu[0]["case"], "cloth_32");
+    assert_eq!(gpu[1]["case"], "fluid_2k");
     if gpu[0].get("error").is_none() {
         positive(&gpu[0], "ms_per_step");
         let diff = num(&gpu[0], "max_abs_diff_vs_cpu");
         assert!((0.0..2e-3).contains(&diff), "{diff}");
+    }
+    if gpu[1].get("error").is_none() {
+        positive(&gpu[1], "ms_per_step");
+        assert!(num(&gpu[1], "density_error").abs() < 0.2, "{:?}", gpu[1]);
+        // Eight steps of a breaking dam: still close particle by particle.
+        let diff = num(&gpu[1], "max_abs_diff_vs_cpu");
+        assert!((0.0..1e-3).contains(&diff), "{diff}");
     }
     let strain = num(&lines[0], "max_strain");
     assert!((0.0..1.0).contains(&strain), "{strain}");

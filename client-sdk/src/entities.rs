@@ -5,12 +5,17 @@
 //! datagrams, so a snapshot may name an entity before its spawn has
 //! arrived: such states are held (a bounded number) and attached when the
 //! spawn comes. A despawn forgets the entity and any held state.
+//!
+//! A soft body or a fluid is one entity whose description is a
+//! [`ShapeDesc::PointSet`]: its points travel as the entities just after
+//! its id, with no spawn of their own. Their states are kept with the set
+//! ([`Entity::points`]); [`crate::point_sets`] draws them.
 
 use std::collections::BTreeMap;
 
 use glam::{DQuat, DVec3};
 use inertia_protocol::snapshot::ViewEntity;
-use inertia_protocol::{EntityDesc, EntityId};
+use inertia_protocol::{EntityDesc, EntityId, ShapeDesc};
 
 /// The newest state a snapshot gave for an entity.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -29,6 +34,23 @@ pub struct Entity {
     pub desc: EntityDesc,
     /// Its newest state from a snapshot, if one came since the spawn.
     pub latest: Option<LatestState>,
+    /// For a point set, the newest state of each point (by index), if one
+    /// came; empty for any other entity.
+    pub points: Vec<Option<LatestState>>,
+}
+
+impl Entity {
+    fn new(desc: EntityDesc, latest: Option<LatestState>) -> Self {
+        let points = match desc.shape {
+            ShapeDesc::PointSet { points, .. } => vec![None; points as usize],
+            _ => Vec::new(),
+        };
+        Self {
+            desc,
+            latest,
+            points,
+        }
+    }
 }
 
 impl Entity {
@@ -86,27 +108,49 @@ impl EntityTable {
     }
 
     /// Applies a spawn: adds the entity, or replaces its description if it
-    /// is known (its latest state kept). Returns true when it was new.
+    /// is known (its latest state kept, and its points' as far as the new
+    /// set has them). Returns true when it was new.
     pub fn spawn(&mut self, desc: EntityDesc) -> bool {
         let id = desc.id;
-        match self.entities.get_mut(&id) {
+        let taken = desc.ids_taken();
+        let new = match self.entities.get_mut(&id) {
             Some(e) => {
-                e.desc = desc;
+                let mut points = std::mem::take(&mut e.points);
+                *e = Entity::new(desc, e.latest);
+                points.truncate(e.points.len());
+                e.points[..points.len()].copy_from_slice(&points);
                 false
             }
             None => {
                 let latest = self.early.remove(&id);
-                self.entities.insert(id, Entity { desc, latest });
+                self.entities.insert(id, Entity::new(desc, latest));
                 true
             }
+        };
+        if taken > 1 {
+            // States of its points that came before it.
+            let last = EntityId::try_from(u64::from(id) + taken - 1).unwrap_or(EntityId::MAX);
+            let early: Vec<EntityId> = self.early.range(id + 1..=last).map(|(&k, _)| k).collect();
+            for point in early {
+                if let Some(state) = self.early.remove(&point) {
+                    self.update(state.tick, state.state);
+                }
+            }
         }
+        new
     }
 
-    /// Applies a despawn: forgets the entity (and any state held for it).
-    /// Returns its description if it was known.
+    /// Applies a despawn: forgets the entity (and any state held for it or
+    /// its points). Returns its description if it was known.
     pub fn despawn(&mut self, id: EntityId) -> Option<EntityDesc> {
         self.early.remove(&id);
         self.entities.remove(&id).map(|e| e.desc)
+    }
+
+    /// The point set entity `id` is a point of, and its index there.
+    pub fn point_of(&self, id: EntityId) -> Option<(EntityId, u32)> {
+        let (&set, e) = self.entities.range(..id).next_back()?;
+        Some((set, e.desc.point_index(id)?))
     }
 
     /// Records a state from the snapshot of `tick` as the entity's
@@ -121,6 +165,16 @@ impl EntityTable {
                 Update::Applied
             }
             None => {
+                if let Some((set, index)) = self.point_of(state.id) {
+                    if let Some(slot) = self
+                        .entities
+                        .get_mut(&set)
+                        .and_then(|e| e.points.get_mut(index as usize))
+                    {
+                        *slot = Some(latest);
+                        return Update::Applied;
+                    }
+                }
                 if let Some(held) = self.early.get_mut(&state.id) {
                     *held = latest;
                     return Update::Held;

@@ -16,6 +16,12 @@
 //! - [`net`]: [`Client`], the connection (async).
 //! - [`blocking`]: [`BlockingClient`], the same without async.
 //! - [`dev`]: tokens from a dev-mode server's credentials file.
+//! - [`lead`]: how far ahead of the server inputs are stamped, so that
+//!   each arrives before its tick.
+//! - [`point_sets`]: soft bodies and fluids as vertex and point sets to
+//!   draw.
+//! - [`predict`]: client-side prediction of the own avatar (opt-in,
+//!   [`ConnectOptions::predict`]).
 
 pub mod blocking;
 mod by_id;
@@ -23,7 +29,10 @@ pub mod clock;
 pub mod dev;
 pub mod entities;
 pub mod interp;
+pub mod lead;
 pub mod net;
+pub mod point_sets;
+pub mod predict;
 pub mod stats;
 
 pub use blocking::BlockingClient;

@@ -10,8 +10,11 @@ use std::collections::VecDeque;
 
 use serde::Serialize;
 
+use inertia_protocol::control::InputReport;
+
 use crate::clock::seq_older;
 use crate::interp::InterpStats;
+use crate::predict::PredictionStats;
 
 /// What the client has seen of its connection, ready to print or
 /// serialise.
@@ -40,6 +43,40 @@ pub struct ClientStats {
     pub discontinuities: u64,
     /// Datagrams dropped because they did not decode.
     pub malformed_dropped: u64,
+    /// How much later than the fastest arrivals snapshots come (95th
+    /// percentile of the last 64), ms.
+    pub jitter_ms: f64,
+    /// Bytes sent over the last second (input datagrams), kbit/s.
+    pub kbps_out: f64,
+    /// The tick the newest input was stamped for (0 before the first).
+    pub input_tick: u64,
+    /// The margin inputs are stamped ahead with, beyond the round trip
+    /// and the jitter, ticks (see [`crate::lead`]).
+    pub input_margin_ticks: f64,
+    /// Inputs the server applied on their tick (its newest report).
+    pub inputs_on_time: u64,
+    /// Inputs that reached the server after their tick and were applied
+    /// late (its newest report).
+    pub inputs_late: u64,
+    /// Inputs the server refused as too far ahead or too many (its newest
+    /// report).
+    pub inputs_refused: u64,
+    /// With prediction on ([`crate::predict`]): the median distance
+    /// between the predicted and the authoritative position of the own
+    /// avatar at the same tick (recent 4096 snapshots), m; 0 without
+    /// prediction.
+    pub prediction_error_p50_m: f64,
+    /// Its 99th percentile, m.
+    pub prediction_error_p99_m: f64,
+    /// The largest such distance, m.
+    pub prediction_error_max_m: f64,
+    /// Times the prediction was rolled back to a snapshot and replayed.
+    pub prediction_corrections: u64,
+    /// Corrections that snapped the picture (teleports, respawns).
+    pub prediction_teleports: u64,
+    /// The largest move of the drawn avatar in one tick that was not its
+    /// predicted motion (corrections sliding in; teleports left out), m.
+    pub prediction_snap_max_m: f64,
 }
 
 /// Sequence numbers tracked for the loss estimate.
@@ -64,6 +101,13 @@ pub struct StatsRecorder {
     bytes: u64,
     malformed: u64,
     interp: InterpStats,
+    jitter: f64,
+    sent: VecDeque<(f64, u64)>,
+    window_sent: u64,
+    inputs: Option<InputReport>,
+    input_margin: f64,
+    input_tick: u64,
+    prediction: PredictionStats,
 }
 
 impl StatsRecorder {
@@ -127,6 +171,33 @@ impl StatsRecorder {
         });
     }
 
+    /// A datagram of `bytes` bytes was sent at `local_time` (s).
+    pub fn on_sent(&mut self, local_time: f64, bytes: usize) {
+        self.sent.push_back((local_time, bytes as u64));
+        self.window_sent += bytes as u64;
+        self.expire(local_time);
+    }
+
+    /// The snapshots' arrival jitter now, s.
+    pub fn on_jitter(&mut self, seconds: f64) {
+        if seconds.is_finite() {
+            self.jitter = seconds.max(0.0);
+        }
+    }
+
+    /// The server's newest report on the inputs, the margin they are
+    /// stamped ahead with (ticks) and the newest input's tick.
+    pub fn on_inputs(&mut self, report: Option<InputReport>, margin: f64, tick: Option<u64>) {
+        self.inputs = report;
+        self.input_margin = margin;
+        self.input_tick = tick.unwrap_or(0);
+    }
+
+    /// The prediction's figures ([`crate::predict::Predictor::stats`]).
+    pub fn on_prediction(&mut self, stats: PredictionStats) {
+        self.prediction = stats;
+    }
+
     /// A datagram that did not decode was dropped.
     pub fn on_malformed(&mut self) {
         self.malformed += 1;
@@ -154,6 +225,19 @@ impl StatsRecorder {
             extrapolations: self.interp.extrapolations,
             discontinuities: self.interp.discontinuities,
             malformed_dropped: self.malformed,
+            jitter_ms: self.jitter * 1000.0,
+            kbps_out: self.window_sent as f64 * 8.0 / 1000.0 / RATE_WINDOW_S,
+            input_tick: self.input_tick,
+            input_margin_ticks: self.input_margin,
+            inputs_on_time: self.inputs.map_or(0, |r| r.on_time),
+            inputs_late: self.inputs.map_or(0, |r| r.late),
+            inputs_refused: self.inputs.map_or(0, |r| r.refused),
+            prediction_error_p50_m: self.prediction.error_p50,
+            prediction_error_p99_m: self.prediction.error_p99,
+            prediction_error_max_m: self.prediction.error_max,
+            prediction_corrections: self.prediction.corrections,
+            prediction_teleports: self.prediction.teleports,
+            prediction_snap_max_m: self.prediction.snap_max,
         }
     }
 
@@ -183,6 +267,13 @@ impl StatsRecorder {
             }
             self.arrivals.pop_front();
             self.window_bytes -= b;
+        }
+        while let Some(&(t, b)) = self.sent.front() {
+            if t > now - RATE_WINDOW_S {
+                break;
+            }
+            self.sent.pop_front();
+            self.window_sent -= b;
         }
     }
 }

@@ -4,7 +4,8 @@
 //! composable force generators, a choice of integrators, mass-spring soft
 //! bodies, rigid bodies, XPBD soft bodies and position-based fluids
 //! ([`xpbd`]), energy accounting, a state hash and exact save/restore,
-//! parallel and bit-deterministic CPU stepping, and (feature `gpu`) wgpu
+//! parallel and bit-deterministic CPU stepping, a walking character's
+//! controller ([`character`]), and (feature `gpu`) wgpu
 //! compute stepping.
 //!
 //! No sockets, no async runtime, and no wall clock in the simulation: time is
@@ -30,6 +31,7 @@
 //! ```
 
 mod arena;
+pub mod character;
 pub mod energy;
 pub mod error;
 pub mod forces;
@@ -70,7 +72,7 @@ pub use snapshot::SnapshotError;
 pub use soft_body::{build_cloth, build_rope, Cloth, ClothDesc, Rope, RopeDesc, SpringStiffness};
 pub use spring::SpringParams;
 pub use world::{QueryIndex, StepReport, World, WorldConfig};
-pub use xpbd::fluid::{Fluid, FluidDesc};
+pub use xpbd::fluid::{EmitterState, Fluid, FluidDesc, FluidEmitter};
 pub use xpbd::soft::{
     EdgeDesc, HingeDesc, Plasticity, PressureDesc, SoftBalloon, SoftBody, SoftBodyDesc, SoftCloth,
     SoftMaterial, SoftRope, SoftSolid, SolidShape, TetDesc, TetherDesc,

@@ -4,7 +4,9 @@
 use inertia_physics::glam::DVec3;
 use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::shape::Shape;
-use inertia_physics::{FluidDesc, FluidHandle, PhysicsError, SoftMaterial, SoftRope};
+use inertia_physics::{
+    FluidDesc, FluidEmitter, FluidHandle, PhysicsError, SoftMaterial, SoftRope, World,
+};
 
 mod common;
 
@@ -242,4 +244,187 @@ fn issue_16_bad_fluids_are_refused_and_emitters_keep_to_their_cap() {
         w.add_fluid_particles(stale, &spout, &[]),
         Err(PhysicsError::UnknownFluid(_))
     ));
+}
+
+/// A tank 2 m square and an empty fluid 0.1 m apart with one emitter: a
+/// nozzle of radius 0.1 m (five particles a shot: the centre and its four
+/// neighbours on the lattice) pointing down, a shot every 0.25 s from
+/// 0.5 s to 2 s.
+fn spout(limit: Option<u64>, cap: usize) -> (World, FluidHandle) {
+    let mut w = earth_world(1);
+    tank(&mut w, DVec3::ZERO, DVec3::new(2.0, 2.0, 2.0));
+    let mut desc = FluidDesc::new(0.1);
+    desc.max_particles = cap;
+    let h = w.add_fluid(desc).unwrap();
+    let emitter = FluidEmitter {
+        radius: 0.1,
+        interval: Some(0.25),
+        start: 0.5,
+        stop: Some(2.0),
+        limit,
+        ..FluidEmitter::new(DVec3::new(1.0, 1.5, 1.0), DVec3::new(0.0, -1.0, 0.0))
+    };
+    assert_eq!(w.add_fluid_emitter(h, emitter).unwrap(), 0);
+    (w, h)
+}
+
+/// Shots due by `t` s for the emitter of [`spout`].
+fn shots_due(t: f64) -> usize {
+    if t < 0.5 - 1e-9 {
+        0
+    } else {
+        ((t.min(2.0) - 0.5 + 1e-9) / 0.25).floor() as usize + 1
+    }
+}
+
+#[test]
+fn issue_16_an_emitter_adds_its_shots_on_time_and_stops() {
+    let (mut w, h) = spout(None, 10_000);
+    let f = w.fluid(h).unwrap();
+    assert_eq!(f.emitters()[0].shot_size(), 5);
+    assert!(f.is_empty());
+    for step in 1..=180 {
+        w.step(DT).unwrap();
+        let t = step as f64 * DT;
+        let f = w.fluid(h).unwrap();
+        assert_eq!(f.len(), 5 * shots_due(t), "at {t} s");
+        assert_eq!(f.emitters()[0].emitted(), f.len() as u64);
+    }
+    // Seven shots, from 0.5 s to 2 s; none after the stop.
+    let f = w.fluid(h).unwrap();
+    assert_eq!(f.len(), 35);
+    assert!(f.emitters()[0].is_done(w.time()));
+    assert!(f
+        .positions()
+        .iter()
+        .all(|p| p.is_finite() && p.y > -0.05 && p.y < 1.6));
+}
+
+#[test]
+fn issue_16_an_emitter_stops_at_its_limit_and_at_the_fluids_cap() {
+    // A limit of 12: two full shots and two particles of the third.
+    let (mut w, h) = spout(Some(12), 10_000);
+    for _ in 0..180 {
+        w.step(DT).unwrap();
+    }
+    let f = w.fluid(h).unwrap();
+    assert_eq!(f.len(), 12);
+    assert_eq!(f.emitters()[0].emitted(), 12);
+    assert!(f.emitters()[0].is_done(w.time()));
+    // A cap of 8: one shot and three of the second; the rest are skipped.
+    let (mut w, h) = spout(None, 8);
+    for _ in 0..180 {
+        w.step(DT).unwrap();
+    }
+    let f = w.fluid(h).unwrap();
+    assert_eq!(f.len(), 8);
+    assert_eq!(f.emitters()[0].emitted(), 8);
+    assert_eq!(f.emitters()[0].shots(), 7);
+}
+
+#[test]
+fn issue_16_an_emitter_added_later_does_not_fire_its_past() {
+    let mut w = earth_world(1);
+    tank(&mut w, DVec3::ZERO, DVec3::new(2.0, 2.0, 2.0));
+    let h = w.add_fluid(FluidDesc::new(0.1)).unwrap();
+    for _ in 0..60 {
+        w.step(DT).unwrap();
+    }
+    // A jet since time 0 (a shot every 0.1 s at 1 m/s), added at 1 s.
+    w.add_fluid_emitter(
+        h,
+        FluidEmitter::new(DVec3::new(1.0, 1.5, 1.0), DVec3::new(0.0, -1.0, 0.0)),
+    )
+    .unwrap();
+    for _ in 0..30 {
+        w.step(DT).unwrap();
+    }
+    // Shots at 1.0, 1.1, ..., 1.5 s: six, not sixteen.
+    assert_eq!(w.fluid(h).unwrap().len(), 6);
+}
+
+#[test]
+fn issue_16_an_emitting_fluid_restores_bit_identically() {
+    let (mut one, h) = spout(Some(30), 10_000);
+    for _ in 0..50 {
+        one.step(DT).unwrap();
+    }
+    let saved = one.save();
+    let (mut restored, _) = spout(Some(30), 10_000);
+    restored.restore(&saved).unwrap();
+    assert_eq!(restored.state_hash(), one.state_hash());
+    assert_eq!(
+        restored.fluid(h).unwrap().emitters(),
+        one.fluid(h).unwrap().emitters()
+    );
+    // Through the rest of the emission and past its limit.
+    for _ in 0..100 {
+        one.step(DT).unwrap();
+        restored.step(DT).unwrap();
+        assert_eq!(restored.state_hash(), one.state_hash());
+    }
+    let (a, b) = (one.fluid(h).unwrap(), restored.fluid(h).unwrap());
+    assert_eq!(a.len(), 30);
+    assert_eq!(a.positions(), b.positions());
+    assert_eq!(a.velocities(), b.velocities());
+}
+
+#[test]
+fn issue_16_bad_emitters_are_refused_with_typed_errors() {
+    let mut w = earth_world(1);
+    let h = w.add_fluid(FluidDesc::new(0.1)).unwrap();
+    let good = FluidEmitter::new(DVec3::new(0.0, 1.0, 0.0), DVec3::new(0.0, -2.0, 0.0));
+    let refused = |w: &mut World, change: &dyn Fn(&mut FluidEmitter)| {
+        let mut e = good.clone();
+        change(&mut e);
+        w.add_fluid_emitter(h, e).unwrap_err()
+    };
+    assert!(matches!(
+        refused(&mut w, &|e| e.velocity = DVec3::ZERO),
+        PhysicsError::ZeroDirection(_)
+    ));
+    assert!(matches!(
+        refused(&mut w, &|e| e.position.x = f64::NAN),
+        PhysicsError::NonFinite { .. }
+    ));
+    assert!(matches!(
+        refused(&mut w, &|e| e.radius = -0.1),
+        PhysicsError::Negative { .. }
+    ));
+    assert!(matches!(
+        refused(&mut w, &|e| e.radius = 100.0),
+        PhysicsError::OutOfRange { .. }
+    ));
+    // Shots 0.02 s apart at 2 m/s are 4 cm apart: they would overlap.
+    assert!(matches!(
+        refused(&mut w, &|e| e.interval = Some(0.02)),
+        PhysicsError::Invalid { .. }
+    ));
+    assert!(matches!(
+        refused(&mut w, &|e| e.interval = Some(0.0)),
+        PhysicsError::NotPositive { .. }
+    ));
+    assert!(matches!(
+        refused(&mut w, &|e| e.start = -1.0),
+        PhysicsError::Negative { .. }
+    ));
+    assert!(matches!(
+        refused(&mut w, &|e| {
+            e.start = 2.0;
+            e.stop = Some(1.0);
+        }),
+        PhysicsError::Invalid { .. }
+    ));
+    assert!(matches!(
+        refused(&mut w, &|e| e.limit = Some(0)),
+        PhysicsError::NotPositive { .. }
+    ));
+    assert!(w.fluid(h).unwrap().emitters().is_empty());
+    let stale = FluidHandle::from_raw([7, 0]);
+    assert!(matches!(
+        w.add_fluid_emitter(stale, good.clone()),
+        Err(PhysicsError::UnknownFluid(_))
+    ));
+    w.add_fluid_emitter(h, good).unwrap();
+    assert_eq!(w.fluid(h).unwrap().emitters().len(), 1);
 }

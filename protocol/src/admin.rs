@@ -947,7 +947,8 @@ mod tests {
             | ShapeDesc::Compound { .. }
             | ShapeDesc::Particle { .. }
             | ShapeDesc::Ground
-            | ShapeDesc::HeightField { .. } => {}
+            | ShapeDesc::HeightField { .. }
+            | ShapeDesc::PointSet { .. } => {}
         }
     }
 

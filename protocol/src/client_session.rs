@@ -10,7 +10,7 @@
 use std::collections::VecDeque;
 
 use crate::entity::{buttons, PlayerInput};
-use crate::input::{InputDatagram, MAX_REDUNDANT_INPUTS};
+use crate::input::{InputDatagram, MAX_REDUNDANT_INPUTS, MAX_VIEW_BEHIND};
 use crate::snapshot::{
     ConfigError, DecodedSnapshot, SnapshotConfig, SnapshotDecoder, SnapshotError,
 };
@@ -35,8 +35,13 @@ pub struct ClientSession {
     config: ClientConfig,
     decoder: SnapshotDecoder,
     input: PlayerInput,
+    /// The render tick of the last frame the game drew, ticks; `None`
+    /// before the first.
+    view_tick: Option<f64>,
     /// The inputs sent lately, newest first.
     sent: VecDeque<PlayerInput>,
+    /// The tick of the newest input made, once one is.
+    stamped: Option<u64>,
     /// The next input datagram is due at this time, s.
     next_input_at: f64,
     /// The snapshot decoded last (its memory reused for the next).
@@ -58,7 +63,9 @@ impl ClientSession {
                 tick,
                 ..PlayerInput::default()
             },
+            view_tick: None,
             sent: VecDeque::new(),
+            stamped: None,
             next_input_at: 0.0,
             decoded: DecodedSnapshot::default(),
             config,
@@ -92,6 +99,22 @@ impl ClientSession {
         };
     }
 
+    /// The (fractional) server tick of the world the game drew last: the
+    /// interpolation render tick of its last sampled frame. Each input
+    /// sent from now on says how far behind its own tick that was
+    /// ([`PlayerInput::view_behind`]), so that the server can answer the
+    /// player's shots against the world it saw. Not finite is ignored.
+    pub fn set_view_tick(&mut self, render_tick: f64) {
+        if render_tick.is_finite() {
+            self.view_tick = Some(render_tick);
+        }
+    }
+
+    /// The view tick set last ([`Self::set_view_tick`]).
+    pub fn view_tick(&self) -> Option<f64> {
+        self.view_tick
+    }
+
     /// The input as set now.
     pub fn input(&self) -> PlayerInput {
         self.input
@@ -102,11 +125,17 @@ impl ClientSession {
         self.next_input_at
     }
 
-    /// The input datagram due at `now` (s), if one is: the current input
-    /// stamped with the next sequence number and `tick` (the server tick
-    /// the client believes it is; `None` before it can tell, and the
-    /// welcome's tick is used), with the newest acknowledgement and the
-    /// last inputs. A datagram that falls behind is skipped, not sent in
+    /// The input datagram due at `now` (s), if one is. `tick` is the tick
+    /// the client wants its input applied at now (the SDK runs it ahead of
+    /// the server; `None` before it can tell, and the welcome's tick is
+    /// used). Every tick after the newest one stamped, up to `tick`, gets
+    /// one input (the current one, with the next sequence number; at most
+    /// the redundancy's worth when the tick leaps), so the server has an
+    /// input for each tick, each saying how far behind its tick the view
+    /// set last was (0 before any, or when the view is ahead of it; capped
+    /// at [`MAX_VIEW_BEHIND`]); a `tick` that has not moved on makes none,
+    /// and the datagram then carries the acknowledgement and the last
+    /// inputs again. A datagram that falls behind is skipped, not sent in
     /// a burst.
     pub fn poll_input(&mut self, now: f64, tick: Option<u64>) -> Option<Vec<u8>> {
         // A microsecond early is on time (sums of periods round).
@@ -119,13 +148,26 @@ impl ClientSession {
             // Behind: one now, the next a period on.
             self.next_input_at = now + period;
         }
-        let input = PlayerInput {
-            sequence: self.input.sequence.wrapping_add(1),
-            tick: tick.unwrap_or(self.input.tick),
-            ..self.input
-        };
-        self.input.sequence = input.sequence;
-        self.sent.push_front(input);
+        let target = tick.unwrap_or(self.input.tick);
+        let first = self.stamped.map_or(target, |last| last.saturating_add(1));
+        if target >= first {
+            let most = self.config.input_redundancy as u64;
+            let from = first.max(target.saturating_sub(most - 1));
+            for t in from..=target {
+                let view_behind = self.view_tick.map_or(0.0, |v| {
+                    ((t as f64 - v).clamp(0.0, f64::from(MAX_VIEW_BEHIND))) as f32
+                });
+                let input = PlayerInput {
+                    sequence: self.input.sequence.wrapping_add(1),
+                    tick: t,
+                    view_behind,
+                    ..self.input
+                };
+                self.input.sequence = input.sequence;
+                self.sent.push_front(input);
+            }
+            self.stamped = Some(target);
+        }
         self.sent.truncate(self.config.input_redundancy);
         let (ack, ack_bits) = self.decoder.ack_state();
         InputDatagram {
@@ -135,6 +177,16 @@ impl ClientSession {
         }
         .encode()
         .ok()
+    }
+
+    /// The tick of the newest input made, once one is.
+    pub fn stamped_tick(&self) -> Option<u64> {
+        self.stamped
+    }
+
+    /// The inputs sent lately (the last datagram's), newest first.
+    pub fn sent(&self) -> impl Iterator<Item = &PlayerInput> + '_ {
+        self.sent.iter()
     }
 
     /// The snapshot decoder (views held, what it acknowledges, counts).
@@ -163,7 +215,8 @@ mod tests {
     fn inputs_go_out_at_their_rate_with_the_last_few_repeated() {
         let mut s = session(30, 3);
         let mut sent = Vec::new();
-        // 1 s at 1 ms steps.
+        // 1 s at 1 ms steps, the wanted tick moving at 62.5 Hz: two new
+        // ticks (sometimes three) per datagram.
         for ms in 0..1000 {
             // Bits beyond the known buttons are dropped, not a lost input.
             s.set_input([0.5, -0.5], 0.1, if ms % 200 < 100 { 0xff } else { 0 });
@@ -172,13 +225,76 @@ mod tests {
             }
         }
         assert_eq!(sent.len(), 30);
+        let mut ticks = Vec::new();
         for (k, d) in sent.iter().enumerate() {
-            let seqs: Vec<u32> = d.inputs.iter().map(|i| i.sequence).collect();
-            let want: Vec<u32> = (1..=k as u32 + 1).rev().take(3).collect();
-            assert_eq!(seqs, want, "datagram {k}");
+            assert!(d.inputs.len() <= 3, "datagram {k}");
             assert_eq!(d.ack, None, "nothing received, nothing acknowledged");
             assert!(d.inputs.iter().all(|i| i.buttons & !buttons::ALL == 0));
+            // Newest first, one sequence and one tick apart.
+            for pair in d.inputs.windows(2) {
+                assert_eq!(pair[0].sequence, pair[1].sequence + 1, "datagram {k}");
+                assert_eq!(pair[0].tick, pair[1].tick + 1, "datagram {k}");
+            }
+            let newest = d.inputs[0].tick;
+            if ticks.last() != Some(&newest) {
+                ticks.push(newest);
+            }
         }
+        // Every tick from the first to the last got its input.
+        let all: Vec<u64> = sent
+            .iter()
+            .flat_map(|d| d.inputs.iter().map(|i| i.tick))
+            .collect();
+        for t in 100..=*ticks.last().unwrap() {
+            assert!(all.contains(&t), "tick {t} has no input");
+        }
+        assert_eq!(s.stamped_tick(), Some(100 + 967 / 16));
+    }
+
+    #[test]
+    fn a_tick_that_stands_still_makes_no_new_input_and_a_leap_is_capped() {
+        let mut s = session(60, 4);
+        let bytes = s.poll_input(0.0, Some(500)).unwrap();
+        let first = InputDatagram::decode(&bytes).unwrap();
+        assert_eq!(first.inputs.len(), 1);
+        assert_eq!((first.inputs[0].sequence, first.inputs[0].tick), (1, 500));
+        // The same tick (a paused server): the same input again.
+        let again = InputDatagram::decode(&s.poll_input(1.0, Some(500)).unwrap()).unwrap();
+        assert_eq!(again.inputs, first.inputs);
+        // An earlier one (the estimate slewed back): nothing new either.
+        let back = InputDatagram::decode(&s.poll_input(2.0, Some(498)).unwrap()).unwrap();
+        assert_eq!(back.inputs, first.inputs);
+        // A leap of 100 ticks: the last four get inputs.
+        let leap = InputDatagram::decode(&s.poll_input(3.0, Some(600)).unwrap()).unwrap();
+        let ticks: Vec<u64> = leap.inputs.iter().map(|i| i.tick).collect();
+        assert_eq!(ticks, [600, 599, 598, 597]);
+        assert_eq!(s.sent().next().map(|i| i.sequence), Some(5));
+    }
+
+    #[test]
+    fn inputs_say_how_far_behind_their_tick_the_view_was() {
+        let mut s = session(60, 2);
+        let newest = |bytes: Vec<u8>| InputDatagram::decode(&bytes).unwrap().inputs[0];
+        assert_eq!(
+            newest(s.poll_input(0.0, Some(200)).unwrap()).view_behind,
+            0.0
+        );
+        s.set_view_tick(192.25);
+        s.set_view_tick(f64::NAN);
+        assert_eq!(s.view_tick(), Some(192.25));
+        let i = newest(s.poll_input(0.1, Some(201)).unwrap());
+        assert_eq!((i.tick, i.view_behind, i.view_tick()), (201, 8.75, 192.25));
+        // A view ahead of the input's tick is no rewind; far behind, the cap.
+        s.set_view_tick(203.0);
+        assert_eq!(
+            newest(s.poll_input(0.2, Some(202)).unwrap()).view_behind,
+            0.0
+        );
+        s.set_view_tick(-1e6);
+        assert_eq!(
+            newest(s.poll_input(0.3, Some(203)).unwrap()).view_behind,
+            MAX_VIEW_BEHIND
+        );
     }
 
     #[test]

@@ -29,7 +29,7 @@ use crate::token::{self, OpenedToken, ReplayGuard, TokenError, TokenKey, MAX_TOK
 
 /// The version of the whole wire protocol (control, datagrams and tokens).
 /// A client and server speak only when theirs are equal.
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 4;
 /// The QUIC ALPN protocol id of the game connection.
 pub const ALPN: &[u8] = b"inertia";
 
@@ -114,6 +114,27 @@ pub enum ServerControl {
     Event(GameEvent),
     /// The server is closing the connection.
     Goodbye(DisconnectReason),
+    /// How the client's inputs have been arriving against the ticks they
+    /// are for: sent about once a second while it changes, so the client
+    /// can run as far ahead as its inputs need to arrive in time.
+    InputTiming(InputReport),
+}
+
+/// How a client's inputs have been arriving, as the server counted them
+/// since the client joined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct InputReport {
+    /// Inputs that arrived before their tick and were applied on it.
+    pub on_time: u64,
+    /// Inputs that arrived after their tick and were applied at once.
+    pub late: u64,
+    /// Inputs refused: too far ahead, or too many waiting.
+    pub refused: u64,
+    /// The least lead over the last second: the input's tick minus the
+    /// server's tick when it arrived, ticks (negative: late; the server
+    /// steps tick `t` to `t + 1` with the inputs for `t`). `None` when no
+    /// input arrived in that second.
+    pub min_lead: Option<i32>,
 }
 
 /// How the server codes snapshots, beyond the position grid: what the
@@ -594,6 +615,40 @@ fn validate_shape(shape: &ShapeDesc, nested: bool) -> Result<(), ControlError> {
                 .iter()
                 .try_for_each(|h| check_finite("heightfield height", &[*h]))
         }
+        ShapeDesc::PointSet {
+            points,
+            radius,
+            triangles,
+            lines,
+        } => {
+            if nested {
+                return Err(ControlError::OutOfRange {
+                    what: "point set inside a compound",
+                });
+            }
+            if *points == 0 || *points > ShapeDesc::MAX_SET_POINTS {
+                return Err(ControlError::OutOfRange {
+                    what: "point set points",
+                });
+            }
+            check_size("point set radius", *radius)?;
+            check_count(
+                "point set triangles",
+                triangles.len(),
+                ShapeDesc::MAX_SET_TRIANGLES,
+            )?;
+            check_count("point set lines", lines.len(), ShapeDesc::MAX_SET_LINES)?;
+            let indices = triangles.iter().flatten().chain(lines.iter().flatten());
+            for &index in indices {
+                if index >= *points {
+                    return Err(ControlError::BadIndex {
+                        index,
+                        vertices: *points as usize,
+                    });
+                }
+            }
+            Ok(())
+        }
     }
 }
 
@@ -602,6 +657,11 @@ pub fn validate_entity(e: &EntityDesc) -> Result<(), ControlError> {
     check_len("entity name", e.name.len(), MAX_ENTITY_NAME_BYTES)?;
     check_finite("entity position", &e.position)?;
     check_finite("entity rotation", &e.rotation)?;
+    if u64::from(e.id) + e.ids_taken() - 1 > u64::from(EntityId::MAX) {
+        return Err(ControlError::OutOfRange {
+            what: "point set ids past the last entity id",
+        });
+    }
     validate_shape(&e.shape, false)
 }
 
@@ -662,7 +722,9 @@ impl ControlMessage for ServerControl {
             ServerControl::Refused(Refusal::Rejected { reason }) => {
                 check_len("refusal reason", reason.len(), MAX_REASON_BYTES)
             }
-            ServerControl::Refused(_) | ServerControl::Despawn { .. } => Ok(()),
+            ServerControl::Refused(_)
+            | ServerControl::Despawn { .. }
+            | ServerControl::InputTiming(_) => Ok(()),
             ServerControl::Spawn(e) => validate_entity(e),
             ServerControl::Event(event) => match event {
                 GameEvent::Contact { impulse, .. } => check_finite("contact impulse", &[*impulse]),
@@ -947,6 +1009,12 @@ enum WireShape<P> {
         size: [f32; 2],
         heights: Vec<f32>,
     },
+    PointSet {
+        points: u32,
+        radius: f32,
+        triangles: Vec<[u32; 3]>,
+        lines: Vec<[u32; 2]>,
+    },
 }
 
 impl<P: Into<ShapeDesc>> From<WireShape<P>> for ShapeDesc {
@@ -994,6 +1062,17 @@ impl<P: Into<ShapeDesc>> From<WireShape<P>> for ShapeDesc {
                 cols,
                 size,
                 heights,
+            },
+            WireShape::PointSet {
+                points,
+                radius,
+                triangles,
+                lines,
+            } => ShapeDesc::PointSet {
+                points,
+                radius,
+                triangles,
+                lines,
             },
         }
     }
@@ -1175,6 +1254,85 @@ mod tests {
             encode_frame(&welcome),
             Err(ControlError::OutOfRange { .. })
         ));
+    }
+
+    #[test]
+    fn point_sets_are_bounded_and_their_indices_checked() {
+        let set =
+            |points: u32, triangles: Vec<[u32; 3]>, lines: Vec<[u32; 2]>| ShapeDesc::PointSet {
+                points,
+                radius: 0.02,
+                triangles,
+                lines,
+            };
+        let ok = entity(set(4, vec![[0, 1, 2], [1, 3, 2]], vec![[0, 3]]));
+        assert_eq!(
+            round_trip(&ServerControl::Spawn(ok.clone())),
+            ServerControl::Spawn(ok.clone())
+        );
+        assert_eq!(ok.point_id(0), Some(4));
+        assert_eq!(ok.point_id(3), Some(7));
+        assert_eq!(ok.point_id(4), None, "past the points");
+        assert_eq!(ok.point_index(7), Some(3));
+        assert_eq!(ok.point_index(3), None, "the set's own id");
+        assert_eq!(ok.point_index(8), None);
+        assert_eq!(entity(ShapeDesc::Sphere { radius: 1.0 }).point_id(0), None);
+        // The largest set whose last point id is u32::MAX is fine; one
+        // more point is not.
+        let mut last = entity(set(ShapeDesc::MAX_SET_POINTS, vec![], vec![]));
+        last.id = u32::MAX - ShapeDesc::MAX_SET_POINTS;
+        assert_eq!(validate_entity(&last), Ok(()));
+        last.id += 1;
+        assert!(matches!(
+            validate_entity(&last),
+            Err(ControlError::OutOfRange { .. })
+        ));
+        for bad in [
+            set(0, vec![], vec![]),
+            set(ShapeDesc::MAX_SET_POINTS + 1, vec![], vec![]),
+            ShapeDesc::PointSet {
+                points: 3,
+                radius: f32::NAN,
+                triangles: vec![],
+                lines: vec![],
+            },
+        ] {
+            assert!(
+                encode_frame(&ServerControl::Spawn(entity(bad.clone()))).is_err(),
+                "{bad:?}"
+            );
+        }
+        assert_eq!(
+            validate_entity(&entity(set(3, vec![[0, 1, 3]], vec![]))),
+            Err(ControlError::BadIndex {
+                index: 3,
+                vertices: 3
+            })
+        );
+        assert_eq!(
+            validate_entity(&entity(set(3, vec![], vec![[2, 5]]))),
+            Err(ControlError::BadIndex {
+                index: 5,
+                vertices: 3
+            })
+        );
+        let inside = ShapeDesc::Compound {
+            parts: vec![([0.0; 3], [0.0, 0.0, 0.0, 1.0], set(2, vec![], vec![]))],
+        };
+        assert!(validate_entity(&entity(inside)).is_err());
+        // The largest set fits one control frame.
+        let full = entity(ShapeDesc::PointSet {
+            points: ShapeDesc::MAX_SET_POINTS,
+            radius: 0.01,
+            triangles: vec![[16_383, 16_382, 16_381]; ShapeDesc::MAX_SET_TRIANGLES],
+            lines: vec![[16_383, 16_382]; ShapeDesc::MAX_SET_LINES],
+        });
+        let frame = encode_frame(&ServerControl::Spawn(full)).unwrap();
+        assert!(
+            frame.len() <= MAX_CONTROL_FRAME + 4,
+            "{} bytes",
+            frame.len()
+        );
     }
 
     #[test]

@@ -96,6 +96,31 @@ pub enum ShapeDesc {
         /// Heights, m, row after row (`rows × cols`).
         heights: Vec<f32>,
     },
+    /// A set of points that move on their own: the vertices of a soft body
+    /// (rope, cloth, jelly) or the particles of a fluid. Point `i` travels
+    /// in snapshots as the entity `id + 1 + i` (see
+    /// [`EntityDesc::point_id`]), an ordinary entity state whose rotation
+    /// is always the identity, so points are quantized, delta-coded,
+    /// budgeted and culled by interest one by one like any entity. Those
+    /// ids are the set's: no other entity has them. A point no snapshot
+    /// has placed yet (a fluid's particle not emitted, or one out of the
+    /// client's view) is not drawn, nor are the triangles and lines that
+    /// use it.
+    PointSet {
+        /// Points in the set (at most [`ShapeDesc::MAX_SET_POINTS`]; a
+        /// fluid's capacity, of which some may not exist yet).
+        points: u32,
+        /// Drawing radius of a point (a fluid particle, a rope's
+        /// thickness), m.
+        radius: f32,
+        /// Surface triangles as point indices, counter-clockwise seen from
+        /// outside (at most [`ShapeDesc::MAX_SET_TRIANGLES`]; none for a
+        /// fluid or a rope).
+        triangles: Vec<[u32; 3]>,
+        /// Segments drawn as lines between points (a rope's; at most
+        /// [`ShapeDesc::MAX_SET_LINES`]).
+        lines: Vec<[u32; 2]>,
+    },
 }
 
 impl ShapeDesc {
@@ -103,6 +128,14 @@ impl ShapeDesc {
     pub const MAX_POINTS: usize = 4096;
     /// The most parts a compound may hold.
     pub const MAX_PARTS: usize = 64;
+    /// The most points a point set may hold: as many as a snapshot view
+    /// ([`crate::snapshot::MAX_ENTITIES`]).
+    pub const MAX_SET_POINTS: u32 = crate::snapshot::MAX_ENTITIES as u32;
+    /// The most triangles a point set may list (with
+    /// [`Self::MAX_SET_LINES`] lines, its spawn fits one control frame).
+    pub const MAX_SET_TRIANGLES: usize = 6144;
+    /// The most lines a point set may list.
+    pub const MAX_SET_LINES: usize = 4096;
 }
 
 /// What kind of thing an entity is, for the client's drawing and logic.
@@ -118,6 +151,11 @@ pub enum EntityKind {
     Avatar,
     /// A volume of water (drawn, not collided).
     Water,
+    /// A soft body: a rope, a cloth or a deformable solid, drawn from its
+    /// points ([`ShapeDesc::PointSet`]).
+    SoftBody,
+    /// A fluid, drawn from its particles ([`ShapeDesc::PointSet`]).
+    Fluid,
 }
 
 /// Everything a client needs to draw an entity, sent reliably once when the
@@ -140,6 +178,41 @@ pub struct EntityDesc {
     pub position: [f64; 3],
     /// Orientation when sent (x, y, z, w).
     pub rotation: [f64; 4],
+}
+
+impl EntityDesc {
+    /// The entity id under which point `index` of this entity's point set
+    /// travels in snapshots: `id + 1 + index`. `None` when the shape is not
+    /// a point set, the index is past its points, or the id would pass
+    /// `u32::MAX`.
+    pub fn point_id(&self, index: u32) -> Option<EntityId> {
+        match self.shape {
+            ShapeDesc::PointSet { points, .. } if index < points => {
+                self.id.checked_add(1)?.checked_add(index)
+            }
+            _ => None,
+        }
+    }
+
+    /// The point of this entity's set that entity `id` stands for, if any
+    /// (the inverse of [`Self::point_id`]).
+    pub fn point_index(&self, id: EntityId) -> Option<u32> {
+        match self.shape {
+            ShapeDesc::PointSet { points, .. } => {
+                let index = id.checked_sub(self.id)?.checked_sub(1)?;
+                (index < points).then_some(index)
+            }
+            _ => None,
+        }
+    }
+
+    /// Ids this entity takes: 1, and the points of a point set.
+    pub fn ids_taken(&self) -> u64 {
+        match self.shape {
+            ShapeDesc::PointSet { points, .. } => 1 + u64::from(points),
+            _ => 1,
+        }
+    }
 }
 
 /// Buttons a player can hold, as bits of [`PlayerInput::buttons`].
@@ -167,4 +240,25 @@ pub struct PlayerInput {
     pub yaw: f32,
     /// Held buttons ([`buttons`]).
     pub buttons: u8,
+    /// How far behind `tick` the world the player saw was when this input
+    /// was made, ticks (fractional, ≥ 0): the client's interpolation render
+    /// tick is `tick − view_behind` ([`PlayerInput::view_tick`]). Rules use
+    /// it to ask what the player aimed at (lag compensation). Travels in
+    /// 1/16 tick steps, capped at
+    /// [`MAX_VIEW_BEHIND`](crate::input::MAX_VIEW_BEHIND); 0 means "the
+    /// world as it is" (no rewind).
+    ///
+    /// Kept relative to `tick` rather than as an absolute tick so that it is
+    /// exact at every tick (an `f64` tick loses 1/16 steps past 2⁴⁹) and
+    /// the bounds a server checks (finite, not ahead, not too far back)
+    /// are bounds on this one number.
+    pub view_behind: f32,
+}
+
+impl PlayerInput {
+    /// The (fractional) server tick the player was drawing when it made
+    /// this input: `tick − view_behind`, ticks.
+    pub fn view_tick(&self) -> f64 {
+        self.tick as f64 - f64::from(self.view_behind)
+    }
 }

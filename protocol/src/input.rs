@@ -16,11 +16,20 @@
 //!   sequence  32
 //!   tick      varint
 //!   body      36  movement x, z (8 bits each), yaw (12), buttons (8)
+//!   view      varint  how far behind `tick` the player's view was, in
+//!                 1/16 tick, 0 to MAX_VIEW_BEHIND_STEPS (4095)
 //! each older input (sequence and tick relative to the one before it):
 //!   seq_step   1  1: sequence is one less; 0: varint (difference − 2)
 //!   tick_step  1  1: tick is one less; 0: zigzag varint of the difference
 //!   body      36
+//!   view      varint
 //! ```
+//!
+//! `view` carries [`PlayerInput::view_behind`]: the player's render tick
+//! was `tick − view / 16`. Eight ticks or less behind take one group (8
+//! bits), up to the cap two (16). The cap, 4095/16 ≈ 256 ticks (4.3 s at
+//! 60 Hz), is far past any rewind a server grants; a server caps the
+//! rewind itself (see the server's lag compensation).
 //!
 //! A varint is groups of 7 value bits, least significant first, each after
 //! a bit saying whether another group follows. The encoding is canonical:
@@ -51,14 +60,26 @@ const MOVEMENT_MAX_INDEX: u64 = 254;
 const VARINT64_BITS: usize = 10 * 8;
 const VARINT32_BITS: usize = 5 * 8;
 const BODY_BITS: usize = 2 * MOVEMENT_BITS as usize + YAW_BITS as usize + 8;
+/// Steps of [`PlayerInput::view_behind`] per tick: it travels in 1/16 tick.
+pub const VIEW_STEPS_PER_TICK: u32 = 16;
+/// The most steps (1/16 tick each) of [`PlayerInput::view_behind`] on the
+/// wire.
+pub const MAX_VIEW_BEHIND_STEPS: u32 = 4095;
+/// The most [`PlayerInput::view_behind`] the wire carries, ticks
+/// (4095/16); more is sent as this.
+pub const MAX_VIEW_BEHIND: f32 = MAX_VIEW_BEHIND_STEPS as f32 / VIEW_STEPS_PER_TICK as f32;
+/// Value bits of the view varint: [`MAX_VIEW_BEHIND_STEPS`] fits in 12.
+const VIEW_VALUE_BITS: u32 = 12;
+/// Bits of the view varint at its longest: two groups.
+const VIEW_BITS: usize = 2 * 8;
 /// The longest input datagram, bytes; longer ones are refused unread.
 pub const MAX_INPUT_DATAGRAM_BYTES: usize = (8
     + 1
     + 16
     + 32
     + 4
-    + (32 + VARINT64_BITS + BODY_BITS)
-    + (MAX_REDUNDANT_INPUTS - 1) * (1 + VARINT32_BITS + 1 + VARINT64_BITS + BODY_BITS))
+    + (32 + VARINT64_BITS + BODY_BITS + VIEW_BITS)
+    + (MAX_REDUNDANT_INPUTS - 1) * (1 + VARINT32_BITS + 1 + VARINT64_BITS + BODY_BITS + VIEW_BITS))
     .div_ceil(8);
 
 /// What a client sends every tick.
@@ -212,13 +233,51 @@ fn yaw_value(i: u64) -> f32 {
     (i as f64 * TAU / f64::from(1u32 << YAW_BITS)) as f32
 }
 
+/// The wire's steps for a view offset: NaN, negative and zero as 0 (no
+/// rewind), rounded to 1/16 tick, at most [`MAX_VIEW_BEHIND_STEPS`].
+fn view_index(behind: f32) -> u64 {
+    if behind.is_nan() || behind <= 0.0 {
+        return 0;
+    }
+    let steps = (f64::from(behind) * f64::from(VIEW_STEPS_PER_TICK)).round();
+    steps.min(f64::from(MAX_VIEW_BEHIND_STEPS)) as u64
+}
+
+fn view_value(i: u64) -> f32 {
+    // Exact: i < 2¹² and 16 is a power of two.
+    i as f32 / VIEW_STEPS_PER_TICK as f32
+}
+
+/// [`PlayerInput::view_behind`] as the wire's steps of 1/16 tick, when
+/// that loses nothing: `None` unless it is already quantized (a multiple
+/// of 1/16 in `0..=MAX_VIEW_BEHIND`). For stores that keep inputs
+/// compactly.
+pub fn pack_view_behind(input: &PlayerInput) -> Option<u16> {
+    let i = view_index(input.view_behind);
+    (view_value(i).to_bits() == input.view_behind.to_bits()).then_some(i as u16)
+}
+
+/// The view offset [`pack_view_behind`] packed, ticks; steps past
+/// [`MAX_VIEW_BEHIND_STEPS`] are refused.
+pub fn unpack_view_behind(steps: u16) -> Result<f32, InputError> {
+    if u32::from(steps) > MAX_VIEW_BEHIND_STEPS {
+        return Err(InputError::NotCanonical {
+            what: "view offset past its cap",
+        });
+    }
+    Ok(view_value(u64::from(steps)))
+}
+
 /// An input as it arrives after the trip: movement on a grid of 1/127 per
 /// axis (NaN as 0, clamped to [−1, 1]), yaw in [0, 2π) rad in steps of
-/// 2π/4096 (not finite as 0). Quantizing twice changes nothing.
+/// 2π/4096 (not finite as 0), the view offset in steps of 1/16 tick within
+/// `0..=MAX_VIEW_BEHIND` (NaN and negative as 0). Quantizing twice changes
+/// nothing.
 pub fn quantize_input(input: &PlayerInput) -> PlayerInput {
     PlayerInput {
         movement: input.movement.map(|m| movement_value(movement_index(m))),
         yaw: yaw_value(yaw_index(input.yaw)),
+        view_behind: view_value(view_index(input.view_behind)),
         ..*input
     }
 }
@@ -249,7 +308,7 @@ pub fn pack_input_body(input: &PlayerInput) -> Option<[u8; PACKED_INPUT_BODY_BYT
 }
 
 /// The input [`pack_input_body`] packed, with `sequence` and `tick` put
-/// back.
+/// back (and no view offset: see [`pack_view_behind`]).
 pub fn unpack_input_body(
     bytes: [u8; PACKED_INPUT_BODY_BYTES],
     sequence: u32,
@@ -287,6 +346,7 @@ fn read_body(r: &mut BitReader<'_>, sequence: u32, tick: u64) -> Result<PlayerIn
         movement,
         yaw,
         buttons,
+        view_behind: 0.0,
     })
 }
 
@@ -346,6 +406,7 @@ impl InputDatagram {
                 }
             }
             write_body(&mut w, input);
+            write_varint(&mut w, view_index(input.view_behind));
             prev = Some(input);
         }
         Ok(w.finish())
@@ -404,7 +465,9 @@ impl InputDatagram {
                     (sequence, tick)
                 }
             };
-            inputs.push(read_body(&mut r, sequence, tick)?);
+            let mut input = read_body(&mut r, sequence, tick)?;
+            input.view_behind = view_value(read_varint(&mut r, VIEW_VALUE_BITS)?);
+            inputs.push(input);
         }
         let left = r.bits_left();
         if left >= 8 {
@@ -571,6 +634,7 @@ mod tests {
             movement: [0.5, -1.0],
             yaw: 1.0,
             buttons: buttons::JUMP,
+            view_behind: 9.5,
         }
     }
 
@@ -594,10 +658,11 @@ mod tests {
             ..d.clone()
         };
         assert_eq!(InputDatagram::decode(&bytes).unwrap(), expected);
-        // Tag, acks, count, a full newest input, seven short ones.
+        // Tag, acks, count, a full newest input, seven short ones; each
+        // input's view (9.5 ticks: 152 steps) in two varint groups.
         assert_eq!(
             bytes.len(),
-            (8 + 49 + 4 + 32 + 16 + 36 + 7 * 38usize).div_ceil(8)
+            (8 + 49 + 4 + 32 + 16 + 36 + 16 + 7 * (38 + 16usize)).div_ceil(8)
         );
         assert!(bytes.len() <= MAX_INPUT_DATAGRAM_BYTES);
     }
@@ -618,6 +683,56 @@ mod tests {
         });
         assert_eq!(nan.movement, [0.0, 1.0]);
         assert_eq!(nan.yaw, 0.0);
+    }
+
+    #[test]
+    fn view_offsets_travel_in_sixteenths_within_the_cap() {
+        let with = |view_behind| PlayerInput {
+            view_behind,
+            ..input(1, 1000)
+        };
+        let trip = |view_behind| {
+            let d = InputDatagram {
+                ack: None,
+                ack_bits: 0,
+                inputs: vec![with(view_behind)],
+            };
+            let bytes = d.encode().unwrap();
+            let back = InputDatagram::decode(&bytes).unwrap();
+            assert_eq!(back.encode().unwrap(), bytes, "canonical");
+            assert_eq!(back.inputs[0], quantize_input(&with(view_behind)));
+            back.inputs[0].view_behind
+        };
+        assert_eq!(trip(0.0), 0.0);
+        assert_eq!(trip(7.9375), 7.9375);
+        assert_eq!(trip(6.03), 6.0);
+        assert_eq!(trip(6.04), 6.0625);
+        // Not finite or ahead of the tick: no rewind; too far: the cap.
+        assert_eq!(trip(f32::NAN), 0.0);
+        assert_eq!(trip(-3.0), 0.0);
+        assert_eq!(trip(f32::NEG_INFINITY), 0.0);
+        assert_eq!(trip(1e9), MAX_VIEW_BEHIND);
+        assert_eq!(trip(f32::INFINITY), MAX_VIEW_BEHIND);
+        assert_eq!(with(2.5).view_tick(), 997.5);
+        // A view varint past the cap is refused: 4096 steps.
+        let mut w = BitWriter::new();
+        w.write(u64::from(INPUT_DATAGRAM_TAG), 8);
+        w.write_bool(false);
+        w.write(1, 4);
+        w.write(1, 32);
+        write_varint(&mut w, 1000);
+        write_body(&mut w, &with(0.0));
+        write_varint(&mut w, 4096);
+        assert!(matches!(
+            InputDatagram::decode(&w.finish()),
+            Err(InputError::NotCanonical { .. })
+        ));
+        // Stores pack only what is already quantized.
+        assert_eq!(pack_view_behind(&with(2.5)), Some(40));
+        assert_eq!(pack_view_behind(&with(2.51)), None);
+        assert_eq!(pack_view_behind(&with(-0.0)), None);
+        assert_eq!(unpack_view_behind(40), Ok(2.5));
+        assert!(unpack_view_behind(4096).is_err());
     }
 
     #[test]

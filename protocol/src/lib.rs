@@ -22,6 +22,8 @@ pub mod bits;
 pub mod client_session;
 pub mod control;
 pub mod credentials;
+#[cfg(feature = "physics")]
+pub mod engine_shape;
 pub mod entity;
 pub mod input;
 pub mod interest;

@@ -30,6 +30,8 @@ fn entity() -> impl Strategy<Value = EntityDesc> {
             Just(EntityKind::Kinematic),
             Just(EntityKind::Avatar),
             Just(EntityKind::Water),
+            Just(EntityKind::SoftBody),
+            Just(EntityKind::Fluid),
         ],
         shape(),
         any::<[u8; 4]>(),
@@ -160,14 +162,19 @@ fn player_input() -> impl Strategy<Value = PlayerInput> {
         [-1.5f32..1.5, -1.5f32..1.5],
         -20.0f32..20.0,
         0..=buttons::ALL,
+        // Views behind the tick: none, within the cap, past it, ahead.
+        prop_oneof![Just(0.0f32), 0.0f32..300.0, -5.0f32..0.0],
     )
-        .prop_map(|(sequence, tick, movement, yaw, buttons)| PlayerInput {
-            sequence,
-            tick,
-            movement,
-            yaw,
-            buttons,
-        })
+        .prop_map(
+            |(sequence, tick, movement, yaw, buttons, view_behind)| PlayerInput {
+                sequence,
+                tick,
+                movement,
+                yaw,
+                buttons,
+                view_behind,
+            },
+        )
 }
 
 /// Datagrams as a client writes them: consecutive sequences and ticks

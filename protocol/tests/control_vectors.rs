@@ -12,7 +12,7 @@
 //! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test control_vectors`.
 
 use inertia_protocol::control::{
-    decode_payload, encode_frame, ClientControl, DisconnectReason, GameEvent, Refusal,
+    decode_payload, encode_frame, ClientControl, DisconnectReason, GameEvent, InputReport, Refusal,
     ServerControl, SnapshotParams, TokenRefusal, PROTOCOL_VERSION,
 };
 use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
@@ -232,6 +232,45 @@ fn server_messages() -> Vec<(&'static str, ServerControl)> {
         ),
         ("spawn: water", ServerControl::Spawn(water)),
         (
+            "spawn: cloth",
+            ServerControl::Spawn(entity(
+                20,
+                EntityKind::SoftBody,
+                ShapeDesc::PointSet {
+                    points: 4,
+                    radius: 0.01,
+                    triangles: vec![[0, 2, 1], [1, 2, 3]],
+                    lines: vec![],
+                },
+            )),
+        ),
+        (
+            "spawn: rope",
+            ServerControl::Spawn(entity(
+                30,
+                EntityKind::SoftBody,
+                ShapeDesc::PointSet {
+                    points: 3,
+                    radius: 0.02,
+                    triangles: vec![],
+                    lines: vec![[0, 1], [1, 2]],
+                },
+            )),
+        ),
+        (
+            "spawn: fluid",
+            ServerControl::Spawn(entity(
+                40,
+                EntityKind::Fluid,
+                ShapeDesc::PointSet {
+                    points: 300,
+                    radius: 0.05,
+                    triangles: vec![],
+                    lines: vec![],
+                },
+            )),
+        ),
+        (
             "spawn: heightfield",
             ServerControl::Spawn(entity(
                 12,
@@ -271,6 +310,24 @@ fn server_messages() -> Vec<(&'static str, ServerControl)> {
             ServerControl::Event(GameEvent::Custom {
                 name: "score".into(),
                 data: vec![0, 1, 2, 255],
+            }),
+        ),
+        (
+            "input timing",
+            ServerControl::InputTiming(InputReport {
+                on_time: 70_000,
+                late: 3,
+                refused: 0,
+                min_lead: Some(-2),
+            }),
+        ),
+        (
+            "input timing: no input lately",
+            ServerControl::InputTiming(InputReport {
+                on_time: 1,
+                late: 0,
+                refused: 300,
+                min_lead: None,
             }),
         ),
         (
@@ -388,7 +445,15 @@ fn control_vectors_cover_every_message_and_every_shape() {
             .collect()
     };
     let server = variants(&v["server"]);
-    for kind in ["Welcome", "Refused", "Spawn", "Despawn", "Event", "Goodbye"] {
+    for kind in [
+        "Welcome",
+        "Refused",
+        "Spawn",
+        "Despawn",
+        "Event",
+        "Goodbye",
+        "InputTiming",
+    ] {
         assert!(server.iter().any(|k| k == kind), "no {kind}");
     }
     let shapes: Vec<String> = v["server"]

@@ -3,7 +3,9 @@
 //! acknowledgements and inputs of every form the layout has (no ack; an
 //! ack with its bits; one input; eight, with sequence and tick steps of
 //! one and of more, backwards ticks, turns past a whole circle and every
-//! button). The browser client's encoder (`web/src/input.ts`) must write
+//! button; views behind the tick of none, one varint group and two,
+//! rounded, capped, ahead of the tick and NaN (written as `null`)). The
+//! browser client's encoder (`web/src/input.ts`) must write
 //! the same bytes from the same fields.
 //!
 //! Ticks are decimal text (64-bit). A change to the layout that means to
@@ -26,6 +28,15 @@ fn input(sequence: u32, tick: u64, movement: [f32; 2], yaw: f32, pressed: u8) ->
         movement,
         yaw,
         buttons: pressed,
+        view_behind: 0.0,
+    }
+}
+
+/// `input` seen `view_behind` ticks behind its tick.
+fn seen(input: PlayerInput, view_behind: f32) -> PlayerInput {
+    PlayerInput {
+        view_behind,
+        ..input
     }
 }
 
@@ -38,12 +49,18 @@ fn datagrams() -> Vec<(&'static str, InputDatagram)> {
             let tick = [
                 90_000u64, 89_999, 89_999, 89_990, 89_991, 89_000, 88_999, 70_000,
             ][k as usize];
-            input(
-                sequence,
-                tick,
-                [k as f32 / 7.0 * 2.0 - 1.0, 0.3 - k as f32 * 0.1],
-                -7.0 + k as f32 * 1.9,
-                [0, buttons::JUMP, buttons::PUSH, buttons::ALL][k as usize % 4],
+            // Views of none, one varint group and two, rounded to the
+            // nearest sixteenth, past the cap, ahead of the tick, NaN.
+            let view = [0.0, 7.9375, 8.0, 3.03, 300.0, -2.0, f32::NAN, 12.25][k as usize];
+            seen(
+                input(
+                    sequence,
+                    tick,
+                    [k as f32 / 7.0 * 2.0 - 1.0, 0.3 - k as f32 * 0.1],
+                    -7.0 + k as f32 * 1.9,
+                    [0, buttons::JUMP, buttons::PUSH, buttons::ALL][k as usize % 4],
+                ),
+                view,
             )
         })
         .collect();
@@ -70,7 +87,10 @@ fn datagrams() -> Vec<(&'static str, InputDatagram)> {
             InputDatagram {
                 ack: Some(12),
                 ack_bits: u32::MAX,
-                inputs: vec![input(u32::MAX, (1 << 40) + 3, [0.0, 0.5], 0.0, 0)],
+                inputs: vec![seen(
+                    input(u32::MAX, (1 << 40) + 3, [0.0, 0.5], 0.0, 0),
+                    15.5,
+                )],
             },
         ),
         (
@@ -107,6 +127,8 @@ fn vectors() -> Value {
                         "movement": i.movement,
                         "yaw": i.yaw,
                         "buttons": i.buttons,
+                        // NaN has no JSON: written as null.
+                        "view_behind": (!i.view_behind.is_nan()).then_some(i.view_behind),
                     })
                 })
                 .collect();

@@ -22,6 +22,15 @@ fn config(velocities: bool) -> SnapshotConfig {
 }
 
 /// A config whose datagrams hold whole worlds of a few hundred entities.
+/// The ids of the entities in the decoder's view of snapshot `sequence`.
+fn view_ids(dec: &SnapshotDecoder, sequence: u16) -> Vec<u32> {
+    dec.entities(sequence)
+        .unwrap()
+        .iter()
+        .map(|e| e.id)
+        .collect()
+}
+
 fn roomy(velocities: bool) -> SnapshotConfig {
     SnapshotConfig {
         max_datagram: 65_000,
@@ -361,12 +370,7 @@ fn out_of_interest_and_despawned_entities_leave_the_view() {
     let got = dec
         .decode(&enc.encode(0, 1.0, false, &world, &mut pri, 2000))
         .unwrap();
-    let ids: Vec<u32> = dec
-        .entities(got.sequence)
-        .unwrap()
-        .iter()
-        .map(|e| e.id)
-        .collect();
+    let ids = view_ids(&dec, got.sequence);
     assert_eq!(ids, [10, 20, 40]);
     enc.on_ack(got.sequence);
     // 20 walks out of range, 10 despawns.
@@ -375,13 +379,48 @@ fn out_of_interest_and_despawned_entities_leave_the_view() {
         .decode(&enc.encode(1, 1.0, false, &world, &mut pri, 2000))
         .unwrap();
     assert_eq!(got.removed, [10, 20]);
-    let ids: Vec<u32> = dec
-        .entities(got.sequence)
-        .unwrap()
-        .iter()
-        .map(|e| e.id)
-        .collect();
+    let ids = view_ids(&dec, got.sequence);
     assert_eq!(ids, [40]);
+}
+
+/// A rope streamed as a point set (ids after its set's, as
+/// `EntityDesc::point_id` numbers them) is culled point by point: the
+/// points beyond the interest's reach never travel, and a point that
+/// swings out of it leaves the view while the rest stay.
+#[test]
+fn issue_16_a_point_sets_points_are_culled_by_interest_one_by_one() {
+    let config = roomy(false);
+    let mut enc = SnapshotEncoder::new(config).unwrap();
+    let mut dec = SnapshotDecoder::new(config).unwrap();
+    let mut pri = PriorityAccumulator::new(Interest::around(DVec3::ZERO, 10.0, 20.0));
+    // Set 100 with 30 points, one every metre along x from 5 m.
+    let rope = |swing: f64| -> Vec<EntityState> {
+        (0..30u32)
+            .map(|i| EntityState {
+                id: 100 + 1 + i,
+                position: DVec3::new(5.0 + f64::from(i), if i == 3 { swing } else { 0.0 }, 0.0),
+                rotation: DQuat::IDENTITY,
+                linear_velocity: DVec3::ZERO,
+                angular_velocity: DVec3::ZERO,
+                asleep: false,
+            })
+            .collect()
+    };
+    let got = dec
+        .decode(&enc.encode(0, 1.0, false, &rope(0.0), &mut pri, 4000))
+        .unwrap();
+    let ids = view_ids(&dec, got.sequence);
+    // Points 0 to 14 lie within 20 m (5 m to 19 m along x).
+    assert_eq!(ids, (101..=115).collect::<Vec<_>>());
+    enc.on_ack(got.sequence);
+    // Point 3 (at 8 m) swings 30 m up, out of reach: it alone leaves.
+    let got = dec
+        .decode(&enc.encode(1, 1.0, false, &rope(30.0), &mut pri, 4000))
+        .unwrap();
+    assert_eq!(got.removed, [104]);
+    assert!(got.updated.is_empty(), "the rest did not move");
+    let held = dec.entities(got.sequence).unwrap();
+    assert_eq!(held.len(), 14);
 }
 
 #[test]

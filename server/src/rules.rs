@@ -15,20 +15,32 @@
 //! capsule avatar per client, moved by a capped control force towards the
 //! desired velocity, a jump only when standing on something, and a push
 //! for whatever is in front.
+//!
+//! Rules may answer an input against the world as its player saw it (lag
+//! compensation): [`SimContext::cast_ray_at`] and
+//! [`SimContext::overlap_sphere_at`] take the input's
+//! [`PlayerInput::view_tick`] and test the moving bodies at their poses
+//! of that tick, kept by the simulation's
+//! [`PoseHistory`](crate::sim::PoseHistory) for as long as the rules ask
+//! ([`GameRules::rewind_window_ms`]); static bodies are tested as they
+//! are.
 
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
-use inertia_physics::glam::{DMat3, DVec3};
-use inertia_physics::rigid::body::{BodyKind, CombineRule, RigidBody, RigidBodyDesc};
+use inertia_physics::character::{self, WalkSettings};
+use inertia_physics::glam::DVec3;
+use inertia_physics::rigid::body::{BodyKind, RigidBody, RigidBodyDesc};
 use inertia_physics::rigid::pose::Pose;
-use inertia_physics::rigid::query::RayHit;
+use inertia_physics::rigid::query::{ray_aabb, ray_cast_shape, RayHit};
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{PhysicsError, QueryIndex, World};
 use inertia_protocol::entity::buttons;
+use inertia_protocol::input::MAX_VIEW_BEHIND;
 use inertia_protocol::{EntityDesc, EntityId, EntityKind, PlayerInput};
 
 use crate::scene::{shape_desc, EntitySource, EntityTable};
+use crate::sim::{KeptPose, PoseHistory, RewindError, Rewound};
 
 /// A connected client, as the network layer numbers it.
 pub type ClientId = u64;
@@ -82,6 +94,13 @@ pub enum InputError {
         /// The server's tick.
         now: u64,
     },
+    /// The client already has as many inputs waiting for their ticks as
+    /// the server holds.
+    #[error("the client has {max} inputs waiting already")]
+    Backlog {
+        /// The most held per client.
+        max: usize,
+    },
     /// Not newer than the last accepted input (duplicate or reordered).
     #[error("input sequence {sequence} is not after {last}")]
     OutOfOrder {
@@ -114,6 +133,14 @@ impl Default for InputWindow {
 /// infinite fields and ticks outside `window` are refused; movement is
 /// clamped to [−1, 1] per axis and length 1, yaw wrapped into (−π, π], and
 /// undefined button bits cleared.
+///
+/// The view offset ([`PlayerInput::view_behind`]) is clamped, never
+/// refused, so a bad view costs the player the compensation of that one
+/// input, not its movement: NaN, infinite or negative (a view ahead of the
+/// input's tick) becomes 0, "the world as it is"; more than
+/// [`MAX_VIEW_BEHIND`] becomes that. The rewind itself is capped later, by
+/// the pose window ([`SimContext::cast_ray_at`]), which knows how far back
+/// the server keeps poses.
 pub fn validate_input(
     input: &PlayerInput,
     now: u64,
@@ -155,6 +182,11 @@ pub fn validate_input(
         movement: [mx, mz],
         yaw: yaw as f32,
         buttons: input.buttons & buttons::ALL,
+        view_behind: if input.view_behind.is_finite() && input.view_behind > 0.0 {
+            input.view_behind.min(MAX_VIEW_BEHIND)
+        } else {
+            0.0
+        },
     })
 }
 
@@ -283,6 +315,21 @@ pub struct SimContext<'a> {
     /// The bodies in a tree for ray casts, built by the first cast and
     /// dropped whenever a body is added, removed or moved.
     query: std::cell::OnceCell<QueryIndex>,
+    /// The moving bodies' recent poses, for queries as a player saw the
+    /// world; `None`: queries answer the world as it is.
+    poses: Option<&'a PoseHistory>,
+    /// Rewound queries asked in this call, and how many were clamped.
+    rewinds: std::cell::Cell<RewindCount>,
+}
+
+/// Rewound queries asked of a [`SimContext`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RewindCount {
+    /// Queries answered at a view tick.
+    pub asked: u64,
+    /// Of those, views older than the pose window, answered at its oldest
+    /// tick.
+    pub clamped: u64,
 }
 
 impl<'a> SimContext<'a> {
@@ -305,7 +352,165 @@ impl<'a> SimContext<'a> {
             dt,
             limits,
             query: std::cell::OnceCell::new(),
+            poses: None,
+            rewinds: std::cell::Cell::new(RewindCount::default()),
         }
+    }
+
+    /// The same context, answering rewound queries from `poses`.
+    pub fn with_poses(mut self, poses: &'a PoseHistory) -> Self {
+        self.poses = Some(poses);
+        self
+    }
+
+    /// Rewound queries asked so far in this call.
+    pub fn rewinds(&self) -> RewindCount {
+        self.rewinds.get()
+    }
+
+    /// Where a query at the view tick `view_tick` (ticks, fractional) is
+    /// answered: within the pose window, clamped to its ends (`clamped`
+    /// when older than the window). `Ok(None)` when no poses are kept
+    /// (queries then answer the world as it is).
+    pub fn rewound(&self, view_tick: f64) -> Result<Option<Rewound>, RewindError> {
+        match self.poses {
+            Some(p) => p.rewound(view_tick),
+            None if view_tick.is_finite() => Ok(None),
+            None => Err(RewindError::NotFinite(view_tick)),
+        }
+    }
+
+    /// The moving bodies at `view_tick`, counted; `None`: none kept.
+    fn posed_at(&self, view_tick: f64) -> Result<Option<Vec<KeptPose>>, RewindError> {
+        let Some(poses) = self.poses else {
+            return self.rewound(view_tick).map(|_| None);
+        };
+        let mut posed = Vec::new();
+        let Some(rewound) = poses.poses_at(view_tick, &mut posed)? else {
+            return Ok(None);
+        };
+        let mut count = self.rewinds.get();
+        count.asked += 1;
+        count.clamped += u64::from(rewound.clamped);
+        self.rewinds.set(count);
+        Ok(Some(posed))
+    }
+
+    /// An entity's body, if it is still there, solid and shaped.
+    fn solid(&self, entity: EntityId) -> Option<&RigidBody> {
+        let b = self.world.body(self.entities.body(entity)?)?;
+        (!b.is_sensor() && b.shape().is_some()).then_some(b)
+    }
+
+    /// [`Self::cast_ray`] against the world as it stood at the view tick
+    /// `view_tick` (ticks, fractional; a player's is
+    /// [`PlayerInput::view_tick`]): every body that moves is tested at its
+    /// pose of then, interpolated between the two ticks around it, and
+    /// bodies that did not exist then are not hit; static bodies are
+    /// tested as they are. A view older than the pose window is answered
+    /// at its oldest tick (counted in
+    /// [`SimStats::rewinds_clamped`](crate::sim::SimStats::rewinds_clamped)),
+    /// one ahead of the newest at the newest. `origin` m, `dir` need not
+    /// be unit, `max_t` in units of `|dir|`, so m for a unit `dir`.
+    /// Returns the entity hit (`None` for a static body without one) and
+    /// the hit, the point m in the world of then. A ray the engine would
+    /// refuse (not finite, zero direction, negative `max_t`) hits nothing.
+    ///
+    /// # Errors
+    /// [`RewindError::NotFinite`] for a NaN or infinite `view_tick`.
+    pub fn cast_ray_at(
+        &self,
+        view_tick: f64,
+        origin: DVec3,
+        dir: DVec3,
+        max_t: f64,
+        ignore: Option<EntityId>,
+    ) -> Result<Option<(Option<EntityId>, RayHit)>, RewindError> {
+        let Some(posed) = self.posed_at(view_tick)? else {
+            return Ok(self.cast_ray(origin, dir, max_t, ignore));
+        };
+        if !(origin.is_finite() && dir.is_finite() && max_t >= 0.0 && dir != DVec3::ZERO) {
+            return Ok(None);
+        }
+        let mut best: Option<(Option<EntityId>, RayHit)> = None;
+        for k in posed.iter().filter(|k| Some(k.entity) != ignore) {
+            let Some(shape) = self.solid(k.entity).and_then(RigidBody::shape) else {
+                continue;
+            };
+            if ray_aabb(origin, dir, max_t, &shape.aabb(&k.pose).expanded(1e-9)).is_none() {
+                continue;
+            }
+            if let Some(hit) = ray_cast_shape(shape, &k.pose, origin, dir, max_t) {
+                if best.is_none_or(|(_, b)| hit.t < b.t) {
+                    best = Some((Some(k.entity), hit));
+                }
+            }
+        }
+        // Static bodies as they are (skipping any kept as moving then).
+        let skip = ignore.and_then(|id| self.entities.body(id));
+        let kept = |h| {
+            self.entities
+                .by_body(h)
+                .is_some_and(|id| posed.binary_search_by_key(&id, |k| k.entity).is_ok())
+        };
+        let reach = best.map_or(max_t, |(_, b)| b.t);
+        let index = self.query.get_or_init(|| QueryIndex::build(self.world));
+        let still = index
+            .cast_ray(self.world, origin, dir, reach, |h, b| {
+                Some(h) != skip && b.kind() == BodyKind::Static && !b.is_sensor() && !kept(h)
+            })
+            .ok()
+            .flatten();
+        if let Some((h, hit)) = still {
+            if best.is_none_or(|(_, b)| hit.t < b.t) {
+                best = Some((self.entities.by_body(h), hit));
+            }
+        }
+        Ok(best)
+    }
+
+    /// [`Self::overlap_sphere`] against the world as it stood at the view
+    /// tick `view_tick` (see [`Self::cast_ray_at`]): entities whose solid
+    /// bodies touched a ball of `radius` m at `center` (m) then, sorted by
+    /// id.
+    ///
+    /// # Errors
+    /// [`RewindError::NotFinite`] for a NaN or infinite `view_tick`.
+    pub fn overlap_sphere_at(
+        &self,
+        view_tick: f64,
+        center: DVec3,
+        radius: f64,
+    ) -> Result<Vec<EntityId>, RewindError> {
+        let Some(posed) = self.posed_at(view_tick)? else {
+            return Ok(self.overlap_sphere(center, radius));
+        };
+        let (Ok(ball), true) = (Shape::sphere(radius), center.is_finite()) else {
+            return Ok(Vec::new());
+        };
+        let at = Pose::from_translation(center);
+        let bounds = ball.aabb(&at);
+        let mut out = Vec::new();
+        for k in &posed {
+            let Some(shape) = self.solid(k.entity).and_then(RigidBody::shape) else {
+                continue;
+            };
+            if shape.aabb(&k.pose).intersects(&bounds)
+                && inertia_physics::rigid::query::overlap(&ball, &at, shape, &k.pose)
+                    .unwrap_or(false)
+            {
+                out.push(k.entity);
+            }
+        }
+        for id in self.overlap_sphere(center, radius) {
+            let still = self.body(id).is_some_and(|b| b.kind() == BodyKind::Static);
+            if still && posed.binary_search_by_key(&id, |k| k.entity).is_err() {
+                out.push(id);
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        Ok(out)
     }
 
     /// The tick about to run (in `before_tick`, input and join calls) or
@@ -387,6 +592,8 @@ impl<'a> SimContext<'a> {
         let _ = match e.source {
             EntitySource::Body(h) => self.world.remove_body(h),
             EntitySource::Particle(h) => self.world.remove_particle(h),
+            EntitySource::SoftBody(h) => self.world.remove_soft_body(h),
+            EntitySource::Fluid(h) => self.world.remove_fluid(h),
         };
         true
     }
@@ -396,7 +603,7 @@ impl<'a> SimContext<'a> {
             None => Err(ContextError::UnknownEntity(id)),
             Some(e) => match e.source {
                 EntitySource::Body(h) => Ok(h),
-                EntitySource::Particle(_) => Err(ContextError::NotABody(id)),
+                _ => Err(ContextError::NotABody(id)),
             },
         }
     }
@@ -519,6 +726,18 @@ pub trait GameRules: Send {
         ctx: &mut SimContext<'_>,
     ) -> Result<(), InputError>;
 
+    /// How far back these rules look when they answer an input against
+    /// the world the player saw (`SimContext::cast_ray_at` and
+    /// `overlap_sphere_at`), ms: the server keeps the moving bodies' poses
+    /// that long (capped by `SimConfig::max_rewind_ms`), and carries them
+    /// in every saved state. Rules that never look back keep the default,
+    /// 0, and pay nothing; a shooter asks for about 500 (a view lags its
+    /// input's tick by a round trip, the input's margin and the client's
+    /// interpolation delay).
+    fn rewind_window_ms(&self) -> u32 {
+        0
+    }
+
     /// Before each physics step: turn the latest inputs into forces.
     fn before_tick(&mut self, _ctx: &mut SimContext<'_>) {}
 
@@ -580,26 +799,9 @@ pub trait GameRules: Send {
 /// Tuning of [`SandboxRules`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SandboxSettings {
-    /// Avatar capsule radius, m.
-    pub avatar_radius: f64,
-    /// Half the straight part of the avatar capsule, m (total height is
-    /// `2 (half_height + radius)`).
-    pub avatar_half_height: f64,
-    /// Avatar mass, kg.
-    pub avatar_mass: f64,
-    /// Fastest walking speed, m/s.
-    pub max_speed: f64,
-    /// How quickly the velocity follows the stick, 1/s (force =
-    /// mass × gain × velocity error).
-    pub acceleration_gain: f64,
-    /// Largest walking force, N (on the ground).
-    pub max_force: f64,
-    /// Fraction of the walking force available in the air.
-    pub air_control: f64,
-    /// Upward speed a jump gives, m/s.
-    pub jump_speed: f64,
-    /// Least time between jumps, s.
-    pub jump_cooldown: f64,
+    /// The avatar's capsule and how it walks and jumps (the SDK's
+    /// prediction walks it with the same settings).
+    pub walk: WalkSettings,
     /// How far in front a push reaches, m.
     pub push_reach: f64,
     /// Impulse of a push, N·s (capped by the context's limits).
@@ -613,15 +815,7 @@ pub struct SandboxSettings {
 impl Default for SandboxSettings {
     fn default() -> Self {
         Self {
-            avatar_radius: 0.35,
-            avatar_half_height: 0.55,
-            avatar_mass: 70.0,
-            max_speed: 6.0,
-            acceleration_gain: 10.0,
-            max_force: 2_000.0,
-            air_control: 0.3,
-            jump_speed: 5.5,
-            jump_cooldown: 0.3,
+            walk: WalkSettings::default(),
             push_reach: 1.5,
             push_impulse: 400.0,
             push_cooldown: 0.4,
@@ -673,23 +867,10 @@ impl SandboxRules {
     }
 
     fn avatar_desc(&self, at: DVec3) -> Result<RigidBodyDesc, Refusal> {
-        let s = &self.settings;
-        let shape = Shape::capsule(s.avatar_half_height, s.avatar_radius)
-            .map_err(|e| Refusal::Rules(e.to_string()))?;
-        let mut d = RigidBodyDesc::dynamic(shape, 1000.0, Pose::from_translation(at))
-            .map_err(|e| Refusal::Rules(e.to_string()))?;
-        d.mass_properties.mass = s.avatar_mass;
-        // An avatar stays upright: an inertia so large that contacts cannot
-        // tip it over (rotation is locked in effect).
-        d.mass_properties.inertia = DMat3::from_diagonal(DVec3::splat(s.avatar_mass * 1e6));
-        // Friction would fight the walking controller; the controller
-        // brakes instead.
-        d.friction_static = 0.0;
-        d.friction_dynamic = 0.0;
-        d.friction_combine = CombineRule::Min;
-        d.can_sleep = false;
-        d.ccd = true;
-        Ok(d)
+        self.settings
+            .walk
+            .body_desc(at)
+            .map_err(|e| Refusal::Rules(e.to_string()))
     }
 
     fn spawn_avatar(
@@ -698,8 +879,8 @@ impl SandboxRules {
         ctx: &mut SimContext<'_>,
     ) -> Result<EntityId, Refusal> {
         let s = &self.settings;
-        let half = s.avatar_half_height + s.avatar_radius;
-        let shape = Shape::capsule(s.avatar_half_height, s.avatar_radius)
+        let half = s.walk.half_height + s.walk.radius;
+        let shape = Shape::capsule(s.walk.half_height, s.walk.radius)
             .map_err(|e| Refusal::Rules(e.to_string()))?;
         // The first spawn point with nothing in the way; then the same
         // points lifted by one avatar height at a time.
@@ -742,29 +923,18 @@ impl SandboxRules {
         .map_err(|e| Refusal::Rules(e.to_string()))
     }
 
-    /// Whether the avatar stands on something: a ray from its centre down
-    /// to a little below its feet hits a solid body.
+    /// Whether the avatar stands on something: rays from its centre down
+    /// to a little below its feet hit a solid body (see
+    /// [`WalkSettings::grounded`]).
     fn grounded(&self, avatar: EntityId, ctx: &SimContext<'_>) -> bool {
         let Some(b) = ctx.body(avatar) else {
             return false;
         };
-        let s = &self.settings;
-        let reach = s.avatar_half_height + s.avatar_radius + 0.1;
-        let from = b.center_of_mass();
-        // Several rays (centre and four around it) so an edge still counts.
-        let r = s.avatar_radius * 0.7;
-        [
-            DVec3::ZERO,
-            DVec3::X * r,
-            DVec3::NEG_X * r,
-            DVec3::Z * r,
-            DVec3::NEG_Z * r,
-        ]
-        .iter()
-        .any(|&off| {
-            ctx.cast_ray(from + off, DVec3::NEG_Y, reach, Some(avatar))
-                .is_some()
-        })
+        self.settings
+            .walk
+            .grounded(b.center_of_mass(), |from, dir, reach| {
+                ctx.cast_ray(from, dir, reach, Some(avatar)).is_some()
+            })
     }
 
     fn drive(&mut self, client: ClientId, ctx: &mut SimContext<'_>) {
@@ -779,45 +949,30 @@ impl SandboxRules {
         );
         let input = p.input;
         let Some(b) = ctx.body(avatar) else { return };
-        let (v, com, mass) = (b.linear_velocity(), b.center_of_mass(), b.mass());
+        let (v, com) = (b.linear_velocity(), b.center_of_mass());
         let grounded = self.grounded(avatar, ctx);
         let Some(p) = self.players.get_mut(&client) else {
             return;
         };
 
         // Walk: a force towards the desired horizontal velocity.
-        let [mx, mz] = input.movement;
-        let desired = DVec3::new(f64::from(mx), 0.0, f64::from(mz)) * s.max_speed;
-        let error = desired - DVec3::new(v.x, 0.0, v.z);
-        let cap = if grounded {
-            s.max_force
-        } else {
-            s.max_force * s.air_control
-        };
-        let force = clamp_length(error * (mass * s.acceleration_gain), cap);
-        let _ = ctx.set_control_force(avatar, force);
+        let walk = s.walk;
+        let _ = ctx.set_control_force(avatar, walk.walk_force(input.movement, v, grounded));
 
         let tick = ctx.tick();
         let dt = ctx.dt();
-        let ticks = move |secs: f64| (secs / dt).ceil() as u64;
-        if jump && grounded && tick >= p.jump_ready_at && v.y < s.jump_speed * 0.5 {
-            // Whatever the vertical speed (landing included), leave at
-            // exactly the jump speed: every jump rises the same height.
-            let dv = s.jump_speed - v.y;
-            if ctx
-                .apply_impulse(avatar, DVec3::Y * (mass * dv), com)
-                .is_ok()
-            {
-                p.jump_ready_at = tick + ticks(s.jump_cooldown);
+        if let Some(j) = walk.jump(jump, grounded, tick, p.jump_ready_at, v, dt) {
+            if ctx.apply_impulse(avatar, j.impulse, com).is_ok() {
+                p.jump_ready_at = j.ready_at;
                 ctx.emit(GameEvent::Jumped { avatar });
             }
         }
         if push && tick >= p.push_ready_at {
-            p.push_ready_at = tick + ticks(s.push_cooldown);
+            p.push_ready_at = tick + character::ticks(s.push_cooldown, dt);
             let yaw = f64::from(input.yaw);
             let facing = DVec3::new(yaw.sin(), 0.0, yaw.cos());
             let radius = s.push_reach * 0.5;
-            let center = com + facing * (s.avatar_radius + radius);
+            let center = com + facing * (s.walk.radius + radius);
             for target in ctx.overlap_sphere(center, radius) {
                 if target == avatar {
                     continue;
@@ -957,6 +1112,7 @@ mod tests {
             movement,
             yaw,
             buttons,
+            view_behind: 0.0,
         }
     }
 
@@ -987,6 +1143,44 @@ mod tests {
         let v = validate_input(&input([0.3, 0.4], 0.5, 0), 100, w).unwrap();
         assert_eq!(v.movement, [0.3, 0.4]);
         assert_eq!(v.yaw, 0.5);
+    }
+
+    #[test]
+    fn bad_views_are_clamped_not_refused() {
+        let w = InputWindow::default();
+        let view = |view_behind| {
+            validate_input(
+                &PlayerInput {
+                    view_behind,
+                    ..input([0.5, 0.0], 0.0, 0)
+                },
+                100,
+                w,
+            )
+            .map(|v| (v.view_behind, v.movement))
+        };
+        for (bad, want) in [
+            (f32::NAN, 0.0),
+            (f32::INFINITY, 0.0),
+            (f32::NEG_INFINITY, 0.0),
+            // Ahead of the input's own tick.
+            (-3.0, 0.0),
+            (-0.0, 0.0),
+            (1e9, MAX_VIEW_BEHIND),
+            (6.5, 6.5),
+        ] {
+            assert_eq!(view(bad), Ok((want, [0.5, 0.0])), "{bad}");
+        }
+        let v = validate_input(
+            &PlayerInput {
+                view_behind: 2.5,
+                ..input([0.0, 0.0], 0.0, 0)
+            },
+            100,
+            w,
+        )
+        .unwrap();
+        assert_eq!(v.view_tick(), 97.5);
     }
 
     #[test]

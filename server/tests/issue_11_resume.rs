@@ -90,6 +90,7 @@ fn drive(s: &mut Simulation, ticks: u64) {
                 movement: [((i % 50) as f32 / 50.0), 0.5],
                 yaw: 0.25,
                 buttons: 0,
+                view_behind: 0.0,
             };
             let _ = s.input(7, &input);
         }
@@ -556,7 +557,9 @@ fn issue_11_damage_at_the_start_of_the_newest_segment_resumes_from_the_segment_b
     // (nothing in it changed) and a fresh one starts.
     let scratch = Scratch::new("newest-start");
     let dir = scratch.recording();
-    record(&dir, 600, 30, 6_000);
+    // 610 ticks: the last keyframe every 30 is at 600, and the one that
+    // ends the recording at 610.
+    record(&dir, 610, 30, 6_000);
     let files = segments(&dir);
     assert!(files.len() >= 3, "{files:?}");
     let newest = files.last().unwrap();

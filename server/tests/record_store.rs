@@ -48,6 +48,7 @@ fn input(client: u64, tick: u64) -> PlayerInput {
         movement: [(client as f32) * 0.5 - 1.0, 0.25],
         yaw: tick as f32 * 0.01,
         buttons: (tick % 4) as u8,
+        view_behind: 0.0,
     }
 }
 

@@ -54,6 +54,7 @@ fn input(sequence: u32, tick: u64, x: f32) -> PlayerInput {
         movement: [x, 0.5],
         yaw: 0.25,
         buttons: 0,
+        view_behind: 0.0,
     }
 }
 

@@ -70,6 +70,7 @@ fn record(dir: &Path) {
                 movement: [(i as f32 / TICKS as f32).min(1.0), 0.5],
                 yaw: 0.25,
                 buttons: 0,
+                view_behind: 0.0,
             };
             s.input(7, &input).unwrap();
         }

@@ -42,6 +42,7 @@ impl Player {
             movement,
             yaw,
             buttons,
+            view_behind: 0.0,
         };
         sim.input(self.client, &input).unwrap();
     }
@@ -195,7 +196,9 @@ fn bad_inputs_are_refused_or_clamped() {
     let mut sim = sim(4);
     let avatar = sim.join(1).unwrap();
     settle(&mut sim);
-    let tick = sim.world().tick();
+    // A tick that has passed: the input is applied, and checked, at once
+    // (one for a tick to come waits for it, and is checked then).
+    let tick = sim.world().tick() - 1;
     let nan = PlayerInput {
         sequence: 1,
         tick,
@@ -213,6 +216,7 @@ fn bad_inputs_are_refused_or_clamped() {
         movement: [1e30, 1e30],
         yaw: 1e20,
         buttons: !(buttons::JUMP | buttons::PUSH),
+        view_behind: 0.0,
     };
     sim.input(1, &huge).unwrap();
     sim.run_ticks(120);
@@ -222,8 +226,12 @@ fn bad_inputs_are_refused_or_clamped() {
     assert!(horizontal <= 6.0 + 0.1, "clamped to top speed: {v}");
     assert!(v.y.abs() < 0.5, "no flight from junk buttons: {v}");
     // Replays and reordering are refused.
+    let replayed = PlayerInput {
+        tick: sim.world().tick() - 1,
+        ..huge
+    };
     assert!(matches!(
-        sim.input(1, &huge),
+        sim.input(1, &replayed),
         Err(InputError::OutOfOrder { .. })
     ));
     let old = PlayerInput {

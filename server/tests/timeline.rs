@@ -131,6 +131,7 @@ impl Bots {
             movement: [r.range(-1.0, 1.0) as f32, r.range(-1.0, 1.0) as f32],
             yaw: r.range(-std::f64::consts::PI, std::f64::consts::PI) as f32,
             buttons: b,
+            view_behind: 0.0,
         })
     }
 
@@ -138,6 +139,12 @@ impl Bots {
     /// what was sent (all accepted).
     fn send(&mut self, sim: &mut Simulation) -> Vec<(ClientId, PlayerInput)> {
         let tick = sim.world().tick();
+        self.send_for(sim, tick)
+    }
+
+    /// Sends every present client's input stamped for `tick` (one that
+    /// has passed is applied at once); returns what was sent.
+    fn send_for(&mut self, sim: &mut Simulation, tick: u64) -> Vec<(ClientId, PlayerInput)> {
         let clients: Vec<ClientId> = self.present.iter().copied().collect();
         let mut sent = Vec::new();
         for c in clients {
@@ -424,10 +431,11 @@ fn save_load_and_continue_give_identical_hashes() {
         mut bots,
     } = record("save-load", N, 120);
     assert_eq!(sim.world().tick(), N);
-    // The inputs of tick N are applied before the save: the checkpoint
-    // holds them (they are not sent again after the load).
+    // Inputs for a tick that has passed are applied at once, before the
+    // save: the checkpoint holds them (they are not sent again after the
+    // load). Inputs held for a tick to come are not part of a state.
     let mut inputs = BTreeMap::new();
-    inputs.insert(N, bots.send(&mut sim));
+    inputs.insert(N, bots.send_for(&mut sim, N - 1));
     let state = sim.checkpoint();
     assert_eq!(state.tick, N);
     assert_eq!(state.applied, BOTS as u32 - 1, "seven bots' inputs applied");
@@ -596,17 +604,18 @@ fn refuses_bad_checkpoints(
         StateError::BadMagic
     );
     assert_eq!(state_error(write("empty", b"")), StateError::BadMagic);
+    let newer_version = inertia_server::replay::state::STATE_VERSION + 1;
     let mut newer = raw.to_vec();
-    newer[4..6].copy_from_slice(&2u16.to_le_bytes());
+    newer[4..6].copy_from_slice(&newer_version.to_le_bytes());
     assert_eq!(
         state_error(write("newer.isim", &newer)),
-        StateError::Version(2)
+        StateError::Version(newer_version)
     );
     let packed = name("newer-packed.isim");
     checkpoints.write(&packed, &newer, false).expect("written");
     assert_eq!(
         state_error((checkpoints.clone(), packed)),
-        StateError::Version(2)
+        StateError::Version(newer_version)
     );
     assert!(matches!(
         checkpoints.read(&name("no-such-file")),

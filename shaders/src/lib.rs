@@ -32,6 +32,13 @@ pub const PARTICLE_INTEGRATE: &str = include_str!("../wgsl/particle_integrate.wg
 /// by colour.
 pub const XPBD_SOFT: &str = include_str!("../wgsl/xpbd_soft.wgsl");
 
+/// Position-based fluids on the GPU: the neighbour grid by a counting
+/// sort (`count`, `scan`, `scatter`, `sort_cells`), the walls near each
+/// particle (`find_walls`), the substeps (`predict`, `densities`,
+/// `corrections`, `collide`) and the velocity passes after them
+/// (`vorticity`, `confine`, `xsph`, `take_velocities`).
+pub const PBF: &str = include_str!("../wgsl/pbf.wgsl");
+
 /// The viewer's scene shader (`inertia-viewer`): lit, instanced meshes
 /// (`vs_main`, `fs_main`) and static scenery with a metre grid
 /// (`fs_gridded`).
@@ -46,6 +53,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("particle_interactions.wgsl", PARTICLE_INTERACTIONS),
     ("particle_integrate.wgsl", PARTICLE_INTEGRATE),
     ("xpbd_soft.wgsl", XPBD_SOFT),
+    ("pbf.wgsl", PBF),
 ];
 
 /// Sizes and limits of the data the particle shaders share with the engine.
@@ -76,6 +84,19 @@ pub mod layout {
     pub const SOFT_QUAD_BYTES: usize = 32;
     /// `struct Tether` of `xpbd_soft.wgsl`.
     pub const SOFT_TETHER_BYTES: usize = 16;
+    /// `struct FluidParams` of `pbf.wgsl`: one step's uniform block (the
+    /// wall table's 2 × 64 entries included).
+    pub const FLUID_PARAMS_BYTES: usize = 128 + 2 * 64 * 4;
+    /// `struct Shape` of `pbf.wgsl`: a boundary shape.
+    pub const FLUID_SHAPE_BYTES: usize = 144;
+    /// `struct Plane` of `pbf.wgsl`: a wall near a particle.
+    pub const FLUID_PLANE_BYTES: usize = 32;
+    /// `struct Slot` of `pbf.wgsl`: a slot of the neighbour grid.
+    pub const FLUID_SLOT_BYTES: usize = 16;
+    /// Most walls a fluid particle keeps over a step (`MAX_PLANES`).
+    pub const FLUID_MAX_PLANES: usize = 4;
+    /// Invocations of the fluid's one-workgroup prefix sum (`SCAN_SIZE`).
+    pub const FLUID_SCAN_SIZE: u32 = 256;
     /// `struct Params`: the per-step uniform block.
     pub const PARAMS_BYTES: usize =
         96 + 16 * MAX_MUTUAL_GRAVITY + FIELD_FORCE_BYTES * MAX_FIELD_FORCES;

@@ -159,3 +159,58 @@ fn shader_constants_match_the_engine_limits() {
         }
     }
 }
+
+#[test]
+fn the_fluid_shader_has_its_entry_points_and_the_engine_layout() {
+    let src = inertia_shaders::PBF;
+    let module = validated("pbf.wgsl", src);
+    let mut names: Vec<&str> = module
+        .entry_points
+        .iter()
+        .map(|e| e.name.as_str())
+        .collect();
+    names.sort_unstable();
+    assert_eq!(
+        names,
+        [
+            "collide",
+            "confine",
+            "corrections",
+            "count",
+            "densities",
+            "find_walls",
+            "predict",
+            "scan",
+            "scatter",
+            "sort_cells",
+            "take_velocities",
+            "vorticity",
+            "xsph"
+        ]
+    );
+    for ep in &module.entry_points {
+        assert_eq!(ep.stage, naga::ShaderStage::Compute);
+        let size = if ep.name == "scan" {
+            layout::FLUID_SCAN_SIZE
+        } else {
+            layout::WORKGROUP_SIZE
+        };
+        assert_eq!(ep.workgroup_size, [size, 1, 1], "{}", ep.name);
+    }
+    for (ty, bytes) in [
+        ("FluidParams", layout::FLUID_PARAMS_BYTES),
+        ("Shape", layout::FLUID_SHAPE_BYTES),
+        ("Plane", layout::FLUID_PLANE_BYTES),
+        ("Slot", layout::FLUID_SLOT_BYTES),
+    ] {
+        assert_eq!(struct_size(&module, ty), Some(bytes), "struct {ty}");
+    }
+    for (constant, value) in [
+        ("WORKGROUP_SIZE", layout::WORKGROUP_SIZE as usize),
+        ("SCAN_SIZE", layout::FLUID_SCAN_SIZE as usize),
+        ("MAX_PLANES", layout::FLUID_MAX_PLANES),
+    ] {
+        let decl = format!("const {constant}: u32 = {value}u;");
+        assert!(src.contains(&decl), "pbf.wgsl must declare `{decl}`");
+    }
+}

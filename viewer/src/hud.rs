@@ -40,7 +40,7 @@ pub struct HudModel {
 #[derive(Debug, Clone, PartialEq)]
 pub enum HudAction {
     /// An admin call (only offered with the admin credential).
-    Admin(AdminRequest),
+    Admin(Box<AdminRequest>),
     /// Follow our avatar with the camera, or stop.
     Follow(bool),
 }
@@ -161,7 +161,7 @@ fn clock_controls(
         });
         return;
     };
-    let mut call = |r: AdminRequest| actions.push(HudAction::Admin(r));
+    let mut call = |r: AdminRequest| actions.push(HudAction::Admin(Box::new(r)));
     ui.horizontal(|ui| {
         if status.paused {
             if ui.button("Play").clicked() {

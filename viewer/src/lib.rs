@@ -22,6 +22,7 @@ pub mod camera;
 pub mod headless;
 pub mod hud;
 pub mod mesh;
+pub mod point_sets;
 pub mod render;
 pub mod scene;
 pub mod view;

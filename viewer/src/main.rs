@@ -49,7 +49,8 @@ struct Args {
     /// Leave the HUD out of off-screen pictures.
     #[arg(long)]
     no_hud: bool,
-    /// Camera as YAW,PITCH,DISTANCE (rad, rad, m) about the arena's middle.
+    /// Camera as YAW,PITCH,DISTANCE (rad, rad, m) about the arena's middle,
+    /// or YAW,PITCH,DISTANCE,X,Y,Z about the point X,Y,Z (m).
     #[arg(long, value_parser = parse_camera)]
     camera: Option<OrbitCamera>,
 }
@@ -72,12 +73,17 @@ fn parse_camera(s: &str) -> Result<OrbitCamera, String> {
         .split(',')
         .map(|x| x.trim().parse::<f32>().map_err(|e| format!("{x}: {e}")))
         .collect::<Result<_, _>>()?;
+    let finite = v.iter().all(|x| x.is_finite());
     match v[..] {
-        [yaw, pitch, distance] if v.iter().all(|x| x.is_finite()) && distance > 0.0 => {
+        [yaw, pitch, distance] if finite && distance > 0.0 => {
             Ok(OrbitCamera::looking(yaw, pitch, distance))
         }
+        [yaw, pitch, distance, x, y, z] if finite && distance > 0.0 => Ok(OrbitCamera {
+            target: glam::Vec3::new(x, y, z),
+            ..OrbitCamera::looking(yaw, pitch, distance)
+        }),
         _ => Err(format!(
-            "{s}: expected YAW,PITCH,DISTANCE (finite, distance > 0)"
+            "{s}: expected YAW,PITCH,DISTANCE or YAW,PITCH,DISTANCE,X,Y,Z (finite, distance > 0)"
         )),
     }
 }

@@ -113,6 +113,8 @@ pub fn mesh_of(shape: &ShapeDesc) -> Mesh {
             size,
             heights,
         } => height_field(*rows as usize, *cols as usize, *size, heights),
+        // Drawn from its points each frame (`crate::point_sets`).
+        ShapeDesc::PointSet { .. } => Mesh::default(),
     }
 }
 

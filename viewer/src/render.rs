@@ -82,6 +82,10 @@ pub struct Renderer {
     camera_group: wgpu::BindGroup,
     meshes: HashMap<ShapeKey, GpuMesh>,
     instances: Option<wgpu::Buffer>,
+    /// The picture's own meshes ([`DrawList::surfaces`]), one after the
+    /// other, rewritten every picture.
+    surface_vertices: Option<wgpu::Buffer>,
+    surface_indices: Option<wgpu::Buffer>,
     attachments: Option<Attachments>,
     hud: egui_wgpu::Renderer,
 }
@@ -224,6 +228,8 @@ impl Renderer {
             camera_group,
             meshes: HashMap::new(),
             instances: None,
+            surface_vertices: None,
+            surface_indices: None,
             attachments: None,
             hud,
         }
@@ -352,20 +358,50 @@ impl Renderer {
                 _ => runs.push((item.shape, item.finish, k..k + 1)),
             }
         }
-        let bytes = std::mem::size_of_val(instances.as_slice()) as u64;
-        if self.instances.as_ref().is_none_or(|b| b.size() < bytes) {
-            self.instances = Some(device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("instances"),
-                size: bytes.next_power_of_two().max(4096),
-                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }));
+        // The picture's own meshes, each one instance at the origin:
+        // (finish, index range, first vertex, instance).
+        let mut surface_vertices: Vec<Vertex> = Vec::new();
+        let mut surface_indices: Vec<u32> = Vec::new();
+        let mut surfaces = Vec::with_capacity(list.surfaces.len());
+        for surface in &list.surfaces {
+            let k = instances.len() as u32;
+            instances.push(Instance {
+                model: glam::Mat4::IDENTITY.to_cols_array_2d(),
+                color: surface.color,
+            });
+            let first = surface_indices.len() as u32;
+            let base = surface_vertices.len() as i32;
+            surface_vertices.extend_from_slice(&surface.mesh.vertices);
+            surface_indices.extend_from_slice(&surface.mesh.indices);
+            let end = surface_indices.len() as u32;
+            surfaces.push((surface.finish, first..end, base, k..k + 1));
         }
+        grow_and_write(
+            device,
+            queue,
+            &mut self.instances,
+            "instances",
+            wgpu::BufferUsages::VERTEX,
+            bytemuck::cast_slice(&instances),
+        );
+        grow_and_write(
+            device,
+            queue,
+            &mut self.surface_vertices,
+            "surface vertices",
+            wgpu::BufferUsages::VERTEX,
+            bytemuck::cast_slice(&surface_vertices),
+        );
+        grow_and_write(
+            device,
+            queue,
+            &mut self.surface_indices,
+            "surface indices",
+            wgpu::BufferUsages::INDEX,
+            bytemuck::cast_slice(&surface_indices),
+        );
         self.attachments(device, size);
         let instance_buffer = self.instances.as_ref().expect("just made");
-        if !instances.is_empty() {
-            queue.write_buffer(instance_buffer, 0, bytemuck::cast_slice(&instances));
-        }
         let attachments = self.attachments.as_ref().expect("just made");
         let (view, resolve) = match &attachments.color {
             Some(ms) => (ms, Some(target)),
@@ -402,22 +438,46 @@ impl Renderer {
             });
             pass.set_bind_group(0, &self.camera_group, &[]);
             pass.set_vertex_buffer(1, instance_buffer.slice(..));
-            for (shape, finish, range) in runs {
-                let mesh = &self.meshes[&shape];
-                let pipeline = match finish {
-                    Finish::Translucent => &self.translucent,
-                    Finish::Gridded => &self.gridded,
-                    Finish::Plain => &self.opaque,
+            // Opaque things first (instanced shapes, then the picture's own
+            // meshes), then the see-through ones over them.
+            for see_through in [false, true] {
+                for (shape, finish, range) in &runs {
+                    if (*finish == Finish::Translucent) != see_through {
+                        continue;
+                    }
+                    let mesh = &self.meshes[shape];
+                    pass.set_pipeline(self.pipeline(*finish));
+                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..mesh.index_count, 0, range.clone());
+                }
+                let (Some(vertices), Some(indices)) =
+                    (&self.surface_vertices, &self.surface_indices)
+                else {
+                    continue;
                 };
-                pass.set_pipeline(pipeline);
-                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..mesh.index_count, 0, range);
+                pass.set_vertex_buffer(0, vertices.slice(..));
+                pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+                for (finish, range, base, instance) in &surfaces {
+                    if (*finish == Finish::Translucent) == see_through {
+                        pass.set_pipeline(self.pipeline(*finish));
+                        pass.draw_indexed(range.clone(), *base, instance.clone());
+                    }
+                }
             }
         }
 
         if let Some(hud) = hud {
             self.draw_hud(device, queue, encoder, target, size, hud);
+        }
+    }
+
+    /// The pipeline that draws surfaces of `finish`.
+    fn pipeline(&self, finish: Finish) -> &wgpu::RenderPipeline {
+        match finish {
+            Finish::Translucent => &self.translucent,
+            Finish::Gridded => &self.gridded,
+            Finish::Plain => &self.opaque,
         }
     }
 
@@ -470,5 +530,29 @@ impl Renderer {
         }
         // Applied: egui checks that no delta is dropped unseen.
         hud.textures.clear();
+    }
+}
+
+/// Writes `bytes` at the start of `buffer`, made (again) larger when it
+/// cannot hold them; nothing is written for none.
+fn grow_and_write(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    buffer: &mut Option<wgpu::Buffer>,
+    label: &'static str,
+    usage: wgpu::BufferUsages,
+    bytes: &[u8],
+) {
+    let len = bytes.len() as u64;
+    if buffer.as_ref().is_none_or(|b| b.size() < len) {
+        *buffer = Some(device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: len.next_power_of_two().max(4096),
+            usage: usage | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        }));
+    }
+    if let Some(b) = buffer.as_ref().filter(|_| len > 0) {
+        queue.write_buffer(b, 0, bytes);
     }
 }

@@ -2,12 +2,16 @@
 //! where the interpolated frame has them ([`DrawList`]). No GPU here, so
 //! the tests check it directly.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::hash::{Hash, Hasher};
 
 use glam::{DQuat, DVec3, Mat4, Quat, Vec3};
 use inertia_client::interp::Frame;
+use inertia_client::point_sets::PointSetFrame;
 use inertia_protocol::{EntityDesc, EntityId, EntityKind, ShapeDesc};
+
+use crate::mesh::Mesh;
+use crate::point_sets::surface_of;
 
 /// Names a shape by its content, so entities of one shape share a mesh.
 pub type ShapeKey = u64;
@@ -67,6 +71,17 @@ fn hash_shape(shape: &ShapeDesc, h: &mut impl Hasher) {
             (rows, cols).hash(h);
             hash_floats(size.iter().chain(heights).copied(), h);
         }
+        ShapeDesc::PointSet {
+            points,
+            radius,
+            triangles,
+            lines,
+        } => {
+            points.hash(h);
+            hash_floats([*radius], h);
+            triangles.hash(h);
+            lines.hash(h);
+        }
     }
 }
 
@@ -112,11 +127,25 @@ pub enum Finish {
     Translucent,
 }
 
+/// A mesh made for one picture (a soft body's surface, a rope), in world
+/// coordinates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Surface {
+    /// The triangles, world, m.
+    pub mesh: Mesh,
+    /// Linear RGBA.
+    pub color: [f32; 4],
+    /// How it is drawn.
+    pub finish: Finish,
+}
+
 /// Everything to draw in one picture.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct DrawList {
     /// Instances, in the catalogue's order of shapes, opaque first.
     pub items: Vec<DrawItem>,
+    /// Meshes of this picture alone (soft bodies and ropes).
+    pub surfaces: Vec<Surface>,
 }
 
 /// The entities described so far, and their shapes.
@@ -124,6 +153,8 @@ pub struct DrawList {
 pub struct Catalogue {
     looks: HashMap<EntityId, Look>,
     shapes: HashMap<ShapeKey, ShapeDesc>,
+    /// Soft bodies and fluids, drawn from their points.
+    sets: BTreeMap<EntityId, EntityDesc>,
 }
 
 /// An sRGB byte as a linear intensity.
@@ -154,6 +185,12 @@ impl Catalogue {
 
     /// Learns (or relearns) how `desc`'s entity looks.
     pub fn learn(&mut self, desc: &EntityDesc) {
+        if let ShapeDesc::PointSet { radius, .. } = desc.shape {
+            // Its points are drawn as particles where it has no surface.
+            let ball = ShapeDesc::Particle { radius };
+            self.shapes.entry(shape_key(&ball)).or_insert(ball);
+            self.sets.insert(desc.id, desc.clone());
+        }
         let key = shape_key(&desc.shape);
         self.shapes.entry(key).or_insert_with(|| desc.shape.clone());
         let [r, g, b, a] = desc.color;
@@ -173,11 +210,18 @@ impl Catalogue {
     /// Forgets an entity that left.
     pub fn forget(&mut self, id: EntityId) {
         self.looks.remove(&id);
+        self.sets.remove(&id);
     }
 
-    /// True once `id` has been described.
+    /// True once `id` has been described (a point of a soft body or
+    /// fluid, once its set has).
     pub fn knows(&self, id: EntityId) -> bool {
         self.looks.contains_key(&id)
+            || self
+                .sets
+                .range(..id)
+                .next_back()
+                .is_some_and(|(_, set)| set.point_index(id).is_some())
     }
 
     /// Entities described.
@@ -222,6 +266,33 @@ impl Catalogue {
                 items.push(item(look, look.pose));
             }
         }
+        let mut surfaces = Vec::new();
+        for (id, desc) in &self.sets {
+            let (Some(look), Some(set)) =
+                (self.looks.get(id), PointSetFrame::gather(desc, frame, &[]))
+            else {
+                continue;
+            };
+            let drawn = item(look, Mat4::IDENTITY);
+            let mesh = surface_of(&set);
+            if mesh.indices.is_empty() {
+                // No surface (a fluid): a ball per point.
+                let ball = shape_key(&ShapeDesc::Particle {
+                    radius: set.radius(),
+                });
+                items.extend(set.drawn_points().map(|p| DrawItem {
+                    shape: ball,
+                    model: Mat4::from_translation(p),
+                    ..drawn
+                }));
+            } else {
+                surfaces.push(Surface {
+                    mesh,
+                    color: drawn.color,
+                    finish: drawn.finish,
+                });
+            }
+        }
         // Opaque first, then see-through; within each, by mesh (so each
         // mesh's instances are one run), then by position for a stable order.
         items.sort_by(|a, b| {
@@ -230,7 +301,7 @@ impl Catalogue {
                 pa.partial_cmp(&pb).unwrap_or(std::cmp::Ordering::Equal)
             })
         });
-        DrawList { items }
+        DrawList { items, surfaces }
     }
 }
 
@@ -365,6 +436,51 @@ mod tests {
             "sRGB 188 is about half intensity"
         );
         assert!(list.items[0].model.is_finite());
+    }
+
+    #[test]
+    fn soft_bodies_are_drawn_as_surfaces_and_fluids_as_balls() {
+        let set = |id, kind, points, triangles| EntityDesc {
+            shape: ShapeDesc::PointSet {
+                points,
+                radius: 0.05,
+                triangles,
+                lines: vec![],
+            },
+            ..desc(id, kind, ShapeDesc::Ground)
+        };
+        let mut cat = Catalogue::new();
+        cat.learn(&set(10, EntityKind::SoftBody, 3, vec![[0, 1, 2]]));
+        cat.learn(&set(20, EntityKind::Fluid, 5, vec![]));
+        // The cloth's three points, and two of the fluid's five.
+        let frame = Frame {
+            render_tick: 1.0,
+            entities: vec![
+                rendered(11, 0.0),
+                rendered(12, 1.0),
+                rendered(13, 2.0),
+                rendered(21, 5.0),
+                rendered(23, 6.0),
+            ],
+        };
+        let mut moved = frame.clone();
+        moved.entities[2].position.z = 1.0;
+        let list = cat.draw_list(&moved);
+        assert_eq!(list.surfaces.len(), 1);
+        assert_eq!(list.surfaces[0].mesh.triangle_count(), 1);
+        let balls: Vec<_> = list
+            .items
+            .iter()
+            .map(|i| i.model.w_axis.truncate())
+            .collect();
+        assert_eq!(balls, [Vec3::new(5.0, 1.0, 0.0), Vec3::new(6.0, 1.0, 0.0)]);
+        let ball = ShapeDesc::Particle { radius: 0.05 };
+        assert_eq!(list.items[0].shape, shape_key(&ball));
+        assert_eq!(cat.shape(shape_key(&ball)), Some(&ball));
+        assert!(cat.knows(12) && cat.knows(25) && !cat.knows(26));
+        cat.forget(10);
+        assert!(cat.draw_list(&moved).surfaces.is_empty());
+        assert!(!cat.knows(12));
     }
 
     #[test]

@@ -175,7 +175,7 @@ impl View {
             match a {
                 HudAction::Admin(request) => {
                     if let Some(admin) = &self.admin {
-                        admin.send(request);
+                        admin.send(*request);
                     }
                 }
                 HudAction::Follow(on) => self.following = on,

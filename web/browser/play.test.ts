@@ -31,6 +31,8 @@ interface Progress {
   paused: boolean;
   frames: number;
   entities: number;
+  pointSets: number;
+  points: number;
 }
 
 let server: ChildProcess;
@@ -153,6 +155,13 @@ test("the page joins over WebTransport and receives snapshots", async () => {
   const p = await until("60 snapshots", 30_000, (p) => p.snapshots >= 60);
   assert.equal(p.state, "joined");
   assert.ok(p.entities > 100, `${p.entities} entities described`);
+});
+
+test("the demo's soft bodies and fluid arrive as point sets", async () => {
+  // Two XPBD ropes, the banner, the jelly, the bar and the tank's fluid:
+  // about 1 300 points.
+  const p = await until("points placed", 20_000, (p) => p.pointSets >= 6 && p.points >= 1300);
+  assert.ok(p.pointSets >= 6, `${p.pointSets} point sets`);
 });
 
 test("the picture shows the demo's objects", async () => {

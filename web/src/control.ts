@@ -17,7 +17,7 @@ export class ControlError extends Error {}
 export const MAX_CONTROL_FRAME = 64 * 1024;
 
 /** The protocol version this client speaks (`PROTOCOL_VERSION`). */
-export const PROTOCOL_VERSION = 2;
+export const PROTOCOL_VERSION = 4;
 
 // ---- the messages ----
 
@@ -34,9 +34,13 @@ export type ShapeDesc =
   | { Compound: { parts: [Vec3, Quat, ShapeDesc][] } }
   | { Particle: { radius: number } }
   | "Ground"
-  | { HeightField: { rows: number; cols: number; size: [number, number]; heights: number[] } };
+  | { HeightField: { rows: number; cols: number; size: [number, number]; heights: number[] } }
+  | {
+      /** Points travel in snapshots as entities `id + 1 + i`. */
+      PointSet: { points: number; radius: number; triangles: Vec3[]; lines: [number, number][] };
+    };
 
-export type EntityKind = "Static" | "Dynamic" | "Kinematic" | "Avatar" | "Water";
+export type EntityKind = "Static" | "Dynamic" | "Kinematic" | "Avatar" | "Water" | "SoftBody" | "Fluid";
 
 export interface EntityDesc {
   id: number;
@@ -107,7 +111,17 @@ export type ServerControl =
   | { Spawn: EntityDesc }
   | { Despawn: { id: number } }
   | { Event: GameEvent }
-  | { Goodbye: DisconnectReason };
+  | { Goodbye: DisconnectReason }
+  | { InputTiming: InputReport };
+
+/** How the client's inputs have been arriving against their ticks. */
+export interface InputReport {
+  on_time: bigint;
+  late: bigint;
+  refused: bigint;
+  /** The least lead over the last second, ticks (negative: late). */
+  min_lead: number | null;
+}
 
 export type ClientControl = { Hello: { version: number; token: Uint8Array } } | "Goodbye";
 
@@ -166,6 +180,12 @@ class Reader {
 
   u64(): bigint {
     return this.varint(64);
+  }
+
+  /** A zigzag-coded signed 32-bit integer. */
+  i32(): number {
+    const z = this.varint(32);
+    return Number((z >> 1n) ^ -(z & 1n));
   }
 
   f32(): number {
@@ -288,7 +308,7 @@ class Writer {
 const SHAPE_DEPTH_LIMIT = 2;
 
 function shape(r: Reader, depth: number): ShapeDesc {
-  switch (r.variant("ShapeDesc", 10)) {
+  switch (r.variant("ShapeDesc", 11)) {
     case 0:
       return { Sphere: { radius: r.f32() } };
     case 1:
@@ -321,16 +341,26 @@ function shape(r: Reader, depth: number): ShapeDesc {
       return { Particle: { radius: r.f32() } };
     case 8:
       return "Ground";
-    default: {
+    case 9: {
       const rows = r.u32();
       const cols = r.u32();
       const size: [number, number] = [r.f32(), r.f32()];
       return { HeightField: { rows, cols, size, heights: r.list(() => r.f32()) } };
     }
+    default: {
+      if (depth > 0) {
+        throw new ControlError("a point set inside a compound");
+      }
+      const points = r.u32();
+      const radius = r.f32();
+      const triangles = r.list((): Vec3 => [r.u32(), r.u32(), r.u32()]);
+      const lines = r.list((): [number, number] => [r.u32(), r.u32()]);
+      return { PointSet: { points, radius, triangles, lines } };
+    }
   }
 }
 
-const KINDS: EntityKind[] = ["Static", "Dynamic", "Kinematic", "Avatar", "Water"];
+const KINDS: EntityKind[] = ["Static", "Dynamic", "Kinematic", "Avatar", "Water", "SoftBody", "Fluid"];
 
 function entity(r: Reader): EntityDesc {
   const id = r.u32();
@@ -421,7 +451,7 @@ export function decodeServerControl(payload: Uint8Array): ServerControl {
   }
   const r = new Reader(payload);
   let msg: ServerControl;
-  switch (r.variant("ServerControl", 6)) {
+  switch (r.variant("ServerControl", 7)) {
     case 0:
       msg = {
         Welcome: {
@@ -453,8 +483,18 @@ export function decodeServerControl(payload: Uint8Array): ServerControl {
     case 4:
       msg = { Event: gameEvent(r) };
       break;
-    default:
+    case 5:
       msg = { Goodbye: disconnectReason(r) };
+      break;
+    default:
+      msg = {
+        InputTiming: {
+          on_time: r.u64(),
+          late: r.u64(),
+          refused: r.u64(),
+          min_lead: r.option(() => r.i32()),
+        },
+      };
   }
   r.done();
   return msg;

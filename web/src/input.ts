@@ -14,6 +14,10 @@ export const BUTTONS = { JUMP: 1, PUSH: 2, ALL: 3 } as const;
 const MOVEMENT_BITS = 8;
 const YAW_BITS = 12;
 const MOVEMENT_STEPS = 127;
+/** Steps of the view offset per tick: it travels in 1/16 tick. */
+export const VIEW_STEPS_PER_TICK = 16;
+/** The most steps of the view offset the wire carries (4095/16 ticks). */
+export const MAX_VIEW_BEHIND_STEPS = 4095;
 
 /** One tick's worth of a player's intent. */
 export interface PlayerInput {
@@ -27,6 +31,10 @@ export interface PlayerInput {
   yaw: number;
   /** Held buttons ({@link BUTTONS}). */
   buttons: number;
+  /** How far behind `tick` the world the player saw was, ticks (≥ 0; the
+   * server answers its shots against the world at `tick − viewBehind`).
+   * Sent in 1/16 tick, at most 4095/16; NaN and negative as 0. */
+  viewBehind: number;
 }
 
 export interface InputDatagram {
@@ -54,6 +62,15 @@ function yawIndex(yaw: number): number {
   const turns = f / (2 * Math.PI);
   const frac = turns - Math.floor(turns);
   return Math.round(frac * 2 ** YAW_BITS) % 2 ** YAW_BITS;
+}
+
+/** The view offset in sixteenths of a tick (NaN, negative as 0; capped). */
+function viewIndex(behind: number): number {
+  const f = Math.fround(behind);
+  if (Number.isNaN(f) || f <= 0) {
+    return 0;
+  }
+  return Math.min(Math.round(f * VIEW_STEPS_PER_TICK), MAX_VIEW_BEHIND_STEPS);
 }
 
 function writeVarint(w: BitWriter, value: bigint): void {
@@ -130,6 +147,7 @@ export function encodeInputDatagram(d: InputDatagram): Uint8Array {
       }
     }
     writeBody(w, input);
+    writeVarint(w, BigInt(viewIndex(input.viewBehind)));
     prev = input;
   }
   return w.finish();

@@ -16,6 +16,7 @@ import {
 } from "./control.js";
 import { Acks, encodeInputDatagram, type PlayerInput } from "./input.js";
 import { meshOf, type Mesh } from "./mesh.js";
+import { pointSetOf, PointSetTrack } from "./points.js";
 import { SnapshotDecoder, type SnapshotConfig } from "./snapshot.js";
 import { Renderer, type Pose } from "./render.js";
 
@@ -35,6 +36,10 @@ export interface Progress {
   paused: boolean;
   timeScale: number;
   entities: number;
+  /** Soft bodies and fluids described, and how many of their points a
+   * snapshot has placed. */
+  pointSets: number;
+  points: number;
   frames: number;
 }
 
@@ -46,6 +51,8 @@ const progress: Progress = {
   paused: false,
   timeScale: 1,
   entities: 0,
+  pointSets: 0,
+  points: 0,
   frames: 0,
 };
 (window as unknown as { inertia: Progress }).inertia = progress;
@@ -65,17 +72,38 @@ interface Track {
 
 class World {
   readonly tracks = new Map<number, Track>();
+  /** Soft bodies and fluids, by their entity id. */
+  readonly sets = new Map<number, PointSetTrack>();
   /** Snapshot interval seen lately, ms. */
   interval = 33;
   private lastArrival = 0;
 
   describe(desc: EntityDesc): void {
+    if (pointSetOf(desc)) {
+      this.sets.set(desc.id, new PointSetTrack(desc));
+      return;
+    }
     const pose: Pose = { position: desc.position, rotation: desc.rotation };
     this.tracks.set(desc.id, { desc, mesh: meshOf(desc.shape), before: pose, after: pose, at: 0 });
   }
 
   forget(id: number): void {
-    this.tracks.delete(id);
+    if (this.tracks.delete(id) || this.sets.delete(id)) {
+      return;
+    }
+    const [set, i] = this.pointOf(id);
+    set?.hide(i);
+  }
+
+  /** The set entity `id` is a point of, and its index there. */
+  pointOf(id: number): [PointSetTrack | undefined, number] {
+    for (const set of this.sets.values()) {
+      const i = set.indexOf(id);
+      if (i >= 0) {
+        return [set, i];
+      }
+    }
+    return [undefined, -1];
   }
 
   arrived(now: number): void {
@@ -89,6 +117,8 @@ class World {
   move(id: number, pose: Pose, now: number): void {
     const t = this.tracks.get(id);
     if (!t) {
+      const [set, i] = this.pointOf(id);
+      set?.move(i, pose.position, now, this.interval);
       return;
     }
     t.before = this.poseAt(t, now);
@@ -158,8 +188,21 @@ async function main(): Promise<void> {
   const frames = new FrameDecoder();
   const reader = stream.readable.getReader();
   let welcome: Welcome | null = null;
+  // Inputs are applied on the tick they are stamped with: each is stamped
+  // with the tick the server will be at when it arrives (the newest
+  // snapshot's tick, a round trip and a margin ahead), and the margin
+  // follows the server's reports of how early the inputs came
+  // (client-sdk/src/lead.rs does the same for the Rust SDK).
+  const lead = { margin: 2, stamped: 0n };
   const handle = (msg: ServerControl): void => {
-    if ("Welcome" in msg) {
+    if ("InputTiming" in msg) {
+      const least = msg.InputTiming.min_lead;
+      if (least !== null && least < 1) {
+        lead.margin = Math.min(30, lead.margin + 1 - least);
+      } else if (least !== null && least > 3) {
+        lead.margin = Math.max(0, lead.margin - 0.5 * (least - 3));
+      }
+    } else if ("Welcome" in msg) {
       welcome = msg.Welcome;
     } else if ("Spawn" in msg) {
       world.describe(msg.Spawn);
@@ -238,6 +281,20 @@ async function main(): Promise<void> {
   };
   void readSnapshots().catch((e: unknown) => fail(e));
 
+  // The round trip, where the browser reports it (WebTransport's stats).
+  let rttMs: number | null = null;
+  const stats = (transport as unknown as { getStats?: () => Promise<{ smoothedRtt?: number }> }).getStats;
+  if (stats) {
+    setInterval(() => {
+      stats
+        .call(transport)
+        .then((s) => {
+          rttMs = typeof s.smoothedRtt === "number" ? s.smoothedRtt : null;
+        })
+        .catch(() => {});
+    }, 1000);
+  }
+
   // Inputs at the tick rate, with the acknowledgements the server codes
   // against; the last few repeated.
   const sender = transport.datagrams.writable.getWriter();
@@ -250,7 +307,20 @@ async function main(): Promise<void> {
     const x = (keys.has("d") ? 1 : 0) - (keys.has("a") ? 1 : 0);
     const z = (keys.has("s") ? 1 : 0) - (keys.has("w") ? 1 : 0);
     sequence = (sequence + 1) >>> 0;
-    recent.unshift({ sequence, tick: BigInt(progress.tick), movement: [x, z], yaw: 0, buttons: keys.has(" ") ? 1 : 0 });
+    const ahead = Math.ceil(((rttMs ?? 0) / 1000) * joined.tick_hz + lead.margin);
+    const wanted = BigInt(progress.tick) + BigInt(ahead);
+    lead.stamped = wanted > lead.stamped ? wanted : lead.stamped;
+    // The page draws the newest snapshot: what the player saw is that
+    // snapshot's tick, this far behind the input's.
+    const viewBehind = Math.min(255, Number(lead.stamped - BigInt(progress.tick)));
+    recent.unshift({
+      sequence,
+      tick: lead.stamped,
+      movement: [x, z],
+      yaw: 0,
+      buttons: keys.has(" ") ? 1 : 0,
+      viewBehind,
+    });
     recent.length = Math.min(recent.length, 8);
     const { ack, ackBits } = acks.get();
     void sender.write(encodeInputDatagram({ ack, ackBits, inputs: recent })).catch(() => {});
@@ -269,20 +339,6 @@ async function main(): Promise<void> {
   });
   canvas.addEventListener("wheel", (e) => renderer.camera.zoom(-Math.sign(e.deltaY)), { passive: true });
 
-  // The round trip, where the browser reports it (WebTransport's stats).
-  let rttMs: number | null = null;
-  const stats = (transport as unknown as { getStats?: () => Promise<{ smoothedRtt?: number }> }).getStats;
-  if (stats) {
-    setInterval(() => {
-      stats
-        .call(transport)
-        .then((s) => {
-          rttMs = typeof s.smoothedRtt === "number" ? s.smoothedRtt : null;
-        })
-        .catch(() => {});
-    }, 1000);
-  }
-
   const frame = (): void => {
     const now = performance.now();
     const items = [...world.tracks.values()].map((t) => ({
@@ -292,9 +348,21 @@ async function main(): Promise<void> {
       kind: t.desc.kind,
       pose: world.poseAt(t, now),
     }));
+    const origin: Pose = { position: [0, 0, 0], rotation: [0, 0, 0, 1] };
+    for (const set of world.sets.values()) {
+      items.push({
+        id: set.desc.id,
+        mesh: set.mesh(now, world.interval),
+        color: set.desc.color,
+        kind: set.desc.kind,
+        pose: origin,
+      });
+    }
     renderer.draw(items);
     progress.frames++;
     progress.entities = items.length;
+    progress.pointSets = world.sets.size;
+    progress.points = [...world.sets.values()].reduce((n, set) => n + set.present.reduce((k, p) => k + p, 0), 0);
     bytesWindow = bytesWindow.filter(([t]) => now - t < 1000);
     const kbps = (bytesWindow.reduce((s, [, n]) => s + n, 0) * 8) / 1000;
     const clock = progress.paused

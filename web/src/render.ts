@@ -166,6 +166,8 @@ function linear(c: number): number {
 
 interface Uploaded {
   vao: WebGLVertexArrayObject;
+  vertices: WebGLBuffer;
+  indices: WebGLBuffer;
   count: number;
   mesh: Mesh;
 }
@@ -207,29 +209,51 @@ export class Renderer {
     );
   }
 
+  /** The entity's mesh on the GPU: uploaded once, and again into the
+   * same buffers when the item brings another mesh (a soft body's, made
+   * every frame). */
   private upload(item: Item): Uploaded {
-    const known = this.uploaded.get(item.id);
-    if (known && known.mesh === item.mesh) {
-      return known;
-    }
     const gl = this.gl;
-    const vao = gl.createVertexArray();
-    if (!vao) throw new Error("no vertex array");
-    gl.bindVertexArray(vao);
-    const vb = gl.createBuffer();
-    gl.bindBuffer(gl.ARRAY_BUFFER, vb);
-    gl.bufferData(gl.ARRAY_BUFFER, item.mesh.vertices, gl.STATIC_DRAW);
-    gl.enableVertexAttribArray(0);
-    gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 24, 0);
-    gl.enableVertexAttribArray(1);
-    gl.vertexAttribPointer(1, 3, gl.FLOAT, false, 24, 12);
-    const ib = gl.createBuffer();
-    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ib);
-    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, item.mesh.indices, gl.STATIC_DRAW);
+    let up = this.uploaded.get(item.id);
+    if (up && up.mesh === item.mesh) {
+      return up;
+    }
+    if (!up) {
+      const vao = gl.createVertexArray();
+      const vertices = gl.createBuffer();
+      const indices = gl.createBuffer();
+      if (!vao || !vertices || !indices) throw new Error("no vertex array");
+      gl.bindVertexArray(vao);
+      gl.bindBuffer(gl.ARRAY_BUFFER, vertices);
+      gl.enableVertexAttribArray(0);
+      gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 24, 0);
+      gl.enableVertexAttribArray(1);
+      gl.vertexAttribPointer(1, 3, gl.FLOAT, false, 24, 12);
+      gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, indices);
+      gl.bindVertexArray(null);
+      up = { vao, vertices, indices, count: 0, mesh: item.mesh };
+      this.uploaded.set(item.id, up);
+    }
+    const usage = up.count > 0 ? gl.DYNAMIC_DRAW : gl.STATIC_DRAW;
+    gl.bindVertexArray(up.vao);
+    gl.bindBuffer(gl.ARRAY_BUFFER, up.vertices);
+    gl.bufferData(gl.ARRAY_BUFFER, item.mesh.vertices, usage);
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, item.mesh.indices, usage);
     gl.bindVertexArray(null);
-    const up = { vao, count: item.mesh.indices.length, mesh: item.mesh };
-    this.uploaded.set(item.id, up);
+    up.count = item.mesh.indices.length;
+    up.mesh = item.mesh;
     return up;
+  }
+
+  /** Frees the GPU copy of an entity's mesh (it left). */
+  private forget(id: number): void {
+    const up = this.uploaded.get(id);
+    if (up) {
+      this.gl.deleteVertexArray(up.vao);
+      this.gl.deleteBuffer(up.vertices);
+      this.gl.deleteBuffer(up.indices);
+      this.uploaded.delete(id);
+    }
   }
 
   /** Draws `items` (opaque first, then see-through) filling the canvas. */
@@ -275,5 +299,12 @@ export class Renderer {
     }
     gl.bindVertexArray(null);
     gl.depthMask(true);
+    // Entities no longer drawn (they left) free their GPU copies.
+    const live = new Set(items.map((i) => i.id));
+    for (const id of [...this.uploaded.keys()]) {
+      if (!live.has(id)) {
+        this.forget(id);
+      }
+    }
   }
 }

@@ -14,7 +14,15 @@ interface Vector {
   bytes: string;
   ack: number | null;
   ack_bits: number;
-  inputs: { sequence: number; tick: string; movement: [number, number]; yaw: number; buttons: number }[];
+  inputs: {
+    sequence: number;
+    tick: string;
+    movement: [number, number];
+    yaw: number;
+    buttons: number;
+    // null: NaN, which JSON cannot spell.
+    view_behind: number | null;
+  }[];
 }
 
 const vectors: Vector[] = JSON.parse(readFileSync(FILE, "utf8")).datagrams;
@@ -30,14 +38,14 @@ test("every input datagram encodes to the Rust encoder's bytes", () => {
     const bytes = encodeInputDatagram({
       ack: v.ack,
       ackBits: v.ack_bits,
-      inputs: v.inputs.map((i) => ({ ...i, tick: BigInt(i.tick) })),
+      inputs: v.inputs.map((i) => ({ ...i, tick: BigInt(i.tick), viewBehind: i.view_behind ?? NaN })),
     });
     assert.equal(toHex(bytes), v.bytes, v.name);
   }
 });
 
 test("what the layout cannot carry is refused", () => {
-  const input = { sequence: 1, tick: 1n, movement: [0, 0] as [number, number], yaw: 0, buttons: 0 };
+  const input = { sequence: 1, tick: 1n, movement: [0, 0] as [number, number], yaw: 0, buttons: 0, viewBehind: 0 };
   assert.throws(() => encodeInputDatagram({ ack: null, ackBits: 1, inputs: [] }), RangeError);
   assert.throws(() => encodeInputDatagram({ ack: null, ackBits: 0, inputs: [{ ...input, buttons: 4 }] }), RangeError);
   assert.throws(() => encodeInputDatagram({ ack: null, ackBits: 0, inputs: [input, input] }), RangeError);

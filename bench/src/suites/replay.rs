@@ -263,6 +263,7 @@ impl Bot {
             yaw: ((self.yaw + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
                 - std::f64::consts::PI) as f32,
             buttons: b,
+            view_behind: 0.0,
         })
     }
 }

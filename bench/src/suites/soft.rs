@@ -16,6 +16,12 @@
 //! * `fluid_10k`, `fluid_100k`: a dam of about that many particles 5 cm
 //!   apart breaking from one end of a tank four times as long
 //!   (position-based fluids, 4 substeps, the walls static boxes).
+//! * On the GPU (feature `gpu`), after the CPU cases: the cloths (up to
+//!   128² on a CPU adapter), `fluid_10k` and `fluid_100k` (with
+//!   `max_abs_diff_vs_cpu` and `median_abs_diff_vs_cpu`, against the
+//!   one-thread CPU world after the same steps) and `fluid_1m` (GPU only).
+//!   On a CPU adapter fluids past 10k particles run only with
+//!   `--gpu-large`.
 //!
 //! Each record: `particles`, `constraints` (projected each substep),
 //! `substeps`, `ms_per_step` (median over the timed steps), `max_strain`
@@ -24,7 +30,7 @@
 //! density, minus one, at the end), and the share of the step in the soft
 //! stage.
 //!
-//! `--quick` shrinks the cases (`cloth_32`, `jelly_6`, `fluid_2000`) and
+//! `--quick` shrinks the cases (`cloth_32`, `jelly_6`, `fluid_2k`) and
 //! the steps.
 
 use std::time::Instant;
@@ -60,15 +66,19 @@ impl Scene {
         match self {
             Scene::Cloth(n) => format!("cloth_{n}"),
             Scene::Jelly(n) => format!("jelly_{n}"),
+            Scene::Fluid(n) if n % 1_000_000 == 0 => format!("fluid_{}m", n / 1_000_000),
             Scene::Fluid(n) if n % 1000 == 0 => format!("fluid_{}k", n / 1000),
             Scene::Fluid(n) => format!("fluid_{n}"),
         }
     }
 
-    fn build(self, threads: usize) -> Result<(World, Handle), BenchError> {
+    /// The scene's world at `threads` threads; `readback`: a GPU system
+    /// is read back every step.
+    fn build(self, threads: usize, readback: bool) -> Result<(World, Handle), BenchError> {
         let mut w = World::new(WorldConfig {
             threads,
             energy_accounting: false,
+            gpu_readback_every_step: readback,
             ..WorldConfig::default()
         })?;
         w.set_gravity(DVec3::new(0.0, -9.81, 0.0))?;
@@ -201,11 +211,14 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     // compared with.
     #[cfg(feature = "gpu")]
     let mut on_gpu = Vec::new();
+    // Fluid cases likewise.
+    #[cfg(feature = "gpu")]
+    let mut fluids_on_gpu = Vec::new();
     for scene in scenes {
         pb.set_message(scene.name());
         let mut worlds = Vec::new();
         for &t in &threads {
-            worlds.push(scene.build(t)?);
+            worlds.push(scene.build(t, true)?);
         }
         for _ in 0..warmup {
             for (w, _) in &mut worlds {
@@ -275,8 +288,16 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         if let (Scene::Cloth(n), Handle::Soft(h)) = (scene, worlds[0].1) {
             let (cpu, _) = worlds.swap_remove(0);
             on_gpu.push((scene, n, cpu, h));
+        } else if let (Scene::Fluid(_), Handle::Fluid(h)) = (scene, worlds[0].1) {
+            let (cpu, _) = worlds.swap_remove(0);
+            fluids_on_gpu.push((scene, Some((cpu, h))));
         }
         pb.inc(1);
+    }
+    // A million particles on the GPU alone: the CPU would take minutes.
+    #[cfg(feature = "gpu")]
+    if !opts.quick && opts.wants(&Scene::Fluid(1_000_000).name()) {
+        fluids_on_gpu.push((Scene::Fluid(1_000_000), None));
     }
     // The GPU cases last: a CPU adapter's worker threads would otherwise
     // share the cores with the CPU cases after them.
@@ -284,8 +305,33 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     for (scene, n, cpu, h) in on_gpu {
         gpu_case(scene, n, warmup, steps, &cpu, h, &mut sink, &pb)?;
     }
+    #[cfg(feature = "gpu")]
+    for (scene, cpu) in fluids_on_gpu {
+        let run = FluidRun {
+            scene,
+            warmup,
+            steps,
+            large: opts.gpu_large,
+        };
+        fluid_gpu_case(run, cpu.as_ref(), &mut sink, &pb)?;
+    }
     pb.finish_and_clear();
     Ok(())
+}
+
+/// Wall time of each of `steps` steps of `w` after `warmup` more, s,
+/// each waited for on the GPU.
+fn gpu_step_times(w: &mut World, warmup: usize, steps: usize) -> Result<Vec<f64>, BenchError> {
+    let mut times = Vec::with_capacity(steps);
+    for k in 0..warmup + steps {
+        let t0 = Instant::now();
+        w.step(DT)?;
+        w.gpu_context()?.finish()?;
+        if k >= warmup {
+            times.push(t0.elapsed().as_secs_f64());
+        }
+    }
+    Ok(times)
 }
 
 /// The cloth on the GPU (feature `gpu`): stepped as many times as the CPU
@@ -310,7 +356,7 @@ fn gpu_case(
         .field("case", scene.name())
         .field("backend", "gpu")
         .field("threads", crate::report::logical_cores());
-    let (mut w, _) = scene.build(1)?;
+    let (mut w, _) = scene.build(1, true)?;
     let adapter = match w.gpu_context() {
         Ok(ctx) => (ctx.description(), ctx.is_cpu_adapter()),
         Err(e) => {
@@ -329,15 +375,7 @@ fn gpu_case(
         sink.record(base.field("error", e.to_string()));
         return Ok(());
     }
-    let mut times = Vec::with_capacity(steps);
-    for k in 0..warmup + steps {
-        let t0 = Instant::now();
-        w.step(DT)?;
-        w.gpu_context()?.finish()?;
-        if k >= warmup {
-            times.push(t0.elapsed().as_secs_f64());
-        }
-    }
+    let times = gpu_step_times(&mut w, warmup, steps)?;
     let b = w.soft_body(h).ok_or("soft body vanished")?;
     let c = cpu.soft_body(h).ok_or("soft body vanished")?;
     let diff = b
@@ -355,5 +393,99 @@ fn gpu_case(
             .num("ms_per_step", median(&times) * 1e3)
             .num("max_abs_diff_vs_cpu", f64::from(diff)),
     );
+    Ok(())
+}
+
+/// A fluid case to run on the GPU.
+#[cfg(feature = "gpu")]
+#[derive(Debug, Clone, Copy)]
+struct FluidRun {
+    scene: Scene,
+    warmup: usize,
+    steps: usize,
+    /// Run a case sized for a real GPU on a CPU adapter too.
+    large: bool,
+}
+
+/// The fluid on the GPU (feature `gpu`): stepped as many times as the CPU
+/// worlds without a readback, each step waited for, read back at the end;
+/// `max_abs_diff_vs_cpu` and `median_abs_diff_vs_cpu` against the
+/// one-thread CPU world and its fluid `cpu` (none for `fluid_1m`). On a CPU adapter
+/// (Mesa's lavapipe, about half a second a step of `fluid_10k` on two
+/// cores) fluids above 10k particles are skipped unless `large`.
+#[cfg(feature = "gpu")]
+fn fluid_gpu_case(
+    run: FluidRun,
+    cpu: Option<&(World, FluidHandle)>,
+    sink: &mut dyn Sink,
+    pb: &indicatif::ProgressBar,
+) -> Result<(), BenchError> {
+    use inertia_physics::Backend;
+    let FluidRun {
+        scene,
+        warmup,
+        steps,
+        large,
+    } = run;
+    let Scene::Fluid(n) = scene else {
+        return Err("not a fluid".into());
+    };
+    let base = Record::new()
+        .field("case", scene.name())
+        .field("backend", "gpu")
+        .field("threads", crate::report::logical_cores());
+    let adapter = match inertia_physics::gpu::GpuContext::new() {
+        Ok(ctx) => (ctx.description(), ctx.is_cpu_adapter()),
+        Err(e) => {
+            sink.record(base.field("error", e.to_string()));
+            return Ok(());
+        }
+    };
+    if adapter.1 && n > 10_000 && !large {
+        note(
+            pb,
+            &format!(
+                "{}: skipped on the CPU adapter {} (--gpu-large runs it)",
+                scene.name(),
+                adapter.0
+            ),
+        );
+        return Ok(());
+    }
+    let (mut w, Handle::Fluid(h)) = scene.build(1, false)? else {
+        return Err("not a fluid".into());
+    };
+    if let Err(e) = w.set_fluid_backend(h, Backend::Gpu) {
+        sink.record(base.field("error", e.to_string()));
+        return Ok(());
+    }
+    let times = gpu_step_times(&mut w, warmup, steps)?;
+    w.sync_gpu()?;
+    let f = w.fluid(h).ok_or("fluid vanished")?;
+    let count = f.len().max(1) as f64;
+    let mean = f.densities().iter().map(|d| f64::from(*d)).sum::<f64>() / count;
+    let mut r = base
+        .field("adapter", adapter.0)
+        .field("particles", f.len())
+        .field("constraints", f.len())
+        .field("substeps", f.params().substeps)
+        .field("readback_every_step", false)
+        .num("density_error", mean / f64::from(f.rest_density()) - 1.0)
+        .num("ms_per_step", median(&times) * 1e3);
+    if let Some((cpu, ch)) = cpu {
+        let c = cpu.fluid(*ch).ok_or("fluid vanished")?;
+        let mut d: Vec<f64> = f
+            .positions()
+            .iter()
+            .zip(c.positions())
+            .map(|(p, q)| f64::from((*p - *q).length()))
+            .collect();
+        d.sort_by(f64::total_cmp);
+        let worst = d.last().copied().unwrap_or(0.0);
+        r = r
+            .num("max_abs_diff_vs_cpu", worst)
+            .num("median_abs_diff_vs_cpu", median(&d));
+    }
+    sink.record(r);
     Ok(())
 }

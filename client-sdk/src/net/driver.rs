@@ -17,6 +17,8 @@ use tokio::sync::mpsc;
 use crate::clock::{Discontinuity, SnapshotMeta};
 use crate::entities::EntityTable;
 use crate::interp::{InterpEvent, InterpolationBuffer};
+use crate::lead::InputLead;
+use crate::predict::Predictor;
 use crate::stats::{ClientStats, StatsRecorder};
 
 use super::ServerInfo;
@@ -62,6 +64,10 @@ pub(crate) struct State {
     pub disconnected: Option<DisconnectReason>,
     pub stats: StatsRecorder,
     pub events_dropped: u64,
+    /// How far ahead of the server inputs are stamped.
+    pub lead: InputLead,
+    /// The own avatar's prediction, when the game asked for it.
+    pub predictor: Option<Predictor>,
 }
 
 impl State {
@@ -76,6 +82,8 @@ impl State {
             disconnected: None,
             stats: StatsRecorder::new(),
             events_dropped: 0,
+            lead: InputLead::default(),
+            predictor: None,
         }
     }
 
@@ -92,7 +100,41 @@ impl State {
     pub fn stats_at(&mut self, now: f64, rtt: f64) -> ClientStats {
         self.stats.on_rtt(rtt);
         self.stats.on_interp(self.interp.stats());
+        self.stats.on_jitter(self.interp.clock().jitter());
+        self.stats.on_inputs(
+            self.lead.report(),
+            self.lead.margin(),
+            self.session.stamped_tick(),
+        );
+        if let Some(p) = &self.predictor {
+            self.stats.on_prediction(p.stats());
+        }
         self.stats.stats(now)
+    }
+
+    /// The input datagram due at `now` (s), if one is, stamped with the
+    /// tick it should be applied at (see [`crate::lead`]).
+    pub fn poll_input(&mut self, now: f64, rtt: f64) -> Option<Vec<u8>> {
+        self.interp.clock_mut().rtt_sample(rtt);
+        let tick = self.lead.target_tick(self.interp.clock(), now);
+        let before = self.session.stamped_tick();
+        let bytes = self.session.poll_input(now, tick);
+        if let Some(p) = &mut self.predictor {
+            // The inputs this poll stamped, oldest first: each steps the
+            // prediction one tick.
+            let fresh: Vec<_> = self
+                .session
+                .sent()
+                .filter(|i| before.is_none_or(|b| i.tick > b))
+                .copied()
+                .collect();
+            for input in fresh.iter().rev() {
+                p.on_input(input);
+            }
+        }
+        let bytes = bytes?;
+        self.stats.on_sent(now, bytes.len());
+        Some(bytes)
     }
 
     fn on_datagram(&mut self, now: f64, bytes: &[u8]) {
@@ -110,6 +152,9 @@ impl State {
                         self.interp.remove(id);
                     }
                     self.entities.update_all(snap.tick, &snap.updated);
+                    if let Some(p) = &mut self.predictor {
+                        p.on_snapshot(snap.tick, &snap.updated, &self.entities);
+                    }
                     self.latest = Some((snap.tick, snap.sequence));
                     self.latest_meta = Some(meta);
                 }
@@ -120,7 +165,13 @@ impl State {
                 self.interp.push_states(now, meta, &snap.updated);
                 while let Some(e) = self.interp.poll_event() {
                     let e = match e {
-                        InterpEvent::Discontinuity(d) => ClientEvent::Discontinuity(d),
+                        InterpEvent::Discontinuity(d) => {
+                            self.lead.restart();
+                            if let Some(p) = &mut self.predictor {
+                                p.reset();
+                            }
+                            ClientEvent::Discontinuity(d)
+                        }
                         InterpEvent::Resync { from_tick, to_tick } => {
                             ClientEvent::Resync { from_tick, to_tick }
                         }
@@ -145,6 +196,7 @@ impl State {
                 self.event(ClientEvent::Despawned(id));
             }
             ServerControl::Event(e) => self.event(ClientEvent::Game(e)),
+            ServerControl::InputTiming(report) => self.lead.on_report(report),
             ServerControl::Goodbye(reason) => {
                 self.disconnected = Some(reason.clone());
                 self.event(ClientEvent::Disconnected(reason));
@@ -226,12 +278,9 @@ pub(crate) async fn run(mut d: Driver) {
                 },
                 _ = tokio::time::sleep_until(due) => {
                     let datagram = {
-                        let mut s = d.lock();
                         let now = d.epoch.elapsed().as_secs_f64();
                         let rtt = d.connection.rtt().as_secs_f64();
-                        s.interp.clock_mut().rtt_sample(rtt);
-                        let tick = s.interp.clock().estimated_tick(now).map(|t| t.max(0.0) as u64);
-                        s.session.poll_input(now, tick)
+                        d.lock().poll_input(now, rtt)
                     };
                     if let Some(bytes) = datagram {
                         let _ = d.connection.send_datagram(bytes.into());

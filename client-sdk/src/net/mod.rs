@@ -55,6 +55,10 @@ pub enum ClientError {
     /// The server broke the protocol.
     #[error("protocol error: {0}")]
     Protocol(String),
+    /// The prediction settings were refused (see
+    /// [`ConnectOptions::predict`]).
+    #[error("prediction: {0}")]
+    Prediction(#[from] crate::predict::PredictionError),
     /// The server did not answer in time.
     #[error("the server did not answer within {0:?}")]
     Timeout(Duration),
@@ -75,6 +79,11 @@ pub struct ConnectOptions {
     /// [`MAX_REDUNDANT_INPUTS`] (default: all 8): an input is lost only
     /// when that many datagrams in a row are.
     pub input_redundancy: Option<usize>,
+    /// Predict the own avatar locally ([`crate::predict`]), with settings
+    /// that must match the server's game (the defaults match its default
+    /// sandbox); `None` (the default): the avatar is drawn from snapshots
+    /// like every other entity.
+    pub predict: Option<crate::predict::PredictionConfig>,
 }
 
 impl Default for ConnectOptions {
@@ -84,6 +93,7 @@ impl Default for ConnectOptions {
             bind: None,
             input_hz: None,
             input_redundancy: None,
+            predict: None,
         }
     }
 }
@@ -226,8 +236,14 @@ impl Client {
             info.tick,
         )
         .map_err(|e| ClientError::Protocol(format!("snapshot settings: {e}")))?;
+        let predictor = options
+            .predict
+            .map(|config| crate::predict::Predictor::new(config, info.client_id, info.tick_hz))
+            .transpose()?;
         let epoch = Instant::now();
-        let state = Arc::new(Mutex::new(State::new(&info, session)));
+        let mut state = State::new(&info, session);
+        state.predictor = predictor;
+        let state = Arc::new(Mutex::new(state));
         let (commands, command_rx) = mpsc::unbounded_channel();
         tokio::spawn(driver::run(driver::Driver {
             connection: connection.clone(),
@@ -283,9 +299,40 @@ impl Client {
     }
 
     /// The world as it should be drawn at `local_time` (s, see
-    /// [`Client::local_time`]).
+    /// [`Client::local_time`]). Its render tick becomes the view every
+    /// input sent from now on carries
+    /// ([`inertia_protocol::PlayerInput::view_behind`]), so the server can
+    /// answer the player's actions against the world drawn (lag
+    /// compensation): sample the frame you draw, then set the input. With
+    /// prediction on, the own avatar is where prediction puts it (see
+    /// [`Client::predicted_avatar`]), ahead of the interpolated rest.
     pub fn sample_at(&self, local_time: f64) -> crate::interp::Frame {
-        self.lock().interp.sample(local_time).clone()
+        let mut s = self.lock();
+        let predicted = s.predictor.as_ref().and_then(|p| p.avatar());
+        let mut frame = s.interp.sample(local_time).clone();
+        if !frame.entities.is_empty() {
+            s.session.set_view_tick(frame.render_tick);
+        }
+        if let Some(a) = predicted {
+            let drawn = crate::interp::RenderedEntity {
+                id: a.id,
+                position: a.position,
+                rotation: a.rotation,
+                extrapolated: false,
+            };
+            match frame.entities.binary_search_by_key(&a.id, |e| e.id) {
+                Ok(i) => frame.entities[i] = drawn,
+                Err(i) => frame.entities.insert(i, drawn),
+            }
+        }
+        frame
+    }
+
+    /// The own avatar as predicted, when prediction is on
+    /// ([`ConnectOptions::predict`]) and a snapshot has placed it: where to
+    /// draw it (corrections smoothed), the raw prediction and its tick.
+    pub fn predicted_avatar(&self) -> Option<crate::predict::PredictedAvatar> {
+        self.lock().predictor.as_ref().and_then(|p| p.avatar())
     }
 
     /// The newest snapshot received, exactly as decoded (no interpolation):

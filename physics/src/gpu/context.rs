@@ -43,6 +43,9 @@ pub struct GpuContext {
     pub(crate) integrate: wgpu::ComputePipeline,
     /// Soft bodies' pipelines (`gpu/soft.rs`).
     pub(crate) soft: super::soft::SoftPipelines,
+    /// Fluids' pipelines (`gpu/fluid.rs`); `None` on an adapter that binds
+    /// too few storage buffers per shader.
+    pub(crate) fluid: Option<super::fluid::FluidPipelines>,
     /// Errors that escaped every error scope (the default handler would
     /// panic); reported by the next call that checks.
     uncaptured: Arc<Mutex<Option<String>>>,
@@ -145,6 +148,7 @@ impl GpuContext {
         );
         let integrate = pipeline("particle_integrate", inertia_shaders::PARTICLE_INTEGRATE);
         let soft = super::soft::SoftPipelines::new(&device);
+        let fluid = super::fluid::FluidPipelines::new(&device);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(PhysicsError::Gpu(format!(
                 "compiling the particle shaders for {} failed: {e}",
@@ -160,6 +164,7 @@ impl GpuContext {
             interactions,
             integrate,
             soft,
+            fluid,
             uncaptured,
         })
     }

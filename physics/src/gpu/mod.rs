@@ -1,6 +1,7 @@
-//! GPU stepping of particle systems and soft bodies through wgpu compute
-//! (feature `gpu`). Soft bodies are in `gpu/soft.rs`; the note below is about
-//! particle systems.
+//! GPU stepping of particle systems, soft bodies and fluids through wgpu
+//! compute (feature `gpu`). Soft bodies are in `gpu/soft.rs`, fluids in
+//! `gpu/fluid.rs` (the bodies they are kept out of in
+//! `gpu/fluid_walls.rs`); the note below is about particle systems.
 //!
 //! # Design note
 //!
@@ -64,13 +65,18 @@
 
 mod buffers;
 mod context;
+pub(crate) mod fluid;
+pub(crate) mod fluid_walls;
 mod layout;
 mod params;
+mod program;
 pub(crate) mod soft;
 mod system;
 mod tolerance;
 
 pub use context::GpuContext;
+pub use fluid::{FLUID_GPU_MEDIAN_TOLERANCE, FLUID_GPU_TOLERANCE};
+pub use fluid_walls::MAX_FLUID_GPU_SHAPES;
 pub use soft::SOFT_GPU_TOLERANCE;
 pub use tolerance::{GpuTolerance, GPU_TOLERANCE};
 

@@ -26,6 +26,7 @@ use crate::xpbd::soft::SoftBody;
 
 use super::buffers::at_least;
 use super::context::GpuContext;
+use super::program::{storage_binding, uniform_binding, Program};
 
 /// Largest distance (m) a GPU-stepped soft body's particle may stand from
 /// the CPU-stepped one after 60 steps at 60 Hz of a hanging 32 × 32 cloth
@@ -87,64 +88,27 @@ pub(crate) struct SoftPipelines {
 
 impl SoftPipelines {
     pub(crate) fn new(device: &wgpu::Device) -> Self {
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("xpbd_soft"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: true,
-                        min_binding_size: wgpu::BufferSize::new(
-                            std::mem::size_of::<SoftParams>() as u64
-                        ),
-                    },
-                    count: None,
-                },
-                storage(1, false),
-                storage(2, false),
-                storage(3, false),
-                storage(4, true),
-                storage(5, true),
-                storage(6, true),
-                storage(7, true),
+        let program = Program::new(
+            device,
+            "xpbd_soft",
+            inertia_shaders::XPBD_SOFT,
+            &[
+                uniform_binding::<SoftParams>(true),
+                storage_binding(1, false),
+                storage_binding(2, false),
+                storage_binding(3, false),
+                storage_binding(4, true),
+                storage_binding(5, true),
+                storage_binding(6, true),
+                storage_binding(7, true),
             ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("xpbd_soft"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("xpbd_soft"),
-            source: wgpu::ShaderSource::Wgsl(inertia_shaders::XPBD_SOFT.into()),
-        });
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        );
+        let pipeline = |entry: &str| program.pipeline(device, entry);
         Self {
             predict: pipeline("predict"),
             finish: pipeline("finish"),
             project: pipeline("project"),
-            layout,
+            layout: program.layout,
         }
     }
 

@@ -1,11 +1,14 @@
-//! Fluids in the saved state: their description and their particles'
-//! positions and velocities. A restored fluid is rebuilt through
-//! [`Fluid::new`], so every parameter is checked as the API checks it.
+//! Fluids in the saved state: their description, their particles'
+//! positions and velocities, and (from format 9) their emitters with the
+//! shots they have fired and the particles they have added. A restored
+//! fluid is rebuilt through [`Fluid::new`] and its emitters through the
+//! checks [`Fluid::add_emitter`] makes, so every parameter is checked as
+//! the API checks it.
 
 use glam::DVec3;
 
 use super::{invalid, option_f64, Reader, Sink, SnapshotError};
-use crate::xpbd::fluid::{Fluid, FluidDesc, MAX_FLUID_PARTICLES};
+use crate::xpbd::fluid::{Fluid, FluidDesc, FluidEmitter, MAX_FLUID_EMITTERS, MAX_FLUID_PARTICLES};
 
 pub(super) fn fluid<S: Sink>(s: &mut S, f: &Fluid) {
     let d = f.params();
@@ -28,6 +31,25 @@ pub(super) fn fluid<S: Sink>(s: &mut S, f: &Fluid) {
         for c in x.to_array().into_iter().chain(v.to_array()) {
             s.f32(c);
         }
+    }
+    s.u64(f.emitters().len() as u64);
+    for e in f.emitters() {
+        let d = e.desc();
+        s.vec3(d.position);
+        s.vec3(d.velocity);
+        s.f64(d.radius);
+        option_f64(s, d.interval);
+        s.f64(d.start);
+        option_f64(s, d.stop);
+        match d.limit {
+            None => s.u8(0),
+            Some(l) => {
+                s.u8(1);
+                s.u64(l);
+            }
+        }
+        s.u64(e.shots());
+        s.u64(e.emitted());
     }
 }
 
@@ -68,6 +90,33 @@ impl Reader<'_> {
             d.positions.push(DVec3::from(x.map(f64::from)));
             d.velocities.push(DVec3::from(v.map(f64::from)));
         }
-        Fluid::new(d).map_err(|e| SnapshotError::Invalid(e.to_string()))
+        let mut fluid = Fluid::new(d).map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+        if self.version >= 9 {
+            // Each emitter takes at least 83 bytes.
+            let n = self.count(83)?;
+            if n > MAX_FLUID_EMITTERS {
+                return invalid(format!("{n} emitters on one fluid"));
+            }
+            for _ in 0..n {
+                let position = self.vec3("fluid emitter position")?;
+                let velocity = self.vec3("fluid emitter velocity")?;
+                let mut e = FluidEmitter::new(position, velocity);
+                e.radius = self.finite("fluid emitter radius")?;
+                e.interval = self.option_f64("fluid emitter interval")?;
+                e.start = self.finite("fluid emitter start")?;
+                e.stop = self.option_f64("fluid emitter stop")?;
+                e.limit = match self.u8()? {
+                    0 => None,
+                    1 => Some(self.u64()?),
+                    t => return invalid(format!("fluid emitter limit tag {t}")),
+                };
+                let shots = self.u64()?;
+                let emitted = self.u64()?;
+                fluid
+                    .restore_emitter(e, shots, emitted)
+                    .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+            }
+        }
+        Ok(fluid)
     }
 }

@@ -42,7 +42,7 @@ use crate::spring::{Spring, SpringParams};
 
 const MAGIC: &[u8; 8] = b"INRTWRLD";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 8;
+pub const FORMAT_VERSION: u32 = 9;
 /// The oldest format version this build reads. Version 3 kept each
 /// manifold's impulses only: its manifolds are collided afresh on the
 /// first step after a restore. Version 4 had no world gravity on
@@ -51,7 +51,8 @@ pub const FORMAT_VERSION: u32 = 8;
 /// pairs (the queries report none until the world steps). Versions 4 and
 /// 5 kept the contact cache in double precision, which is rounded to the
 /// single precision it is now kept in. Versions before 7 had no soft
-/// bodies, and before 8 no fluids.
+/// bodies, before 8 no fluids, and before 9 no fluid emitters (a fluid of
+/// version 8 restores with none).
 pub const OLDEST_FORMAT_VERSION: u32 = 3;
 
 /// Why a saved state could not be restored. The world is unchanged.

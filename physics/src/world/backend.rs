@@ -53,7 +53,8 @@ impl World {
         }
     }
 
-    /// Copies every GPU system's and soft body's state back into its CPU mirror.
+    /// Copies every GPU system's, soft body's and fluid's state back into its
+    /// CPU mirror.
     pub fn sync_gpu(&mut self) -> Result<(), PhysicsError> {
         #[cfg(feature = "gpu")]
         if let Some(ctx) = self.gpu.as_ref() {
@@ -65,6 +66,11 @@ impl World {
             for (_, _, b) in self.soft_bodies.iter_mut() {
                 if let Some(gpu) = b.gpu.0.clone() {
                     crate::gpu::soft::download(ctx, b, &gpu)?;
+                }
+            }
+            for (_, _, f) in self.fluids.iter_mut() {
+                if let Some(gpu) = f.gpu.0.clone() {
+                    crate::gpu::fluid::download(ctx, f, &gpu)?;
                 }
             }
         }

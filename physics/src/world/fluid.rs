@@ -6,7 +6,7 @@ use glam::DVec3;
 use super::World;
 use crate::error::PhysicsError;
 use crate::handle::FluidHandle;
-use crate::xpbd::fluid::{Fluid, FluidDesc};
+use crate::xpbd::fluid::{Fluid, FluidDesc, FluidEmitter};
 
 impl World {
     /// Adds a fluid; refused with a typed error (nothing added) when the
@@ -48,9 +48,109 @@ impl World {
         positions: &[DVec3],
         velocities: &[DVec3],
     ) -> Result<(), PhysicsError> {
+        #[cfg(feature = "gpu")]
+        if self.fluid(h).is_some_and(|f| f.gpu.0.is_some()) {
+            // On the GPU: back to the host, the particles added, up again.
+            let ctx = self
+                .gpu
+                .as_ref()
+                .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
+            let fluid = self
+                .fluids
+                .get_mut(h.index, h.generation)
+                .ok_or(PhysicsError::UnknownFluid(h))?;
+            let on_gpu = fluid.gpu.0.clone().expect("checked above");
+            crate::gpu::fluid::download(ctx, fluid, &on_gpu)?;
+            fluid.add_particles(positions, velocities)?;
+            fluid.gpu.0 = Some(crate::gpu::fluid::upload(ctx, fluid)?);
+            return Ok(());
+        }
         self.fluids
             .get_mut(h.index, h.generation)
             .ok_or(PhysicsError::UnknownFluid(h))?
             .add_particles(positions, velocities)
+    }
+
+    /// Moves fluid `h` to `backend`, carrying its particles across. On the
+    /// GPU (feature `gpu`) it takes the same steps in `f32` (`gpu/fluid.rs`),
+    /// kept out of the world's static and kinematic bodies; refused with
+    /// [`PhysicsError::Gpu`] naming what, while the world holds a dynamic
+    /// body (the GPU does not push bodies back) or a body of a shape other
+    /// than a cuboid, sphere or capsule, and so is a step that finds one
+    /// later. Emitters and [`World::add_fluid_particles`] work on the host
+    /// between steps (the fluid is read back and uploaded again). A saved
+    /// state does not keep the backend: a restored fluid steps on the CPU
+    /// until moved again. With
+    /// [`WorldConfig::gpu_readback_every_step`](crate::WorldConfig) off,
+    /// call [`World::sync_gpu`] before reading or saving it.
+    pub fn set_fluid_backend(
+        &mut self,
+        h: FluidHandle,
+        backend: crate::particle_system::Backend,
+    ) -> Result<(), PhysicsError> {
+        #[cfg(feature = "gpu")]
+        use crate::particle_system::Backend;
+        let current = self
+            .fluid(h)
+            .ok_or(PhysicsError::UnknownFluid(h))?
+            .backend();
+        if current == backend {
+            return Ok(());
+        }
+        #[cfg(feature = "gpu")]
+        {
+            match backend {
+                Backend::Gpu => {
+                    crate::gpu::fluid_walls::gather(&self.bodies)?;
+                    self.gpu_context()?;
+                    let ctx = self.gpu.as_ref().expect("context created above");
+                    let fluid = self
+                        .fluids
+                        .get_mut(h.index, h.generation)
+                        .expect("checked above");
+                    fluid.gpu.0 = Some(crate::gpu::fluid::upload(ctx, fluid)?);
+                    fluid.backend = Backend::Gpu;
+                }
+                Backend::Cpu => {
+                    let ctx = self
+                        .gpu
+                        .as_ref()
+                        .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
+                    let fluid = self
+                        .fluids
+                        .get_mut(h.index, h.generation)
+                        .expect("checked above");
+                    if let Some(gpu) = fluid.gpu.0.take() {
+                        crate::gpu::fluid::download(ctx, fluid, &gpu)?;
+                    }
+                    fluid.backend = Backend::Cpu;
+                }
+            }
+            Ok(())
+        }
+        #[cfg(not(feature = "gpu"))]
+        {
+            let _ = backend;
+            Err(PhysicsError::Gpu("this build has no `gpu` feature".into()))
+        }
+    }
+
+    /// Adds an emitter to fluid `h`: from the next step on, it adds
+    /// particles at the end of every step that a shot of it comes due in
+    /// (see [`FluidEmitter`]); shots due before now are skipped. Returns its
+    /// index in [`Fluid::emitters`]. Refused with a typed error for a bad
+    /// description (a zero velocity, shots closer than the spacing, a
+    /// negative radius or start, a stop before the start, a zero limit,
+    /// ...) or a stale handle.
+    pub fn add_fluid_emitter(
+        &mut self,
+        h: FluidHandle,
+        emitter: FluidEmitter,
+    ) -> Result<usize, PhysicsError> {
+        let now = self.time;
+        self.fluids
+            .get_mut(h.index, h.generation)
+            .ok_or(PhysicsError::UnknownFluid(h))?
+            .add_emitter(emitter, now)
     }
 }

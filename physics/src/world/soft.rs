@@ -175,14 +175,18 @@ impl World {
     }
 
     /// Stage 4: every soft body, then every fluid, in handle order, takes
-    /// its small steps against the rigid bodies as they now stand; the
-    /// bodies then take what the particles gave them.
+    /// its small steps against the rigid bodies as they now stand, and the
+    /// bodies then take what its particles gave them before the next one
+    /// steps (a fluid's emitters then fire the shots due by the end of the
+    /// step).
     pub(super) fn stage_soft(&mut self, dt: f64, energy: &mut Energy) -> Result<(), PhysicsError> {
         if self.soft_bodies.len() == 0 && self.fluids.len() == 0 {
             return Ok(());
         }
         let gravity = self.gravity.as_vec3();
         let dt32 = dt as f32;
+        // The world's time at the end of this step, when emitters fire.
+        let now = self.time + dt;
         let World {
             soft_bodies,
             fluids,
@@ -192,7 +196,6 @@ impl World {
             gpu,
             ..
         } = self;
-        let mut changes = Vec::new();
         for (_, _, body) in soft_bodies.iter_mut() {
             #[cfg(feature = "gpu")]
             if let Some(on_gpu) = body.gpu.0.clone() {
@@ -223,24 +226,53 @@ impl World {
                 Coupling::default()
             };
             soft::step(body, dt32, gravity, travel, &mut coupling);
-            changes.extend(coupling.finish());
+            // The bodies take what this soft body did before the next one
+            // gathers them: a body held by two soft bodies (a plank between
+            // two ropes) is moved by each in turn, not twice from the same
+            // pose.
+            apply_changes(bodies, &coupling.finish());
             if config.energy_accounting {
                 let g = gravity.as_dvec3() * body.material.gravity_scale;
                 add_energy(energy, &body.x, &body.v, &body.w, g);
             }
         }
         for (_, _, fluid) in fluids.iter_mut() {
+            #[cfg(feature = "gpu")]
+            if let Some(on_gpu) = fluid.gpu.0.clone() {
+                let ctx = gpu
+                    .as_ref()
+                    .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
+                let readback = config.gpu_readback_every_step;
+                let shapes = crate::gpu::fluid_walls::gather(bodies)?;
+                crate::gpu::fluid::step(ctx, fluid, &on_gpu, dt32, gravity, &shapes, readback)?;
+                // Emitters fire on the host: the fluid comes back, takes
+                // the shot and goes up again.
+                if fluid.shot_due(now) {
+                    if !readback {
+                        crate::gpu::fluid::download(ctx, fluid, &on_gpu)?;
+                    }
+                    fluid.emit(now);
+                    if fluid.len() != on_gpu.n as usize {
+                        fluid.gpu.0 = Some(crate::gpu::fluid::upload(ctx, fluid)?);
+                    }
+                }
+                if readback && config.energy_accounting {
+                    let g = gravity.as_dvec3() * fluid.params().gravity_scale;
+                    add_energy(energy, &fluid.x, &fluid.v, fluid.inverse_masses(), g);
+                }
+                continue;
+            }
             let reach = fluid.reach(dt32, gravity);
             let mut coupling =
                 Coupling::gather(bodies, &fluid.x, fluid.inverse_masses(), reach, &[]);
             fluid.step(dt32, gravity, &mut coupling);
-            changes.extend(coupling.finish());
+            apply_changes(bodies, &coupling.finish());
+            fluid.emit(now);
             if config.energy_accounting {
                 let g = gravity.as_dvec3() * fluid.params().gravity_scale;
                 add_energy(energy, &fluid.x, &fluid.v, fluid.inverse_masses(), g);
             }
         }
-        apply_changes(bodies, &changes);
         Ok(())
     }
 }

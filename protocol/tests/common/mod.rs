@@ -51,5 +51,22 @@ pub fn shape() -> impl Strategy<Value = ShapeDesc> {
             0..6
         )
         .prop_map(|parts| ShapeDesc::Compound { parts }),
+        1 => point_set(),
     ]
+}
+
+/// A point set (never inside a compound).
+pub fn point_set() -> impl Strategy<Value = ShapeDesc> {
+    (1u32..200, size()).prop_flat_map(|(points, radius)| {
+        (
+            vec([0..points, 0..points, 0..points], 0..20),
+            vec([0..points, 0..points], 0..20),
+        )
+            .prop_map(move |(triangles, lines)| ShapeDesc::PointSet {
+                points,
+                radius,
+                triangles,
+                lines,
+            })
+    })
 }

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use inertia_protocol::control::{encode_frame, ServerControl};
-use inertia_protocol::{EntityDesc, EntityId};
+use inertia_protocol::{EntityDesc, EntityId, ShapeDesc};
 
 use crate::sim::{CatalogChange, RecentEvent};
 
@@ -62,12 +62,23 @@ impl Told {
                     }
                 }
                 None => {
-                    // What the client knows against the whole catalog.
-                    let change = CatalogChange::of_ids(
+                    // What the client knows against the whole catalog; the
+                    // point sets it knows may have changed shape since.
+                    let mut change = CatalogChange::of_ids(
                         version,
                         self.known.iter().copied(),
                         catalog.keys().copied(),
                     );
+                    change.reshaped = self
+                        .known
+                        .iter()
+                        .filter(|id| {
+                            catalog
+                                .get(id)
+                                .is_some_and(|d| matches!(d.shape, ShapeDesc::PointSet { .. }))
+                        })
+                        .copied()
+                        .collect();
                     self.tell_change(&change, catalog, out)?;
                 }
             }
@@ -85,7 +96,8 @@ impl Told {
 
     /// Tells one change: its despawns of entities the client knows, then
     /// its spawns of entities still in `catalog` (a later change may have
-    /// taken one away again).
+    /// taken one away again), then the new descriptions of reshaped
+    /// entities it knows (a spawn of a known id replaces its description).
     fn tell_change(
         &mut self,
         change: &CatalogChange,
@@ -104,6 +116,11 @@ impl Told {
             };
             push(out, &ServerControl::Spawn(desc.clone()))?;
             self.known.insert(i, id);
+        }
+        for &id in &change.reshaped {
+            if let (Ok(_), Some(desc)) = (self.known.binary_search(&id), catalog.get(&id)) {
+                push(out, &ServerControl::Spawn(desc.clone()))?;
+            }
         }
         Ok(())
     }
@@ -210,6 +227,51 @@ mod tests {
         out.clear();
         assert_eq!(told.catch_up(2, &catalog, &[], &recent, &mut out), Ok(0));
         assert!(out.is_empty());
+    }
+
+    #[test]
+    fn issue_16_a_reshaped_point_set_is_told_again_to_clients_that_know_it() {
+        let cloth = |triangles: Vec<[u32; 3]>| EntityDesc {
+            kind: EntityKind::SoftBody,
+            shape: ShapeDesc::PointSet {
+                points: 4,
+                radius: 0.01,
+                triangles,
+                lines: vec![],
+            },
+            ..desc(1)
+        };
+        let whole = cloth(vec![[0, 1, 2], [1, 3, 2]]);
+        let torn = cloth(vec![[0, 1, 2]]);
+        let before: BTreeMap<_, _> = [(1, whole), (6, desc(6))].into();
+        let after: BTreeMap<_, _> = [(1, torn.clone()), (6, desc(6))].into();
+        let change = Arc::new(CatalogChange::between(2, &before, &after));
+        assert_eq!(change.reshaped, [1]);
+        assert!(change.spawned.is_empty() && change.despawned.is_empty());
+        let spawns = |bytes: &[u8]| -> Vec<EntityDesc> {
+            read(bytes)
+                .into_iter()
+                .filter_map(|m| match m {
+                    ServerControl::Spawn(d) => Some(d),
+                    _ => None,
+                })
+                .collect()
+        };
+        // Told the change: the new shape alone.
+        let mut told = Told::new(&[]);
+        let mut out = Vec::new();
+        told.catch_up(1, &before, &[], &[], &mut out).unwrap();
+        out.clear();
+        told.catch_up(2, &after, &[change], &[], &mut out).unwrap();
+        assert_eq!(spawns(&out), std::slice::from_ref(&torn));
+        // Told by a walk of the whole catalog (the changes were lost): its
+        // point sets again, whatever changed.
+        let mut walked = Told::new(&[]);
+        out.clear();
+        walked.catch_up(1, &before, &[], &[], &mut out).unwrap();
+        out.clear();
+        walked.catch_up(5, &after, &[], &[], &mut out).unwrap();
+        assert_eq!(spawns(&out), [torn]);
     }
 
     /// The entities a client holds after reading `bytes` on top of `held`.

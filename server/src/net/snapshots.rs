@@ -44,6 +44,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use inertia_protocol::admin::TimeMode;
+use inertia_protocol::control::{encode_frame, InputReport, ServerControl};
 use inertia_protocol::snapshot::{QuantizedFrame, SharedDeltas};
 use inertia_protocol::ServerSession;
 
@@ -82,6 +83,7 @@ impl Served {
             session: Mutex::new(session),
             out: Mutex::new(SlotOutput {
                 told: Told::new(&frame.events),
+                inputs_told: None,
                 control: Vec::new(),
                 datagram: None,
                 error: None,
@@ -98,6 +100,8 @@ impl Served {
 pub struct SlotOutput {
     /// What the client has been told of the catalog and events.
     told: Told,
+    /// The last report on its inputs it was sent, and the live tick then.
+    inputs_told: Option<(u64, InputReport)>,
     /// Control frames waiting to be written to the control stream.
     pub control: Vec<u8>,
     /// The newest snapshot datagram, unsent (a newer one replaces it).
@@ -309,6 +313,8 @@ fn serve(
                 return;
             }
         };
+        let told = tell_input_timing(out, frame, served.client, shared.tick_hz);
+        shared.metrics.bytes_sent.inc_by(told as u64);
         out.control.len()
     };
     let max = served.connection.max_datagram_size().unwrap_or(1200);
@@ -348,6 +354,27 @@ fn serve(
         None if !out.control.is_empty() => served.ready.notify_one(),
         None => {}
     }
+}
+
+/// Tells the client how its inputs have been arriving (the server's
+/// `InputTiming` message), at most once a second of live ticks and only
+/// when the report changed. Returns the bytes queued.
+fn tell_input_timing(out: &mut SlotOutput, frame: &Frame, client: u64, tick_hz: u32) -> usize {
+    let Some(&report) = frame.inputs.get(&client) else {
+        return 0;
+    };
+    let due = out.inputs_told.is_none_or(|(tick, told)| {
+        told != report && frame.live_tick >= tick.saturating_add(u64::from(tick_hz))
+    });
+    if !due {
+        return 0;
+    }
+    let Ok(bytes) = encode_frame(&ServerControl::InputTiming(report)) else {
+        return 0;
+    };
+    out.control.extend_from_slice(&bytes);
+    out.inputs_told = Some((frame.live_tick, report));
+    bytes.len()
 }
 
 /// Queues snapshot `bytes` on `connection` for quinn to send, and counts

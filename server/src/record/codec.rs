@@ -11,8 +11,11 @@ use inertia_protocol::PlayerInput;
 use super::error::{Corruption, RecordError};
 use super::MAX_RECORD_BYTES;
 
-/// Bytes of one `(client, PlayerInput)` entry in an `Inputs` payload.
-pub(crate) const INPUT_ENTRY_BYTES: usize = 8 + 4 + 8 + 4 + 4 + 4 + 1;
+/// Bytes of one `(client, PlayerInput)` entry in an `Inputs` payload
+/// (kind 7, with the view offset).
+pub(crate) const INPUT_ENTRY_BYTES: usize = 8 + 4 + 8 + 4 + 4 + 4 + 1 + 4;
+/// Bytes of one entry of the older `Inputs` payload (kind 3, no view).
+const INPUT_ENTRY_BYTES_V1: usize = INPUT_ENTRY_BYTES - 4;
 
 /// One entry of a recording. Every record belongs to a tick; within a
 /// recording, ticks never decrease.
@@ -80,7 +83,8 @@ pub enum RecordKind {
     SessionStart = 1,
     /// [`Record::Keyframe`].
     Keyframe = 2,
-    /// [`Record::Inputs`].
+    /// [`Record::Inputs`] as written before inputs carried a view
+    /// offset (read only: decoded with a view of 0).
     Inputs = 3,
     /// [`Record::TickHash`].
     TickHash = 4,
@@ -88,6 +92,8 @@ pub enum RecordKind {
     AdminEdit = 5,
     /// [`Record::Journal`].
     Journal = 6,
+    /// [`Record::Inputs`], with each input's view offset.
+    InputsWithView = 7,
 }
 
 impl RecordKind {
@@ -100,6 +106,7 @@ impl RecordKind {
             4 => Self::TickHash,
             5 => Self::AdminEdit,
             6 => Self::Journal,
+            7 => Self::InputsWithView,
             _ => return None,
         })
     }
@@ -123,7 +130,7 @@ impl Record {
         match self {
             Self::SessionStart { .. } => RecordKind::SessionStart,
             Self::Keyframe { .. } => RecordKind::Keyframe,
-            Self::Inputs { .. } => RecordKind::Inputs,
+            Self::Inputs { .. } => RecordKind::InputsWithView,
             Self::TickHash { .. } => RecordKind::TickHash,
             Self::AdminEdit { .. } => RecordKind::AdminEdit,
             Self::Journal { .. } => RecordKind::Journal,
@@ -175,6 +182,7 @@ impl Record {
                         movement,
                         yaw,
                         buttons,
+                        view_behind,
                     } = *input;
                     out.extend_from_slice(&client.to_le_bytes());
                     out.extend_from_slice(&sequence.to_le_bytes());
@@ -183,6 +191,7 @@ impl Record {
                     out.extend_from_slice(&movement[1].to_bits().to_le_bytes());
                     out.extend_from_slice(&yaw.to_bits().to_le_bytes());
                     out.push(buttons);
+                    out.extend_from_slice(&view_behind.to_bits().to_le_bytes());
                 }
             }
             Self::TickHash { hash, .. } => out.extend_from_slice(&hash.to_le_bytes()),
@@ -217,11 +226,15 @@ impl Record {
                 tick,
                 state: r.take_rest().to_vec(),
             },
-            RecordKind::Inputs => {
+            RecordKind::Inputs | RecordKind::InputsWithView => {
+                let with_view = kind == RecordKind::InputsWithView;
+                let entry = if with_view {
+                    INPUT_ENTRY_BYTES
+                } else {
+                    INPUT_ENTRY_BYTES_V1
+                };
                 let count = r.u32()? as usize;
-                if r.rest.len() / INPUT_ENTRY_BYTES != count
-                    || r.rest.len() % INPUT_ENTRY_BYTES != 0
-                {
+                if r.rest.len() / entry != count || r.rest.len() % entry != 0 {
                     return Err(Corruption::BadPayload("input count does not match length"));
                 }
                 let mut inputs = Vec::with_capacity(count);
@@ -233,6 +246,11 @@ impl Record {
                         movement: [f32::from_bits(r.u32()?), f32::from_bits(r.u32()?)],
                         yaw: f32::from_bits(r.u32()?),
                         buttons: r.u8()?,
+                        view_behind: if with_view {
+                            f32::from_bits(r.u32()?)
+                        } else {
+                            0.0
+                        },
                     };
                     inputs.push((client, input));
                 }
@@ -318,6 +336,7 @@ mod tests {
             movement: [seed as f32 * 0.25 - 1.0, -0.5],
             yaw: f32::from_bits(0x7FC0_0001), // a NaN with a payload
             buttons: seed as u8,
+            view_behind: seed as f32 * 0.0625,
         }
     }
 
@@ -408,6 +427,36 @@ mod tests {
         p.extend_from_slice(&2u32.to_le_bytes());
         p.extend_from_slice(&[0xFF, 0xFE]);
         assert!(Record::decode(RecordKind::AdminEdit, &p).is_err());
+        // Inputs of the older kind (no view) still load, with a view of 0.
+        let mut old = 9u64.to_le_bytes().to_vec();
+        old.extend_from_slice(&1u32.to_le_bytes());
+        old.extend_from_slice(&7u64.to_le_bytes());
+        old.extend_from_slice(&3u32.to_le_bytes());
+        old.extend_from_slice(&4u64.to_le_bytes());
+        for f in [0.5f32, -1.0, 2.0] {
+            old.extend_from_slice(&f.to_bits().to_le_bytes());
+        }
+        old.push(1);
+        let Ok(Record::Inputs { tick: 9, inputs }) = Record::decode(RecordKind::Inputs, &old)
+        else {
+            panic!("an older inputs record is refused");
+        };
+        assert_eq!(
+            inputs,
+            vec![(
+                7,
+                PlayerInput {
+                    sequence: 3,
+                    tick: 4,
+                    movement: [0.5, -1.0],
+                    yaw: 2.0,
+                    buttons: 1,
+                    view_behind: 0.0,
+                }
+            )]
+        );
+        // ... and read as the new kind they are refused (wrong length).
+        assert!(Record::decode(RecordKind::InputsWithView, &old).is_err());
         // Trailing bytes after a tick hash.
         assert!(Record::decode(RecordKind::TickHash, &[0; 17]).is_err());
     }

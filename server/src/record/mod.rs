@@ -24,8 +24,9 @@
 //! ```text
 //! header   0..4   magic  "IREC" (0x49 0x52 0x45 0x43)
 //!          4..8   u32    format version, 1
-//! frame    +0     u8     kind (1 SessionStart, 2 Keyframe, 3 Inputs,
-//!                        4 TickHash, 5 AdminEdit, 6 Journal)
+//! frame    +0     u8     kind (1 SessionStart, 2 Keyframe, 3 Inputs
+//!                        without views (read only), 4 TickHash,
+//!                        5 AdminEdit, 6 Journal, 7 Inputs)
 //!          +1     u32    payload length n, bytes (≤ MAX_RECORD_BYTES)
 //!          +5     n      payload
 //!          +5+n   u32    CRC-32/IEEE of bytes +0 .. +5+n (kind, length
@@ -39,10 +40,13 @@
 //!               s bytes scene name (UTF-8)
 //! Keyframe      u64 tick, the rest: the saved state (the server's: a
 //!               SimState packed with zstd, see [`compress`])
-//! Inputs        u64 tick, u32 count c, then c entries of 33 bytes:
+//! Inputs (7)    u64 tick, u32 count c, then c entries of 37 bytes:
 //!               u64 client id, u32 input sequence, u64 input's tick,
 //!               f32 movement x, f32 movement z, f32 yaw (rad),
-//!               u8 buttons  (floats as their IEEE-754 bit patterns)
+//!               u8 buttons, f32 view behind (ticks)  (floats as their
+//!               IEEE-754 bit patterns)
+//! Inputs (3)    as kind 7 without the view: entries of 33 bytes, written
+//!               before inputs carried a view; read as a view of 0
 //! TickHash      u64 tick, u64 state hash
 //! AdminEdit     u64 tick, u32 name length w, w bytes who (UTF-8),
 //!               the rest: the edit (opaque, for people: the audit trail)

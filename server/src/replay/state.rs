@@ -9,7 +9,8 @@
 //!
 //! ```text
 //! 0..4    magic "ISIM"
-//! 4..6    u16 format version, 1
+//! 4..6    u16 format version, 2 (1 is read too: it ends after the
+//!         rules' state, with no pose window)
 //! 6..14   u64 tick
 //! 14..18  u32 applied: entries of the journal of `tick` already in this
 //!         state (0 for a keyframe taken right after the tick's step)
@@ -18,7 +19,13 @@
 //!         u32 count, count × (f64 x, f64 y, f64 z): spawn points, m
 //!         u32 count, count × u64: clients in the game
 //!         u32 n, n bytes: the rules' state (theirs to define)
+//!         u32 n, n bytes: the pose window for lag compensation
+//!         ([`PoseHistory::to_bytes`]); n = 0: none       (version 2)
 //! ```
+//!
+//! The pose window is saved, not rebuilt: re-simulating from this state
+//! must answer a rewound shot exactly as the live run did, and the ticks
+//! before this one are not in the state to rebuild it from.
 //!
 //! Decoding bounds every length by what is left and refuses trailing
 //! bytes; the world and table are checked as they are restored. Keyframes
@@ -30,11 +37,14 @@ use inertia_physics::glam::DVec3;
 use crate::record::compress::unpack;
 use crate::rules::ClientId;
 use crate::scene::entities::{EntityTable, TableError};
+use crate::sim::PoseHistory;
 
 /// The magic bytes a saved simulation state starts with.
 pub const STATE_MAGIC: [u8; 4] = *b"ISIM";
 /// The format version [`SimState::encode`] writes.
-pub const STATE_VERSION: u16 = 1;
+pub const STATE_VERSION: u16 = 2;
+/// The oldest format version [`SimState::decode`] reads.
+pub const OLDEST_STATE_VERSION: u16 = 1;
 
 /// A simulation's whole state at a tick.
 #[derive(Debug, Clone)]
@@ -53,6 +63,10 @@ pub struct SimState {
     pub clients: Vec<ClientId>,
     /// The rules' state ([`crate::rules::GameRules::save_state`]).
     pub rules: Vec<u8>,
+    /// The moving bodies' poses over the ticks before, for lag
+    /// compensation; `None` for a fresh scene or a state of format
+    /// version 1 (a window then starts at `tick`).
+    pub poses: Option<PoseHistory>,
 }
 
 /// Why a saved state was refused.
@@ -62,7 +76,10 @@ pub enum StateError {
     #[error("not a saved simulation state (bad magic)")]
     BadMagic,
     /// Written by a format this build cannot read.
-    #[error("saved state format version {0} is not supported (this build reads {STATE_VERSION})")]
+    #[error(
+        "saved state format version {0} is not supported (this build reads \
+         {OLDEST_STATE_VERSION} to {STATE_VERSION})"
+    )]
     Version(u16),
     /// The bytes end early or carry too much.
     #[error("saved state is malformed: {0}")]
@@ -82,6 +99,11 @@ impl SimState {
     /// The state as bytes (see the module docs).
     pub fn encode(&self) -> Vec<u8> {
         let table = self.entities.to_bytes();
+        let poses = self
+            .poses
+            .as_ref()
+            .map(PoseHistory::to_bytes)
+            .unwrap_or_default();
         // Exactly what is written: the header (18), three length-prefixed
         // byte strings and two counted arrays. Keyframes are held as they
         // are, so no spare capacity.
@@ -90,7 +112,8 @@ impl SimState {
             + (4 + table.len())
             + (4 + self.spawn_points.len() * 24)
             + (4 + self.clients.len() * 8)
-            + (4 + self.rules.len());
+            + (4 + self.rules.len())
+            + (4 + poses.len());
         let mut out = Vec::with_capacity(len);
         out.extend_from_slice(&STATE_MAGIC);
         out.extend_from_slice(&STATE_VERSION.to_le_bytes());
@@ -109,6 +132,7 @@ impl SimState {
             out.extend_from_slice(&c.to_le_bytes());
         }
         put_bytes(&mut out, &self.rules);
+        put_bytes(&mut out, &poses);
         debug_assert_eq!(out.len(), len);
         out
     }
@@ -134,7 +158,7 @@ impl SimState {
 
     fn decode_raw(bytes: &[u8]) -> Result<SimState, StateError> {
         let mut r = Reader { bytes, at: 0 };
-        r.header()?;
+        let version = r.header()?;
         let tick = r.u64()?;
         if tick > inertia_physics::limits::MAX_TICK {
             return Err(StateError::Malformed(format!(
@@ -160,6 +184,13 @@ impl SimState {
             clients.push(r.u64()?);
         }
         let rules = r.bytes()?.to_vec();
+        let poses = match version {
+            1 => None,
+            _ => match r.bytes()? {
+                [] => None,
+                bytes => Some(PoseHistory::from_bytes(bytes).map_err(StateError::Malformed)?),
+            },
+        };
         if r.at != bytes.len() {
             return Err(StateError::Malformed(format!(
                 "{} trailing bytes",
@@ -174,6 +205,7 @@ impl SimState {
             spawn_points,
             clients,
             rules,
+            poses,
         })
     }
 }
@@ -200,15 +232,16 @@ impl<'a> Reader<'a> {
         Ok(s)
     }
 
-    fn header(&mut self) -> Result<(), StateError> {
+    /// Checks the magic and returns the format version.
+    fn header(&mut self) -> Result<u16, StateError> {
         if self.bytes.len() < 4 || self.take(4)? != STATE_MAGIC {
             return Err(StateError::BadMagic);
         }
         let version = u16::from_le_bytes(self.take(2)?.try_into().unwrap_or_default());
-        if version != STATE_VERSION {
+        if !(OLDEST_STATE_VERSION..=STATE_VERSION).contains(&version) {
             return Err(StateError::Version(version));
         }
-        Ok(())
+        Ok(version)
     }
 
     fn u32(&mut self) -> Result<u32, StateError> {

@@ -2,8 +2,11 @@
 //!
 //! Order (it fixes the entity ids): `bodies`, `generators`, `ragdolls`,
 //! `ropes`, `cloths`, then the water regions of `forces`; joints after
-//! every body exists, so they may name bodies from any section. Every check
-//! reports the path of the entry it refuses.
+//! every body exists, so they may name bodies from any section. The XPBD
+//! `soft_bodies` and `fluids` (see [`soft`]) come after the cloths and make
+//! no entities. Every check reports the path of the entry it refuses.
+
+mod soft;
 
 use std::collections::BTreeMap;
 
@@ -16,9 +19,9 @@ use inertia_physics::rigid::ragdoll::{build_ragdoll, RagdollDesc};
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::rigid::solver::SolverConfig;
 use inertia_physics::{
-    build_cloth, build_rope, BodyHandle, Buoyancy, ClothDesc, Drag, Explosion, Force,
-    ParticleHandle, PhysicsError, RopeDesc, SpringParams, SpringStiffness, SystemDesc,
-    SystemHandle, Wind, World, WorldConfig,
+    build_cloth, build_rope, BodyHandle, Buoyancy, ClothDesc, Drag, Explosion, FluidHandle, Force,
+    ParticleHandle, PhysicsError, RopeDesc, SoftBodyHandle, SpringParams, SpringStiffness,
+    SystemDesc, SystemHandle, Wind, World, WorldConfig,
 };
 use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
 
@@ -261,6 +264,10 @@ struct Builder {
     /// world anchor, kind with world axes).
     pending_joints: Vec<PendingJoint>,
     unnamed: usize,
+    /// XPBD soft bodies by name.
+    soft_bodies: BTreeMap<String, SoftBodyHandle>,
+    /// Fluids by name.
+    fluids: BTreeMap<String, FluidHandle>,
 }
 
 struct PendingJoint {
@@ -1124,6 +1131,8 @@ pub(crate) fn build(file: &SceneFile, config: WorldConfig) -> Result<BuiltScene,
         gravity,
         pending_joints: Vec::new(),
         unnamed: 0,
+        soft_bodies: BTreeMap::new(),
+        fluids: BTreeMap::new(),
     };
     for (i, spec) in file.bodies.iter().enumerate() {
         b.body(&format!("bodies[{i}]"), spec, None, DVec3::ZERO)?;
@@ -1149,6 +1158,12 @@ pub(crate) fn build(file: &SceneFile, config: WorldConfig) -> Result<BuiltScene,
     for (i, c) in file.cloths.iter().enumerate() {
         b.cloth(&format!("cloths[{i}]"), c)?;
     }
+    for (i, s) in file.soft_bodies.iter().enumerate() {
+        b.soft_body(&format!("soft_bodies[{i}]"), s)?;
+    }
+    for (i, f) in file.fluids.iter().enumerate() {
+        b.fluid(&format!("fluids[{i}]"), f)?;
+    }
     for (i, f) in file.forces.iter().enumerate() {
         b.force(&format!("forces[{i}]"), f)?;
     }
@@ -1156,6 +1171,8 @@ pub(crate) fn build(file: &SceneFile, config: WorldConfig) -> Result<BuiltScene,
         world: b.world,
         entities: b.entities,
         bodies_by_name: b.names,
+        soft_bodies_by_name: b.soft_bodies,
+        fluids_by_name: b.fluids,
         spawn_points,
         name: file.name.clone(),
     })

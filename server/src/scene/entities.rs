@@ -1,8 +1,11 @@
 //! The entity table: what clients see of the world.
 //!
-//! Every streamed thing — a rigid body or a particle of a rope or cloth — is
-//! an entity with a `u32` id (from 1, in build order, never reused within a
-//! run) and an [`EntityDesc`] telling a client how to draw it. The table
+//! Every streamed thing — a rigid body, a mass-spring particle, an XPBD
+//! soft body or a fluid — is an entity with a `u32` id (from 1, in build
+//! order, never reused within a run) and an [`EntityDesc`] telling a client
+//! how to draw it. A soft body or a fluid is one entity whose points travel
+//! as the entities just after it ([`ShapeDesc::PointSet`]): it takes one id
+//! for itself and one for each point ([`super::point_sets`]). The table
 //! maps ids to physics handles and back, and counts its changes in a
 //! `version` so the tick loop republishes the catalog only when it changed.
 
@@ -11,7 +14,7 @@ use std::collections::BTreeMap;
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::BodyKind;
 use inertia_physics::rigid::shape::{HeightField, Shape};
-use inertia_physics::{BodyHandle, ParticleHandle, World};
+use inertia_physics::{BodyHandle, FluidHandle, ParticleHandle, SoftBodyHandle, World};
 use inertia_protocol::control::truncate_utf8;
 use inertia_protocol::{EntityDesc, EntityId, EntityKind, EntityState, ShapeDesc};
 
@@ -23,8 +26,12 @@ pub const MAX_NAME_BYTES: usize = 64;
 pub enum EntitySource {
     /// A rigid body.
     Body(BodyHandle),
-    /// A particle (a rope or cloth vertex).
+    /// A particle (a mass-spring rope or cloth vertex).
     Particle(ParticleHandle),
+    /// An XPBD soft body, streamed as a point set.
+    SoftBody(SoftBodyHandle),
+    /// A fluid, streamed as a point set.
+    Fluid(FluidHandle),
 }
 
 /// One entity.
@@ -45,6 +52,12 @@ pub struct EntityTable {
     entries: BTreeMap<EntityId, Entity>,
     by_body: BTreeMap<BodyHandle, EntityId>,
     by_particle: BTreeMap<ParticleHandle, EntityId>,
+    by_soft_body: BTreeMap<SoftBodyHandle, EntityId>,
+    by_fluid: BTreeMap<FluidHandle, EntityId>,
+    /// Of each soft body's entity, the body's triangles and edges its
+    /// description was made from: when they change (it tore), so does the
+    /// description.
+    soft_topology: BTreeMap<EntityId, [usize; 2]>,
     next_id: EntityId,
     version: u64,
 }
@@ -62,16 +75,25 @@ impl EntityTable {
             entries: BTreeMap::new(),
             by_body: BTreeMap::new(),
             by_particle: BTreeMap::new(),
+            by_soft_body: BTreeMap::new(),
+            by_fluid: BTreeMap::new(),
+            soft_topology: BTreeMap::new(),
             next_id: 1,
             version: 0,
         }
     }
 
     /// Adds an entity for `source`; `desc.id` is overwritten with the new
-    /// id and the name cut to [`MAX_NAME_BYTES`]. Returns the id.
+    /// id and the name cut to [`MAX_NAME_BYTES`]. Returns the id. A point
+    /// set takes the ids of its points too (the next entity's id is past
+    /// them); one that would run past `u32::MAX` starts again at 1.
     pub fn insert(&mut self, source: EntitySource, mut desc: EntityDesc) -> EntityId {
-        let id = self.next_id;
-        self.next_id = self.next_id.wrapping_add(1).max(1);
+        let taken = desc.ids_taken();
+        let mut id = self.next_id;
+        if u64::from(id) + taken - 1 > u64::from(EntityId::MAX) {
+            id = 1;
+        }
+        self.next_id = EntityId::try_from(u64::from(id) + taken).unwrap_or(1);
         desc.id = id;
         truncate_utf8(&mut desc.name, MAX_NAME_BYTES);
         match source {
@@ -80,6 +102,12 @@ impl EntityTable {
             }
             EntitySource::Particle(h) => {
                 self.by_particle.insert(h, id);
+            }
+            EntitySource::SoftBody(h) => {
+                self.by_soft_body.insert(h, id);
+            }
+            EntitySource::Fluid(h) => {
+                self.by_fluid.insert(h, id);
             }
         }
         self.entries.insert(
@@ -104,9 +132,83 @@ impl EntityTable {
             EntitySource::Particle(h) => {
                 self.by_particle.remove(&h);
             }
+            EntitySource::SoftBody(h) => {
+                self.by_soft_body.remove(&h);
+                self.soft_topology.remove(&id);
+            }
+            EntitySource::Fluid(h) => {
+                self.by_fluid.remove(&h);
+            }
         }
         self.version += 1;
         Some(e)
+    }
+
+    /// Adds the entity of soft body `h` (see
+    /// [`super::point_sets::soft_body_desc`]); `None` if the world has no
+    /// such body.
+    pub fn insert_soft_body(
+        &mut self,
+        world: &World,
+        h: SoftBodyHandle,
+        name: String,
+        color: [u8; 4],
+    ) -> Option<EntityId> {
+        let body = world.soft_body(h)?;
+        let desc = super::point_sets::soft_body_desc(body, name, color);
+        let id = self.insert(EntitySource::SoftBody(h), desc);
+        self.soft_topology.insert(id, topology(body));
+        Some(id)
+    }
+
+    /// Adds the entity of fluid `h` (see
+    /// [`super::point_sets::fluid_desc`]); `None` if the world has no such
+    /// fluid.
+    pub fn insert_fluid(
+        &mut self,
+        world: &World,
+        h: FluidHandle,
+        name: String,
+        color: [u8; 4],
+    ) -> Option<EntityId> {
+        let fluid = world.fluid(h)?;
+        let desc = super::point_sets::fluid_desc(fluid, name, color);
+        Some(self.insert(EntitySource::Fluid(h), desc))
+    }
+
+    /// Describes again every soft body whose triangles or edges changed
+    /// since it was described (it tore), keeping its id, name and colour:
+    /// the catalog then tells clients its new shape. Returns how many.
+    pub fn reshape_soft_bodies(&mut self, world: &World) -> usize {
+        let mut reshaped = 0;
+        for (&h, &id) in &self.by_soft_body {
+            let (Some(entity), Some(body)) = (self.entries.get_mut(&id), world.soft_body(h)) else {
+                continue;
+            };
+            let now = topology(body);
+            let was = self.soft_topology.entry(id).or_insert(now);
+            if *was == now {
+                continue;
+            }
+            *was = now;
+            let old = &entity.desc;
+            let mut desc = super::point_sets::soft_body_desc(body, old.name.clone(), old.color);
+            desc.id = id;
+            // Its points keep their ids: the set keeps its size.
+            if let (
+                ShapeDesc::PointSet { points, .. },
+                ShapeDesc::PointSet { points: before, .. },
+            ) = (&mut desc.shape, &old.shape)
+            {
+                *points = *before;
+            }
+            entity.desc = desc;
+            reshaped += 1;
+        }
+        if reshaped > 0 {
+            self.version += 1;
+        }
+        reshaped
     }
 
     /// The entity of a body, removed from the table; `None` if it had none.
@@ -137,11 +239,21 @@ impl EntityTable {
         self.by_particle.get(&h).copied()
     }
 
+    /// The entity of a soft body.
+    pub fn by_soft_body(&self, h: SoftBodyHandle) -> Option<EntityId> {
+        self.by_soft_body.get(&h).copied()
+    }
+
+    /// The entity of a fluid.
+    pub fn by_fluid(&self, h: FluidHandle) -> Option<EntityId> {
+        self.by_fluid.get(&h).copied()
+    }
+
     /// The body of an entity, if it is a body.
     pub fn body(&self, id: EntityId) -> Option<BodyHandle> {
         match self.entries.get(&id)?.source {
             EntitySource::Body(h) => Some(h),
-            EntitySource::Particle(_) => None,
+            _ => None,
         }
     }
 
@@ -174,8 +286,9 @@ impl EntityTable {
     }
 
     /// The state of every entity that can move (dynamic and kinematic
-    /// bodies, free particles, anything teleported), sorted by id. Entities
-    /// whose physics object is gone are skipped.
+    /// bodies, free particles, every point of a soft body or fluid,
+    /// anything teleported), sorted by id. Entities whose physics object is
+    /// gone are skipped.
     pub fn states(&self, world: &World) -> Vec<EntityState> {
         let mut out = Vec::with_capacity(self.entries.len());
         self.states_into(world, &mut out);
@@ -220,6 +333,18 @@ impl EntityTable {
                         asleep: false,
                     });
                 }
+                EntitySource::SoftBody(h) => {
+                    if let Some(body) = world.soft_body(h) {
+                        let (x, v) = (body.positions(), body.velocities());
+                        super::point_sets::push_points(&e.desc, x, v, out);
+                    }
+                }
+                EntitySource::Fluid(h) => {
+                    if let Some(fluid) = world.fluid(h) {
+                        let (x, v) = (fluid.positions(), fluid.velocities());
+                        super::point_sets::push_points(&e.desc, x, v, out);
+                    }
+                }
             }
         }
     }
@@ -235,7 +360,8 @@ struct StoredEntity {
     #[serde(deserialize_with = "inertia_protocol::control::deserialize_entity")]
     desc: EntityDesc,
     /// 0 a body `[index, generation, 0, 0]`; 1 a particle
-    /// `[system index, system generation, slot, generation]`.
+    /// `[system index, system generation, slot, generation]`; 2 a soft
+    /// body and 3 a fluid, `[index, generation, 0, 0]`.
     source_kind: u8,
     source: [u32; 4],
     always_stream: bool,
@@ -270,6 +396,14 @@ impl EntityTable {
                             (0, [i, g, 0, 0])
                         }
                         EntitySource::Particle(h) => (1, h.to_raw()),
+                        EntitySource::SoftBody(h) => {
+                            let [i, g] = h.to_raw();
+                            (2, [i, g, 0, 0])
+                        }
+                        EntitySource::Fluid(h) => {
+                            let [i, g] = h.to_raw();
+                            (3, [i, g, 0, 0])
+                        }
                     };
                     StoredEntity {
                         desc: e.desc.clone(),
@@ -306,11 +440,15 @@ impl EntityTable {
             let source = match e.source_kind {
                 0 => EntitySource::Body(BodyHandle::from_raw([e.source[0], e.source[1]])),
                 1 => EntitySource::Particle(ParticleHandle::from_raw(e.source)),
+                2 => EntitySource::SoftBody(SoftBodyHandle::from_raw([e.source[0], e.source[1]])),
+                3 => EntitySource::Fluid(FluidHandle::from_raw([e.source[0], e.source[1]])),
                 k => return Err(TableError(format!("entity {id}: unknown source kind {k}"))),
             };
             let clash = match source {
                 EntitySource::Body(h) => table.by_body.insert(h, id).is_some(),
                 EntitySource::Particle(h) => table.by_particle.insert(h, id).is_some(),
+                EntitySource::SoftBody(h) => table.by_soft_body.insert(h, id).is_some(),
+                EntitySource::Fluid(h) => table.by_fluid.insert(h, id).is_some(),
             };
             if clash {
                 return Err(TableError(format!(
@@ -326,8 +464,25 @@ impl EntityTable {
                 return Err(TableError(format!("entity id {id} appears twice")));
             }
         }
+        // A point set's points take the ids after its own: no entity may
+        // have one of them.
+        let mut taken_to = 0u64;
+        for (&id, e) in &table.entries {
+            if u64::from(id) <= taken_to {
+                return Err(TableError(format!(
+                    "entity id {id} is a point of the set before it"
+                )));
+            }
+            taken_to = u64::from(id) + e.desc.ids_taken() - 1;
+        }
         Ok(table)
     }
+}
+
+/// What a soft body's description is made from that tearing changes: its
+/// triangles and its edges.
+fn topology(body: &inertia_physics::xpbd::soft::SoftBody) -> [usize; 2] {
+    [body.triangles().len(), body.constraint_counts()[0]]
 }
 
 /// The entity kind a body of `kind` is drawn as.
@@ -548,6 +703,108 @@ mod tests {
         assert_eq!(t.by_body(h2), Some(2));
         assert_eq!(t.version(), 4);
         assert_eq!(t.states(&w).len(), 2);
+    }
+
+    #[test]
+    fn issue_16_soft_bodies_and_fluids_stream_their_points_and_a_torn_cloth_is_described_again() {
+        use inertia_physics::xpbd::soft::{SoftCloth, SoftMaterial};
+        use inertia_physics::FluidDesc;
+        let mut w = World::new(Default::default()).unwrap();
+        w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+        let n = 12;
+        let cloth = SoftCloth {
+            corner: DVec3::new(-1.0, 3.0, 0.0),
+            across: DVec3::new(2.0, 0.0, 0.0),
+            down: DVec3::new(0.0, -2.0, 0.0),
+            rows: n,
+            cols: n,
+            stretch_compliance: 1e-3,
+            shear_compliance: 1e-3,
+            bend_compliance: 100.0,
+            pinned: vec![[0, 0], [0, n - 1]],
+            material: SoftMaterial {
+                tear_strain: Some(0.05),
+                ..SoftMaterial::default()
+            },
+            ..SoftCloth::default()
+        };
+        let soft = w.add_soft_body(&cloth.build().unwrap()).unwrap();
+        let fluid_desc =
+            FluidDesc::block(DVec3::new(2.0, 0.0, 0.0), DVec3::new(2.4, 0.4, 0.4), 0.1).unwrap();
+        let fluid = w.add_fluid(fluid_desc).unwrap();
+        let particles = w.fluid(fluid).unwrap().len();
+
+        let mut t = EntityTable::new();
+        let flag = t
+            .insert_soft_body(&w, soft, "flag".into(), [200, 0, 0, 255])
+            .unwrap();
+        let pool = t
+            .insert_fluid(&w, fluid, "pool".into(), [0, 0, 255, 128])
+            .unwrap();
+        let desc = &t.get(flag).unwrap().desc;
+        let ShapeDesc::PointSet {
+            points, triangles, ..
+        } = &desc.shape
+        else {
+            panic!("a point set: {:?}", desc.shape);
+        };
+        assert_eq!(*points, n * n);
+        assert_eq!(triangles.len(), 2 * (n as usize - 1).pow(2));
+        inertia_protocol::control::validate_entity(desc).unwrap();
+        assert_eq!(pool, flag + 1 + n * n, "the set's points took their ids");
+        let ShapeDesc::PointSet { points: room, .. } = t.get(pool).unwrap().desc.shape else {
+            panic!("a point set");
+        };
+        assert!(room as usize >= particles, "its capacity");
+
+        // Every point of both, in id order, where the world has them.
+        let states = t.states(&w);
+        assert_eq!(states.len(), (n * n) as usize + particles);
+        assert!(states.windows(2).all(|s| s[0].id < s[1].id));
+        assert_eq!(states[0].id, flag + 1);
+        assert_eq!(
+            states[5].position,
+            w.soft_body(soft).unwrap().positions()[5].as_dvec3()
+        );
+        assert_eq!(states[(n * n) as usize].id, pool + 1);
+
+        // Saved and restored alike.
+        let back = EntityTable::from_bytes(&t.to_bytes()).unwrap();
+        assert_eq!(back.catalog(), t.catalog());
+        assert_eq!(back.by_soft_body(soft), Some(flag));
+        assert_eq!(back.by_fluid(fluid), Some(pool));
+
+        // It tears: described again with fewer triangles, the same points.
+        let version = t.version();
+        let mut reshaped = 0;
+        for _ in 0..600 {
+            w.step(1.0 / 60.0).unwrap();
+            reshaped += t.reshape_soft_bodies(&w);
+            if reshaped > 0 {
+                break;
+            }
+        }
+        assert!(reshaped > 0, "the cloth tore");
+        assert!(t.version() > version);
+        let ShapeDesc::PointSet {
+            points: after,
+            triangles: fewer,
+            ..
+        } = &t.get(flag).unwrap().desc.shape
+        else {
+            panic!("a point set");
+        };
+        assert_eq!(*after, n * n);
+        assert!(fewer.len() < triangles_before(n));
+        assert_eq!(t.reshape_soft_bodies(&w), 0, "nothing new: no change");
+        // A removed set frees nothing of the ids: the next entity comes
+        // after its points still.
+        t.remove(flag);
+        assert!(t.states(&w).iter().all(|s| s.id > pool));
+    }
+
+    fn triangles_before(n: u32) -> usize {
+        2 * (n as usize - 1).pow(2)
     }
 
     #[test]

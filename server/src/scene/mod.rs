@@ -14,13 +14,14 @@
 mod build;
 pub mod demo;
 pub mod entities;
+pub mod point_sets;
 pub mod schema;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use inertia_physics::glam::DVec3;
-use inertia_physics::{BodyHandle, PhysicsError, World, WorldConfig};
+use inertia_physics::{BodyHandle, FluidHandle, PhysicsError, SoftBodyHandle, World, WorldConfig};
 
 pub use entities::{shape_desc, Entity, EntitySource, EntityTable};
 pub use schema::SceneFile;
@@ -144,6 +145,11 @@ pub struct BuiltScene {
     pub entities: EntityTable,
     /// Every named body (explicit, generated and ragdoll part names).
     pub bodies_by_name: BTreeMap<String, BodyHandle>,
+    /// Every XPBD soft body (`soft_bodies`), by name. They are not in
+    /// `entities`.
+    pub soft_bodies_by_name: BTreeMap<String, SoftBodyHandle>,
+    /// Every fluid (`fluids`), by name. They are not in `entities`.
+    pub fluids_by_name: BTreeMap<String, FluidHandle>,
     /// Where avatars appear, m.
     pub spawn_points: Vec<DVec3>,
     /// The scene's name.

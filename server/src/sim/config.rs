@@ -45,6 +45,13 @@ pub struct SimConfig {
     /// Ask for real-time priority for the tick thread and its physics
     /// workers ([`crate::priority::raise_tick_thread`]).
     pub tick_realtime: bool,
+    /// The most game rules may look back when they answer a player's
+    /// input against the world the player saw (lag compensation), ms
+    /// (default 1000). The window kept is what the rules ask for
+    /// ([`crate::rules::GameRules::rewind_window_ms`]) up to this; see
+    /// [`super::pose_history`]. A view older than the window is answered
+    /// at the oldest tick kept.
+    pub max_rewind_ms: u32,
 }
 
 impl Default for SimConfig {
@@ -71,6 +78,7 @@ impl From<&ServerConfig> for SimConfig {
             history_budget: usize::try_from(c.seek_memory_mb << 20).unwrap_or(usize::MAX),
             checkpoint_ticks: c.checkpoint_ticks,
             tick_realtime: c.tick_realtime,
+            max_rewind_ms: super::pose_history::DEFAULT_MAX_REWIND_MS,
         }
     }
 }

@@ -5,9 +5,9 @@
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::pose::Pose;
-use inertia_physics::rigid::shape::Shape;
 use inertia_protocol::admin::{MassSpec, SpawnDesc};
-use inertia_protocol::{EntityId, EntityKind, ShapeDesc};
+use inertia_protocol::engine_shape::body_shape;
+use inertia_protocol::{EntityId, EntityKind};
 
 use super::Simulation;
 use crate::replay::{JournalEntry, WorldEdit};
@@ -48,74 +48,9 @@ pub enum EditOutcome {
     Impulse(DVec3),
 }
 
-fn v3(a: [f32; 3]) -> DVec3 {
-    DVec3::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]))
-}
-
-/// The engine shape a description asks for.
-pub fn shape_from_desc(desc: &ShapeDesc) -> Result<Shape, String> {
-    let shape = match desc {
-        ShapeDesc::Sphere { radius } => Shape::sphere(f64::from(*radius)),
-        ShapeDesc::Cuboid { half_extents } => Shape::cuboid(v3(*half_extents)),
-        ShapeDesc::Capsule {
-            half_height,
-            radius,
-        } => Shape::capsule(f64::from(*half_height), f64::from(*radius)),
-        ShapeDesc::Cylinder {
-            half_height,
-            radius,
-        } => Shape::cylinder(f64::from(*half_height), f64::from(*radius)),
-        ShapeDesc::ConvexHull { points } => {
-            let points: Vec<DVec3> = points.iter().map(|p| v3(*p)).collect();
-            Shape::convex_hull(&points)
-        }
-        ShapeDesc::TriMesh {
-            vertices,
-            triangles,
-        } => Shape::trimesh(vertices.iter().map(|p| v3(*p)).collect(), triangles.clone()),
-        ShapeDesc::Compound { parts } => {
-            let mut out = Vec::with_capacity(parts.len());
-            for (offset, rotation, part) in parts {
-                if matches!(part, ShapeDesc::Compound { .. }) {
-                    return Err("compounds do not nest".into());
-                }
-                let q = DQuat::from_xyzw(
-                    f64::from(rotation[0]),
-                    f64::from(rotation[1]),
-                    f64::from(rotation[2]),
-                    f64::from(rotation[3]),
-                );
-                if !q.is_finite() || q.length() < 1e-6 {
-                    return Err("a compound part's rotation is not a rotation".into());
-                }
-                let pose = Pose {
-                    translation: v3(*offset),
-                    rotation: q.normalize(),
-                };
-                out.push((pose, shape_from_desc(part)?));
-            }
-            Shape::compound(out)
-        }
-        ShapeDesc::Particle { .. } => return Err("a particle is not a body shape".into()),
-        ShapeDesc::Ground => return Err("a ground plane cannot be spawned".into()),
-        ShapeDesc::HeightField {
-            rows,
-            cols,
-            size,
-            heights,
-        } => Shape::heightfield(
-            heights.iter().map(|&h| f64::from(h)).collect(),
-            *rows as usize,
-            *cols as usize,
-            DVec3::new(f64::from(size[0]), 1.0, f64::from(size[1])),
-        ),
-    };
-    shape.map_err(|e| e.to_string())
-}
-
 /// The body a spawn description asks for.
 pub fn body_from_spawn(desc: &SpawnDesc) -> Result<RigidBodyDesc, String> {
-    let shape = shape_from_desc(&desc.shape)?;
+    let shape = body_shape(&desc.shape).map_err(|e| e.to_string())?;
     let [x, y, z, w] = desc.rotation;
     let q = DQuat::from_xyzw(x, y, z, w);
     let position = DVec3::from_array(desc.position);
@@ -153,6 +88,9 @@ pub fn body_from_spawn(desc: &SpawnDesc) -> Result<RigidBodyDesc, String> {
         }
         EntityKind::Kinematic => RigidBodyDesc::kinematic(shape, pose),
         EntityKind::Static | EntityKind::Water => RigidBodyDesc::fixed(shape, pose),
+        EntityKind::SoftBody | EntityKind::Fluid => {
+            return Err("soft bodies and fluids are not spawned as bodies".into())
+        }
     };
     body.linear_velocity = velocity;
     body.angular_velocity = angular;

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
-use inertia_protocol::control::{encode_frame, ServerControl};
+use inertia_protocol::control::{encode_frame, InputReport, ServerControl};
 use inertia_protocol::snapshot::{QuantizedFrame, SnapshotConfig};
 use inertia_protocol::{EntityDesc, EntityId, EntityState};
 
@@ -34,6 +34,9 @@ pub struct CatalogChange {
     pub despawned: Vec<EntityId>,
     /// Entities new to it.
     pub spawned: Vec<EntityId>,
+    /// Entities in it before and after whose description changed (a soft
+    /// body that tore): told again to clients that know them.
+    pub reshaped: Vec<EntityId>,
 }
 
 impl CatalogChange {
@@ -43,7 +46,13 @@ impl CatalogChange {
         old: &BTreeMap<EntityId, EntityDesc>,
         new: &BTreeMap<EntityId, EntityDesc>,
     ) -> Self {
-        Self::of_ids(version, old.keys().copied(), new.keys().copied())
+        let mut change = Self::of_ids(version, old.keys().copied(), new.keys().copied());
+        change.reshaped = new
+            .iter()
+            .filter(|&(id, desc)| old.get(id).is_some_and(|o| o != desc))
+            .map(|(&id, _)| id)
+            .collect();
+        change
     }
 
     /// Which ids left and which came between two ascending runs of ids,
@@ -163,6 +172,9 @@ pub struct Frame {
     pub live_tick: u64,
     /// What the clock is showing: live, or which way through history.
     pub mode: TimeMode,
+    /// How each live client's inputs have been arriving against their
+    /// ticks, by client, as of the last second's end.
+    pub inputs: Arc<BTreeMap<u64, InputReport>>,
     /// `entities` quantized for snapshots, made by the first connection
     /// that codes this frame and shared by every other (see
     /// [`Frame::quantized`]).
@@ -245,6 +257,7 @@ impl Simulation {
             clients: self.live_clients() as u32,
             live_tick: self.live_tick(),
             mode: self.mode(),
+            inputs: self.inputs.reports(),
             quantized: OnceLock::new(),
         }
     }

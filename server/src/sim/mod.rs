@@ -66,6 +66,8 @@ pub mod config;
 pub mod edit;
 pub mod frame;
 pub mod handle;
+pub mod input_schedule;
+pub mod pose_history;
 pub mod recording;
 pub mod resume;
 pub mod startup;
@@ -80,6 +82,8 @@ pub use config::{SimConfig, DEFAULT_CHECKPOINT_TICKS};
 pub use edit::EditError;
 pub use frame::{CatalogChange, Frame, RecentEvent, RECENT_CATALOG_CHANGES, RECENT_EVENTS};
 pub use handle::{spawn, SimExit, SimHandle};
+pub use input_schedule::{InputSchedule, Offered, ScheduleConfig};
+pub use pose_history::{KeptPose, PoseHistory, RewindError, Rewound};
 pub use recording::RecorderOpening;
 pub use stats::{SimStats, RATE_WINDOW, TICK_WINDOW};
 
@@ -135,6 +139,8 @@ pub struct Simulation {
     /// A tick is under way (still set after a panic inside one: the state
     /// is then half a tick and not worth a keyframe).
     in_tick: bool,
+    /// The live clients' inputs waiting for their ticks.
+    inputs: InputSchedule,
 }
 
 /// One line of simulated time: the world and what the clock and the
@@ -147,6 +153,17 @@ pub(crate) struct Timeline {
     clients: BTreeSet<ClientId>,
     spawn_points: Vec<DVec3>,
     clock: Clock,
+    /// The moving bodies' poses over the last ticks, for lag
+    /// compensation ([`pose_history`]).
+    poses: PoseHistory,
+}
+
+/// Ticks of pose window the rules ask for, within the configured cap.
+fn rewind_window(rules: &dyn GameRules, config: &SimConfig) -> usize {
+    pose_history::rewind_ticks(
+        rules.rewind_window_ms().min(config.max_rewind_ms),
+        config.tick_hz,
+    )
 }
 
 /// The timeline shown, from the two fields that hold one, so a caller can
@@ -190,6 +207,9 @@ impl Simulation {
             Clock::new(config.tick_hz, config.max_catch_up_ticks).with_tick(scene.world.tick());
         let catalog = Arc::new(scene.entities.catalog());
         let catalog_version = scene.entities.version();
+        let config_tick_hz = config.tick_hz;
+        let mut poses = PoseHistory::new(rewind_window(rules.as_ref(), &config));
+        poses.record(scene.world.tick(), &scene.world, &scene.entities);
         let mut sim = Simulation {
             live: Timeline {
                 world: scene.world,
@@ -197,6 +217,7 @@ impl Simulation {
                 clients: BTreeSet::new(),
                 spawn_points: scene.spawn_points,
                 clock,
+                poses,
             },
             rules,
             startup: startup::TickCostCheck::new(config.tick_hz),
@@ -224,6 +245,7 @@ impl Simulation {
             catalog_stale: false,
             opening_recorder: false,
             in_tick: false,
+            inputs: InputSchedule::new(ScheduleConfig::for_tick_rate(config_tick_hz)),
         };
         sim.update_gauges();
         if sim.config.record_at_start {
@@ -247,6 +269,8 @@ impl Simulation {
             world,
             entities: EntityTable::new(),
             bodies_by_name: BTreeMap::new(),
+            soft_bodies_by_name: BTreeMap::new(),
+            fluids_by_name: BTreeMap::new(),
             spawn_points: state.spawn_points.clone(),
             name: String::from("saved state"),
         };
@@ -273,6 +297,7 @@ impl Simulation {
             spawn_points: self.shown().spawn_points.clone(),
             clients: self.shown().clients.iter().copied().collect(),
             rules: self.rules.save_state(),
+            poses: Some(self.shown().poses.clone()),
         }
     }
 
@@ -298,11 +323,30 @@ impl Simulation {
             let _ = self.rules.restore_state(&old_rules);
             return Err(StateError::World(e.to_string()));
         }
+        let window = rewind_window(self.rules.as_ref(), &self.config);
         let shown = self.shown_mut();
         shown.entities = state.entities.clone();
         shown.spawn_points = state.spawn_points.clone();
         shown.clients = state.clients.iter().copied().collect();
         shown.clock = shown.clock.clone().with_tick(state.tick);
+        // The state's window, with its own capacity: re-simulation must
+        // reach back exactly as far as the run that saved it. A state
+        // without one (a fresh scene, format version 1) starts a window
+        // of the configured length at its tick.
+        match &state.poses {
+            Some(poses) => shown.poses = poses.clone(),
+            None => shown.poses = PoseHistory::new(window),
+        }
+        let shown = shown_of(&mut self.view, &mut self.live);
+        if shown
+            .poses
+            .span()
+            .is_none_or(|(_, newest)| newest != state.tick)
+        {
+            shown
+                .poses
+                .record(state.tick, &shown.world, &shown.entities);
+        }
         self.catalog_stale = true;
         self.update_gauges();
         Ok(())
@@ -358,6 +402,7 @@ impl Simulation {
             spawn_points: built.spawn_points,
             clients: Vec::new(),
             rules: self.rules.save_state(),
+            poses: None,
         };
         self.load(&state, operator)
     }
@@ -417,8 +462,25 @@ impl Simulation {
             tick,
             dt,
             self.config.limits,
-        );
-        f(self.rules.as_mut(), &mut ctx)
+        )
+        .with_poses(&shown.poses);
+        let r = f(self.rules.as_mut(), &mut ctx);
+        let rewinds = ctx.rewinds();
+        if rewinds.asked > 0 {
+            self.stats
+                .rewinds
+                .fetch_add(rewinds.asked, Ordering::Relaxed);
+            self.stats
+                .rewinds_clamped
+                .fetch_add(rewinds.clamped, Ordering::Relaxed);
+        }
+        r
+    }
+
+    /// The moving bodies' poses kept for lag compensation (of the
+    /// timeline shown).
+    pub fn pose_history(&self) -> &PoseHistory {
+        &self.shown().poses
     }
 
     fn collect_events(&mut self) {
@@ -473,6 +535,9 @@ impl Simulation {
     }
 
     fn leave_here(&mut self, client: ClientId) {
+        if self.view.is_none() {
+            self.inputs.forget(client);
+        }
         if self.shown_mut().clients.remove(&client) {
             self.with_ctx(|rules, ctx| rules.on_disconnect(client, ctx));
             self.collect_events();
@@ -480,17 +545,68 @@ impl Simulation {
         }
     }
 
-    /// A client's input, checked by the rules. Inputs that arrive while
-    /// history is shown are dropped (the live world is not running).
+    /// A client's input, as it arrives: held until the tick it is for
+    /// (see [`input_schedule`]) and then checked and applied by the rules;
+    /// one whose tick has passed is applied at once. Inputs that arrive
+    /// while history is shown are dropped (the live world is not running).
     pub fn input(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputError> {
-        if self.view.is_some() {
+        if self.view.is_some() || !self.live.clients.contains(&client) {
+            self.count_rejected_input();
             return Err(InputError::NotJoined(client));
         }
+        let now = self.live.world.tick();
+        match self.inputs.offer(client, input, now) {
+            Offered::Held => Ok(()),
+            Offered::Late => self.apply_input(client, input),
+            Offered::TooEarly => {
+                self.count_rejected_input();
+                Err(InputError::Future {
+                    tick: input.tick,
+                    now,
+                })
+            }
+            Offered::Full => {
+                self.count_rejected_input();
+                Err(InputError::Backlog {
+                    max: self.inputs.config().max_pending,
+                })
+            }
+        }
+    }
+
+    /// How the client's inputs have been arriving against their ticks.
+    pub fn input_timing(&self, client: ClientId) -> Option<inertia_protocol::control::InputReport> {
+        self.inputs.timing(client)
+    }
+
+    /// Hands the rules every input due at the start of the live tick now,
+    /// and every second of ticks ends the window of
+    /// [`InputReport::min_lead`](inertia_protocol::control::InputReport::min_lead).
+    fn apply_due_inputs(&mut self) {
+        let now = self.live.world.tick();
+        for (client, input) in self.inputs.due(now) {
+            let _ = self.apply_input(client, &input);
+        }
+        if now % u64::from(self.config.tick_hz.max(1)) == 0 {
+            self.inputs.end_window();
+        }
+    }
+
+    /// Applies an input now: the rules check it, and an accepted one goes
+    /// into the journal of this tick.
+    fn apply_input(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputError> {
         let r = self.input_here(client, input);
         if r.is_ok() {
             self.journal_push(JournalEntry::Input(client, *input));
         }
         r
+    }
+
+    fn count_rejected_input(&self) {
+        self.stats.inputs_rejected.fetch_add(1, Ordering::Relaxed);
+        if let Some(m) = &self.config.metrics {
+            m.inputs_rejected.inc();
+        }
     }
 
     fn input_here(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputError> {
@@ -500,10 +616,7 @@ impl Simulation {
             Err(InputError::NotJoined(client))
         };
         if r.is_err() {
-            self.stats.inputs_rejected.fetch_add(1, Ordering::Relaxed);
-            if let Some(m) = &self.config.metrics {
-                m.inputs_rejected.inc();
-            }
+            self.count_rejected_input();
         }
         r
     }

@@ -25,6 +25,12 @@ pub struct SimStats {
     pub last_tick_ns: AtomicU64,
     /// Inputs refused by the rules.
     pub inputs_rejected: AtomicU64,
+    /// Queries the rules answered against the world as a player saw it
+    /// (lag compensation: [`crate::rules::SimContext::cast_ray_at`]).
+    pub rewinds: AtomicU64,
+    /// Of those, the ones whose view was older than the pose window and
+    /// were answered at its oldest tick (the rewind cap).
+    pub rewinds_clamped: AtomicU64,
     /// Commands refused because a channel was full.
     pub commands_dropped: AtomicU64,
     /// Rigid bodies in the world.

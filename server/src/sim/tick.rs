@@ -14,6 +14,9 @@ impl Simulation {
     /// Runs one tick: rules, physics step, clean-up, rules.
     pub fn tick(&mut self) {
         let _span = tracing::debug_span!("tick", tick = self.shown().world.tick() + 1).entered();
+        if self.view.is_none() {
+            self.apply_due_inputs();
+        }
         self.flush_journal();
         self.in_tick = true;
         let t0 = Instant::now();
@@ -42,6 +45,9 @@ impl Simulation {
                     }
                     removed(id, RemovalReason::Quarantined);
                 }
+                if shown.world.soft_bodies().next().is_some() {
+                    shown.entities.reshape_soft_bodies(&shown.world);
+                }
             }
             Err(e) => {
                 // Only a bad dt fails a step, and dt is fixed and checked.
@@ -50,6 +56,11 @@ impl Simulation {
             }
         }
         self.with_ctx(|rules, ctx| rules.after_tick(ctx));
+        // The tick as published: what clients will draw as this tick.
+        let shown = super::shown_of(&mut self.view, &mut self.live);
+        shown
+            .poses
+            .record(shown.world.tick(), &shown.world, &shown.entities);
         self.collect_events();
         self.in_tick = false;
         self.last_tick = t0.elapsed();

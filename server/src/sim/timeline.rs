@@ -28,7 +28,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use inertia_physics::World;
 
-use super::{Simulation, Timeline};
+use super::{PoseHistory, Simulation, Timeline};
 use crate::clock::Clock;
 use crate::replay::{History, SimState, StateError};
 use crate::scene::EntityTable;
@@ -207,6 +207,7 @@ impl Simulation {
             clients: BTreeSet::new(),
             spawn_points: self.live.spawn_points.clone(),
             clock,
+            poses: PoseHistory::new(self.live.poses.capacity()),
         };
         self.view = Some(View {
             shown,
@@ -577,6 +578,8 @@ impl Simulation {
         self.flush_journal();
         let connected = self.shown().clients.clone();
         self.restore(state)?;
+        // Inputs meant for ticks of the world replaced.
+        self.inputs.clear_pending();
         let recording = self.recording.is_some();
         if recording {
             self.record_admin_edit(operator, &format!("load (tick {})", state.tick));

@@ -62,6 +62,7 @@ fn main() {
             movement: [(i % 10) as f32 / 10.0, 0.5],
             yaw: 0.25,
             buttons: (i % 4) as u8,
+            view_behind: 0.0,
         };
         let _ = sim.input(7, &input);
         inputs.push(input);

@@ -136,6 +136,14 @@ impl WallTable {
         };
     }
 
+    /// The table as the GPU path takes it: `Φ` and `Ψ` (1/m) at
+    /// `k h / (ENTRIES − 1)`, entries per metre, and the calibration
+    /// that multiplies both after interpolation.
+    #[cfg(feature = "gpu")]
+    pub(crate) fn parts(&self) -> (&[f32; ENTRIES], &[f32; ENTRIES], f32, f32) {
+        (&self.phi, &self.grad, self.per_m, self.scale)
+    }
+
     #[cfg(test)]
     /// The lattice calibration.
     pub(crate) fn scale(&self) -> f32 {

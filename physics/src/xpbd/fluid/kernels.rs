@@ -30,11 +30,11 @@ pub(crate) struct Kernels {
     /// h², m².
     pub(crate) h2: f32,
     /// `315 / (64 π h⁹)`, 1/m⁹.
-    poly6: f32,
+    pub(crate) poly6: f32,
     /// `15 / (π h⁶)`, 1/m⁶.
-    spiky: f32,
+    pub(crate) spiky: f32,
     /// `−45 / (π h⁶)`, 1/m⁶.
-    spiky_grad: f32,
+    pub(crate) spiky_grad: f32,
 }
 
 impl Kernels {

@@ -16,6 +16,7 @@
 //! [`Fluid`] holds one.
 
 pub(crate) mod boundary;
+pub(crate) mod emitter;
 pub(crate) mod kernels;
 mod step;
 #[cfg(test)]
@@ -31,6 +32,8 @@ use super::coupling::Load;
 use super::grid::{Grid, Neighbours};
 use boundary::WallTable;
 use kernels::Kernels;
+
+pub use emitter::{EmitterState, FluidEmitter, MAX_FLUID_EMITTERS, MAX_NOZZLE_PARTICLES};
 
 /// Most particles one fluid may ever hold (its neighbour lists index them
 /// with 32 bits and count their pairs in 32 bits).
@@ -424,6 +427,58 @@ pub struct Fluid {
     /// The description it was made from, without its particles (what a
     /// saved state keeps).
     params: FluidDesc,
+    /// Its emitters, in the order they were added (each fires its shots
+    /// in turn at the end of a step).
+    pub(crate) emitters: Vec<EmitterState>,
+    /// Where it steps: the CPU, or the GPU (`gpu/fluid.rs`) with these
+    /// arrays as the mirror that readbacks fill.
+    pub(crate) backend: crate::particle_system::Backend,
+    /// Its GPU buffers while it steps there.
+    #[cfg(feature = "gpu")]
+    pub(crate) gpu: GpuSlot,
+}
+
+/// A fluid's GPU buffers (shared by clones of the handle).
+#[cfg(feature = "gpu")]
+#[derive(Clone, Default)]
+pub(crate) struct GpuSlot(pub(crate) Option<std::sync::Arc<crate::gpu::fluid::GpuFluid>>);
+
+#[cfg(feature = "gpu")]
+impl std::fmt::Debug for GpuSlot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.is_some() { "on the GPU" } else { "-" })
+    }
+}
+
+/// The numbers a step of a fluid uses, for the GPU path (`gpu/fluid.rs`),
+/// which takes the same step.
+#[cfg(feature = "gpu")]
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StepConstants {
+    pub(crate) kernels: Kernels,
+    /// Particle spacing, m.
+    pub(crate) spacing: f32,
+    /// Rest density, kg/m³.
+    pub(crate) rest_density: f32,
+    /// The weight of a neighbour in kernel sums, m³.
+    pub(crate) volume: f32,
+    pub(crate) substeps: u32,
+    /// XSPH `c`.
+    pub(crate) viscosity: f32,
+    /// Vorticity confinement `ε`, m/s.
+    pub(crate) vorticity: f32,
+    /// Tensile correction `k` (units of h²), exponent and `1 / W_poly6(Δq)` (m³).
+    pub(crate) tensile_k: f32,
+    pub(crate) tensile_n: u32,
+    pub(crate) tensile_inv_w: f32,
+    /// Relaxation `ε`, 1/m².
+    pub(crate) relaxation: f32,
+    pub(crate) gravity_scale: f32,
+    /// Collision radius, m.
+    pub(crate) collision_radius: f32,
+    pub(crate) friction: f32,
+    /// Largest correction a substep, in spacings.
+    pub(crate) max_correction: f32,
 }
 
 impl Fluid {
@@ -482,6 +537,10 @@ impl Fluid {
                 velocities: Vec::new(),
                 ..desc.clone()
             },
+            emitters: Vec::new(),
+            backend: crate::particle_system::Backend::Cpu,
+            #[cfg(feature = "gpu")]
+            gpu: GpuSlot::default(),
         };
         fluid.push(&desc.positions, &desc.velocities);
         Ok(fluid)
@@ -510,6 +569,117 @@ impl Fluid {
     ) -> Result<(), PhysicsError> {
         check_particles(positions, velocities, self.x.len(), self.max_particles)?;
         self.push(positions, velocities);
+        Ok(())
+    }
+
+    /// Adds an emitter that fires its first shot due at `now` (s, the
+    /// world's time) or later: shots due before `now` are skipped, not
+    /// fired at once. Returns its index in [`Fluid::emitters`]. Refused
+    /// with a typed error for a bad description or past
+    /// [`MAX_FLUID_EMITTERS`].
+    pub fn add_emitter(&mut self, emitter: FluidEmitter, now: f64) -> Result<usize, PhysicsError> {
+        if self.emitters.len() >= MAX_FLUID_EMITTERS {
+            return Err(PhysicsError::Invalid {
+                what: "fluid emitters",
+                why: format!("a fluid has at most {MAX_FLUID_EMITTERS} emitters"),
+            });
+        }
+        finite("world time", now)?;
+        let mut state = EmitterState::new(emitter, self.params.spacing, 0, 0)?;
+        state.shots = state.due_before(now);
+        self.emitters.push(state);
+        Ok(self.emitters.len() - 1)
+    }
+
+    /// Its emitters, in the order they were added.
+    pub fn emitters(&self) -> &[EmitterState] {
+        &self.emitters
+    }
+
+    /// Whether an emitter has a shot due by `now` (s): [`Fluid::emit`]
+    /// would fire it.
+    #[cfg(feature = "gpu")]
+    pub(crate) fn shot_due(&self, now: f64) -> bool {
+        self.emitters.iter().any(|e| e.due_by(now) > e.shots)
+    }
+
+    /// Where it steps (see [`World::set_fluid_backend`](crate::World::set_fluid_backend)).
+    pub fn backend(&self) -> crate::particle_system::Backend {
+        self.backend
+    }
+
+    /// The numbers a step uses (the GPU path takes the same step).
+    #[cfg(feature = "gpu")]
+    pub(crate) fn step_constants(&self) -> StepConstants {
+        StepConstants {
+            kernels: self.kernels,
+            spacing: self.spacing,
+            rest_density: self.rest_density,
+            volume: self.volume,
+            substeps: self.substeps,
+            viscosity: self.viscosity,
+            vorticity: self.vorticity,
+            tensile_k: self.tensile_k,
+            tensile_n: self.tensile_n.max(1) as u32,
+            tensile_inv_w: self.tensile_inv_w,
+            relaxation: self.relaxation,
+            gravity_scale: self.gravity_scale,
+            collision_radius: self.collision_radius,
+            friction: self.friction,
+            max_correction: step::MAX_CORRECTION,
+        }
+    }
+
+    /// The wall table (`boundary`).
+    #[cfg(feature = "gpu")]
+    pub(crate) fn wall_table(&self) -> &WallTable {
+        &self.wall
+    }
+
+    /// Fires every shot that has come due by `now` (s, the world's time at
+    /// the end of the step), emitter by emitter (see [`emitter`]).
+    pub(crate) fn emit(&mut self, now: f64) {
+        let mut emitters = std::mem::take(&mut self.emitters);
+        for e in &mut emitters {
+            let due = e.due_by(now);
+            while e.shots < due {
+                let left_in_limit = e.desc.limit.map_or(u64::MAX, |l| l - e.emitted);
+                let left_in_fluid = (self.max_particles - self.x.len()) as u64;
+                let room = left_in_limit.min(left_in_fluid).min(e.nozzle.len() as u64) as usize;
+                if room == 0 {
+                    // Nothing fits: the shots due now are skipped.
+                    e.shots = due;
+                    break;
+                }
+                let late = now - e.due_time(e.shots);
+                let centre = e.desc.position + e.desc.velocity * late;
+                let positions: Vec<DVec3> = e.nozzle[..room].iter().map(|o| centre + *o).collect();
+                let velocities = vec![e.desc.velocity; room];
+                // A shot that would leave the world's range is skipped.
+                if self.add_particles(&positions, &velocities).is_ok() {
+                    e.emitted += room as u64;
+                }
+                e.shots += 1;
+            }
+        }
+        self.emitters = emitters;
+    }
+
+    /// Puts back a saved emitter as it was (restore).
+    pub(crate) fn restore_emitter(
+        &mut self,
+        emitter: FluidEmitter,
+        shots: u64,
+        emitted: u64,
+    ) -> Result<(), PhysicsError> {
+        if self.emitters.len() >= MAX_FLUID_EMITTERS {
+            return Err(PhysicsError::Invalid {
+                what: "fluid emitters",
+                why: format!("a fluid has at most {MAX_FLUID_EMITTERS} emitters"),
+            });
+        }
+        let state = EmitterState::new(emitter, self.params.spacing, shots, emitted)?;
+        self.emitters.push(state);
         Ok(())
     }
 

@@ -58,7 +58,7 @@ use crate::xpbd::coupling::Coupling;
 /// Largest position correction a particle takes in one substep, in
 /// spacings: a bad configuration settles over a few substeps instead of
 /// throwing particles out.
-const MAX_CORRECTION: f32 = 0.5;
+pub(crate) const MAX_CORRECTION: f32 = 0.5;
 
 /// The walls around one particle together: each wall's half-space holds
 /// `Φ_k` of the kernel, and where two meet (a tank's edge) their

@@ -72,7 +72,7 @@ struct Summary {
     counts: Counts,
     /// Framed bytes by record kind (frame overhead included), indexed by
     /// the kind byte − 1.
-    kind_bytes: [u64; 6],
+    kind_bytes: [u64; 7],
     /// The segment files' sizes summed, bytes.
     total_bytes: u64,
     damage: Vec<Damage>,
@@ -213,7 +213,7 @@ impl Summary {
                 "journal": kind_bytes(RecordKind::Journal),
                 "tick_hashes": kind_bytes(RecordKind::TickHash),
                 "admin_edits": kind_bytes(RecordKind::AdminEdit),
-                "inputs": kind_bytes(RecordKind::Inputs),
+                "inputs": kind_bytes(RecordKind::Inputs) + kind_bytes(RecordKind::InputsWithView),
             },
             "journal_entries": {
                 "joins": c.joins,

@@ -1,0 +1,234 @@
+// C# bindings of libinertia (client-ffi/include/inertia.h), by P/Invoke:
+// the path Unity's Mono and IL2CPP take. The structs mirror the header's
+// field by field; `InertiaClient` wraps a handle with exceptions and
+// IDisposable. Under IL2CPP on platforms that link statically (iOS,
+// consoles), set `Native.Lib` to "__Internal".
+
+using System;
+using System.Runtime.InteropServices;
+using System.Text;
+
+namespace Inertia
+{
+    public enum Status : int
+    {
+        Ok = 0,
+        InvalidArgument = 1,
+        ConnectFailed = 2,
+        Disconnected = 3,
+        BufferTooSmall = 4,
+        NotFound = 5,
+        Internal = 6,
+    }
+
+    public enum EntityKind : uint { Static, Dynamic, Kinematic, Avatar, Water, SoftBody, Fluid }
+
+    public enum ShapeKind : uint
+    {
+        Sphere, Cuboid, Capsule, Cylinder, ConvexHull, TriMesh, Compound, Particle, Ground, HeightField, PointSet,
+    }
+
+    public enum EventKind : uint
+    {
+        None, Spawned, Despawned, Discontinuity, Resync, Disconnected, Contact, Explosion, Message, Custom,
+    }
+
+    [StructLayout(LayoutKind.Sequential)]
+    public struct ServerInfo
+    {
+        public ulong ClientId;
+        public ulong Tick;
+        public uint TickHz;
+        public uint SnapshotHz;
+        public double PositionResolution;
+        [MarshalAs(UnmanagedType.ByValArray, SizeConst = 64)] public byte[] ServerVersion;
+    }
+
+    /// <summary>One entity where the picture draws it (blittable).</summary>
+    [StructLayout(LayoutKind.Sequential)]
+    public struct EntityState
+    {
+        public uint Id;
+        public byte Extrapolated;
+        public double X, Y, Z;
+        public double Qx, Qy, Qz, Qw;
+    }
+
+    [StructLayout(LayoutKind.Sequential)]
+    public struct EntityInfo
+    {
+        public uint Id;
+        public EntityKind Kind;
+        public ShapeKind Shape;
+        public uint Points;
+        public float Dim0, Dim1, Dim2;
+        public byte R, G, B, A;
+        public byte HasOwner;
+        public ulong Owner;
+        public double X, Y, Z;
+        public double Qx, Qy, Qz, Qw;
+        [MarshalAs(UnmanagedType.ByValArray, SizeConst = 65)] public byte[] NameBytes;
+
+        public string Name => Native.Text(NameBytes);
+    }
+
+    [StructLayout(LayoutKind.Sequential)]
+    public struct Event
+    {
+        public EventKind Kind;
+        public uint Entity;
+        public uint Other;
+        public double Value;
+        public double FromTick, ToTick;
+        public double X, Y, Z;
+        [MarshalAs(UnmanagedType.ByValArray, SizeConst = 256)] public byte[] TextBytes;
+        public uint DataLen;
+        [MarshalAs(UnmanagedType.ByValArray, SizeConst = 1024)] public byte[] Data;
+
+        public string Text => Native.Text(TextBytes);
+    }
+
+    [StructLayout(LayoutKind.Sequential)]
+    public struct Stats
+    {
+        public double RttMs, Loss, Kbps, BufferMs, DelayMs;
+        public ulong SnapshotsReceived, BytesReceived, Stalls, Discontinuities;
+        public double JitterMs, KbpsOut, InputMarginTicks;
+        public ulong InputTick, InputsOnTime, InputsLate, InputsRefused;
+        public double PredictionErrorP99M, PredictionErrorMaxM, PredictionSnapMaxM;
+        public ulong PredictionCorrections;
+    }
+
+    [StructLayout(LayoutKind.Sequential)]
+    public struct ConnectOptions
+    {
+        /// <summary>Nonzero: predict the own avatar.</summary>
+        public byte Predict;
+    }
+
+    /// <summary>The library's functions, one to one with the header.</summary>
+    public static class Native
+    {
+        public const string Lib = "inertia";
+        public const uint AbiVersion = 2;
+
+        [DllImport(Lib)] public static extern uint inertia_abi_version();
+        [DllImport(Lib)] public static extern UIntPtr inertia_last_error(byte[] buf, UIntPtr len);
+        [DllImport(Lib)] public static extern Status inertia_connect(byte[] address, byte[] token, UIntPtr tokenLen, out IntPtr client);
+        [DllImport(Lib)] public static extern Status inertia_connect_with(byte[] address, byte[] token, UIntPtr tokenLen, ref ConnectOptions options, out IntPtr client);
+        [DllImport(Lib)] public static extern Status inertia_connect_dev(byte[] credentialsPath, ulong clientId, out IntPtr client);
+        [DllImport(Lib)] public static extern void inertia_disconnect(IntPtr client);
+        [DllImport(Lib)] public static extern Status inertia_server_info(IntPtr client, out ServerInfo info);
+        [DllImport(Lib)] public static extern Status inertia_set_input(IntPtr client, float moveX, float moveZ, float yaw, byte buttons);
+        [DllImport(Lib)] public static extern Status inertia_poll_event(IntPtr client, out Event e);
+        [DllImport(Lib)] public static extern Status inertia_sample(IntPtr client, [Out] EntityState[] states, UIntPtr capacity, out UIntPtr count);
+        [DllImport(Lib)] public static extern Status inertia_entity_info(IntPtr client, uint id, out EntityInfo info);
+        [DllImport(Lib)] public static extern Status inertia_point_set(IntPtr client, uint set, [Out] float[] positions, [Out] byte[] present, UIntPtr capacity, out UIntPtr count);
+        [DllImport(Lib)] public static extern Status inertia_point_set_triangles(IntPtr client, uint set, [Out] uint[] indices, UIntPtr capacity, out UIntPtr count);
+        [DllImport(Lib)] public static extern Status inertia_stats(IntPtr client, out Stats stats);
+
+        /// <summary>A NUL-terminated UTF-8 string for the library.</summary>
+        public static byte[] CString(string s)
+        {
+            var bytes = Encoding.UTF8.GetBytes(s);
+            Array.Resize(ref bytes, bytes.Length + 1);
+            return bytes;
+        }
+
+        /// <summary>A NUL-terminated UTF-8 field as a string.</summary>
+        public static string Text(byte[] field)
+        {
+            if (field == null) return "";
+            int n = Array.IndexOf(field, (byte)0);
+            return Encoding.UTF8.GetString(field, 0, n < 0 ? field.Length : n);
+        }
+
+        public static string LastError()
+        {
+            var buf = new byte[1024];
+            inertia_last_error(buf, (UIntPtr)buf.Length);
+            return Text(buf);
+        }
+    }
+
+    public class InertiaException : Exception
+    {
+        public readonly Status Status;
+        public InertiaException(Status status, string what) : base(what + ": " + status + ": " + Native.LastError()) { Status = status; }
+    }
+
+    /// <summary>A connection to an Inertia server. Use it from one thread at a time.</summary>
+    public sealed class InertiaClient : IDisposable
+    {
+        IntPtr handle;
+
+        InertiaClient(IntPtr handle) { this.handle = handle; }
+
+        static void Check(Status s, string what)
+        {
+            if (s != Status.Ok) throw new InertiaException(s, what);
+        }
+
+        static void CheckAbi()
+        {
+            if (Native.inertia_abi_version() != Native.AbiVersion)
+                throw new InvalidOperationException("libinertia's ABI is " + Native.inertia_abi_version() + ", these bindings' " + Native.AbiVersion);
+        }
+
+        public static InertiaClient Connect(string address, byte[] token, bool predict = false)
+        {
+            CheckAbi();
+            IntPtr h;
+            var options = new ConnectOptions { Predict = (byte)(predict ? 1 : 0) };
+            Check(Native.inertia_connect_with(Native.CString(address), token, (UIntPtr)token.Length, ref options, out h), "connect");
+            return new InertiaClient(h);
+        }
+
+        public static InertiaClient ConnectDev(string credentialsPath)
+        {
+            CheckAbi();
+            IntPtr h;
+            Check(Native.inertia_connect_dev(Native.CString(credentialsPath), 0, out h), "connect");
+            return new InertiaClient(h);
+        }
+
+        public ServerInfo Info { get { ServerInfo i; Check(Native.inertia_server_info(handle, out i), "server info"); return i; } }
+
+        public void SetInput(float moveX, float moveZ, float yaw, byte buttons) =>
+            Check(Native.inertia_set_input(handle, moveX, moveZ, yaw, buttons), "set input");
+
+        /// <summary>The next waiting event, or one of kind None.</summary>
+        public Event PollEvent() { Event e; Check(Native.inertia_poll_event(handle, out e), "poll event"); return e; }
+
+        /// <summary>Draws the world now into `states`; returns how many the picture holds.</summary>
+        public int Sample(EntityState[] states)
+        {
+            UIntPtr count;
+            var s = Native.inertia_sample(handle, states, (UIntPtr)states.Length, out count);
+            if (s != Status.BufferTooSmall) Check(s, "sample");
+            return (int)count;
+        }
+
+        public bool TryInfo(uint id, out EntityInfo info) => Native.inertia_entity_info(handle, id, out info) == Status.Ok;
+
+        /// <summary>A point set's points in the last sampled picture: xyz per point, and 1 per known point.</summary>
+        public int PointSet(uint set, float[] positions, byte[] present)
+        {
+            UIntPtr count;
+            var s = Native.inertia_point_set(handle, set, positions, present, (UIntPtr)present.Length, out count);
+            if (s != Status.BufferTooSmall) Check(s, "point set");
+            return (int)count;
+        }
+
+        public Stats Stats { get { Stats st; Native.inertia_stats(handle, out st); return st; } }
+
+        public void Dispose()
+        {
+            if (handle != IntPtr.Zero)
+            {
+                Native.inertia_disconnect(handle);
+                handle = IntPtr.Zero;
+            }
+        }
+    }
+}

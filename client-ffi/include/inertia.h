@@ -1,0 +1,749 @@
+/* The Inertia client SDK's C ABI (libinertia). See client-ffi/README.md. */
+
+#ifndef INERTIA_H
+#define INERTIA_H
+
+/* Made by cbindgen from client-ffi/src: do not edit; run INERTIA_WRITE_HEADER=1 cargo test -p inertia-client-ffi --test header */
+
+#include <stddef.h>
+#include <stdint.h>
+
+/*
+ The version of this ABI: the layout of its structs and the meaning of
+ its calls. It changes whenever either does; a binding checks it once
+ against the one it was written for.
+ */
+#define INERTIA_ABI_VERSION 2
+
+/*
+ Longest entity name, bytes, with its NUL.
+ */
+#define INERTIA_NAME_BYTES 65
+
+/*
+ Longest event text (a message, an event's name, a reason), bytes, with
+ its NUL.
+ */
+#define INERTIA_TEXT_BYTES 256
+
+/*
+ Longest payload of a game-defined event, bytes.
+ */
+#define INERTIA_EVENT_DATA_BYTES 1024
+
+/*
+ The outcome of a call. Anything but `INERTIA_STATUS_OK` leaves a
+ message for [`inertia_last_error`] on the calling thread.
+ */
+typedef enum InertiaStatus {
+  /*
+   Done.
+   */
+  INERTIA_STATUS_OK = 0,
+  /*
+   A pointer that must not be null was, or a string was not UTF-8, or
+   a value was out of range.
+   */
+  INERTIA_STATUS_INVALID_ARGUMENT = 1,
+  /*
+   The connection could not be made, or the server refused it.
+   */
+  INERTIA_STATUS_CONNECT_FAILED = 2,
+  /*
+   The connection has ended (the client handle is still to be freed
+   with `inertia_disconnect`).
+   */
+  INERTIA_STATUS_DISCONNECTED = 3,
+  /*
+   The caller's buffer was too small: what fitted was written, and the
+   count says how many there are.
+   */
+  INERTIA_STATUS_BUFFER_TOO_SMALL = 4,
+  /*
+   No such entity (or not of the kind asked for).
+   */
+  INERTIA_STATUS_NOT_FOUND = 5,
+  /*
+   The library failed inside (a bug): the handle may be used again,
+   but report it with the message.
+   */
+  INERTIA_STATUS_INTERNAL = 6,
+} InertiaStatus;
+
+/*
+ What an event is.
+ */
+enum InertiaEventKind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /*
+   No event was waiting.
+   */
+  INERTIA_EVENT_KIND_NONE = 0,
+  /*
+   `entity` was described to us: read it with `inertia_entity_info`.
+   */
+  INERTIA_EVENT_KIND_SPAWNED = 1,
+  /*
+   `entity` left the world or our view.
+   */
+  INERTIA_EVENT_KIND_DESPAWNED = 2,
+  /*
+   The server's timeline jumped (a seek, a rewind): `from_tick` to
+   `to_tick`. A moment to cut or fade.
+   */
+  INERTIA_EVENT_KIND_DISCONTINUITY = 3,
+  /*
+   Drawing fell far behind after an outage and jumped forwards.
+   */
+  INERTIA_EVENT_KIND_RESYNC = 4,
+  /*
+   The connection ended: `text` says why.
+   */
+  INERTIA_EVENT_KIND_DISCONNECTED = 5,
+  /*
+   Two entities (`entity`, `other`) hit each other: `value` is the
+   impulse, N·s.
+   */
+  INERTIA_EVENT_KIND_CONTACT = 6,
+  /*
+   An explosion at `x`, `y`, `z` of radius `value`, m.
+   */
+  INERTIA_EVENT_KIND_EXPLOSION = 7,
+  /*
+   A text message for the player: `text`.
+   */
+  INERTIA_EVENT_KIND_MESSAGE = 8,
+  /*
+   A game-defined event: its name in `text`, its payload in `data`.
+   */
+  INERTIA_EVENT_KIND_CUSTOM = 9,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum InertiaEventKind InertiaEventKind;
+#else
+typedef uint32_t InertiaEventKind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/*
+ What kind of thing an entity is.
+ */
+enum InertiaEntityKind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /*
+   Never moves (ground, walls, scenery).
+   */
+  INERTIA_ENTITY_KIND_STATIC = 0,
+  /*
+   Moved by the simulation.
+   */
+  INERTIA_ENTITY_KIND_DYNAMIC = 1,
+  /*
+   Moved by a script or its owner's inputs.
+   */
+  INERTIA_ENTITY_KIND_KINEMATIC = 2,
+  /*
+   A player's avatar.
+   */
+  INERTIA_ENTITY_KIND_AVATAR = 3,
+  /*
+   A volume of water (drawn, not collided).
+   */
+  INERTIA_ENTITY_KIND_WATER = 4,
+  /*
+   A soft body (rope, cloth, jelly), drawn from its points.
+   */
+  INERTIA_ENTITY_KIND_SOFT_BODY = 5,
+  /*
+   A fluid, drawn from its particles.
+   */
+  INERTIA_ENTITY_KIND_FLUID = 6,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum InertiaEntityKind InertiaEntityKind;
+#else
+typedef uint32_t InertiaEntityKind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/*
+ An entity's shape, as far as `InertiaEntityInfo::dims` describes it.
+ */
+enum InertiaShapeKind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /*
+   A ball: `dims[0]` radius.
+   */
+  INERTIA_SHAPE_KIND_SPHERE = 0,
+  /*
+   A box: `dims` half extents.
+   */
+  INERTIA_SHAPE_KIND_CUBOID = 1,
+  /*
+   A capsule along +Y: `dims[0]` half height, `dims[1]` radius.
+   */
+  INERTIA_SHAPE_KIND_CAPSULE = 2,
+  /*
+   A cylinder along +Y: `dims[0]` half height, `dims[1]` radius.
+   */
+  INERTIA_SHAPE_KIND_CYLINDER = 3,
+  /*
+   A convex hull: `dims` half extents of its bounding box.
+   */
+  INERTIA_SHAPE_KIND_CONVEX_HULL = 4,
+  /*
+   A triangle mesh (scenery): `dims` half extents of its bounding box.
+   */
+  INERTIA_SHAPE_KIND_TRI_MESH = 5,
+  /*
+   Several shapes: `dims` unused.
+   */
+  INERTIA_SHAPE_KIND_COMPOUND = 6,
+  /*
+   A particle: `dims[0]` radius.
+   */
+  INERTIA_SHAPE_KIND_PARTICLE = 7,
+  /*
+   The infinite ground plane through the origin, normal +Y.
+   */
+  INERTIA_SHAPE_KIND_GROUND = 8,
+  /*
+   Terrain: `dims[0]` and `dims[2]` its size along X and Z.
+   */
+  INERTIA_SHAPE_KIND_HEIGHT_FIELD = 9,
+  /*
+   A point set (soft body or fluid): `dims[0]` the drawing radius of a
+   point, `points` how many.
+   */
+  INERTIA_SHAPE_KIND_POINT_SET = 10,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum InertiaShapeKind InertiaShapeKind;
+#else
+typedef uint32_t InertiaShapeKind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/*
+ A connected client (opaque to C).
+ */
+typedef struct InertiaClient InertiaClient;
+
+/*
+ How to connect ([`crate::client::inertia_connect_with`]); zeroed is
+ the defaults.
+ */
+typedef struct InertiaConnectOptions {
+  /*
+   Nonzero: predict the own avatar (the server's game must walk it as
+   the default sandbox does).
+   */
+  uint8_t predict;
+} InertiaConnectOptions;
+
+/*
+ What the server told us when we joined.
+ */
+typedef struct InertiaServerInfo {
+  /*
+   Our client id (from the connect token).
+   */
+  uint64_t client_id;
+  /*
+   The server's tick when it welcomed us.
+   */
+  uint64_t tick;
+  /*
+   Physics ticks per second of simulation time, Hz.
+   */
+  uint32_t tick_hz;
+  /*
+   Snapshots per second, Hz.
+   */
+  uint32_t snapshot_hz;
+  /*
+   Snapshot position grid step, m.
+   */
+  double position_resolution;
+  /*
+   The server's build (NUL-terminated).
+   */
+  char server_version[64];
+} InertiaServerInfo;
+
+/*
+ One event. Fields a kind does not use are zero.
+ */
+typedef struct InertiaEvent {
+  /*
+   What happened.
+   */
+  InertiaEventKind kind;
+  /*
+   The entity it is about.
+   */
+  uint32_t entity;
+  /*
+   The other entity of a contact.
+   */
+  uint32_t other;
+  /*
+   An impulse (N·s) or a radius (m).
+   */
+  double value;
+  /*
+   Tick before a jump.
+   */
+  double from_tick;
+  /*
+   Tick after a jump.
+   */
+  double to_tick;
+  /*
+   A place, m.
+   */
+  double x;
+  /*
+   A place, m.
+   */
+  double y;
+  /*
+   A place, m.
+   */
+  double z;
+  /*
+   Text (NUL-terminated, UTF-8).
+   */
+  char text[INERTIA_TEXT_BYTES];
+  /*
+   Bytes of `data` used.
+   */
+  uint32_t data_len;
+  /*
+   A game-defined event's payload.
+   */
+  uint8_t data[INERTIA_EVENT_DATA_BYTES];
+} InertiaEvent;
+
+/*
+ One entity where the picture draws it.
+ */
+typedef struct InertiaEntityState {
+  /*
+   The entity (a point of a soft body or fluid has its own id after
+   its set's: see `inertia_point_set`).
+   */
+  uint32_t id;
+  /*
+   1 when the pose was extrapolated past the newest snapshot.
+   */
+  uint8_t extrapolated;
+  /*
+   Position of its origin, m.
+   */
+  double x;
+  /*
+   Position, m.
+   */
+  double y;
+  /*
+   Position, m.
+   */
+  double z;
+  /*
+   Orientation, a unit quaternion.
+   */
+  double qx;
+  /*
+   Orientation.
+   */
+  double qy;
+  /*
+   Orientation.
+   */
+  double qz;
+  /*
+   Orientation.
+   */
+  double qw;
+} InertiaEntityState;
+
+/*
+ How an entity looks, from its description.
+ */
+typedef struct InertiaEntityInfo {
+  /*
+   The entity.
+   */
+  uint32_t id;
+  /*
+   What it is.
+   */
+  InertiaEntityKind kind;
+  /*
+   Its shape.
+   */
+  InertiaShapeKind shape;
+  /*
+   Points of a point set; 0 otherwise.
+   */
+  uint32_t points;
+  /*
+   Sizes, m (see [`InertiaShapeKind`]).
+   */
+  float dims[3];
+  /*
+   Colour, sRGB bytes: red, green, blue, alpha.
+   */
+  uint8_t color[4];
+  /*
+   1 when `owner` is set (a player's avatar).
+   */
+  uint8_t has_owner;
+  /*
+   The client whose avatar it is.
+   */
+  uint64_t owner;
+  /*
+   Where it was when described, m (scenery stays there).
+   */
+  double x;
+  /*
+   Position, m.
+   */
+  double y;
+  /*
+   Position, m.
+   */
+  double z;
+  /*
+   Orientation when described.
+   */
+  double qx;
+  /*
+   Orientation.
+   */
+  double qy;
+  /*
+   Orientation.
+   */
+  double qz;
+  /*
+   Orientation.
+   */
+  double qw;
+  /*
+   Its name (NUL-terminated, UTF-8).
+   */
+  char name[INERTIA_NAME_BYTES];
+} InertiaEntityInfo;
+
+/*
+ How the connection is doing.
+ */
+typedef struct InertiaStats {
+  /*
+   Round trip, ms (QUIC's smoothed estimate).
+   */
+  double rtt_ms;
+  /*
+   Fraction of snapshots lost lately, 0 to 1.
+   */
+  double loss;
+  /*
+   Snapshot bandwidth lately, kbit/s.
+   */
+  double kbps;
+  /*
+   Snapshot time in hand ahead of the picture, ms.
+   */
+  double buffer_ms;
+  /*
+   The picture's delay behind the newest snapshot, ms.
+   */
+  double delay_ms;
+  /*
+   Snapshots received.
+   */
+  uint64_t snapshots_received;
+  /*
+   Snapshot bytes received.
+   */
+  uint64_t bytes_received;
+  /*
+   Times the picture ran out of snapshots.
+   */
+  uint64_t stalls;
+  /*
+   Timeline jumps.
+   */
+  uint64_t discontinuities;
+  /*
+   How much later than the fastest arrivals snapshots come (95th
+   percentile), ms.
+   */
+  double jitter_ms;
+  /*
+   Input bandwidth lately, kbit/s.
+   */
+  double kbps_out;
+  /*
+   The margin inputs are stamped ahead with, beyond the round trip
+   and the jitter, ticks.
+   */
+  double input_margin_ticks;
+  /*
+   The tick the newest input was stamped for (0 before the first).
+   */
+  uint64_t input_tick;
+  /*
+   Inputs the server applied on their tick.
+   */
+  uint64_t inputs_on_time;
+  /*
+   Inputs that reached the server after their tick (applied late).
+   */
+  uint64_t inputs_late;
+  /*
+   Inputs the server refused (too far ahead, too many).
+   */
+  uint64_t inputs_refused;
+  /*
+   With prediction on: the 99th percentile of the distance between
+   where the own avatar was predicted and where the server put it, m.
+   */
+  double prediction_error_p99_m;
+  /*
+   With prediction on: the largest such distance, m.
+   */
+  double prediction_error_max_m;
+  /*
+   With prediction on: the largest move of the drawn avatar in one
+   tick that was a correction rather than its predicted motion, m.
+   */
+  double prediction_snap_max_m;
+  /*
+   With prediction on: times the prediction was rolled back and
+   replayed.
+   */
+  uint64_t prediction_corrections;
+} InertiaStats;
+
+#ifdef __cplusplus
+extern "C" {
+#endif // __cplusplus
+
+/*
+ The ABI version of the library loaded ([`INERTIA_ABI_VERSION`]).
+ */
+uint32_t inertia_abi_version(void);
+
+/*
+ Connects to the server at `address` (`"IP:PORT"`) with a connect token
+ (`token_len` bytes at `token`, as the game's backend handed it out) and
+ blocks until the server welcomes or refuses us (a few seconds at most).
+ On success `*out` is the new handle.
+
+ # Safety
+ `address` is a NUL-terminated string; `token` holds `token_len` bytes;
+ `out` is writable.
+ */
+enum InertiaStatus inertia_connect(const char *address,
+                                   const uint8_t *token,
+                                   size_t token_len,
+                                   struct InertiaClient **out);
+
+/*
+ [`inertia_connect`] with options (`options` may be null: the
+ defaults). With `predict` set the library predicts the own avatar
+ (with the default sandbox game's walking settings, which the server's
+ game must share): `inertia_sample` then draws it where prediction puts
+ it, answering the input at once, and `InertiaStats` reports the
+ corrections.
+
+ # Safety
+ As [`inertia_connect`]; `options` is null or readable.
+ */
+enum InertiaStatus inertia_connect_with(const char *address,
+                                        const uint8_t *token,
+                                        size_t token_len,
+                                        const struct InertiaConnectOptions *options,
+                                        struct InertiaClient **out);
+
+/*
+ Connects to a dev-mode server with a token made from its credentials
+ file (`inertia-data/dev-credentials.json` where the server runs), as
+ client `client_id` (0: one made up from the clock). For development
+ only: a released game gets its tokens from its backend.
+
+ # Safety
+ `credentials_path` is a NUL-terminated string; `out` is writable.
+ */
+enum InertiaStatus inertia_connect_dev(const char *credentials_path,
+                                       uint64_t client_id,
+                                       struct InertiaClient **out);
+
+/*
+ Says goodbye, closes the connection (blocking up to about two seconds)
+ and frees the handle. Null is ignored. The handle must not be used
+ again.
+
+ # Safety
+ `client` is null or a live handle, not used by another thread.
+ */
+void inertia_disconnect(struct InertiaClient *client);
+
+/*
+ What the server told us when we joined.
+
+ # Safety
+ `client` is a live handle; `out` is writable.
+ */
+enum InertiaStatus inertia_server_info(struct InertiaClient *client, struct InertiaServerInfo *out);
+
+/*
+ Sets the input for every tick from now on, until changed: movement in
+ the horizontal plane (`move_x`, `move_z`, each in [−1, 1], the length
+ clamped to 1), facing `yaw` (rad about +Y) and held `buttons` (1 jump,
+ 2 push). Each tick's input is stamped with the tick the server will be
+ at when it arrives, and the server applies it on that tick
+ (`InertiaStats::inputs_late` counts those that came too late).
+
+ # Safety
+ `client` is a live handle.
+ */
+enum InertiaStatus inertia_set_input(struct InertiaClient *client,
+                                     float move_x,
+                                     float move_z,
+                                     float yaw,
+                                     uint8_t buttons);
+
+/*
+ Takes the oldest waiting event into `*out`; its kind is
+ `INERTIA_EVENT_KIND_NONE` when none was waiting. Call it until then
+ every frame.
+
+ # Safety
+ `client` is a live handle; `out` is writable.
+ */
+enum InertiaStatus inertia_poll_event(struct InertiaClient *client, struct InertiaEvent *out);
+
+/*
+ Draws the world now: advances the picture's clock and writes where each
+ entity is (interpolated between snapshots), ascending by id, into `out`
+ (room for `capacity`). `*count` is how many the picture holds; when more
+ than `capacity`, the first `capacity` are written and the status is
+ `INERTIA_STATUS_BUFFER_TOO_SMALL`. Scenery that never moves is not in
+ the picture: it stays where `inertia_entity_info` places it.
+
+ # Safety
+ `client` is a live handle; `out` holds `capacity` writable states (or
+ is null with 0); `count` is writable.
+ */
+enum InertiaStatus inertia_sample(struct InertiaClient *client,
+                                  struct InertiaEntityState *out,
+                                  size_t capacity,
+                                  size_t *count);
+
+/*
+ How entity `id` looks (its description), into `*out`;
+ `INERTIA_STATUS_NOT_FOUND` when it was not described to us.
+
+ # Safety
+ `client` is a live handle; `out` is writable.
+ */
+enum InertiaStatus inertia_entity_info(struct InertiaClient *client,
+                                       uint32_t id,
+                                       struct InertiaEntityInfo *out);
+
+/*
+ The points of soft body or fluid `set` in the picture of the last
+ `inertia_sample`: `positions` gets x, y, z (m) for each point (room for
+ `capacity` points, so `3 × capacity` floats) and `present` 1 for each
+ point known (0: not placed yet, or out of view; its position is then
+ 0). `*count` is the set's points; past `capacity` the status is
+ `INERTIA_STATUS_BUFFER_TOO_SMALL` with the first `capacity` written.
+ Its triangles and lines come from `inertia_point_set_triangles` and
+ `inertia_point_set_lines`.
+
+ # Safety
+ `client` is a live handle; `positions` holds `3 × capacity` writable
+ floats and `present` `capacity` bytes (either null with 0); `count` is
+ writable.
+ */
+enum InertiaStatus inertia_point_set(struct InertiaClient *client,
+                                     uint32_t set,
+                                     float *positions,
+                                     uint8_t *present,
+                                     size_t capacity,
+                                     size_t *count);
+
+/*
+ A point set's surface triangles, three point indices each
+ (counter-clockwise seen from outside), into `out` (room for `capacity`
+ indices); `*count` is how many indices there are (3 per triangle). A
+ set's triangles change only when a spawn event names it again (a
+ cloth that tore).
+
+ # Safety
+ `client` is a live handle; `out` holds `capacity` writable indices (or
+ is null with 0); `count` is writable.
+ */
+enum InertiaStatus inertia_point_set_triangles(struct InertiaClient *client,
+                                               uint32_t set,
+                                               uint32_t *out,
+                                               size_t capacity,
+                                               size_t *count);
+
+/*
+ A point set's lines (a rope's segments), two point indices each, as
+ [`inertia_point_set_triangles`] gives triangles.
+
+ # Safety
+ As [`inertia_point_set_triangles`].
+ */
+enum InertiaStatus inertia_point_set_lines(struct InertiaClient *client,
+                                           uint32_t set,
+                                           uint32_t *out,
+                                           size_t capacity,
+                                           size_t *count);
+
+/*
+ How the connection is doing, into `*out`; `INERTIA_STATUS_DISCONNECTED`
+ (with the figures still written) once it has ended.
+
+ # Safety
+ `client` is a live handle; `out` is writable.
+ */
+enum InertiaStatus inertia_stats(struct InertiaClient *client, struct InertiaStats *out);
+
+/*
+ Copies the message of the last failed call on this thread into `buf`
+ (at most `len` bytes, NUL-terminated, cut at a character boundary) and
+ returns its whole length in bytes without the NUL, so a caller can size
+ its buffer; 0 when no call failed yet. `buf` may be null when `len` is 0.
+
+ Thread-safe: each thread has its own last error.
+
+ # Safety
+ `buf` is null, or valid for writes of `len` bytes.
+ */
+size_t inertia_last_error(char *buf, size_t len);
+
+#ifdef __cplusplus
+}  // extern "C"
+#endif  // __cplusplus
+
+#endif  /* INERTIA_H */

@@ -1,0 +1,680 @@
+//! The client handle and the calls on it.
+//!
+//! A handle is made by `inertia_connect` (or `inertia_connect_dev`) and
+//! freed by `inertia_disconnect`; between the two it owns the connection
+//! and the runtime thread it runs on. One handle is used by one thread at
+//! a time (calls on it are not synchronised against each other); separate
+//! handles may be used from separate threads.
+
+use std::ffi::{c_char, CStr};
+use std::net::SocketAddr;
+
+use inertia_client::interp::Frame;
+use inertia_client::net::ClientEvent;
+use inertia_client::point_sets::PointSetFrame;
+use inertia_client::{BlockingClient, ConnectOptions};
+use inertia_protocol::control::{DisconnectReason, GameEvent};
+use inertia_protocol::token::ConnectToken;
+use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
+
+use crate::status::{guard, write_c_string, Failure, InertiaStatus};
+use crate::types::*;
+
+/// A connected client (opaque to C).
+#[derive(Debug)]
+pub struct InertiaClient {
+    client: BlockingClient,
+    /// The picture of the last `inertia_sample`, which `inertia_point_set`
+    /// reads so that a frame's sets and bodies agree.
+    frame: Frame,
+}
+
+/// The handle behind `client`, or a failure when it is null.
+///
+/// # Safety
+/// `client` is null or a live handle from `inertia_connect`.
+unsafe fn handle<'a>(client: *mut InertiaClient) -> Result<&'a mut InertiaClient, Failure> {
+    // SAFETY: the caller passes a live handle or null.
+    unsafe { client.as_mut() }.ok_or_else(|| Failure::invalid("the client handle is null"))
+}
+
+/// `out` as a reference, or a failure when it is null.
+///
+/// # Safety
+/// `out` is null or valid for writes of a `T`.
+unsafe fn out_ref<'a, T>(out: *mut T, what: &str) -> Result<&'a mut T, Failure> {
+    // SAFETY: the caller passes a writable `T` or null.
+    unsafe { out.as_mut() }.ok_or_else(|| Failure::invalid(format!("{what} is null")))
+}
+
+/// A caller's buffer of `capacity` items as a slice (empty when null and 0).
+///
+/// # Safety
+/// `ptr` is valid for writes of `capacity` items, or null with 0.
+unsafe fn buffer<'a, T>(ptr: *mut T, capacity: usize, what: &str) -> Result<&'a mut [T], Failure> {
+    if capacity == 0 {
+        return Ok(&mut []);
+    }
+    if ptr.is_null() {
+        return Err(Failure::invalid(format!("{what} is null")));
+    }
+    // SAFETY: the caller gives `capacity` writable items at `ptr`.
+    Ok(unsafe { std::slice::from_raw_parts_mut(ptr, capacity) })
+}
+
+/// A C string argument as UTF-8.
+///
+/// # Safety
+/// `s` is null or a NUL-terminated string.
+unsafe fn text<'a>(s: *const c_char, what: &str) -> Result<&'a str, Failure> {
+    if s.is_null() {
+        return Err(Failure::invalid(format!("{what} is null")));
+    }
+    // SAFETY: the caller passes a NUL-terminated string.
+    unsafe { CStr::from_ptr(s) }
+        .to_str()
+        .map_err(|_| Failure::invalid(format!("{what} is not UTF-8")))
+}
+
+/// Joins `addr` with `token` and hands the new handle out through `out`.
+fn join(
+    addr: SocketAddr,
+    token: &ConnectToken,
+    options: ConnectOptions,
+    out: &mut *mut InertiaClient,
+) -> Result<(), Failure> {
+    let client = BlockingClient::connect_with(addr, token, options)
+        .map_err(|e| Failure::new(InertiaStatus::ConnectFailed, e.to_string()))?;
+    let handle = Box::new(InertiaClient {
+        client,
+        frame: Frame::default(),
+    });
+    *out = Box::into_raw(handle);
+    Ok(())
+}
+
+/// Connects to the server at `address` (`"IP:PORT"`) with a connect token
+/// (`token_len` bytes at `token`, as the game's backend handed it out) and
+/// blocks until the server welcomes or refuses us (a few seconds at most).
+/// On success `*out` is the new handle.
+///
+/// # Safety
+/// `address` is a NUL-terminated string; `token` holds `token_len` bytes;
+/// `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_connect(
+    address: *const c_char,
+    token: *const u8,
+    token_len: usize,
+    out: *mut *mut InertiaClient,
+) -> InertiaStatus {
+    // SAFETY: as the caller promises; no options is the defaults.
+    unsafe { inertia_connect_with(address, token, token_len, std::ptr::null(), out) }
+}
+
+/// [`inertia_connect`] with options (`options` may be null: the
+/// defaults). With `predict` set the library predicts the own avatar
+/// (with the default sandbox game's walking settings, which the server's
+/// game must share): `inertia_sample` then draws it where prediction puts
+/// it, answering the input at once, and `InertiaStats` reports the
+/// corrections.
+///
+/// # Safety
+/// As [`inertia_connect`]; `options` is null or readable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_connect_with(
+    address: *const c_char,
+    token: *const u8,
+    token_len: usize,
+    options: *const InertiaConnectOptions,
+    out: *mut *mut InertiaClient,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let out = unsafe { out_ref(out, "out") }?;
+        // SAFETY: null or readable, as the caller promises.
+        let options = unsafe { options.as_ref() }.copied().unwrap_or_default();
+        *out = std::ptr::null_mut();
+        // SAFETY: as the caller promises (see the function's safety section).
+        let address = unsafe { text(address, "address") }?;
+        let addr: SocketAddr = address
+            .parse()
+            .map_err(|e| Failure::invalid(format!("address {address:?}: {e}")))?;
+        if token.is_null() {
+            return Err(Failure::invalid("token is null"));
+        }
+        // SAFETY: the caller gives `token_len` readable bytes.
+        let bytes = unsafe { std::slice::from_raw_parts(token, token_len) };
+        let token = ConnectToken::from_bytes(bytes)
+            .map_err(|e| Failure::invalid(format!("connect token: {e}")))?;
+        join(addr, &token, options.to_sdk(), out)
+    })
+}
+
+/// Connects to a dev-mode server with a token made from its credentials
+/// file (`inertia-data/dev-credentials.json` where the server runs), as
+/// client `client_id` (0: one made up from the clock). For development
+/// only: a released game gets its tokens from its backend.
+///
+/// # Safety
+/// `credentials_path` is a NUL-terminated string; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_connect_dev(
+    credentials_path: *const c_char,
+    client_id: u64,
+    out: *mut *mut InertiaClient,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let out = unsafe { out_ref(out, "out") }?;
+        *out = std::ptr::null_mut();
+        // SAFETY: as the caller promises (see the function's safety section).
+        let path = unsafe { text(credentials_path, "credentials_path") }?;
+        let id = (client_id != 0).then_some(client_id);
+        let (addr, token, _) = inertia_client::dev::dev_token(path.as_ref(), id)
+            .map_err(|e| Failure::invalid(e.to_string()))?;
+        join(addr, &token, ConnectOptions::default(), out)
+    })
+}
+
+/// Says goodbye, closes the connection (blocking up to about two seconds)
+/// and frees the handle. Null is ignored. The handle must not be used
+/// again.
+///
+/// # Safety
+/// `client` is null or a live handle, not used by another thread.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_disconnect(client: *mut InertiaClient) {
+    if client.is_null() {
+        return;
+    }
+    let _ = guard(|| {
+        // SAFETY: a live handle made by `Box::into_raw`, given back once.
+        let handle = unsafe { Box::from_raw(client) };
+        handle.client.close();
+        Ok(())
+    });
+}
+
+/// What the server told us when we joined.
+///
+/// # Safety
+/// `client` is a live handle; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_server_info(
+    client: *mut InertiaClient,
+    out: *mut InertiaServerInfo,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let (h, out) = unsafe { (handle(client)?, out_ref(out, "out")?) };
+        let info = h.client.server_info();
+        let mut server_version = [0; 64];
+        write_c_string(&mut server_version, &info.server_version);
+        *out = InertiaServerInfo {
+            client_id: info.client_id,
+            tick: info.tick,
+            tick_hz: info.tick_hz,
+            snapshot_hz: info.snapshot_hz,
+            position_resolution: info.snapshot.grid.resolution,
+            server_version,
+        };
+        Ok(())
+    })
+}
+
+/// Sets the input for every tick from now on, until changed: movement in
+/// the horizontal plane (`move_x`, `move_z`, each in [−1, 1], the length
+/// clamped to 1), facing `yaw` (rad about +Y) and held `buttons` (1 jump,
+/// 2 push). Each tick's input is stamped with the tick the server will be
+/// at when it arrives, and the server applies it on that tick
+/// (`InertiaStats::inputs_late` counts those that came too late).
+///
+/// # Safety
+/// `client` is a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_set_input(
+    client: *mut InertiaClient,
+    move_x: f32,
+    move_z: f32,
+    yaw: f32,
+    buttons: u8,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let h = unsafe { handle(client) }?;
+        if !(move_x.is_finite() && move_z.is_finite() && yaw.is_finite()) {
+            return Err(Failure::invalid("movement and yaw must be finite"));
+        }
+        h.client.set_input([move_x, move_z], yaw, buttons);
+        Ok(())
+    })
+}
+
+/// Takes the oldest waiting event into `*out`; its kind is
+/// `INERTIA_EVENT_KIND_NONE` when none was waiting. Call it until then
+/// every frame.
+///
+/// # Safety
+/// `client` is a live handle; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_poll_event(
+    client: *mut InertiaClient,
+    out: *mut InertiaEvent,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let (h, out) = unsafe { (handle(client)?, out_ref(out, "out")?) };
+        *out = match h.client.poll_event() {
+            None => InertiaEvent::default(),
+            Some(e) => event_of(e),
+        };
+        Ok(())
+    })
+}
+
+fn event_of(e: ClientEvent) -> InertiaEvent {
+    let mut out = InertiaEvent::default();
+    match e {
+        ClientEvent::Spawned(id) => {
+            out.kind = InertiaEventKind::Spawned;
+            out.entity = id;
+        }
+        ClientEvent::Despawned(id) => {
+            out.kind = InertiaEventKind::Despawned;
+            out.entity = id;
+        }
+        ClientEvent::Discontinuity(d) => {
+            out.kind = InertiaEventKind::Discontinuity;
+            out.from_tick = d.from_tick as f64;
+            out.to_tick = d.to_tick as f64;
+        }
+        ClientEvent::Resync { from_tick, to_tick } => {
+            out.kind = InertiaEventKind::Resync;
+            out.from_tick = from_tick;
+            out.to_tick = to_tick;
+        }
+        ClientEvent::Disconnected(reason) => {
+            out.kind = InertiaEventKind::Disconnected;
+            write_c_string(&mut out.text, &reason_text(&reason));
+        }
+        ClientEvent::Game(GameEvent::Contact { a, b, impulse }) => {
+            out.kind = InertiaEventKind::Contact;
+            (out.entity, out.other, out.value) = (a, b, f64::from(impulse));
+        }
+        ClientEvent::Game(GameEvent::Explosion { position, radius }) => {
+            out.kind = InertiaEventKind::Explosion;
+            [out.x, out.y, out.z] = position;
+            out.value = f64::from(radius);
+        }
+        ClientEvent::Game(GameEvent::Message { text }) => {
+            out.kind = InertiaEventKind::Message;
+            write_c_string(&mut out.text, &text);
+        }
+        ClientEvent::Game(GameEvent::Custom { name, data }) => {
+            out.kind = InertiaEventKind::Custom;
+            write_c_string(&mut out.text, &name);
+            let n = data.len().min(INERTIA_EVENT_DATA_BYTES);
+            out.data[..n].copy_from_slice(&data[..n]);
+            out.data_len = n as u32;
+        }
+    }
+    out
+}
+
+fn reason_text(reason: &DisconnectReason) -> String {
+    match reason {
+        DisconnectReason::ServerShutdown => "the server is stopping".into(),
+        DisconnectReason::Kicked { reason } => format!("kicked: {reason}"),
+        DisconnectReason::Timeout => "timed out".into(),
+        DisconnectReason::ClientLeft => "we left".into(),
+        DisconnectReason::ProtocolError { what } => format!("protocol error: {what}"),
+        other => format!("{other:?}"),
+    }
+}
+
+/// Draws the world now: advances the picture's clock and writes where each
+/// entity is (interpolated between snapshots), ascending by id, into `out`
+/// (room for `capacity`). `*count` is how many the picture holds; when more
+/// than `capacity`, the first `capacity` are written and the status is
+/// `INERTIA_STATUS_BUFFER_TOO_SMALL`. Scenery that never moves is not in
+/// the picture: it stays where `inertia_entity_info` places it.
+///
+/// # Safety
+/// `client` is a live handle; `out` holds `capacity` writable states (or
+/// is null with 0); `count` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_sample(
+    client: *mut InertiaClient,
+    out: *mut InertiaEntityState,
+    capacity: usize,
+    count: *mut usize,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let (h, count) = unsafe { (handle(client)?, out_ref(count, "count")?) };
+        // SAFETY: as the caller promises (see the function's safety section).
+        let out = unsafe { buffer(out, capacity, "out") }?;
+        h.frame = h.client.sample();
+        *count = h.frame.entities.len();
+        for (dst, e) in out.iter_mut().zip(&h.frame.entities) {
+            let q = e.rotation;
+            *dst = InertiaEntityState {
+                id: e.id,
+                extrapolated: u8::from(e.extrapolated),
+                x: e.position.x,
+                y: e.position.y,
+                z: e.position.z,
+                qx: q.x,
+                qy: q.y,
+                qz: q.z,
+                qw: q.w,
+            };
+        }
+        if h.frame.entities.len() > capacity {
+            return Err(Failure::new(
+                InertiaStatus::BufferTooSmall,
+                format!(
+                    "the picture holds {} entities, the buffer {capacity}",
+                    h.frame.entities.len()
+                ),
+            ));
+        }
+        Ok(())
+    })
+}
+
+/// How entity `id` looks (its description), into `*out`;
+/// `INERTIA_STATUS_NOT_FOUND` when it was not described to us.
+///
+/// # Safety
+/// `client` is a live handle; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_entity_info(
+    client: *mut InertiaClient,
+    id: u32,
+    out: *mut InertiaEntityInfo,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let (h, out) = unsafe { (handle(client)?, out_ref(out, "out")?) };
+        let info = h
+            .client
+            .with_entities(|t| t.get(id).map(|e| info_of(&e.desc)))
+            .ok_or_else(|| {
+                Failure::new(InertiaStatus::NotFound, format!("no entity {id} is known"))
+            })?;
+        *out = info;
+        Ok(())
+    })
+}
+
+fn info_of(desc: &EntityDesc) -> InertiaEntityInfo {
+    let kind = match desc.kind {
+        EntityKind::Static => InertiaEntityKind::Static,
+        EntityKind::Dynamic => InertiaEntityKind::Dynamic,
+        EntityKind::Kinematic => InertiaEntityKind::Kinematic,
+        EntityKind::Avatar => InertiaEntityKind::Avatar,
+        EntityKind::Water => InertiaEntityKind::Water,
+        EntityKind::SoftBody => InertiaEntityKind::SoftBody,
+        EntityKind::Fluid => InertiaEntityKind::Fluid,
+    };
+    let half_box = |points: &[[f32; 3]]| {
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for p in points {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        std::array::from_fn(|k| {
+            if points.is_empty() {
+                0.0
+            } else {
+                (hi[k] - lo[k]) / 2.0
+            }
+        })
+    };
+    let (shape, dims, points) = match &desc.shape {
+        ShapeDesc::Sphere { radius } => (InertiaShapeKind::Sphere, [*radius, 0.0, 0.0], 0),
+        ShapeDesc::Cuboid { half_extents } => (InertiaShapeKind::Cuboid, *half_extents, 0),
+        ShapeDesc::Capsule {
+            half_height,
+            radius,
+        } => (InertiaShapeKind::Capsule, [*half_height, *radius, 0.0], 0),
+        ShapeDesc::Cylinder {
+            half_height,
+            radius,
+        } => (InertiaShapeKind::Cylinder, [*half_height, *radius, 0.0], 0),
+        ShapeDesc::ConvexHull { points } => (InertiaShapeKind::ConvexHull, half_box(points), 0),
+        ShapeDesc::TriMesh { vertices, .. } => (InertiaShapeKind::TriMesh, half_box(vertices), 0),
+        ShapeDesc::Compound { .. } => (InertiaShapeKind::Compound, [0.0; 3], 0),
+        ShapeDesc::Particle { radius } => (InertiaShapeKind::Particle, [*radius, 0.0, 0.0], 0),
+        ShapeDesc::Ground => (InertiaShapeKind::Ground, [0.0; 3], 0),
+        ShapeDesc::HeightField { size, .. } => {
+            (InertiaShapeKind::HeightField, [size[0], 0.0, size[1]], 0)
+        }
+        ShapeDesc::PointSet { points, radius, .. } => {
+            (InertiaShapeKind::PointSet, [*radius, 0.0, 0.0], *points)
+        }
+    };
+    let mut name = [0; INERTIA_NAME_BYTES];
+    write_c_string(&mut name, &desc.name);
+    let [x, y, z] = desc.position;
+    let [qx, qy, qz, qw] = desc.rotation;
+    InertiaEntityInfo {
+        id: desc.id,
+        kind,
+        shape,
+        points,
+        dims,
+        color: desc.color,
+        has_owner: u8::from(desc.owner.is_some()),
+        owner: desc.owner.unwrap_or(0),
+        x,
+        y,
+        z,
+        qx,
+        qy,
+        qz,
+        qw,
+        name,
+    }
+}
+
+/// The points of soft body or fluid `set` in the picture of the last
+/// `inertia_sample`: `positions` gets x, y, z (m) for each point (room for
+/// `capacity` points, so `3 × capacity` floats) and `present` 1 for each
+/// point known (0: not placed yet, or out of view; its position is then
+/// 0). `*count` is the set's points; past `capacity` the status is
+/// `INERTIA_STATUS_BUFFER_TOO_SMALL` with the first `capacity` written.
+/// Its triangles and lines come from `inertia_point_set_triangles` and
+/// `inertia_point_set_lines`.
+///
+/// # Safety
+/// `client` is a live handle; `positions` holds `3 × capacity` writable
+/// floats and `present` `capacity` bytes (either null with 0); `count` is
+/// writable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_point_set(
+    client: *mut InertiaClient,
+    set: u32,
+    positions: *mut f32,
+    present: *mut u8,
+    capacity: usize,
+    count: *mut usize,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let (h, count) = unsafe { (handle(client)?, out_ref(count, "count")?) };
+        // SAFETY: as the caller promises (see the function's safety section).
+        let positions = unsafe { buffer(positions, 3 * capacity, "positions") }?;
+        // SAFETY: as the caller promises (see the function's safety section).
+        let present = unsafe { buffer(present, capacity, "present") }?;
+        let frame = &h.frame;
+        let n = h.client.with_entities(|t| {
+            let e = t.get(set)?;
+            let points = PointSetFrame::gather(&e.desc, frame, &e.points)?;
+            for (i, (p, known)) in points.positions.iter().zip(&points.present).enumerate() {
+                if i >= capacity {
+                    break;
+                }
+                positions[3 * i..3 * i + 3].copy_from_slice(&p.to_array());
+                present[i] = u8::from(*known);
+            }
+            Some(points.positions.len())
+        });
+        let n = n.ok_or_else(|| {
+            Failure::new(
+                InertiaStatus::NotFound,
+                format!("{set} is not a known point set"),
+            )
+        })?;
+        *count = n;
+        if n > capacity {
+            return Err(Failure::new(
+                InertiaStatus::BufferTooSmall,
+                format!("the set has {n} points, the buffer room for {capacity}"),
+            ));
+        }
+        Ok(())
+    })
+}
+
+/// Copies what a point set's description lists (`triangles` or `lines`)
+/// as point indices into a caller's buffer of `capacity` indices.
+///
+/// # Safety
+/// As [`inertia_point_set_triangles`].
+unsafe fn copy_indices(
+    client: *mut InertiaClient,
+    set: u32,
+    out: *mut u32,
+    capacity: usize,
+    count: *mut usize,
+    pick: fn(&ShapeDesc) -> Option<Vec<u32>>,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let (h, count) = unsafe { (handle(client)?, out_ref(count, "count")?) };
+        // SAFETY: as the caller promises (see the function's safety section).
+        let out = unsafe { buffer(out, capacity, "out") }?;
+        let indices = h
+            .client
+            .with_entities(|t| t.get(set).and_then(|e| pick(&e.desc.shape)))
+            .ok_or_else(|| {
+                Failure::new(
+                    InertiaStatus::NotFound,
+                    format!("{set} is not a known point set"),
+                )
+            })?;
+        *count = indices.len();
+        for (dst, &i) in out.iter_mut().zip(&indices) {
+            *dst = i;
+        }
+        if indices.len() > capacity {
+            return Err(Failure::new(
+                InertiaStatus::BufferTooSmall,
+                format!("{} indices, the buffer {capacity}", indices.len()),
+            ));
+        }
+        Ok(())
+    })
+}
+
+/// A point set's surface triangles, three point indices each
+/// (counter-clockwise seen from outside), into `out` (room for `capacity`
+/// indices); `*count` is how many indices there are (3 per triangle). A
+/// set's triangles change only when a spawn event names it again (a
+/// cloth that tore).
+///
+/// # Safety
+/// `client` is a live handle; `out` holds `capacity` writable indices (or
+/// is null with 0); `count` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_point_set_triangles(
+    client: *mut InertiaClient,
+    set: u32,
+    out: *mut u32,
+    capacity: usize,
+    count: *mut usize,
+) -> InertiaStatus {
+    // SAFETY: as the caller promises.
+    unsafe {
+        copy_indices(client, set, out, capacity, count, |s| match s {
+            ShapeDesc::PointSet { triangles, .. } => {
+                Some(triangles.iter().flatten().copied().collect())
+            }
+            _ => None,
+        })
+    }
+}
+
+/// A point set's lines (a rope's segments), two point indices each, as
+/// [`inertia_point_set_triangles`] gives triangles.
+///
+/// # Safety
+/// As [`inertia_point_set_triangles`].
+#[no_mangle]
+pub unsafe extern "C" fn inertia_point_set_lines(
+    client: *mut InertiaClient,
+    set: u32,
+    out: *mut u32,
+    capacity: usize,
+    count: *mut usize,
+) -> InertiaStatus {
+    // SAFETY: as the caller promises.
+    unsafe {
+        copy_indices(client, set, out, capacity, count, |s| match s {
+            ShapeDesc::PointSet { lines, .. } => Some(lines.iter().flatten().copied().collect()),
+            _ => None,
+        })
+    }
+}
+
+/// How the connection is doing, into `*out`; `INERTIA_STATUS_DISCONNECTED`
+/// (with the figures still written) once it has ended.
+///
+/// # Safety
+/// `client` is a live handle; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_stats(
+    client: *mut InertiaClient,
+    out: *mut InertiaStats,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let (h, out) = unsafe { (handle(client)?, out_ref(out, "out")?) };
+        let s = h.client.stats();
+        *out = InertiaStats {
+            rtt_ms: s.rtt_ms,
+            loss: s.loss,
+            kbps: s.kbps,
+            buffer_ms: s.buffer_ms,
+            delay_ms: s.delay_ms,
+            snapshots_received: s.snapshots_received,
+            bytes_received: s.bytes_received,
+            stalls: s.stalls,
+            discontinuities: s.discontinuities,
+            jitter_ms: s.jitter_ms,
+            kbps_out: s.kbps_out,
+            input_margin_ticks: s.input_margin_ticks,
+            input_tick: s.input_tick,
+            inputs_on_time: s.inputs_on_time,
+            inputs_late: s.inputs_late,
+            inputs_refused: s.inputs_refused,
+            prediction_error_p99_m: s.prediction_error_p99_m,
+            prediction_error_max_m: s.prediction_error_max_m,
+            prediction_snap_max_m: s.prediction_snap_max_m,
+            prediction_corrections: s.prediction_corrections,
+        };
+        if let Some(reason) = h.client.disconnected() {
+            return Err(Failure::new(
+                InertiaStatus::Disconnected,
+                reason_text(&reason),
+            ));
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,291 @@
+//! The plain structs and enums the C ABI passes: `#[repr(C)]`, scalar
+//! fields only (no pointers), so C# can declare them blittable and copy
+//! arrays of them without marshalling. Units: m, m/s, rad, s.
+
+use std::ffi::c_char;
+
+/// Longest entity name, bytes, with its NUL.
+pub const INERTIA_NAME_BYTES: usize = 65;
+/// Longest event text (a message, an event's name, a reason), bytes, with
+/// its NUL.
+pub const INERTIA_TEXT_BYTES: usize = 256;
+/// Longest payload of a game-defined event, bytes.
+pub const INERTIA_EVENT_DATA_BYTES: usize = 1024;
+
+/// What the server told us when we joined.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct InertiaServerInfo {
+    /// Our client id (from the connect token).
+    pub client_id: u64,
+    /// The server's tick when it welcomed us.
+    pub tick: u64,
+    /// Physics ticks per second of simulation time, Hz.
+    pub tick_hz: u32,
+    /// Snapshots per second, Hz.
+    pub snapshot_hz: u32,
+    /// Snapshot position grid step, m.
+    pub position_resolution: f64,
+    /// The server's build (NUL-terminated).
+    pub server_version: [c_char; 64],
+}
+
+/// One entity where the picture draws it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct InertiaEntityState {
+    /// The entity (a point of a soft body or fluid has its own id after
+    /// its set's: see `inertia_point_set`).
+    pub id: u32,
+    /// 1 when the pose was extrapolated past the newest snapshot.
+    pub extrapolated: u8,
+    /// Position of its origin, m.
+    pub x: f64,
+    /// Position, m.
+    pub y: f64,
+    /// Position, m.
+    pub z: f64,
+    /// Orientation, a unit quaternion.
+    pub qx: f64,
+    /// Orientation.
+    pub qy: f64,
+    /// Orientation.
+    pub qz: f64,
+    /// Orientation.
+    pub qw: f64,
+}
+
+/// What kind of thing an entity is.
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InertiaEntityKind {
+    /// Never moves (ground, walls, scenery).
+    Static = 0,
+    /// Moved by the simulation.
+    Dynamic = 1,
+    /// Moved by a script or its owner's inputs.
+    Kinematic = 2,
+    /// A player's avatar.
+    Avatar = 3,
+    /// A volume of water (drawn, not collided).
+    Water = 4,
+    /// A soft body (rope, cloth, jelly), drawn from its points.
+    SoftBody = 5,
+    /// A fluid, drawn from its particles.
+    Fluid = 6,
+}
+
+/// An entity's shape, as far as `InertiaEntityInfo::dims` describes it.
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InertiaShapeKind {
+    /// A ball: `dims[0]` radius.
+    Sphere = 0,
+    /// A box: `dims` half extents.
+    Cuboid = 1,
+    /// A capsule along +Y: `dims[0]` half height, `dims[1]` radius.
+    Capsule = 2,
+    /// A cylinder along +Y: `dims[0]` half height, `dims[1]` radius.
+    Cylinder = 3,
+    /// A convex hull: `dims` half extents of its bounding box.
+    ConvexHull = 4,
+    /// A triangle mesh (scenery): `dims` half extents of its bounding box.
+    TriMesh = 5,
+    /// Several shapes: `dims` unused.
+    Compound = 6,
+    /// A particle: `dims[0]` radius.
+    Particle = 7,
+    /// The infinite ground plane through the origin, normal +Y.
+    Ground = 8,
+    /// Terrain: `dims[0]` and `dims[2]` its size along X and Z.
+    HeightField = 9,
+    /// A point set (soft body or fluid): `dims[0]` the drawing radius of a
+    /// point, `points` how many.
+    PointSet = 10,
+}
+
+/// How an entity looks, from its description.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct InertiaEntityInfo {
+    /// The entity.
+    pub id: u32,
+    /// What it is.
+    pub kind: InertiaEntityKind,
+    /// Its shape.
+    pub shape: InertiaShapeKind,
+    /// Points of a point set; 0 otherwise.
+    pub points: u32,
+    /// Sizes, m (see [`InertiaShapeKind`]).
+    pub dims: [f32; 3],
+    /// Colour, sRGB bytes: red, green, blue, alpha.
+    pub color: [u8; 4],
+    /// 1 when `owner` is set (a player's avatar).
+    pub has_owner: u8,
+    /// The client whose avatar it is.
+    pub owner: u64,
+    /// Where it was when described, m (scenery stays there).
+    pub x: f64,
+    /// Position, m.
+    pub y: f64,
+    /// Position, m.
+    pub z: f64,
+    /// Orientation when described.
+    pub qx: f64,
+    /// Orientation.
+    pub qy: f64,
+    /// Orientation.
+    pub qz: f64,
+    /// Orientation.
+    pub qw: f64,
+    /// Its name (NUL-terminated, UTF-8).
+    pub name: [c_char; INERTIA_NAME_BYTES],
+}
+
+/// What an event is.
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InertiaEventKind {
+    /// No event was waiting.
+    None = 0,
+    /// `entity` was described to us: read it with `inertia_entity_info`.
+    Spawned = 1,
+    /// `entity` left the world or our view.
+    Despawned = 2,
+    /// The server's timeline jumped (a seek, a rewind): `from_tick` to
+    /// `to_tick`. A moment to cut or fade.
+    Discontinuity = 3,
+    /// Drawing fell far behind after an outage and jumped forwards.
+    Resync = 4,
+    /// The connection ended: `text` says why.
+    Disconnected = 5,
+    /// Two entities (`entity`, `other`) hit each other: `value` is the
+    /// impulse, N·s.
+    Contact = 6,
+    /// An explosion at `x`, `y`, `z` of radius `value`, m.
+    Explosion = 7,
+    /// A text message for the player: `text`.
+    Message = 8,
+    /// A game-defined event: its name in `text`, its payload in `data`.
+    Custom = 9,
+}
+
+/// One event. Fields a kind does not use are zero.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct InertiaEvent {
+    /// What happened.
+    pub kind: InertiaEventKind,
+    /// The entity it is about.
+    pub entity: u32,
+    /// The other entity of a contact.
+    pub other: u32,
+    /// An impulse (N·s) or a radius (m).
+    pub value: f64,
+    /// Tick before a jump.
+    pub from_tick: f64,
+    /// Tick after a jump.
+    pub to_tick: f64,
+    /// A place, m.
+    pub x: f64,
+    /// A place, m.
+    pub y: f64,
+    /// A place, m.
+    pub z: f64,
+    /// Text (NUL-terminated, UTF-8).
+    pub text: [c_char; INERTIA_TEXT_BYTES],
+    /// Bytes of `data` used.
+    pub data_len: u32,
+    /// A game-defined event's payload.
+    pub data: [u8; INERTIA_EVENT_DATA_BYTES],
+}
+
+impl Default for InertiaEvent {
+    fn default() -> Self {
+        Self {
+            kind: InertiaEventKind::None,
+            entity: 0,
+            other: 0,
+            value: 0.0,
+            from_tick: 0.0,
+            to_tick: 0.0,
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            text: [0; INERTIA_TEXT_BYTES],
+            data_len: 0,
+            data: [0; INERTIA_EVENT_DATA_BYTES],
+        }
+    }
+}
+
+/// How the connection is doing.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct InertiaStats {
+    /// Round trip, ms (QUIC's smoothed estimate).
+    pub rtt_ms: f64,
+    /// Fraction of snapshots lost lately, 0 to 1.
+    pub loss: f64,
+    /// Snapshot bandwidth lately, kbit/s.
+    pub kbps: f64,
+    /// Snapshot time in hand ahead of the picture, ms.
+    pub buffer_ms: f64,
+    /// The picture's delay behind the newest snapshot, ms.
+    pub delay_ms: f64,
+    /// Snapshots received.
+    pub snapshots_received: u64,
+    /// Snapshot bytes received.
+    pub bytes_received: u64,
+    /// Times the picture ran out of snapshots.
+    pub stalls: u64,
+    /// Timeline jumps.
+    pub discontinuities: u64,
+    /// How much later than the fastest arrivals snapshots come (95th
+    /// percentile), ms.
+    pub jitter_ms: f64,
+    /// Input bandwidth lately, kbit/s.
+    pub kbps_out: f64,
+    /// The margin inputs are stamped ahead with, beyond the round trip
+    /// and the jitter, ticks.
+    pub input_margin_ticks: f64,
+    /// The tick the newest input was stamped for (0 before the first).
+    pub input_tick: u64,
+    /// Inputs the server applied on their tick.
+    pub inputs_on_time: u64,
+    /// Inputs that reached the server after their tick (applied late).
+    pub inputs_late: u64,
+    /// Inputs the server refused (too far ahead, too many).
+    pub inputs_refused: u64,
+    /// With prediction on: the 99th percentile of the distance between
+    /// where the own avatar was predicted and where the server put it, m.
+    pub prediction_error_p99_m: f64,
+    /// With prediction on: the largest such distance, m.
+    pub prediction_error_max_m: f64,
+    /// With prediction on: the largest move of the drawn avatar in one
+    /// tick that was a correction rather than its predicted motion, m.
+    pub prediction_snap_max_m: f64,
+    /// With prediction on: times the prediction was rolled back and
+    /// replayed.
+    pub prediction_corrections: u64,
+}
+
+/// How to connect ([`crate::client::inertia_connect_with`]); zeroed is
+/// the defaults.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct InertiaConnectOptions {
+    /// Nonzero: predict the own avatar (the server's game must walk it as
+    /// the default sandbox does).
+    pub predict: u8,
+}
+
+impl InertiaConnectOptions {
+    /// The SDK's options.
+    pub(crate) fn to_sdk(self) -> inertia_client::ConnectOptions {
+        inertia_client::ConnectOptions {
+            predict: (self.predict != 0).then(inertia_client::predict::PredictionConfig::default),
+            ..inertia_client::ConnectOptions::default()
+        }
+    }
+}

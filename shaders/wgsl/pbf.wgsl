@@ -1,0 +1,793 @@
+// Position-based fluids (physics/src/xpbd/fluid/), on the GPU.
+//
+// The same step as the CPU's `Fluid::step`, stage for stage:
+//
+// 1. Neighbour grid, once a step, on the positions predicted for the
+//    whole step (`x + dt v + dt² g`), by a counting sort:
+//    `count` (each particle's cell key; an integer atomic count per
+//    key), `scan` (exclusive prefix sum of the counts: where each key's
+//    particles start), `scatter` (each particle to a slot of its key,
+//    an integer atomic cursor per key) and `sort_cells` (each key's few
+//    slots put in ascending particle order, so that the order the
+//    atomics left them in is forgotten). A particle's neighbours are the
+//    others within the kernel radius h of it at those predicted
+//    positions, visited cell by cell of the 27 around it, ascending by
+//    index within a cell: a fixed order.
+// 2. `find_walls`, once a step: the tangent plane of every boundary shape
+//    near each particle, at the surface point nearest its position at the
+//    start of the step (at most MAX_PLANES a particle).
+// 3. Per substep of `hs = dt / substeps`: `predict` (`v += hs g`,
+//    `prev = x`, `x += hs v`), `densities` (density and the multiplier λ,
+//    one Jacobi pass, walls as solid fluid from a table), `corrections`
+//    (the position deltas, capped), `collide` (kept the collision radius
+//    out of the shapes, with friction; `v = (x − prev) / hs`).
+// 4. After the substeps: vorticity confinement (`vorticity`, `confine`)
+//    and XSPH viscosity (`xsph`), each writing new velocities to `next`
+//    and `take_velocities` copying them back.
+//
+// Every pass is Jacobi: it reads the state the pass before left and writes
+// only its own particle's (or key's) slots, so nothing races. Atomics are
+// integer counts and cursors only, and their order is undone by
+// `sort_cells`; no floating-point value is ever summed atomically. A run
+// repeats bit for bit on the same device and driver.
+//
+// Units: m, s, kg. Positions and velocities are vec4 (w unused).
+
+const WORKGROUP_SIZE: u32 = 64u;
+// Invocations of the single-workgroup prefix sum.
+const SCAN_SIZE: u32 = 256u;
+// Most boundary planes kept per particle over a step.
+const MAX_PLANES: u32 = 4u;
+// Entries of the wall table over [0, h] (boundary.rs's ENTRIES).
+const WALL_ENTRIES: u32 = 64u;
+// No neighbour left.
+const NONE: u32 = 0xffffffffu;
+
+// Shape kinds (`gpu/fluid_walls.rs`).
+const SHAPE_CUBOID: u32 = 0u;
+const SHAPE_SPHERE: u32 = 1u;
+const SHAPE_CAPSULE: u32 = 2u;
+
+// The uniform block of one step (`FluidParams` in `gpu/fluid.rs`).
+struct FluidParams {
+    // Gravity times the fluid's scale, m/s² (w unused).
+    gravity: vec4<f32>,
+    // Particles.
+    n: u32,
+    // Keys of the hash table (a power of two).
+    table: u32,
+    // Boundary shapes.
+    shapes: u32,
+    // 1: the tensile correction is on.
+    tensile: u32,
+    // The step, s.
+    dt: f32,
+    // The substep, s.
+    hs: f32,
+    // Kernel radius h, m, and h², m².
+    h: f32,
+    h2: f32,
+    // 1 / cell edge (the cell edge is h), 1/m.
+    inv_cell: f32,
+    // The volume a neighbour weighs in kernel sums, m³.
+    volume: f32,
+    // Rest density, kg/m³.
+    rest: f32,
+    // Constraint relaxation ε, 1/m².
+    relaxation: f32,
+    // Kernel constants: 315 / (64 π h⁹), 15 / (π h⁶), −45 / (π h⁶), and
+    // W_spiky(0).
+    poly6: f32,
+    spiky: f32,
+    spiky_grad: f32,
+    self_weight: f32,
+    // Largest correction a substep, m.
+    cap: f32,
+    // Tensile correction: −k h² (m²), 1 / W_poly6(Δq) (m³), exponent.
+    tensile_scale: f32,
+    tensile_inv_w: f32,
+    tensile_n: u32,
+    // XSPH: c V, m³.
+    viscosity: f32,
+    // Vorticity confinement: ε dt, m.
+    vorticity: f32,
+    // Collision radius, m, and the fluid's friction coefficient.
+    radius: f32,
+    friction: f32,
+    // How far from a particle walls are looked for: h + spacing, m, plus
+    // |g| dt², m (plus the particle's own |v| dt).
+    wall_reach: f32,
+    wall_fall: f32,
+    // Wall table: entries per metre, and the lattice calibration.
+    wall_per_m: f32,
+    wall_scale: f32,
+    // Φ and Ψ (1/m) at k h / 63, four to a vec4.
+    wall_phi: array<vec4<f32>, 16>,
+    wall_psi: array<vec4<f32>, 16>,
+}
+
+// A boundary shape (a static or kinematic rigid body).
+struct Shape {
+    // x: SHAPE_* kind.
+    kind: vec4<u32>,
+    // Pose: translation (m) and the rotation's columns.
+    translation: vec4<f32>,
+    axis_x: vec4<f32>,
+    axis_y: vec4<f32>,
+    axis_z: vec4<f32>,
+    // Cuboid: half extents (m); sphere: x = radius; capsule: x = half
+    // height, y = radius.
+    size: vec4<f32>,
+    // Centre of mass (m); w: the body's friction coefficient.
+    com: vec4<f32>,
+    // Velocity (m/s) and angular velocity (rad/s).
+    linvel: vec4<f32>,
+    angvel: vec4<f32>,
+}
+
+// A slot of the neighbour grid: the predicted position (m) and the
+// particle's index (16 bytes).
+struct Slot {
+    p: vec3<f32>,
+    index: u32,
+}
+
+// A wall near a particle over a step: a point of its tangent plane (w: 1
+// when the slot is used) and the normal out of the body.
+struct Plane {
+    point: vec4<f32>,
+    normal: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> params: FluidParams;
+// Positions, velocities, positions at the start of the substep.
+@group(0) @binding(1) var<storage, read_write> x: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> v: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> prev: array<vec4<f32>>;
+// Corrected positions (substeps), new velocities (after them).
+@group(0) @binding(4) var<storage, read_write> next: array<vec4<f32>>;
+// Positions predicted for the whole step (the neighbour grid's).
+@group(0) @binding(5) var<storage, read_write> pred: array<vec4<f32>>;
+// Per slot of the grid: a particle and its predicted position.
+@group(0) @binding(6) var<storage, read_write> sorted: array<Slot>;
+// Per key: the count, then the scatter's cursor.
+@group(0) @binding(7) var<storage, read_write> cells: array<atomic<u32>>;
+// Per key, where its slots start; one more entry than keys.
+@group(0) @binding(8) var<storage, read_write> start: array<u32>;
+// Per particle: the walls' part of ∇C_i (xyz, 1/m) and λ_i (w, m²).
+@group(0) @binding(9) var<storage, read_write> lambda: array<vec4<f32>>;
+// Per particle: density, kg/m³.
+@group(0) @binding(10) var<storage, read_write> density: array<f32>;
+// Per particle: vorticity ω, 1/s.
+@group(0) @binding(11) var<storage, read_write> omega: array<vec4<f32>>;
+// MAX_PLANES per particle.
+@group(0) @binding(12) var<storage, read_write> planes: array<Plane>;
+@group(0) @binding(13) var<storage, read> shapes: array<Shape>;
+
+var<workgroup> partial: array<u32, 256>;
+
+fn linear(id: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return id.x + id.y * groups.x * WORKGROUP_SIZE;
+}
+
+// Whether `a` is neither infinite nor NaN (by its bits: a compiler may
+// fold `a != a`).
+fn finite(a: f32) -> bool {
+    return (bitcast<u32>(a) & 0x7f800000u) != 0x7f800000u;
+}
+
+fn finite3(a: vec3<f32>) -> bool {
+    return finite(a.x) && finite(a.y) && finite(a.z);
+}
+
+// ---- kernels (kernels.rs) ----
+
+// (W_spiky, dW_spiky/dr / r) at offset `d`: 1/m³ and 1/m⁵.
+fn spiky_pair(d: vec3<f32>) -> vec2<f32> {
+    let r2 = d.x * d.x + d.y * d.y + d.z * d.z;
+    let r = sqrt(r2);
+    let t = max(params.h - r, 0.0);
+    let t2 = t * t;
+    let w = params.spiky * t2 * t;
+    var g = 0.0;
+    if (r > 0.0) {
+        g = params.spiky_grad * t2 / r;
+    }
+    return vec2<f32>(w, g);
+}
+
+// W_poly6 at squared distance `r2` (m²), 1/m³.
+fn poly6(r2: f32) -> f32 {
+    let d = max(params.h2 - r2, 0.0);
+    return params.poly6 * d * d * d;
+}
+
+// dW_spiky/dr / r at distance `r` (m), 1/m⁵; 0 at 0 and from h out.
+fn spiky_grad_over_r(r: f32) -> f32 {
+    if (r >= params.h || r <= 0.0) {
+        return 0.0;
+    }
+    let d = params.h - r;
+    return params.spiky_grad * d * d / r;
+}
+
+// ---- the neighbour grid (grid.rs, hashed layout) ----
+
+fn cell_of(p: vec3<f32>) -> vec3<i32> {
+    return vec3<i32>(floor(p * params.inv_cell));
+}
+
+// The three-prime hash (Teschner et al. 2003), masked to the table.
+fn key_of(c: vec3<i32>) -> u32 {
+    let h = (bitcast<u32>(c.x) * 73856093u) ^ (bitcast<u32>(c.y) * 19349663u)
+        ^ (bitcast<u32>(c.z) * 83492791u);
+    return h & (params.table - 1u);
+}
+
+// Each particle's predicted position and its key's count.
+@compute @workgroup_size(64)
+fn count(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let dt = params.dt;
+    var p = x[i].xyz + dt * v[i].xyz + dt * dt * params.gravity.xyz;
+    if (!finite3(p)) {
+        p = x[i].xyz;
+    }
+    pred[i] = vec4<f32>(p, 0.0);
+    atomicAdd(&cells[key_of(cell_of(p))], 1u);
+}
+
+// Exclusive prefix sum of the counts into `start` (one workgroup: each
+// invocation sums a run of keys, the runs' sums are scanned in workgroup
+// memory, then each invocation writes its run's starts).
+@compute @workgroup_size(256)
+fn scan(@builtin(local_invocation_index) t: u32) {
+    let m = params.table;
+    let per = (m + SCAN_SIZE - 1u) / SCAN_SIZE;
+    let lo = min(t * per, m);
+    let hi = min(lo + per, m);
+    var sum = 0u;
+    for (var k = lo; k < hi; k++) {
+        sum += atomicLoad(&cells[k]);
+    }
+    partial[t] = sum;
+    workgroupBarrier();
+    for (var off = 1u; off < SCAN_SIZE; off *= 2u) {
+        var add = 0u;
+        if (t >= off) {
+            add = partial[t - off];
+        }
+        workgroupBarrier();
+        partial[t] += add;
+        workgroupBarrier();
+    }
+    var run = partial[t] - sum;
+    for (var k = lo; k < hi; k++) {
+        start[k] = run;
+        run += atomicLoad(&cells[k]);
+    }
+    if (t == SCAN_SIZE - 1u) {
+        start[m] = partial[t];
+    }
+}
+
+// Each particle to a slot of its key (`cells` cleared to serve as the
+// cursors).
+@compute @workgroup_size(64)
+fn scatter(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let p = pred[i].xyz;
+    let k = key_of(cell_of(p));
+    let slot = start[k] + atomicAdd(&cells[k], 1u);
+    sorted[slot] = Slot(p, i);
+}
+
+// Each key's slots in ascending particle order (insertion sort: a key
+// holds a few particles).
+@compute @workgroup_size(64)
+fn sort_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = linear(id, groups);
+    if (k >= params.table) {
+        return;
+    }
+    let lo = start[k];
+    let hi = start[k + 1u];
+    for (var a = lo + 1u; a < hi; a++) {
+        let item = sorted[a];
+        var b = a;
+        while (b > lo && sorted[b - 1u].index > item.index) {
+            sorted[b] = sorted[b - 1u];
+            b -= 1u;
+        }
+        sorted[b] = item;
+    }
+}
+
+// A walk over the neighbours of one particle: the 27 cells around its
+// predicted position, each cell's slots in order, keeping the other
+// particles of that cell within h (a key two cells share is visited for
+// each, and gives each only its own particles).
+struct Walk {
+    centre: vec3<f32>,
+    home: vec3<i32>,
+    current: vec3<i32>,
+    me: u32,
+    // Next of the 27 cells.
+    k: u32,
+    slot: u32,
+    end: u32,
+}
+
+fn walk_from(i: u32) -> Walk {
+    let p = pred[i].xyz;
+    let c = cell_of(p);
+    return Walk(p, c, c, i, 0u, 0u, 0u);
+}
+
+// The next neighbour's index, or NONE.
+fn next_neighbour(w: ptr<function, Walk>) -> u32 {
+    loop {
+        if ((*w).slot < (*w).end) {
+            let s = sorted[(*w).slot];
+            (*w).slot += 1u;
+            let j = s.index;
+            if (j == (*w).me || any(cell_of(s.p) != (*w).current)) {
+                continue;
+            }
+            let d = s.p - (*w).centre;
+            if (d.x * d.x + d.y * d.y + d.z * d.z < params.h2) {
+                return j;
+            }
+            continue;
+        }
+        if ((*w).k >= 27u) {
+            return NONE;
+        }
+        let k = (*w).k;
+        let o = vec3<i32>(i32(k % 3u) - 1, i32((k / 3u) % 3u) - 1, i32(k / 9u) - 1);
+        (*w).current = (*w).home + o;
+        let key = key_of((*w).current);
+        (*w).slot = start[key];
+        (*w).end = start[key + 1u];
+        (*w).k = k + 1u;
+    }
+    return NONE;
+}
+
+// ---- boundary shapes (coupling.rs) ----
+
+// The surface of a shape nearest a point: the point (m), the normal out
+// of the body, the signed distance (m, negative inside; w), and whether
+// it counts (`found`).
+struct Surface {
+    point: vec3<f32>,
+    normal: vec3<f32>,
+    distance: f32,
+    found: bool,
+}
+
+fn to_local(s: Shape, p: vec3<f32>) -> vec3<f32> {
+    let d = p - s.translation.xyz;
+    return vec3<f32>(dot(s.axis_x.xyz, d), dot(s.axis_y.xyz, d), dot(s.axis_z.xyz, d));
+}
+
+fn to_world(s: Shape, q: vec3<f32>) -> vec3<f32> {
+    return s.axis_x.xyz * q.x + s.axis_y.xyz * q.y + s.axis_z.xyz * q.z + s.translation.xyz;
+}
+
+// The ball of radius `r` about `c` (query/project.rs `project_ball`):
+// the nearest surface point (xyz) and 1 when inside (w).
+fn project_ball(p: vec3<f32>, c: vec3<f32>, r: f32) -> vec4<f32> {
+    let d = p - c;
+    let l = length(d);
+    var u = vec3<f32>(0.0, 1.0, 0.0);
+    if (l > 0.0) {
+        u = d / l;
+    }
+    return vec4<f32>(c + u * r, select(0.0, 1.0, l <= r));
+}
+
+// The nearest surface point in the shape's frame (xyz) and 1 when `p` is
+// inside (w).
+fn project_local(s: Shape, p: vec3<f32>) -> vec4<f32> {
+    let kind = s.kind.x;
+    if (kind == SHAPE_SPHERE) {
+        return project_ball(p, vec3<f32>(0.0), s.size.x);
+    }
+    if (kind == SHAPE_CAPSULE) {
+        let hh = s.size.x;
+        return project_ball(p, vec3<f32>(0.0, clamp(p.y, -hh, hh), 0.0), s.size.y);
+    }
+    let h = s.size.xyz;
+    let q = clamp(p, -h, h);
+    if (any(q != p)) {
+        return vec4<f32>(q, 0.0);
+    }
+    // Inside: out through the nearest face.
+    let depth = h - abs(p);
+    var out = p;
+    if (depth.x <= depth.y && depth.x <= depth.z) {
+        out.x = select(-h.x, h.x, p.x >= 0.0);
+    } else if (depth.y <= depth.z) {
+        out.y = select(-h.y, h.y, p.y >= 0.0);
+    } else {
+        out.z = select(-h.z, h.z, p.z >= 0.0);
+    }
+    return vec4<f32>(out, 1.0);
+}
+
+// `Coupling::surface`: the surface of shape `s` nearest `p`, found if `p`
+// is inside or closer than `within` (m).
+fn surface(s: Shape, p: vec3<f32>, within: f32) -> Surface {
+    var out = Surface(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false);
+    let local = to_local(s, p);
+    let proj = project_local(s, local);
+    let inside = proj.w > 0.5;
+    let distance = distance(local, proj.xyz);
+    if (!inside && distance >= within) {
+        return out;
+    }
+    let point = to_world(s, proj.xyz);
+    let to = p - point;
+    let len = length(to);
+    if (len <= 1e-12 || !finite(len)) {
+        return out;
+    }
+    out.point = point;
+    out.normal = select(to / len, -to / len, inside);
+    out.distance = select(distance, -distance, inside);
+    out.found = true;
+    return out;
+}
+
+// The tangent planes of the shapes near each particle over the step.
+@compute @workgroup_size(64)
+fn find_walls(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let p = x[i].xyz;
+    let within = params.wall_reach + length(v[i].xyz) * params.dt + params.wall_fall;
+    var used = 0u;
+    for (var k = 0u; k < params.shapes && used < MAX_PLANES; k++) {
+        let s = surface(shapes[k], p, within);
+        if (s.found) {
+            planes[i * MAX_PLANES + used] = Plane(vec4<f32>(s.point, 1.0), vec4<f32>(s.normal, 0.0));
+            used += 1u;
+        }
+    }
+    for (var k = used; k < MAX_PLANES; k++) {
+        planes[i * MAX_PLANES + k] = Plane(vec4<f32>(0.0), vec4<f32>(0.0));
+    }
+}
+
+// ---- the substeps (step.rs) ----
+
+// `v += hs g`, `prev = x`, `x += hs v`.
+@compute @workgroup_size(64)
+fn predict(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let hs = params.hs;
+    let vi = v[i].xyz + hs * params.gravity.xyz;
+    let p = x[i].xyz;
+    v[i] = vec4<f32>(vi, 0.0);
+    prev[i] = vec4<f32>(p, 0.0);
+    x[i] = vec4<f32>(p + hs * vi, 0.0);
+}
+
+// Entry k of the wall table's Φ, and of its Ψ (1/m).
+fn wall_phi(k: u32) -> f32 {
+    return params.wall_phi[k / 4u][k % 4u];
+}
+
+fn wall_psi(k: u32) -> f32 {
+    return params.wall_psi[k / 4u][k % 4u];
+}
+
+// The wall table (boundary.rs `WallTable::at`): (Φ(d), Ψ(d)) at signed
+// distance `d` (m), calibrated.
+fn wall_at(d: f32) -> vec2<f32> {
+    if (!finite(d)) {
+        return vec2<f32>(0.0);
+    }
+    let a = min(abs(d), params.h) * params.wall_per_m;
+    let k = min(u32(a), WALL_ENTRIES - 2u);
+    let t = a - f32(k);
+    let p0 = wall_phi(k);
+    let p1 = wall_phi(k + 1u);
+    let g0 = wall_psi(k);
+    let g1 = wall_psi(k + 1u);
+    var phi = p0 + t * (p1 - p0);
+    let grad = g0 + t * (g1 - g0);
+    if (d < 0.0) {
+        phi = 1.0 - phi;
+    }
+    return vec2<f32>(phi * params.wall_scale, grad * params.wall_scale);
+}
+
+// Densities and multipliers: `ρ_i / ρ0 = V Σ_j W_spiky + Φ_walls`,
+// `λ_i = −max(C_i, 0) / (Σ_k |∇_k C_i|² + ε)`; the walls' union as
+// step.rs's `wall_union`.
+@compute @workgroup_size(64)
+fn densities(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let p = x[i].xyz;
+    var sum_w = 0.0;
+    var grad = vec3<f32>(0.0);
+    var sum_sq = 0.0;
+    var walk = walk_from(i);
+    loop {
+        let j = next_neighbour(&walk);
+        if (j == NONE) {
+            break;
+        }
+        let d = p - x[j].xyz;
+        let wg = spiky_pair(d);
+        let g = d * wg.y;
+        sum_w += wg.x;
+        grad += g;
+        sum_sq += g.x * g.x + g.y * g.y + g.z * g.z;
+    }
+    var frac = params.volume * (params.self_weight + sum_w);
+    grad = grad * params.volume;
+    sum_sq = sum_sq * params.volume * params.volume;
+
+    // The walls within h: each its share Φ_k and slope Ψ_k.
+    var phis: array<f32, 4>;
+    var psis: array<f32, 4>;
+    var normals: array<vec3<f32>, 4>;
+    var walls = 0u;
+    for (var k = 0u; k < MAX_PLANES; k++) {
+        let plane = planes[i * MAX_PLANES + k];
+        if (plane.point.w < 0.5) {
+            break;
+        }
+        let d = dot(p - plane.point.xyz, plane.normal.xyz);
+        if (!finite(d) || d >= params.h) {
+            continue;
+        }
+        let t = wall_at(d);
+        if (t.x <= 0.0 && t.y == 0.0) {
+            continue;
+        }
+        phis[walls] = t.x;
+        psis[walls] = t.y;
+        normals[walls] = plane.normal.xyz;
+        walls += 1u;
+    }
+    var outside = 1.0;
+    for (var k = 0u; k < walls; k++) {
+        outside *= max(1.0 - phis[k], 0.0);
+    }
+    var wall_grad = vec3<f32>(0.0);
+    for (var k = 0u; k < walls; k++) {
+        var others = 1.0;
+        for (var m = 0u; m < walls; m++) {
+            if (m != k) {
+                others *= max(1.0 - phis[m], 0.0);
+            }
+        }
+        wall_grad += normals[k] * (psis[k] * others);
+    }
+    if (walls > 0u) {
+        frac += 1.0 - outside;
+        grad += wall_grad;
+    }
+
+    density[i] = params.rest * frac;
+    let c = frac - 1.0;
+    let denom = dot(grad, grad) + sum_sq + params.relaxation;
+    var l = 0.0;
+    if (c > 0.0 && denom > 0.0) {
+        l = -c / denom;
+    }
+    if (!finite(l)) {
+        l = 0.0;
+    }
+    lambda[i] = vec4<f32>(wall_grad, l);
+}
+
+// The Jacobi corrections: `next = x + Δx`,
+// `Δx_i = V Σ_j (λ_i + λ_j + s_corr) ∇W_spiky + λ_i ∇_walls`, at most
+// `cap` long.
+@compute @workgroup_size(64)
+fn corrections(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let p = x[i].xyz;
+    let own = lambda[i];
+    let li = own.w;
+    var sum = vec3<f32>(0.0);
+    var walk = walk_from(i);
+    loop {
+        let j = next_neighbour(&walk);
+        if (j == NONE) {
+            break;
+        }
+        let o = p - x[j].xyz;
+        let g = spiky_pair(o).y;
+        var s = li + lambda[j].w;
+        if (params.tensile != 0u) {
+            let ratio = poly6(o.x * o.x + o.y * o.y + o.z * o.z) * params.tensile_inv_w;
+            var pw = ratio;
+            for (var e = 1u; e < params.tensile_n; e++) {
+                pw *= ratio;
+            }
+            s += params.tensile_scale * pw;
+        }
+        sum += o * (s * g);
+    }
+    let dx = sum * params.volume + own.xyz * li;
+    let len = length(dx);
+    var scale = 1.0;
+    if (!finite(len)) {
+        scale = 0.0;
+    } else if (len > params.cap) {
+        scale = params.cap / len;
+    }
+    next[i] = vec4<f32>(p + dx * scale, 0.0);
+}
+
+// Velocity of shape `s`'s material at `p`, m/s.
+fn velocity_at(s: Shape, p: vec3<f32>) -> vec3<f32> {
+    return s.linvel.xyz + cross(s.angvel.xyz, p - s.com.xyz);
+}
+
+// Keeps the corrected position out of the shapes (`Coupling::push_out`,
+// with friction), then `v = (x − prev) / hs`; a particle gone non-finite
+// goes back to `prev`, at rest.
+@compute @workgroup_size(64)
+fn collide(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let q = prev[i].xyz;
+    var p = next[i].xyz;
+    let radius = params.radius;
+    for (var k = 0u; k < params.shapes; k++) {
+        let shape = shapes[k];
+        let s = surface(shape, p, radius);
+        if (!s.found) {
+            continue;
+        }
+        let depth = radius - s.distance;
+        var dx = s.normal * depth;
+        let mu = max(params.friction, shape.com.w);
+        if (mu > 0.0) {
+            let moved = (p - q) + dx - velocity_at(shape, s.point) * params.hs;
+            let slide = moved - s.normal * dot(moved, s.normal);
+            let len = length(slide);
+            if (len > 1e-12) {
+                dx -= slide * min(mu * depth / len, 1.0);
+            }
+        }
+        let moved_to = p + dx;
+        if (finite3(moved_to)) {
+            p = moved_to;
+        }
+    }
+    var vel = (p - q) / params.hs;
+    if (!(finite3(p) && finite3(vel))) {
+        p = q;
+        vel = vec3<f32>(0.0);
+    }
+    x[i] = vec4<f32>(p, 0.0);
+    v[i] = vec4<f32>(vel, 0.0);
+}
+
+// ---- after the substeps ----
+
+// Vorticity `ω_i = V Σ_j ∇W(x_i − x_j) × (v_j − v_i)`.
+@compute @workgroup_size(64)
+fn vorticity(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let p = x[i].xyz;
+    let vi = v[i].xyz;
+    var w = vec3<f32>(0.0);
+    var walk = walk_from(i);
+    loop {
+        let j = next_neighbour(&walk);
+        if (j == NONE) {
+            break;
+        }
+        let d = p - x[j].xyz;
+        let g = d * spiky_grad_over_r(length(d));
+        w += cross(g, v[j].xyz - vi);
+    }
+    w = w * params.volume;
+    if (!finite3(w)) {
+        w = vec3<f32>(0.0);
+    }
+    omega[i] = vec4<f32>(w, 0.0);
+}
+
+// Vorticity confinement: `v_i += ε dt (N × ω_i)`, with `N` the direction
+// of `η = Σ_j (|ω_j| − |ω_i|) ∇W(x_i − x_j)`; into `next`.
+@compute @workgroup_size(64)
+fn confine(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let p = x[i].xyz;
+    let wi_vec = omega[i].xyz;
+    let wi = length(wi_vec);
+    var eta = vec3<f32>(0.0);
+    var walk = walk_from(i);
+    loop {
+        let j = next_neighbour(&walk);
+        if (j == NONE) {
+            break;
+        }
+        let d = p - x[j].xyz;
+        eta += d * (spiky_grad_over_r(length(d)) * (length(omega[j].xyz) - wi));
+    }
+    let len = length(eta);
+    let vi = v[i].xyz;
+    var nv = vi;
+    if (len > 1e-12 && finite(len)) {
+        let dir = eta / len;
+        nv += cross(dir, wi_vec) * params.vorticity;
+    }
+    if (!finite3(nv)) {
+        nv = vi;
+    }
+    next[i] = vec4<f32>(nv, 0.0);
+}
+
+// XSPH viscosity: `v_i += c V Σ_j (v_j − v_i) W_poly6(x_i − x_j)`; into
+// `next`.
+@compute @workgroup_size(64)
+fn xsph(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let p = x[i].xyz;
+    let vi = v[i].xyz;
+    var acc = vec3<f32>(0.0);
+    var walk = walk_from(i);
+    loop {
+        let j = next_neighbour(&walk);
+        if (j == NONE) {
+            break;
+        }
+        let d = p - x[j].xyz;
+        let w = poly6(d.x * d.x + d.y * d.y + d.z * d.z);
+        acc -= (vi - v[j].xyz) * w;
+    }
+    var nv = vi + acc * params.viscosity;
+    if (!finite3(nv)) {
+        nv = vi;
+    }
+    next[i] = vec4<f32>(nv, 0.0);
+}
+
+// `v = next` (after `confine` or `xsph`).
+@compute @workgroup_size(64)
+fn take_velocities(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    v[i] = next[i];
+}
