@@ -132,6 +132,9 @@ pub struct World {
     soft_bodies: Arena<crate::xpbd::soft::SoftBody>,
     /// Fluids (position-based fluids).
     fluids: Arena<crate::xpbd::fluid::Fluid>,
+    /// Where the bodies stood as this step began, for the soft stage
+    /// (derived, per step).
+    step_start: crate::xpbd::coupling::StepStart,
     /// Contact solver settings (state: they change the motion).
     solver: SolverConfig,
     /// Warm-start cache and broad phase.
@@ -186,6 +189,7 @@ impl World {
             attachment_loads: Default::default(),
             soft_bodies: Arena::default(),
             fluids: Arena::default(),
+            step_start: Default::default(),
             solver: SolverConfig::default(),
             contacts: Contacts::default(),
             body_energy: None,
@@ -292,6 +296,9 @@ impl World {
         let mut energy = self.stage_systems(dt, &mut profile, &mut report)?;
 
         let t0 = Instant::now();
+        if self.soft_bodies.len() + self.fluids.len() > 0 {
+            self.step_start.record(&self.bodies, dt);
+        }
         profile.rigid = self.stage_bodies(dt, &mut energy, &mut report);
         // Particles that collide with bodies are kept out of them.
         let t1 = Instant::now();

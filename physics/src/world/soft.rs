@@ -192,6 +192,7 @@ impl World {
             fluids,
             bodies,
             config,
+            step_start,
             #[cfg(feature = "gpu")]
             gpu,
             ..
@@ -225,6 +226,7 @@ impl World {
             } else {
                 Coupling::default()
             };
+            coupling.over_step(step_start);
             soft::step(body, dt32, gravity, travel, &mut coupling);
             // The bodies take what this soft body did before the next one
             // gathers them: a body held by two soft bodies (a plank between
@@ -265,6 +267,7 @@ impl World {
             let reach = fluid.reach(dt32, gravity);
             let mut coupling =
                 Coupling::gather(bodies, &fluid.x, fluid.inverse_masses(), reach, &[]);
+            coupling.over_step(step_start);
             fluid.step(dt32, gravity, &mut coupling);
             apply_changes(bodies, &coupling.finish());
             fluid.emit(now);
