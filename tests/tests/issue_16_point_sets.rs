@@ -7,10 +7,15 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
+use glam::DVec3;
 use inertia_client::point_sets::point_sets;
 use inertia_client::Client;
 use inertia_protocol::{EntityId, EntityKind, ShapeDesc};
 use inertia_tests::server::{start_server, test_config, token};
+
+/// How far back a deferred point's state may come from, ticks (a second
+/// of the demo's 60 Hz).
+const RECENT_TICKS: u64 = 60;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn issue_16_soft_bodies_and_fluids_reach_a_client_as_point_sets() {
@@ -79,9 +84,14 @@ async fn issue_16_soft_bodies_and_fluids_reach_a_client_as_point_sets() {
     );
 
     // The points the client holds are where the server had them at the
-    // tick of its view: within the grid where they were sent this tick,
-    // and not far behind where the budget deferred them.
+    // tick of its view (quantized), or, where the datagram budget deferred
+    // them, where it had them a little earlier: each is within a few
+    // millimetres of the server's state at some tick of the last second.
+    // How far a deferred point lags depends on the machine's load (a
+    // falling spout particle 0.4 m alone, 1.6 m under the whole suite), so
+    // that lag is reported, and the bound is on the match.
     let mut errors = Vec::new();
+    let mut matches = Vec::new();
     for _ in 0..10 {
         tokio::time::sleep(Duration::from_millis(100)).await;
         let (tick, view) = client.latest_view().expect("snapshots arrive");
@@ -97,10 +107,21 @@ async fn issue_16_soft_bodies_and_fluids_reach_a_client_as_point_sets() {
             })
             .collect();
         let is_point = |id: EntityId| sets.iter().any(|&(s, n)| id > s && id <= s + n);
+        let earlier: Vec<BTreeMap<EntityId, DVec3>> = (1..=RECENT_TICKS)
+            .filter_map(|k| server.frame_at(tick.checked_sub(k)?))
+            .map(|f| f.entities.iter().map(|e| (e.id, e.position)).collect())
+            .collect();
         let view: BTreeMap<EntityId, _> = view.into_iter().map(|e| (e.id, e.position)).collect();
         for e in truth.entities.iter().filter(|e| is_point(e.id)) {
             if let Some(seen) = view.get(&e.id) {
-                errors.push((*seen - e.position).length());
+                let now = (*seen - e.position).length();
+                errors.push(now);
+                let nearest = earlier
+                    .iter()
+                    .filter_map(|f| f.get(&e.id))
+                    .map(|p| (*seen - *p).length())
+                    .fold(now, f64::min);
+                matches.push(nearest);
             }
         }
     }
@@ -110,25 +131,32 @@ async fn issue_16_soft_bodies_and_fluids_reach_a_client_as_point_sets() {
         errors.len()
     );
     errors.sort_by(f64::total_cmp);
-    let at = |q: f64| errors[((errors.len() - 1) as f64 * q) as usize];
+    matches.sort_by(f64::total_cmp);
+    let at = |v: &[f64], q: f64| v[((v.len() - 1) as f64 * q) as usize];
     let stats = client.stats();
     eprintln!(
-        "point error vs the server: median {:.4} m, p99 {:.4} m, max {:.4} m over {} states; {:.0} kbit/s",
-        at(0.5),
-        at(0.99),
-        at(1.0),
+        "point error vs the server at the view's tick: median {:.4} m, p99 {:.4} m, max {:.4} m over {} states; \
+         vs its nearest state in the last {RECENT_TICKS} ticks: max {:.4} m; {:.0} kbit/s",
+        at(&errors, 0.5),
+        at(&errors, 0.99),
+        at(&errors, 1.0),
         errors.len(),
+        at(&matches, 1.0),
         stats.kbps
     );
-    // The datagram budget defers points that move (the spout, the jelly);
-    // how many depends on the machine's load (9 mm median under the whole
-    // suite, 0.7 mm alone), so the bounds are loose.
+    // The budget defers points that move (the spout, the jelly): how many
+    // depends on the load (9 mm median under the whole suite, 0.7 mm
+    // alone).
     assert!(
-        at(0.5) <= 0.02,
+        at(&errors, 0.5) <= 0.02,
         "most points are current: median {} m",
-        at(0.5)
+        at(&errors, 0.5)
     );
-    assert!(at(1.0) < 1.0, "no point is far behind: {} m", at(1.0));
+    assert!(
+        at(&matches, 1.0) < 0.05,
+        "every point is a state the server had in the last {RECENT_TICKS} ticks: {} m off",
+        at(&matches, 1.0)
+    );
     client.close().await;
     server.shutdown().await;
 }
