@@ -72,7 +72,7 @@ impl StepStart {
         rotation: glam::DQuat,
     ) -> Option<(DVec3, DVec3)> {
         let &(generation, com0, rotation0) = self.poses.get(key.0 as usize)?.as_ref()?;
-        if generation != key.1 || !(self.dt > 0.0) {
+        if generation != key.1 || self.dt <= 0.0 {
             return None;
         }
         let mut turn = rotation * rotation0.conjugate();
