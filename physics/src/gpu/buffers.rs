@@ -62,6 +62,28 @@ pub(crate) fn at_least(data: &[u8], min: usize) -> Vec<u8> {
     v
 }
 
+/// A bind group of `buffers`, whole, at bindings 0, 1, 2, … in order.
+pub(crate) fn bind_buffers(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
+        .iter()
+        .enumerate()
+        .map(|(k, b)| wgpu::BindGroupEntry {
+            binding: k as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
 impl GpuSystem {
     /// Creates and fills every buffer and bind group.
     pub(crate) fn create(ctx: &GpuContext, c: &Contents<'_>) -> Result<Self, PhysicsError> {
@@ -145,19 +167,7 @@ impl GpuSystem {
             });
             let group =
                 |label: &str, pipeline: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer]| {
-                    let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
-                        .iter()
-                        .enumerate()
-                        .map(|(k, b)| wgpu::BindGroupEntry {
-                            binding: k as u32,
-                            resource: b.as_entire_binding(),
-                        })
-                        .collect();
-                    d.create_bind_group(&wgpu::BindGroupDescriptor {
-                        label: Some(label),
-                        layout: &pipeline.get_bind_group_layout(0),
-                        entries: &entries,
-                    })
+                    bind_buffers(d, label, &pipeline.get_bind_group_layout(0), buffers)
                 };
             let springs_group = group(
                 "particle springs",

@@ -281,19 +281,7 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
             &params, &xb, &vb, &prev, &next, &pred, &sorted, &cells, &start, &lambda, &db, &omega,
             &planes, &shapes,
         ];
-        let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
-            .iter()
-            .enumerate()
-            .map(|(k, b)| wgpu::BindGroupEntry {
-                binding: k as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("pbf"),
-            layout: &pipelines.layout,
-            entries: &entries,
-        });
+        let group = super::buffers::bind_buffers(d, "pbf", &pipelines.layout, &buffers);
         Ok(Arc::new(GpuFluid {
             n: n as u32,
             table: table as u32,
