@@ -42,8 +42,9 @@
 //! of a 1.2 m tank at 4 substeps of 1/60 s (it falls with the square of
 //! the substep). Every pass is Jacobi (reads old values, writes new ones),
 //! runs over fixed chunks of particles in parallel, and each particle
-//! gathers from its neighbours in ascending index order and writes only
-//! itself: the result is the same on any number of threads. The bodies'
+//! gathers from its neighbours in their list's order (a function of the
+//! positions alone) and writes only itself: the result is the same on any
+//! number of threads. The bodies'
 //! impulses are summed per chunk and handed over in chunk order.
 
 use glam::Vec3;

@@ -5,8 +5,8 @@
 //! a counting sort, so the lists do not depend on the thread count),
 //! within the contact distance plus how far the fastest particle goes in
 //! the step. Each substep every particle then gathers, from its candidates
-//! in index order, its share of the push that separates each close pair
-//! (by the pair's inverse masses), from the positions as they stood (a
+//! in their list's order, its share of the push that separates each close
+//! pair (by the pair's inverse masses), from the positions as they stood (a
 //! Jacobi pass), and moves by it: a pair's two shares add up to the whole
 //! overlap, and each particle writes only itself.
 
