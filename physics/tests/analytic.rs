@@ -1,6 +1,6 @@
 //! Closed-form physics the engine must reproduce.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::PI;
 

@@ -1,6 +1,6 @@
 //! Barnes–Hut force error stays below the bound stated for its θ.
 
-mod common;
+use crate::common;
 
 use inertia_physics::forces::barnes_hut::rms_error_bound;
 use inertia_physics::forces::mutual_gravity::accelerations;

@@ -1,7 +1,7 @@
 //! Measured order of convergence: halving dt divides the error after a fixed
 //! simulated time by about 2^order.
 
-mod common;
+use crate::common;
 
 use inertia_physics::Integrator;
 

@@ -1,6 +1,6 @@
 //! Bit-determinism: thread counts, save/restore, and the state hash.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::DVec3;
 use inertia_physics::{

@@ -1,6 +1,6 @@
 //! Energy behaviour of the integrators on an undamped oscillator at ω·dt = 0.05.
 
-mod common;
+use crate::common;
 
 use inertia_physics::Integrator;
 

@@ -1,6 +1,6 @@
 //! Behaviour of the individual force generators.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::DVec3;
 use inertia_physics::{

@@ -1,12 +1,12 @@
 //! The GPU path (f32) follows the CPU path (f64) within the stated
 //! `GPU_TOLERANCE`, scene by scene, and repeats bit for bit on one device.
 //!
-//! Run: `cargo test -p inertia-physics --features gpu --test gpu_agreement`.
+//! Run: `cargo test -p inertia-physics --features gpu --test integration gpu_agreement::`.
 //! Without a GPU these run on Mesa lavapipe / llvmpipe; with no adapter at
 //! all they fail unless `INERTIA_SKIP_GPU_TESTS=1`.
 #![cfg(feature = "gpu")]
 
-mod gpu_support;
+use crate::gpu_support;
 
 use gpu_support::{assert_agreement, gpu_world, Lcg, Scene};
 use inertia_physics::glam::DVec3;

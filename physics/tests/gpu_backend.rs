@@ -1,12 +1,12 @@
 //! Moving systems between the CPU and GPU backends, what the GPU backend
 //! refuses, pinning, quarantine, readback and save/restore on the GPU.
 //!
-//! Run: `cargo test -p inertia-physics --features gpu --test gpu_backend`.
+//! Run: `cargo test -p inertia-physics --features gpu --test integration gpu_backend::`.
 //! Without a GPU these run on Mesa lavapipe / llvmpipe; with no adapter at
 //! all they fail unless `INERTIA_SKIP_GPU_TESTS=1`.
 #![cfg(feature = "gpu")]
 
-mod gpu_support;
+use crate::gpu_support;
 
 use gpu_support::{cpu_config, default_gpu_world, gpu_world, max_diff, Lcg};
 use inertia_physics::glam::DVec3;

@@ -1,7 +1,7 @@
 //! Stability defects found by trying the engine as a new user would, each
 //! pinned by a test named after it.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::RigidBodyDesc;

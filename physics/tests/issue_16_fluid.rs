@@ -8,7 +8,7 @@ use inertia_physics::{
     FluidDesc, FluidEmitter, FluidHandle, PhysicsError, SoftMaterial, SoftRope, World,
 };
 
-mod common;
+use crate::common;
 
 use common::{at, earth_world, tank};
 

@@ -2,7 +2,7 @@
 //! `FLUID_GPU_TOLERANCE`, repeat bit for bit, save and restore, and what
 //! the GPU path does not run is refused.
 //!
-//! Run: `cargo test -p inertia-physics --features gpu --test issue_16_gpu_fluid`.
+//! Run: `cargo test -p inertia-physics --features gpu --test integration issue_16_gpu_fluid::`.
 //! Without a GPU these run on Mesa lavapipe; with no adapter at all they
 //! say so and pass (and are skipped outright when
 //! `INERTIA_SKIP_GPU_TESTS=1`).
@@ -16,7 +16,7 @@ use inertia_physics::{
     Backend, FluidDesc, FluidEmitter, FluidHandle, PhysicsError, World, WorldConfig,
 };
 
-mod common;
+use crate::common;
 
 use common::{at, tank};
 

@@ -1,7 +1,7 @@
 //! Soft bodies on the GPU (feature `gpu`) follow the CPU within
 //! `SOFT_GPU_TOLERANCE`; what the GPU path does not run is refused.
 //!
-//! Run: `cargo test -p inertia-physics --features gpu --test issue_16_gpu_soft`.
+//! Run: `cargo test -p inertia-physics --features gpu --test integration issue_16_gpu_soft::`.
 //! Without a GPU these run on Mesa lavapipe; with no adapter at all they
 //! are skipped when `INERTIA_SKIP_GPU_TESTS=1`.
 #![cfg(feature = "gpu")]

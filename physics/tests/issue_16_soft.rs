@@ -9,7 +9,7 @@ use inertia_physics::{
     SolidShape, World,
 };
 
-mod common;
+use crate::common;
 
 use common::{earth_world, ground};
 

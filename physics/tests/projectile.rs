@@ -1,6 +1,6 @@
 //! The classic lecture projectile: v0 = (2, 3), a = (0, -1), dt = 1 s.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::DVec3;
 use inertia_physics::{Integrator, ParticleDesc, SystemDesc, UniformGravity};

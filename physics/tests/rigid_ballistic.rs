@@ -2,7 +2,7 @@
 //! integration, the aiming formulas against the path they predict, and
 //! `World::predict_landing` against the closed form and the engine itself.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::{DMat3, DQuat, DVec3};
 use inertia_physics::rigid::ballistic::{

@@ -4,7 +4,7 @@
 //! (The timing behind the tree's choice is an example, not a test:
 //! `cargo run --release -p inertia-physics --example broad_phase_bench`.)
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use std::collections::BTreeMap;

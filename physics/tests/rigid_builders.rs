@@ -1,7 +1,7 @@
 //! The body builder's methods: a mass given outright, materials set by
 //! chaining, bad values refused with typed errors.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::DVec3;
 use inertia_physics::rigid::body::RigidBodyDesc;

@@ -1,7 +1,7 @@
 //! Narrow phase: contact manifolds against analytic answers, symmetry,
 //! invariance, GJK/EPA accuracy, random pairs and degenerate input.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};

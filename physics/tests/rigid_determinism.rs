@@ -2,7 +2,7 @@
 //! capsules, joints and a heightfield, 300 steps, identical for 1 and 2
 //! threads and across a save/restore at step 150.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::RigidBodyDesc;

@@ -1,6 +1,6 @@
 //! The particle engine's force generators acting on rigid bodies.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::RigidBodyDesc;

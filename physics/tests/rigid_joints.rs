@@ -1,6 +1,6 @@
 //! Joints: pendulum period, holding, limits, motors, springs, breaking.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::PI;
 

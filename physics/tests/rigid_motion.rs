@@ -2,7 +2,7 @@
 //! rotation of spinning bodies (angular momentum, the intermediate-axis
 //! instability).
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::{BodyKind, RigidBodyDesc};

@@ -1,7 +1,7 @@
 //! Prismatic (slider) joints: holding the line and the rotation, limits,
 //! the motor and its force cap, breaking, save/restore, bad input.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::RigidBodyDesc;

@@ -1,7 +1,7 @@
 //! Scene queries: rays against every shape at analytic hits, point
 //! projection, overlap and shape casts, and the World query API.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use std::f64::consts::{FRAC_PI_4, FRAC_PI_6};

@@ -1,7 +1,7 @@
 //! Contact recycling: a pair's manifold is used again while its bodies
 //! barely move relative to each other, and collided afresh once they do.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::RigidBodyDesc;

@@ -1,7 +1,7 @@
 //! Rigid shapes: poses, bounding boxes, convex hulls, mass properties and
 //! support points, against closed forms and brute force.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use std::f64::consts::PI;

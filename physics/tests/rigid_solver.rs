@@ -1,6 +1,6 @@
 //! Contacts end to end: bounce, friction on a slope, stacking, momentum.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::{CombineRule, RigidBodyDesc};

@@ -1,6 +1,6 @@
 //! Bad input never corrupts the world: typed errors, nothing changed.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::DVec3;
 use inertia_physics::{

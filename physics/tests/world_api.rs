@@ -2,7 +2,7 @@
 //! for bodies and particles, the push-out the solver gave a body, and the
 //! contact pairs, which survive a save and a restore.
 
-mod common;
+use crate::common;
 
 use inertia_physics::glam::DVec3;
 use inertia_physics::rigid::body::RigidBodyDesc;

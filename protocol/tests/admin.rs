@@ -17,7 +17,7 @@ use inertia_protocol::entity::{EntityKind, ShapeDesc};
 use proptest::collection::vec;
 use proptest::prelude::*;
 
-mod common;
+use crate::common;
 use common::shape;
 
 fn kind() -> impl Strategy<Value = EntityKind> {

@@ -16,7 +16,7 @@ use inertia_protocol::token::{
 use proptest::collection::vec;
 use proptest::prelude::*;
 
-mod common;
+use crate::common;
 use common::{shape, size};
 
 const NOW: u64 = 1_750_000_000;

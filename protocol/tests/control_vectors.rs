@@ -9,7 +9,7 @@
 //! Integers past 2^53 (which a JavaScript number cannot hold) are written
 //! as decimal text in the JSON. A change to the format that means to
 //! change the frames rewrites the file with
-//! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test control_vectors`.
+//! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test integration control_vectors::`.
 
 use inertia_protocol::control::{
     decode_payload, encode_frame, ClientControl, DisconnectReason, GameEvent, InputReport, Refusal,
@@ -18,7 +18,7 @@ use inertia_protocol::control::{
 use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
 use serde_json::{json, Value};
 
-mod support;
+use crate::support;
 use support::check_vectors;
 
 const FILE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/vectors/control.json");

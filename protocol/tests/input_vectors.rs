@@ -10,13 +10,13 @@
 //!
 //! Ticks are decimal text (64-bit). A change to the layout that means to
 //! change the datagrams rewrites the file with
-//! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test input_vectors`.
+//! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test integration input_vectors::`.
 
 use inertia_protocol::entity::buttons;
 use inertia_protocol::{InputDatagram, PlayerInput};
 use serde_json::{json, Value};
 
-mod support;
+use crate::support;
 use support::check_vectors;
 
 const FILE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/vectors/inputs.json");

@@ -8,7 +8,7 @@
 //! The file is what these streams give today: a change to the encoder or
 //! the decoder that changes a datagram or its reading fails here. A change
 //! to the format that means to change them rewrites the file with
-//! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test vectors`,
+//! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test integration vectors::`,
 //! in review, with the reason. The vectors also cover every code of the
 //! format: both header forms, every size class of every field.
 //!
@@ -26,7 +26,7 @@ use inertia_protocol::{
 };
 use serde_json::{json, Value};
 
-mod support;
+use crate::support;
 use support::check_vectors;
 
 const FILE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/vectors/snapshots.json");

@@ -4,7 +4,7 @@
 //! allocation, shutdown), and the faults (an SDK server that starts late,
 //! one that goes away, a tick that stalls).
 
-mod fake_agones;
+use crate::fake_agones;
 
 use std::time::{Duration, Instant};
 

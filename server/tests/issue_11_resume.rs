@@ -5,7 +5,7 @@
 //! before it. A keyframe whose checksum holds but whose content does not
 //! decode is damage too: resume falls back to the keyframe before it.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::fs;

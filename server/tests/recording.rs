@@ -5,7 +5,7 @@
 //! with a keyframe; a recorder that cannot keep up drops, counts and stops
 //! instead of blocking the tick.
 
-mod common;
+use crate::common;
 
 use common::FLAT;
 

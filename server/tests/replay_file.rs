@@ -5,7 +5,7 @@
 //! fails `verify` with exit 1, a damaged one fails with a message, and a
 //! path that holds no recording is misuse (exit 2).
 
-mod common;
+use crate::common;
 
 use common::FLAT;
 

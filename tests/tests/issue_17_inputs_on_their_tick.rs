@@ -4,7 +4,7 @@
 //! statistics show it. Twice: with a steady link and with ±20 ms of
 //! jitter, where the margin grows to cover it.
 //!
-//! `cargo test -p inertia-tests --test issue_17_inputs_on_their_tick -- --nocapture`
+//! `cargo test -p inertia-tests --test integration issue_17_inputs_on_their_tick:: -- --nocapture`
 //! prints the figures.
 
 use std::time::Duration;

@@ -18,7 +18,7 @@
 //! tick of view: 5 mm; 1/4096 turn of yaw: 1.2 cm at 16 m) and the
 //! client's interpolation (about 2 cm), all well inside r.
 //!
-//! Run with `cargo test -p inertia-tests --test issue_17_lag_compensation
+//! Run with `cargo test -p inertia-tests --test integration issue_17_lag_compensation::
 //! -- --nocapture` to see the figures.
 
 use std::sync::atomic::{AtomicU64, Ordering};
