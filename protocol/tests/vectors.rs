@@ -8,8 +8,9 @@
 //! The file is what these streams give today: a change to the encoder or
 //! the decoder that changes a datagram or its reading fails here. A change
 //! to the format that means to change them rewrites the file with
-//! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test integration vectors::`,
-//! in review, with the reason. The vectors also cover every code of the
+//! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test integration vectors::
+//! -- --skip control_vectors:: --skip input_vectors::` (the filter matches
+//! their names too), in review, with the reason. The vectors also cover every code of the
 //! format: both header forms, every size class of every field.
 //!
 //! Each stream lists its config and its snapshots in the order they were

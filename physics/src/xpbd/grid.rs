@@ -13,10 +13,10 @@
 //!
 //! [`Neighbours`] lists, for every point, the other points within a radius,
 //! in grid order (cell run after cell run, ascending by index within a
-//! cell), as one compressed (CSR) array. It walks the points
-//! in cell order, so the points of a cell share one gathering of the 27
-//! cells around it and filter those candidates eight at a time, then copies
-//! the lists into index order. Both passes cut their work into chunks of a
+//! cell), as one compressed (CSR) array. It walks the points in cell
+//! order, so the points of a cell share one gathering of the 27 cells
+//! around it and filter those candidates eight at a time, then copies the
+//! lists into point index order. Both passes cut their work into chunks of a
 //! fixed size, each chunk on one thread with its own lists, joined in chunk
 //! order: the same bits on any number of threads.
 
@@ -399,9 +399,9 @@ impl SlotPiece {
     }
 
     /// Appends the candidates closer than `√r2` to `p`, but `skip`, to
-    /// `lists`, in the candidates' order. Eight candidates at a time, and branch-free:
-    /// every candidate is written and the count moves on for the near
-    /// ones only.
+    /// `lists`, in the candidates' order. Eight candidates at a time, and
+    /// branch-free: every candidate is written and the count moves on for
+    /// the near ones only.
     fn filter(&mut self, p: Vec3, r2: f32, skip: u32) {
         let at = self.lists.len();
         let mut buf = [0u32; BUFFER];
@@ -463,7 +463,8 @@ pub(crate) struct Neighbours {
 impl Neighbours {
     /// Lists, for every point of `x` (m), the other points closer than `r`
     /// (m), in grid order (a function of the positions alone). Builds
-    /// `grid` over `x` with cells of edge `r` on the way. An `r` that is not finite and > 0 lists nothing.
+    /// `grid` over `x` with cells of edge `r` on the way. An `r` that is
+    /// not finite and > 0 lists nothing.
     ///
     /// The points are taken cell by cell, in chunks of sorted slots: the
     /// points of one cell share the candidates of the 27 cells around it,

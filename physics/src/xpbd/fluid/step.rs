@@ -44,8 +44,8 @@
 //! runs over fixed chunks of particles in parallel, and each particle
 //! gathers from its neighbours in their list's order (a function of the
 //! positions alone) and writes only itself: the result is the same on any
-//! number of threads. The bodies'
-//! impulses are summed per chunk and handed over in chunk order.
+//! number of threads. The bodies' impulses are summed per chunk and handed
+//! over in chunk order.
 
 use glam::Vec3;
 use wide::f32x8;
