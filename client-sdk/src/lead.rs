@@ -22,7 +22,20 @@
 //! [`LeadConfig::wanted_lead`] + [`LeadConfig::slack`] lowers it by
 //! [`LeadConfig::ease`] of the excess, so the client comes back over a
 //! few seconds when the network calms down (or once the inputs it made
-//! before its clock had settled are behind it). Nothing here reads a clock: times are passed in.
+//! before its clock had settled are behind it).
+//!
+//! The target never goes backwards, and it never stands still while the
+//! server's clock runs: when the wanted target falls (a lower margin, a
+//! shorter round trip, a calmer network), the stamped ticks fall behind
+//! the server's clock by at most [`LeadConfig::max_slowdown`] of its rate
+//! until they meet it. Waiting for the server to catch up instead would
+//! stop the inputs, and the predicted avatar with them, for as many ticks
+//! as the lead fell (three ticks of margin given back: a 50 ms freeze at
+//! 60 Hz). A rising target is taken at once. A report counts the lead
+//! still being given back as gone already, so the margin does not fall
+//! twice for the same excess.
+//!
+//! Nothing here reads a clock: times are passed in.
 
 use inertia_protocol::control::InputReport;
 
@@ -44,6 +57,10 @@ pub struct LeadConfig {
     /// The share of the excess lead (beyond the wanted lead and the
     /// slack) a report takes off the margin, 0 to 1.
     pub ease: f64,
+    /// How much slower than the server's clock the stamped ticks may run
+    /// while the lead falls, a share of its rate, 0 to 1 (0.1: a tick of
+    /// lead given back every 10 ticks).
+    pub max_slowdown: f64,
 }
 
 impl Default for LeadConfig {
@@ -55,8 +72,21 @@ impl Default for LeadConfig {
             wanted_lead: 1.0,
             slack: 2.0,
             ease: 0.5,
+            max_slowdown: 0.1,
         }
     }
+}
+
+/// The newest target and what it was made from.
+#[derive(Debug, Clone, Copy)]
+struct Stamp {
+    /// The arrival tick it was made at (fractional).
+    arrival: f64,
+    /// The target, fractional (the tick returned is its ceiling).
+    target: f64,
+    /// How far it was above the wanted target, ticks: lead still being
+    /// given back.
+    pending: f64,
 }
 
 /// The tick to stamp inputs with, and the margin it keeps.
@@ -64,8 +94,8 @@ impl Default for LeadConfig {
 pub struct InputLead {
     config: LeadConfig,
     margin: f64,
-    /// The newest tick returned: targets never go backwards.
-    last: Option<u64>,
+    /// The newest target returned, unrounded: targets never go backwards.
+    last: Option<Stamp>,
     /// The server's newest report.
     report: Option<InputReport>,
 }
@@ -95,10 +125,23 @@ impl InputLead {
         let arrival = clock.arrival_tick(local_time)?;
         let rate = clock.tick_rate().max(0.0);
         let ahead = rate * (clock.rtt().unwrap_or(0.0) + clock.jitter()) + self.margin;
-        let target = (arrival + ahead).ceil().max(0.0) as u64;
-        let target = self.last.map_or(target, |last| target.max(last));
-        self.last = Some(target);
-        Some(target)
+        let wanted = arrival + ahead;
+        let target = match self.last {
+            None => wanted,
+            Some(last) => {
+                // The server's clock ran `arrival - last.arrival` ticks
+                // since (none while paused or playing backwards).
+                let ran = (arrival - last.arrival).max(0.0);
+                let slowest = last.target + ran * (1.0 - self.config.max_slowdown.clamp(0.0, 1.0));
+                wanted.max(slowest)
+            }
+        };
+        self.last = Some(Stamp {
+            arrival,
+            target,
+            pending: target - wanted,
+        });
+        Some(target.ceil().max(0.0) as u64)
     }
 
     /// Takes the server's report of how the inputs arrived.
@@ -111,8 +154,12 @@ impl InputLead {
         let min = f64::from(min);
         if min < c.wanted_lead {
             self.margin += c.wanted_lead - min;
-        } else if min > c.wanted_lead + c.slack {
-            self.margin -= c.ease * (min - c.wanted_lead - c.slack);
+        } else {
+            let pending = self.last.map_or(0.0, |l| l.pending);
+            let excess = min - c.wanted_lead - c.slack - pending;
+            if excess > 0.0 {
+                self.margin -= c.ease * excess;
+            }
         }
         self.margin = self.margin.clamp(c.min_margin, c.max_margin);
     }
@@ -172,6 +219,62 @@ mod tests {
         assert_eq!(target, (arrival + 7.0 + jitter).ceil() as u64);
         // Never backwards, even asked about an earlier moment.
         assert_eq!(lead.target_tick(&clock, 0.9), Some(target));
+    }
+
+    #[test]
+    fn issue_17_a_falling_lead_slows_the_inputs_instead_of_stopping_them() {
+        let clock = clock_at_tick_100();
+        let mut lead = InputLead::default();
+        let report = |min_lead| InputReport {
+            min_lead: Some(min_lead),
+            ..InputReport::default()
+        };
+        lead.on_report(report(-3));
+        assert_eq!(lead.margin(), 5.0);
+        let mut t = 1.0;
+        let mut last = lead.target_tick(&clock, t).unwrap();
+        // Nine ticks early: six beyond the slack, half of it off.
+        lead.on_report(report(9));
+        assert_eq!(lead.margin(), 2.0);
+        let mut still = 0;
+        let mut longest_still = 0;
+        let mut met_after = None;
+        for frame in 1..=60 {
+            t += 1.0 / 60.0;
+            let target = lead.target_tick(&clock, t).unwrap();
+            assert!(target >= last, "backwards: {last} -> {target}");
+            still = if target == last { still + 1 } else { 0 };
+            longest_still = longest_still.max(still);
+            let ahead = 60.0 * (clock.rtt().unwrap() + clock.jitter()) + lead.margin();
+            let wanted = (clock.arrival_tick(t).unwrap() + ahead).ceil() as u64;
+            if target == wanted && met_after.is_none() {
+                met_after = Some(frame);
+            }
+            last = target;
+        }
+        assert_eq!(
+            longest_still, 1,
+            "the inputs stood still for {longest_still} ticks"
+        );
+        let met_after = met_after.expect("the lead came down");
+        assert!(
+            (25..=35).contains(&met_after),
+            "three ticks given back at a tenth of the rate, in {met_after} ticks"
+        );
+
+        // Asked again before the server saw any of it, a report of the
+        // same early lead takes off only what is not on its way out.
+        let mut lead = InputLead::default();
+        lead.on_report(report(-3));
+        lead.target_tick(&clock, 1.0);
+        lead.on_report(report(9));
+        lead.target_tick(&clock, 1.0 + 1.0 / 60.0);
+        lead.on_report(report(9));
+        assert!(
+            (lead.margin() - 0.5).abs() < 0.1,
+            "2.9 of the 3 ticks still pending: {}",
+            lead.margin()
+        );
     }
 
     #[test]
