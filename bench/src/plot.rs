@@ -479,17 +479,19 @@ fn replay(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
     Ok(true)
 }
 
-/// The series of `soft.svg`: a backend and a thread count.
-const SOFT_SERIES: [(&str, u64, &str); 3] = [
-    ("cpu", 1, "CPU, 1 thread"),
-    ("cpu", 2, "CPU, 2 threads"),
-    ("gpu", 0, "GPU"),
+/// The series of `soft.svg`: a backend, a thread count and whether the
+/// binary was built for the machine's own CPU (`target_cpu_native`).
+const SOFT_SERIES: [(&str, u64, bool, &str); 4] = [
+    ("cpu", 1, false, "CPU, 1 thread"),
+    ("cpu", 2, false, "CPU, 2 threads"),
+    ("cpu", 2, true, "CPU, 2 threads, target-cpu=native"),
+    ("gpu", 0, false, "GPU"),
 ];
 
 fn soft(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
     // The newest ms per step of each case and series, cases in the order
     // they first appear.
-    let mut cases: Vec<(String, [Option<f64>; 3])> = Vec::new();
+    let mut cases: Vec<(String, [Option<f64>; 4])> = Vec::new();
     for r in records {
         let (Some(case), Some(backend), Some(ms)) = (
             r.get("case").and_then(Value::as_str),
@@ -499,16 +501,19 @@ fn soft(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
             continue;
         };
         let threads = r.get("threads").and_then(Value::as_u64).unwrap_or(0);
-        let Some(k) = SOFT_SERIES
-            .iter()
-            .position(|(b, t, _)| *b == backend && (*b == "gpu" || *t == threads))
-        else {
+        let native = r
+            .get("target_cpu_native")
+            .and_then(Value::as_bool)
+            .unwrap_or(false);
+        let Some(k) = SOFT_SERIES.iter().position(|(b, t, n, _)| {
+            *b == backend && (*b == "gpu" || (*t == threads && *n == native))
+        }) else {
             continue;
         };
         let at = match cases.iter().position(|c| c.0 == case) {
             Some(i) => i,
             None => {
-                cases.push((case.to_string(), [None; 3]));
+                cases.push((case.to_string(), [None; 4]));
                 cases.len() - 1
             }
         };
@@ -518,7 +523,7 @@ fn soft(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
     let series: Vec<Bars> = SOFT_SERIES
         .iter()
         .enumerate()
-        .map(|(k, (_, _, label))| Bars {
+        .map(|(k, (_, _, _, label))| Bars {
             label,
             colour: BAR_COLOURS[k],
             values: cases.iter().map(|c| c.1[k]).collect(),

@@ -250,7 +250,12 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
             let r = Record::new()
                 .field("case", scene.name())
                 .field("backend", "cpu")
-                .field("threads", threads[k]);
+                .field("threads", threads[k])
+                .field(
+                    "target_cpu_native",
+                    crate::suites::physics::target_cpu_native(),
+                )
+                .field("avx2", cfg!(target_feature = "avx2"));
             let r = match *h {
                 Handle::Soft(h) => {
                     let b = w.soft_body(h).ok_or("soft body vanished")?;
