@@ -76,6 +76,22 @@ impl Record {
     pub fn get(&self, key: &str) -> Option<&Value> {
         self.0.get(key)
     }
+
+    /// Adds how this binary was built: `target_cpu_native` (with
+    /// `-C target-cpu=native`) and `avx2` (may use AVX2).
+    pub fn build_flags(self) -> Self {
+        self.field("target_cpu_native", target_cpu_native())
+            .field("avx2", cfg!(target_feature = "avx2"))
+    }
+}
+
+/// The flags this binary was compiled with (`CARGO_ENCODED_RUSTFLAGS`,
+/// separators turned into spaces; see `build.rs`).
+pub const RUSTFLAGS: &str = env!("INERTIA_BENCH_RUSTFLAGS");
+
+/// Whether the binary was built with `-C target-cpu=native`.
+pub fn target_cpu_native() -> bool {
+    RUSTFLAGS.contains("target-cpu=native")
 }
 
 /// Where suites send their records.

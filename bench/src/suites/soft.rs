@@ -251,11 +251,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
                 .field("case", scene.name())
                 .field("backend", "cpu")
                 .field("threads", threads[k])
-                .field(
-                    "target_cpu_native",
-                    crate::suites::physics::target_cpu_native(),
-                )
-                .field("avx2", cfg!(target_feature = "avx2"));
+                .build_flags();
             let r = match *h {
                 Handle::Soft(h) => {
                     let b = w.soft_body(h).ok_or("soft body vanished")?;

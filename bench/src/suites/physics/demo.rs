@@ -16,7 +16,7 @@ use inertia_server::scene::demo::demo_scene;
 use inertia_physics::ProfileTotals;
 use serde_json::Value;
 
-use super::{per_step_ms, percentile, stage_means, target_cpu_native};
+use super::{per_step_ms, percentile, stage_means};
 use crate::report::{median, Record};
 use crate::BenchError;
 
@@ -71,8 +71,7 @@ pub fn measure(threads: usize, warmup: usize, steps: usize) -> Result<Record, Be
         .field("ours_stage_ms", stages)
         .field("ours_particle_stage_ms", particle_stages)
         .field("ours_quarantined", quarantined)
-        .field("target_cpu_native", target_cpu_native())
-        .field("avx2", cfg!(target_feature = "avx2")))
+        .build_flags())
 }
 
 /// Mean wall time per timed tick of the particle stages (ropes, cloth,

@@ -43,15 +43,6 @@ pub const WARMUP: usize = 30;
 /// Warm-up steps with `--quick`.
 pub const WARMUP_QUICK: usize = 5;
 
-/// The flags this binary was compiled with (`CARGO_ENCODED_RUSTFLAGS`,
-/// separators turned into spaces; see `build.rs`).
-pub const RUSTFLAGS: &str = env!("INERTIA_BENCH_RUSTFLAGS");
-
-/// Whether the binary was built with `-C target-cpu=native`.
-pub fn target_cpu_native() -> bool {
-    RUSTFLAGS.contains("target-cpu=native")
-}
-
 /// One engine with a scene built in it, as the measurement sees it.
 pub trait Engine {
     /// Advances by one step of [`DT`].
@@ -250,8 +241,7 @@ pub fn measure(
         .field("rapier_fell_through", fell_through(&end_r, scene.floor_y))
         .field("ours_quarantined", ours.quarantined())
         .field("rapier_quarantined", rapier.quarantined())
-        .field("target_cpu_native", target_cpu_native())
-        .field("avx2", cfg!(target_feature = "avx2")))
+        .build_flags())
 }
 
 /// The cases run per scene: 1 and 2 threads (and every core, if more),
