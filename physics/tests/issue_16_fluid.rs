@@ -5,7 +5,7 @@ use inertia_physics::glam::DVec3;
 use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{
-    FluidDesc, FluidEmitter, FluidHandle, PhysicsError, SoftMaterial, SoftRope, World,
+    Backend, FluidDesc, FluidEmitter, FluidHandle, PhysicsError, SoftMaterial, SoftRope, World,
 };
 
 use crate::common;
@@ -55,9 +55,16 @@ fn issue_16_a_resting_tank_reaches_rest_density_and_its_level() {
 }
 
 /// A pool of fluid `s` m apart with a crate of `density` dropped on it,
-/// with `friction` between them (the crate's and the fluid's); the crate's
-/// mean submerged fraction over the last two of `seconds`, and its tilt.
-fn float(density: f64, seconds: f64, s: f64, friction: f64) -> (f64, f64) {
+/// with `friction` between them (the crate's and the fluid's), the fluid
+/// stepped on `backend`; the crate's mean submerged fraction over the last
+/// two of `seconds`, and its tilt.
+pub(crate) fn float(
+    density: f64,
+    seconds: f64,
+    s: f64,
+    friction: f64,
+    backend: Backend,
+) -> (f64, f64) {
     let mut w = earth_world(2);
     let size = DVec3::new(1.6, 0.8, 1.6);
     tank(&mut w, DVec3::ZERO, DVec3::new(1.6, 2.0, 1.6));
@@ -74,6 +81,7 @@ fn float(density: f64, seconds: f64, s: f64, friction: f64) -> (f64, f64) {
     desc.friction_static = friction;
     desc.friction_dynamic = friction;
     let crate_ = w.add_body(&desc).unwrap();
+    w.set_fluid_backend(h, backend).unwrap();
     let steps = (seconds / DT) as usize;
     let from = steps - (2.0 / DT) as usize;
     let (mut sum, mut count) = (0.0, 0);
@@ -108,7 +116,7 @@ fn float(density: f64, seconds: f64, s: f64, friction: f64) -> (f64, f64) {
 /// flat, and overcounts at its edges.
 #[test]
 fn issue_16_a_crate_of_half_the_fluids_density_floats_about_half_submerged() {
-    let (fraction, tilt) = float(500.0, 6.0, 0.05, 0.5);
+    let (fraction, tilt) = float(500.0, 6.0, 0.05, 0.5, Backend::Cpu);
     println!(
         "crate of 500 kg/m³: {fraction:.3} submerged, tilted at most {:.1}°",
         tilt.to_degrees()
@@ -128,8 +136,8 @@ fn issue_16_a_crate_of_half_the_fluids_density_floats_about_half_submerged() {
 /// step, and a crate at rest floats no higher for it.
 #[test]
 fn issue_16_friction_does_not_lift_a_floating_crate() {
-    let (rough, _) = float(500.0, 6.0, 0.1, 1.0);
-    let (smooth, _) = float(500.0, 6.0, 0.1, 0.0);
+    let (rough, _) = float(500.0, 6.0, 0.1, 1.0, Backend::Cpu);
+    let (smooth, _) = float(500.0, 6.0, 0.1, 0.0, Backend::Cpu);
     println!(
         "crate of 500 kg/m³ at 10 cm: {rough:.3} submerged with friction 1, {smooth:.3} without"
     );

@@ -1,5 +1,6 @@
 //! Fluids on the GPU (feature `gpu`) follow the CPU within
-//! `FLUID_GPU_TOLERANCE`, repeat bit for bit, save and restore, and what
+//! `FLUID_GPU_TOLERANCE`, push and float dynamic bodies as the CPU does,
+//! repeat bit for bit, save and restore, and what
 //! the GPU path does not run is refused.
 //!
 //! Run: `cargo test -p inertia-physics --features gpu --test integration issue_16_gpu_fluid::`.
@@ -13,7 +14,7 @@ use inertia_physics::gpu::{GpuContext, FLUID_GPU_MEDIAN_TOLERANCE, FLUID_GPU_TOL
 use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{
-    Backend, FluidDesc, FluidEmitter, FluidHandle, PhysicsError, World, WorldConfig,
+    Backend, BodyHandle, FluidDesc, FluidEmitter, FluidHandle, PhysicsError, World, WorldConfig,
 };
 
 use crate::common;
@@ -131,31 +132,117 @@ fn issue_16_a_dam_break_on_the_gpu_follows_the_cpu_and_repeats() {
         .all(|p| p.is_finite() && p.y > -0.05));
 }
 
+/// A dam like [`dam`]'s with a crate of 300 kg/m³ resting on the floor
+/// in the tank's empty half, in its way.
+fn dam_and_crate(w: &mut World) -> (FluidHandle, BodyHandle) {
+    let h = dam(w);
+    let crate_ = RigidBodyDesc::dynamic(
+        Shape::cuboid(DVec3::new(0.1, 0.1, 0.15)).unwrap(),
+        300.0,
+        at(DVec3::new(1.2, 0.101, 0.25)),
+    )
+    .unwrap();
+    (h, w.add_body(&crate_).unwrap())
+}
+
+/// The GPU pushes dynamic bodies back as the CPU does: the impulses each
+/// particle gives a body are kept per particle and summed per body in a
+/// fixed order on the GPU, and the body takes them after the step.
+#[test]
+fn issue_16_a_dam_break_on_the_gpu_pushes_a_crate_as_the_cpu_does() {
+    if skip() {
+        return;
+    }
+    let mut cpu = world(true);
+    let (h, body) = dam_and_crate(&mut cpu);
+    let mut gpu = world(true);
+    dam_and_crate(&mut gpu);
+    gpu.set_fluid_backend(h, Backend::Gpu).unwrap();
+    let mut again = world(false);
+    dam_and_crate(&mut again);
+    again.set_fluid_backend(h, Backend::Gpu).unwrap();
+    let start = cpu.body(body).unwrap().center_of_mass();
+    // The front reaches the crate after 13 steps and pushes it along
+    // (about 2 m/s), 3 steps short of the far wall.
+    let steps = 20;
+    for _ in 0..steps {
+        cpu.step(DT).unwrap();
+        gpu.step(DT).unwrap();
+        again.step(DT).unwrap();
+    }
+    let (a, b) = (cpu.body(body).unwrap(), gpu.body(body).unwrap());
+    let moved_cpu = a.center_of_mass() - start;
+    let moved_gpu = b.center_of_mass() - start;
+    let apart = (moved_gpu - moved_cpu).length();
+    println!(
+        "{steps} steps: the wave pushed the crate {:.4} m along x on the CPU, {:.4} m on the GPU \
+         ({apart:.2e} m apart; velocity {:.4} and {:.4} m/s)",
+        moved_cpu.x,
+        moved_gpu.x,
+        a.linear_velocity().x,
+        b.linear_velocity().x
+    );
+    assert!(
+        moved_cpu.x > 0.1,
+        "the wave pushed the crate on the CPU ({moved_cpu})"
+    );
+    assert!(
+        apart < 0.02 * moved_cpu.x,
+        "the GPU's crate moved {moved_gpu}, the CPU's {moved_cpu}"
+    );
+    let dv = (b.linear_velocity() - a.linear_velocity()).length();
+    assert!(
+        dv < 0.1 * a.linear_velocity().length(),
+        "velocities {} (GPU) and {} (CPU)",
+        b.linear_velocity(),
+        a.linear_velocity()
+    );
+    assert_eq!(gpu.fluid(h).unwrap().backend(), Backend::Gpu);
+    // Deterministic: a second GPU run, read back only at the end, moves the
+    // crate to the same bits.
+    again.sync_gpu().unwrap();
+    let c = again.body(body).unwrap();
+    assert_eq!(
+        b.center_of_mass().to_array().map(f64::to_bits),
+        c.center_of_mass().to_array().map(f64::to_bits)
+    );
+    assert_eq!(
+        b.linear_velocity().to_array().map(f64::to_bits),
+        c.linear_velocity().to_array().map(f64::to_bits)
+    );
+}
+
+/// Archimedes on the GPU: a crate of half the fluid's density floats
+/// about half submerged (the issue asks 0.5 ± 0.05), as on the CPU
+/// (`issue_16_fluid.rs`, 0.463 at this spacing without friction).
+#[test]
+fn issue_16_a_crate_floats_half_submerged_on_a_gpu_fluid() {
+    if skip() {
+        return;
+    }
+    let (fraction, tilt) = crate::issue_16_fluid::float(500.0, 6.0, 0.1, 0.0, Backend::Gpu);
+    println!(
+        "crate of 500 kg/m³ on the GPU: {fraction:.3} submerged, tilted at most {:.1}°",
+        tilt.to_degrees()
+    );
+    assert!(
+        (fraction - 0.5).abs() < 0.05,
+        "submerged fraction {fraction}"
+    );
+    assert!(tilt < 0.2, "it floats level ({tilt} rad)");
+}
+
 #[test]
 fn issue_16_what_the_gpu_fluid_does_not_run_is_refused() {
     if skip() {
         return;
     }
-    // A dynamic body: the GPU does not push bodies back.
+    // A shape the shader does not project onto, near the fluid.
     let mut w = world(true);
     let h = dam(&mut w);
-    let crate_ = RigidBodyDesc::dynamic(
-        Shape::cuboid(DVec3::splat(0.1)).unwrap(),
-        500.0,
-        at(DVec3::new(1.2, 0.5, 0.25)),
-    )
-    .unwrap();
-    let body = w.add_body(&crate_).unwrap();
-    assert!(matches!(
-        w.set_fluid_backend(h, Backend::Gpu),
-        Err(PhysicsError::Gpu(m)) if m.contains("dynamic")
-    ));
-    assert_eq!(w.fluid(h).unwrap().backend(), Backend::Cpu);
-    // A shape the shader does not project onto.
-    w.remove_body(body).unwrap();
     let post = RigidBodyDesc::fixed(
         Shape::cylinder(0.2, 0.05).unwrap(),
-        at(DVec3::new(1.2, 0.2, 0.25)),
+        at(DVec3::new(0.9, 0.2, 0.25)),
     );
     let post = w.add_body(&post).unwrap();
     assert!(matches!(
@@ -163,12 +250,50 @@ fn issue_16_what_the_gpu_fluid_does_not_run_is_refused() {
         Err(PhysicsError::Gpu(m)) if m.contains("cylinder")
     ));
     assert_eq!(w.fluid(h).unwrap().backend(), Backend::Cpu);
-    // A dynamic body added to a fluid on the GPU: the step says so.
+    // Far from every particle, it is no wall of the fluid's.
     w.remove_body(post).unwrap();
+    let far = RigidBodyDesc::fixed(
+        Shape::cylinder(0.2, 0.05).unwrap(),
+        at(DVec3::new(0.4, 5.0, 0.25)),
+    );
+    w.add_body(&far).unwrap();
+    w.set_fluid_backend(h, Backend::Gpu).unwrap();
+    let report = w.step(DT).unwrap();
+    assert!(report.fluids_to_cpu.is_empty());
+}
+
+/// A step that met a body the GPU cannot take failed after the rigid
+/// bodies had moved, leaving the world half stepped (its tick and time
+/// unchanged), and so did every step after. Now the fluid goes back to
+/// the CPU, takes the step there, and the report says so.
+#[test]
+fn issue_16_a_body_the_gpu_cannot_take_moves_the_fluid_to_the_cpu_instead_of_failing_the_step() {
+    if skip() {
+        return;
+    }
+    let mut w = world(true);
+    let h = dam(&mut w);
     w.set_fluid_backend(h, Backend::Gpu).unwrap();
     w.step(DT).unwrap();
-    w.add_body(&crate_).unwrap();
-    assert!(matches!(w.step(DT), Err(PhysicsError::Gpu(m)) if m.contains("dynamic")));
+    let post = RigidBodyDesc::fixed(
+        Shape::cylinder(0.2, 0.05).unwrap(),
+        at(DVec3::new(0.9, 0.2, 0.25)),
+    );
+    w.add_body(&post).unwrap();
+    let before = w.tick();
+    let report = w.step(DT).unwrap();
+    assert_eq!(w.tick(), before + 1);
+    assert_eq!(report.fluids_to_cpu.len(), 1);
+    assert!(
+        matches!(&report.fluids_to_cpu[0], (f, PhysicsError::Gpu(m)) if *f == h && m.contains("cylinder"))
+    );
+    assert_eq!(w.fluid(h).unwrap().backend(), Backend::Cpu);
+    assert!(w
+        .fluid(h)
+        .unwrap()
+        .positions()
+        .iter()
+        .all(|p| p.is_finite()));
 }
 
 #[test]

@@ -86,9 +86,14 @@ pub mod layout {
     pub const SOFT_TETHER_BYTES: usize = 16;
     /// `struct FluidParams` of `pbf.wgsl`: one step's uniform block (the
     /// wall table's 2 × 64 entries included).
-    pub const FLUID_PARAMS_BYTES: usize = 128 + 2 * 64 * 4;
-    /// `struct Shape` of `pbf.wgsl`: a boundary shape.
-    pub const FLUID_SHAPE_BYTES: usize = 144;
+    pub const FLUID_PARAMS_BYTES: usize = 144 + 2 * 64 * 4;
+    /// `struct Shape` of `pbf.wgsl`: a body the fluid meets.
+    pub const FLUID_SHAPE_BYTES: usize = 208;
+    /// `struct Load` of `pbf.wgsl`: an impulse and its moment.
+    pub const FLUID_LOAD_BYTES: usize = 32;
+    /// Particles whose loads one invocation of `reduce_chunks` sums
+    /// (`LOAD_CHUNK`).
+    pub const FLUID_LOAD_CHUNK: usize = 1024;
     /// `struct Plane` of `pbf.wgsl`: a wall near a particle.
     pub const FLUID_PLANE_BYTES: usize = 32;
     /// `struct Slot` of `pbf.wgsl`: a slot of the neighbour grid.

@@ -180,6 +180,8 @@ fn the_fluid_shader_has_its_entry_points_and_the_engine_layout() {
             "densities",
             "find_walls",
             "predict",
+            "reduce_bodies",
+            "reduce_chunks",
             "scan",
             "scatter",
             "sort_cells",
@@ -202,6 +204,7 @@ fn the_fluid_shader_has_its_entry_points_and_the_engine_layout() {
         ("Shape", layout::FLUID_SHAPE_BYTES),
         ("Plane", layout::FLUID_PLANE_BYTES),
         ("Slot", layout::FLUID_SLOT_BYTES),
+        ("Load", layout::FLUID_LOAD_BYTES),
     ] {
         assert_eq!(struct_size(&module, ty), Some(bytes), "struct {ty}");
     }
@@ -209,6 +212,7 @@ fn the_fluid_shader_has_its_entry_points_and_the_engine_layout() {
         ("WORKGROUP_SIZE", layout::WORKGROUP_SIZE as usize),
         ("SCAN_SIZE", layout::FLUID_SCAN_SIZE as usize),
         ("MAX_PLANES", layout::FLUID_MAX_PLANES),
+        ("LOAD_CHUNK", layout::FLUID_LOAD_CHUNK),
     ] {
         let decl = format!("const {constant}: u32 = {value}u;");
         assert!(src.contains(&decl), "pbf.wgsl must declare `{decl}`");

@@ -24,11 +24,17 @@
 // 4. After the substeps: vorticity confinement (`vorticity`, `confine`)
 //    and XSPH viscosity (`xsph`), each writing new velocities to `next`
 //    and `take_velocities` copying them back.
+// 5. With dynamic bodies among the shapes: the impulses the particles
+//    gave them, which `corrections` and `collide` kept per particle and
+//    wall (`loads`), summed per body: `reduce_chunks` (each chunk of
+//    LOAD_CHUNK particles, in particle order) and `reduce_bodies` (the
+//    chunks, in order). The host reads back only the bodies' totals.
 //
 // Every pass is Jacobi: it reads the state the pass before left and writes
 // only its own particle's (or key's) slots, so nothing races. Atomics are
 // integer counts and cursors only, and their order is undone by
-// `sort_cells`; no floating-point value is ever summed atomically. A run
+// `sort_cells`; no floating-point value is ever summed atomically (the
+// bodies' loads are summed by the reductions, in a fixed order). A run
 // repeats bit for bit on the same device and driver.
 //
 // Units: m, s, kg. Positions and velocities are vec4 (w unused).
@@ -40,8 +46,10 @@ const SCAN_SIZE: u32 = 256u;
 const MAX_PLANES: u32 = 4u;
 // Entries of the wall table over [0, h] (boundary.rs's ENTRIES).
 const WALL_ENTRIES: u32 = 64u;
-// No neighbour left.
+// No neighbour left; a shape the particles cannot move.
 const NONE: u32 = 0xffffffffu;
+// Particles whose loads one invocation of `reduce_chunks` sums.
+const LOAD_CHUNK: u32 = 1024u;
 
 // Shape kinds (`gpu/fluid_walls.rs`).
 const SHAPE_CUBOID: u32 = 0u;
@@ -101,14 +109,22 @@ struct FluidParams {
     // Wall table: entries per metre, and the lattice calibration.
     wall_per_m: f32,
     wall_scale: f32,
+    // A particle's inverse mass, 1/kg.
+    particle_inv_mass: f32,
+    // Shapes the particles can move (dynamic bodies), and chunks of
+    // LOAD_CHUNK particles.
+    movable: u32,
+    chunks: u32,
+    pad: u32,
     // Φ and Ψ (1/m) at k h / 63, four to a vec4.
     wall_phi: array<vec4<f32>, 16>,
     wall_psi: array<vec4<f32>, 16>,
 }
 
-// A boundary shape (a static or kinematic rigid body).
+// A rigid body the fluid meets (`gpu/fluid_walls.rs`).
 struct Shape {
-    // x: SHAPE_* kind.
+    // x: SHAPE_* kind; y: the body's slot among the movable ones (the
+    // dynamic bodies), or NONE.
     kind: vec4<u32>,
     // Pose: translation (m) and the rotation's columns.
     translation: vec4<f32>,
@@ -120,9 +136,16 @@ struct Shape {
     size: vec4<f32>,
     // Centre of mass (m); w: the body's friction coefficient.
     com: vec4<f32>,
-    // Velocity (m/s) and angular velocity (rad/s).
+    // Velocity (m/s) and angular velocity (rad/s): the body's mean over
+    // the step.
     linvel: vec4<f32>,
     angvel: vec4<f32>,
+    // x: inverse mass, 1/kg (0 when the particles cannot move it).
+    inv_mass: vec4<f32>,
+    // The inverse inertia in the world's frame, by column, 1/(kg m²).
+    inv_inertia_x: vec4<f32>,
+    inv_inertia_y: vec4<f32>,
+    inv_inertia_z: vec4<f32>,
 }
 
 // A slot of the neighbour grid: the predicted position (m) and the
@@ -133,10 +156,18 @@ struct Slot {
 }
 
 // A wall near a particle over a step: a point of its tangent plane (w: 1
-// when the slot is used) and the normal out of the body.
+// when the slot is used) and the normal out of the body (w: the shape's
+// index).
 struct Plane {
     point: vec4<f32>,
     normal: vec4<f32>,
+}
+
+// What particles gave a body: an impulse (N s) and its moment about the
+// body's centre of mass (N m s); w unused.
+struct Load {
+    impulse: vec4<f32>,
+    moment: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> params: FluidParams;
@@ -163,6 +194,12 @@ struct Plane {
 // MAX_PLANES per particle.
 @group(0) @binding(12) var<storage, read_write> planes: array<Plane>;
 @group(0) @binding(13) var<storage, read> shapes: array<Shape>;
+// MAX_PLANES per particle: what it gave the body behind each of its
+// planes over the step (used while `params.movable` > 0).
+@group(0) @binding(14) var<storage, read_write> loads: array<Load>;
+// Per chunk, then per movable body: the chunk's loads; after them, each
+// movable body's total.
+@group(0) @binding(15) var<storage, read_write> partials: array<Load>;
 
 var<workgroup> partial: array<u32, 256>;
 
@@ -459,13 +496,46 @@ fn find_walls(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     for (var k = 0u; k < params.shapes && used < MAX_PLANES; k++) {
         let s = surface(shapes[k], p, within);
         if (s.found) {
-            planes[i * MAX_PLANES + used] = Plane(vec4<f32>(s.point, 1.0), vec4<f32>(s.normal, 0.0));
+            planes[i * MAX_PLANES + used] = Plane(vec4<f32>(s.point, 1.0), vec4<f32>(s.normal, f32(k)));
             used += 1u;
         }
     }
     for (var k = used; k < MAX_PLANES; k++) {
         planes[i * MAX_PLANES + k] = Plane(vec4<f32>(0.0), vec4<f32>(0.0));
     }
+    if (params.movable > 0u) {
+        for (var k = 0u; k < MAX_PLANES; k++) {
+            loads[i * MAX_PLANES + k] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
+        }
+    }
+}
+
+// The shape behind plane slot `slot` of particle `i`.
+fn plane_shape(i: u32, slot: u32) -> u32 {
+    return u32(planes[i * MAX_PLANES + slot].normal.w);
+}
+
+// `1/M + (r × d) · I⁻¹ (r × d)` of shape `s` at `p` along `d`, 1/kg.
+fn inv_mass_along(s: Shape, p: vec3<f32>, d: vec3<f32>) -> f32 {
+    if (s.inv_mass.x == 0.0) {
+        return 0.0;
+    }
+    let c = cross(p - s.com.xyz, d);
+    let ic = s.inv_inertia_x.xyz * c.x + s.inv_inertia_y.xyz * c.y + s.inv_inertia_z.xyz * c.z;
+    return s.inv_mass.x + dot(c, ic);
+}
+
+// Adds `impulse` (N s), given at `point` (m) to the movable body behind
+// plane slot `slot` of particle `i`, to the particle's loads
+// (`Coupling::add_load`).
+fn add_load(i: u32, slot: u32, s: Shape, point: vec3<f32>, impulse: vec3<f32>) {
+    if (!finite3(impulse)) {
+        return;
+    }
+    let at = i * MAX_PLANES + slot;
+    let l = loads[at];
+    let moment = cross(point - s.com.xyz, impulse);
+    loads[at] = Load(vec4<f32>(l.impulse.xyz + impulse, 0.0), vec4<f32>(l.moment.xyz + moment, 0.0));
 }
 
 // ---- the substeps (step.rs) ----
@@ -515,6 +585,56 @@ fn wall_at(d: f32) -> vec2<f32> {
     return vec2<f32>(phi * params.wall_scale, grad * params.wall_scale);
 }
 
+// The walls within h of particle `i` at `p` (step.rs's contacts): each
+// one's share Φ_k, slope Ψ_k (1/m), normal, the point of its plane
+// nearest `p` (m) and its plane slot.
+struct Walls {
+    phi: array<f32, 4>,
+    psi: array<f32, 4>,
+    normal: array<vec3<f32>, 4>,
+    point: array<vec3<f32>, 4>,
+    slot: array<u32, 4>,
+    count: u32,
+}
+
+fn walls_near(i: u32, p: vec3<f32>) -> Walls {
+    var w: Walls;
+    w.count = 0u;
+    for (var k = 0u; k < MAX_PLANES; k++) {
+        let plane = planes[i * MAX_PLANES + k];
+        if (plane.point.w < 0.5) {
+            break;
+        }
+        let d = dot(p - plane.point.xyz, plane.normal.xyz);
+        if (!finite(d) || d >= params.h) {
+            continue;
+        }
+        let t = wall_at(d);
+        if (t.x <= 0.0 && t.y == 0.0) {
+            continue;
+        }
+        w.phi[w.count] = t.x;
+        w.psi[w.count] = t.y;
+        w.normal[w.count] = plane.normal.xyz;
+        w.point[w.count] = p - plane.normal.xyz * d;
+        w.slot[w.count] = k;
+        w.count += 1u;
+    }
+    return w;
+}
+
+// Wall k's part of ∇C_i: `Ψ_k Π_{m≠k} max(1 − Φ_m, 0) n_k`, 1/m (the
+// union of the walls, step.rs's `wall_union`).
+fn wall_part(w: ptr<function, Walls>, k: u32) -> vec3<f32> {
+    var others = 1.0;
+    for (var m = 0u; m < (*w).count; m++) {
+        if (m != k) {
+            others *= max(1.0 - (*w).phi[m], 0.0);
+        }
+    }
+    return (*w).normal[k] * ((*w).psi[k] * others);
+}
+
 // Densities and multipliers: `ρ_i / ρ0 = V Σ_j W_spiky + Φ_walls`,
 // `λ_i = −max(C_i, 0) / (Σ_k |∇_k C_i|² + ε)`; the walls' union as
 // step.rs's `wall_union`.
@@ -545,44 +665,16 @@ fn densities(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     grad = grad * params.volume;
     sum_sq = sum_sq * params.volume * params.volume;
 
-    // The walls within h: each its share Φ_k and slope Ψ_k.
-    var phis: array<f32, 4>;
-    var psis: array<f32, 4>;
-    var normals: array<vec3<f32>, 4>;
-    var walls = 0u;
-    for (var k = 0u; k < MAX_PLANES; k++) {
-        let plane = planes[i * MAX_PLANES + k];
-        if (plane.point.w < 0.5) {
-            break;
-        }
-        let d = dot(p - plane.point.xyz, plane.normal.xyz);
-        if (!finite(d) || d >= params.h) {
-            continue;
-        }
-        let t = wall_at(d);
-        if (t.x <= 0.0 && t.y == 0.0) {
-            continue;
-        }
-        phis[walls] = t.x;
-        psis[walls] = t.y;
-        normals[walls] = plane.normal.xyz;
-        walls += 1u;
-    }
+    var walls = walls_near(i, p);
     var outside = 1.0;
-    for (var k = 0u; k < walls; k++) {
-        outside *= max(1.0 - phis[k], 0.0);
+    for (var k = 0u; k < walls.count; k++) {
+        outside *= max(1.0 - walls.phi[k], 0.0);
     }
     var wall_grad = vec3<f32>(0.0);
-    for (var k = 0u; k < walls; k++) {
-        var others = 1.0;
-        for (var m = 0u; m < walls; m++) {
-            if (m != k) {
-                others *= max(1.0 - phis[m], 0.0);
-            }
-        }
-        wall_grad += normals[k] * (psis[k] * others);
+    for (var k = 0u; k < walls.count; k++) {
+        wall_grad += wall_part(&walls, k);
     }
-    if (walls > 0u) {
+    if (walls.count > 0u) {
         frac += 1.0 - outside;
         grad += wall_grad;
     }
@@ -641,6 +733,24 @@ fn corrections(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgr
         scale = params.cap / len;
     }
     next[i] = vec4<f32>(p + dx * scale, 0.0);
+    // The movable bodies behind the walls take the walls' share:
+    // `−Δx_wall / (hs (w_p + w_b))`.
+    if (params.movable > 0u && li < 0.0 && scale > 0.0) {
+        var walls = walls_near(i, p);
+        for (var k = 0u; k < walls.count; k++) {
+            let slot = walls.slot[k];
+            let shape = shapes[plane_shape(i, slot)];
+            if (shape.kind.y == NONE) {
+                continue;
+            }
+            let moved = wall_part(&walls, k) * (li * scale);
+            let point = walls.point[k];
+            let w = params.particle_inv_mass + inv_mass_along(shape, point, walls.normal[k]);
+            if (w > 0.0) {
+                add_load(i, slot, shape, point, -moved / (params.hs * w));
+            }
+        }
+    }
 }
 
 // Velocity of shape `s`'s material at `p`, m/s.
@@ -678,8 +788,31 @@ fn collide(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
             }
         }
         let moved_to = p + dx;
-        if (finite3(moved_to)) {
-            p = moved_to;
+        if (!finite3(moved_to)) {
+            continue;
+        }
+        p = moved_to;
+        // A movable body takes the correction's impulse, kept with the
+        // plane find_walls found for it (a body no plane of this particle
+        // names was out of its reach for the step, and gets none).
+        if (shape.kind.y != NONE) {
+            for (var slot = 0u; slot < MAX_PLANES; slot++) {
+                if (planes[i * MAX_PLANES + slot].point.w < 0.5) {
+                    break;
+                }
+                if (plane_shape(i, slot) == k) {
+                    let len = length(dx);
+                    var n = vec3<f32>(0.0);
+                    if (len > 0.0 && finite(len)) {
+                        n = dx / len;
+                    }
+                    let w = params.particle_inv_mass + inv_mass_along(shape, s.point, n);
+                    if (w > 0.0) {
+                        add_load(i, slot, shape, s.point, -dx / (params.hs * w));
+                    }
+                    break;
+                }
+            }
         }
     }
     var vel = (p - q) / params.hs;
@@ -790,4 +923,54 @@ fn take_velocities(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_wo
         return;
     }
     v[i] = next[i];
+}
+
+// ---- the bodies' loads ----
+
+// Each chunk of LOAD_CHUNK particles: every movable body's loads, summed
+// in particle and slot order (an invocation a body) into `partials`.
+@compute @workgroup_size(64)
+fn reduce_chunks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) t: u32) {
+    let chunk = wg.x + wg.y * groups.x;
+    if (chunk >= params.chunks) {
+        return;
+    }
+    let lo = chunk * LOAD_CHUNK;
+    let hi = min(lo + LOAD_CHUNK, params.n);
+    for (var body = t; body < params.movable; body += WORKGROUP_SIZE) {
+        var impulse = vec3<f32>(0.0);
+        var moment = vec3<f32>(0.0);
+        for (var i = lo; i < hi; i++) {
+            for (var slot = 0u; slot < MAX_PLANES; slot++) {
+                if (planes[i * MAX_PLANES + slot].point.w < 0.5) {
+                    break;
+                }
+                if (shapes[plane_shape(i, slot)].kind.y != body) {
+                    continue;
+                }
+                let l = loads[i * MAX_PLANES + slot];
+                impulse += l.impulse.xyz;
+                moment += l.moment.xyz;
+            }
+        }
+        partials[chunk * params.movable + body] = Load(vec4<f32>(impulse, 0.0), vec4<f32>(moment, 0.0));
+    }
+}
+
+// Each movable body's total: its chunks' loads, in chunk order, after the
+// chunks' in `partials`.
+@compute @workgroup_size(64)
+fn reduce_bodies(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let body = linear(id, groups);
+    if (body >= params.movable) {
+        return;
+    }
+    var impulse = vec3<f32>(0.0);
+    var moment = vec3<f32>(0.0);
+    for (var chunk = 0u; chunk < params.chunks; chunk++) {
+        let l = partials[chunk * params.movable + body];
+        impulse += l.impulse.xyz;
+        moment += l.moment.xyz;
+    }
+    partials[params.chunks * params.movable + body] = Load(vec4<f32>(impulse, 0.0), vec4<f32>(moment, 0.0));
 }

@@ -14,8 +14,11 @@
 //! | `density` | per particle, kg/m³ | `densities` |
 //! | `omega` | per particle: vorticity, 1/s | `vorticity` |
 //! | `planes` | per particle: up to 4 walls near it over the step | `find_walls` |
-//! | `shapes` | the static and kinematic bodies (`gpu/fluid_walls.rs`) | CPU, every step |
+//! | `shapes` | the bodies near the fluid (`gpu/fluid_walls.rs`) | CPU, every step |
+//! | `loads` | per particle and plane: what it gave a dynamic body | `corrections`, `collide` |
+//! | `partials` | per chunk and dynamic body, then per body: summed loads | `reduce_chunks`, `reduce_bodies` |
 //! | `readback` | staging copy of `x`, `v` and `density` for the CPU | copy |
+//! | `totals` | staging copy of the dynamic bodies' loads | copy |
 //!
 //! The neighbour grid is a hashed grid sorted by a counting sort on the
 //! GPU: integer atomics count each key's particles and hand out slots,
@@ -25,12 +28,19 @@
 //! cell by cell: the same terms, added in another order. How far a GPU
 //! run may stand from the CPU run is [`FLUID_GPU_TOLERANCE`].
 //!
+//! The dynamic bodies among the shapes take the particles' impulses back,
+//! as on the CPU: each particle keeps what it gave the body behind each of
+//! its planes over the step, two passes sum them per body in a fixed order
+//! (chunks of particles, then the chunks), and the host reads back 32
+//! bytes a body and applies them after the step (it waits for the GPU to
+//! finish the step to do so, readback or not).
+//!
 //! What the GPU path does not do is refused by
-//! [`World::set_fluid_backend`](crate::World::set_fluid_backend): pushing
-//! dynamic bodies back, and shapes other than cuboids, spheres and
-//! capsules (`gpu/fluid_walls.rs`). Emitters fire on the host between
-//! steps (the world reads the fluid back, adds the shot and uploads it
-//! again).
+//! [`World::set_fluid_backend`](crate::World::set_fluid_backend): shapes
+//! other than cuboids, spheres and capsules, and more than
+//! [`MAX_FLUID_GPU_SHAPES`] bodies near the fluid (`gpu/fluid_walls.rs`).
+//! Emitters fire on the host between steps (the world reads the fluid
+//! back, adds the shot and uploads it again).
 
 use std::sync::Arc;
 
@@ -42,9 +52,12 @@ use crate::xpbd::fluid::Fluid;
 
 use super::buffers::at_least;
 use super::context::GpuContext;
-use super::fluid_walls::{GpuShape, MAX_FLUID_GPU_SHAPES};
+use super::fluid_walls::{FluidWalls, GpuLoad, GpuShape, MAX_FLUID_GPU_SHAPES};
 use super::program::{storage_binding, uniform_binding, Program};
-use inertia_shaders::layout::{FLUID_MAX_PLANES, FLUID_PLANE_BYTES, FLUID_SLOT_BYTES};
+use crate::xpbd::coupling::BodyChange;
+use inertia_shaders::layout::{
+    FLUID_LOAD_BYTES, FLUID_LOAD_CHUNK, FLUID_MAX_PLANES, FLUID_PLANE_BYTES, FLUID_SLOT_BYTES,
+};
 
 /// Largest distance (m) a GPU-stepped fluid particle may stand from the
 /// CPU-stepped one after 24 steps at 60 Hz of a small dam break (1920
@@ -69,7 +82,7 @@ pub const FLUID_GPU_TOLERANCE: f32 = 2.5e-2;
 pub const FLUID_GPU_MEDIAN_TOLERANCE: f32 = 2e-4;
 
 /// Storage buffers the fluid's passes bind.
-const STORAGE_BUFFERS: u32 = 13;
+const STORAGE_BUFFERS: u32 = 15;
 
 /// WGSL `struct FluidParams` of `pbf.wgsl`: one step's uniform block.
 #[repr(C)]
@@ -119,6 +132,11 @@ struct FluidParams {
     /// 1/m.
     wall_per_m: f32,
     wall_scale: f32,
+    /// 1/kg.
+    particle_inv_mass: f32,
+    movable: u32,
+    chunks: u32,
+    pad: u32,
     wall_phi: [[f32; 4]; 16],
     wall_psi: [[f32; 4]; 16],
 }
@@ -144,6 +162,8 @@ pub(crate) struct FluidPipelines {
     confine: wgpu::ComputePipeline,
     xsph: wgpu::ComputePipeline,
     take_velocities: wgpu::ComputePipeline,
+    reduce_chunks: wgpu::ComputePipeline,
+    reduce_bodies: wgpu::ComputePipeline,
 }
 
 impl FluidPipelines {
@@ -156,6 +176,7 @@ impl FluidPipelines {
         let mut entries = vec![uniform_binding::<FluidParams>(false)];
         entries.extend((1..=12).map(|b| storage_binding(b, false)));
         entries.push(storage_binding(13, true));
+        entries.extend((14..=15).map(|b| storage_binding(b, false)));
         let program = Program::new(device, "pbf", inertia_shaders::PBF, &entries);
         let pipeline = |entry: &str| program.pipeline(device, entry);
         Some(Self {
@@ -172,6 +193,8 @@ impl FluidPipelines {
             confine: pipeline("confine"),
             xsph: pipeline("xsph"),
             take_velocities: pipeline("take_velocities"),
+            reduce_chunks: pipeline("reduce_chunks"),
+            reduce_bodies: pipeline("reduce_bodies"),
             layout: program.layout,
         })
     }
@@ -190,9 +213,16 @@ pub(crate) struct GpuFluid {
     density: wgpu::Buffer,
     cells: wgpu::Buffer,
     shapes: wgpu::Buffer,
+    /// Chunks of `FLUID_LOAD_CHUNK` particles.
+    chunks: u32,
+    partials: wgpu::Buffer,
     readback: wgpu::Buffer,
+    totals: wgpu::Buffer,
     group: wgpu::BindGroup,
 }
+
+/// Bytes of every dynamic body's summed loads.
+const TOTALS_BYTES: usize = MAX_FLUID_GPU_SHAPES * FLUID_LOAD_BYTES;
 
 /// Keys of the hash table for `n` particles: as on the CPU's hashed grid,
 /// twice the particles rounded up to a power of two, at least 1024.
@@ -214,7 +244,8 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
         .limits
         .max_storage_buffer_binding_size
         .min(ctx.limits.max_buffer_size);
-    let plane_bytes = (n * FLUID_MAX_PLANES * FLUID_PLANE_BYTES) as u64;
+    // The largest per-particle buffers: walls, and the loads kept with them.
+    let plane_bytes = (n * FLUID_MAX_PLANES * FLUID_PLANE_BYTES.max(FLUID_LOAD_BYTES)) as u64;
     if plane_bytes > max_binding || n > u32::MAX as usize / 4 {
         return Err(PhysicsError::Gpu(format!(
             "{n} fluid particles need {plane_bytes} bytes of walls, more than this adapter binds \
@@ -265,6 +296,19 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
             MAX_FLUID_GPU_SHAPES * std::mem::size_of::<GpuShape>(),
             wgpu::BufferUsages::COPY_DST,
         );
+        let loads = scratch("fluid loads", FLUID_MAX_PLANES * FLUID_LOAD_BYTES * n, none);
+        let chunks = n.div_ceil(FLUID_LOAD_CHUNK);
+        let partials = scratch(
+            "fluid partial loads",
+            chunks * TOTALS_BYTES + TOTALS_BYTES,
+            wgpu::BufferUsages::COPY_SRC,
+        );
+        let totals = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("fluid load totals"),
+            size: TOTALS_BYTES as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let params = d.create_buffer(&wgpu::BufferDescriptor {
             label: Some("fluid params"),
             size: std::mem::size_of::<FluidParams>() as u64,
@@ -279,7 +323,7 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
         });
         let buffers = [
             &params, &xb, &vb, &prev, &next, &pred, &sorted, &cells, &start, &lambda, &db, &omega,
-            &planes, &shapes,
+            &planes, &shapes, &loads, &partials,
         ];
         let group = super::buffers::bind_buffers(d, "pbf", &pipelines.layout, &buffers);
         Ok(Arc::new(GpuFluid {
@@ -291,15 +335,18 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
             density: db,
             cells,
             shapes,
+            chunks: chunks as u32,
+            partials,
             readback,
+            totals,
             group,
         }))
     })
 }
 
 /// The uniform block of a step of `dt` s under gravity `g` (m/s², the
-/// fluid's scale applied) against `shapes` bodies.
-fn params_for(fluid: &Fluid, gpu: &GpuFluid, dt: f32, g: Vec3, shapes: usize) -> FluidParams {
+/// fluid's scale applied) against `walls`.
+fn params_for(fluid: &Fluid, gpu: &GpuFluid, dt: f32, g: Vec3, walls: &FluidWalls) -> FluidParams {
     let c = fluid.step_constants();
     let k = c.kernels;
     let (phi, psi, per_m, scale) = fluid.wall_table().parts();
@@ -314,7 +361,7 @@ fn params_for(fluid: &Fluid, gpu: &GpuFluid, dt: f32, g: Vec3, shapes: usize) ->
         gravity: [g.x, g.y, g.z, 0.0],
         n: gpu.n,
         table: gpu.table,
-        shapes: shapes as u32,
+        shapes: walls.shapes.len() as u32,
         tensile: u32::from(c.tensile_k > 0.0 && c.tensile_inv_w > 0.0),
         dt,
         hs: dt / c.substeps as f32,
@@ -341,25 +388,31 @@ fn params_for(fluid: &Fluid, gpu: &GpuFluid, dt: f32, g: Vec3, shapes: usize) ->
         wall_fall: g.length() * dt * dt,
         wall_per_m: per_m,
         wall_scale: scale,
+        particle_inv_mass: 1.0 / c.mass,
+        movable: walls.movable.len() as u32,
+        chunks: gpu.chunks,
+        pad: 0,
         wall_phi: four(phi),
         wall_psi: four(psi),
     }
 }
 
 /// Steps `fluid` on the GPU by `dt` s under the world's `gravity` (m/s²)
-/// against the boundary `shapes` (`gpu/fluid_walls.rs`); with
-/// `readback`, copies the new positions, velocities and densities into
-/// the CPU mirror. A `dt` that is not finite and > 0 does nothing, as on
-/// the CPU.
+/// against the bodies `walls` (`gpu/fluid_walls.rs`); with `readback`,
+/// copies the new positions, velocities and densities into the CPU
+/// mirror. Returns what the particles gave the dynamic bodies, for
+/// [`apply_changes`](crate::xpbd::coupling::apply_changes). A `dt` that is
+/// not finite and > 0 does nothing, as on the CPU.
 pub(crate) fn step(
     ctx: &GpuContext,
     fluid: &mut Fluid,
     gpu: &GpuFluid,
     dt: f32,
     gravity: Vec3,
-    shapes: &[GpuShape],
+    walls: &FluidWalls,
     readback: bool,
-) -> Result<(), PhysicsError> {
+) -> Result<Vec<BodyChange>, PhysicsError> {
+    let shapes = &walls.shapes;
     if gpu.n as usize != fluid.len() {
         return Err(PhysicsError::Gpu(
             "the fluid changed size since its upload".into(),
@@ -371,20 +424,24 @@ pub(crate) fn step(
         )));
     }
     if gpu.n == 0 || !(dt.is_finite() && dt > 0.0) {
-        return Ok(());
+        return Ok(Vec::new());
     }
     let c = fluid.step_constants();
     let mut g = gravity * c.gravity_scale;
     if !g.is_finite() {
         g = Vec3::ZERO;
     }
-    let p = params_for(fluid, gpu, dt, g, shapes.len());
+    let p = params_for(fluid, gpu, dt, g, walls);
+    let movable = walls.movable.len();
     let pipes = ctx
         .fluid
         .as_ref()
         .ok_or_else(|| PhysicsError::Gpu("no fluid pipelines on this adapter".into()))?;
     let particles = ctx.workgroups(gpu.n)?;
     let keys = ctx.workgroups(gpu.table)?;
+    // One workgroup a chunk, one invocation a body.
+    let chunks = ctx.workgroups(gpu.chunks * inertia_shaders::layout::WORKGROUP_SIZE)?;
+    let bodies = ctx.workgroups(movable as u32)?;
     ctx.scoped("a GPU fluid step", || {
         ctx.queue
             .write_buffer(&gpu.params, 0, bytemuck::bytes_of(&p));
@@ -447,19 +504,42 @@ pub(crate) fn step(
                 (&pipes.take_velocities, particles),
             ]);
         }
+        // 5. What the particles gave the dynamic bodies, summed per body.
+        if movable > 0 {
+            stages.extend([
+                (&pipes.reduce_chunks, chunks),
+                (&pipes.reduce_bodies, bodies),
+            ]);
+        }
         run(&mut encoder, &stages);
+        if movable > 0 {
+            let at = u64::from(gpu.chunks) * (movable * FLUID_LOAD_BYTES) as u64;
+            let bytes = (movable * FLUID_LOAD_BYTES) as u64;
+            encoder.copy_buffer_to_buffer(&gpu.partials, at, &gpu.totals, 0, bytes);
+        }
         if readback {
             gpu.record_readback(&mut encoder);
         }
         ctx.queue.submit([encoder.finish()]);
         Ok(())
     })?;
-    if readback {
-        read(ctx, fluid, gpu)
+    let changes = if movable > 0 {
+        let bytes = ctx.read_back(
+            &gpu.totals,
+            (movable * FLUID_LOAD_BYTES) as u64,
+            "a fluid's loads on bodies",
+        )?;
+        let totals: Vec<GpuLoad> = bytemuck::pod_collect_to_vec(&bytes);
+        walls.changes(&totals)
     } else {
+        Vec::new()
+    };
+    if readback {
+        read(ctx, fluid, gpu)?;
+    } else if movable == 0 {
         let _ = ctx.device.poll(wgpu::PollType::Poll);
-        Ok(())
     }
+    Ok(changes)
 }
 
 impl GpuFluid {

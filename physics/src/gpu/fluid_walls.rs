@@ -1,22 +1,29 @@
-//! The rigid bodies a fluid on the GPU is kept out of: the world's static
-//! and kinematic bodies, packed each step as `struct Shape` of
-//! `pbf.wgsl`.
+//! The rigid bodies a fluid on the GPU meets over one step, packed as
+//! `struct Shape` of `pbf.wgsl`, and what the fluid gives the dynamic ones
+//! back.
 //!
 //! On the CPU a fluid gathers the bodies near it through the coupling
 //! (`xpbd/coupling.rs`), takes each particle's nearest surface from them
 //! and pushes the dynamic ones back. The GPU path finds the nearest
 //! surfaces in the shader instead, from this list (a body that is far from
 //! every particle finds no surface, as on the CPU), so the particles never
-//! come back to the CPU. It cannot push bodies back: a world with a
-//! dynamic body is refused (the body would take no impulses), and so are
-//! shapes the shader does not project onto.
+//! come back to the CPU. The impulses the particles give a dynamic body
+//! are kept per particle and wall, then summed in a fixed order on the GPU
+//! (`reduce_chunks`, `reduce_bodies`): only the bodies' totals come back,
+//! 32 bytes each, and the bodies take them as on the CPU
+//! ([`apply_changes`](crate::xpbd::coupling::apply_changes)). Shapes the
+//! shader does not project onto are refused.
+
+use glam::{DMat3, DVec3};
 
 use crate::arena::Arena;
 use crate::error::PhysicsError;
+use crate::rigid::aabb::Aabb;
 use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::shape::Shape;
+use crate::xpbd::coupling::{BodyChange, StepStart};
 
-/// Most bodies a fluid on the GPU is kept out of (the shader tests every
+/// Most bodies a fluid on the GPU meets in a step (the shader tests every
 /// one for every particle).
 pub const MAX_FLUID_GPU_SHAPES: usize = 256;
 
@@ -25,11 +32,14 @@ const CUBOID: u32 = 0;
 const SPHERE: u32 = 1;
 const CAPSULE: u32 = 2;
 
-/// WGSL `struct Shape` of `pbf.wgsl` (144 bytes).
+/// A shape the particles cannot move (the shader's `NONE`).
+const FIXED: u32 = u32::MAX;
+
+/// WGSL `struct Shape` of `pbf.wgsl` (208 bytes).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct GpuShape {
-    /// x: kind.
+    /// x: kind; y: the body's slot among the movable ones, or `FIXED`.
     kind: [u32; 4],
     /// Pose: translation, m, and the rotation's columns.
     translation: [f32; 4],
@@ -41,38 +51,88 @@ pub(crate) struct GpuShape {
     size: [f32; 4],
     /// Centre of mass, m; w the body's dynamic friction.
     com: [f32; 4],
-    /// m/s.
+    /// m/s: the body's mean velocity over the step.
     linvel: [f32; 4],
-    /// rad/s.
+    /// rad/s: likewise.
     angvel: [f32; 4],
+    /// x: inverse mass, 1/kg (0 for a body the particles cannot move).
+    inv_mass: [f32; 4],
+    /// The inverse inertia in the world's frame, by column, 1/(kg·m²).
+    inv_inertia_x: [f32; 4],
+    inv_inertia_y: [f32; 4],
+    inv_inertia_z: [f32; 4],
 }
 
 const _: () =
     assert!(std::mem::size_of::<GpuShape>() == inertia_shaders::layout::FLUID_SHAPE_BYTES);
 
-fn v4(v: glam::DVec3, w: f64) -> [f32; 4] {
+/// WGSL `struct Load` of `pbf.wgsl`: an impulse (N·s) and its moment about
+/// the body's centre of mass (N·m·s); w unused.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct GpuLoad {
+    impulse: [f32; 4],
+    moment: [f32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<GpuLoad>() == inertia_shaders::layout::FLUID_LOAD_BYTES);
+
+fn v4(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
 }
 
-/// The bodies of `bodies` a fluid on the GPU is kept out of, in handle
-/// order (the CPU's order). Refused with [`PhysicsError::Gpu`] naming the
-/// body: a dynamic body (the GPU does not push bodies back), a shape the
-/// shader does not handle (cuboids, spheres and capsules only), or more
-/// than [`MAX_FLUID_GPU_SHAPES`] bodies.
-pub(crate) fn gather(bodies: &Arena<RigidBody>) -> Result<Vec<GpuShape>, PhysicsError> {
-    let mut out = Vec::new();
-    for (index, _, b) in bodies.iter() {
+fn v3(v: [f32; 4]) -> DVec3 {
+    DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))
+}
+
+/// The bodies a fluid on the GPU meets over one step.
+#[derive(Debug, Default)]
+pub(crate) struct FluidWalls {
+    /// In handle order (the CPU's order).
+    pub(crate) shapes: Vec<GpuShape>,
+    /// The arena key of each body the particles can move, by its slot.
+    pub(crate) movable: Vec<(u32, u32)>,
+}
+
+impl FluidWalls {
+    /// What the particles gave the movable bodies, from their totals as
+    /// the GPU summed them (one [`GpuLoad`] per slot).
+    pub(crate) fn changes(&self, totals: &[GpuLoad]) -> Vec<BodyChange> {
+        self.movable
+            .iter()
+            .zip(totals)
+            .map(|(key, l)| (*key, (v3(l.impulse), v3(l.moment))))
+            .filter(|(_, load)| *load != (DVec3::ZERO, DVec3::ZERO))
+            .map(|(key, load)| BodyChange::of_load(key, load))
+            .collect()
+    }
+}
+
+/// The bodies of `bodies` a fluid on the GPU meets over a step, in handle
+/// order: every body whose box meets `near` (m; all of them when `None`),
+/// each moving at its mean velocity since `start` (the CPU's friction,
+/// [`StepStart`]). Dynamic bodies take the particles' impulses back.
+/// Refused with [`PhysicsError::Gpu`] naming the body: a shape the shader
+/// does not handle (cuboids, spheres and capsules only), or more than
+/// [`MAX_FLUID_GPU_SHAPES`] bodies.
+pub(crate) fn gather(
+    bodies: &Arena<RigidBody>,
+    start: &StepStart,
+    near: Option<&Aabb>,
+) -> Result<FluidWalls, PhysicsError> {
+    let mut out = FluidWalls::default();
+    for (index, generation, b) in bodies.iter() {
         if b.sensor {
             continue;
         }
         let Some(shape) = b.shape.as_ref() else {
             continue;
         };
-        if b.kind == BodyKind::Dynamic && !b.quarantined {
-            return Err(PhysicsError::Gpu(format!(
-                "fluids on the GPU do not push dynamic bodies (body {index} is dynamic); \
-                 keep the fluid on the CPU or make the body static or kinematic"
-            )));
+        let pose = b.pose();
+        if let Some(near) = near {
+            if !shape.aabb(&pose).intersects(near) {
+                continue;
+            }
         }
         let (kind, size) = match shape {
             Shape::Cuboid { half_extents } => (CUBOID, v4(*half_extents, 0.0)),
@@ -89,23 +149,38 @@ pub(crate) fn gather(bodies: &Arena<RigidBody>) -> Result<Vec<GpuShape>, Physics
                 )))
             }
         };
-        if out.len() == MAX_FLUID_GPU_SHAPES {
+        if out.shapes.len() == MAX_FLUID_GPU_SHAPES {
             return Err(PhysicsError::Gpu(format!(
-                "fluids on the GPU collide with at most {MAX_FLUID_GPU_SHAPES} bodies"
+                "fluids on the GPU meet at most {MAX_FLUID_GPU_SHAPES} bodies in a step; \
+                 keep the fluid on the CPU"
             )));
         }
-        let pose = b.pose();
-        let r = glam::DMat3::from_quat(pose.rotation);
-        out.push(GpuShape {
-            kind: [kind, 0, 0, 0],
+        let movable = b.kind == BodyKind::Dynamic && !b.quarantined && b.inv_mass > 0.0;
+        let (slot, inv_mass, inv_inertia) = if movable {
+            out.movable.push((index, generation));
+            let slot = out.movable.len() as u32 - 1;
+            (slot, b.inv_mass, b.inverse_inertia_world())
+        } else {
+            (FIXED, 0.0, DMat3::ZERO)
+        };
+        let (linvel, angvel) = start
+            .mean_velocity((index, generation), b.com, b.rotation)
+            .unwrap_or((b.linvel, b.angvel));
+        let r = DMat3::from_quat(pose.rotation);
+        out.shapes.push(GpuShape {
+            kind: [kind, slot, 0, 0],
             translation: v4(pose.translation, 0.0),
             axis_x: v4(r.x_axis, 0.0),
             axis_y: v4(r.y_axis, 0.0),
             axis_z: v4(r.z_axis, 0.0),
             size,
             com: v4(b.com, b.friction_dynamic),
-            linvel: v4(b.linvel, 0.0),
-            angvel: v4(b.angvel, 0.0),
+            linvel: v4(linvel, 0.0),
+            angvel: v4(angvel, 0.0),
+            inv_mass: [inv_mass as f32, 0.0, 0.0, 0.0],
+            inv_inertia_x: v4(inv_inertia.x_axis, 0.0),
+            inv_inertia_y: v4(inv_inertia.y_axis, 0.0),
+            inv_inertia_z: v4(inv_inertia.z_axis, 0.0),
         });
     }
     Ok(out)

@@ -105,6 +105,10 @@ pub struct StepReport {
     pub energy: Energy,
     /// How the step's contact manifolds were found.
     pub manifolds: crate::rigid::contact::ManifoldCount,
+    /// Fluids the GPU could not step against the bodies near them (a shape
+    /// it does not handle, too many bodies), with why: each went back to
+    /// the CPU and took this step there.
+    pub fluids_to_cpu: Vec<(crate::handle::FluidHandle, PhysicsError)>,
 }
 
 /// A physics world: particle systems and rigid bodies.
@@ -311,7 +315,7 @@ impl World {
         profile.bodies = t0.elapsed();
 
         let t0 = Instant::now();
-        self.stage_soft(dt, &mut energy)?;
+        self.stage_soft(dt, &mut energy, &mut report)?;
         profile.soft = t0.elapsed();
 
         if self.config.energy_accounting {

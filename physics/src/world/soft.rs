@@ -4,10 +4,13 @@
 use glam::DVec3;
 
 use super::World;
+use crate::arena::Arena;
 use crate::energy::Energy;
 use crate::error::{finite3, non_negative, PhysicsError};
 use crate::handle::{BodyHandle, SoftBodyHandle};
-use crate::xpbd::coupling::{apply_changes, Coupling};
+use crate::rigid::body::RigidBody;
+use crate::xpbd::coupling::{apply_changes, Coupling, StepStart};
+use crate::xpbd::fluid::Fluid;
 use crate::xpbd::soft::{self, SoftAttachment, SoftBody, SoftBodyDesc};
 
 impl World {
@@ -179,7 +182,13 @@ impl World {
     /// bodies then take what its particles gave them before the next one
     /// steps (a fluid's emitters then fire the shots due by the end of the
     /// step).
-    pub(super) fn stage_soft(&mut self, dt: f64, energy: &mut Energy) -> Result<(), PhysicsError> {
+    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))]
+    pub(super) fn stage_soft(
+        &mut self,
+        dt: f64,
+        energy: &mut Energy,
+        report: &mut super::StepReport,
+    ) -> Result<(), PhysicsError> {
         if self.soft_bodies.len() == 0 && self.fluids.len() == 0 {
             return Ok(());
         }
@@ -238,15 +247,45 @@ impl World {
                 add_energy(energy, &body.x, &body.v, &body.w, g);
             }
         }
-        for (_, _, fluid) in fluids.iter_mut() {
+        for (index, generation, fluid) in fluids.iter_mut() {
             #[cfg(feature = "gpu")]
             if let Some(on_gpu) = fluid.gpu.0.clone() {
                 let ctx = gpu
                     .as_ref()
                     .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
                 let readback = config.gpu_readback_every_step;
-                let shapes = crate::gpu::fluid_walls::gather(bodies)?;
-                crate::gpu::fluid::step(ctx, fluid, &on_gpu, dt32, gravity, &shapes, readback)?;
+                // The bodies near the fluid, as the CPU gathers them, while
+                // the mirror is fresh (every step's readback); all of them
+                // otherwise.
+                let near = if readback {
+                    let reach = f64::from(fluid.reach(dt32, gravity));
+                    crate::xpbd::coupling::particle_bounds(&fluid.x)
+                        .map(|b| b.expanded(2.0 * reach))
+                } else {
+                    None
+                };
+                let walls = match crate::gpu::fluid_walls::gather(bodies, step_start, near.as_ref())
+                {
+                    Ok(walls) => walls,
+                    Err(why) => {
+                        // Bodies the GPU cannot take came near: the fluid
+                        // goes back to the CPU and steps there, from now on.
+                        crate::gpu::fluid::download(ctx, fluid, &on_gpu)?;
+                        fluid.gpu.0 = None;
+                        fluid.backend = crate::particle_system::Backend::Cpu;
+                        let h = crate::handle::FluidHandle { index, generation };
+                        report.fluids_to_cpu.push((h, why));
+                        step_on_cpu(fluid, bodies, step_start, dt32, gravity, now);
+                        if config.energy_accounting {
+                            let g = gravity.as_dvec3() * fluid.params().gravity_scale;
+                            add_energy(energy, &fluid.x, &fluid.v, fluid.inverse_masses(), g);
+                        }
+                        continue;
+                    }
+                };
+                let changes =
+                    crate::gpu::fluid::step(ctx, fluid, &on_gpu, dt32, gravity, &walls, readback)?;
+                apply_changes(bodies, &changes);
                 // Emitters fire on the host: the fluid comes back, takes
                 // the shot and goes up again.
                 if fluid.shot_due(now) {
@@ -264,13 +303,7 @@ impl World {
                 }
                 continue;
             }
-            let reach = fluid.reach(dt32, gravity);
-            let mut coupling =
-                Coupling::gather(bodies, &fluid.x, fluid.inverse_masses(), reach, &[]);
-            coupling.over_step(step_start);
-            fluid.step(dt32, gravity, &mut coupling);
-            apply_changes(bodies, &coupling.finish());
-            fluid.emit(now);
+            step_on_cpu(fluid, bodies, step_start, dt32, gravity, now);
             if config.energy_accounting {
                 let g = gravity.as_dvec3() * fluid.params().gravity_scale;
                 add_energy(energy, &fluid.x, &fluid.v, fluid.inverse_masses(), g);
@@ -278,6 +311,24 @@ impl World {
         }
         Ok(())
     }
+}
+
+/// Steps `fluid` on the CPU by `dt` s against `bodies`, which take what
+/// its particles give them; its emitters then fire the shots due by `now`.
+fn step_on_cpu(
+    fluid: &mut Fluid,
+    bodies: &mut Arena<RigidBody>,
+    step_start: &StepStart,
+    dt: f32,
+    gravity: glam::Vec3,
+    now: f64,
+) {
+    let reach = fluid.reach(dt, gravity);
+    let mut coupling = Coupling::gather(bodies, &fluid.x, fluid.inverse_masses(), reach, &[]);
+    coupling.over_step(step_start);
+    fluid.step(dt, gravity, &mut coupling);
+    apply_changes(bodies, &coupling.finish());
+    fluid.emit(now);
 }
 
 /// Adds the kinetic and uniform-gravity energy of particles (J) to `energy`.

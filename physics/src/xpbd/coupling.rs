@@ -65,7 +65,7 @@ impl StepStart {
     /// The mean linear (m/s) and angular (rad/s) velocity of the body
     /// `key`, now at `com` turned by `rotation`, since the step began;
     /// `None` for a body added since, or before any record.
-    fn mean_velocity(
+    pub(crate) fn mean_velocity(
         &self,
         key: (u32, u32),
         com: DVec3,
@@ -483,6 +483,19 @@ pub(crate) struct BodyChange {
     load: Load,
     /// Moves of attachments.
     moved: Motion,
+}
+
+impl BodyChange {
+    /// The impulses `load` of contacts, for body `key` (a fluid on the GPU
+    /// sums them there).
+    #[cfg(feature = "gpu")]
+    pub(crate) fn of_load(key: (u32, u32), load: Load) -> Self {
+        Self {
+            key,
+            load,
+            moved: Motion::default(),
+        }
+    }
 }
 
 /// Gives every body what the particles did to it ([`Coupling::finish`]),

@@ -460,6 +460,8 @@ pub(crate) struct StepConstants {
     pub(crate) spacing: f32,
     /// Rest density, kg/m³.
     pub(crate) rest_density: f32,
+    /// A particle's mass, kg.
+    pub(crate) mass: f32,
     /// The weight of a neighbour in kernel sums, m³.
     pub(crate) volume: f32,
     pub(crate) substeps: u32,
@@ -615,6 +617,7 @@ impl Fluid {
             kernels: self.kernels,
             spacing: self.spacing,
             rest_density: self.rest_density,
+            mass: self.mass,
             volume: self.volume,
             substeps: self.substeps,
             viscosity: self.viscosity,
