@@ -26,18 +26,32 @@ pub const PARTICLE_INTERACTIONS: &str = include_str!("../wgsl/particle_interacti
 /// Pass 3 of a GPU particle step: field forces and Euler integration.
 pub const PARTICLE_INTEGRATE: &str = include_str!("../wgsl/particle_integrate.wgsl");
 
+/// Rigid bodies as particles see them on the GPU: their shapes, the
+/// surface nearest a point, and the impulses particles give them, summed
+/// per body in a fixed order (`reduce_chunks`, `reduce_bodies`). Not a
+/// shader of its own: the head of [`XPBD_SOFT`] and [`PBF`].
+pub const BODIES: &str = include_str!("../wgsl/bodies.wgsl");
+
 /// XPBD soft bodies on the GPU: `predict`, `finish` (velocities, fused
 /// with the next substep's prediction) and `project` (one colour of one
 /// constraint kind: distance, bending, volume, tether), dispatched colour
-/// by colour.
-pub const XPBD_SOFT: &str = include_str!("../wgsl/xpbd_soft.wgsl");
+/// by colour; `find_contacts` and `collide` against rigid bodies
+/// ([`BODIES`] first).
+pub const XPBD_SOFT: &str = concat!(
+    include_str!("../wgsl/bodies.wgsl"),
+    include_str!("../wgsl/xpbd_soft.wgsl")
+);
 
 /// Position-based fluids on the GPU: the neighbour grid by a counting
 /// sort (`count`, `scan`, `scatter`, `sort_cells`), the walls near each
 /// particle (`find_walls`), the substeps (`predict`, `densities`,
 /// `corrections`, `collide`) and the velocity passes after them
-/// (`vorticity`, `confine`, `xsph`, `take_velocities`).
-pub const PBF: &str = include_str!("../wgsl/pbf.wgsl");
+/// (`vorticity`, `confine`, `xsph`, `take_velocities`) ([`BODIES`]
+/// first).
+pub const PBF: &str = concat!(
+    include_str!("../wgsl/bodies.wgsl"),
+    include_str!("../wgsl/pbf.wgsl")
+);
 
 /// The viewer's scene shader (`inertia-viewer`): lit, instanced meshes
 /// (`vs_main`, `fs_main`) and static scenery with a metre grid
@@ -77,7 +91,7 @@ pub mod layout {
     /// `struct FieldForce`: three `vec4<f32>`.
     pub const FIELD_FORCE_BYTES: usize = 48;
     /// `struct Params` of `xpbd_soft.wgsl`: one dispatch's uniform slot.
-    pub const SOFT_PARAMS_BYTES: usize = 64;
+    pub const SOFT_PARAMS_BYTES: usize = 80;
     /// `struct Distance` of `xpbd_soft.wgsl`.
     pub const SOFT_DISTANCE_BYTES: usize = 16;
     /// `struct Quad` of `xpbd_soft.wgsl` (hinges and tetrahedra).
@@ -87,19 +101,20 @@ pub mod layout {
     /// `struct FluidParams` of `pbf.wgsl`: one step's uniform block (the
     /// wall table's 2 × 64 entries included).
     pub const FLUID_PARAMS_BYTES: usize = 144 + 2 * 64 * 4;
-    /// `struct Shape` of `pbf.wgsl`: a body the fluid meets.
-    pub const FLUID_SHAPE_BYTES: usize = 208;
-    /// `struct Load` of `pbf.wgsl`: an impulse and its moment.
-    pub const FLUID_LOAD_BYTES: usize = 32;
+    /// `struct Shape` of `bodies.wgsl`: a rigid body particles meet.
+    pub const SHAPE_BYTES: usize = 208;
+    /// `struct Load` of `bodies.wgsl`: an impulse and its moment.
+    pub const LOAD_BYTES: usize = 32;
     /// Particles whose loads one invocation of `reduce_chunks` sums
-    /// (`LOAD_CHUNK`).
-    pub const FLUID_LOAD_CHUNK: usize = 1024;
+    /// (`LOAD_CHUNK` of `bodies.wgsl`).
+    pub const LOAD_CHUNK: usize = 1024;
+    /// Bodies a particle keeps over a step (`BODY_SLOTS` of
+    /// `bodies.wgsl`): a fluid particle's planes, a soft body's contacts.
+    pub const BODY_SLOTS: usize = 4;
     /// `struct Plane` of `pbf.wgsl`: a wall near a particle.
     pub const FLUID_PLANE_BYTES: usize = 32;
     /// `struct Slot` of `pbf.wgsl`: a slot of the neighbour grid.
     pub const FLUID_SLOT_BYTES: usize = 16;
-    /// Most walls a fluid particle keeps over a step (`MAX_PLANES`).
-    pub const FLUID_MAX_PLANES: usize = 4;
     /// Invocations of the fluid's one-workgroup prefix sum (`SCAN_SIZE`).
     pub const FLUID_SCAN_SIZE: u32 = 256;
     /// `struct Params`: the per-step uniform block.

@@ -124,7 +124,18 @@ fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
         .map(|e| e.name.as_str())
         .collect();
     names.sort_unstable();
-    assert_eq!(names, ["finish", "predict", "project"]);
+    assert_eq!(
+        names,
+        [
+            "collide",
+            "find_contacts",
+            "finish",
+            "predict",
+            "project",
+            "reduce_bodies",
+            "reduce_chunks"
+        ]
+    );
     for ep in &module.entry_points {
         assert_eq!(ep.stage, naga::ShaderStage::Compute);
         assert_eq!(
@@ -139,11 +150,22 @@ fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
         ("Distance", layout::SOFT_DISTANCE_BYTES),
         ("Quad", layout::SOFT_QUAD_BYTES),
         ("Tether", layout::SOFT_TETHER_BYTES),
+        ("Shape", layout::SHAPE_BYTES),
+        ("Load", layout::LOAD_BYTES),
     ] {
         assert_eq!(struct_size(&module, ty), Some(bytes), "struct {ty}");
     }
-    let decl = format!("const WORKGROUP_SIZE: u32 = {}u;", layout::WORKGROUP_SIZE);
-    assert!(inertia_shaders::XPBD_SOFT.contains(&decl));
+    for (constant, value) in [
+        ("WORKGROUP_SIZE", layout::WORKGROUP_SIZE as usize),
+        ("BODY_SLOTS", layout::BODY_SLOTS),
+        ("LOAD_CHUNK", layout::LOAD_CHUNK),
+    ] {
+        let decl = format!("const {constant}: u32 = {value}u;");
+        assert!(
+            inertia_shaders::XPBD_SOFT.contains(&decl),
+            "xpbd_soft.wgsl must declare `{decl}`"
+        );
+    }
 }
 
 #[test]
@@ -201,18 +223,18 @@ fn the_fluid_shader_has_its_entry_points_and_the_engine_layout() {
     }
     for (ty, bytes) in [
         ("FluidParams", layout::FLUID_PARAMS_BYTES),
-        ("Shape", layout::FLUID_SHAPE_BYTES),
+        ("Shape", layout::SHAPE_BYTES),
         ("Plane", layout::FLUID_PLANE_BYTES),
         ("Slot", layout::FLUID_SLOT_BYTES),
-        ("Load", layout::FLUID_LOAD_BYTES),
+        ("Load", layout::LOAD_BYTES),
     ] {
         assert_eq!(struct_size(&module, ty), Some(bytes), "struct {ty}");
     }
     for (constant, value) in [
         ("WORKGROUP_SIZE", layout::WORKGROUP_SIZE as usize),
         ("SCAN_SIZE", layout::FLUID_SCAN_SIZE as usize),
-        ("MAX_PLANES", layout::FLUID_MAX_PLANES),
-        ("LOAD_CHUNK", layout::FLUID_LOAD_CHUNK),
+        ("BODY_SLOTS", layout::BODY_SLOTS),
+        ("LOAD_CHUNK", layout::LOAD_CHUNK),
     ] {
         let decl = format!("const {constant}: u32 = {value}u;");
         assert!(src.contains(&decl), "pbf.wgsl must declare `{decl}`");

@@ -1,4 +1,6 @@
-// Position-based fluids (physics/src/xpbd/fluid/), on the GPU.
+// Position-based fluids (physics/src/xpbd/fluid/), on the GPU. The crate
+// puts `bodies.wgsl` (the rigid bodies' shapes, and the reductions of
+// step 5) before this file.
 //
 // The same step as the CPU's `Fluid::step`, stage for stage:
 //
@@ -15,7 +17,7 @@
 //    index within a cell: a fixed order.
 // 2. `find_walls`, once a step: the tangent plane of every boundary shape
 //    near each particle, at the surface point nearest its position at the
-//    start of the step (at most MAX_PLANES a particle).
+//    start of the step (at most BODY_SLOTS a particle).
 // 3. Per substep of `hs = dt / substeps`: `predict` (`v += hs g`,
 //    `prev = x`, `x += hs v`), `densities` (density and the multiplier λ,
 //    one Jacobi pass, walls as solid fluid from a table), `corrections`
@@ -26,9 +28,9 @@
 //    and `take_velocities` copying them back.
 // 5. With dynamic bodies among the shapes: the impulses the particles
 //    gave them, which `corrections` and `collide` kept per particle and
-//    wall (`loads`), summed per body: `reduce_chunks` (each chunk of
-//    LOAD_CHUNK particles, in particle order) and `reduce_bodies` (the
-//    chunks, in order). The host reads back only the bodies' totals.
+//    plane (`loads`), summed per body by `reduce_chunks` and
+//    `reduce_bodies` (`bodies.wgsl`). The host reads back only the
+//    bodies' totals.
 //
 // Every pass is Jacobi: it reads the state the pass before left and writes
 // only its own particle's (or key's) slots, so nothing races. Atomics are
@@ -42,19 +44,10 @@
 const WORKGROUP_SIZE: u32 = 64u;
 // Invocations of the single-workgroup prefix sum.
 const SCAN_SIZE: u32 = 256u;
-// Most boundary planes kept per particle over a step.
-const MAX_PLANES: u32 = 4u;
 // Entries of the wall table over [0, h] (boundary.rs's ENTRIES).
 const WALL_ENTRIES: u32 = 64u;
-// No neighbour left; a shape the particles cannot move.
-const NONE: u32 = 0xffffffffu;
-// Particles whose loads one invocation of `reduce_chunks` sums.
-const LOAD_CHUNK: u32 = 1024u;
 
-// Shape kinds (`gpu/fluid_walls.rs`).
-const SHAPE_CUBOID: u32 = 0u;
-const SHAPE_SPHERE: u32 = 1u;
-const SHAPE_CAPSULE: u32 = 2u;
+
 
 // The uniform block of one step (`FluidParams` in `gpu/fluid.rs`).
 struct FluidParams {
@@ -121,32 +114,6 @@ struct FluidParams {
     wall_psi: array<vec4<f32>, 16>,
 }
 
-// A rigid body the fluid meets (`gpu/fluid_walls.rs`).
-struct Shape {
-    // x: SHAPE_* kind; y: the body's slot among the movable ones (the
-    // dynamic bodies), or NONE.
-    kind: vec4<u32>,
-    // Pose: translation (m) and the rotation's columns.
-    translation: vec4<f32>,
-    axis_x: vec4<f32>,
-    axis_y: vec4<f32>,
-    axis_z: vec4<f32>,
-    // Cuboid: half extents (m); sphere: x = radius; capsule: x = half
-    // height, y = radius.
-    size: vec4<f32>,
-    // Centre of mass (m); w: the body's friction coefficient.
-    com: vec4<f32>,
-    // Velocity (m/s) and angular velocity (rad/s): the body's mean over
-    // the step.
-    linvel: vec4<f32>,
-    angvel: vec4<f32>,
-    // x: inverse mass, 1/kg (0 when the particles cannot move it).
-    inv_mass: vec4<f32>,
-    // The inverse inertia in the world's frame, by column, 1/(kg m²).
-    inv_inertia_x: vec4<f32>,
-    inv_inertia_y: vec4<f32>,
-    inv_inertia_z: vec4<f32>,
-}
 
 // A slot of the neighbour grid: the predicted position (m) and the
 // particle's index (16 bytes).
@@ -163,12 +130,7 @@ struct Plane {
     normal: vec4<f32>,
 }
 
-// What particles gave a body: an impulse (N s) and its moment about the
-// body's centre of mass (N m s); w unused.
-struct Load {
-    impulse: vec4<f32>,
-    moment: vec4<f32>,
-}
+
 
 @group(0) @binding(0) var<uniform> params: FluidParams;
 // Positions, velocities, positions at the start of the substep.
@@ -191,10 +153,10 @@ struct Load {
 @group(0) @binding(10) var<storage, read_write> density: array<f32>;
 // Per particle: vorticity ω, 1/s.
 @group(0) @binding(11) var<storage, read_write> omega: array<vec4<f32>>;
-// MAX_PLANES per particle.
+// BODY_SLOTS per particle.
 @group(0) @binding(12) var<storage, read_write> planes: array<Plane>;
 @group(0) @binding(13) var<storage, read> shapes: array<Shape>;
-// MAX_PLANES per particle: what it gave the body behind each of its
+// BODY_SLOTS per particle: what it gave the body behind each of its
 // planes over the step (used while `params.movable` > 0).
 @group(0) @binding(14) var<storage, read_write> loads: array<Load>;
 // Per chunk, then per movable body: the chunk's loads; after them, each
@@ -207,15 +169,6 @@ fn linear(id: vec3<u32>, groups: vec3<u32>) -> u32 {
     return id.x + id.y * groups.x * WORKGROUP_SIZE;
 }
 
-// Whether `a` is neither infinite nor NaN (by its bits: a compiler may
-// fold `a != a`).
-fn finite(a: f32) -> bool {
-    return (bitcast<u32>(a) & 0x7f800000u) != 0x7f800000u;
-}
-
-fn finite3(a: vec3<f32>) -> bool {
-    return finite(a.x) && finite(a.y) && finite(a.z);
-}
 
 // ---- kernels (kernels.rs) ----
 
@@ -397,91 +350,6 @@ fn next_neighbour(w: ptr<function, Walk>) -> u32 {
     return NONE;
 }
 
-// ---- boundary shapes (coupling.rs) ----
-
-// The surface of a shape nearest a point: the point (m), the normal out
-// of the body, the signed distance (m, negative inside; w), and whether
-// it counts (`found`).
-struct Surface {
-    point: vec3<f32>,
-    normal: vec3<f32>,
-    distance: f32,
-    found: bool,
-}
-
-fn to_local(s: Shape, p: vec3<f32>) -> vec3<f32> {
-    let d = p - s.translation.xyz;
-    return vec3<f32>(dot(s.axis_x.xyz, d), dot(s.axis_y.xyz, d), dot(s.axis_z.xyz, d));
-}
-
-fn to_world(s: Shape, q: vec3<f32>) -> vec3<f32> {
-    return s.axis_x.xyz * q.x + s.axis_y.xyz * q.y + s.axis_z.xyz * q.z + s.translation.xyz;
-}
-
-// The ball of radius `r` about `c` (query/project.rs `project_ball`):
-// the nearest surface point (xyz) and 1 when inside (w).
-fn project_ball(p: vec3<f32>, c: vec3<f32>, r: f32) -> vec4<f32> {
-    let d = p - c;
-    let l = length(d);
-    var u = vec3<f32>(0.0, 1.0, 0.0);
-    if (l > 0.0) {
-        u = d / l;
-    }
-    return vec4<f32>(c + u * r, select(0.0, 1.0, l <= r));
-}
-
-// The nearest surface point in the shape's frame (xyz) and 1 when `p` is
-// inside (w).
-fn project_local(s: Shape, p: vec3<f32>) -> vec4<f32> {
-    let kind = s.kind.x;
-    if (kind == SHAPE_SPHERE) {
-        return project_ball(p, vec3<f32>(0.0), s.size.x);
-    }
-    if (kind == SHAPE_CAPSULE) {
-        let hh = s.size.x;
-        return project_ball(p, vec3<f32>(0.0, clamp(p.y, -hh, hh), 0.0), s.size.y);
-    }
-    let h = s.size.xyz;
-    let q = clamp(p, -h, h);
-    if (any(q != p)) {
-        return vec4<f32>(q, 0.0);
-    }
-    // Inside: out through the nearest face.
-    let depth = h - abs(p);
-    var out = p;
-    if (depth.x <= depth.y && depth.x <= depth.z) {
-        out.x = select(-h.x, h.x, p.x >= 0.0);
-    } else if (depth.y <= depth.z) {
-        out.y = select(-h.y, h.y, p.y >= 0.0);
-    } else {
-        out.z = select(-h.z, h.z, p.z >= 0.0);
-    }
-    return vec4<f32>(out, 1.0);
-}
-
-// `Coupling::surface`: the surface of shape `s` nearest `p`, found if `p`
-// is inside or closer than `within` (m).
-fn surface(s: Shape, p: vec3<f32>, within: f32) -> Surface {
-    var out = Surface(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false);
-    let local = to_local(s, p);
-    let proj = project_local(s, local);
-    let inside = proj.w > 0.5;
-    let distance = distance(local, proj.xyz);
-    if (!inside && distance >= within) {
-        return out;
-    }
-    let point = to_world(s, proj.xyz);
-    let to = p - point;
-    let len = length(to);
-    if (len <= 1e-12 || !finite(len)) {
-        return out;
-    }
-    out.point = point;
-    out.normal = select(to / len, -to / len, inside);
-    out.distance = select(distance, -distance, inside);
-    out.found = true;
-    return out;
-}
 
 // The tangent planes of the shapes near each particle over the step.
 @compute @workgroup_size(64)
@@ -493,49 +361,28 @@ fn find_walls(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     let p = x[i].xyz;
     let within = params.wall_reach + length(v[i].xyz) * params.dt + params.wall_fall;
     var used = 0u;
-    for (var k = 0u; k < params.shapes && used < MAX_PLANES; k++) {
+    for (var k = 0u; k < params.shapes && used < BODY_SLOTS; k++) {
         let s = surface(shapes[k], p, within);
         if (s.found) {
-            planes[i * MAX_PLANES + used] = Plane(vec4<f32>(s.point, 1.0), vec4<f32>(s.normal, f32(k)));
+            planes[i * BODY_SLOTS + used] = Plane(vec4<f32>(s.point, 1.0), vec4<f32>(s.normal, f32(k)));
             used += 1u;
         }
     }
-    for (var k = used; k < MAX_PLANES; k++) {
-        planes[i * MAX_PLANES + k] = Plane(vec4<f32>(0.0), vec4<f32>(0.0));
+    for (var k = used; k < BODY_SLOTS; k++) {
+        planes[i * BODY_SLOTS + k] = Plane(vec4<f32>(0.0), vec4<f32>(0.0));
     }
     if (params.movable > 0u) {
-        for (var k = 0u; k < MAX_PLANES; k++) {
-            loads[i * MAX_PLANES + k] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
+        for (var k = 0u; k < BODY_SLOTS; k++) {
+            loads[i * BODY_SLOTS + k] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
         }
     }
 }
 
-// The shape behind plane slot `slot` of particle `i`.
-fn plane_shape(i: u32, slot: u32) -> u32 {
-    return u32(planes[i * MAX_PLANES + slot].normal.w);
-}
-
-// `1/M + (r × d) · I⁻¹ (r × d)` of shape `s` at `p` along `d`, 1/kg.
-fn inv_mass_along(s: Shape, p: vec3<f32>, d: vec3<f32>) -> f32 {
-    if (s.inv_mass.x == 0.0) {
-        return 0.0;
-    }
-    let c = cross(p - s.com.xyz, d);
-    let ic = s.inv_inertia_x.xyz * c.x + s.inv_inertia_y.xyz * c.y + s.inv_inertia_z.xyz * c.z;
-    return s.inv_mass.x + dot(c, ic);
-}
-
-// Adds `impulse` (N s), given at `point` (m) to the movable body behind
-// plane slot `slot` of particle `i`, to the particle's loads
-// (`Coupling::add_load`).
-fn add_load(i: u32, slot: u32, s: Shape, point: vec3<f32>, impulse: vec3<f32>) {
-    if (!finite3(impulse)) {
-        return;
-    }
-    let at = i * MAX_PLANES + slot;
-    let l = loads[at];
-    let moment = cross(point - s.com.xyz, impulse);
-    loads[at] = Load(vec4<f32>(l.impulse.xyz + impulse, 0.0), vec4<f32>(l.moment.xyz + moment, 0.0));
+// The shape behind plane slot `slot` of particle `i`, or NONE
+// (`bodies.wgsl`).
+fn slot_shape(i: u32, slot: u32) -> u32 {
+    let plane = planes[i * BODY_SLOTS + slot];
+    return select(NONE, u32(plane.normal.w), plane.point.w > 0.5);
 }
 
 // ---- the substeps (step.rs) ----
@@ -600,8 +447,8 @@ struct Walls {
 fn walls_near(i: u32, p: vec3<f32>) -> Walls {
     var w: Walls;
     w.count = 0u;
-    for (var k = 0u; k < MAX_PLANES; k++) {
-        let plane = planes[i * MAX_PLANES + k];
+    for (var k = 0u; k < BODY_SLOTS; k++) {
+        let plane = planes[i * BODY_SLOTS + k];
         if (plane.point.w < 0.5) {
             break;
         }
@@ -739,7 +586,7 @@ fn corrections(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgr
         var walls = walls_near(i, p);
         for (var k = 0u; k < walls.count; k++) {
             let slot = walls.slot[k];
-            let shape = shapes[plane_shape(i, slot)];
+            let shape = shapes[slot_shape(i, slot)];
             if (shape.kind.y == NONE) {
                 continue;
             }
@@ -753,10 +600,6 @@ fn corrections(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgr
     }
 }
 
-// Velocity of shape `s`'s material at `p`, m/s.
-fn velocity_at(s: Shape, p: vec3<f32>) -> vec3<f32> {
-    return s.linvel.xyz + cross(s.angvel.xyz, p - s.com.xyz);
-}
 
 // Keeps the corrected position out of the shapes (`Coupling::push_out`,
 // with friction), then `v = (x − prev) / hs`; a particle gone non-finite
@@ -769,47 +612,20 @@ fn collide(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
     }
     let q = prev[i].xyz;
     var p = next[i].xyz;
-    let radius = params.radius;
     for (var k = 0u; k < params.shapes; k++) {
         let shape = shapes[k];
-        let s = surface(shape, p, radius);
-        if (!s.found) {
+        let push = push_out(shape, p, q, params.radius, params.friction, params.hs);
+        if (!push.found) {
             continue;
         }
-        let depth = radius - s.distance;
-        var dx = s.normal * depth;
-        let mu = max(params.friction, shape.com.w);
-        if (mu > 0.0) {
-            let moved = (p - q) + dx - velocity_at(shape, s.point) * params.hs;
-            let slide = moved - s.normal * dot(moved, s.normal);
-            let len = length(slide);
-            if (len > 1e-12) {
-                dx -= slide * min(mu * depth / len, 1.0);
-            }
-        }
-        let moved_to = p + dx;
-        if (!finite3(moved_to)) {
-            continue;
-        }
-        p = moved_to;
+        p += push.dx;
         // A movable body takes the correction's impulse, kept with the
         // plane find_walls found for it (a body no plane of this particle
         // names was out of its reach for the step, and gets none).
         if (shape.kind.y != NONE) {
-            for (var slot = 0u; slot < MAX_PLANES; slot++) {
-                if (planes[i * MAX_PLANES + slot].point.w < 0.5) {
-                    break;
-                }
-                if (plane_shape(i, slot) == k) {
-                    let len = length(dx);
-                    var n = vec3<f32>(0.0);
-                    if (len > 0.0 && finite(len)) {
-                        n = dx / len;
-                    }
-                    let w = params.particle_inv_mass + inv_mass_along(shape, s.point, n);
-                    if (w > 0.0) {
-                        add_load(i, slot, shape, s.point, -dx / (params.hs * w));
-                    }
+            for (var slot = 0u; slot < BODY_SLOTS; slot++) {
+                if (slot_shape(i, slot) == k) {
+                    give_push(i, slot, shape, push, params.particle_inv_mass, params.hs);
                     break;
                 }
             }
@@ -925,52 +741,3 @@ fn take_velocities(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_wo
     v[i] = next[i];
 }
 
-// ---- the bodies' loads ----
-
-// Each chunk of LOAD_CHUNK particles: every movable body's loads, summed
-// in particle and slot order (an invocation a body) into `partials`.
-@compute @workgroup_size(64)
-fn reduce_chunks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) t: u32) {
-    let chunk = wg.x + wg.y * groups.x;
-    if (chunk >= params.chunks) {
-        return;
-    }
-    let lo = chunk * LOAD_CHUNK;
-    let hi = min(lo + LOAD_CHUNK, params.n);
-    for (var body = t; body < params.movable; body += WORKGROUP_SIZE) {
-        var impulse = vec3<f32>(0.0);
-        var moment = vec3<f32>(0.0);
-        for (var i = lo; i < hi; i++) {
-            for (var slot = 0u; slot < MAX_PLANES; slot++) {
-                if (planes[i * MAX_PLANES + slot].point.w < 0.5) {
-                    break;
-                }
-                if (shapes[plane_shape(i, slot)].kind.y != body) {
-                    continue;
-                }
-                let l = loads[i * MAX_PLANES + slot];
-                impulse += l.impulse.xyz;
-                moment += l.moment.xyz;
-            }
-        }
-        partials[chunk * params.movable + body] = Load(vec4<f32>(impulse, 0.0), vec4<f32>(moment, 0.0));
-    }
-}
-
-// Each movable body's total: its chunks' loads, in chunk order, after the
-// chunks' in `partials`.
-@compute @workgroup_size(64)
-fn reduce_bodies(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let body = linear(id, groups);
-    if (body >= params.movable) {
-        return;
-    }
-    var impulse = vec3<f32>(0.0);
-    var moment = vec3<f32>(0.0);
-    for (var chunk = 0u; chunk < params.chunks; chunk++) {
-        let l = partials[chunk * params.movable + body];
-        impulse += l.impulse.xyz;
-        moment += l.moment.xyz;
-    }
-    partials[params.chunks * params.movable + body] = Load(vec4<f32>(impulse, 0.0), vec4<f32>(moment, 0.0));
-}

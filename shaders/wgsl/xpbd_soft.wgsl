@@ -1,10 +1,17 @@
 // XPBD soft bodies on small steps (physics/src/xpbd/soft/), on the GPU.
+// The crate puts `bodies.wgsl` (the rigid bodies' shapes, the push out of
+// them, the reductions of their loads) before this file.
 //
-// Each substep is a run of dispatches, each its own usage scope (so each
-// sees the writes of the one before): `predict` (or `finish` of the last
-// substep fused with this one's prediction), then one `project` dispatch
-// per colour of each constraint kind (distance, bending, volume, tethers),
-// in the CPU's colour order. Within a colour no two constraints move the same
+// Once a step, `find_contacts` keeps the bodies within reach of each
+// particle (at most BODY_SLOTS, the CPU's candidates). Each substep is a
+// run of dispatches, each its own usage scope (so each sees the writes of
+// the one before): `predict` (or `finish` of the last substep fused with
+// this one's prediction), then one `project` dispatch per colour of each
+// constraint kind (distance, bending, volume, tethers), in the CPU's
+// colour order, then `collide` (each particle kept the collision radius
+// out of its contacts' bodies, with friction). With dynamic bodies among
+// them, `reduce_chunks` and `reduce_bodies` sum what the particles gave
+// each after the last substep. Within a colour no two constraints move the same
 // particle, so every invocation writes only its own constraint's
 // particles and nothing needs atomics; an overflow colour (a particle in
 // more than 64 constraints of a kind) is projected by one invocation, in
@@ -41,9 +48,20 @@ struct SoftParams {
     // `project`: the constraint kind (0 distance, 1 bending, 2 volume,
     // 3 tether).
     kind: u32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
+    // Bodies the particles meet, those they can move, and chunks of
+    // LOAD_CHUNK particles (`bodies.wgsl`).
+    shapes: u32,
+    movable: u32,
+    chunks: u32,
+    // Collision radius (m) and the body's friction coefficient.
+    radius: f32,
+    friction: f32,
+    // How far from a particle's position at the start of the step bodies
+    // are looked for, m: the collision radius and gravity's travel over
+    // the step (plus the particle's own, `|v| dt`).
+    reach: f32,
+    // The whole step, s.
+    dt: f32,
 }
 
 // Two particles, rest length (m, bits), compliance (m/N, bits).
@@ -79,6 +97,16 @@ struct Tether {
 @group(0) @binding(5) var<storage, read> bends: array<Quad>;
 @group(0) @binding(6) var<storage, read> tets: array<Quad>;
 @group(0) @binding(7) var<storage, read> tethers: array<Tether>;
+// The bodies the particles meet this step.
+@group(0) @binding(8) var<storage, read> shapes: array<Shape>;
+// Per particle: the shapes of its contacts for the step (NONE past the
+// last).
+@group(0) @binding(9) var<storage, read_write> contacts: array<vec4<u32>>;
+// BODY_SLOTS per particle: what it gave each contact's body (while
+// `params.movable` > 0).
+@group(0) @binding(10) var<storage, read_write> loads: array<Load>;
+// Per chunk and movable body, then per body (`bodies.wgsl`).
+@group(0) @binding(11) var<storage, read_write> partials: array<Load>;
 
 fn linear(id: vec3<u32>, groups: vec3<u32>) -> u32 {
     return id.x + id.y * groups.x * WORKGROUP_SIZE;
@@ -301,4 +329,73 @@ fn project(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
             }
         }
     }
+}
+
+// ---- contacts with rigid bodies (coupling.rs) ----
+
+// The shape of contact `slot` of particle `i`, or NONE (`bodies.wgsl`).
+fn slot_shape(i: u32, slot: u32) -> u32 {
+    return contacts[i][slot];
+}
+
+// The bodies within reach of each particle that can move over the step
+// (`params.reach` and its own travel), from its position at the start of
+// the step, in handle order (at most BODY_SLOTS); its loads cleared.
+@compute @workgroup_size(64)
+fn find_contacts(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let p = x[i];
+    var found = vec4<u32>(NONE);
+    if (p.w > 0.0) {
+        let within = params.reach + length(v[i].xyz) * params.dt;
+        var used = 0u;
+        for (var k = 0u; k < params.shapes && used < BODY_SLOTS; k++) {
+            if (surface(shapes[k], p.xyz, within).found) {
+                found[used] = k;
+                used += 1u;
+            }
+        }
+    }
+    contacts[i] = found;
+    if (params.movable > 0u) {
+        for (var slot = 0u; slot < BODY_SLOTS; slot++) {
+            loads[i * BODY_SLOTS + slot] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
+        }
+    }
+}
+
+// Each particle kept the collision radius out of its contacts' bodies,
+// with friction (`Coupling::push_out`); the movable ones take the
+// corrections' impulses.
+@compute @workgroup_size(64)
+fn collide(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let own = x[i];
+    if (own.w <= 0.0) {
+        return;
+    }
+    let q = prev[i].xyz;
+    var p = own.xyz;
+    for (var slot = 0u; slot < BODY_SLOTS; slot++) {
+        let k = contacts[i][slot];
+        if (k == NONE) {
+            break;
+        }
+        let shape = shapes[k];
+        let push = push_out(shape, p, q, params.radius, params.friction, params.h);
+        if (!push.found) {
+            continue;
+        }
+        p += push.dx;
+        if (shape.kind.y != NONE) {
+            give_push(i, slot, shape, push, own.w, params.h);
+        }
+    }
+    x[i] = vec4<f32>(p, own.w);
 }

@@ -14,7 +14,7 @@
 //! | `density` | per particle, kg/m³ | `densities` |
 //! | `omega` | per particle: vorticity, 1/s | `vorticity` |
 //! | `planes` | per particle: up to 4 walls near it over the step | `find_walls` |
-//! | `shapes` | the bodies near the fluid (`gpu/fluid_walls.rs`) | CPU, every step |
+//! | `shapes` | the bodies near the fluid (`gpu/bodies.rs`) | CPU, every step |
 //! | `loads` | per particle and plane: what it gave a dynamic body | `corrections`, `collide` |
 //! | `partials` | per chunk and dynamic body, then per body: summed loads | `reduce_chunks`, `reduce_bodies` |
 //! | `readback` | staging copy of `x`, `v` and `density` for the CPU | copy |
@@ -38,7 +38,7 @@
 //! What the GPU path does not do is refused by
 //! [`World::set_fluid_backend`](crate::World::set_fluid_backend): shapes
 //! other than cuboids, spheres and capsules, and more than
-//! [`MAX_FLUID_GPU_SHAPES`] bodies near the fluid (`gpu/fluid_walls.rs`).
+//! [`MAX_GPU_BODIES`] bodies near the fluid (`gpu/bodies.rs`).
 //! Emitters fire on the host between steps (the world reads the fluid
 //! back, adds the shot and uploads it again).
 
@@ -50,13 +50,13 @@ use wgpu::util::DeviceExt;
 use crate::error::PhysicsError;
 use crate::xpbd::fluid::Fluid;
 
+use super::bodies::{GpuLoad, GpuShape, NearBodies, MAX_GPU_BODIES};
 use super::buffers::at_least;
 use super::context::GpuContext;
-use super::fluid_walls::{FluidWalls, GpuLoad, GpuShape, MAX_FLUID_GPU_SHAPES};
 use super::program::{storage_binding, uniform_binding, Program};
 use crate::xpbd::coupling::BodyChange;
 use inertia_shaders::layout::{
-    FLUID_LOAD_BYTES, FLUID_LOAD_CHUNK, FLUID_MAX_PLANES, FLUID_PLANE_BYTES, FLUID_SLOT_BYTES,
+    BODY_SLOTS, FLUID_PLANE_BYTES, FLUID_SLOT_BYTES, LOAD_BYTES, LOAD_CHUNK,
 };
 
 /// Largest distance (m) a GPU-stepped fluid particle may stand from the
@@ -213,7 +213,7 @@ pub(crate) struct GpuFluid {
     density: wgpu::Buffer,
     cells: wgpu::Buffer,
     shapes: wgpu::Buffer,
-    /// Chunks of `FLUID_LOAD_CHUNK` particles.
+    /// Chunks of `LOAD_CHUNK` particles.
     chunks: u32,
     partials: wgpu::Buffer,
     readback: wgpu::Buffer,
@@ -222,7 +222,7 @@ pub(crate) struct GpuFluid {
 }
 
 /// Bytes of every dynamic body's summed loads.
-const TOTALS_BYTES: usize = MAX_FLUID_GPU_SHAPES * FLUID_LOAD_BYTES;
+const TOTALS_BYTES: usize = MAX_GPU_BODIES * LOAD_BYTES;
 
 /// Keys of the hash table for `n` particles: as on the CPU's hashed grid,
 /// twice the particles rounded up to a power of two, at least 1024.
@@ -245,7 +245,7 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
         .max_storage_buffer_binding_size
         .min(ctx.limits.max_buffer_size);
     // The largest per-particle buffers: walls, and the loads kept with them.
-    let plane_bytes = (n * FLUID_MAX_PLANES * FLUID_PLANE_BYTES.max(FLUID_LOAD_BYTES)) as u64;
+    let plane_bytes = (n * BODY_SLOTS * FLUID_PLANE_BYTES.max(LOAD_BYTES)) as u64;
     if plane_bytes > max_binding || n > u32::MAX as usize / 4 {
         return Err(PhysicsError::Gpu(format!(
             "{n} fluid particles need {plane_bytes} bytes of walls, more than this adapter binds \
@@ -286,18 +286,14 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
         let start = scratch("fluid start", 4 * (table + 1), none);
         let lambda = scratch("fluid lambda", 16 * n, none);
         let omega = scratch("fluid omega", 16 * n, none);
-        let planes = scratch(
-            "fluid planes",
-            FLUID_MAX_PLANES * FLUID_PLANE_BYTES * n,
-            none,
-        );
+        let planes = scratch("fluid planes", BODY_SLOTS * FLUID_PLANE_BYTES * n, none);
         let shapes = scratch(
             "fluid shapes",
-            MAX_FLUID_GPU_SHAPES * std::mem::size_of::<GpuShape>(),
+            MAX_GPU_BODIES * std::mem::size_of::<GpuShape>(),
             wgpu::BufferUsages::COPY_DST,
         );
-        let loads = scratch("fluid loads", FLUID_MAX_PLANES * FLUID_LOAD_BYTES * n, none);
-        let chunks = n.div_ceil(FLUID_LOAD_CHUNK);
+        let loads = scratch("fluid loads", BODY_SLOTS * LOAD_BYTES * n, none);
+        let chunks = n.div_ceil(LOAD_CHUNK);
         let partials = scratch(
             "fluid partial loads",
             chunks * TOTALS_BYTES + TOTALS_BYTES,
@@ -346,7 +342,7 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
 
 /// The uniform block of a step of `dt` s under gravity `g` (m/s², the
 /// fluid's scale applied) against `walls`.
-fn params_for(fluid: &Fluid, gpu: &GpuFluid, dt: f32, g: Vec3, walls: &FluidWalls) -> FluidParams {
+fn params_for(fluid: &Fluid, gpu: &GpuFluid, dt: f32, g: Vec3, walls: &NearBodies) -> FluidParams {
     let c = fluid.step_constants();
     let k = c.kernels;
     let (phi, psi, per_m, scale) = fluid.wall_table().parts();
@@ -398,7 +394,7 @@ fn params_for(fluid: &Fluid, gpu: &GpuFluid, dt: f32, g: Vec3, walls: &FluidWall
 }
 
 /// Steps `fluid` on the GPU by `dt` s under the world's `gravity` (m/s²)
-/// against the bodies `walls` (`gpu/fluid_walls.rs`); with `readback`,
+/// against the bodies `walls` (`gpu/bodies.rs`); with `readback`,
 /// copies the new positions, velocities and densities into the CPU
 /// mirror. Returns what the particles gave the dynamic bodies, for
 /// [`apply_changes`](crate::xpbd::coupling::apply_changes). A `dt` that is
@@ -409,7 +405,7 @@ pub(crate) fn step(
     gpu: &GpuFluid,
     dt: f32,
     gravity: Vec3,
-    walls: &FluidWalls,
+    walls: &NearBodies,
     readback: bool,
 ) -> Result<Vec<BodyChange>, PhysicsError> {
     let shapes = &walls.shapes;
@@ -418,9 +414,9 @@ pub(crate) fn step(
             "the fluid changed size since its upload".into(),
         ));
     }
-    if shapes.len() > MAX_FLUID_GPU_SHAPES {
+    if shapes.len() > MAX_GPU_BODIES {
         return Err(PhysicsError::Gpu(format!(
-            "fluids on the GPU collide with at most {MAX_FLUID_GPU_SHAPES} bodies"
+            "fluids on the GPU collide with at most {MAX_GPU_BODIES} bodies"
         )));
     }
     if gpu.n == 0 || !(dt.is_finite() && dt > 0.0) {
@@ -513,8 +509,8 @@ pub(crate) fn step(
         }
         run(&mut encoder, &stages);
         if movable > 0 {
-            let at = u64::from(gpu.chunks) * (movable * FLUID_LOAD_BYTES) as u64;
-            let bytes = (movable * FLUID_LOAD_BYTES) as u64;
+            let at = u64::from(gpu.chunks) * (movable * LOAD_BYTES) as u64;
+            let bytes = (movable * LOAD_BYTES) as u64;
             encoder.copy_buffer_to_buffer(&gpu.partials, at, &gpu.totals, 0, bytes);
         }
         if readback {
@@ -526,7 +522,7 @@ pub(crate) fn step(
     let changes = if movable > 0 {
         let bytes = ctx.read_back(
             &gpu.totals,
-            (movable * FLUID_LOAD_BYTES) as u64,
+            (movable * LOAD_BYTES) as u64,
             "a fluid's loads on bodies",
         )?;
         let totals: Vec<GpuLoad> = bytemuck::pod_collect_to_vec(&bytes);

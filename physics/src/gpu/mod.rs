@@ -1,7 +1,7 @@
 //! GPU stepping of particle systems, soft bodies and fluids through wgpu
 //! compute (feature `gpu`). Soft bodies are in `gpu/soft.rs`, fluids in
-//! `gpu/fluid.rs` (the bodies they are kept out of in
-//! `gpu/fluid_walls.rs`); the note below is about particle systems.
+//! `gpu/fluid.rs` (the rigid bodies both meet, and push back, in
+//! `gpu/bodies.rs`); the note below is about particle systems.
 //!
 //! # Design note
 //!
@@ -63,10 +63,10 @@
 //! Mesa lavapipe/llvmpipe last, so CI machines without a GPU run the same
 //! shaders on the CPU. [`GpuContext::description`] says which one ran.
 
+pub(crate) mod bodies;
 mod buffers;
 mod context;
 pub(crate) mod fluid;
-pub(crate) mod fluid_walls;
 mod layout;
 mod params;
 mod program;
@@ -74,9 +74,9 @@ pub(crate) mod soft;
 mod system;
 mod tolerance;
 
+pub use bodies::MAX_GPU_BODIES;
 pub use context::GpuContext;
 pub use fluid::{FLUID_GPU_MEDIAN_TOLERANCE, FLUID_GPU_TOLERANCE};
-pub use fluid_walls::MAX_FLUID_GPU_SHAPES;
 pub use soft::SOFT_GPU_TOLERANCE;
 pub use tolerance::{GpuTolerance, GPU_TOLERANCE};
 

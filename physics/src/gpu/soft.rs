@@ -7,13 +7,20 @@
 //! | `params` | one 256-byte uniform slot per dispatch of a substep | CPU, every step |
 //! | `x`, `v`, `prev` | particle position + inverse mass, velocity, start of substep (16 B each) | the passes |
 //! | `distances`, `bends`, `tets`, `tethers` | constraints in colour order | upload only |
+//! | `shapes` | the rigid bodies near the body (`gpu/bodies.rs`) | CPU, every step |
+//! | `contacts` | per particle: the bodies within its reach for the step | `find_contacts` |
+//! | `loads` | per particle and contact: what it gave a dynamic body | `collide` |
+//! | `partials` | per chunk and dynamic body, then per body: summed loads | `reduce_chunks`, `reduce_bodies` |
 //! | `readback` | staging copy of `x` and `v` for the CPU | copy |
+//! | `totals` | staging copy of the dynamic bodies' loads | copy |
 //!
 //! What runs here: gravity, damping, pins, distance, bending, volume and
-//! tether constraints. Contacts with rigid bodies, attachments, pressure,
-//! self-collision, plasticity and tearing run only on the CPU: a body that
-//! uses any of them is refused ([`check_supported`]). How far a GPU run
-//! may drift from the CPU run is [`SOFT_GPU_TOLERANCE`].
+//! tether constraints, and contacts with rigid bodies (cuboids, spheres,
+//! capsules) with friction, pushing the dynamic ones back as the CPU does
+//! (`gpu/bodies.rs`). Attachments, pressure, self-collision, plasticity
+//! and tearing run only on the CPU: a body that uses any of them is
+//! refused ([`check_supported`]). How far a GPU run may drift from the CPU
+//! run is [`SOFT_GPU_TOLERANCE`].
 
 use std::sync::Arc;
 
@@ -22,8 +29,11 @@ use wgpu::util::DeviceExt;
 
 use crate::error::PhysicsError;
 use crate::xpbd::colouring::Coloured;
+use crate::xpbd::coupling::BodyChange;
 use crate::xpbd::soft::SoftBody;
+use inertia_shaders::layout::{BODY_SLOTS, LOAD_BYTES, LOAD_CHUNK};
 
+use super::bodies::{GpuLoad, GpuShape, NearBodies, MAX_GPU_BODIES};
 use super::buffers::at_least;
 use super::context::GpuContext;
 use super::program::{storage_binding, uniform_binding, Program};
@@ -53,7 +63,17 @@ struct SoftParams {
     serial: u32,
     predict_next: u32,
     kind: u32,
-    pad: [u32; 3],
+    shapes: u32,
+    movable: u32,
+    chunks: u32,
+    /// m.
+    radius: f32,
+    friction: f32,
+    /// m: the collision radius and how far gravity takes a particle over
+    /// the step (the shader adds the particle's own travel).
+    reach: f32,
+    /// s: the whole step.
+    dt: f32,
 }
 
 const _: () =
@@ -66,6 +86,10 @@ pub(crate) enum Entry {
     Finish,
     /// `project` of one constraint kind (the shader's `params.kind`).
     Project(Kind),
+    FindContacts,
+    Collide,
+    ReduceChunks,
+    ReduceBodies,
 }
 
 /// The constraint kinds, numbered as the shader's `params.kind`.
@@ -84,6 +108,10 @@ pub(crate) struct SoftPipelines {
     predict: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     project: wgpu::ComputePipeline,
+    find_contacts: wgpu::ComputePipeline,
+    collide: wgpu::ComputePipeline,
+    reduce_chunks: wgpu::ComputePipeline,
+    reduce_bodies: wgpu::ComputePipeline,
 }
 
 impl SoftPipelines {
@@ -101,6 +129,10 @@ impl SoftPipelines {
                 storage_binding(5, true),
                 storage_binding(6, true),
                 storage_binding(7, true),
+                storage_binding(8, true),
+                storage_binding(9, false),
+                storage_binding(10, false),
+                storage_binding(11, false),
             ],
         );
         let pipeline = |entry: &str| program.pipeline(device, entry);
@@ -108,6 +140,10 @@ impl SoftPipelines {
             predict: pipeline("predict"),
             finish: pipeline("finish"),
             project: pipeline("project"),
+            find_contacts: pipeline("find_contacts"),
+            collide: pipeline("collide"),
+            reduce_chunks: pipeline("reduce_chunks"),
+            reduce_bodies: pipeline("reduce_bodies"),
             layout: program.layout,
         }
     }
@@ -117,6 +153,10 @@ impl SoftPipelines {
             Entry::Predict => &self.predict,
             Entry::Finish => &self.finish,
             Entry::Project(_) => &self.project,
+            Entry::FindContacts => &self.find_contacts,
+            Entry::Collide => &self.collide,
+            Entry::ReduceChunks => &self.reduce_chunks,
+            Entry::ReduceBodies => &self.reduce_bodies,
         }
     }
 }
@@ -137,11 +177,19 @@ pub(crate) struct GpuSoftBody {
     params: wgpu::Buffer,
     x: wgpu::Buffer,
     v: wgpu::Buffer,
+    shapes: wgpu::Buffer,
+    /// Chunks of `LOAD_CHUNK` particles.
+    chunks: u32,
+    partials: wgpu::Buffer,
     readback: wgpu::Buffer,
+    totals: wgpu::Buffer,
     group: wgpu::BindGroup,
     /// A substep's dispatches after its first (predict or finish).
     colours: Vec<Dispatch>,
 }
+
+/// Bytes of every dynamic body's summed loads.
+const TOTALS_BYTES: usize = MAX_GPU_BODIES * LOAD_BYTES;
 
 /// Why a soft body cannot step on the GPU, if it cannot.
 pub(crate) fn check_supported(body: &SoftBody) -> Result<(), PhysicsError> {
@@ -151,9 +199,6 @@ pub(crate) fn check_supported(body: &SoftBody) -> Result<(), PhysicsError> {
             "soft bodies with {what} step on the CPU only"
         )))
     };
-    if m.collision_radius > 0.0 {
-        return refuse("contacts (a collision radius)");
-    }
     if !body.attachments.is_empty() {
         return refuse("attachments to rigid bodies");
     }
@@ -255,6 +300,18 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
     if slots * SLOT > ctx.limits.max_buffer_size {
         return Err(PhysicsError::Gpu("too many colours for the GPU".into()));
     }
+    let max_binding = ctx
+        .limits
+        .max_storage_buffer_binding_size
+        .min(ctx.limits.max_buffer_size);
+    let load_bytes = (body.len() * BODY_SLOTS * LOAD_BYTES) as u64;
+    if body.material().collision_radius > 0.0 && load_bytes > max_binding {
+        return Err(PhysicsError::Gpu(format!(
+            "{} particles with contacts need {load_bytes} bytes of loads, more than this \
+             adapter binds ({max_binding} bytes); keep the soft body on the CPU",
+            body.len()
+        )));
+    }
     ctx.scoped("uploading a soft body to the GPU", || {
         let copy = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let x = storage(ctx, "soft x", bytemuck::cast_slice(&xw), copy);
@@ -295,6 +352,45 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        // Contacts with rigid bodies, for a body with a collision radius.
+        let touches = body.material().collision_radius > 0.0;
+        let per_particle = |bytes: usize| if touches { bytes * n as usize } else { 0 };
+        let scratch = |label: &str, bytes: usize, extra: wgpu::BufferUsages| {
+            ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: (bytes as u64).max(32),
+                usage: wgpu::BufferUsages::STORAGE | extra,
+                mapped_at_creation: false,
+            })
+        };
+        let none = wgpu::BufferUsages::empty();
+        let shapes = scratch(
+            "soft shapes",
+            if touches {
+                TOTALS_BYTES / LOAD_BYTES * std::mem::size_of::<GpuShape>()
+            } else {
+                0
+            },
+            wgpu::BufferUsages::COPY_DST,
+        );
+        let contacts = scratch("soft contacts", per_particle(16), none);
+        let loads = scratch("soft loads", per_particle(BODY_SLOTS * LOAD_BYTES), none);
+        let chunks = (n as usize).div_ceil(LOAD_CHUNK);
+        let partials = scratch(
+            "soft partial loads",
+            if touches {
+                chunks * TOTALS_BYTES + TOTALS_BYTES
+            } else {
+                0
+            },
+            wgpu::BufferUsages::COPY_SRC,
+        );
+        let totals = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("soft load totals"),
+            size: if touches { TOTALS_BYTES as u64 } else { 32 },
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let readback = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("soft readback"),
             size: (2 * u64::from(n) * 16).max(32),
@@ -326,6 +422,10 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
                 entry(5, &b),
                 entry(6, &t),
                 entry(7, &te),
+                entry(8, &shapes),
+                entry(9, &contacts),
+                entry(10, &loads),
+                entry(11, &partials),
             ],
         });
         Ok(Arc::new(GpuSoftBody {
@@ -333,24 +433,32 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
             params,
             x,
             v: vb,
+            shapes,
+            chunks: chunks as u32,
+            partials,
             readback,
+            totals,
             group,
             colours: plan,
         }))
     })
 }
 
-/// Steps `body` on the GPU by `dt` s under `gravity` (m/s², the world's);
-/// with `readback`, copies the new positions and velocities into the CPU
-/// mirror.
+/// Steps `body` on the GPU by `dt` s under `gravity` (m/s², the world's)
+/// against the rigid bodies `near` it (`gpu/bodies.rs`; none for a body
+/// without a collision radius); with `readback`, copies the new positions
+/// and velocities into the CPU mirror. Returns what the particles gave the
+/// dynamic bodies, for
+/// [`apply_changes`](crate::xpbd::coupling::apply_changes).
 pub(crate) fn step(
     ctx: &GpuContext,
     body: &mut SoftBody,
     gpu: &GpuSoftBody,
     dt: f32,
     gravity: Vec3,
+    near: &NearBodies,
     readback: bool,
-) -> Result<(), PhysicsError> {
+) -> Result<Vec<BodyChange>, PhysicsError> {
     if gpu.n as usize != body.len() {
         return Err(PhysicsError::Gpu(
             "the soft body changed shape since its upload".into(),
@@ -360,6 +468,20 @@ pub(crate) fn step(
     let n = m.substeps.max(1);
     let h = dt / n as f32;
     let g = gravity * m.gravity_scale as f32;
+    let radius = m.collision_radius as f32;
+    // Bodies are met only by a body with a collision radius (its buffers
+    // are sized for them).
+    let shapes: &[GpuShape] = if radius > 0.0 { &near.shapes } else { &[] };
+    if shapes.len() > MAX_GPU_BODIES {
+        return Err(PhysicsError::Gpu(format!(
+            "particles on the GPU meet at most {MAX_GPU_BODIES} bodies in a step"
+        )));
+    }
+    let movable = if shapes.is_empty() {
+        0
+    } else {
+        near.movable.len()
+    };
     let base = SoftParams {
         gravity: [g.x, g.y, g.z, 0.0],
         h,
@@ -371,7 +493,13 @@ pub(crate) fn step(
         serial: 0,
         predict_next: 0,
         kind: 0,
-        pad: [0; 3],
+        shapes: shapes.len() as u32,
+        movable: movable as u32,
+        chunks: gpu.chunks,
+        radius,
+        friction: m.friction as f32,
+        reach: radius + g.length() * dt * dt + 1e-3,
+        dt,
     };
     // Slots: 0 predict, 1 finish and predict, 2 finish, then the colours.
     let mut bytes = vec![0u8; (gpu.colours.len() + 3) * SLOT as usize];
@@ -401,6 +529,9 @@ pub(crate) fn step(
         );
     }
     let particles = ctx.workgroups(gpu.n)?;
+    // One workgroup a chunk, one invocation a body.
+    let chunks = ctx.workgroups(gpu.chunks * inertia_shaders::layout::WORKGROUP_SIZE)?;
+    let bodies = ctx.workgroups(movable as u32)?;
     let grids = gpu
         .colours
         .iter()
@@ -408,6 +539,10 @@ pub(crate) fn step(
         .collect::<Result<Vec<_>, _>>()?;
     ctx.scoped("a GPU soft-body step", || {
         ctx.queue.write_buffer(&gpu.params, 0, &bytes);
+        if !shapes.is_empty() {
+            ctx.queue
+                .write_buffer(&gpu.shapes, 0, bytemuck::cast_slice(shapes));
+        }
         let mut encoder = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -423,6 +558,10 @@ pub(crate) fn step(
                 pass.set_bind_group(0, &gpu.group, &[(slot as u64 * SLOT) as u32]);
                 pass.dispatch_workgroups(grid.0, grid.1, 1);
             };
+            let touches = !shapes.is_empty();
+            if touches {
+                run(Entry::FindContacts, 0, particles);
+            }
             for k in 0..n {
                 if k == 0 {
                     run(Entry::Predict, 0, particles);
@@ -432,8 +571,20 @@ pub(crate) fn step(
                 for (c, d) in gpu.colours.iter().enumerate() {
                     run(Entry::Project(d.kind), c + 3, grids[c]);
                 }
+                if touches {
+                    run(Entry::Collide, 0, particles);
+                }
             }
             run(Entry::Finish, 2, particles);
+            if movable > 0 {
+                run(Entry::ReduceChunks, 0, chunks);
+                run(Entry::ReduceBodies, 0, bodies);
+            }
+        }
+        if movable > 0 {
+            let at = u64::from(gpu.chunks) * (movable * LOAD_BYTES) as u64;
+            let bytes = (movable * LOAD_BYTES) as u64;
+            encoder.copy_buffer_to_buffer(&gpu.partials, at, &gpu.totals, 0, bytes);
         }
         if readback {
             gpu.record_readback(&mut encoder);
@@ -441,12 +592,23 @@ pub(crate) fn step(
         ctx.queue.submit([encoder.finish()]);
         Ok(())
     })?;
+    let changes = if movable > 0 {
+        let bytes = ctx.read_back(
+            &gpu.totals,
+            (movable * LOAD_BYTES) as u64,
+            "a soft body's loads on bodies",
+        )?;
+        let totals: Vec<GpuLoad> = bytemuck::pod_collect_to_vec(&bytes);
+        near.changes(&totals)
+    } else {
+        Vec::new()
+    };
     if readback {
         read(ctx, body, gpu)?;
-    } else {
+    } else if movable == 0 {
         let _ = ctx.device.poll(wgpu::PollType::Poll);
     }
-    Ok(())
+    Ok(changes)
 }
 
 impl GpuSoftBody {

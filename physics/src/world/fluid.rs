@@ -74,10 +74,10 @@ impl World {
     /// Moves fluid `h` to `backend`, carrying its particles across. On the
     /// GPU (feature `gpu`) it takes the same steps in `f32` (`gpu/fluid.rs`),
     /// against the bodies near it, pushing the dynamic ones back as on the
-    /// CPU (`gpu/fluid_walls.rs`). Refused with [`PhysicsError::Gpu`]
+    /// CPU (`gpu/bodies.rs`). Refused with [`PhysicsError::Gpu`]
     /// naming what, while a body near the fluid has a shape other than a
     /// cuboid, sphere or capsule, or more than
-    /// [`MAX_FLUID_GPU_SHAPES`](crate::gpu::MAX_FLUID_GPU_SHAPES) bodies
+    /// [`MAX_GPU_BODIES`](crate::gpu::MAX_GPU_BODIES) bodies
     /// are near it. A step that finds such bodies near it later moves the
     /// fluid back to the CPU and says so in
     /// [`StepReport::fluids_to_cpu`](crate::StepReport). Emitters and [`World::add_fluid_particles`] work on the host
@@ -105,10 +105,9 @@ impl World {
             match backend {
                 Backend::Gpu => {
                     let fluid = self.fluid(h).expect("checked above");
-                    let reach = f64::from(fluid.reach(0.0, self.gravity.as_vec3()));
-                    let near = crate::xpbd::coupling::particle_bounds(&fluid.x)
-                        .map(|b| b.expanded(2.0 * reach));
-                    crate::gpu::fluid_walls::gather(&self.bodies, &self.step_start, near.as_ref())?;
+                    let reach = fluid.reach(0.0, self.gravity.as_vec3());
+                    let near = crate::gpu::bodies::near_box(&fluid.x, reach);
+                    crate::gpu::bodies::gather(&self.bodies, &self.step_start, near.as_ref())?;
                     self.gpu_context()?;
                     let ctx = self.gpu.as_ref().expect("context created above");
                     let fluid = self

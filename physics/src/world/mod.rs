@@ -109,6 +109,9 @@ pub struct StepReport {
     /// it does not handle, too many bodies), with why: each went back to
     /// the CPU and took this step there.
     pub fluids_to_cpu: Vec<(crate::handle::FluidHandle, PhysicsError)>,
+    /// Soft bodies the GPU could not step against the bodies near them,
+    /// with why: each went back to the CPU and took this step there.
+    pub soft_bodies_to_cpu: Vec<(crate::handle::SoftBodyHandle, PhysicsError)>,
 }
 
 /// A physics world: particle systems and rigid bodies.

@@ -4,13 +4,10 @@
 use glam::DVec3;
 
 use super::World;
-use crate::arena::Arena;
 use crate::energy::Energy;
 use crate::error::{finite3, non_negative, PhysicsError};
 use crate::handle::{BodyHandle, SoftBodyHandle};
-use crate::rigid::body::RigidBody;
-use crate::xpbd::coupling::{apply_changes, Coupling, StepStart};
-use crate::xpbd::fluid::Fluid;
+use crate::xpbd::coupling::{apply_changes, Coupling};
 use crate::xpbd::soft::{self, SoftAttachment, SoftBody, SoftBodyDesc};
 
 impl World {
@@ -78,10 +75,15 @@ impl World {
 
     /// Moves soft body `h` to `backend`, carrying its state across. On
     /// the GPU (feature `gpu`) it takes the same small steps in `f32`,
-    /// colour by colour (`gpu/soft.rs`); bodies with contacts, attachments,
-    /// pressure, self-collision, plasticity or tearing are refused there
+    /// colour by colour (`gpu/soft.rs`), with contacts against the rigid
+    /// bodies near it that push the dynamic ones back as on the CPU
+    /// (`gpu/bodies.rs`). Bodies with attachments, pressure,
+    /// self-collision, plasticity or tearing are refused there
     /// ([`PhysicsError::Gpu`]), and so are such changes to a body on the
-    /// GPU. A saved state does not keep the backend: a restored body steps
+    /// GPU, and so is a body near a rigid body of a shape other than a
+    /// cuboid, sphere or capsule (a step that finds one near later moves
+    /// the body back to the CPU and says so in
+    /// [`StepReport::soft_bodies_to_cpu`](crate::StepReport)). A saved state does not keep the backend: a restored body steps
     /// on the CPU until moved again. With
     /// [`WorldConfig::gpu_readback_every_step`](crate::WorldConfig) off,
     /// call [`World::sync_gpu`] before reading or saving it.
@@ -109,6 +111,11 @@ impl World {
                         .soft_bodies
                         .get_mut(h.index, h.generation)
                         .expect("checked above");
+                    if body.material.collision_radius > 0.0 {
+                        let reach = body.material.collision_radius as f32 + 1e-3;
+                        let near = crate::gpu::bodies::near_box(&body.x, reach);
+                        crate::gpu::bodies::gather(&self.bodies, &self.step_start, near.as_ref())?;
+                    }
                     let gpu = crate::gpu::soft::upload(ctx, body)?;
                     body.gpu = super::super::xpbd::soft::GpuSlot(Some(gpu));
                     body.backend = Backend::Gpu;
@@ -206,19 +213,45 @@ impl World {
             gpu,
             ..
         } = self;
-        for (_, _, body) in soft_bodies.iter_mut() {
+        for (index, generation, body) in soft_bodies.iter_mut() {
             #[cfg(feature = "gpu")]
             if let Some(on_gpu) = body.gpu.0.clone() {
                 let ctx = gpu
                     .as_ref()
                     .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
                 let readback = config.gpu_readback_every_step;
-                crate::gpu::soft::step(ctx, body, &on_gpu, dt32, gravity, readback)?;
-                if readback && config.energy_accounting {
-                    let g = gravity.as_dvec3() * body.material.gravity_scale;
-                    add_energy(energy, &body.x, &body.v, &body.w, g);
+                let near = if body.material.collision_radius > 0.0 {
+                    let reach =
+                        body.material.collision_radius as f32 + body.travel(dt32, gravity) + 1e-3;
+                    let near = readback
+                        .then(|| crate::gpu::bodies::near_box(&body.x, reach))
+                        .flatten();
+                    crate::gpu::bodies::gather(bodies, step_start, near.as_ref())
+                } else {
+                    Ok(Default::default())
+                };
+                match near {
+                    Ok(near) => {
+                        let changes = crate::gpu::soft::step(
+                            ctx, body, &on_gpu, dt32, gravity, &near, readback,
+                        )?;
+                        apply_changes(bodies, &changes);
+                        if readback && config.energy_accounting {
+                            let g = gravity.as_dvec3() * body.material.gravity_scale;
+                            add_energy(energy, &body.x, &body.v, &body.w, g);
+                        }
+                        continue;
+                    }
+                    Err(why) => {
+                        // Bodies the GPU cannot take came near: the body
+                        // goes back to the CPU and steps there, from now on.
+                        crate::gpu::soft::download(ctx, body, &on_gpu)?;
+                        body.gpu.0 = None;
+                        body.backend = crate::particle_system::Backend::Cpu;
+                        let h = SoftBodyHandle { index, generation };
+                        report.soft_bodies_to_cpu.push((h, why));
+                    }
                 }
-                continue;
             }
             body.attachments
                 .retain(|a| bodies.get(a.body.index, a.body.generation).is_some());
@@ -254,19 +287,33 @@ impl World {
                     .as_ref()
                     .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
                 let readback = config.gpu_readback_every_step;
-                // The bodies near the fluid, as the CPU gathers them, while
-                // the mirror is fresh (every step's readback); all of them
-                // otherwise.
-                let near = if readback {
-                    let reach = f64::from(fluid.reach(dt32, gravity));
-                    crate::xpbd::coupling::particle_bounds(&fluid.x)
-                        .map(|b| b.expanded(2.0 * reach))
-                } else {
-                    None
-                };
-                let walls = match crate::gpu::fluid_walls::gather(bodies, step_start, near.as_ref())
-                {
-                    Ok(walls) => walls,
+                let reach = fluid.reach(dt32, gravity);
+                let near = readback
+                    .then(|| crate::gpu::bodies::near_box(&fluid.x, reach))
+                    .flatten();
+                match crate::gpu::bodies::gather(bodies, step_start, near.as_ref()) {
+                    Ok(near) => {
+                        let changes = crate::gpu::fluid::step(
+                            ctx, fluid, &on_gpu, dt32, gravity, &near, readback,
+                        )?;
+                        apply_changes(bodies, &changes);
+                        // Emitters fire on the host: the fluid comes back,
+                        // takes the shot and goes up again.
+                        if fluid.shot_due(now) {
+                            if !readback {
+                                crate::gpu::fluid::download(ctx, fluid, &on_gpu)?;
+                            }
+                            fluid.emit(now);
+                            if fluid.len() != on_gpu.n as usize {
+                                fluid.gpu.0 = Some(crate::gpu::fluid::upload(ctx, fluid)?);
+                            }
+                        }
+                        if readback && config.energy_accounting {
+                            let g = gravity.as_dvec3() * fluid.params().gravity_scale;
+                            add_energy(energy, &fluid.x, &fluid.v, fluid.inverse_masses(), g);
+                        }
+                        continue;
+                    }
                     Err(why) => {
                         // Bodies the GPU cannot take came near: the fluid
                         // goes back to the CPU and steps there, from now on.
@@ -275,35 +322,16 @@ impl World {
                         fluid.backend = crate::particle_system::Backend::Cpu;
                         let h = crate::handle::FluidHandle { index, generation };
                         report.fluids_to_cpu.push((h, why));
-                        step_on_cpu(fluid, bodies, step_start, dt32, gravity, now);
-                        if config.energy_accounting {
-                            let g = gravity.as_dvec3() * fluid.params().gravity_scale;
-                            add_energy(energy, &fluid.x, &fluid.v, fluid.inverse_masses(), g);
-                        }
-                        continue;
-                    }
-                };
-                let changes =
-                    crate::gpu::fluid::step(ctx, fluid, &on_gpu, dt32, gravity, &walls, readback)?;
-                apply_changes(bodies, &changes);
-                // Emitters fire on the host: the fluid comes back, takes
-                // the shot and goes up again.
-                if fluid.shot_due(now) {
-                    if !readback {
-                        crate::gpu::fluid::download(ctx, fluid, &on_gpu)?;
-                    }
-                    fluid.emit(now);
-                    if fluid.len() != on_gpu.n as usize {
-                        fluid.gpu.0 = Some(crate::gpu::fluid::upload(ctx, fluid)?);
                     }
                 }
-                if readback && config.energy_accounting {
-                    let g = gravity.as_dvec3() * fluid.params().gravity_scale;
-                    add_energy(energy, &fluid.x, &fluid.v, fluid.inverse_masses(), g);
-                }
-                continue;
             }
-            step_on_cpu(fluid, bodies, step_start, dt32, gravity, now);
+            let reach = fluid.reach(dt32, gravity);
+            let mut coupling =
+                Coupling::gather(bodies, &fluid.x, fluid.inverse_masses(), reach, &[]);
+            coupling.over_step(step_start);
+            fluid.step(dt32, gravity, &mut coupling);
+            apply_changes(bodies, &coupling.finish());
+            fluid.emit(now);
             if config.energy_accounting {
                 let g = gravity.as_dvec3() * fluid.params().gravity_scale;
                 add_energy(energy, &fluid.x, &fluid.v, fluid.inverse_masses(), g);
@@ -311,24 +339,6 @@ impl World {
         }
         Ok(())
     }
-}
-
-/// Steps `fluid` on the CPU by `dt` s against `bodies`, which take what
-/// its particles give them; its emitters then fire the shots due by `now`.
-fn step_on_cpu(
-    fluid: &mut Fluid,
-    bodies: &mut Arena<RigidBody>,
-    step_start: &StepStart,
-    dt: f32,
-    gravity: glam::Vec3,
-    now: f64,
-) {
-    let reach = fluid.reach(dt, gravity);
-    let mut coupling = Coupling::gather(bodies, &fluid.x, fluid.inverse_masses(), reach, &[]);
-    coupling.over_step(step_start);
-    fluid.step(dt, gravity, &mut coupling);
-    apply_changes(bodies, &coupling.finish());
-    fluid.emit(now);
 }
 
 /// Adds the kinetic and uniform-gravity energy of particles (J) to `energy`.

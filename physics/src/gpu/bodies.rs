@@ -1,18 +1,19 @@
-//! The rigid bodies a fluid on the GPU meets over one step, packed as
-//! `struct Shape` of `pbf.wgsl`, and what the fluid gives the dynamic ones
-//! back.
+//! The rigid bodies a fluid or a soft body on the GPU meets over one step,
+//! packed as `struct Shape` of `bodies.wgsl`, and what the particles give
+//! the dynamic ones back.
 //!
-//! On the CPU a fluid gathers the bodies near it through the coupling
-//! (`xpbd/coupling.rs`), takes each particle's nearest surface from them
-//! and pushes the dynamic ones back. The GPU path finds the nearest
-//! surfaces in the shader instead, from this list (a body that is far from
+//! On the CPU the particles gather the bodies near them through the
+//! coupling (`xpbd/coupling.rs`), take each particle's nearest surface
+//! from them and push the dynamic ones back. On the GPU the shaders find
+//! the nearest surfaces from this list instead (a body that is far from
 //! every particle finds no surface, as on the CPU), so the particles never
-//! come back to the CPU. The impulses the particles give a dynamic body
-//! are kept per particle and wall, then summed in a fixed order on the GPU
-//! (`reduce_chunks`, `reduce_bodies`): only the bodies' totals come back,
-//! 32 bytes each, and the bodies take them as on the CPU
+//! come back to the CPU. Each particle keeps the impulses it gives the
+//! body behind each of its slots (`BODY_SLOTS`, found once a step), and
+//! two passes sum them per body in a fixed order (`reduce_chunks`,
+//! `reduce_bodies`): only the bodies' totals come back, 32 bytes each, and
+//! the bodies take them as on the CPU
 //! ([`apply_changes`](crate::xpbd::coupling::apply_changes)). Shapes the
-//! shader does not project onto are refused.
+//! shaders do not project onto are refused.
 
 use glam::{DMat3, DVec3};
 
@@ -23,9 +24,9 @@ use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::shape::Shape;
 use crate::xpbd::coupling::{BodyChange, StepStart};
 
-/// Most bodies a fluid on the GPU meets in a step (the shader tests every
-/// one for every particle).
-pub const MAX_FLUID_GPU_SHAPES: usize = 256;
+/// Most bodies a fluid or soft body on the GPU meets in a step (the
+/// shaders test every one for every particle once a step).
+pub const MAX_GPU_BODIES: usize = 256;
 
 /// Shape kinds, numbered as the shader's `SHAPE_*`.
 const CUBOID: u32 = 0;
@@ -35,7 +36,7 @@ const CAPSULE: u32 = 2;
 /// A shape the particles cannot move (the shader's `NONE`).
 const FIXED: u32 = u32::MAX;
 
-/// WGSL `struct Shape` of `pbf.wgsl` (208 bytes).
+/// WGSL `struct Shape` of `bodies.wgsl` (208 bytes).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct GpuShape {
@@ -63,10 +64,9 @@ pub(crate) struct GpuShape {
     inv_inertia_z: [f32; 4],
 }
 
-const _: () =
-    assert!(std::mem::size_of::<GpuShape>() == inertia_shaders::layout::FLUID_SHAPE_BYTES);
+const _: () = assert!(std::mem::size_of::<GpuShape>() == inertia_shaders::layout::SHAPE_BYTES);
 
-/// WGSL `struct Load` of `pbf.wgsl`: an impulse (N·s) and its moment about
+/// WGSL `struct Load` of `bodies.wgsl`: an impulse (N·s) and its moment about
 /// the body's centre of mass (N·m·s); w unused.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -75,7 +75,7 @@ pub(crate) struct GpuLoad {
     moment: [f32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<GpuLoad>() == inertia_shaders::layout::FLUID_LOAD_BYTES);
+const _: () = assert!(std::mem::size_of::<GpuLoad>() == inertia_shaders::layout::LOAD_BYTES);
 
 fn v4(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
@@ -85,16 +85,16 @@ fn v3(v: [f32; 4]) -> DVec3 {
     DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))
 }
 
-/// The bodies a fluid on the GPU meets over one step.
+/// The bodies a fluid or soft body on the GPU meets over one step.
 #[derive(Debug, Default)]
-pub(crate) struct FluidWalls {
+pub(crate) struct NearBodies {
     /// In handle order (the CPU's order).
     pub(crate) shapes: Vec<GpuShape>,
     /// The arena key of each body the particles can move, by its slot.
     pub(crate) movable: Vec<(u32, u32)>,
 }
 
-impl FluidWalls {
+impl NearBodies {
     /// What the particles gave the movable bodies, from their totals as
     /// the GPU summed them (one [`GpuLoad`] per slot).
     pub(crate) fn changes(&self, totals: &[GpuLoad]) -> Vec<BodyChange> {
@@ -108,19 +108,27 @@ impl FluidWalls {
     }
 }
 
-/// The bodies of `bodies` a fluid on the GPU meets over a step, in handle
+/// The box around particles `x` in which a rigid body's box must lie to
+/// matter to them over a step: their bounds widened twice by `reach` (m),
+/// once for the particles and once for the bodies, as the CPU's coupling
+/// widens both.
+pub(crate) fn near_box(x: &[glam::Vec3], reach: f32) -> Option<Aabb> {
+    crate::xpbd::coupling::particle_bounds(x).map(|b| b.expanded(2.0 * f64::from(reach)))
+}
+
+/// The bodies of `bodies` particles on the GPU meet over a step, in handle
 /// order: every body whose box meets `near` (m; all of them when `None`),
 /// each moving at its mean velocity since `start` (the CPU's friction,
 /// [`StepStart`]). Dynamic bodies take the particles' impulses back.
 /// Refused with [`PhysicsError::Gpu`] naming the body: a shape the shader
 /// does not handle (cuboids, spheres and capsules only), or more than
-/// [`MAX_FLUID_GPU_SHAPES`] bodies.
+/// [`MAX_GPU_BODIES`] bodies.
 pub(crate) fn gather(
     bodies: &Arena<RigidBody>,
     start: &StepStart,
     near: Option<&Aabb>,
-) -> Result<FluidWalls, PhysicsError> {
-    let mut out = FluidWalls::default();
+) -> Result<NearBodies, PhysicsError> {
+    let mut out = NearBodies::default();
     for (index, generation, b) in bodies.iter() {
         if b.sensor {
             continue;
@@ -143,16 +151,16 @@ pub(crate) fn gather(
             } => (CAPSULE, [*half_height as f32, *radius as f32, 0.0, 0.0]),
             other => {
                 return Err(PhysicsError::Gpu(format!(
-                    "fluids on the GPU collide with cuboids, spheres and capsules only \
-                     (body {index} is a {}); keep the fluid on the CPU",
+                    "particles on the GPU collide with cuboids, spheres and capsules only \
+                     (body {index} is a {}); keep them on the CPU",
                     other.kind_name()
                 )))
             }
         };
-        if out.shapes.len() == MAX_FLUID_GPU_SHAPES {
+        if out.shapes.len() == MAX_GPU_BODIES {
             return Err(PhysicsError::Gpu(format!(
-                "fluids on the GPU meet at most {MAX_FLUID_GPU_SHAPES} bodies in a step; \
-                 keep the fluid on the CPU"
+                "particles on the GPU meet at most {MAX_GPU_BODIES} bodies in a step; \
+                 keep them on the CPU"
             )));
         }
         let movable = b.kind == BodyKind::Dynamic && !b.quarantined && b.inv_mass > 0.0;

@@ -1,0 +1,293 @@
+// Rigid bodies as the particles of a fluid or a soft body see them on the
+// GPU (physics/src/xpbd/coupling.rs, physics/src/gpu/bodies.rs): their
+// shapes, the surface nearest a particle, and the impulses the particles
+// give the dynamic ones back.
+//
+// This file is the head of `pbf.wgsl` and of `xpbd_soft.wgsl` (the crate
+// joins them; WGSL has no includes). The shader after it declares what
+// the code here uses:
+// - `WORKGROUP_SIZE` and `fn linear` (an invocation's index);
+// - `params` with `n` (particles), `movable` (bodies the particles can
+//   move) and `chunks` (chunks of LOAD_CHUNK particles);
+// - the bindings `shapes` (array<Shape>), `loads` and `partials`
+//   (array<Load>);
+// - `fn slot_shape(i, slot)`: the shape behind slot `slot` of particle
+//   `i` (BODY_SLOTS a particle, found once a step), or NONE.
+//
+// A particle keeps what it gives the body behind each of its slots over a
+// step in `loads`; `reduce_chunks` then sums each movable body's loads
+// over each chunk of LOAD_CHUNK particles, in particle and slot order,
+// and `reduce_bodies` sums the chunks in order: a fixed order, so a run
+// repeats bit for bit, and no floating-point atomics.
+//
+// Units: m, s, kg.
+
+// Shape kinds (`gpu/bodies.rs`).
+const SHAPE_CUBOID: u32 = 0u;
+const SHAPE_SPHERE: u32 = 1u;
+const SHAPE_CAPSULE: u32 = 2u;
+// Nothing: no neighbour, no shape, a shape the particles cannot move.
+const NONE: u32 = 0xffffffffu;
+// Bodies a particle keeps over a step.
+const BODY_SLOTS: u32 = 4u;
+// Particles whose loads one invocation of `reduce_chunks` sums.
+const LOAD_CHUNK: u32 = 1024u;
+
+// A rigid body the particles meet (`gpu/bodies.rs`).
+struct Shape {
+    // x: SHAPE_* kind; y: the body's slot among the movable ones (the
+    // dynamic bodies), or NONE.
+    kind: vec4<u32>,
+    // Pose: translation (m) and the rotation's columns.
+    translation: vec4<f32>,
+    axis_x: vec4<f32>,
+    axis_y: vec4<f32>,
+    axis_z: vec4<f32>,
+    // Cuboid: half extents (m); sphere: x = radius; capsule: x = half
+    // height, y = radius.
+    size: vec4<f32>,
+    // Centre of mass (m); w: the body's friction coefficient.
+    com: vec4<f32>,
+    // Velocity (m/s) and angular velocity (rad/s): the body's mean over
+    // the step.
+    linvel: vec4<f32>,
+    angvel: vec4<f32>,
+    // x: inverse mass, 1/kg (0 when the particles cannot move it).
+    inv_mass: vec4<f32>,
+    // The inverse inertia in the world's frame, by column, 1/(kg m²).
+    inv_inertia_x: vec4<f32>,
+    inv_inertia_y: vec4<f32>,
+    inv_inertia_z: vec4<f32>,
+}
+
+// What particles gave a body: an impulse (N s) and its moment about the
+// body's centre of mass (N m s); w unused.
+struct Load {
+    impulse: vec4<f32>,
+    moment: vec4<f32>,
+}
+
+// Whether `a` is neither infinite nor NaN (by its bits: a compiler may
+// fold `a != a`).
+fn finite(a: f32) -> bool {
+    return (bitcast<u32>(a) & 0x7f800000u) != 0x7f800000u;
+}
+
+fn finite3(a: vec3<f32>) -> bool {
+    return finite(a.x) && finite(a.y) && finite(a.z);
+}
+
+// The surface of a shape nearest a point: the point (m), the normal out
+// of the body, the signed distance (m, negative inside; w), and whether
+// it counts (`found`).
+struct Surface {
+    point: vec3<f32>,
+    normal: vec3<f32>,
+    distance: f32,
+    found: bool,
+}
+
+fn to_local(s: Shape, p: vec3<f32>) -> vec3<f32> {
+    let d = p - s.translation.xyz;
+    return vec3<f32>(dot(s.axis_x.xyz, d), dot(s.axis_y.xyz, d), dot(s.axis_z.xyz, d));
+}
+
+fn to_world(s: Shape, q: vec3<f32>) -> vec3<f32> {
+    return s.axis_x.xyz * q.x + s.axis_y.xyz * q.y + s.axis_z.xyz * q.z + s.translation.xyz;
+}
+
+// The ball of radius `r` about `c` (query/project.rs `project_ball`):
+// the nearest surface point (xyz) and 1 when inside (w).
+fn project_ball(p: vec3<f32>, c: vec3<f32>, r: f32) -> vec4<f32> {
+    let d = p - c;
+    let l = length(d);
+    var u = vec3<f32>(0.0, 1.0, 0.0);
+    if (l > 0.0) {
+        u = d / l;
+    }
+    return vec4<f32>(c + u * r, select(0.0, 1.0, l <= r));
+}
+
+// The nearest surface point in the shape's frame (xyz) and 1 when `p` is
+// inside (w).
+fn project_local(s: Shape, p: vec3<f32>) -> vec4<f32> {
+    let kind = s.kind.x;
+    if (kind == SHAPE_SPHERE) {
+        return project_ball(p, vec3<f32>(0.0), s.size.x);
+    }
+    if (kind == SHAPE_CAPSULE) {
+        let hh = s.size.x;
+        return project_ball(p, vec3<f32>(0.0, clamp(p.y, -hh, hh), 0.0), s.size.y);
+    }
+    let h = s.size.xyz;
+    let q = clamp(p, -h, h);
+    if (any(q != p)) {
+        return vec4<f32>(q, 0.0);
+    }
+    // Inside: out through the nearest face.
+    let depth = h - abs(p);
+    var out = p;
+    if (depth.x <= depth.y && depth.x <= depth.z) {
+        out.x = select(-h.x, h.x, p.x >= 0.0);
+    } else if (depth.y <= depth.z) {
+        out.y = select(-h.y, h.y, p.y >= 0.0);
+    } else {
+        out.z = select(-h.z, h.z, p.z >= 0.0);
+    }
+    return vec4<f32>(out, 1.0);
+}
+
+// `Coupling::surface`: the surface of shape `s` nearest `p`, found if `p`
+// is inside or closer than `within` (m).
+fn surface(s: Shape, p: vec3<f32>, within: f32) -> Surface {
+    var out = Surface(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false);
+    let local = to_local(s, p);
+    let proj = project_local(s, local);
+    let inside = proj.w > 0.5;
+    let distance = distance(local, proj.xyz);
+    if (!inside && distance >= within) {
+        return out;
+    }
+    let point = to_world(s, proj.xyz);
+    let to = p - point;
+    let len = length(to);
+    if (len <= 1e-12 || !finite(len)) {
+        return out;
+    }
+    out.point = point;
+    out.normal = select(to / len, -to / len, inside);
+    out.distance = select(distance, -distance, inside);
+    out.found = true;
+    return out;
+}
+
+// Velocity of shape `s`'s material at `p`, m/s.
+fn velocity_at(s: Shape, p: vec3<f32>) -> vec3<f32> {
+    return s.linvel.xyz + cross(s.angvel.xyz, p - s.com.xyz);
+}
+
+// `1/M + (r × d) · I⁻¹ (r × d)` of shape `s` at `p` along `d`, 1/kg.
+fn inv_mass_along(s: Shape, p: vec3<f32>, d: vec3<f32>) -> f32 {
+    if (s.inv_mass.x == 0.0) {
+        return 0.0;
+    }
+    let c = cross(p - s.com.xyz, d);
+    let ic = s.inv_inertia_x.xyz * c.x + s.inv_inertia_y.xyz * c.y + s.inv_inertia_z.xyz * c.z;
+    return s.inv_mass.x + dot(c, ic);
+}
+
+// A particle's correction against one body (`Coupling::push_out`).
+struct Push {
+    // The correction, m.
+    dx: vec3<f32>,
+    // The point of the body's surface nearest the particle, m.
+    point: vec3<f32>,
+    // Whether the particle was within the radius (and the correction is
+    // finite).
+    found: bool,
+}
+
+// The correction that keeps a particle at `p`, where it stood at `q` at
+// the start of a substep of `h` s, `radius` (m) out of shape `s`, with
+// Coulomb friction: the slide relative to the body's surface over the
+// substep, undone up to `mu` (the larger of it and the body's) times the
+// normal correction.
+fn push_out(s: Shape, p: vec3<f32>, q: vec3<f32>, radius: f32, mu: f32, h: f32) -> Push {
+    var out = Push(vec3<f32>(0.0), vec3<f32>(0.0), false);
+    let surf = surface(s, p, radius);
+    if (!surf.found) {
+        return out;
+    }
+    let depth = radius - surf.distance;
+    var dx = surf.normal * depth;
+    let m = max(mu, s.com.w);
+    if (m > 0.0) {
+        let moved = (p - q) + dx - velocity_at(s, surf.point) * h;
+        let slide = moved - surf.normal * dot(moved, surf.normal);
+        let len = length(slide);
+        if (len > 1e-12) {
+            dx -= slide * min(m * depth / len, 1.0);
+        }
+    }
+    if (!finite3(p + dx)) {
+        return out;
+    }
+    out.dx = dx;
+    out.point = surf.point;
+    out.found = true;
+    return out;
+}
+
+// Adds what `push` of particle `i` (inverse mass `w`, 1/kg) gives the
+// movable body `s` behind its slot `slot` over a substep of `h` s,
+// `−Δx / (h (w + w_b))` (`Coupling::push_out`), to the particle's loads.
+fn give_push(i: u32, slot: u32, s: Shape, push: Push, w: f32, h: f32) {
+    let len = length(push.dx);
+    var n = vec3<f32>(0.0);
+    if (len > 0.0 && finite(len)) {
+        n = push.dx / len;
+    }
+    let k = w + inv_mass_along(s, push.point, n);
+    if (k > 0.0) {
+        add_load(i, slot, s, push.point, -push.dx / (h * k));
+    }
+}
+
+// Adds `impulse` (N s), given at `point` (m) to the movable body `s`
+// behind slot `slot` of particle `i`, to the particle's loads
+// (`Coupling::add_load`).
+fn add_load(i: u32, slot: u32, s: Shape, point: vec3<f32>, impulse: vec3<f32>) {
+    if (!finite3(impulse)) {
+        return;
+    }
+    let at = i * BODY_SLOTS + slot;
+    let l = loads[at];
+    let moment = cross(point - s.com.xyz, impulse);
+    loads[at] = Load(vec4<f32>(l.impulse.xyz + impulse, 0.0), vec4<f32>(l.moment.xyz + moment, 0.0));
+}
+
+// Each chunk of LOAD_CHUNK particles: every movable body's loads, summed
+// in particle and slot order (an invocation a body) into `partials`.
+@compute @workgroup_size(64)
+fn reduce_chunks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) t: u32) {
+    let chunk = wg.x + wg.y * groups.x;
+    if (chunk >= params.chunks) {
+        return;
+    }
+    let lo = chunk * LOAD_CHUNK;
+    let hi = min(lo + LOAD_CHUNK, params.n);
+    for (var body = t; body < params.movable; body += WORKGROUP_SIZE) {
+        var impulse = vec3<f32>(0.0);
+        var moment = vec3<f32>(0.0);
+        for (var i = lo; i < hi; i++) {
+            for (var slot = 0u; slot < BODY_SLOTS; slot++) {
+                let k = slot_shape(i, slot);
+                if (k == NONE || shapes[k].kind.y != body) {
+                    continue;
+                }
+                let l = loads[i * BODY_SLOTS + slot];
+                impulse += l.impulse.xyz;
+                moment += l.moment.xyz;
+            }
+        }
+        partials[chunk * params.movable + body] = Load(vec4<f32>(impulse, 0.0), vec4<f32>(moment, 0.0));
+    }
+}
+
+// Each movable body's total: its chunks' loads, in chunk order, after the
+// chunks' in `partials`.
+@compute @workgroup_size(64)
+fn reduce_bodies(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let body = linear(id, groups);
+    if (body >= params.movable) {
+        return;
+    }
+    var impulse = vec3<f32>(0.0);
+    var moment = vec3<f32>(0.0);
+    for (var chunk = 0u; chunk < params.chunks; chunk++) {
+        let l = partials[chunk * params.movable + body];
+        impulse += l.impulse.xyz;
+        moment += l.moment.xyz;
+    }
+    partials[params.chunks * params.movable + body] = Load(vec4<f32>(impulse, 0.0), vec4<f32>(moment, 0.0));
+}
