@@ -35,8 +35,9 @@ pub const BODIES: &str = include_str!("../wgsl/bodies.wgsl");
 /// XPBD soft bodies on the GPU: `predict`, `finish` (velocities, fused
 /// with the next substep's prediction) and `project` (one colour of one
 /// constraint kind: distance, bending, volume, tether), dispatched colour
-/// by colour; `find_contacts` and `collide` against rigid bodies
-/// ([`BODIES`] first).
+/// by colour; `find_contacts` and `collide` against rigid bodies, and
+/// `advance_bodies` and `take_pushes` moving the dynamic ones ([`BODIES`]
+/// first).
 pub const XPBD_SOFT: &str = concat!(
     include_str!("../wgsl/bodies.wgsl"),
     include_str!("../wgsl/xpbd_soft.wgsl")
@@ -105,6 +106,9 @@ pub mod layout {
     pub const SHAPE_BYTES: usize = 208;
     /// `struct Load` of `bodies.wgsl`: an impulse and its moment.
     pub const LOAD_BYTES: usize = 32;
+    /// `struct Motion` of `bodies.wgsl`: what a soft body's stage did to a
+    /// rigid body.
+    pub const MOTION_BYTES: usize = 80;
     /// Particles whose loads one invocation of `reduce_chunks` sums
     /// (`LOAD_CHUNK` of `bodies.wgsl`).
     pub const LOAD_CHUNK: usize = 1024;

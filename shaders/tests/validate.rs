@@ -127,13 +127,15 @@ fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
     assert_eq!(
         names,
         [
+            "advance_bodies",
             "collide",
             "find_contacts",
             "finish",
             "predict",
             "project",
             "reduce_bodies",
-            "reduce_chunks"
+            "reduce_chunks",
+            "take_pushes"
         ]
     );
     for ep in &module.entry_points {
@@ -152,6 +154,7 @@ fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
         ("Tether", layout::SOFT_TETHER_BYTES),
         ("Shape", layout::SHAPE_BYTES),
         ("Load", layout::LOAD_BYTES),
+        ("Motion", layout::MOTION_BYTES),
     ] {
         assert_eq!(struct_size(&module, ty), Some(bytes), "struct {ty}");
     }

@@ -61,10 +61,53 @@ struct Shape {
 }
 
 // What particles gave a body: an impulse (N s) and its moment about the
-// body's centre of mass (N m s); w unused.
+// body's centre of mass (N m s); a soft body's contacts: a positional
+// impulse (N s²) and its moment, w of `impulse` the sum of the fractions
+// of the contacts' moves the body takes (`Coupling::press`).
 struct Load {
     impulse: vec4<f32>,
     moment: vec4<f32>,
+}
+
+// What a soft body's stage did to a movable body so far (`Motion` of
+// coupling.rs): its move (m) and turn (a unit quaternion, xyzw) about its
+// centre of mass, the velocities that came with them (m/s, rad/s), and
+// the shape it is (x of `shape`).
+struct Motion {
+    dx: vec4<f32>,
+    dq: vec4<f32>,
+    dv: vec4<f32>,
+    dw: vec4<f32>,
+    shape: vec4<u32>,
+}
+
+// `v` turned by the unit quaternion `q`.
+fn rotate(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
+    let t = 2.0 * cross(q.xyz, v);
+    return v + q.w * t + cross(q.xyz, t);
+}
+
+// `q` turned by the rotation vector `theta` (rad), to first order and
+// normalised (coupling.rs's `turned`).
+fn turned(q: vec4<f32>, theta: vec3<f32>) -> vec4<f32> {
+    // The quaternion product (theta, 0) q.
+    let t = vec4<f32>(theta * q.w + cross(theta, q.xyz), -dot(theta, q.xyz));
+    return normalize(q + t * 0.5);
+}
+
+// Shape `s` moved by `m`: where particles meet it now, and its velocity
+// with what the stage gave it.
+fn moved_shape(s: Shape, m: Motion) -> Shape {
+    var out = s;
+    let com = s.com.xyz;
+    out.translation = vec4<f32>(com + m.dx.xyz + rotate(m.dq, s.translation.xyz - com), 0.0);
+    out.axis_x = vec4<f32>(rotate(m.dq, s.axis_x.xyz), 0.0);
+    out.axis_y = vec4<f32>(rotate(m.dq, s.axis_y.xyz), 0.0);
+    out.axis_z = vec4<f32>(rotate(m.dq, s.axis_z.xyz), 0.0);
+    out.com = vec4<f32>(com + m.dx.xyz, s.com.w);
+    out.linvel = vec4<f32>(s.linvel.xyz + m.dv.xyz, 0.0);
+    out.angvel = vec4<f32>(s.angvel.xyz + m.dw.xyz, 0.0);
+    return out;
 }
 
 // Whether `a` is neither infinite nor NaN (by its bits: a compiler may
@@ -257,8 +300,8 @@ fn reduce_chunks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
     let lo = chunk * LOAD_CHUNK;
     let hi = min(lo + LOAD_CHUNK, params.n);
     for (var body = t; body < params.movable; body += WORKGROUP_SIZE) {
-        var impulse = vec3<f32>(0.0);
-        var moment = vec3<f32>(0.0);
+        var impulse = vec4<f32>(0.0);
+        var moment = vec4<f32>(0.0);
         for (var i = lo; i < hi; i++) {
             for (var slot = 0u; slot < BODY_SLOTS; slot++) {
                 let k = slot_shape(i, slot);
@@ -266,11 +309,11 @@ fn reduce_chunks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
                     continue;
                 }
                 let l = loads[i * BODY_SLOTS + slot];
-                impulse += l.impulse.xyz;
-                moment += l.moment.xyz;
+                impulse += l.impulse;
+                moment += l.moment;
             }
         }
-        partials[chunk * params.movable + body] = Load(vec4<f32>(impulse, 0.0), vec4<f32>(moment, 0.0));
+        partials[chunk * params.movable + body] = Load(impulse, moment);
     }
 }
 
@@ -282,12 +325,12 @@ fn reduce_bodies(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
     if (body >= params.movable) {
         return;
     }
-    var impulse = vec3<f32>(0.0);
-    var moment = vec3<f32>(0.0);
+    var impulse = vec4<f32>(0.0);
+    var moment = vec4<f32>(0.0);
     for (var chunk = 0u; chunk < params.chunks; chunk++) {
         let l = partials[chunk * params.movable + body];
-        impulse += l.impulse.xyz;
-        moment += l.moment.xyz;
+        impulse += l.impulse;
+        moment += l.moment;
     }
-    partials[params.chunks * params.movable + body] = Load(vec4<f32>(impulse, 0.0), vec4<f32>(moment, 0.0));
+    partials[params.chunks * params.movable + body] = Load(impulse, moment);
 }

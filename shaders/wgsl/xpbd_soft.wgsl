@@ -9,9 +9,12 @@
 // this one's prediction), then one `project` dispatch per colour of each
 // constraint kind (distance, bending, volume, tethers), in the CPU's
 // colour order, then `collide` (each particle kept the collision radius
-// out of its contacts' bodies, with friction). With dynamic bodies among
-// them, `reduce_chunks` and `reduce_bodies` sum what the particles gave
-// each after the last substep. Within a colour no two constraints move the same
+// out of its contacts' bodies, with friction). A dynamic body shares each
+// correction with the particle as an XPBD contact does (`Coupling::press`):
+// each substep `advance_bodies` moves it on by the velocity the stage gave
+// it, `collide` keeps each particle's pushes, `reduce_chunks` and
+// `reduce_bodies` sum them per body in a fixed order, and `take_pushes`
+// moves the body by them (`motion`), so the next substep meets it there. Within a colour no two constraints move the same
 // particle, so every invocation writes only its own constraint's
 // particles and nothing needs atomics; an overflow colour (a particle in
 // more than 64 constraints of a kind) is projected by one invocation, in
@@ -102,11 +105,13 @@ struct Tether {
 // Per particle: the shapes of its contacts for the step (NONE past the
 // last).
 @group(0) @binding(9) var<storage, read_write> contacts: array<vec4<u32>>;
-// BODY_SLOTS per particle: what it gave each contact's body (while
-// `params.movable` > 0).
+// BODY_SLOTS per particle: what it gave each contact's body this substep
+// (while `params.movable` > 0).
 @group(0) @binding(10) var<storage, read_write> loads: array<Load>;
 // Per chunk and movable body, then per body (`bodies.wgsl`).
 @group(0) @binding(11) var<storage, read_write> partials: array<Load>;
+// Per movable body: what the stage did to it so far.
+@group(0) @binding(12) var<storage, read_write> motion: array<Motion>;
 
 fn linear(id: vec3<u32>, groups: vec3<u32>) -> u32 {
     return id.x + id.y * groups.x * WORKGROUP_SIZE;
@@ -367,9 +372,18 @@ fn find_contacts(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
     }
 }
 
+// Shape `k` where the stage has moved it.
+fn body_now(k: u32) -> Shape {
+    let s = shapes[k];
+    if (s.kind.y == NONE) {
+        return s;
+    }
+    return moved_shape(s, motion[s.kind.y]);
+}
+
 // Each particle kept the collision radius out of its contacts' bodies,
-// with friction (`Coupling::push_out`); the movable ones take the
-// corrections' impulses.
+// with friction; a movable body takes its share of each correction
+// (`Coupling::press`), kept in the particle's loads for `take_pushes`.
 @compute @workgroup_size(64)
 fn collide(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear(id, groups);
@@ -383,19 +397,81 @@ fn collide(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
     let q = prev[i].xyz;
     var p = own.xyz;
     for (var slot = 0u; slot < BODY_SLOTS; slot++) {
+        var given = Load(vec4<f32>(0.0), vec4<f32>(0.0));
         let k = contacts[i][slot];
-        if (k == NONE) {
-            break;
+        if (k != NONE) {
+            let shape = body_now(k);
+            let push = push_out(shape, p, q, params.radius, params.friction, params.h);
+            if (push.found) {
+                let len = length(push.dx);
+                var n = vec3<f32>(0.0);
+                if (len > 0.0 && finite(len)) {
+                    n = push.dx / len;
+                }
+                let w_b = inv_mass_along(shape, push.point, n);
+                let total = own.w + w_b;
+                if (total > 0.0) {
+                    p += push.dx * (own.w / total);
+                    if (w_b > 0.0) {
+                        let impulse = -push.dx / total;
+                        let moment = cross(push.point - shape.com.xyz, impulse);
+                        given = Load(vec4<f32>(impulse, w_b / total), vec4<f32>(moment, 0.0));
+                    }
+                }
+            }
         }
-        let shape = shapes[k];
-        let push = push_out(shape, p, q, params.radius, params.friction, params.h);
-        if (!push.found) {
-            continue;
-        }
-        p += push.dx;
-        if (shape.kind.y != NONE) {
-            give_push(i, slot, shape, push, own.w, params.h);
+        if (params.movable > 0u) {
+            loads[i * BODY_SLOTS + slot] = given;
         }
     }
     x[i] = vec4<f32>(p, own.w);
+}
+
+// Each movable body moved on by the velocity the stage gave it, over the
+// substep (`Target::advance`).
+@compute @workgroup_size(64)
+fn advance_bodies(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let b = linear(id, groups);
+    if (b >= params.movable) {
+        return;
+    }
+    var m = motion[b];
+    if (all(m.dv.xyz == vec3<f32>(0.0)) && all(m.dw.xyz == vec3<f32>(0.0))) {
+        return;
+    }
+    m.dx = vec4<f32>(m.dx.xyz + m.dv.xyz * params.h, 0.0);
+    m.dq = turned(m.dq, m.dw.xyz * params.h);
+    motion[b] = m;
+}
+
+// Each movable body moved by what the substep's contacts pushed it with
+// (summed by `reduce_chunks` and `reduce_bodies`), scaled down where
+// their fractions add up past 1 (`Coupling::take_pushes`).
+@compute @workgroup_size(64)
+fn take_pushes(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let b = linear(id, groups);
+    if (b >= params.movable) {
+        return;
+    }
+    let total = partials[params.chunks * params.movable + b];
+    let share = total.impulse.w;
+    if (share <= 0.0) {
+        return;
+    }
+    let scale = 1.0 / max(share, 1.0);
+    let impulse = total.impulse.xyz * scale;
+    let moment = total.moment.xyz * scale;
+    if (!(finite3(impulse) && finite3(moment))) {
+        return;
+    }
+    var m = motion[b];
+    let s = shapes[m.shape.x];
+    let dx = impulse * s.inv_mass.x;
+    let dtheta = s.inv_inertia_x.xyz * moment.x + s.inv_inertia_y.xyz * moment.y
+        + s.inv_inertia_z.xyz * moment.z;
+    m.dx = vec4<f32>(m.dx.xyz + dx, 0.0);
+    m.dq = turned(m.dq, dtheta);
+    m.dv = vec4<f32>(m.dv.xyz + dx / params.h, 0.0);
+    m.dw = vec4<f32>(m.dw.xyz + dtheta / params.h, 0.0);
+    motion[b] = m;
 }

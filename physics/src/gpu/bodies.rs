@@ -22,7 +22,7 @@ use crate::error::PhysicsError;
 use crate::rigid::aabb::Aabb;
 use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::shape::Shape;
-use crate::xpbd::coupling::{BodyChange, StepStart};
+use crate::xpbd::coupling::{BodyChange, Motion, StepStart};
 
 /// Most bodies a fluid or soft body on the GPU meets in a step (the
 /// shaders test every one for every particle once a step).
@@ -77,6 +77,21 @@ pub(crate) struct GpuLoad {
 
 const _: () = assert!(std::mem::size_of::<GpuLoad>() == inertia_shaders::layout::LOAD_BYTES);
 
+/// WGSL `struct Motion` of `bodies.wgsl`: what a soft body's stage did
+/// to a movable body (its move, m; its turn, a quaternion xyzw; the
+/// velocities that came with them, m/s and rad/s; its shape's index).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct GpuMotion {
+    dx: [f32; 4],
+    dq: [f32; 4],
+    dv: [f32; 4],
+    dw: [f32; 4],
+    shape: [u32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<GpuMotion>() == inertia_shaders::layout::MOTION_BYTES);
+
 fn v4(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
 }
@@ -90,20 +105,63 @@ fn v3(v: [f32; 4]) -> DVec3 {
 pub(crate) struct NearBodies {
     /// In handle order (the CPU's order).
     pub(crate) shapes: Vec<GpuShape>,
-    /// The arena key of each body the particles can move, by its slot.
-    pub(crate) movable: Vec<(u32, u32)>,
+    /// The bodies the particles can move, by their slot.
+    pub(crate) movable: Vec<Movable>,
+}
+
+/// A body the particles can move.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Movable {
+    /// Arena index and generation.
+    key: (u32, u32),
+    /// Its index in [`NearBodies::shapes`].
+    shape: u32,
 }
 
 impl NearBodies {
-    /// What the particles gave the movable bodies, from their totals as
-    /// the GPU summed them (one [`GpuLoad`] per slot).
+    /// What a fluid's particles gave the movable bodies, from their totals
+    /// as the GPU summed them (one [`GpuLoad`] per slot).
     pub(crate) fn changes(&self, totals: &[GpuLoad]) -> Vec<BodyChange> {
         self.movable
             .iter()
             .zip(totals)
-            .map(|(key, l)| (*key, (v3(l.impulse), v3(l.moment))))
+            .map(|(m, l)| (m.key, (v3(l.impulse), v3(l.moment))))
             .filter(|(_, load)| *load != (DVec3::ZERO, DVec3::ZERO))
             .map(|(key, load)| BodyChange::of_load(key, load))
+            .collect()
+    }
+
+    /// Every movable body unmoved, as a soft body's stage starts.
+    pub(crate) fn still(&self) -> Vec<GpuMotion> {
+        self.movable
+            .iter()
+            .map(|m| GpuMotion {
+                dx: [0.0; 4],
+                dq: [0.0, 0.0, 0.0, 1.0],
+                dv: [0.0; 4],
+                dw: [0.0; 4],
+                shape: [m.shape, 0, 0, 0],
+            })
+            .collect()
+    }
+
+    /// What a soft body's stage did to the movable bodies, from their
+    /// motions as the GPU left them (one [`GpuMotion`] per slot).
+    pub(crate) fn moves(&self, moves: &[GpuMotion]) -> Vec<BodyChange> {
+        self.movable
+            .iter()
+            .zip(moves)
+            .map(|(m, g)| {
+                let dq = glam::DQuat::from_xyzw(
+                    f64::from(g.dq[0]),
+                    f64::from(g.dq[1]),
+                    f64::from(g.dq[2]),
+                    f64::from(g.dq[3]),
+                );
+                (m.key, Motion::new(v3(g.dx), dq, v3(g.dv), v3(g.dw)))
+            })
+            .filter(|(_, moved)| *moved != Motion::default())
+            .map(|(key, moved)| BodyChange::of_motion(key, moved))
             .collect()
     }
 }
@@ -165,7 +223,10 @@ pub(crate) fn gather(
         }
         let movable = b.kind == BodyKind::Dynamic && !b.quarantined && b.inv_mass > 0.0;
         let (slot, inv_mass, inv_inertia) = if movable {
-            out.movable.push((index, generation));
+            out.movable.push(Movable {
+                key: (index, generation),
+                shape: out.shapes.len() as u32,
+            });
             let slot = out.movable.len() as u32 - 1;
             (slot, b.inv_mass, b.inverse_inertia_world())
         } else {

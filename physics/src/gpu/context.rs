@@ -41,8 +41,9 @@ pub struct GpuContext {
     pub(crate) springs: wgpu::ComputePipeline,
     pub(crate) interactions: wgpu::ComputePipeline,
     pub(crate) integrate: wgpu::ComputePipeline,
-    /// Soft bodies' pipelines (`gpu/soft.rs`).
-    pub(crate) soft: super::soft::SoftPipelines,
+    /// Soft bodies' pipelines (`gpu/soft.rs`); `None` on an adapter that
+    /// binds too few storage buffers per shader.
+    pub(crate) soft: Option<super::soft::SoftPipelines>,
     /// Fluids' pipelines (`gpu/fluid.rs`); `None` on an adapter that binds
     /// too few storage buffers per shader.
     pub(crate) fluid: Option<super::fluid::FluidPipelines>,

@@ -10,14 +10,15 @@
 //! | `shapes` | the rigid bodies near the body (`gpu/bodies.rs`) | CPU, every step |
 //! | `contacts` | per particle: the bodies within its reach for the step | `find_contacts` |
 //! | `loads` | per particle and contact: what it gave a dynamic body | `collide` |
-//! | `partials` | per chunk and dynamic body, then per body: summed loads | `reduce_chunks`, `reduce_bodies` |
+//! | `partials` | per chunk and dynamic body, then per body: a substep's summed pushes | `reduce_chunks`, `reduce_bodies` |
+//! | `motion` | per dynamic body: what the stage did to it | CPU, every step; `advance_bodies`, `take_pushes` |
 //! | `readback` | staging copy of `x` and `v` for the CPU | copy |
-//! | `totals` | staging copy of the dynamic bodies' loads | copy |
+//! | `moves` | staging copy of `motion` | copy |
 //!
 //! What runs here: gravity, damping, pins, distance, bending, volume and
 //! tether constraints, and contacts with rigid bodies (cuboids, spheres,
-//! capsules) with friction, pushing the dynamic ones back as the CPU does
-//! (`gpu/bodies.rs`). Attachments, pressure, self-collision, plasticity
+//! capsules) with friction, the dynamic ones sharing each correction
+//! within the stage as on the CPU (`Coupling::press`; `gpu/bodies.rs`). Attachments, pressure, self-collision, plasticity
 //! and tearing run only on the CPU: a body that uses any of them is
 //! refused ([`check_supported`]). How far a GPU run may drift from the CPU
 //! run is [`SOFT_GPU_TOLERANCE`].
@@ -31,9 +32,9 @@ use crate::error::PhysicsError;
 use crate::xpbd::colouring::Coloured;
 use crate::xpbd::coupling::BodyChange;
 use crate::xpbd::soft::SoftBody;
-use inertia_shaders::layout::{BODY_SLOTS, LOAD_BYTES, LOAD_CHUNK};
+use inertia_shaders::layout::{BODY_SLOTS, LOAD_BYTES, LOAD_CHUNK, MOTION_BYTES};
 
-use super::bodies::{GpuLoad, GpuShape, NearBodies, MAX_GPU_BODIES};
+use super::bodies::{GpuMotion, GpuShape, NearBodies, MAX_GPU_BODIES};
 use super::buffers::at_least;
 use super::context::GpuContext;
 use super::program::{storage_binding, uniform_binding, Program};
@@ -90,6 +91,8 @@ pub(crate) enum Entry {
     Collide,
     ReduceChunks,
     ReduceBodies,
+    AdvanceBodies,
+    TakePushes,
 }
 
 /// The constraint kinds, numbered as the shader's `params.kind`.
@@ -112,10 +115,20 @@ pub(crate) struct SoftPipelines {
     collide: wgpu::ComputePipeline,
     reduce_chunks: wgpu::ComputePipeline,
     reduce_bodies: wgpu::ComputePipeline,
+    advance_bodies: wgpu::ComputePipeline,
+    take_pushes: wgpu::ComputePipeline,
 }
 
+/// Storage buffers the soft body's passes bind.
+const STORAGE_BUFFERS: u32 = 12;
+
 impl SoftPipelines {
-    pub(crate) fn new(device: &wgpu::Device) -> Self {
+    /// Compiles the pipelines; `None` when the adapter binds too few
+    /// storage buffers per shader (uploads then say so).
+    pub(crate) fn new(device: &wgpu::Device) -> Option<Self> {
+        if device.limits().max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
+            return None;
+        }
         let program = Program::new(
             device,
             "xpbd_soft",
@@ -133,10 +146,11 @@ impl SoftPipelines {
                 storage_binding(9, false),
                 storage_binding(10, false),
                 storage_binding(11, false),
+                storage_binding(12, false),
             ],
         );
         let pipeline = |entry: &str| program.pipeline(device, entry);
-        Self {
+        Some(Self {
             predict: pipeline("predict"),
             finish: pipeline("finish"),
             project: pipeline("project"),
@@ -144,8 +158,10 @@ impl SoftPipelines {
             collide: pipeline("collide"),
             reduce_chunks: pipeline("reduce_chunks"),
             reduce_bodies: pipeline("reduce_bodies"),
+            advance_bodies: pipeline("advance_bodies"),
+            take_pushes: pipeline("take_pushes"),
             layout: program.layout,
-        }
+        })
     }
 
     fn of(&self, e: Entry) -> &wgpu::ComputePipeline {
@@ -157,6 +173,8 @@ impl SoftPipelines {
             Entry::Collide => &self.collide,
             Entry::ReduceChunks => &self.reduce_chunks,
             Entry::ReduceBodies => &self.reduce_bodies,
+            Entry::AdvanceBodies => &self.advance_bodies,
+            Entry::TakePushes => &self.take_pushes,
         }
     }
 }
@@ -180,16 +198,19 @@ pub(crate) struct GpuSoftBody {
     shapes: wgpu::Buffer,
     /// Chunks of `LOAD_CHUNK` particles.
     chunks: u32,
-    partials: wgpu::Buffer,
+    motion: wgpu::Buffer,
     readback: wgpu::Buffer,
-    totals: wgpu::Buffer,
+    moves: wgpu::Buffer,
     group: wgpu::BindGroup,
     /// A substep's dispatches after its first (predict or finish).
     colours: Vec<Dispatch>,
 }
 
-/// Bytes of every dynamic body's summed loads.
+/// Bytes of every dynamic body's summed pushes.
 const TOTALS_BYTES: usize = MAX_GPU_BODIES * LOAD_BYTES;
+
+/// Bytes of every dynamic body's motion.
+const MOTION_TOTAL_BYTES: usize = MAX_GPU_BODIES * MOTION_BYTES;
 
 /// Why a soft body cannot step on the GPU, if it cannot.
 pub(crate) fn check_supported(body: &SoftBody) -> Result<(), PhysicsError> {
@@ -247,6 +268,12 @@ fn storage(ctx: &GpuContext, label: &str, bytes: &[u8], extra: wgpu::BufferUsage
 /// Uploads `body` (its positions, velocities and constraints).
 pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBody>, PhysicsError> {
     check_supported(body)?;
+    let pipelines = ctx.soft.as_ref().ok_or_else(|| {
+        PhysicsError::Gpu(format!(
+            "the adapter binds {} storage buffers per shader; soft bodies on the GPU need {STORAGE_BUFFERS}",
+            ctx.limits.max_storage_buffers_per_shader_stage
+        ))
+    })?;
     let n = body.len() as u32;
     let xw: Vec<[f32; 4]> = body
         .x
@@ -377,17 +404,23 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
         let loads = scratch("soft loads", per_particle(BODY_SLOTS * LOAD_BYTES), none);
         let chunks = (n as usize).div_ceil(LOAD_CHUNK);
         let partials = scratch(
-            "soft partial loads",
+            "soft partial pushes",
             if touches {
                 chunks * TOTALS_BYTES + TOTALS_BYTES
             } else {
                 0
             },
-            wgpu::BufferUsages::COPY_SRC,
+            none,
         );
-        let totals = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("soft load totals"),
-            size: if touches { TOTALS_BYTES as u64 } else { 32 },
+        let motion_bytes = if touches { MOTION_TOTAL_BYTES } else { 0 };
+        let motion = scratch(
+            "soft body motion",
+            motion_bytes,
+            wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        );
+        let moves = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("soft body moves"),
+            size: (motion_bytes as u64).max(32),
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -405,7 +438,7 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
         }
         let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("soft"),
-            layout: &ctx.soft.layout,
+            layout: &pipelines.layout,
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
@@ -426,6 +459,7 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
                 entry(9, &contacts),
                 entry(10, &loads),
                 entry(11, &partials),
+                entry(12, &motion),
             ],
         });
         Ok(Arc::new(GpuSoftBody {
@@ -435,9 +469,9 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
             v: vb,
             shapes,
             chunks: chunks as u32,
-            partials,
+            motion,
             readback,
-            totals,
+            moves,
             group,
             colours: plan,
         }))
@@ -537,11 +571,20 @@ pub(crate) fn step(
         .iter()
         .map(|d| ctx.workgroups(if d.serial { 1 } else { d.count }))
         .collect::<Result<Vec<_>, _>>()?;
+    let pipes = ctx
+        .soft
+        .as_ref()
+        .ok_or_else(|| PhysicsError::Gpu("no soft-body pipelines on this adapter".into()))?;
     ctx.scoped("a GPU soft-body step", || {
         ctx.queue.write_buffer(&gpu.params, 0, &bytes);
         if !shapes.is_empty() {
             ctx.queue
                 .write_buffer(&gpu.shapes, 0, bytemuck::cast_slice(shapes));
+        }
+        if movable > 0 {
+            let still = near.still();
+            ctx.queue
+                .write_buffer(&gpu.motion, 0, bytemuck::cast_slice(&still));
         }
         let mut encoder = ctx
             .device
@@ -554,7 +597,7 @@ pub(crate) fn step(
                 timestamp_writes: None,
             });
             let mut run = |entry: Entry, slot: usize, grid: (u32, u32)| {
-                pass.set_pipeline(ctx.soft.of(entry));
+                pass.set_pipeline(pipes.of(entry));
                 pass.set_bind_group(0, &gpu.group, &[(slot as u64 * SLOT) as u32]);
                 pass.dispatch_workgroups(grid.0, grid.1, 1);
             };
@@ -571,20 +614,23 @@ pub(crate) fn step(
                 for (c, d) in gpu.colours.iter().enumerate() {
                     run(Entry::Project(d.kind), c + 3, grids[c]);
                 }
+                if movable > 0 {
+                    run(Entry::AdvanceBodies, 0, bodies);
+                }
                 if touches {
                     run(Entry::Collide, 0, particles);
                 }
+                if movable > 0 {
+                    run(Entry::ReduceChunks, 0, chunks);
+                    run(Entry::ReduceBodies, 0, bodies);
+                    run(Entry::TakePushes, 0, bodies);
+                }
             }
             run(Entry::Finish, 2, particles);
-            if movable > 0 {
-                run(Entry::ReduceChunks, 0, chunks);
-                run(Entry::ReduceBodies, 0, bodies);
-            }
         }
         if movable > 0 {
-            let at = u64::from(gpu.chunks) * (movable * LOAD_BYTES) as u64;
-            let bytes = (movable * LOAD_BYTES) as u64;
-            encoder.copy_buffer_to_buffer(&gpu.partials, at, &gpu.totals, 0, bytes);
+            let bytes = (movable * MOTION_BYTES) as u64;
+            encoder.copy_buffer_to_buffer(&gpu.motion, 0, &gpu.moves, 0, bytes);
         }
         if readback {
             gpu.record_readback(&mut encoder);
@@ -594,12 +640,12 @@ pub(crate) fn step(
     })?;
     let changes = if movable > 0 {
         let bytes = ctx.read_back(
-            &gpu.totals,
-            (movable * LOAD_BYTES) as u64,
-            "a soft body's loads on bodies",
+            &gpu.moves,
+            (movable * MOTION_BYTES) as u64,
+            "a soft body's moves of bodies",
         )?;
-        let totals: Vec<GpuLoad> = bytemuck::pod_collect_to_vec(&bytes);
-        near.changes(&totals)
+        let moves: Vec<GpuMotion> = bytemuck::pod_collect_to_vec(&bytes);
+        near.moves(&moves)
     } else {
         Vec::new()
     };

@@ -9,18 +9,31 @@
 //! stage sinking at its last substep's speed (the fluid lifts it again
 //! after), and particles held to that speed would lift it a tenth more
 //! than its weight (measured: 0.446 of it submerged instead of 0.48 at
-//! 10 cm). Within the soft stage's substeps a
-//! body does not move: a particle is projected out of its shape completely
-//! (a body is stiff, and a soft body's substeps are short), and the
-//! impulse that takes is summed for the body. At the end of the stage the
-//! body takes the opposite impulse, at the contact points, on its velocity
-//! (and wakes). The body's share is weighted by the pair's effective mass,
+//! 10 cm).
+//!
+//! A **fluid's** contacts leave the body where it is within the stage: a
+//! particle is projected out of its shape completely, and the impulse
+//! that takes is summed for the body. At the end of the stage the body
+//! takes the opposite impulse, at the contact points, on its velocity (and
+//! wakes). The body's share is weighted by the pair's effective mass,
 //! `j = Δx / (h (w_p + w_b))` for a correction `Δx` over a substep `h`,
 //! where `w_b = 1/M + (r × n) · I⁻¹ (r × n)` is the body's inverse mass
 //! along the normal: a particle resting on a heavy body weighs on it with
 //! its full weight (momentum is exchanged exactly as `w_b → 0`), and a
 //! heavy particle cannot throw a light body harder than a collision of the
 //! two would.
+//!
+//! A **soft body's** contacts share each correction within the stage, as
+//! an XPBD contact between two bodies does ([`Coupling::press`]): the
+//! particle moves by `w_p / (w_p + w_b)` of it and the body by the rest,
+//! after each pass ([`Coupling::take_pushes`]), with the velocity that
+//! move takes over the substep; later substeps meet the body where it was
+//! moved. A cloth's constraints pull its particles back into a body they
+//! were pushed out of, substep after substep: with the body held still,
+//! each of those pushes gave it an impulse as deep as the whole step's
+//! sink, and the cloth held a crate as a stiff spring does (dropped into a
+//! hammock, it bounced back to 95 % of its fall). Attachments move their
+//! bodies the same way ([`Target::move_by`]).
 //!
 //! Candidates are found once a step: every body whose bounding box,
 //! widened by how far a particle can reach over the step, holds the
@@ -106,10 +119,12 @@ pub(crate) struct Target<'a> {
     /// The body's dynamic friction coefficient (the pair takes the larger
     /// of the body's and the particles').
     pub(crate) friction: f64,
-    /// How far attachments moved the body within the stage: translation
-    /// (m) and rotation vector (rad), and the velocities that came with
-    /// it (m/s, rad/s).
+    /// How far attachments and a soft body's contacts moved the body
+    /// within the stage: translation (m) and rotation vector (rad), and
+    /// the velocities that came with it (m/s, rad/s).
     moved: Motion,
+    /// The pose with `moved` applied: where particles meet the body now.
+    now: Pose,
 }
 
 /// What attachments did to a body within the stage.
@@ -123,6 +138,15 @@ pub(crate) struct Motion {
     dv: DVec3,
     /// Change of angular velocity, rad/s.
     dw: DVec3,
+}
+
+impl Motion {
+    /// A move `dx` (m) and turn `dq`, and the velocities that came with
+    /// them (m/s, rad/s).
+    #[cfg(feature = "gpu")]
+    pub(crate) fn new(dx: DVec3, dq: glam::DQuat, dv: DVec3, dw: DVec3) -> Self {
+        Self { dx, dq, dv, dw }
+    }
 }
 
 impl Default for Motion {
@@ -170,20 +194,33 @@ impl<'a> Target<'a> {
             },
             friction: b.friction_dynamic,
             moved: Motion::default(),
+            now: pose,
         })
     }
 
-    /// Velocity of the body's material at `p`, m/s.
+    /// Velocity of the body's material at `p`, m/s: its motion over the
+    /// step and what the stage gave it since.
     pub(crate) fn velocity_at(&self, p: DVec3) -> DVec3 {
-        self.linvel + self.angvel.cross(p - self.com)
+        let m = &self.moved;
+        (self.linvel + m.dv) + (self.angvel + m.dw).cross(p - self.com - m.dx)
     }
 
-    /// `1/M + (r × d) · I⁻¹ (r × d)`, 1/kg.
+    /// `1/M + (r × d) · I⁻¹ (r × d)`, 1/kg, with `r` from the centre of
+    /// mass as the step left it.
     pub(crate) fn inv_mass_along(&self, p: DVec3, d: DVec3) -> f64 {
+        self.inv_mass_about(self.com, p, d)
+    }
+
+    /// The same with `r` from the centre of mass as the stage moved it.
+    fn inv_mass_along_now(&self, p: DVec3, d: DVec3) -> f64 {
+        self.inv_mass_about(self.com + self.moved.dx, p, d)
+    }
+
+    fn inv_mass_about(&self, com: DVec3, p: DVec3, d: DVec3) -> f64 {
         if self.inv_mass == 0.0 {
             return 0.0;
         }
-        let c = (p - self.com).cross(d);
+        let c = (p - com).cross(d);
         self.inv_mass + c.dot(self.inv_inertia * c)
     }
 
@@ -203,8 +240,21 @@ impl<'a> Target<'a> {
     /// body moves it on (the rigid stage already moved it by the velocity
     /// it had).
     pub(crate) fn advance(&mut self, h: f64) {
+        if self.moved == Motion::default() {
+            return;
+        }
         self.moved.dx += self.moved.dv * h;
         self.moved.dq = turned(self.moved.dq, self.moved.dw * h);
+        self.refresh();
+    }
+
+    /// `now` from the pose and `moved`.
+    fn refresh(&mut self) {
+        let m = &self.moved;
+        self.now = Pose {
+            translation: self.com + m.dx + m.dq * (self.pose.translation - self.com),
+            rotation: (m.dq * self.pose.rotation).normalize(),
+        };
     }
 
     /// Moves the body by a positional impulse `p` (N·s·s: impulse times
@@ -212,15 +262,24 @@ impl<'a> Target<'a> {
     /// move is the body's share of a constraint's correction, and its
     /// velocity changes by the move over the substep).
     pub(crate) fn move_by(&mut self, point: DVec3, p: DVec3, h: f64) {
-        if !self.movable() {
+        let arm = point - self.com - self.moved.dx;
+        self.shift((p, arm.cross(p)), h);
+    }
+
+    /// Moves the body by the positional impulse `load` (N·s·s, and its
+    /// moment about the body's centre of mass as it now stands) over a
+    /// substep of `h` seconds, as [`Target::move_by`].
+    fn shift(&mut self, load: Load, h: f64) {
+        if !self.movable() || !(load.0.is_finite() && load.1.is_finite()) {
             return;
         }
-        let dx = p * self.inv_mass;
-        let dtheta = self.inv_inertia * (point - self.com - self.moved.dx).cross(p);
+        let dx = load.0 * self.inv_mass;
+        let dtheta = self.inv_inertia * load.1;
         self.moved.dx += dx;
         self.moved.dq = turned(self.moved.dq, dtheta);
         self.moved.dv += dx / h;
         self.moved.dw += dtheta / h;
+        self.refresh();
     }
 }
 
@@ -239,6 +298,17 @@ pub(crate) struct Surface {
 /// An impulse and its moment about the body's centre of mass, N·s and
 /// N·m·s, summed for one target.
 pub(crate) type Load = (DVec3, DVec3);
+
+/// What one pass of a soft body's contacts gave one target
+/// ([`Coupling::press`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Push {
+    /// Positional impulse, N·s·s, and its moment about the body's centre
+    /// of mass as the stage moved it.
+    pub(crate) load: Load,
+    /// The sum of the fractions `w_b / (w + w_b)` of the contacts' moves.
+    pub(crate) share: f64,
+}
 
 /// The bodies near one soft body or fluid over one step.
 #[derive(Default)]
@@ -342,7 +412,7 @@ impl<'a> Coupling<'a> {
     pub(crate) fn surface(&self, target: u32, x: Vec3, within: f64) -> Option<Surface> {
         let t = &self.targets[target as usize];
         let x = x.as_dvec3();
-        let p = project_point_shape(t.shape, &t.pose, x)?;
+        let p = project_point_shape(t.shape, &t.now, x)?;
         if !p.inside && p.distance >= within {
             return None;
         }
@@ -359,11 +429,45 @@ impl<'a> Coupling<'a> {
         })
     }
 
+    /// The correction (m) that keeps a particle at `x`, where it stood at
+    /// `prev` at the start of a substep of `h` seconds, `radius` out of
+    /// target `target` whose surface `s` is nearest it, with Coulomb
+    /// friction `mu` (the larger of it and the body's): the slide relative
+    /// to the surface over the substep, undone up to `mu` times the normal
+    /// correction.
+    #[allow(clippy::too_many_arguments)]
+    fn correction(
+        &self,
+        target: u32,
+        s: &Surface,
+        x: Vec3,
+        prev: Vec3,
+        radius: f32,
+        mu: f32,
+        h: f32,
+    ) -> DVec3 {
+        let t = &self.targets[target as usize];
+        let depth = f64::from(radius) - s.distance;
+        let mut dx = s.normal * depth;
+        let mu = f64::from(mu).max(t.friction);
+        if mu > 0.0 {
+            let moved = (x - prev).as_dvec3() + dx - t.velocity_at(s.point) * f64::from(h);
+            let slide = moved - s.normal * moved.dot(s.normal);
+            let len = slide.length();
+            if len > 1e-12 {
+                let cap = mu * depth;
+                dx -= slide * (cap / len).min(1.0);
+            }
+        }
+        dx
+    }
+
     /// Keeps particle `i` (at `x`, where it stood at `prev` at the start of
     /// the substep of `h` seconds, inverse mass `w`) `radius` out of every
     /// candidate body, with Coulomb friction `mu` (the larger of it and the
-    /// body's) against the body's motion. The body's share of each
-    /// correction's impulse is added to `loads`.
+    /// body's) against the body's motion. The body stays where it is within
+    /// the stage; the impulse of its share of each correction is added to
+    /// `loads` (a fluid's contacts).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn push_out(
         &self,
@@ -380,26 +484,13 @@ impl<'a> Coupling<'a> {
             let Some(s) = self.surface(target, *x, f64::from(radius)) else {
                 continue;
             };
-            let t = &self.targets[target as usize];
-            let depth = f64::from(radius) - s.distance;
-            let mut dx = s.normal * depth;
-            // Friction: the slide relative to the surface over the substep,
-            // undone up to `mu` times the normal correction.
-            let mu = f64::from(mu).max(t.friction);
-            if mu > 0.0 {
-                let moved = (*x - prev).as_dvec3() + dx - t.velocity_at(s.point) * f64::from(h);
-                let slide = moved - s.normal * moved.dot(s.normal);
-                let len = slide.length();
-                if len > 1e-12 {
-                    let cap = mu * depth;
-                    dx -= slide * (cap / len).min(1.0);
-                }
-            }
+            let dx = self.correction(target, &s, *x, prev, radius, mu, h);
             let new = (x.as_dvec3() + dx).as_vec3();
             if !new.is_finite() {
                 continue;
             }
             *x = new;
+            let t = &self.targets[target as usize];
             if t.movable() {
                 let n = dx.normalize_or_zero();
                 let k = f64::from(w) + t.inv_mass_along(s.point, n);
@@ -407,6 +498,86 @@ impl<'a> Coupling<'a> {
                     self.add_load(loads, target, s.point, -dx / (f64::from(h) * k));
                 }
             }
+        }
+    }
+
+    /// Keeps particle `i` (at `x`, where it stood at `prev` at the start of
+    /// the substep, inverse mass `w`) `radius` out of every candidate body,
+    /// with friction, as [`Coupling::push_out`], but the pair shares each
+    /// correction as an XPBD contact does (a soft body's contacts): the
+    /// particle takes `w / (w + w_b)` of it, and the body's share goes to
+    /// `pushes` as a positional impulse `−Δx / (w + w_b)` (N·s·s, with its
+    /// moment) and the fraction `w_b / (w + w_b)` it moves by, for
+    /// [`Coupling::take_pushes`] after the pass. A body met within the stage
+    /// is met where the stage's pushes moved it, so a crate that sinks into
+    /// a cloth is pushed back out by it at once instead of holding its
+    /// particles the whole step's sink deep (which stored the sink as a
+    /// spring does and threw the crate back up).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn press(
+        &self,
+        i: usize,
+        x: &mut Vec3,
+        prev: Vec3,
+        w: f32,
+        radius: f32,
+        mu: f32,
+        h: f32,
+        pushes: &mut [Push],
+    ) {
+        for &target in self.candidates(i) {
+            let Some(s) = self.surface(target, *x, f64::from(radius)) else {
+                continue;
+            };
+            let dx = self.correction(target, &s, *x, prev, radius, mu, h);
+            let t = &self.targets[target as usize];
+            let n = dx.normalize_or_zero();
+            let w_b = t.inv_mass_along_now(s.point, n);
+            let k = f64::from(w) + w_b;
+            if k <= 0.0 {
+                continue;
+            }
+            let new = (x.as_dvec3() + dx * (f64::from(w) / k)).as_vec3();
+            if !new.is_finite() {
+                continue;
+            }
+            *x = new;
+            if w_b > 0.0 {
+                let p = -dx / k;
+                let push = &mut pushes[target as usize];
+                push.load.0 += p;
+                push.load.1 += (s.point - t.com - t.moved.dx).cross(p);
+                push.share += w_b / k;
+            }
+        }
+    }
+
+    /// Moves every body by what a pass of [`Coupling::press`] gave it
+    /// (`pushes`, summed over the pass's chunks in order) over a substep of
+    /// `h` seconds. Each contact of the pass took its share as though the
+    /// body were its alone: a light body many particles press at once would
+    /// be moved by all their shares, so a body whose fractions add up past
+    /// 1 takes their sum scaled to 1 (Jacobi averaging).
+    pub(crate) fn take_pushes(&mut self, pushes: &[Push], h: f64) {
+        for (t, push) in self.targets.iter_mut().zip(pushes) {
+            if push.share <= 0.0 {
+                continue;
+            }
+            let scale = 1.0 / push.share.max(1.0);
+            t.shift((push.load.0 * scale, push.load.1 * scale), h);
+        }
+    }
+
+    /// A fresh accumulator of [`Push`]es, one per target.
+    pub(crate) fn new_pushes(&self) -> Vec<Push> {
+        vec![Push::default(); self.targets.len()]
+    }
+
+    /// Starts a substep of `h` seconds for every target: the velocity the
+    /// stage gave it moves it on.
+    pub(crate) fn advance(&mut self, h: f64) {
+        for t in &mut self.targets {
+            t.advance(h);
         }
     }
 
@@ -443,11 +614,6 @@ impl<'a> Coupling<'a> {
         let load = &mut loads[target as usize];
         load.0 += impulse;
         load.1 += (point - t.com).cross(impulse);
-    }
-
-    /// A fresh per-chunk accumulator of loads.
-    pub(crate) fn new_loads(&self) -> Vec<Load> {
-        vec![(DVec3::ZERO, DVec3::ZERO); self.targets.len()]
     }
 
     /// Adds a chunk's loads (call in chunk order).
@@ -494,6 +660,17 @@ impl BodyChange {
             key,
             load,
             moved: Motion::default(),
+        }
+    }
+
+    /// The moves `moved` of body `key` within the stage (a soft body on
+    /// the GPU sums them there).
+    #[cfg(feature = "gpu")]
+    pub(crate) fn of_motion(key: (u32, u32), moved: Motion) -> Self {
+        Self {
+            key,
+            load: (DVec3::ZERO, DVec3::ZERO),
+            moved,
         }
     }
 }

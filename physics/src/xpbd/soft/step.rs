@@ -5,7 +5,7 @@ use glam::Vec3;
 
 use crate::parallel::{par_map_chunks, par_map_chunks3, CHUNK};
 
-use super::super::coupling::{Coupling, Load};
+use super::super::coupling::{Coupling, Push};
 use super::super::scatter::Scatter;
 use super::{lanes, SoftBody, MAX_TEARS_PER_STEP};
 
@@ -53,9 +53,7 @@ pub(crate) fn step(
             finish_substep(body, h, keep, Some(g));
         }
         project_constraints(body, inv_h2, &mut grad);
-        for &(_, t) in &attached {
-            coupling.targets[t].advance(f64::from(h));
-        }
+        coupling.advance(f64::from(h));
         for &(k, t) in &attached {
             attach(body, k, t, coupling, h, inv_h2);
         }
@@ -199,25 +197,32 @@ fn attach(
     target.move_by(anchor, -n * dl, f64::from(h));
 }
 
-/// Particles kept out of the rigid bodies.
+/// Particles kept out of the rigid bodies, each pair sharing its
+/// correction; the bodies then move by their shares.
 fn collide(body: &mut SoftBody, coupling: &mut Coupling<'_>, radius: f32, mu: f32, h: f32) {
     let (prev, w) = (&body.prev, &body.w);
     let c: &Coupling<'_> = coupling;
-    let chunk_loads = par_map_chunks(&mut body.x, CHUNK, |base, xs| {
-        let mut loads: Option<Vec<Load>> = None;
+    let chunk_pushes = par_map_chunks(&mut body.x, CHUNK, |base, xs| {
+        let mut pushes: Option<Vec<Push>> = None;
         for (k, x) in xs.iter_mut().enumerate() {
             let i = base + k;
             if c.candidates(i).is_empty() {
                 continue;
             }
-            let loads = loads.get_or_insert_with(|| c.new_loads());
-            c.push_out(i, x, prev[i], w[i], radius, mu, h, loads);
+            let pushes = pushes.get_or_insert_with(|| c.new_pushes());
+            c.press(i, x, prev[i], w[i], radius, mu, h, pushes);
         }
-        loads
+        pushes
     });
-    for loads in chunk_loads.into_iter().flatten() {
-        coupling.add_loads(&loads);
+    let mut total = coupling.new_pushes();
+    for pushes in chunk_pushes.into_iter().flatten() {
+        for (sum, p) in total.iter_mut().zip(&pushes) {
+            sum.load.0 += p.load.0;
+            sum.load.1 += p.load.1;
+            sum.share += p.share;
+        }
     }
+    coupling.take_pushes(&total, f64::from(h));
 }
 
 /// The velocities of the substep just taken, `v = (x − prev) / h`, damped
