@@ -212,21 +212,28 @@ fn issue_16_a_dam_break_on_the_gpu_pushes_a_crate_as_the_cpu_does() {
     );
 }
 
-/// Archimedes on the GPU: a crate of half the fluid's density floats
-/// about half submerged (the issue asks 0.5 ± 0.05), as on the CPU
-/// (`issue_16_fluid.rs`, 0.463 at this spacing without friction).
+/// Archimedes on the GPU: a crate of half the fluid's density floats as
+/// on the CPU, about half submerged (at this coarse spacing, 10 cm, a
+/// little high on both: 0.444 on the CPU; the issue's ±5 % is met at 5 cm,
+/// `issue_16_fluid.rs`).
 #[test]
 fn issue_16_a_crate_floats_half_submerged_on_a_gpu_fluid() {
     if skip() {
         return;
     }
     let (fraction, tilt) = crate::issue_16_fluid::float(500.0, 6.0, 0.1, 0.0, Backend::Gpu);
+    let (on_cpu, _) = crate::issue_16_fluid::float(500.0, 6.0, 0.1, 0.0, Backend::Cpu);
     println!(
-        "crate of 500 kg/m³ on the GPU: {fraction:.3} submerged, tilted at most {:.1}°",
+        "crate of 500 kg/m³ on the GPU: {fraction:.3} submerged ({on_cpu:.3} on the CPU), \
+         tilted at most {:.1}°",
         tilt.to_degrees()
     );
     assert!(
-        (fraction - 0.5).abs() < 0.05,
+        (fraction - on_cpu).abs() < 0.015,
+        "submerged fraction {fraction}"
+    );
+    assert!(
+        (fraction - 0.5).abs() < 0.07,
         "submerged fraction {fraction}"
     );
     assert!(tilt < 0.2, "it floats level ({tilt} rad)");

@@ -92,7 +92,7 @@ pub mod layout {
     /// `struct FieldForce`: three `vec4<f32>`.
     pub const FIELD_FORCE_BYTES: usize = 48;
     /// `struct Params` of `xpbd_soft.wgsl`: one dispatch's uniform slot.
-    pub const SOFT_PARAMS_BYTES: usize = 80;
+    pub const SOFT_PARAMS_BYTES: usize = 96;
     /// `struct Distance` of `xpbd_soft.wgsl`.
     pub const SOFT_DISTANCE_BYTES: usize = 16;
     /// `struct Quad` of `xpbd_soft.wgsl` (hinges and tetrahedra).
@@ -103,7 +103,7 @@ pub mod layout {
     /// wall table's 2 × 64 entries included).
     pub const FLUID_PARAMS_BYTES: usize = 144 + 2 * 64 * 4;
     /// `struct Shape` of `bodies.wgsl`: a rigid body particles meet.
-    pub const SHAPE_BYTES: usize = 208;
+    pub const SHAPE_BYTES: usize = 272;
     /// `struct Load` of `bodies.wgsl`: an impulse and its moment.
     pub const LOAD_BYTES: usize = 32;
     /// `struct Motion` of `bodies.wgsl`: what a soft body's stage did to a

@@ -198,6 +198,7 @@ fn the_fluid_shader_has_its_entry_points_and_the_engine_layout() {
     assert_eq!(
         names,
         [
+            "advance_bodies",
             "collide",
             "confine",
             "corrections",
@@ -210,6 +211,7 @@ fn the_fluid_shader_has_its_entry_points_and_the_engine_layout() {
             "scan",
             "scatter",
             "sort_cells",
+            "take_pushes",
             "take_velocities",
             "vorticity",
             "xsph"
@@ -230,6 +232,7 @@ fn the_fluid_shader_has_its_entry_points_and_the_engine_layout() {
         ("Plane", layout::FLUID_PLANE_BYTES),
         ("Slot", layout::FLUID_SLOT_BYTES),
         ("Load", layout::LOAD_BYTES),
+        ("Motion", layout::MOTION_BYTES),
     ] {
         assert_eq!(struct_size(&module, ty), Some(bytes), "struct {ty}");
     }

@@ -8,17 +8,23 @@
 // the code here uses:
 // - `WORKGROUP_SIZE` and `fn linear` (an invocation's index);
 // - `params` with `n` (particles), `movable` (bodies the particles can
-//   move) and `chunks` (chunks of LOAD_CHUNK particles);
+//   move), `chunks` (chunks of LOAD_CHUNK particles), `t` (the fraction
+//   of the step at the end of the substep) and `substep` (its length, s);
 // - the bindings `shapes` (array<Shape>), `loads` and `partials`
-//   (array<Load>);
+//   (array<Load>), `motion` (array<Motion>);
 // - `fn slot_shape(i, slot)`: the shape behind slot `slot` of particle
 //   `i` (BODY_SLOTS a particle, found once a step), or NONE.
 //
-// A particle keeps what it gives the body behind each of its slots over a
-// step in `loads`; `reduce_chunks` then sums each movable body's loads
-// over each chunk of LOAD_CHUNK particles, in particle and slot order,
-// and `reduce_bodies` sums the chunks in order: a fixed order, so a run
-// repeats bit for bit, and no floating-point atomics.
+// Contacts share each correction with a movable body as on the CPU
+// (coupling.rs): each substep, a particle keeps the push it gives the body
+// behind each of its slots in `loads`; `reduce_chunks` sums each movable
+// body's pushes over each chunk of LOAD_CHUNK particles, in particle and
+// slot order, `reduce_bodies` sums the chunks in order (a fixed order, so
+// a run repeats bit for bit, and no floating-point atomics), and
+// `take_pushes` moves the body by the sum (`motion`). `advance_bodies`
+// moves it on by the velocity that gave it, substep by substep. Particles
+// meet a body where its path over the step and its motion put it
+// (`shape_at`).
 //
 // Units: m, s, kg.
 
@@ -58,12 +64,18 @@ struct Shape {
     inv_inertia_x: vec4<f32>,
     inv_inertia_y: vec4<f32>,
     inv_inertia_z: vec4<f32>,
+    // The rotation (a unit quaternion, xyzw) now and as the step began,
+    // the centre of mass as the step began (m), and the centre of mass in
+    // the body's own frame (m): its path over the step.
+    rotation: vec4<f32>,
+    start_rotation: vec4<f32>,
+    start_com: vec4<f32>,
+    local_com: vec4<f32>,
 }
 
-// What particles gave a body: an impulse (N s) and its moment about the
-// body's centre of mass (N m s); a soft body's contacts: a positional
-// impulse (N s²) and its moment, w of `impulse` the sum of the fractions
-// of the contacts' moves the body takes (`Coupling::press`).
+// What particles pushed a body with in a substep (`Push` of
+// coupling.rs): a positional impulse (N s²) and its moment about the
+// body's centre of mass (N m s²); w unused.
 struct Load {
     impulse: vec4<f32>,
     moment: vec4<f32>,
@@ -95,19 +107,61 @@ fn turned(q: vec4<f32>, theta: vec3<f32>) -> vec4<f32> {
     return normalize(q + t * 0.5);
 }
 
-// Shape `s` moved by `m`: where particles meet it now, and its velocity
-// with what the stage gave it.
-fn moved_shape(s: Shape, m: Motion) -> Shape {
+// `a` to `b` by `t` along the shorter great arc (glam's `slerp`).
+fn slerp(a: vec4<f32>, b_in: vec4<f32>, t: f32) -> vec4<f32> {
+    var b = b_in;
+    var d = dot(a, b);
+    if (d < 0.0) {
+        b = -b;
+        d = -d;
+    }
+    if (d > 0.9995) {
+        return normalize(a + (b - a) * t);
+    }
+    let theta = acos(d);
+    let scale1 = sin(theta * (1.0 - t));
+    let scale2 = sin(theta * t);
+    let inv = 1.0 / sin(theta);
+    return normalize((a * scale1 + b * scale2) * inv);
+}
+
+// Shape `s` at fraction `t` of its path over the step (`Coupling::follow`)
+// and moved by `m`: where particles meet it, and its velocity with what
+// the stage gave it.
+fn shape_at(s: Shape, m: Motion, t: f32) -> Shape {
     var out = s;
-    let com = s.com.xyz;
-    out.translation = vec4<f32>(com + m.dx.xyz + rotate(m.dq, s.translation.xyz - com), 0.0);
-    out.axis_x = vec4<f32>(rotate(m.dq, s.axis_x.xyz), 0.0);
-    out.axis_y = vec4<f32>(rotate(m.dq, s.axis_y.xyz), 0.0);
-    out.axis_z = vec4<f32>(rotate(m.dq, s.axis_z.xyz), 0.0);
-    out.com = vec4<f32>(com + m.dx.xyz, s.com.w);
+    let com = mix(s.start_com.xyz, s.com.xyz, t) + m.dx.xyz;
+    let q = normalize(quat_mul(m.dq, slerp(s.start_rotation, s.rotation, t)));
+    out.translation = vec4<f32>(com - rotate(q, s.local_com.xyz), 0.0);
+    out.axis_x = vec4<f32>(rotate(q, vec3<f32>(1.0, 0.0, 0.0)), 0.0);
+    out.axis_y = vec4<f32>(rotate(q, vec3<f32>(0.0, 1.0, 0.0)), 0.0);
+    out.axis_z = vec4<f32>(rotate(q, vec3<f32>(0.0, 0.0, 1.0)), 0.0);
+    out.com = vec4<f32>(com, s.com.w);
     out.linvel = vec4<f32>(s.linvel.xyz + m.dv.xyz, 0.0);
     out.angvel = vec4<f32>(s.angvel.xyz + m.dw.xyz, 0.0);
     return out;
+}
+
+// The quaternion product `a b`.
+fn quat_mul(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>(a.w * b.xyz + b.w * a.xyz + cross(a.xyz, b.xyz), a.w * b.w - dot(a.xyz, b.xyz));
+}
+
+// No motion yet.
+fn still() -> Motion {
+    return Motion(vec4<f32>(0.0), vec4<f32>(0.0, 0.0, 0.0, 1.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<u32>(NONE));
+}
+
+// Shape `k` where particles meet it at fraction `t` of the step.
+fn body_at(k: u32, t: f32) -> Shape {
+    let s = shapes[k];
+    if (s.kind.y != NONE) {
+        return shape_at(s, motion[s.kind.y], t);
+    }
+    if (all(s.start_com == s.com) && all(s.start_rotation == s.rotation)) {
+        return s;
+    }
+    return shape_at(s, still(), t);
 }
 
 // Whether `a` is neither infinite nor NaN (by its bits: a compiler may
@@ -261,25 +315,37 @@ fn push_out(s: Shape, p: vec3<f32>, q: vec3<f32>, radius: f32, mu: f32, h: f32) 
     return out;
 }
 
-// Adds what `push` of particle `i` (inverse mass `w`, 1/kg) gives the
-// movable body `s` behind its slot `slot` over a substep of `h` s,
-// `−Δx / (h (w + w_b))` (`Coupling::push_out`), to the particle's loads.
-fn give_push(i: u32, slot: u32, s: Shape, push: Push, w: f32, h: f32) {
+// `Coupling::press` against one body: particle `i`, at `p` (where it
+// stood at `q` as the substep began, inverse mass `w`, 1/kg), kept
+// `radius` (m) out of `shape` with friction `mu`, the pair sharing the
+// correction by inverse mass. Returns the particle's new position; the
+// body's share goes to the particle's push for slot `slot` (none for
+// NONE).
+fn press(i: u32, slot: u32, shape: Shape, p: vec3<f32>, q: vec3<f32>, w: f32, radius: f32, mu: f32) -> vec3<f32> {
+    let push = push_out(shape, p, q, radius, mu, params.substep);
+    if (!push.found) {
+        return p;
+    }
     let len = length(push.dx);
     var n = vec3<f32>(0.0);
     if (len > 0.0 && finite(len)) {
         n = push.dx / len;
     }
-    let k = w + inv_mass_along(s, push.point, n);
-    if (k > 0.0) {
-        add_load(i, slot, s, push.point, -push.dx / (h * k));
+    let w_b = inv_mass_along(shape, push.point, n);
+    let total = w + w_b;
+    if (total <= 0.0) {
+        return p;
     }
+    if (w_b > 0.0 && slot != NONE) {
+        add_push(i, slot, shape, push.point, -push.dx / total);
+    }
+    return p + push.dx * (w / total);
 }
 
-// Adds `impulse` (N s), given at `point` (m) to the movable body `s`
-// behind slot `slot` of particle `i`, to the particle's loads
-// (`Coupling::add_load`).
-fn add_load(i: u32, slot: u32, s: Shape, point: vec3<f32>, impulse: vec3<f32>) {
+// Adds the positional impulse `impulse` (N s²), given at `point` (m) to
+// the movable body `s` behind slot `slot` of particle `i`, to the
+// particle's push for that slot (`Coupling::give`).
+fn add_push(i: u32, slot: u32, s: Shape, point: vec3<f32>, impulse: vec3<f32>) {
     if (!finite3(impulse)) {
         return;
     }
@@ -333,4 +399,51 @@ fn reduce_bodies(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
         moment += l.moment;
     }
     partials[params.chunks * params.movable + body] = Load(impulse, moment);
+}
+
+// Each movable body moved on by the velocity the stage gave it, over the
+// substep (`Target::advance`).
+@compute @workgroup_size(64)
+fn advance_bodies(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let b = linear(id, groups);
+    if (b >= params.movable) {
+        return;
+    }
+    var m = motion[b];
+    if (all(m.dv.xyz == vec3<f32>(0.0)) && all(m.dw.xyz == vec3<f32>(0.0))) {
+        return;
+    }
+    m.dx = vec4<f32>(m.dx.xyz + m.dv.xyz * params.substep, 0.0);
+    m.dq = turned(m.dq, m.dw.xyz * params.substep);
+    motion[b] = m;
+}
+
+// Each movable body moved by what the substep's contacts pushed it with
+// (summed by `reduce_chunks` and `reduce_bodies`), and given the velocity
+// of that move (`Coupling::take_pushes`).
+@compute @workgroup_size(64)
+fn take_pushes(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let b = linear(id, groups);
+    if (b >= params.movable) {
+        return;
+    }
+    let total = partials[params.chunks * params.movable + b];
+    let impulse = total.impulse.xyz;
+    let moment = total.moment.xyz;
+    if (all(impulse == vec3<f32>(0.0)) && all(moment == vec3<f32>(0.0))) {
+        return;
+    }
+    if (!(finite3(impulse) && finite3(moment))) {
+        return;
+    }
+    var m = motion[b];
+    let s = shapes[m.shape.x];
+    let dx = impulse * s.inv_mass.x;
+    let dtheta = s.inv_inertia_x.xyz * moment.x + s.inv_inertia_y.xyz * moment.y
+        + s.inv_inertia_z.xyz * moment.z;
+    m.dx = vec4<f32>(m.dx.xyz + dx, 0.0);
+    m.dq = turned(m.dq, dtheta);
+    m.dv = vec4<f32>(m.dv.xyz + dx / params.substep, 0.0);
+    m.dw = vec4<f32>(m.dw.xyz + dtheta / params.substep, 0.0);
+    motion[b] = m;
 }

@@ -64,7 +64,7 @@ struct FluidParams {
     // The step, s.
     dt: f32,
     // The substep, s.
-    hs: f32,
+    substep: f32,
     // Kernel radius h, m, and h², m².
     h: f32,
     h2: f32,
@@ -108,7 +108,9 @@ struct FluidParams {
     // LOAD_CHUNK particles.
     movable: u32,
     chunks: u32,
-    pad: u32,
+    // `corrections`, `collide`: the fraction of the step at the end of
+    // their substep (a uniform slot per substep).
+    t: f32,
     // Φ and Ψ (1/m) at k h / 63, four to a vec4.
     wall_phi: array<vec4<f32>, 16>,
     wall_psi: array<vec4<f32>, 16>,
@@ -162,6 +164,8 @@ struct Plane {
 // Per chunk, then per movable body: the chunk's loads; after them, each
 // movable body's total.
 @group(0) @binding(15) var<storage, read_write> partials: array<Load>;
+// Per movable body: what the stage did to it so far.
+@group(0) @binding(16) var<storage, read_write> motion: array<Motion>;
 
 var<workgroup> partial: array<u32, 256>;
 
@@ -371,11 +375,6 @@ fn find_walls(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     for (var k = used; k < BODY_SLOTS; k++) {
         planes[i * BODY_SLOTS + k] = Plane(vec4<f32>(0.0), vec4<f32>(0.0));
     }
-    if (params.movable > 0u) {
-        for (var k = 0u; k < BODY_SLOTS; k++) {
-            loads[i * BODY_SLOTS + k] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
-        }
-    }
 }
 
 // The shape behind plane slot `slot` of particle `i`, or NONE
@@ -394,7 +393,7 @@ fn predict(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
     if (i >= params.n) {
         return;
     }
-    let hs = params.hs;
+    let hs = params.substep;
     let vi = v[i].xyz + hs * params.gravity.xyz;
     let p = x[i].xyz;
     v[i] = vec4<f32>(vi, 0.0);
@@ -580,21 +579,29 @@ fn corrections(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgr
         scale = params.cap / len;
     }
     next[i] = vec4<f32>(p + dx * scale, 0.0);
-    // The movable bodies behind the walls take the walls' share:
-    // `−Δx_wall / (hs (w_p + w_b))`.
+    // The movable bodies behind the walls take the walls' share back,
+    // `−Δx_wall / (w_p + w_b)` (`Coupling::push_back`); the substep's
+    // pushes start here.
+    if (params.movable > 0u) {
+        for (var slot = 0u; slot < BODY_SLOTS; slot++) {
+            loads[i * BODY_SLOTS + slot] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
+        }
+    }
     if (params.movable > 0u && li < 0.0 && scale > 0.0) {
         var walls = walls_near(i, p);
         for (var k = 0u; k < walls.count; k++) {
             let slot = walls.slot[k];
-            let shape = shapes[slot_shape(i, slot)];
-            if (shape.kind.y == NONE) {
+            let shape_index = slot_shape(i, slot);
+            if (shapes[shape_index].kind.y == NONE) {
                 continue;
             }
+            let shape = body_at(shape_index, params.t);
             let moved = wall_part(&walls, k) * (li * scale);
             let point = walls.point[k];
-            let w = params.particle_inv_mass + inv_mass_along(shape, point, walls.normal[k]);
-            if (w > 0.0) {
-                add_load(i, slot, shape, point, -moved / (params.hs * w));
+            let w_b = inv_mass_along(shape, point, walls.normal[k]);
+            let total = params.particle_inv_mass + w_b;
+            if (w_b > 0.0 && total > 0.0) {
+                add_push(i, slot, shape, point, -moved / total);
             }
         }
     }
@@ -613,25 +620,22 @@ fn collide(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
     let q = prev[i].xyz;
     var p = next[i].xyz;
     for (var k = 0u; k < params.shapes; k++) {
-        let shape = shapes[k];
-        let push = push_out(shape, p, q, params.radius, params.friction, params.hs);
-        if (!push.found) {
-            continue;
-        }
-        p += push.dx;
-        // A movable body takes the correction's impulse, kept with the
-        // plane find_walls found for it (a body no plane of this particle
-        // names was out of its reach for the step, and gets none).
+        let shape = body_at(k, params.t);
+        // A movable body's share goes with the plane find_walls found for
+        // it (a body no plane of this particle names was out of its reach
+        // for the step, and takes none).
+        var slot = NONE;
         if (shape.kind.y != NONE) {
-            for (var slot = 0u; slot < BODY_SLOTS; slot++) {
-                if (slot_shape(i, slot) == k) {
-                    give_push(i, slot, shape, push, params.particle_inv_mass, params.hs);
+            for (var s = 0u; s < BODY_SLOTS; s++) {
+                if (slot_shape(i, s) == k) {
+                    slot = s;
                     break;
                 }
             }
         }
+        p = press(i, slot, shape, p, q, params.particle_inv_mass, params.radius, params.friction);
     }
-    var vel = (p - q) / params.hs;
+    var vel = (p - q) / params.substep;
     if (!(finite3(p) && finite3(vel))) {
         p = q;
         vel = vec3<f32>(0.0);

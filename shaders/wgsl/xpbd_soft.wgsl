@@ -65,6 +65,12 @@ struct SoftParams {
     reach: f32,
     // The whole step, s.
     dt: f32,
+    // `collide`: the fraction of the step at the end of its substep.
+    t: f32,
+    // The substep, s (`bodies.wgsl`'s name for `h`).
+    substep: f32,
+    pad0: u32,
+    pad1: u32,
 }
 
 // Two particles, rest length (m, bits), compliance (m/N, bits).
@@ -372,15 +378,6 @@ fn find_contacts(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
     }
 }
 
-// Shape `k` where the stage has moved it.
-fn body_now(k: u32) -> Shape {
-    let s = shapes[k];
-    if (s.kind.y == NONE) {
-        return s;
-    }
-    return moved_shape(s, motion[s.kind.y]);
-}
-
 // Each particle kept the collision radius out of its contacts' bodies,
 // with friction; a movable body takes its share of each correction
 // (`Coupling::press`), kept in the particle's loads for `take_pushes`.
@@ -397,81 +394,15 @@ fn collide(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
     let q = prev[i].xyz;
     var p = own.xyz;
     for (var slot = 0u; slot < BODY_SLOTS; slot++) {
-        var given = Load(vec4<f32>(0.0), vec4<f32>(0.0));
-        let k = contacts[i][slot];
-        if (k != NONE) {
-            let shape = body_now(k);
-            let push = push_out(shape, p, q, params.radius, params.friction, params.h);
-            if (push.found) {
-                let len = length(push.dx);
-                var n = vec3<f32>(0.0);
-                if (len > 0.0 && finite(len)) {
-                    n = push.dx / len;
-                }
-                let w_b = inv_mass_along(shape, push.point, n);
-                let total = own.w + w_b;
-                if (total > 0.0) {
-                    p += push.dx * (own.w / total);
-                    if (w_b > 0.0) {
-                        let impulse = -push.dx / total;
-                        let moment = cross(push.point - shape.com.xyz, impulse);
-                        given = Load(vec4<f32>(impulse, w_b / total), vec4<f32>(moment, 0.0));
-                    }
-                }
-            }
-        }
         if (params.movable > 0u) {
-            loads[i * BODY_SLOTS + slot] = given;
+            loads[i * BODY_SLOTS + slot] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
         }
+        let k = contacts[i][slot];
+        if (k == NONE) {
+            continue;
+        }
+        let shape = body_at(k, params.t);
+        p = press(i, slot, shape, p, q, own.w, params.radius, params.friction);
     }
     x[i] = vec4<f32>(p, own.w);
-}
-
-// Each movable body moved on by the velocity the stage gave it, over the
-// substep (`Target::advance`).
-@compute @workgroup_size(64)
-fn advance_bodies(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let b = linear(id, groups);
-    if (b >= params.movable) {
-        return;
-    }
-    var m = motion[b];
-    if (all(m.dv.xyz == vec3<f32>(0.0)) && all(m.dw.xyz == vec3<f32>(0.0))) {
-        return;
-    }
-    m.dx = vec4<f32>(m.dx.xyz + m.dv.xyz * params.h, 0.0);
-    m.dq = turned(m.dq, m.dw.xyz * params.h);
-    motion[b] = m;
-}
-
-// Each movable body moved by what the substep's contacts pushed it with
-// (summed by `reduce_chunks` and `reduce_bodies`), scaled down where
-// their fractions add up past 1 (`Coupling::take_pushes`).
-@compute @workgroup_size(64)
-fn take_pushes(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let b = linear(id, groups);
-    if (b >= params.movable) {
-        return;
-    }
-    let total = partials[params.chunks * params.movable + b];
-    let share = total.impulse.w;
-    if (share <= 0.0) {
-        return;
-    }
-    let scale = 1.0 / max(share, 1.0);
-    let impulse = total.impulse.xyz * scale;
-    let moment = total.moment.xyz * scale;
-    if (!(finite3(impulse) && finite3(moment))) {
-        return;
-    }
-    var m = motion[b];
-    let s = shapes[m.shape.x];
-    let dx = impulse * s.inv_mass.x;
-    let dtheta = s.inv_inertia_x.xyz * moment.x + s.inv_inertia_y.xyz * moment.y
-        + s.inv_inertia_z.xyz * moment.z;
-    m.dx = vec4<f32>(m.dx.xyz + dx, 0.0);
-    m.dq = turned(m.dq, dtheta);
-    m.dv = vec4<f32>(m.dv.xyz + dx / params.h, 0.0);
-    m.dw = vec4<f32>(m.dw.xyz + dtheta / params.h, 0.0);
-    motion[b] = m;
 }

@@ -1,21 +1,23 @@
 //! The rigid bodies a fluid or a soft body on the GPU meets over one step,
-//! packed as `struct Shape` of `bodies.wgsl`, and what the particles give
-//! the dynamic ones back.
+//! packed as `struct Shape` of `bodies.wgsl`, and what the particles do
+//! to the dynamic ones.
 //!
 //! On the CPU the particles gather the bodies near them through the
 //! coupling (`xpbd/coupling.rs`), take each particle's nearest surface
-//! from them and push the dynamic ones back. On the GPU the shaders find
-//! the nearest surfaces from this list instead (a body that is far from
-//! every particle finds no surface, as on the CPU), so the particles never
-//! come back to the CPU. Each particle keeps the impulses it gives the
-//! body behind each of its slots (`BODY_SLOTS`, found once a step), and
-//! two passes sum them per body in a fixed order (`reduce_chunks`,
-//! `reduce_bodies`): only the bodies' totals come back, 32 bytes each, and
-//! the bodies take them as on the CPU
-//! ([`apply_changes`](crate::xpbd::coupling::apply_changes)). Shapes the
-//! shaders do not project onto are refused.
+//! from them and share each contact's correction with a dynamic body. On
+//! the GPU the shaders find the nearest surfaces from this list instead (a
+//! body that is far from every particle finds no surface, as on the CPU),
+//! so the particles never come back to the CPU. Each substep, each
+//! particle keeps the push it gives the body behind each of its slots
+//! (`BODY_SLOTS`, found once a step), two passes sum them per body in a
+//! fixed order (`reduce_chunks`, `reduce_bodies`) and a third moves the
+//! body by them (`take_pushes`, into `motion`). After the step only the
+//! bodies' motions come back, 80 bytes each, and the bodies take them as
+//! on the CPU ([`apply_changes`](crate::xpbd::coupling::apply_changes)).
+//! Shapes the shaders do not project onto are refused.
 
 use glam::{DMat3, DVec3};
+use inertia_shaders::layout::{BODY_SLOTS, LOAD_BYTES, LOAD_CHUNK, MOTION_BYTES};
 
 use crate::arena::Arena;
 use crate::error::PhysicsError;
@@ -23,6 +25,8 @@ use crate::rigid::aabb::Aabb;
 use crate::rigid::body::{BodyKind, RigidBody};
 use crate::rigid::shape::Shape;
 use crate::xpbd::coupling::{BodyChange, Motion, StepStart};
+
+use super::context::GpuContext;
 
 /// Most bodies a fluid or soft body on the GPU meets in a step (the
 /// shaders test every one for every particle once a step).
@@ -36,7 +40,7 @@ const CAPSULE: u32 = 2;
 /// A shape the particles cannot move (the shader's `NONE`).
 const FIXED: u32 = u32::MAX;
 
-/// WGSL `struct Shape` of `bodies.wgsl` (208 bytes).
+/// WGSL `struct Shape` of `bodies.wgsl` (272 bytes).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct GpuShape {
@@ -62,20 +66,16 @@ pub(crate) struct GpuShape {
     inv_inertia_x: [f32; 4],
     inv_inertia_y: [f32; 4],
     inv_inertia_z: [f32; 4],
+    /// The rotation now and as the step began (quaternions, xyzw), the
+    /// centre of mass as the step began (m), and the centre of mass in the
+    /// body's frame (m): its path over the step.
+    rotation: [f32; 4],
+    start_rotation: [f32; 4],
+    start_com: [f32; 4],
+    local_com: [f32; 4],
 }
 
 const _: () = assert!(std::mem::size_of::<GpuShape>() == inertia_shaders::layout::SHAPE_BYTES);
-
-/// WGSL `struct Load` of `bodies.wgsl`: an impulse (N·s) and its moment about
-/// the body's centre of mass (N·m·s); w unused.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub(crate) struct GpuLoad {
-    impulse: [f32; 4],
-    moment: [f32; 4],
-}
-
-const _: () = assert!(std::mem::size_of::<GpuLoad>() == inertia_shaders::layout::LOAD_BYTES);
 
 /// WGSL `struct Motion` of `bodies.wgsl`: what a soft body's stage did
 /// to a movable body (its move, m; its turn, a quaternion xyzw; the
@@ -119,19 +119,7 @@ pub(crate) struct Movable {
 }
 
 impl NearBodies {
-    /// What a fluid's particles gave the movable bodies, from their totals
-    /// as the GPU summed them (one [`GpuLoad`] per slot).
-    pub(crate) fn changes(&self, totals: &[GpuLoad]) -> Vec<BodyChange> {
-        self.movable
-            .iter()
-            .zip(totals)
-            .map(|(m, l)| (m.key, (v3(l.impulse), v3(l.moment))))
-            .filter(|(_, load)| *load != (DVec3::ZERO, DVec3::ZERO))
-            .map(|(key, load)| BodyChange::of_load(key, load))
-            .collect()
-    }
-
-    /// Every movable body unmoved, as a soft body's stage starts.
+    /// Every movable body unmoved, as a stage starts.
     pub(crate) fn still(&self) -> Vec<GpuMotion> {
         self.movable
             .iter()
@@ -145,8 +133,8 @@ impl NearBodies {
             .collect()
     }
 
-    /// What a soft body's stage did to the movable bodies, from their
-    /// motions as the GPU left them (one [`GpuMotion`] per slot).
+    /// What the stage did to the movable bodies, from their motions as the
+    /// GPU left them (one [`GpuMotion`] per slot).
     pub(crate) fn moves(&self, moves: &[GpuMotion]) -> Vec<BodyChange> {
         self.movable
             .iter()
@@ -235,6 +223,10 @@ pub(crate) fn gather(
         let (linvel, angvel) = start
             .mean_velocity((index, generation), b.com, b.rotation)
             .unwrap_or((b.linvel, b.angvel));
+        let (start_com, start_rotation) = start
+            .pose_of((index, generation))
+            .unwrap_or((b.com, b.rotation));
+        let quat = |q: glam::DQuat| [q.x as f32, q.y as f32, q.z as f32, q.w as f32];
         let r = DMat3::from_quat(pose.rotation);
         out.shapes.push(GpuShape {
             kind: [kind, slot, 0, 0],
@@ -250,7 +242,106 @@ pub(crate) fn gather(
             inv_inertia_x: v4(inv_inertia.x_axis, 0.0),
             inv_inertia_y: v4(inv_inertia.y_axis, 0.0),
             inv_inertia_z: v4(inv_inertia.z_axis, 0.0),
+            rotation: quat(b.rotation),
+            start_rotation: quat(start_rotation),
+            start_com: v4(start_com, 0.0),
+            local_com: v4(b.local_com, 0.0),
         });
     }
     Ok(out)
+}
+
+/// The GPU buffers of the bodies some particles meet: the step's shapes,
+/// each particle's pushes (one per slot), their sums per chunk and per
+/// body, and the movable bodies' motion with a staging copy of it.
+#[derive(Debug)]
+pub(crate) struct BodyBuffers {
+    pub(crate) shapes: wgpu::Buffer,
+    pub(crate) loads: wgpu::Buffer,
+    pub(crate) partials: wgpu::Buffer,
+    pub(crate) motion: wgpu::Buffer,
+    moves: wgpu::Buffer,
+    /// Chunks of `LOAD_CHUNK` particles.
+    pub(crate) chunks: u32,
+}
+
+impl BodyBuffers {
+    /// The buffers for `n` particles (`label` names them); unless `used`,
+    /// the smallest ones (particles that never meet a body).
+    pub(crate) fn new(device: &wgpu::Device, label: &str, n: usize, used: bool) -> Self {
+        let sized = |bytes: usize| if used { bytes } else { 0 };
+        let buffer = |what: &str, bytes: usize, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(&format!("{label} {what}")),
+                size: (bytes as u64).max(32),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let copy_dst = wgpu::BufferUsages::COPY_DST;
+        let chunks = n.div_ceil(LOAD_CHUNK);
+        Self {
+            shapes: buffer(
+                "shapes",
+                sized(MAX_GPU_BODIES * std::mem::size_of::<GpuShape>()),
+                storage | copy_dst,
+            ),
+            loads: buffer("pushes", sized(n * BODY_SLOTS * LOAD_BYTES), storage),
+            partials: buffer(
+                "summed pushes",
+                sized((chunks + 1) * MAX_GPU_BODIES * LOAD_BYTES),
+                storage,
+            ),
+            motion: buffer(
+                "body motion",
+                sized(MAX_GPU_BODIES * MOTION_BYTES),
+                storage | copy_dst | wgpu::BufferUsages::COPY_SRC,
+            ),
+            moves: buffer(
+                "body moves",
+                sized(MAX_GPU_BODIES * MOTION_BYTES),
+                wgpu::BufferUsages::MAP_READ | copy_dst,
+            ),
+            chunks: chunks as u32,
+        }
+    }
+
+    /// Writes the step's bodies `near`, the movable ones not moved yet.
+    pub(crate) fn upload(&self, queue: &wgpu::Queue, near: &NearBodies) {
+        if !near.shapes.is_empty() {
+            queue.write_buffer(&self.shapes, 0, bytemuck::cast_slice(&near.shapes));
+        }
+        if !near.movable.is_empty() {
+            queue.write_buffer(&self.motion, 0, bytemuck::cast_slice(&near.still()));
+        }
+    }
+
+    /// Records a copy of the first `movable` bodies' motion for reading.
+    pub(crate) fn record_moves(&self, encoder: &mut wgpu::CommandEncoder, movable: usize) {
+        if movable > 0 {
+            let bytes = (movable * MOTION_BYTES) as u64;
+            encoder.copy_buffer_to_buffer(&self.motion, 0, &self.moves, 0, bytes);
+        }
+    }
+
+    /// What the stage did to the movable bodies `near` (after a submitted
+    /// [`BodyBuffers::record_moves`]); waits for the GPU.
+    pub(crate) fn read_moves(
+        &self,
+        ctx: &GpuContext,
+        near: &NearBodies,
+    ) -> Result<Vec<BodyChange>, PhysicsError> {
+        let movable = near.movable.len();
+        if movable == 0 {
+            return Ok(Vec::new());
+        }
+        let bytes = ctx.read_back(
+            &self.moves,
+            (movable * MOTION_BYTES) as u64,
+            "bodies' moves",
+        )?;
+        let moves: Vec<GpuMotion> = bytemuck::pod_collect_to_vec(&bytes);
+        Ok(near.moves(&moves))
+    }
 }

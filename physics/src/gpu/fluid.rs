@@ -3,7 +3,7 @@
 //!
 //! | buffer | contents | written by |
 //! |---|---|---|
-//! | `params` | the step's uniform block ([`FluidParams`], the wall table in it) | CPU, every step |
+//! | `params` | the step's uniform block ([`FluidParams`], the wall table in it), a slot per substep | CPU, every step |
 //! | `x`, `v` | position, velocity (16 B each) | the passes |
 //! | `prev`, `next` | start of the substep; corrected positions, then new velocities | the passes |
 //! | `pred` | positions predicted for the whole step (the neighbour grid's) | `count` |
@@ -15,10 +15,10 @@
 //! | `omega` | per particle: vorticity, 1/s | `vorticity` |
 //! | `planes` | per particle: up to 4 walls near it over the step | `find_walls` |
 //! | `shapes` | the bodies near the fluid (`gpu/bodies.rs`) | CPU, every step |
-//! | `loads` | per particle and plane: what it gave a dynamic body | `corrections`, `collide` |
-//! | `partials` | per chunk and dynamic body, then per body: summed loads | `reduce_chunks`, `reduce_bodies` |
+//! | `loads` | per particle and plane: a substep's push on a dynamic body | `corrections`, `collide` |
+//! | `partials` | per chunk and dynamic body, then per body: a substep's summed pushes | `reduce_chunks`, `reduce_bodies` |
+//! | `motion` | per dynamic body: what the stage did to it | CPU, every step; `advance_bodies`, `take_pushes` |
 //! | `readback` | staging copy of `x`, `v` and `density` for the CPU | copy |
-//! | `totals` | staging copy of the dynamic bodies' loads | copy |
 //!
 //! The neighbour grid is a hashed grid sorted by a counting sort on the
 //! GPU: integer atomics count each key's particles and hand out slots,
@@ -28,12 +28,12 @@
 //! cell by cell: the same terms, added in another order. How far a GPU
 //! run may stand from the CPU run is [`FLUID_GPU_TOLERANCE`].
 //!
-//! The dynamic bodies among the shapes take the particles' impulses back,
-//! as on the CPU: each particle keeps what it gave the body behind each of
-//! its planes over the step, two passes sum them per body in a fixed order
-//! (chunks of particles, then the chunks), and the host reads back 32
-//! bytes a body and applies them after the step (it waits for the GPU to
-//! finish the step to do so, readback or not).
+//! The dynamic bodies among the shapes share each contact with the
+//! particles, as on the CPU (`gpu/bodies.rs`): each substep, each particle
+//! keeps its push on the body behind each of its planes, passes sum them
+//! per body in a fixed order and move the body, and after the step the
+//! host reads back 80 bytes a body and applies them (it waits for the GPU
+//! to finish the step to do so, readback or not).
 //!
 //! What the GPU path does not do is refused by
 //! [`World::set_fluid_backend`](crate::World::set_fluid_backend): shapes
@@ -50,14 +50,12 @@ use wgpu::util::DeviceExt;
 use crate::error::PhysicsError;
 use crate::xpbd::fluid::Fluid;
 
-use super::bodies::{GpuLoad, GpuShape, NearBodies, MAX_GPU_BODIES};
+use super::bodies::{BodyBuffers, NearBodies, MAX_GPU_BODIES};
 use super::buffers::at_least;
 use super::context::GpuContext;
 use super::program::{storage_binding, uniform_binding, Program};
 use crate::xpbd::coupling::BodyChange;
-use inertia_shaders::layout::{
-    BODY_SLOTS, FLUID_PLANE_BYTES, FLUID_SLOT_BYTES, LOAD_BYTES, LOAD_CHUNK,
-};
+use inertia_shaders::layout::{BODY_SLOTS, FLUID_PLANE_BYTES, FLUID_SLOT_BYTES, LOAD_BYTES};
 
 /// Largest distance (m) a GPU-stepped fluid particle may stand from the
 /// CPU-stepped one after 24 steps at 60 Hz of a small dam break (1920
@@ -82,7 +80,11 @@ pub const FLUID_GPU_TOLERANCE: f32 = 2.5e-2;
 pub const FLUID_GPU_MEDIAN_TOLERANCE: f32 = 2e-4;
 
 /// Storage buffers the fluid's passes bind.
-const STORAGE_BUFFERS: u32 = 15;
+const STORAGE_BUFFERS: u32 = 16;
+
+/// Bytes between the step's uniform slots, one per substep (a multiple of
+/// the dynamic-offset alignment every adapter allows, 256).
+const SLOT: usize = std::mem::size_of::<FluidParams>().div_ceil(256) * 256;
 
 /// WGSL `struct FluidParams` of `pbf.wgsl`: one step's uniform block.
 #[repr(C)]
@@ -96,7 +98,7 @@ struct FluidParams {
     tensile: u32,
     /// s.
     dt: f32,
-    hs: f32,
+    substep: f32,
     /// m, m².
     h: f32,
     h2: f32,
@@ -136,7 +138,8 @@ struct FluidParams {
     particle_inv_mass: f32,
     movable: u32,
     chunks: u32,
-    pad: u32,
+    /// The fraction of the step at the end of the slot's substep.
+    t: f32,
     wall_phi: [[f32; 4]; 16],
     wall_psi: [[f32; 4]; 16],
 }
@@ -164,6 +167,8 @@ pub(crate) struct FluidPipelines {
     take_velocities: wgpu::ComputePipeline,
     reduce_chunks: wgpu::ComputePipeline,
     reduce_bodies: wgpu::ComputePipeline,
+    advance_bodies: wgpu::ComputePipeline,
+    take_pushes: wgpu::ComputePipeline,
 }
 
 impl FluidPipelines {
@@ -173,10 +178,10 @@ impl FluidPipelines {
         if device.limits().max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
             return None;
         }
-        let mut entries = vec![uniform_binding::<FluidParams>(false)];
+        let mut entries = vec![uniform_binding::<FluidParams>(true)];
         entries.extend((1..=12).map(|b| storage_binding(b, false)));
         entries.push(storage_binding(13, true));
-        entries.extend((14..=15).map(|b| storage_binding(b, false)));
+        entries.extend((14..=16).map(|b| storage_binding(b, false)));
         let program = Program::new(device, "pbf", inertia_shaders::PBF, &entries);
         let pipeline = |entry: &str| program.pipeline(device, entry);
         Some(Self {
@@ -195,6 +200,8 @@ impl FluidPipelines {
             take_velocities: pipeline("take_velocities"),
             reduce_chunks: pipeline("reduce_chunks"),
             reduce_bodies: pipeline("reduce_bodies"),
+            advance_bodies: pipeline("advance_bodies"),
+            take_pushes: pipeline("take_pushes"),
             layout: program.layout,
         })
     }
@@ -212,17 +219,13 @@ pub(crate) struct GpuFluid {
     v: wgpu::Buffer,
     density: wgpu::Buffer,
     cells: wgpu::Buffer,
-    shapes: wgpu::Buffer,
-    /// Chunks of `LOAD_CHUNK` particles.
-    chunks: u32,
-    partials: wgpu::Buffer,
+    /// The rigid bodies it meets (`gpu/bodies.rs`).
+    bodies: BodyBuffers,
     readback: wgpu::Buffer,
-    totals: wgpu::Buffer,
     group: wgpu::BindGroup,
+    /// Substeps the uniform slots were sized for.
+    substeps: u32,
 }
-
-/// Bytes of every dynamic body's summed loads.
-const TOTALS_BYTES: usize = MAX_GPU_BODIES * LOAD_BYTES;
 
 /// Keys of the hash table for `n` particles: as on the CPU's hashed grid,
 /// twice the particles rounded up to a power of two, at least 1024.
@@ -287,27 +290,11 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
         let lambda = scratch("fluid lambda", 16 * n, none);
         let omega = scratch("fluid omega", 16 * n, none);
         let planes = scratch("fluid planes", BODY_SLOTS * FLUID_PLANE_BYTES * n, none);
-        let shapes = scratch(
-            "fluid shapes",
-            MAX_GPU_BODIES * std::mem::size_of::<GpuShape>(),
-            wgpu::BufferUsages::COPY_DST,
-        );
-        let loads = scratch("fluid loads", BODY_SLOTS * LOAD_BYTES * n, none);
-        let chunks = n.div_ceil(LOAD_CHUNK);
-        let partials = scratch(
-            "fluid partial loads",
-            chunks * TOTALS_BYTES + TOTALS_BYTES,
-            wgpu::BufferUsages::COPY_SRC,
-        );
-        let totals = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("fluid load totals"),
-            size: TOTALS_BYTES as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let bodies = BodyBuffers::new(d, "fluid", n, true);
+        let substeps = fluid.step_constants().substeps.max(1);
         let params = d.create_buffer(&wgpu::BufferDescriptor {
             label: Some("fluid params"),
-            size: std::mem::size_of::<FluidParams>() as u64,
+            size: (SLOT * substeps as usize) as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -317,11 +304,46 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let buffers = [
-            &params, &xb, &vb, &prev, &next, &pred, &sorted, &cells, &start, &lambda, &db, &omega,
-            &planes, &shapes, &loads, &partials,
+        let storage = [
+            &xb,
+            &vb,
+            &prev,
+            &next,
+            &pred,
+            &sorted,
+            &cells,
+            &start,
+            &lambda,
+            &db,
+            &omega,
+            &planes,
+            &bodies.shapes,
+            &bodies.loads,
+            &bodies.partials,
+            &bodies.motion,
         ];
-        let group = super::buffers::bind_buffers(d, "pbf", &pipelines.layout, &buffers);
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: &params,
+                offset: 0,
+                size: wgpu::BufferSize::new(std::mem::size_of::<FluidParams>() as u64),
+            }),
+        }];
+        entries.extend(
+            storage
+                .iter()
+                .enumerate()
+                .map(|(k, b)| wgpu::BindGroupEntry {
+                    binding: k as u32 + 1,
+                    resource: b.as_entire_binding(),
+                }),
+        );
+        let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pbf"),
+            layout: &pipelines.layout,
+            entries: &entries,
+        });
         Ok(Arc::new(GpuFluid {
             n: n as u32,
             table: table as u32,
@@ -330,12 +352,10 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
             v: vb,
             density: db,
             cells,
-            shapes,
-            chunks: chunks as u32,
-            partials,
+            bodies,
             readback,
-            totals,
             group,
+            substeps,
         }))
     })
 }
@@ -360,7 +380,7 @@ fn params_for(fluid: &Fluid, gpu: &GpuFluid, dt: f32, g: Vec3, walls: &NearBodie
         shapes: walls.shapes.len() as u32,
         tensile: u32::from(c.tensile_k > 0.0 && c.tensile_inv_w > 0.0),
         dt,
-        hs: dt / c.substeps as f32,
+        substep: dt / c.substeps as f32,
         h: k.h,
         h2: k.h2,
         // The CPU's cells are a kernel radius wide.
@@ -386,8 +406,8 @@ fn params_for(fluid: &Fluid, gpu: &GpuFluid, dt: f32, g: Vec3, walls: &NearBodie
         wall_scale: scale,
         particle_inv_mass: 1.0 / c.mass,
         movable: walls.movable.len() as u32,
-        chunks: gpu.chunks,
-        pad: 0,
+        chunks: gpu.bodies.chunks,
+        t: 1.0,
         wall_phi: four(phi),
         wall_psi: four(psi),
     }
@@ -427,7 +447,23 @@ pub(crate) fn step(
     if !g.is_finite() {
         g = Vec3::ZERO;
     }
-    let p = params_for(fluid, gpu, dt, g, walls);
+    if c.substeps.max(1) > gpu.substeps {
+        return Err(PhysicsError::Gpu(
+            "the fluid's substeps changed since its upload".into(),
+        ));
+    }
+    let base = params_for(fluid, gpu, dt, g, walls);
+    let substeps = c.substeps.max(1);
+    // A uniform slot per substep, differing in `t` only.
+    let mut bytes = vec![0u8; SLOT * substeps as usize];
+    for k in 0..substeps {
+        let p = FluidParams {
+            t: (k + 1) as f32 / substeps as f32,
+            ..base
+        };
+        let at = k as usize * SLOT;
+        bytes[at..at + std::mem::size_of::<FluidParams>()].copy_from_slice(bytemuck::bytes_of(&p));
+    }
     let movable = walls.movable.len();
     let pipes = ctx
         .fluid
@@ -436,15 +472,11 @@ pub(crate) fn step(
     let particles = ctx.workgroups(gpu.n)?;
     let keys = ctx.workgroups(gpu.table)?;
     // One workgroup a chunk, one invocation a body.
-    let chunks = ctx.workgroups(gpu.chunks * inertia_shaders::layout::WORKGROUP_SIZE)?;
+    let chunks = ctx.workgroups(gpu.bodies.chunks * inertia_shaders::layout::WORKGROUP_SIZE)?;
     let bodies = ctx.workgroups(movable as u32)?;
     ctx.scoped("a GPU fluid step", || {
-        ctx.queue
-            .write_buffer(&gpu.params, 0, bytemuck::bytes_of(&p));
-        if !shapes.is_empty() {
-            ctx.queue
-                .write_buffer(&gpu.shapes, 0, bytemuck::cast_slice(shapes));
-        }
+        ctx.queue.write_buffer(&gpu.params, 0, &bytes);
+        gpu.bodies.upload(&ctx.queue, walls);
         let mut encoder = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -452,14 +484,15 @@ pub(crate) fn step(
             });
         // Each dispatch is its own usage scope: wgpu puts a barrier
         // between two, so each pass sees the writes of the one before.
+        // Each stage names the substep whose uniform slot it reads.
         let run = |encoder: &mut wgpu::CommandEncoder,
-                   stages: &[(&wgpu::ComputePipeline, (u32, u32))]| {
+                   stages: &[(&wgpu::ComputePipeline, (u32, u32), u32)]| {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("fluid step"),
                 timestamp_writes: None,
             });
-            pass.set_bind_group(0, &gpu.group, &[]);
-            for (pipeline, grid) in stages {
+            for (pipeline, grid, substep) in stages {
+                pass.set_bind_group(0, &gpu.group, &[*substep * SLOT as u32]);
                 pass.set_pipeline(pipeline);
                 pass.dispatch_workgroups(grid.0, grid.1, 1);
             }
@@ -468,68 +501,60 @@ pub(crate) fn step(
         encoder.clear_buffer(&gpu.cells, 0, None);
         run(
             &mut encoder,
-            &[(&pipes.count, particles), (&pipes.scan, (1, 1))],
+            &[(&pipes.count, particles, 0), (&pipes.scan, (1, 1), 0)],
         );
         encoder.clear_buffer(&gpu.cells, 0, None);
         let mut stages = vec![
-            (&pipes.scatter, particles),
-            (&pipes.sort_cells, keys),
+            (&pipes.scatter, particles, 0),
+            (&pipes.sort_cells, keys, 0),
             // 2. The walls near each particle over the step.
-            (&pipes.find_walls, particles),
+            (&pipes.find_walls, particles, 0),
         ];
-        // 3. The substeps.
-        for _ in 0..c.substeps {
+        // 3. The substeps; the dynamic bodies move on, the particles push
+        // them, and they take the pushes.
+        for k in 0..substeps {
             stages.extend([
-                (&pipes.predict, particles),
-                (&pipes.densities, particles),
-                (&pipes.corrections, particles),
-                (&pipes.collide, particles),
+                (&pipes.predict, particles, k),
+                (&pipes.densities, particles, k),
             ]);
+            if movable > 0 {
+                stages.push((&pipes.advance_bodies, bodies, k));
+            }
+            stages.extend([
+                (&pipes.corrections, particles, k),
+                (&pipes.collide, particles, k),
+            ]);
+            if movable > 0 {
+                stages.extend([
+                    (&pipes.reduce_chunks, chunks, k),
+                    (&pipes.reduce_bodies, bodies, k),
+                    (&pipes.take_pushes, bodies, k),
+                ]);
+            }
         }
         // 4. Vorticity confinement, then XSPH viscosity.
         if c.vorticity > 0.0 {
             stages.extend([
-                (&pipes.vorticity, particles),
-                (&pipes.confine, particles),
-                (&pipes.take_velocities, particles),
+                (&pipes.vorticity, particles, 0),
+                (&pipes.confine, particles, 0),
+                (&pipes.take_velocities, particles, 0),
             ]);
         }
         if c.viscosity > 0.0 {
             stages.extend([
-                (&pipes.xsph, particles),
-                (&pipes.take_velocities, particles),
-            ]);
-        }
-        // 5. What the particles gave the dynamic bodies, summed per body.
-        if movable > 0 {
-            stages.extend([
-                (&pipes.reduce_chunks, chunks),
-                (&pipes.reduce_bodies, bodies),
+                (&pipes.xsph, particles, 0),
+                (&pipes.take_velocities, particles, 0),
             ]);
         }
         run(&mut encoder, &stages);
-        if movable > 0 {
-            let at = u64::from(gpu.chunks) * (movable * LOAD_BYTES) as u64;
-            let bytes = (movable * LOAD_BYTES) as u64;
-            encoder.copy_buffer_to_buffer(&gpu.partials, at, &gpu.totals, 0, bytes);
-        }
+        gpu.bodies.record_moves(&mut encoder, movable);
         if readback {
             gpu.record_readback(&mut encoder);
         }
         ctx.queue.submit([encoder.finish()]);
         Ok(())
     })?;
-    let changes = if movable > 0 {
-        let bytes = ctx.read_back(
-            &gpu.totals,
-            (movable * LOAD_BYTES) as u64,
-            "a fluid's loads on bodies",
-        )?;
-        let totals: Vec<GpuLoad> = bytemuck::pod_collect_to_vec(&bytes);
-        walls.changes(&totals)
-    } else {
-        Vec::new()
-    };
+    let changes = gpu.bodies.read_moves(ctx, walls)?;
     if readback {
         read(ctx, fluid, gpu)?;
     } else if movable == 0 {

@@ -32,9 +32,9 @@ use crate::error::PhysicsError;
 use crate::xpbd::colouring::Coloured;
 use crate::xpbd::coupling::BodyChange;
 use crate::xpbd::soft::SoftBody;
-use inertia_shaders::layout::{BODY_SLOTS, LOAD_BYTES, LOAD_CHUNK, MOTION_BYTES};
+use inertia_shaders::layout::{BODY_SLOTS, LOAD_BYTES};
 
-use super::bodies::{GpuMotion, GpuShape, NearBodies, MAX_GPU_BODIES};
+use super::bodies::{BodyBuffers, GpuShape, NearBodies, MAX_GPU_BODIES};
 use super::buffers::at_least;
 use super::context::GpuContext;
 use super::program::{storage_binding, uniform_binding, Program};
@@ -75,6 +75,11 @@ struct SoftParams {
     reach: f32,
     /// s: the whole step.
     dt: f32,
+    /// `collide`: the fraction of the step at its substep's end.
+    t: f32,
+    /// s.
+    substep: f32,
+    pad: [u32; 2],
 }
 
 const _: () =
@@ -195,22 +200,15 @@ pub(crate) struct GpuSoftBody {
     params: wgpu::Buffer,
     x: wgpu::Buffer,
     v: wgpu::Buffer,
-    shapes: wgpu::Buffer,
-    /// Chunks of `LOAD_CHUNK` particles.
-    chunks: u32,
-    motion: wgpu::Buffer,
+    /// The rigid bodies it meets (`gpu/bodies.rs`).
+    bodies: BodyBuffers,
     readback: wgpu::Buffer,
-    moves: wgpu::Buffer,
     group: wgpu::BindGroup,
     /// A substep's dispatches after its first (predict or finish).
     colours: Vec<Dispatch>,
+    /// Substeps the uniform slots were sized for.
+    substeps: u32,
 }
-
-/// Bytes of every dynamic body's summed pushes.
-const TOTALS_BYTES: usize = MAX_GPU_BODIES * LOAD_BYTES;
-
-/// Bytes of every dynamic body's motion.
-const MOTION_TOTAL_BYTES: usize = MAX_GPU_BODIES * MOTION_BYTES;
 
 /// Why a soft body cannot step on the GPU, if it cannot.
 pub(crate) fn check_supported(body: &SoftBody) -> Result<(), PhysicsError> {
@@ -323,7 +321,10 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
     colours(&body.bend, Kind::Bending, &mut plan);
     colours(&body.tets, Kind::Volume, &mut plan);
     colours(&body.tethers, Kind::Tether, &mut plan);
-    let slots = plan.len() as u64 + 3;
+    // Predict, finish and predict, finish, the colours, and each
+    // substep's contacts.
+    let substeps = body.material().substeps.max(1);
+    let slots = plan.len() as u64 + 3 + u64::from(substeps);
     if slots * SLOT > ctx.limits.max_buffer_size {
         return Err(PhysicsError::Gpu("too many colours for the GPU".into()));
     }
@@ -334,7 +335,7 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
     let load_bytes = (body.len() * BODY_SLOTS * LOAD_BYTES) as u64;
     if body.material().collision_radius > 0.0 && load_bytes > max_binding {
         return Err(PhysicsError::Gpu(format!(
-            "{} particles with contacts need {load_bytes} bytes of loads, more than this \
+            "{} particles with contacts need {load_bytes} bytes of pushes, more than this \
              adapter binds ({max_binding} bytes); keep the soft body on the CPU",
             body.len()
         )));
@@ -391,39 +392,8 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
             })
         };
         let none = wgpu::BufferUsages::empty();
-        let shapes = scratch(
-            "soft shapes",
-            if touches {
-                TOTALS_BYTES / LOAD_BYTES * std::mem::size_of::<GpuShape>()
-            } else {
-                0
-            },
-            wgpu::BufferUsages::COPY_DST,
-        );
         let contacts = scratch("soft contacts", per_particle(16), none);
-        let loads = scratch("soft loads", per_particle(BODY_SLOTS * LOAD_BYTES), none);
-        let chunks = (n as usize).div_ceil(LOAD_CHUNK);
-        let partials = scratch(
-            "soft partial pushes",
-            if touches {
-                chunks * TOTALS_BYTES + TOTALS_BYTES
-            } else {
-                0
-            },
-            none,
-        );
-        let motion_bytes = if touches { MOTION_TOTAL_BYTES } else { 0 };
-        let motion = scratch(
-            "soft body motion",
-            motion_bytes,
-            wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        );
-        let moves = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("soft body moves"),
-            size: (motion_bytes as u64).max(32),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let bodies = BodyBuffers::new(&ctx.device, "soft", n as usize, touches);
         let readback = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("soft readback"),
             size: (2 * u64::from(n) * 16).max(32),
@@ -455,11 +425,11 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
                 entry(5, &b),
                 entry(6, &t),
                 entry(7, &te),
-                entry(8, &shapes),
+                entry(8, &bodies.shapes),
                 entry(9, &contacts),
-                entry(10, &loads),
-                entry(11, &partials),
-                entry(12, &motion),
+                entry(10, &bodies.loads),
+                entry(11, &bodies.partials),
+                entry(12, &bodies.motion),
             ],
         });
         Ok(Arc::new(GpuSoftBody {
@@ -467,13 +437,11 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
             params,
             x,
             v: vb,
-            shapes,
-            chunks: chunks as u32,
-            motion,
+            bodies,
             readback,
-            moves,
             group,
             colours: plan,
+            substeps,
         }))
     })
 }
@@ -505,17 +473,15 @@ pub(crate) fn step(
     let radius = m.collision_radius as f32;
     // Bodies are met only by a body with a collision radius (its buffers
     // are sized for them).
-    let shapes: &[GpuShape] = if radius > 0.0 { &near.shapes } else { &[] };
+    let none = NearBodies::default();
+    let near = if radius > 0.0 { near } else { &none };
+    let shapes: &[GpuShape] = &near.shapes;
     if shapes.len() > MAX_GPU_BODIES {
         return Err(PhysicsError::Gpu(format!(
             "particles on the GPU meet at most {MAX_GPU_BODIES} bodies in a step"
         )));
     }
-    let movable = if shapes.is_empty() {
-        0
-    } else {
-        near.movable.len()
-    };
+    let movable = near.movable.len();
     let base = SoftParams {
         gravity: [g.x, g.y, g.z, 0.0],
         h,
@@ -529,14 +495,24 @@ pub(crate) fn step(
         kind: 0,
         shapes: shapes.len() as u32,
         movable: movable as u32,
-        chunks: gpu.chunks,
+        chunks: gpu.bodies.chunks,
         radius,
         friction: m.friction as f32,
         reach: radius + g.length() * dt * dt + 1e-3,
         dt,
+        t: 1.0,
+        substep: h,
+        pad: [0; 2],
     };
-    // Slots: 0 predict, 1 finish and predict, 2 finish, then the colours.
-    let mut bytes = vec![0u8; (gpu.colours.len() + 3) * SLOT as usize];
+    if n > gpu.substeps {
+        return Err(PhysicsError::Gpu(
+            "the soft body's substeps changed since its upload".into(),
+        ));
+    }
+    // Slots: 0 predict, 1 finish and predict, 2 finish, then the colours,
+    // then each substep's contacts.
+    let contact_slot = |k: u32| gpu.colours.len() + 3 + k as usize;
+    let mut bytes = vec![0u8; contact_slot(n) * SLOT as usize];
     let mut put = |slot: usize, p: SoftParams| {
         let at = slot * SLOT as usize;
         bytes[at..at + std::mem::size_of::<SoftParams>()].copy_from_slice(bytemuck::bytes_of(&p));
@@ -562,9 +538,18 @@ pub(crate) fn step(
             },
         );
     }
+    for k in 0..n {
+        put(
+            contact_slot(k),
+            SoftParams {
+                t: (k + 1) as f32 / n as f32,
+                ..base
+            },
+        );
+    }
     let particles = ctx.workgroups(gpu.n)?;
     // One workgroup a chunk, one invocation a body.
-    let chunks = ctx.workgroups(gpu.chunks * inertia_shaders::layout::WORKGROUP_SIZE)?;
+    let chunks = ctx.workgroups(gpu.bodies.chunks * inertia_shaders::layout::WORKGROUP_SIZE)?;
     let bodies = ctx.workgroups(movable as u32)?;
     let grids = gpu
         .colours
@@ -577,15 +562,7 @@ pub(crate) fn step(
         .ok_or_else(|| PhysicsError::Gpu("no soft-body pipelines on this adapter".into()))?;
     ctx.scoped("a GPU soft-body step", || {
         ctx.queue.write_buffer(&gpu.params, 0, &bytes);
-        if !shapes.is_empty() {
-            ctx.queue
-                .write_buffer(&gpu.shapes, 0, bytemuck::cast_slice(shapes));
-        }
-        if movable > 0 {
-            let still = near.still();
-            ctx.queue
-                .write_buffer(&gpu.motion, 0, bytemuck::cast_slice(&still));
-        }
+        gpu.bodies.upload(&ctx.queue, near);
         let mut encoder = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -618,7 +595,7 @@ pub(crate) fn step(
                     run(Entry::AdvanceBodies, 0, bodies);
                 }
                 if touches {
-                    run(Entry::Collide, 0, particles);
+                    run(Entry::Collide, contact_slot(k), particles);
                 }
                 if movable > 0 {
                     run(Entry::ReduceChunks, 0, chunks);
@@ -628,27 +605,14 @@ pub(crate) fn step(
             }
             run(Entry::Finish, 2, particles);
         }
-        if movable > 0 {
-            let bytes = (movable * MOTION_BYTES) as u64;
-            encoder.copy_buffer_to_buffer(&gpu.motion, 0, &gpu.moves, 0, bytes);
-        }
+        gpu.bodies.record_moves(&mut encoder, movable);
         if readback {
             gpu.record_readback(&mut encoder);
         }
         ctx.queue.submit([encoder.finish()]);
         Ok(())
     })?;
-    let changes = if movable > 0 {
-        let bytes = ctx.read_back(
-            &gpu.moves,
-            (movable * MOTION_BYTES) as u64,
-            "a soft body's moves of bodies",
-        )?;
-        let moves: Vec<GpuMotion> = bytemuck::pod_collect_to_vec(&bytes);
-        near.moves(&moves)
-    } else {
-        Vec::new()
-    };
+    let changes = gpu.bodies.read_moves(ctx, near)?;
     if readback {
         read(ctx, body, gpu)?;
     } else if movable == 0 {

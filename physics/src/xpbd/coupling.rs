@@ -11,35 +11,34 @@
 //! than its weight (measured: 0.446 of it submerged instead of 0.48 at
 //! 10 cm).
 //!
-//! A **fluid's** contacts leave the body where it is within the stage: a
-//! particle is projected out of its shape completely, and the impulse
-//! that takes is summed for the body. At the end of the stage the body
-//! takes the opposite impulse, at the contact points, on its velocity (and
-//! wakes). The body's share is weighted by the pair's effective mass,
-//! `j = Δx / (h (w_p + w_b))` for a correction `Δx` over a substep `h`,
-//! where `w_b = 1/M + (r × n) · I⁻¹ (r × n)` is the body's inverse mass
-//! along the normal: a particle resting on a heavy body weighs on it with
-//! its full weight (momentum is exchanged exactly as `w_b → 0`), and a
-//! heavy particle cannot throw a light body harder than a collision of the
-//! two would.
-//!
-//! A **soft body's** contacts share each correction within the stage, as
-//! an XPBD contact between two bodies does ([`Coupling::press`]): the
-//! particle moves by `w_p / (w_p + w_b)` of it and the body by the rest,
-//! after each pass ([`Coupling::take_pushes`]), with the velocity that
-//! move takes over the substep; later substeps meet the body where it was
-//! moved. A cloth's constraints pull its particles back into a body they
-//! were pushed out of, substep after substep: with the body held still,
-//! each of those pushes gave it an impulse as deep as the whole step's
-//! sink, and the cloth held a crate as a stiff spring does (dropped into a
-//! hammock, it bounced back to 95 % of its fall). Attachments move their
-//! bodies the same way ([`Target::move_by`]).
+//! Contacts share each correction with the body within the stage, as an
+//! XPBD contact between two bodies does ([`Coupling::press`]): the particle
+//! moves by `w_p / (w_p + w_b)` of it and the body by the rest, where
+//! `w_b = 1/M + (r × n) · I⁻¹ (r × n)` is the body's inverse mass along
+//! the normal, with the velocity that move takes over the substep
+//! ([`Coupling::take_pushes`], after each pass: every contact of the pass
+//! takes its share as though the body were its alone, and the body takes
+//! their sum, so momentum is exchanged exactly). A fluid particle's
+//! density constraint treats a body as a wall and moves the particle
+//! alone; the body takes the push back ([`Coupling::push_back`]). Later
+//! substeps meet the body where it was pushed and, before that, where the
+//! rigid stage's move puts it at that substep's end ([`Coupling::follow`]):
+//! the rigid stage has already moved the body for the whole step, and a
+//! particle that met it there in the first substep was pushed the whole
+//! step's sink deep in one substep, leaving at the number of substeps
+//! times the body's speed. Held still for the stage, a body gave the
+//! particles that (and took back as much): a crate dropped into a pool flew
+//! 3.5 m out of it, and one dropped into a hammock bounced back higher than
+//! it fell from. Attachments move their bodies the same way
+//! ([`Target::move_by`]). At the end of the stage each body takes its
+//! moves and the velocities that came with them ([`apply_changes`]), and
+//! wakes.
 //!
 //! Candidates are found once a step: every body whose bounding box,
 //! widened by how far a particle can reach over the step, holds the
 //! particle. Bodies are taken in handle order and particles in index order,
-//! and impulses are summed per chunk of particles, chunk after chunk, so
-//! the result does not depend on the thread count.
+//! and pushes are summed per chunk of particles, chunk after chunk, so the
+//! result does not depend on the thread count.
 
 use glam::{DMat3, DVec3, Vec3};
 
@@ -96,6 +95,13 @@ impl StepStart {
         let w = turn.to_scaled_axis() / self.dt;
         (v.is_finite() && w.is_finite()).then_some((v, w))
     }
+
+    /// Where body `key` stood as the step began: its centre of mass (m)
+    /// and rotation.
+    pub(crate) fn pose_of(&self, key: (u32, u32)) -> Option<(DVec3, glam::DQuat)> {
+        let &(generation, com, rotation) = self.poses.get(key.0 as usize)?.as_ref()?;
+        (generation == key.1).then_some((com, rotation))
+    }
 }
 
 /// A body as the particles see it.
@@ -125,6 +131,14 @@ pub(crate) struct Target<'a> {
     moved: Motion,
     /// The pose with `moved` applied: where particles meet the body now.
     now: Pose,
+    /// The body's centre of mass in its own frame, m.
+    local_com: DVec3,
+    /// Where the body stood as the step began (centre of mass, m, and
+    /// rotation), when known ([`Coupling::over_step`]).
+    start: Option<(DVec3, glam::DQuat)>,
+    /// Where the body stands along its path over the step, before
+    /// `moved`: centre of mass (m) and rotation ([`Coupling::follow`]).
+    path: (DVec3, glam::DQuat),
 }
 
 /// What attachments did to a body within the stage.
@@ -195,6 +209,9 @@ impl<'a> Target<'a> {
             friction: b.friction_dynamic,
             moved: Motion::default(),
             now: pose,
+            local_com: b.local_com,
+            start: None,
+            path: (b.com, b.rotation),
         })
     }
 
@@ -202,7 +219,7 @@ impl<'a> Target<'a> {
     /// step and what the stage gave it since.
     pub(crate) fn velocity_at(&self, p: DVec3) -> DVec3 {
         let m = &self.moved;
-        (self.linvel + m.dv) + (self.angvel + m.dw).cross(p - self.com - m.dx)
+        (self.linvel + m.dv) + (self.angvel + m.dw).cross(p - self.path.0 - m.dx)
     }
 
     /// `1/M + (r × d) · I⁻¹ (r × d)`, 1/kg, with `r` from the centre of
@@ -213,7 +230,7 @@ impl<'a> Target<'a> {
 
     /// The same with `r` from the centre of mass as the stage moved it.
     fn inv_mass_along_now(&self, p: DVec3, d: DVec3) -> f64 {
-        self.inv_mass_about(self.com + self.moved.dx, p, d)
+        self.inv_mass_about(self.path.0 + self.moved.dx, p, d)
     }
 
     fn inv_mass_about(&self, com: DVec3, p: DVec3, d: DVec3) -> f64 {
@@ -248,13 +265,27 @@ impl<'a> Target<'a> {
         self.refresh();
     }
 
-    /// `now` from the pose and `moved`.
+    /// `now` from the path and `moved`.
     fn refresh(&mut self) {
         let m = &self.moved;
+        let (com, rotation) = self.path;
+        let rotation = (m.dq * rotation).normalize();
         self.now = Pose {
-            translation: self.com + m.dx + m.dq * (self.pose.translation - self.com),
-            rotation: (m.dq * self.pose.rotation).normalize(),
+            translation: com + m.dx - rotation * self.local_com,
+            rotation,
         };
+    }
+
+    /// Puts the body at fraction `t` of its path over the step.
+    fn follow(&mut self, t: f64) {
+        let Some((com0, rotation0)) = self.start else {
+            return;
+        };
+        self.path = (
+            com0.lerp(self.com, t),
+            rotation0.slerp(self.rotation, t).normalize(),
+        );
+        self.refresh();
     }
 
     /// Moves the body by a positional impulse `p` (N·s·s: impulse times
@@ -263,18 +294,23 @@ impl<'a> Target<'a> {
     /// velocity changes by the move over the substep).
     pub(crate) fn move_by(&mut self, point: DVec3, p: DVec3, h: f64) {
         let arm = point - self.com - self.moved.dx;
-        self.shift((p, arm.cross(p)), h);
+        self.shift(
+            Push {
+                p,
+                moment: arm.cross(p),
+            },
+            h,
+        );
     }
 
-    /// Moves the body by the positional impulse `load` (N·s·s, and its
-    /// moment about the body's centre of mass as it now stands) over a
-    /// substep of `h` seconds, as [`Target::move_by`].
-    fn shift(&mut self, load: Load, h: f64) {
-        if !self.movable() || !(load.0.is_finite() && load.1.is_finite()) {
+    /// Moves the body by `push` over a substep of `h` seconds, as
+    /// [`Target::move_by`].
+    fn shift(&mut self, push: Push, h: f64) {
+        if !(self.movable() && push.p.is_finite() && push.moment.is_finite()) {
             return;
         }
-        let dx = load.0 * self.inv_mass;
-        let dtheta = self.inv_inertia * load.1;
+        let dx = push.p * self.inv_mass;
+        let dtheta = self.inv_inertia * push.moment;
         self.moved.dx += dx;
         self.moved.dq = turned(self.moved.dq, dtheta);
         self.moved.dv += dx / h;
@@ -295,19 +331,21 @@ pub(crate) struct Surface {
     pub(crate) distance: f64,
 }
 
-/// An impulse and its moment about the body's centre of mass, N·s and
-/// N·m·s, summed for one target.
-pub(crate) type Load = (DVec3, DVec3);
-
-/// What one pass of a soft body's contacts gave one target
-/// ([`Coupling::press`]).
-#[derive(Debug, Clone, Copy, Default)]
+/// What one pass of contacts gave one target ([`Coupling::press`],
+/// [`Coupling::push_back`]): a positional impulse (N·s·s) and its moment
+/// about the body's centre of mass as it then stood (N·m·s·s).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Push {
-    /// Positional impulse, N·s·s, and its moment about the body's centre
-    /// of mass as the stage moved it.
-    pub(crate) load: Load,
-    /// The sum of the fractions `w_b / (w + w_b)` of the contacts' moves.
-    pub(crate) share: f64,
+    pub(crate) p: DVec3,
+    pub(crate) moment: DVec3,
+}
+
+impl Push {
+    /// Adds `other` (sums are taken chunk by chunk, in order).
+    pub(crate) fn add(&mut self, other: &Push) {
+        self.p += other.p;
+        self.moment += other.moment;
+    }
 }
 
 /// The bodies near one soft body or fluid over one step.
@@ -319,8 +357,6 @@ pub(crate) struct Coupling<'a> {
     start: Vec<u32>,
     /// Indices into `targets`.
     candidates: Vec<u32>,
-    /// What the particles gave each target so far.
-    loads: Vec<Load>,
 }
 
 impl<'a> Coupling<'a> {
@@ -380,12 +416,10 @@ impl<'a> Coupling<'a> {
             }
             start.push(at);
         }
-        let loads = vec![(DVec3::ZERO, DVec3::ZERO); targets.len()];
         Self {
             targets,
             start,
             candidates,
-            loads,
         }
     }
 
@@ -465,54 +499,11 @@ impl<'a> Coupling<'a> {
     /// Keeps particle `i` (at `x`, where it stood at `prev` at the start of
     /// the substep of `h` seconds, inverse mass `w`) `radius` out of every
     /// candidate body, with Coulomb friction `mu` (the larger of it and the
-    /// body's) against the body's motion. The body stays where it is within
-    /// the stage; the impulse of its share of each correction is added to
-    /// `loads` (a fluid's contacts).
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn push_out(
-        &self,
-        i: usize,
-        x: &mut Vec3,
-        prev: Vec3,
-        w: f32,
-        radius: f32,
-        mu: f32,
-        h: f32,
-        loads: &mut [Load],
-    ) {
-        for &target in self.candidates(i) {
-            let Some(s) = self.surface(target, *x, f64::from(radius)) else {
-                continue;
-            };
-            let dx = self.correction(target, &s, *x, prev, radius, mu, h);
-            let new = (x.as_dvec3() + dx).as_vec3();
-            if !new.is_finite() {
-                continue;
-            }
-            *x = new;
-            let t = &self.targets[target as usize];
-            if t.movable() {
-                let n = dx.normalize_or_zero();
-                let k = f64::from(w) + t.inv_mass_along(s.point, n);
-                if k > 0.0 {
-                    self.add_load(loads, target, s.point, -dx / (f64::from(h) * k));
-                }
-            }
-        }
-    }
-
-    /// Keeps particle `i` (at `x`, where it stood at `prev` at the start of
-    /// the substep, inverse mass `w`) `radius` out of every candidate body,
-    /// with friction, as [`Coupling::push_out`], but the pair shares each
-    /// correction as an XPBD contact does (a soft body's contacts): the
-    /// particle takes `w / (w + w_b)` of it, and the body's share goes to
+    /// body's) against the body's motion. The pair shares each correction
+    /// as an XPBD contact between two bodies does: the particle takes
+    /// `w / (w + w_b)` of it, and the body's goes to
     /// `pushes` as a positional impulse `−Δx / (w + w_b)` (N·s·s, with its
-    /// moment) and the fraction `w_b / (w + w_b)` it moves by, for
-    /// [`Coupling::take_pushes`] after the pass. A body met within the stage
-    /// is met where the stage's pushes moved it, so a crate that sinks into
-    /// a cloth is pushed back out by it at once instead of holding its
-    /// particles the whole step's sink deep (which stored the sink as a
-    /// spring does and threw the crate back up).
+    /// moment), for [`Coupling::take_pushes`] after the pass.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn press(
         &self,
@@ -543,28 +534,53 @@ impl<'a> Coupling<'a> {
             }
             *x = new;
             if w_b > 0.0 {
-                let p = -dx / k;
-                let push = &mut pushes[target as usize];
-                push.load.0 += p;
-                push.load.1 += (s.point - t.com - t.moved.dx).cross(p);
-                push.share += w_b / k;
+                self.give(pushes, target, s.point, -dx / k);
             }
         }
     }
 
-    /// Moves every body by what a pass of [`Coupling::press`] gave it
-    /// (`pushes`, summed over the pass's chunks in order) over a substep of
-    /// `h` seconds. Each contact of the pass took its share as though the
-    /// body were its alone: a light body many particles press at once would
-    /// be moved by all their shares, so a body whose fractions add up past
-    /// 1 takes their sum scaled to 1 (Jacobi averaging).
+    /// The push a fluid particle of inverse mass `w` gives the body of
+    /// target `target` when the wall term of its density constraint moved
+    /// it by `moved` (m) off the plane through `point` with `normal`: the
+    /// positional impulse `−moved / (w + w_b)`, added to `pushes` (the
+    /// particle's own move is not shared: the density constraint takes the
+    /// body as a wall).
+    pub(crate) fn push_back(
+        &self,
+        pushes: &mut [Push],
+        target: u32,
+        point: DVec3,
+        normal: DVec3,
+        moved: DVec3,
+        w: f64,
+    ) {
+        let w_b = self.targets[target as usize].inv_mass_along_now(point, normal);
+        let k = w + w_b;
+        if w_b > 0.0 && k > 0.0 {
+            self.give(pushes, target, point, -moved / k);
+        }
+    }
+
+    /// Adds the positional impulse `p` (N·s·s) at `point` (m) on target
+    /// `target` to `pushes`.
+    fn give(&self, pushes: &mut [Push], target: u32, point: DVec3, p: DVec3) {
+        let t = &self.targets[target as usize];
+        if !p.is_finite() {
+            return;
+        }
+        let push = &mut pushes[target as usize];
+        push.p += p;
+        push.moment += (point - t.path.0 - t.moved.dx).cross(p);
+    }
+
+    /// Moves every body by what a pass of [`Coupling::press`] and
+    /// [`Coupling::push_back`] gave it (`pushes`, summed over the pass's
+    /// chunks in order) over a substep of `h` seconds.
     pub(crate) fn take_pushes(&mut self, pushes: &[Push], h: f64) {
         for (t, push) in self.targets.iter_mut().zip(pushes) {
-            if push.share <= 0.0 {
-                continue;
+            if *push != Push::default() {
+                t.shift(*push, h);
             }
-            let scale = 1.0 / push.share.max(1.0);
-            t.shift((push.load.0 * scale, push.load.1 * scale), h);
         }
     }
 
@@ -581,6 +597,14 @@ impl<'a> Coupling<'a> {
         }
     }
 
+    /// Puts every target where it stood at fraction `t` (0 to 1) of the
+    /// step along its path, for the contacts of a substep ending there.
+    pub(crate) fn follow(&mut self, t: f64) {
+        for target in &mut self.targets {
+            target.follow(t);
+        }
+    }
+
     /// Takes each target's velocity as its mean over the step that
     /// `start` saw begin (bodies it did not see keep theirs).
     pub(crate) fn over_step(&mut self, start: &StepStart) {
@@ -588,8 +612,20 @@ impl<'a> Coupling<'a> {
             if let Some((v, w)) = start.mean_velocity(t.key, t.com, t.rotation) {
                 t.linvel = v;
                 t.angvel = w;
+                t.start = start.pose_of(t.key);
             }
         }
+    }
+
+    /// Whether any target moves within the stage: one particles can move,
+    /// or one the rigid stage moved over the step (so the planes found at
+    /// its start no longer bound where it stands).
+    pub(crate) fn moving(&self) -> bool {
+        self.targets.iter().any(|t| {
+            t.movable()
+                || t.start
+                    .is_some_and(|(com, rotation)| com != t.com || rotation != t.rotation)
+        })
     }
 
     /// Whether the candidate lists were gathered for `n` particles (or
@@ -604,37 +640,13 @@ impl<'a> Coupling<'a> {
         self.targets[target as usize].shape.is_convex()
     }
 
-    /// Adds `impulse` (N·s), given to target `target` at `point` (m), to
-    /// `loads`. Bodies that particles cannot move take nothing.
-    pub(crate) fn add_load(&self, loads: &mut [Load], target: u32, point: DVec3, impulse: DVec3) {
-        let t = &self.targets[target as usize];
-        if !t.movable() || !impulse.is_finite() {
-            return;
-        }
-        let load = &mut loads[target as usize];
-        load.0 += impulse;
-        load.1 += (point - t.com).cross(impulse);
-    }
-
-    /// Adds a chunk's loads (call in chunk order).
-    pub(crate) fn add_loads(&mut self, loads: &[Load]) {
-        for (sum, l) in self.loads.iter_mut().zip(loads) {
-            sum.0 += l.0;
-            sum.1 += l.1;
-        }
-    }
-
     /// What the particles did to each movable body, by body key.
     pub(crate) fn finish(self) -> Vec<BodyChange> {
         self.targets
             .iter()
-            .zip(self.loads)
-            .filter(|(t, load)| {
-                t.movable() && (*load != (DVec3::ZERO, DVec3::ZERO) || t.moved != Motion::default())
-            })
-            .map(|(t, load)| BodyChange {
+            .filter(|t| t.movable() && t.moved != Motion::default())
+            .map(|t| BodyChange {
                 key: t.key,
-                load,
                 moved: t.moved,
             })
             .collect()
@@ -645,46 +657,26 @@ impl<'a> Coupling<'a> {
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct BodyChange {
     key: (u32, u32),
-    /// Impulses of contacts.
-    load: Load,
-    /// Moves of attachments.
+    /// Its moves by contacts and attachments.
     moved: Motion,
 }
 
 impl BodyChange {
-    /// The impulses `load` of contacts, for body `key` (a fluid on the GPU
-    /// sums them there).
-    #[cfg(feature = "gpu")]
-    pub(crate) fn of_load(key: (u32, u32), load: Load) -> Self {
-        Self {
-            key,
-            load,
-            moved: Motion::default(),
-        }
-    }
-
-    /// The moves `moved` of body `key` within the stage (a soft body on
-    /// the GPU sums them there).
+    /// The moves `moved` of body `key` within the stage (particles on the
+    /// GPU make them there).
     #[cfg(feature = "gpu")]
     pub(crate) fn of_motion(key: (u32, u32), moved: Motion) -> Self {
-        Self {
-            key,
-            load: (DVec3::ZERO, DVec3::ZERO),
-            moved,
-        }
+        Self { key, moved }
     }
 }
 
-/// Gives every body what the particles did to it ([`Coupling::finish`]),
-/// and wakes the bodies that took something (their rest timers start
-/// again). A change that is not finite
-/// is dropped.
+/// Gives every body what the particles did to it ([`Coupling::finish`]):
+/// its moves, and the velocities that came with them; and wakes it (its
+/// rest timer starts again). A change that is not finite is dropped.
 pub(crate) fn apply_changes(bodies: &mut Arena<RigidBody>, changes: &[BodyChange]) {
     for c in changes {
-        let (j, moment) = c.load;
         let m = c.moved;
-        let finite =
-            [j, moment, m.dx, m.dv, m.dw].iter().all(|v| v.is_finite()) && m.dq.is_finite();
+        let finite = [m.dx, m.dv, m.dw].iter().all(|v| v.is_finite()) && m.dq.is_finite();
         if !finite {
             continue;
         }
@@ -694,9 +686,8 @@ pub(crate) fn apply_changes(bodies: &mut Arena<RigidBody>, changes: &[BodyChange
             // steps' pushes (asleep, it would skip its weight in the
             // rigid stage and still take the push).
             b.wake();
-            let inv_inertia = b.inverse_inertia_world();
-            b.linvel += j * b.inv_mass + m.dv;
-            b.angvel += inv_inertia * moment + m.dw;
+            b.linvel += m.dv;
+            b.angvel += m.dw;
             b.com += m.dx;
             b.rotation = (m.dq * b.rotation).normalize();
         }

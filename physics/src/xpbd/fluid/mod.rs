@@ -28,7 +28,7 @@ use crate::error::{finite, finite3, non_negative, positive, PhysicsError};
 use crate::limits;
 use crate::rigid::aabb::Aabb;
 
-use super::coupling::Load;
+use super::coupling::Push;
 use super::grid::{Grid, Neighbours};
 use boundary::WallTable;
 use kernels::Kernels;
@@ -327,8 +327,9 @@ pub(crate) struct ChunkScratch {
     /// Walls within a kernel radius of the chunk's particles, in particle
     /// order.
     contacts: Vec<WallContact>,
-    /// Per coupling target, N·s and N·m·s.
-    loads: Vec<Load>,
+    /// Per coupling target: what the chunk's particles pushed it with in
+    /// this substep.
+    pushes: Vec<Push>,
     /// `dW_spiky/dr / r` of every pair in the chunk's neighbour lists, in
     /// their order, from the density pass for the correction pass, 1/m⁵.
     pair: Vec<f32>,

@@ -54,7 +54,7 @@ use super::{ChunkScratch, Fluid, WallContact, WallPlane, CHUNK};
 use crate::parallel::{
     for_each_chunk, for_each_chunk2_with, for_each_chunk_with, for_each_range_with, par_map_chunks3,
 };
-use crate::xpbd::coupling::Coupling;
+use crate::xpbd::coupling::{Coupling, Push};
 
 /// Largest position correction a particle takes in one substep, in
 /// spacings: a bad configuration settles over a few substeps instead of
@@ -155,8 +155,9 @@ fn lanes_sum(v: f32x8) -> f32 {
 impl Fluid {
     /// Advances the fluid by `dt` seconds under `gravity` (m/s², scaled by
     /// the gravity scale) against the bodies of `coupling` (gathered for
-    /// this fluid's particles at the start of the step), adding what the
-    /// particles give the bodies to `coupling`'s loads. A `dt` that is not
+    /// this fluid's particles at the start of the step), which the
+    /// particles move by their shares of each substep's contacts. A `dt`
+    /// that is not
     /// finite and > 0 does nothing.
     pub(crate) fn step(&mut self, dt: f32, gravity: Vec3, coupling: &mut Coupling<'_>) {
         let n = self.x.len();
@@ -189,23 +190,32 @@ impl Fluid {
         }
 
         let hs = dt / self.substeps as f32;
-        for _ in 0..self.substeps {
+        for k in 0..self.substeps {
             self.predict(hs, g);
             self.find_densities(walls);
-            self.corrections(hs, coupling);
+            if walls {
+                coupling.advance(f64::from(hs));
+                coupling.follow(f64::from(k + 1) / f64::from(self.substeps));
+            }
+            self.corrections(coupling);
             std::mem::swap(&mut self.x, &mut self.next);
             self.collide(hs, coupling, walls);
+            if walls {
+                let mut total = coupling.new_pushes();
+                for chunk in &mut self.chunks[..pieces] {
+                    for (sum, p) in total.iter_mut().zip(&chunk.pushes) {
+                        sum.add(p);
+                    }
+                    chunk.pushes.fill(Push::default());
+                }
+                coupling.take_pushes(&total, f64::from(hs));
+            }
         }
         if self.vorticity > 0.0 {
             self.confine_vorticity(dt);
         }
         if self.viscosity > 0.0 {
             self.xsph();
-        }
-        if walls {
-            for chunk in &self.chunks[..pieces] {
-                coupling.add_loads(&chunk.loads);
-            }
         }
     }
 
@@ -225,10 +235,8 @@ impl Fluid {
         }
         for chunk in &mut self.chunks[..pieces] {
             chunk.contacts.clear();
-            chunk.loads.clear();
-            chunk
-                .loads
-                .resize(targets, (glam::DVec3::ZERO, glam::DVec3::ZERO));
+            chunk.pushes.clear();
+            chunk.pushes.resize(targets, Push::default());
         }
         pieces
     }
@@ -390,9 +398,9 @@ impl Fluid {
         );
     }
 
-    /// The Jacobi position corrections: `next = x + Δx`; the walls' share
-    /// goes to the bodies' loads.
-    fn corrections(&mut self, hs: f32, coupling: &Coupling<'_>) {
+    /// The Jacobi position corrections: `next = x + Δx`; the bodies behind
+    /// the walls take the walls' share as pushes.
+    fn corrections(&mut self, coupling: &Coupling<'_>) {
         let x = &self.x;
         let lambda = &self.lambda;
         let nb = &self.neighbours;
@@ -403,7 +411,6 @@ impl Fluid {
         let s_scale = -self.tensile_k * kernels.h2;
         let (inv_w, power) = (self.tensile_inv_w, self.tensile_n.max(1));
         let w_p = f64::from(1.0 / self.mass);
-        let hs = f64::from(hs);
         for_each_chunk_with(
             &mut self.next,
             CHUNK,
@@ -411,7 +418,7 @@ impl Fluid {
             |base, next, scratch| {
                 let ChunkScratch {
                     contacts,
-                    loads,
+                    pushes,
                     pair,
                     ..
                 } = scratch;
@@ -461,21 +468,15 @@ impl Fluid {
                     *out = p + dx * scale;
                     if li < 0.0 && scale > 0.0 {
                         for contact in &contacts[first..c] {
-                            let target = &coupling.targets[contact.target as usize];
-                            if !target.movable() {
-                                continue;
-                            }
                             let moved = (contact.grad * (li * scale)).as_dvec3();
-                            let normal = contact.normal.as_dvec3();
-                            let w = w_p + target.inv_mass_along(contact.point, normal);
-                            if w > 0.0 {
-                                coupling.add_load(
-                                    loads,
-                                    contact.target,
-                                    contact.point,
-                                    -moved / (hs * w),
-                                );
-                            }
+                            coupling.push_back(
+                                pushes,
+                                contact.target,
+                                contact.point,
+                                contact.normal.as_dvec3(),
+                                moved,
+                                w_p,
+                            );
                         }
                     }
                 }
@@ -492,6 +493,7 @@ impl Fluid {
         let before = &self.next;
         let w = 1.0 / self.mass;
         let (radius, mu) = (self.collision_radius, self.friction);
+        let moving = coupling.moving();
         for_each_chunk2_with(
             &mut self.x,
             &mut self.v,
@@ -504,9 +506,9 @@ impl Fluid {
                     let mut p = x[k];
                     // A particle that stood farther from every surface than
                     // the collision radius and its correction together
-                    // cannot be within it.
-                    if walls && scratch.gap[k] - (p - before[i]).length() < radius {
-                        coupling.push_out(i, &mut p, q, w, radius, mu, hs, &mut scratch.loads);
+                    // cannot be within it, while the bodies hold still.
+                    if walls && (moving || scratch.gap[k] - (p - before[i]).length() < radius) {
+                        coupling.press(i, &mut p, q, w, radius, mu, hs, &mut scratch.pushes);
                     }
                     let mut vel = (p - q) / hs;
                     if !(p.is_finite() && vel.is_finite()) {

@@ -58,6 +58,7 @@ pub(crate) fn step(
             attach(body, k, t, coupling, h, inv_h2);
         }
         if radius > 0.0 && !coupling.is_empty() {
+            coupling.follow(f64::from(k + 1) / f64::from(n));
             collide(body, coupling, radius, friction, h);
         }
         if self_collide {
@@ -217,9 +218,7 @@ fn collide(body: &mut SoftBody, coupling: &mut Coupling<'_>, radius: f32, mu: f3
     let mut total = coupling.new_pushes();
     for pushes in chunk_pushes.into_iter().flatten() {
         for (sum, p) in total.iter_mut().zip(&pushes) {
-            sum.load.0 += p.load.0;
-            sum.load.1 += p.load.1;
-            sum.share += p.share;
+            sum.add(p);
         }
     }
     coupling.take_pushes(&total, f64::from(h));
