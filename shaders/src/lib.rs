@@ -26,18 +26,19 @@ pub const PARTICLE_INTERACTIONS: &str = include_str!("../wgsl/particle_interacti
 /// Pass 3 of a GPU particle step: field forces and Euler integration.
 pub const PARTICLE_INTEGRATE: &str = include_str!("../wgsl/particle_integrate.wgsl");
 
-/// Rigid bodies as particles see them on the GPU: their shapes, the
-/// surface nearest a point, and the impulses particles give them, summed
-/// per body in a fixed order (`reduce_chunks`, `reduce_bodies`). Not a
-/// shader of its own: the head of [`XPBD_SOFT`] and [`PBF`].
+/// Rigid bodies as particles see them on the GPU: their shapes along
+/// their path over the step, the surface nearest a point, and the pushes
+/// particles give the dynamic ones, summed per body in a fixed order
+/// (`reduce_chunks`, `reduce_bodies`) and moving them (`take_pushes`,
+/// `advance_bodies`). Not a shader of its own: the head of [`XPBD_SOFT`]
+/// and [`PBF`].
 pub const BODIES: &str = include_str!("../wgsl/bodies.wgsl");
 
 /// XPBD soft bodies on the GPU: `predict`, `finish` (velocities, fused
 /// with the next substep's prediction) and `project` (one colour of one
 /// constraint kind: distance, bending, volume, tether), dispatched colour
-/// by colour; `find_contacts` and `collide` against rigid bodies, and
-/// `advance_bodies` and `take_pushes` moving the dynamic ones ([`BODIES`]
-/// first).
+/// by colour; `find_contacts` and `collide` against rigid bodies
+/// ([`BODIES`] first).
 pub const XPBD_SOFT: &str = concat!(
     include_str!("../wgsl/bodies.wgsl"),
     include_str!("../wgsl/xpbd_soft.wgsl")

@@ -152,13 +152,19 @@ fn still() -> Motion {
     return Motion(vec4<f32>(0.0), vec4<f32>(0.0, 0.0, 0.0, 1.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<u32>(NONE));
 }
 
+// Whether shape `s` moves within the stage: particles can move it, or the
+// rigid stage moved it over the step (`Target::moves`).
+fn shape_moves(s: Shape) -> bool {
+    return s.kind.y != NONE || any(s.start_com != s.com) || any(s.start_rotation != s.rotation);
+}
+
 // Shape `k` where particles meet it at fraction `t` of the step.
 fn body_at(k: u32, t: f32) -> Shape {
     let s = shapes[k];
     if (s.kind.y != NONE) {
         return shape_at(s, motion[s.kind.y], t);
     }
-    if (all(s.start_com == s.com) && all(s.start_rotation == s.rotation)) {
+    if (!shape_moves(s)) {
         return s;
     }
     return shape_at(s, still(), t);

@@ -18,19 +18,21 @@
 // 2. `find_walls`, once a step: the tangent plane of every boundary shape
 //    near each particle, at the surface point nearest its position at the
 //    start of the step (at most BODY_SLOTS a particle).
-// 3. Per substep of `hs = dt / substeps`: `predict` (`v += hs g`,
-//    `prev = x`, `x += hs v`), `densities` (density and the multiplier λ,
-//    one Jacobi pass, walls as solid fluid from a table), `corrections`
-//    (the position deltas, capped), `collide` (kept the collision radius
-//    out of the shapes, with friction; `v = (x − prev) / hs`).
+// 3. Per substep of `hs = dt / substeps` (each in its own uniform slot,
+//    `params.t` the fraction of the step at its end): `predict`
+//    (`v += hs g`, `prev = x`, `x += hs v`), `densities` (density and the
+//    multiplier λ, one Jacobi pass, walls as solid fluid from a table),
+//    `corrections` (the position deltas, capped; a dynamic body behind a
+//    wall takes the push back), `collide` (kept the collision radius out
+//    of the shapes where they stand along their path, with friction, a
+//    dynamic body sharing each correction; `v = (x − prev) / hs`). With
+//    dynamic bodies: `advance_bodies` before the densities, and
+//    `reduce_chunks`, `reduce_bodies` and `take_pushes` after `collide`
+//    (`bodies.wgsl`).
 // 4. After the substeps: vorticity confinement (`vorticity`, `confine`)
 //    and XSPH viscosity (`xsph`), each writing new velocities to `next`
-//    and `take_velocities` copying them back.
-// 5. With dynamic bodies among the shapes: the impulses the particles
-//    gave them, which `corrections` and `collide` kept per particle and
-//    plane (`loads`), summed per body by `reduce_chunks` and
-//    `reduce_bodies` (`bodies.wgsl`). The host reads back only the
-//    bodies' totals.
+//    and `take_velocities` copying them back. The host reads back the
+//    dynamic bodies' motion.
 //
 // Every pass is Jacobi: it reads the state the pass before left and writes
 // only its own particle's (or key's) slots, so nothing races. Atomics are
@@ -126,7 +128,7 @@ struct Slot {
 
 // A wall near a particle over a step: a point of its tangent plane (w: 1
 // when the slot is used) and the normal out of the body (w: the shape's
-// index).
+// index); in the body's frame for a body that moves within the stage.
 struct Plane {
     point: vec4<f32>,
     normal: vec4<f32>,
@@ -368,7 +370,16 @@ fn find_walls(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     for (var k = 0u; k < params.shapes && used < BODY_SLOTS; k++) {
         let s = surface(shapes[k], p, within);
         if (s.found) {
-            planes[i * BODY_SLOTS + used] = Plane(vec4<f32>(s.point, 1.0), vec4<f32>(s.normal, f32(k)));
+            // A body that moves within the stage carries its planes along:
+            // they are kept in its frame.
+            var point = s.point;
+            var normal = s.normal;
+            let shape = shapes[k];
+            if (shape_moves(shape)) {
+                point = to_local(shape, point);
+                normal = vec3<f32>(dot(shape.axis_x.xyz, normal), dot(shape.axis_y.xyz, normal), dot(shape.axis_z.xyz, normal));
+            }
+            planes[i * BODY_SLOTS + used] = Plane(vec4<f32>(point, 1.0), vec4<f32>(normal, f32(k)));
             used += 1u;
         }
     }
@@ -451,7 +462,15 @@ fn walls_near(i: u32, p: vec3<f32>) -> Walls {
         if (plane.point.w < 0.5) {
             break;
         }
-        let d = dot(p - plane.point.xyz, plane.normal.xyz);
+        var point = plane.point.xyz;
+        var normal = plane.normal.xyz;
+        let index = u32(plane.normal.w);
+        if (shape_moves(shapes[index])) {
+            let now = body_at(index, params.t);
+            point = to_world(now, point);
+            normal = now.axis_x.xyz * normal.x + now.axis_y.xyz * normal.y + now.axis_z.xyz * normal.z;
+        }
+        let d = dot(p - point, normal);
         if (!finite(d) || d >= params.h) {
             continue;
         }
@@ -461,8 +480,8 @@ fn walls_near(i: u32, p: vec3<f32>) -> Walls {
         }
         w.phi[w.count] = t.x;
         w.psi[w.count] = t.y;
-        w.normal[w.count] = plane.normal.xyz;
-        w.point[w.count] = p - plane.normal.xyz * d;
+        w.normal[w.count] = normal;
+        w.point[w.count] = p - normal * d;
         w.slot[w.count] = k;
         w.count += 1u;
     }

@@ -513,14 +513,12 @@ pub(crate) fn step(
         // 3. The substeps; the dynamic bodies move on, the particles push
         // them, and they take the pushes.
         for k in 0..substeps {
-            stages.extend([
-                (&pipes.predict, particles, k),
-                (&pipes.densities, particles, k),
-            ]);
+            stages.push((&pipes.predict, particles, k));
             if movable > 0 {
                 stages.push((&pipes.advance_bodies, bodies, k));
             }
             stages.extend([
+                (&pipes.densities, particles, k),
                 (&pipes.corrections, particles, k),
                 (&pipes.collide, particles, k),
             ]);

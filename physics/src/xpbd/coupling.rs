@@ -246,6 +246,15 @@ impl<'a> Target<'a> {
         self.inv_mass > 0.0
     }
 
+    /// Whether the body moves within the stage: particles can move it, or
+    /// the rigid stage moved it over the step.
+    fn moves(&self) -> bool {
+        self.movable()
+            || self
+                .start
+                .is_some_and(|(com, rotation)| com != self.com || rotation != self.rotation)
+    }
+
     /// A point given in the body's frame, in the world, m (with what
     /// attachments moved the body within the stage, to first order).
     pub(crate) fn world_point(&self, local: DVec3) -> DVec3 {
@@ -597,6 +606,16 @@ impl<'a> Coupling<'a> {
         }
     }
 
+    /// [`Coupling::advance`] for the targets no entry of `attached`
+    /// (attachment, target) names.
+    pub(crate) fn advance_unattached(&mut self, h: f64, attached: &[(usize, usize)]) {
+        for (k, t) in self.targets.iter_mut().enumerate() {
+            if !attached.iter().any(|&(_, a)| a == k) {
+                t.advance(h);
+            }
+        }
+    }
+
     /// Puts every target where it stood at fraction `t` (0 to 1) of the
     /// step along its path, for the contacts of a substep ending there.
     pub(crate) fn follow(&mut self, t: f64) {
@@ -621,11 +640,32 @@ impl<'a> Coupling<'a> {
     /// or one the rigid stage moved over the step (so the planes found at
     /// its start no longer bound where it stands).
     pub(crate) fn moving(&self) -> bool {
-        self.targets.iter().any(|t| {
-            t.movable()
-                || t.start
-                    .is_some_and(|(com, rotation)| com != t.com || rotation != t.rotation)
-        })
+        self.targets.iter().any(Target::moves)
+    }
+
+    /// A point and a normal (m, unit) given at the start of the stage in
+    /// the world, in target `target`'s frame as it then stood: a frame that
+    /// moves with the body within the stage (unchanged for a body that
+    /// keeps still).
+    pub(crate) fn to_body(&self, target: u32, point: DVec3, normal: DVec3) -> (DVec3, DVec3) {
+        let t = &self.targets[target as usize];
+        if !t.moves() {
+            return (point, normal);
+        }
+        (
+            t.now.inverse_transform_point(point),
+            t.now.rotation.inverse() * normal,
+        )
+    }
+
+    /// A point and a normal in target `target`'s frame ([`Coupling::to_body`])
+    /// where the body now stands.
+    pub(crate) fn to_world(&self, target: u32, point: DVec3, normal: DVec3) -> (DVec3, DVec3) {
+        let t = &self.targets[target as usize];
+        if !t.moves() {
+            return (point, normal);
+        }
+        (t.now.transform_point(point), t.now.rotation * normal)
     }
 
     /// Whether the candidate lists were gathered for `n` particles (or

@@ -10,7 +10,7 @@
 //! and floating bodies are the world's rigid bodies, seen through
 //! the coupling (`xpbd::coupling`): they add to a particle's
 //! density as solid fluid would (see `boundary`), keep the particles out of
-//! them with friction, and take the impulses the particles give them.
+//! them with friction, and a dynamic one shares each push with them.
 //!
 //! The stepping is in `step`; [`FluidDesc`] describes a fluid and
 //! [`Fluid`] holds one.
@@ -343,15 +343,16 @@ pub(crate) struct ChunkScratch {
 
 /// The surface of a body near a particle over one step, as a plane: the
 /// tangent plane at the surface point nearest the particle at the start of
-/// the step (bodies hold still through the substeps).
+/// the step, carried along with the body within the stage.
 #[derive(Debug, Clone, Copy)]
 struct WallPlane {
     particle: u32,
     /// Index into the coupling's targets.
     target: u32,
-    /// A point of the plane, m.
+    /// A point of the plane, m, in the body's frame
+    /// ([`Coupling::to_body`](crate::xpbd::coupling::Coupling::to_body)).
     point: DVec3,
-    /// The plane's normal, out of the body.
+    /// The plane's normal, out of the body, in the body's frame.
     normal: DVec3,
     /// Whether the whole body lies behind the plane (a convex body and a
     /// particle outside it), so that the particle's distance from the

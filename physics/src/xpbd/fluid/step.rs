@@ -22,10 +22,12 @@
 //!    with the tensile correction `s_corr = −k h² (W_poly6(r) / W_poly6(Δq))ⁿ`
 //!    (`λ` is in m², `k` in units of `h²`), each move at most half a
 //!    spacing. The
-//!    body behind a wall takes `−Δx_wall / (hs (w_p + w_b))` (the pair's
-//!    effective mass, as [`Coupling::push_out`] weighs it);
+//!    body behind a wall takes the push `−Δx_wall / (w_p + w_b)`
+//!    ([`Coupling::push_back`]);
 //! 3. particles are kept the collision radius out of the bodies, with
-//!    friction ([`Coupling::push_out`]);
+//!    friction, each dynamic body sharing the correction
+//!    ([`Coupling::press`]), and the bodies move by the substep's pushes
+//!    ([`Coupling::take_pushes`]);
 //! 4. `v = (x − x_prev) / hs`; a particle gone non-finite goes back to
 //!    `x_prev` at rest.
 //!
@@ -44,8 +46,9 @@
 //! runs over fixed chunks of particles in parallel, and each particle
 //! gathers from its neighbours in their list's order (a function of the
 //! positions alone) and writes only itself: the result is the same on any
-//! number of threads. The bodies' impulses are summed per chunk and handed
-//! over in chunk order.
+//! number of threads. The bodies' pushes are summed per chunk and handed
+//! over in chunk order. Before a substep's corrections the bodies move on
+//! along their path over the step ([`Coupling::follow`]).
 
 use glam::Vec3;
 use wide::f32x8;
@@ -192,11 +195,11 @@ impl Fluid {
         let hs = dt / self.substeps as f32;
         for k in 0..self.substeps {
             self.predict(hs, g);
-            self.find_densities(walls);
             if walls {
                 coupling.advance(f64::from(hs));
                 coupling.follow(f64::from(k + 1) / f64::from(self.substeps));
             }
+            self.find_densities(walls, coupling);
             self.corrections(coupling);
             std::mem::swap(&mut self.x, &mut self.next);
             self.collide(hs, coupling, walls);
@@ -274,11 +277,12 @@ impl Fluid {
                 let within = f64::from(base_reach + v[i].length() * dt + fall);
                 for &target in candidates {
                     if let Some(s) = coupling.surface(target, x[i], within) {
+                        let (point, normal) = coupling.to_body(target, s.point, s.normal);
                         scratch.planes.push(WallPlane {
                             particle: i as u32,
                             target,
-                            point: s.point,
-                            normal: s.normal,
+                            point,
+                            normal,
                             bounds: s.distance >= 0.0 && coupling.is_convex(target),
                         });
                     }
@@ -289,7 +293,7 @@ impl Fluid {
 
     /// Densities and constraint multipliers at the current positions, and
     /// the walls within a kernel radius of each particle.
-    fn find_densities(&mut self, walls: bool) {
+    fn find_densities(&mut self, walls: bool, coupling: &Coupling<'_>) {
         let x = &self.x;
         let nb = &self.neighbours;
         let kernels = self.kernels;
@@ -359,7 +363,9 @@ impl Fluid {
                         {
                             let plane = planes[next_plane];
                             next_plane += 1;
-                            let d = (p.as_dvec3() - plane.point).dot(plane.normal);
+                            let (point, normal) =
+                                coupling.to_world(plane.target, plane.point, plane.normal);
+                            let d = (p.as_dvec3() - point).dot(normal);
                             let d = d as f32;
                             gap = gap.min(if plane.bounds { d } else { f32::NEG_INFINITY });
                             if d.is_nan() || d >= h {
@@ -372,8 +378,8 @@ impl Fluid {
                             contacts.push(WallContact {
                                 particle: i as u32,
                                 target: plane.target,
-                                point: p.as_dvec3() - plane.normal * f64::from(d),
-                                normal: plane.normal.as_vec3(),
+                                point: p.as_dvec3() - normal * f64::from(d),
+                                normal: normal.as_vec3(),
                                 phi,
                                 psi,
                                 grad: Vec3::ZERO,

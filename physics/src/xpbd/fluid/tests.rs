@@ -9,7 +9,7 @@ use crate::arena::Arena;
 use crate::rigid::body::{RigidBody, RigidBodyDesc};
 use crate::rigid::pose::Pose;
 use crate::rigid::shape::Shape;
-use crate::xpbd::coupling::{apply_changes, Coupling};
+use crate::xpbd::coupling::{apply_changes, Coupling, StepStart};
 
 const DT: f32 = 1.0 / 60.0;
 const G: Vec3 = Vec3::new(0.0, -9.81, 0.0);
@@ -42,10 +42,17 @@ fn tank(bodies: &mut Arena<RigidBody>, min: DVec3, max: DVec3) {
     }
 }
 
-/// One step of the fluid against the bodies, which then take their loads.
+/// One step of the fluid against the bodies, which then take what the
+/// particles did to them.
 fn step(fluid: &mut Fluid, bodies: &mut Arena<RigidBody>) {
+    step_after(fluid, bodies, &StepStart::default());
+}
+
+/// [`step`] after a rigid stage that moved the bodies from where `start`
+/// saw them (as the world's soft stage runs).
+fn step_after(fluid: &mut Fluid, bodies: &mut Arena<RigidBody>, start: &StepStart) {
     let reach = fluid.reach(DT, G);
-    let loads = {
+    let changes = {
         let mut coupling = Coupling::gather(
             bodies,
             fluid.positions(),
@@ -53,10 +60,11 @@ fn step(fluid: &mut Fluid, bodies: &mut Arena<RigidBody>) {
             reach,
             &[],
         );
+        coupling.over_step(start);
         fluid.step(DT, G, &mut coupling);
         coupling.finish()
     };
-    apply_changes(bodies, &loads);
+    apply_changes(bodies, &changes);
 }
 
 /// `nx × ny × nz` particles `s` m apart filling the floor of a tank
@@ -167,14 +175,16 @@ fn float_box(density: f64, seconds: f32) -> f64 {
     let steps = (seconds / DT) as usize;
     let average_from = steps - (2.0 / DT) as usize;
     let (mut sum, mut count) = (0.0, 0);
+    let mut start = StepStart::default();
     for k in 0..steps {
+        start.record(&bodies, f64::from(DT));
         {
             let b = bodies.get_mut(bi, bg).unwrap();
             b.linvel = DVec3::new(0.0, b.linvel.y + f64::from(G.y * DT), 0.0);
             b.angvel = DVec3::ZERO;
             b.com += b.linvel * f64::from(DT);
         }
-        step(&mut fluid, &mut bodies);
+        step_after(&mut fluid, &mut bodies, &start);
         if k >= average_from {
             let b = bodies.get(bi, bg).unwrap();
             let bottom = b.com.y - half.y;

@@ -53,7 +53,13 @@ pub(crate) fn step(
             finish_substep(body, h, keep, Some(g));
         }
         project_constraints(body, inv_h2, &mut grad);
-        coupling.advance(f64::from(h));
+        // The velocity the stage gave a body moves it on: an attached body
+        // once per attachment (as the attachments were tuned: once per
+        // body, the demo's rope bridge boards spin up), any other once.
+        for &(_, t) in &attached {
+            coupling.targets[t].advance(f64::from(h));
+        }
+        coupling.advance_unattached(f64::from(h), &attached);
         for &(k, t) in &attached {
             attach(body, k, t, coupling, h, inv_h2);
         }
