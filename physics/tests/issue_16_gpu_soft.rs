@@ -108,8 +108,8 @@ fn issue_16_soft_bodies_on_the_gpu_follow_the_cpu() {
         .all(|p| p.is_finite()));
 }
 
-/// A hammock: a 2 m cloth pinned at its four corners, 2 cm thick, and a
-/// 6.4 kg crate dropped onto it (readback every step, or not).
+/// A hammock (`common::hammock`, 10 substeps) with its crate above it,
+/// in a world that reads the GPU back every step (or not).
 fn hammock(readback: bool) -> (World, SoftBodyHandle, BodyHandle) {
     let mut w = World::new(WorldConfig {
         gpu_readback_every_step: readback,
@@ -117,28 +117,7 @@ fn hammock(readback: bool) -> (World, SoftBodyHandle, BodyHandle) {
     })
     .unwrap();
     w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
-    let cloth = SoftCloth {
-        corner: DVec3::new(-1.0, 1.0, -1.0),
-        across: DVec3::new(2.0, 0.0, 0.0),
-        down: DVec3::new(0.0, 0.0, 2.0),
-        rows: 24,
-        cols: 24,
-        pinned: vec![[0, 0], [0, 23], [23, 0], [23, 23]],
-        material: SoftMaterial {
-            collision_radius: 0.02,
-            friction: 0.5,
-            ..SoftMaterial::default()
-        },
-        ..SoftCloth::default()
-    };
-    let h = w.add_soft_body(&cloth.build().unwrap()).unwrap();
-    let crate_ = RigidBodyDesc::dynamic(
-        Shape::cuboid(DVec3::splat(0.2)).unwrap(),
-        100.0,
-        at(DVec3::new(0.1, 1.4, 0.05)),
-    )
-    .unwrap();
-    let b = w.add_body(&crate_).unwrap();
+    let (h, b) = crate::common::hammock(&mut w, 10);
     (w, h, b)
 }
 

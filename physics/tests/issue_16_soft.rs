@@ -721,37 +721,11 @@ fn issue_16_cloth_with_self_collision_keeps_its_layers_apart() {
     );
 }
 
-/// A 6.4 kg crate dropped 0.2 m into a hammock (a 2 m cloth of 1 kg
-/// pinned at its corners) on `substeps` substeps: the crate's heights
-/// (m) at every step over four seconds.
+/// The heights (m) at every step over four seconds of a crate dropped
+/// into a hammock (`common::hammock`) on `substeps` substeps.
 fn hammock_drop(substeps: u32) -> Vec<f64> {
     let mut w = earth_world(1);
-    let cloth = SoftCloth {
-        corner: DVec3::new(-1.0, 1.0, -1.0),
-        across: DVec3::new(2.0, 0.0, 0.0),
-        down: DVec3::new(0.0, 0.0, 2.0),
-        rows: 24,
-        cols: 24,
-        pinned: vec![[0, 0], [0, 23], [23, 0], [23, 23]],
-        material: SoftMaterial {
-            collision_radius: 0.02,
-            friction: 0.5,
-            substeps,
-            ..SoftMaterial::default()
-        },
-        ..SoftCloth::default()
-    };
-    w.add_soft_body(&cloth.build().unwrap()).unwrap();
-    let crate_ = RigidBodyDesc::dynamic(
-        Shape::cuboid(DVec3::splat(0.2)).unwrap(),
-        100.0,
-        Pose {
-            translation: DVec3::new(0.0, 1.4, 0.0),
-            rotation: DQuat::IDENTITY,
-        },
-    )
-    .unwrap();
-    let b = w.add_body(&crate_).unwrap();
+    let (_, b) = common::hammock(&mut w, substeps);
     (0..240)
         .map(|_| {
             w.step(DT).unwrap();

@@ -1,6 +1,6 @@
 //! Rigid bodies as the particles of a soft body or a fluid see them over
-//! one step: the surfaces they are kept out of, with friction, and the
-//! impulses they give back.
+//! one step: the surfaces they are kept out of, with friction, and how
+//! the particles move the dynamic ones.
 //!
 //! The soft stage runs after the rigid stage, so the bodies stand at their
 //! new poses with their new velocities. Friction holds a particle to a

@@ -329,3 +329,32 @@ pub fn tank(w: &mut World, min: DVec3, max: DVec3) {
         );
     }
 }
+
+/// A hammock in `w`: a 2 m cloth of 1 kg and 24 × 24 particles, 2 cm
+/// thick, pinned at its corners 1 m up, stepped on `substeps` substeps;
+/// and a 6.4 kg crate 0.2 m above it. Returns the cloth and the crate.
+pub fn hammock(w: &mut World, substeps: u32) -> (inertia_physics::SoftBodyHandle, BodyHandle) {
+    let cloth = inertia_physics::SoftCloth {
+        corner: DVec3::new(-1.0, 1.0, -1.0),
+        across: DVec3::new(2.0, 0.0, 0.0),
+        down: DVec3::new(0.0, 0.0, 2.0),
+        rows: 24,
+        cols: 24,
+        pinned: vec![[0, 0], [0, 23], [23, 0], [23, 23]],
+        material: inertia_physics::SoftMaterial {
+            collision_radius: 0.02,
+            friction: 0.5,
+            substeps,
+            ..inertia_physics::SoftMaterial::default()
+        },
+        ..inertia_physics::SoftCloth::default()
+    };
+    let h = w.add_soft_body(&cloth.build().unwrap()).unwrap();
+    let crate_ = RigidBodyDesc::dynamic(
+        Shape::cuboid(DVec3::splat(0.2)).unwrap(),
+        100.0,
+        at(DVec3::new(0.0, 1.4, 0.0)),
+    )
+    .unwrap();
+    (h, w.add_body(&crate_).unwrap())
+}
