@@ -29,10 +29,11 @@
 //! times the body's speed. Held still for the stage, a body gave the
 //! particles that (and took back as much): a crate dropped into a pool flew
 //! 3.5 m out of it, and one dropped into a hammock bounced back higher than
-//! it fell from. Attachments move their bodies the same way
-//! ([`Target::move_by`]). At the end of the stage each body takes its
-//! moves and the velocities that came with them ([`apply_changes`]), and
-//! wakes.
+//! it fell from. Attachments meet and move their bodies the same way
+//! ([`Target::move_by`]): held to a body standing a whole step ahead, a
+//! board hung from one rope's edge spun up until it left the world. At
+//! the end of the stage each body takes its moves and the velocities that
+//! came with them ([`apply_changes`]), and wakes.
 //!
 //! Candidates are found once a step: every body whose bounding box,
 //! widened by how far a particle can reach over the step, holds the
@@ -229,7 +230,7 @@ impl<'a> Target<'a> {
     }
 
     /// The same with `r` from the centre of mass as the stage moved it.
-    fn inv_mass_along_now(&self, p: DVec3, d: DVec3) -> f64 {
+    pub(crate) fn inv_mass_along_now(&self, p: DVec3, d: DVec3) -> f64 {
         self.inv_mass_about(self.path.0 + self.moved.dx, p, d)
     }
 
@@ -255,11 +256,10 @@ impl<'a> Target<'a> {
                 .is_some_and(|(com, rotation)| com != self.com || rotation != self.rotation)
     }
 
-    /// A point given in the body's frame, in the world, m (with what
-    /// attachments moved the body within the stage, to first order).
+    /// A point given in the body's frame, in the world, m: where the body
+    /// stands along its path and as the stage moved it.
     pub(crate) fn world_point(&self, local: DVec3) -> DVec3 {
-        let p = self.pose.transform_point(local);
-        self.com + self.moved.dx + self.moved.dq * (p - self.com)
+        self.now.transform_point(local)
     }
 
     /// Starts a substep of `h` seconds: the velocity attachments gave the
@@ -302,7 +302,7 @@ impl<'a> Target<'a> {
     /// move is the body's share of a constraint's correction, and its
     /// velocity changes by the move over the substep).
     pub(crate) fn move_by(&mut self, point: DVec3, p: DVec3, h: f64) {
-        let arm = point - self.com - self.moved.dx;
+        let arm = point - self.path.0 - self.moved.dx;
         self.shift(
             Push {
                 p,
@@ -603,16 +603,6 @@ impl<'a> Coupling<'a> {
     pub(crate) fn advance(&mut self, h: f64) {
         for t in &mut self.targets {
             t.advance(h);
-        }
-    }
-
-    /// [`Coupling::advance`] for the targets no entry of `attached`
-    /// (attachment, target) names.
-    pub(crate) fn advance_unattached(&mut self, h: f64, attached: &[(usize, usize)]) {
-        for (k, t) in self.targets.iter_mut().enumerate() {
-            if !attached.iter().any(|&(_, a)| a == k) {
-                t.advance(h);
-            }
         }
     }
 

@@ -53,18 +53,12 @@ pub(crate) fn step(
             finish_substep(body, h, keep, Some(g));
         }
         project_constraints(body, inv_h2, &mut grad);
-        // The velocity the stage gave a body moves it on: an attached body
-        // once per attachment (as the attachments were tuned: once per
-        // body, the demo's rope bridge boards spin up), any other once.
-        for &(_, t) in &attached {
-            coupling.targets[t].advance(f64::from(h));
-        }
-        coupling.advance_unattached(f64::from(h), &attached);
+        coupling.advance(f64::from(h));
+        coupling.follow(f64::from(k + 1) / f64::from(n));
         for &(k, t) in &attached {
             attach(body, k, t, coupling, h, inv_h2);
         }
         if radius > 0.0 && !coupling.is_empty() {
-            coupling.follow(f64::from(k + 1) / f64::from(n));
             collide(body, coupling, radius, friction, h);
         }
         if self_collide {
@@ -195,7 +189,7 @@ fn attach(
     }
     let n = d / len;
     let wp = f64::from(body.w[i]);
-    let k = wp + target.inv_mass_along(anchor, n) + f64::from(a.compliance * inv_h2);
+    let k = wp + target.inv_mass_along_now(anchor, n) + f64::from(a.compliance * inv_h2);
     if k <= 0.0 {
         return;
     }
