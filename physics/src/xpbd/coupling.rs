@@ -262,9 +262,9 @@ impl<'a> Target<'a> {
         self.now.transform_point(local)
     }
 
-    /// Starts a substep of `h` seconds: the velocity attachments gave the
+    /// Starts a substep of `h` seconds: the velocity the stage gave the
     /// body moves it on (the rigid stage already moved it by the velocity
-    /// it had).
+    /// it had, along the path [`Target::follow`] takes).
     pub(crate) fn advance(&mut self, h: f64) {
         if self.moved == Motion::default() {
             return;
@@ -607,7 +607,8 @@ impl<'a> Coupling<'a> {
     }
 
     /// Puts every target where it stood at fraction `t` (0 to 1) of the
-    /// step along its path, for the contacts of a substep ending there.
+    /// step along its path, for the contacts and attachments of a substep
+    /// ending there.
     pub(crate) fn follow(&mut self, t: f64) {
         for target in &mut self.targets {
             target.follow(t);
