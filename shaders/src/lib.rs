@@ -105,14 +105,14 @@ pub mod layout {
     pub const FLUID_PARAMS_BYTES: usize = 144 + 2 * 64 * 4;
     /// `struct Shape` of `bodies.wgsl`: a rigid body particles meet.
     pub const SHAPE_BYTES: usize = 272;
-    /// `struct Load` of `bodies.wgsl`: an impulse and its moment.
-    pub const LOAD_BYTES: usize = 32;
+    /// `struct Push` of `bodies.wgsl`: a positional impulse and its moment.
+    pub const PUSH_BYTES: usize = 32;
     /// `struct Motion` of `bodies.wgsl`: what a soft body's stage did to a
     /// rigid body.
     pub const MOTION_BYTES: usize = 80;
-    /// Particles whose loads one invocation of `reduce_chunks` sums
-    /// (`LOAD_CHUNK` of `bodies.wgsl`).
-    pub const LOAD_CHUNK: usize = 1024;
+    /// Particles whose pushes one invocation of `reduce_chunks` sums
+    /// (`PUSH_CHUNK` of `bodies.wgsl`).
+    pub const PUSH_CHUNK: usize = 1024;
     /// Bodies a particle keeps over a step (`BODY_SLOTS` of
     /// `bodies.wgsl`): a fluid particle's planes, a soft body's contacts.
     pub const BODY_SLOTS: usize = 4;

@@ -153,7 +153,7 @@ fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
         ("Quad", layout::SOFT_QUAD_BYTES),
         ("Tether", layout::SOFT_TETHER_BYTES),
         ("Shape", layout::SHAPE_BYTES),
-        ("Load", layout::LOAD_BYTES),
+        ("Push", layout::PUSH_BYTES),
         ("Motion", layout::MOTION_BYTES),
     ] {
         assert_eq!(struct_size(&module, ty), Some(bytes), "struct {ty}");
@@ -161,7 +161,7 @@ fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
     for (constant, value) in [
         ("WORKGROUP_SIZE", layout::WORKGROUP_SIZE as usize),
         ("BODY_SLOTS", layout::BODY_SLOTS),
-        ("LOAD_CHUNK", layout::LOAD_CHUNK),
+        ("PUSH_CHUNK", layout::PUSH_CHUNK),
     ] {
         let decl = format!("const {constant}: u32 = {value}u;");
         assert!(
@@ -231,7 +231,7 @@ fn the_fluid_shader_has_its_entry_points_and_the_engine_layout() {
         ("Shape", layout::SHAPE_BYTES),
         ("Plane", layout::FLUID_PLANE_BYTES),
         ("Slot", layout::FLUID_SLOT_BYTES),
-        ("Load", layout::LOAD_BYTES),
+        ("Push", layout::PUSH_BYTES),
         ("Motion", layout::MOTION_BYTES),
     ] {
         assert_eq!(struct_size(&module, ty), Some(bytes), "struct {ty}");
@@ -240,7 +240,7 @@ fn the_fluid_shader_has_its_entry_points_and_the_engine_layout() {
         ("WORKGROUP_SIZE", layout::WORKGROUP_SIZE as usize),
         ("SCAN_SIZE", layout::FLUID_SCAN_SIZE as usize),
         ("BODY_SLOTS", layout::BODY_SLOTS),
-        ("LOAD_CHUNK", layout::LOAD_CHUNK),
+        ("PUSH_CHUNK", layout::PUSH_CHUNK),
     ] {
         let decl = format!("const {constant}: u32 = {value}u;");
         assert!(src.contains(&decl), "pbf.wgsl must declare `{decl}`");

@@ -8,17 +8,17 @@
 // the code here uses:
 // - `WORKGROUP_SIZE` and `fn linear` (an invocation's index);
 // - `params` with `n` (particles), `movable` (bodies the particles can
-//   move), `chunks` (chunks of LOAD_CHUNK particles), `t` (the fraction
+//   move), `chunks` (chunks of PUSH_CHUNK particles), `t` (the fraction
 //   of the step at the end of the substep) and `substep` (its length, s);
-// - the bindings `shapes` (array<Shape>), `loads` and `partials`
-//   (array<Load>), `motion` (array<Motion>);
+// - the bindings `shapes` (array<Shape>), `pushes` and `partials`
+//   (array<Push>), `motion` (array<Motion>);
 // - `fn slot_shape(i, slot)`: the shape behind slot `slot` of particle
 //   `i` (BODY_SLOTS a particle, found once a step), or NONE.
 //
 // Contacts share each correction with a movable body as on the CPU
 // (coupling.rs): each substep, a particle keeps the push it gives the body
-// behind each of its slots in `loads`; `reduce_chunks` sums each movable
-// body's pushes over each chunk of LOAD_CHUNK particles, in particle and
+// behind each of its slots in `pushes`; `reduce_chunks` sums each movable
+// body's pushes over each chunk of PUSH_CHUNK particles, in particle and
 // slot order, `reduce_bodies` sums the chunks in order (a fixed order, so
 // a run repeats bit for bit, and no floating-point atomics), and
 // `take_pushes` moves the body by the sum (`motion`). `advance_bodies`
@@ -36,8 +36,8 @@ const SHAPE_CAPSULE: u32 = 2u;
 const NONE: u32 = 0xffffffffu;
 // Bodies a particle keeps over a step.
 const BODY_SLOTS: u32 = 4u;
-// Particles whose loads one invocation of `reduce_chunks` sums.
-const LOAD_CHUNK: u32 = 1024u;
+// Particles whose pushes one invocation of `reduce_chunks` sums.
+const PUSH_CHUNK: u32 = 1024u;
 
 // A rigid body the particles meet (`gpu/bodies.rs`).
 struct Shape {
@@ -76,7 +76,7 @@ struct Shape {
 // What particles pushed a body with in a substep (`Push` of
 // coupling.rs): a positional impulse (N s²) and its moment about the
 // body's centre of mass (N m s²); w unused.
-struct Load {
+struct Push {
     impulse: vec4<f32>,
     moment: vec4<f32>,
 }
@@ -280,7 +280,7 @@ fn inv_mass_along(s: Shape, p: vec3<f32>, d: vec3<f32>) -> f32 {
 }
 
 // A particle's correction against one body (`Coupling::push_out`).
-struct Push {
+struct Correction {
     // The correction, m.
     dx: vec3<f32>,
     // The point of the body's surface nearest the particle, m.
@@ -295,8 +295,8 @@ struct Push {
 // Coulomb friction: the slide relative to the body's surface over the
 // substep, undone up to `mu` (the larger of it and the body's) times the
 // normal correction.
-fn push_out(s: Shape, p: vec3<f32>, q: vec3<f32>, radius: f32, mu: f32, h: f32) -> Push {
-    var out = Push(vec3<f32>(0.0), vec3<f32>(0.0), false);
+fn push_out(s: Shape, p: vec3<f32>, q: vec3<f32>, radius: f32, mu: f32, h: f32) -> Correction {
+    var out = Correction(vec3<f32>(0.0), vec3<f32>(0.0), false);
     let surf = surface(s, p, radius);
     if (!surf.found) {
         return out;
@@ -328,24 +328,24 @@ fn push_out(s: Shape, p: vec3<f32>, q: vec3<f32>, radius: f32, mu: f32, h: f32) 
 // body's share goes to the particle's push for slot `slot` (none for
 // NONE).
 fn press(i: u32, slot: u32, shape: Shape, p: vec3<f32>, q: vec3<f32>, w: f32, radius: f32, mu: f32) -> vec3<f32> {
-    let push = push_out(shape, p, q, radius, mu, params.substep);
-    if (!push.found) {
+    let c = push_out(shape, p, q, radius, mu, params.substep);
+    if (!c.found) {
         return p;
     }
-    let len = length(push.dx);
+    let len = length(c.dx);
     var n = vec3<f32>(0.0);
     if (len > 0.0 && finite(len)) {
-        n = push.dx / len;
+        n = c.dx / len;
     }
-    let w_b = inv_mass_along(shape, push.point, n);
+    let w_b = inv_mass_along(shape, c.point, n);
     let total = w + w_b;
     if (total <= 0.0) {
         return p;
     }
     if (w_b > 0.0 && slot != NONE) {
-        add_push(i, slot, shape, push.point, -push.dx / total);
+        add_push(i, slot, shape, c.point, -c.dx / total);
     }
-    return p + push.dx * (w / total);
+    return p + c.dx * (w / total);
 }
 
 // Adds the positional impulse `impulse` (N s²), given at `point` (m) to
@@ -356,12 +356,12 @@ fn add_push(i: u32, slot: u32, s: Shape, point: vec3<f32>, impulse: vec3<f32>) {
         return;
     }
     let at = i * BODY_SLOTS + slot;
-    let l = loads[at];
+    let l = pushes[at];
     let moment = cross(point - s.com.xyz, impulse);
-    loads[at] = Load(vec4<f32>(l.impulse.xyz + impulse, 0.0), vec4<f32>(l.moment.xyz + moment, 0.0));
+    pushes[at] = Push(vec4<f32>(l.impulse.xyz + impulse, 0.0), vec4<f32>(l.moment.xyz + moment, 0.0));
 }
 
-// Each chunk of LOAD_CHUNK particles: every movable body's loads, summed
+// Each chunk of PUSH_CHUNK particles: every movable body's pushes, summed
 // in particle and slot order (an invocation a body) into `partials`.
 @compute @workgroup_size(64)
 fn reduce_chunks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) t: u32) {
@@ -369,8 +369,8 @@ fn reduce_chunks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
     if (chunk >= params.chunks) {
         return;
     }
-    let lo = chunk * LOAD_CHUNK;
-    let hi = min(lo + LOAD_CHUNK, params.n);
+    let lo = chunk * PUSH_CHUNK;
+    let hi = min(lo + PUSH_CHUNK, params.n);
     for (var body = t; body < params.movable; body += WORKGROUP_SIZE) {
         var impulse = vec4<f32>(0.0);
         var moment = vec4<f32>(0.0);
@@ -380,16 +380,16 @@ fn reduce_chunks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
                 if (k == NONE || shapes[k].kind.y != body) {
                     continue;
                 }
-                let l = loads[i * BODY_SLOTS + slot];
+                let l = pushes[i * BODY_SLOTS + slot];
                 impulse += l.impulse;
                 moment += l.moment;
             }
         }
-        partials[chunk * params.movable + body] = Load(impulse, moment);
+        partials[chunk * params.movable + body] = Push(impulse, moment);
     }
 }
 
-// Each movable body's total: its chunks' loads, in chunk order, after the
+// Each movable body's total: its chunks' pushes, in chunk order, after the
 // chunks' in `partials`.
 @compute @workgroup_size(64)
 fn reduce_bodies(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -404,7 +404,7 @@ fn reduce_bodies(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
         impulse += l.impulse;
         moment += l.moment;
     }
-    partials[params.chunks * params.movable + body] = Load(impulse, moment);
+    partials[params.chunks * params.movable + body] = Push(impulse, moment);
 }
 
 // Each movable body moved on by the velocity the stage gave it, over the

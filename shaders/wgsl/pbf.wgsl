@@ -38,7 +38,7 @@
 // only its own particle's (or key's) slots, so nothing races. Atomics are
 // integer counts and cursors only, and their order is undone by
 // `sort_cells`; no floating-point value is ever summed atomically (the
-// bodies' loads are summed by the reductions, in a fixed order). A run
+// bodies' pushes are summed by the reductions, in a fixed order). A run
 // repeats bit for bit on the same device and driver.
 //
 // Units: m, s, kg. Positions and velocities are vec4 (w unused).
@@ -107,7 +107,7 @@ struct FluidParams {
     // A particle's inverse mass, 1/kg.
     particle_inv_mass: f32,
     // Shapes the particles can move (dynamic bodies), and chunks of
-    // LOAD_CHUNK particles.
+    // PUSH_CHUNK particles.
     movable: u32,
     chunks: u32,
     // `corrections`, `collide`: the fraction of the step at the end of
@@ -162,10 +162,10 @@ struct Plane {
 @group(0) @binding(13) var<storage, read> shapes: array<Shape>;
 // BODY_SLOTS per particle: what it gave the body behind each of its
 // planes over the step (used while `params.movable` > 0).
-@group(0) @binding(14) var<storage, read_write> loads: array<Load>;
-// Per chunk, then per movable body: the chunk's loads; after them, each
+@group(0) @binding(14) var<storage, read_write> pushes: array<Push>;
+// Per chunk, then per movable body: the chunk's pushes; after them, each
 // movable body's total.
-@group(0) @binding(15) var<storage, read_write> partials: array<Load>;
+@group(0) @binding(15) var<storage, read_write> partials: array<Push>;
 // Per movable body: what the stage did to it so far.
 @group(0) @binding(16) var<storage, read_write> motion: array<Motion>;
 
@@ -603,7 +603,7 @@ fn corrections(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgr
     // pushes start here.
     if (params.movable > 0u) {
         for (var slot = 0u; slot < BODY_SLOTS; slot++) {
-            loads[i * BODY_SLOTS + slot] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
+            pushes[i * BODY_SLOTS + slot] = Push(vec4<f32>(0.0), vec4<f32>(0.0));
         }
     }
     if (params.movable > 0u && li < 0.0 && scale > 0.0) {

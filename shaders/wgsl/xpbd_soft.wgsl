@@ -1,6 +1,6 @@
 // XPBD soft bodies on small steps (physics/src/xpbd/soft/), on the GPU.
 // The crate puts `bodies.wgsl` (the rigid bodies' shapes, the push out of
-// them, the reductions of their loads) before this file.
+// them, the reductions of their pushes) before this file.
 //
 // Once a step, `find_contacts` keeps the bodies within reach of each
 // particle (at most BODY_SLOTS, the CPU's candidates). Each substep is a
@@ -52,7 +52,7 @@ struct SoftParams {
     // 3 tether).
     kind: u32,
     // Bodies the particles meet, those they can move, and chunks of
-    // LOAD_CHUNK particles (`bodies.wgsl`).
+    // PUSH_CHUNK particles (`bodies.wgsl`).
     shapes: u32,
     movable: u32,
     chunks: u32,
@@ -113,9 +113,9 @@ struct Tether {
 @group(0) @binding(9) var<storage, read_write> contacts: array<vec4<u32>>;
 // BODY_SLOTS per particle: what it gave each contact's body this substep
 // (while `params.movable` > 0).
-@group(0) @binding(10) var<storage, read_write> loads: array<Load>;
+@group(0) @binding(10) var<storage, read_write> pushes: array<Push>;
 // Per chunk and movable body, then per body (`bodies.wgsl`).
-@group(0) @binding(11) var<storage, read_write> partials: array<Load>;
+@group(0) @binding(11) var<storage, read_write> partials: array<Push>;
 // Per movable body: what the stage did to it so far.
 @group(0) @binding(12) var<storage, read_write> motion: array<Motion>;
 
@@ -351,7 +351,7 @@ fn slot_shape(i: u32, slot: u32) -> u32 {
 
 // The bodies within reach of each particle that can move over the step
 // (`params.reach` and its own travel), from its position at the start of
-// the step, in handle order (at most BODY_SLOTS); its loads cleared.
+// the step, in handle order (at most BODY_SLOTS); its pushes cleared.
 @compute @workgroup_size(64)
 fn find_contacts(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear(id, groups);
@@ -373,14 +373,14 @@ fn find_contacts(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
     contacts[i] = found;
     if (params.movable > 0u) {
         for (var slot = 0u; slot < BODY_SLOTS; slot++) {
-            loads[i * BODY_SLOTS + slot] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
+            pushes[i * BODY_SLOTS + slot] = Push(vec4<f32>(0.0), vec4<f32>(0.0));
         }
     }
 }
 
 // Each particle kept the collision radius out of its contacts' bodies,
 // with friction; a movable body takes its share of each correction
-// (`Coupling::press`), kept in the particle's loads for `take_pushes`.
+// (`Coupling::press`), kept in the particle's pushes for `take_pushes`.
 @compute @workgroup_size(64)
 fn collide(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear(id, groups);
@@ -395,7 +395,7 @@ fn collide(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
     var p = own.xyz;
     for (var slot = 0u; slot < BODY_SLOTS; slot++) {
         if (params.movable > 0u) {
-            loads[i * BODY_SLOTS + slot] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
+            pushes[i * BODY_SLOTS + slot] = Push(vec4<f32>(0.0), vec4<f32>(0.0));
         }
         let k = contacts[i][slot];
         if (k == NONE) {

@@ -17,7 +17,7 @@
 //! Shapes the shaders do not project onto are refused.
 
 use glam::{DMat3, DVec3};
-use inertia_shaders::layout::{BODY_SLOTS, LOAD_BYTES, LOAD_CHUNK, MOTION_BYTES};
+use inertia_shaders::layout::{BODY_SLOTS, MOTION_BYTES, PUSH_BYTES, PUSH_CHUNK};
 
 use crate::arena::Arena;
 use crate::error::PhysicsError;
@@ -257,11 +257,11 @@ pub(crate) fn gather(
 #[derive(Debug)]
 pub(crate) struct BodyBuffers {
     pub(crate) shapes: wgpu::Buffer,
-    pub(crate) loads: wgpu::Buffer,
+    pub(crate) pushes: wgpu::Buffer,
     pub(crate) partials: wgpu::Buffer,
     pub(crate) motion: wgpu::Buffer,
     moves: wgpu::Buffer,
-    /// Chunks of `LOAD_CHUNK` particles.
+    /// Chunks of `PUSH_CHUNK` particles.
     pub(crate) chunks: u32,
 }
 
@@ -280,17 +280,17 @@ impl BodyBuffers {
         };
         let storage = wgpu::BufferUsages::STORAGE;
         let copy_dst = wgpu::BufferUsages::COPY_DST;
-        let chunks = n.div_ceil(LOAD_CHUNK);
+        let chunks = n.div_ceil(PUSH_CHUNK);
         Self {
             shapes: buffer(
                 "shapes",
                 sized(MAX_GPU_BODIES * std::mem::size_of::<GpuShape>()),
                 storage | copy_dst,
             ),
-            loads: buffer("pushes", sized(n * BODY_SLOTS * LOAD_BYTES), storage),
+            pushes: buffer("pushes", sized(n * BODY_SLOTS * PUSH_BYTES), storage),
             partials: buffer(
                 "summed pushes",
-                sized((chunks + 1) * MAX_GPU_BODIES * LOAD_BYTES),
+                sized((chunks + 1) * MAX_GPU_BODIES * PUSH_BYTES),
                 storage,
             ),
             motion: buffer(

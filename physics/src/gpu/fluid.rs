@@ -15,7 +15,7 @@
 //! | `omega` | per particle: vorticity, 1/s | `vorticity` |
 //! | `planes` | per particle: up to 4 walls near it over the step | `find_walls` |
 //! | `shapes` | the bodies near the fluid (`gpu/bodies.rs`) | CPU, every step |
-//! | `loads` | per particle and plane: a substep's push on a dynamic body | `corrections`, `collide` |
+//! | `pushes` | per particle and plane: a substep's push on a dynamic body | `corrections`, `collide` |
 //! | `partials` | per chunk and dynamic body, then per body: a substep's summed pushes | `reduce_chunks`, `reduce_bodies` |
 //! | `motion` | per dynamic body: what the stage did to it | CPU, every step; `advance_bodies`, `take_pushes` |
 //! | `readback` | staging copy of `x`, `v` and `density` for the CPU | copy |
@@ -55,7 +55,7 @@ use super::buffers::at_least;
 use super::context::GpuContext;
 use super::program::{storage_binding, uniform_binding, Program};
 use crate::xpbd::coupling::BodyChange;
-use inertia_shaders::layout::{BODY_SLOTS, FLUID_PLANE_BYTES, FLUID_SLOT_BYTES, LOAD_BYTES};
+use inertia_shaders::layout::{BODY_SLOTS, FLUID_PLANE_BYTES, FLUID_SLOT_BYTES, PUSH_BYTES};
 
 /// Largest distance (m) a GPU-stepped fluid particle may stand from the
 /// CPU-stepped one after 24 steps at 60 Hz of a small dam break (1920
@@ -247,8 +247,8 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
         .limits
         .max_storage_buffer_binding_size
         .min(ctx.limits.max_buffer_size);
-    // The largest per-particle buffers: walls, and the loads kept with them.
-    let plane_bytes = (n * BODY_SLOTS * FLUID_PLANE_BYTES.max(LOAD_BYTES)) as u64;
+    // The largest per-particle buffers: walls, and the pushes kept with them.
+    let plane_bytes = (n * BODY_SLOTS * FLUID_PLANE_BYTES.max(PUSH_BYTES)) as u64;
     if plane_bytes > max_binding || n > u32::MAX as usize / 4 {
         return Err(PhysicsError::Gpu(format!(
             "{n} fluid particles need {plane_bytes} bytes of walls, more than this adapter binds \
@@ -318,7 +318,7 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
             &omega,
             &planes,
             &bodies.shapes,
-            &bodies.loads,
+            &bodies.pushes,
             &bodies.partials,
             &bodies.motion,
         ];

@@ -9,7 +9,7 @@
 //! | `distances`, `bends`, `tets`, `tethers` | constraints in colour order | upload only |
 //! | `shapes` | the rigid bodies near the body (`gpu/bodies.rs`) | CPU, every step |
 //! | `contacts` | per particle: the bodies within its reach for the step | `find_contacts` |
-//! | `loads` | per particle and contact: what it gave a dynamic body | `collide` |
+//! | `pushes` | per particle and contact: what it gave a dynamic body | `collide` |
 //! | `partials` | per chunk and dynamic body, then per body: a substep's summed pushes | `reduce_chunks`, `reduce_bodies` |
 //! | `motion` | per dynamic body: what the stage did to it | CPU, every step; `advance_bodies`, `take_pushes` |
 //! | `readback` | staging copy of `x` and `v` for the CPU | copy |
@@ -32,7 +32,7 @@ use crate::error::PhysicsError;
 use crate::xpbd::colouring::Coloured;
 use crate::xpbd::coupling::BodyChange;
 use crate::xpbd::soft::SoftBody;
-use inertia_shaders::layout::{BODY_SLOTS, LOAD_BYTES};
+use inertia_shaders::layout::{BODY_SLOTS, PUSH_BYTES};
 
 use super::bodies::{BodyBuffers, GpuShape, NearBodies, MAX_GPU_BODIES};
 use super::buffers::at_least;
@@ -332,7 +332,7 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
         .limits
         .max_storage_buffer_binding_size
         .min(ctx.limits.max_buffer_size);
-    let load_bytes = (body.len() * BODY_SLOTS * LOAD_BYTES) as u64;
+    let load_bytes = (body.len() * BODY_SLOTS * PUSH_BYTES) as u64;
     if body.material().collision_radius > 0.0 && load_bytes > max_binding {
         return Err(PhysicsError::Gpu(format!(
             "{} particles with contacts need {load_bytes} bytes of pushes, more than this \
@@ -427,7 +427,7 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
                 entry(7, &te),
                 entry(8, &bodies.shapes),
                 entry(9, &contacts),
-                entry(10, &bodies.loads),
+                entry(10, &bodies.pushes),
                 entry(11, &bodies.partials),
                 entry(12, &bodies.motion),
             ],
