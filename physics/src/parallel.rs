@@ -12,6 +12,9 @@ use std::cell::Cell;
 
 use rayon::prelude::*;
 
+mod stages;
+pub(crate) use stages::for_each_stage_block;
+
 thread_local! {
     static SEQUENTIAL: Cell<bool> = const { Cell::new(false) };
 }

@@ -160,7 +160,12 @@ fn shape_moves(s: Shape) -> bool {
 
 // Shape `k` where particles meet it at fraction `t` of the step.
 fn body_at(k: u32, t: f32) -> Shape {
-    let s = shapes[k];
+    return shape_now(shapes[k], t);
+}
+
+// Shape `s` (read from `shapes`) where particles meet it at fraction `t`
+// of the step.
+fn shape_now(s: Shape, t: f32) -> Shape {
     if (s.kind.y != NONE) {
         return shape_at(s, motion[s.kind.y], t);
     }

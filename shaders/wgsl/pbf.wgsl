@@ -465,8 +465,9 @@ fn walls_near(i: u32, p: vec3<f32>) -> Walls {
         var point = plane.point.xyz;
         var normal = plane.normal.xyz;
         let index = u32(plane.normal.w);
-        if (shape_moves(shapes[index])) {
-            let now = body_at(index, params.t);
+        let shape = shapes[index];
+        if (shape_moves(shape)) {
+            let now = shape_now(shape, params.t);
             point = to_world(now, point);
             normal = now.axis_x.xyz * normal.x + now.axis_y.xyz * normal.y + now.axis_z.xyz * normal.z;
         }

@@ -236,9 +236,8 @@ fn project_bend(c: Quad) {
     let e_hat = e * (1.0 / e_len);
     let il1 = 1.0 / l1;
     let il2 = 1.0 / l2;
-    let u1 = n1 * sqrt(il1);
-    let u2 = n2 * sqrt(il2);
-    let angle = atan2_poly(dot(cross(u1, u2), e_hat), dot(u1, u2));
+    // The normals' lengths cancel in the arctangent.
+    let angle = atan2_poly(dot(cross(n1, n2), e_hat), dot(n1, n2));
     let g2 = -(n1 * (e_len * il1));
     let g3 = -(n2 * (e_len * il2));
     let g0 = -(n1 * (dot(x2 - x1, e_hat) * il1) + n2 * (dot(x3 - x1, e_hat) * il2));

@@ -10,8 +10,6 @@
 //! inverse mass 0) are never written, so they join no conflict; a cloth
 //! hanging from one pinned row colours like a free one.
 
-use crate::parallel::for_each_item;
-
 /// Most colours projected in parallel; the rest share one last colour
 /// projected in order.
 pub(crate) const PARALLEL_COLOURS: usize = 64;
@@ -54,6 +52,34 @@ impl<C> Default for Coloured<C> {
             ends: Vec::new(),
             overflow: false,
         }
+    }
+}
+
+/// The constraints one thread projects at a time: a piece of a colour.
+pub(crate) struct Block<'a, C> {
+    items: &'a [C],
+    /// The overflow colour: its constraints share particles, so they are
+    /// projected one at a time, in order.
+    in_order: bool,
+}
+
+impl<C> Block<'_, C> {
+    /// Runs `one` on every constraint, in order.
+    pub(crate) fn project(&self, one: impl Fn(&C)) {
+        self.items.iter().for_each(one);
+    }
+
+    /// Runs `four` on four constraints at a time where they are
+    /// independent, `one` on the rest.
+    pub(crate) fn project_lanes(&self, four: impl Fn(&[C; 4]), one: impl Fn(&C)) {
+        if self.in_order {
+            return self.project(one);
+        }
+        let mut quads = self.items.chunks_exact(4);
+        for q in &mut quads {
+            four(q.try_into().expect("chunks of four"));
+        }
+        quads.remainder().iter().for_each(one);
     }
 }
 
@@ -171,42 +197,37 @@ impl<C: Touches + Clone + Sync> Coloured<C> {
         })
     }
 
-    /// Runs `project` on every constraint, colour after colour; a colour's
-    /// constraints in parallel (the overflow colour in order).
-    pub(crate) fn project(&self, project: impl Fn(&C) + Sync + Send) {
+    /// Appends the number of blocks of each colour to `blocks`, one stage
+    /// per colour for [`for_each_stage_block`]: a colour cut into pieces
+    /// of [`chunk_for`] constraints, the overflow colour in one piece.
+    ///
+    /// [`for_each_stage_block`]: crate::parallel::for_each_stage_block
+    pub(crate) fn stages(&self, blocks: &mut Vec<usize>) {
         let n = self.ends.len();
         for (k, colour) in self.colours().enumerate() {
             if self.overflow && k + 1 == n {
-                colour.iter().for_each(&project);
+                blocks.push(1);
             } else {
-                for_each_item(colour, chunk_for(colour.len()), |chunk| {
-                    chunk.iter().for_each(&project)
-                });
+                blocks.push(colour.len().div_ceil(chunk_for(colour.len())));
             }
         }
     }
 
-    /// Like [`Coloured::project`], four constraints at a time (`four`)
-    /// where a colour has four left, one at a time (`one`) for the rest.
-    pub(crate) fn project_lanes(
-        &self,
-        four: impl Fn(&[C; 4]) + Sync + Send,
-        one: impl Fn(&C) + Sync + Send,
-    ) {
-        let n = self.ends.len();
-        let run = |chunk: &[C]| {
-            let mut quads = chunk.chunks_exact(4);
-            for q in &mut quads {
-                four(q.try_into().expect("chunks of four"));
-            }
-            quads.remainder().iter().for_each(&one);
-        };
-        for (k, colour) in self.colours().enumerate() {
-            if self.overflow && k + 1 == n {
-                colour.iter().for_each(&one);
-            } else {
-                for_each_item(colour, chunk_for(colour.len()), run);
-            }
+    /// Block `b` of colour `k`, as counted by [`Coloured::stages`].
+    pub(crate) fn block(&self, k: usize, b: usize) -> Block<'_, C> {
+        let start = if k == 0 { 0 } else { self.ends[k - 1] as usize };
+        let end = self.ends[k] as usize;
+        if self.overflow && k + 1 == self.ends.len() {
+            return Block {
+                items: &self.items[start..end],
+                in_order: true,
+            };
+        }
+        let chunk = chunk_for(end - start);
+        let from = (start + b * chunk).min(end);
+        Block {
+            items: &self.items[from..(from + chunk).min(end)],
+            in_order: false,
         }
     }
 

@@ -137,6 +137,9 @@ pub(crate) struct Target<'a> {
     /// Where the body stood as the step began (centre of mass, m, and
     /// rotation), when known ([`Coupling::over_step`]).
     start: Option<(DVec3, glam::DQuat)>,
+    /// Whether the body moves within the stage: particles can move it, or
+    /// the rigid stage moved it over the step (set with `start`).
+    moves: bool,
     /// Where the body stands along its path over the step, before
     /// `moved`: centre of mass (m) and rotation ([`Coupling::follow`]).
     path: (DVec3, glam::DQuat),
@@ -212,6 +215,7 @@ impl<'a> Target<'a> {
             now: pose,
             local_com: b.local_com,
             start: None,
+            moves: movable && b.inv_mass > 0.0,
             path: (b.com, b.rotation),
         })
     }
@@ -245,15 +249,6 @@ impl<'a> Target<'a> {
     /// Whether particles can move the body.
     pub(crate) fn movable(&self) -> bool {
         self.inv_mass > 0.0
-    }
-
-    /// Whether the body moves within the stage: particles can move it, or
-    /// the rigid stage moved it over the step.
-    fn moves(&self) -> bool {
-        self.movable()
-            || self
-                .start
-                .is_some_and(|(com, rotation)| com != self.com || rotation != self.rotation)
     }
 
     /// A point given in the body's frame, in the world, m: where the body
@@ -623,6 +618,9 @@ impl<'a> Coupling<'a> {
                 t.linvel = v;
                 t.angvel = w;
                 t.start = start.pose_of(t.key);
+                t.moves = t.movable()
+                    || t.start
+                        .is_some_and(|(com, rotation)| com != t.com || rotation != t.rotation);
             }
         }
     }
@@ -631,7 +629,7 @@ impl<'a> Coupling<'a> {
     /// or one the rigid stage moved over the step (so the planes found at
     /// its start no longer bound where it stands).
     pub(crate) fn moving(&self) -> bool {
-        self.targets.iter().any(Target::moves)
+        self.targets.iter().any(|t| t.moves)
     }
 
     /// A point and a normal (m, unit) given at the start of the stage in
@@ -640,7 +638,7 @@ impl<'a> Coupling<'a> {
     /// keeps still).
     pub(crate) fn to_body(&self, target: u32, point: DVec3, normal: DVec3) -> (DVec3, DVec3) {
         let t = &self.targets[target as usize];
-        if !t.moves() {
+        if !t.moves {
             return (point, normal);
         }
         (
@@ -653,7 +651,7 @@ impl<'a> Coupling<'a> {
     /// where the body now stands.
     pub(crate) fn to_world(&self, target: u32, point: DVec3, normal: DVec3) -> (DVec3, DVec3) {
         let t = &self.targets[target as usize];
-        if !t.moves() {
+        if !t.moves {
             return (point, normal);
         }
         (t.now.transform_point(point), t.now.rotation * normal)

@@ -92,8 +92,8 @@ pub(crate) fn dihedral(x: [Vec3; 4]) -> Option<(f32, [Vec3; 4])> {
         return None;
     }
     let e_hat = e / e_len;
-    let (u1, u2) = (n1 / l1.sqrt(), n2 / l2.sqrt());
-    let angle = atan2(u1.cross(u2).dot(e_hat), u1.dot(u2));
+    // The normals' lengths cancel in the arctangent: no need to normalise.
+    let angle = atan2(n1.cross(n2).dot(e_hat), n1.dot(n2));
     // With the angle measured from n1 to n2 about e, each opposite vertex
     // moves the angle against its triangle's normal.
     let g2 = -n1 * (e_len / l1);

@@ -118,9 +118,7 @@ pub(crate) fn project_bends(c: &[Bend; 4], x: Scatter<'_, Vec3>, w: &[f32], inv_
     let e_hat = e * (one / ok.select(e_len, one));
     let il1 = one / ok.select(l1, one);
     let il2 = one / ok.select(l2, one);
-    let u1 = n1 * il1.sqrt();
-    let u2 = n2 * il2.sqrt();
-    let angle = atan2(u1.cross(u2).dot(e_hat), u1.dot(u2));
+    let angle = atan2(n1.cross(n2).dot(e_hat), n1.dot(n2));
     let g2 = -(n1 * (e_len * il1));
     let g3 = -(n2 * (e_len * il2));
     let g0 = -(n1 * ((x2 - x1).dot(e_hat) * il1) + n2 * ((x3 - x1).dot(e_hat) * il2));

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use crate::parallel::{par_map_chunks, par_map_chunks3, CHUNK};
+use crate::parallel::{for_each_stage_block, par_map_chunks, par_map_chunks3, CHUNK};
 
 use super::super::coupling::{Coupling, Push};
 use super::super::scatter::Scatter;
@@ -128,16 +128,33 @@ fn project_constraints(body: &mut SoftBody, inv_h2: f32, grad: &mut Vec<Vec3>) {
     } = body;
     let w = &w[..];
     let xs = Scatter::new(x);
-    distance.project_lanes(
-        |four| lanes::project_distances(four, xs, w, inv_h2),
-        |c| c.project(xs, w, inv_h2),
-    );
-    bend.project_lanes(
-        |four| lanes::project_bends(four, xs, w, inv_h2),
-        |c| c.project(xs, w, inv_h2),
-    );
-    tets.project(|c| c.project(xs, w, inv_h2));
-    tethers.project(|c| c.project(xs, w));
+    // Every colour of every kind, in one hand-off to the threads.
+    let mut blocks = Vec::new();
+    distance.stages(&mut blocks);
+    let bends = blocks.len();
+    bend.stages(&mut blocks);
+    let volumes = blocks.len();
+    tets.stages(&mut blocks);
+    let tethered = blocks.len();
+    tethers.stages(&mut blocks);
+    for_each_stage_block(&blocks, |s, b| {
+        if s < bends {
+            distance.block(s, b).project_lanes(
+                |four| lanes::project_distances(four, xs, w, inv_h2),
+                |c| c.project(xs, w, inv_h2),
+            );
+        } else if s < volumes {
+            bend.block(s - bends, b).project_lanes(
+                |four| lanes::project_bends(four, xs, w, inv_h2),
+                |c| c.project(xs, w, inv_h2),
+            );
+        } else if s < tethered {
+            tets.block(s - volumes, b)
+                .project(|c| c.project(xs, w, inv_h2));
+        } else {
+            tethers.block(s - tethered, b).project(|c| c.project(xs, w));
+        }
+    });
     if let Some(p) = body.pressure {
         project_pressure(body, p.target, p.compliance * inv_h2, grad);
     }
