@@ -40,6 +40,9 @@ pub struct Opts {
     /// Run the GPU cases sized for a real GPU (`soft`: `fluid_1m`) on a
     /// CPU adapter too (minutes on Mesa lavapipe).
     pub gpu_large: bool,
+    /// Whether the worlds of more than one thread pin their workers one to
+    /// a core (`soft`; the default: where the process owns its cores).
+    pub pin_threads: inertia_physics::ThreadPinning,
 }
 
 impl Opts {

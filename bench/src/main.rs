@@ -97,6 +97,11 @@ struct Cli {
     /// CPU adapter (Mesa lavapipe) too, where they take minutes.
     #[arg(long)]
     gpu_large: bool,
+    /// Pin the workers of the two-thread worlds one to a core (`soft`):
+    /// auto (where the process may run on no more cores than that), never
+    /// or always (default auto).
+    #[arg(long, value_enum, default_value_t = Pinning::Auto)]
+    pin_threads: Pinning,
     /// Draw the suite's records as SVG into DIR (`physics.svg`,
     /// `capacity.svg`, `bandwidth.svg`, `replay.svg`, `soft.svg`; other
     /// suites have no picture yet).
@@ -131,6 +136,24 @@ fn draw(
         Err(e) => {
             eprintln!("inertia-bench {}: {e}", suite.name());
             ExitCode::FAILURE
+        }
+    }
+}
+
+/// `--pin-threads`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Pinning {
+    Auto,
+    Never,
+    Always,
+}
+
+impl From<Pinning> for inertia_physics::ThreadPinning {
+    fn from(p: Pinning) -> Self {
+        match p {
+            Pinning::Auto => Self::Auto,
+            Pinning::Never => Self::Never,
+            Pinning::Always => Self::Always,
         }
     }
 }
@@ -172,6 +195,7 @@ fn main() -> ExitCode {
             bodies: cli.bodies,
             bots: cli.bots,
             gpu_large: cli.gpu_large,
+            pin_threads: cli.pin_threads.into(),
         },
         &mut reporter,
     ) {

@@ -479,19 +479,31 @@ fn replay(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
     Ok(true)
 }
 
-/// The series of `soft.svg`: a backend, a thread count and whether the
-/// binary was built for the machine's own CPU (`target_cpu_native`).
-const SOFT_SERIES: [(&str, u64, bool, &str); 4] = [
-    ("cpu", 1, false, "CPU, 1 thread"),
-    ("cpu", 2, false, "CPU, 2 threads"),
-    ("cpu", 2, true, "CPU, 2 threads, target-cpu=native"),
-    ("gpu", 0, false, "GPU"),
+/// The series of `soft.svg`: a backend, a thread count, whether the
+/// binary was built for the machine's own CPU (`target_cpu_native`) and
+/// whether the worker threads were pinned (`pinned`; rows from before the
+/// field were not; `None`: either).
+const SOFT_SERIES: [(&str, u64, bool, Option<bool>, &str); 5] = [
+    ("cpu", 1, false, None, "CPU, 1 thread"),
+    ("cpu", 2, false, Some(false), "CPU, 2 threads"),
+    ("cpu", 2, false, Some(true), "CPU, 2 threads, pinned"),
+    ("cpu", 2, true, None, "CPU, 2 threads, target-cpu=native"),
+    ("gpu", 0, false, None, "GPU"),
+];
+
+/// The colours of [`SOFT_SERIES`].
+const SOFT_COLOURS: [RGBColor; 5] = [
+    BAR_COLOURS[0],
+    BAR_COLOURS[1],
+    RGBColor(44, 160, 44),
+    BAR_COLOURS[2],
+    BAR_COLOURS[3],
 ];
 
 fn soft(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
     // The newest ms per step of each case and series, cases in the order
     // they first appear.
-    let mut cases: Vec<(String, [Option<f64>; 4])> = Vec::new();
+    let mut cases: Vec<(String, [Option<f64>; 5])> = Vec::new();
     for r in records {
         let (Some(case), Some(backend), Some(ms)) = (
             r.get("case").and_then(Value::as_str),
@@ -501,19 +513,18 @@ fn soft(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
             continue;
         };
         let threads = r.get("threads").and_then(Value::as_u64).unwrap_or(0);
-        let native = r
-            .get("target_cpu_native")
-            .and_then(Value::as_bool)
-            .unwrap_or(false);
-        let Some(k) = SOFT_SERIES.iter().position(|(b, t, n, _)| {
-            *b == backend && (*b == "gpu" || (*t == threads && *n == native))
+        let flag = |name: &str| r.get(name).and_then(Value::as_bool).unwrap_or(false);
+        let (native, pinned) = (flag("target_cpu_native"), flag("pinned"));
+        let Some(k) = SOFT_SERIES.iter().position(|(b, t, n, p, _)| {
+            *b == backend
+                && (*b == "gpu" || (*t == threads && *n == native && p.is_none_or(|p| p == pinned)))
         }) else {
             continue;
         };
         let at = match cases.iter().position(|c| c.0 == case) {
             Some(i) => i,
             None => {
-                cases.push((case.to_string(), [None; 4]));
+                cases.push((case.to_string(), [None; 5]));
                 cases.len() - 1
             }
         };
@@ -523,9 +534,9 @@ fn soft(records: &[Printed], path: &Path) -> Result<bool, BenchError> {
     let series: Vec<Bars> = SOFT_SERIES
         .iter()
         .enumerate()
-        .map(|(k, (_, _, _, label))| Bars {
+        .map(|(k, (_, _, _, _, label))| Bars {
             label,
-            colour: BAR_COLOURS[k],
+            colour: SOFT_COLOURS[k],
             values: cases.iter().map(|c| c.1[k]).collect(),
         })
         .collect();

@@ -71,7 +71,7 @@ pub use profile::{ProfileTotals, RigidProfile, StepProfile};
 pub use snapshot::SnapshotError;
 pub use soft_body::{build_cloth, build_rope, Cloth, ClothDesc, Rope, RopeDesc, SpringStiffness};
 pub use spring::SpringParams;
-pub use world::{QueryIndex, StepReport, World, WorldConfig};
+pub use world::{QueryIndex, StepReport, ThreadPinning, World, WorldConfig};
 pub use xpbd::fluid::{EmitterState, Fluid, FluidDesc, FluidEmitter};
 pub use xpbd::soft::{
     EdgeDesc, HingeDesc, Plasticity, PressureDesc, SoftBalloon, SoftBody, SoftBodyDesc, SoftCloth,

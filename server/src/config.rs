@@ -95,6 +95,44 @@ impl std::str::FromStr for LogFormat {
     }
 }
 
+/// Whether the physics workers are pinned one to a core
+/// ([`inertia_physics::ThreadPinning`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum PhysicsPinning {
+    /// Where the process may run on no more cores than it has physics
+    /// threads (it owns them: dedicated cores, a pod under Kubernetes'
+    /// static CPU manager policy).
+    #[default]
+    Auto,
+    /// Never: the OS places the workers.
+    Never,
+    /// Always, worker `k` to the `k`-th core the process may run on.
+    Always,
+}
+
+impl std::str::FromStr for PhysicsPinning {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(PhysicsPinning::Auto),
+            "never" => Ok(PhysicsPinning::Never),
+            "always" => Ok(PhysicsPinning::Always),
+            _ => Err(format!("expected `auto`, `never` or `always`, got `{s}`")),
+        }
+    }
+}
+
+impl From<PhysicsPinning> for inertia_physics::ThreadPinning {
+    fn from(p: PhysicsPinning) -> Self {
+        match p {
+            PhysicsPinning::Auto => Self::Auto,
+            PhysicsPinning::Never => Self::Never,
+            PhysicsPinning::Always => Self::Always,
+        }
+    }
+}
+
 /// One source's settings: every field optional. The command line, the
 /// environment and the TOML file each produce one; see the module docs for
 /// units and meanings (they are those of [`ServerConfig`]).
@@ -210,6 +248,11 @@ pub struct ConfigLayer {
     /// hand-off between threads.
     #[arg(long)]
     pub physics_threads: Option<usize>,
+    /// Pin the physics threads one to a core: auto (where the process may
+    /// run on no more cores than it has physics threads), never or always
+    /// (default auto). Pinning changes where they run, never the results.
+    #[arg(long, value_enum)]
+    pub physics_pin_threads: Option<PhysicsPinning>,
     /// A keyframe (the full saved world) every this many ticks
     /// (1..=1000000, default 900).
     #[arg(long)]
@@ -322,6 +365,8 @@ pub struct ServerConfig {
     /// Threads that step the physics; 0: half the machine's cores, at
     /// least one ([`ServerConfig::physics_threads_now`]).
     pub physics_threads: usize,
+    /// Whether the physics threads are pinned one to a core.
+    pub physics_pin_threads: PhysicsPinning,
     /// A keyframe every this many ticks.
     pub keyframe_ticks: u64,
     /// Retention limit of the recording, bytes.
@@ -369,6 +414,7 @@ impl Default for ServerConfig {
             record: true,
             tick_realtime: false,
             physics_threads: 0,
+            physics_pin_threads: PhysicsPinning::Auto,
             keyframe_ticks: DEFAULT_KEYFRAME_TICKS,
             record_max_bytes: DEFAULT_RECORD_MAX_BYTES,
             resume: false,
@@ -562,6 +608,9 @@ impl ServerConfig {
             record: layer.record.unwrap_or(self.record),
             tick_realtime: layer.tick_realtime.unwrap_or(self.tick_realtime),
             physics_threads: layer.physics_threads.unwrap_or(self.physics_threads),
+            physics_pin_threads: layer
+                .physics_pin_threads
+                .unwrap_or(self.physics_pin_threads),
             keyframe_ticks: layer.keyframe_ticks.unwrap_or(self.keyframe_ticks),
             record_max_bytes: layer.record_max_bytes.unwrap_or(self.record_max_bytes),
             resume: layer.resume.unwrap_or(self.resume),
@@ -656,11 +705,13 @@ impl ServerConfig {
         self.data_dir.join("recording")
     }
 
-    /// The physics world's settings: the body limit and the threads.
+    /// The physics world's settings: the body limit, the threads and their
+    /// pinning.
     pub fn world_config(&self) -> inertia_physics::WorldConfig {
         inertia_physics::WorldConfig {
             max_bodies: self.max_bodies,
             threads: self.physics_threads_now(),
+            pin_threads: self.physics_pin_threads.into(),
             ..inertia_physics::WorldConfig::default()
         }
     }
@@ -757,6 +808,7 @@ impl ConfigLayer {
             record: self.record.or(lower.record),
             tick_realtime: self.tick_realtime.or(lower.tick_realtime),
             physics_threads: self.physics_threads.or(lower.physics_threads),
+            physics_pin_threads: self.physics_pin_threads.or(lower.physics_pin_threads),
             keyframe_ticks: self.keyframe_ticks.or(lower.keyframe_ticks),
             record_max_bytes: self.record_max_bytes.or(lower.record_max_bytes),
             resume: self.resume.or(lower.resume),
@@ -829,6 +881,7 @@ fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigLayer, Confi
         record: get(env, "INERTIA_RECORD")?,
         tick_realtime: get(env, "INERTIA_TICK_REALTIME")?,
         physics_threads: get(env, "INERTIA_PHYSICS_THREADS")?,
+        physics_pin_threads: get(env, "INERTIA_PHYSICS_PIN_THREADS")?,
         keyframe_ticks: get(env, "INERTIA_KEYFRAME_TICKS")?,
         record_max_bytes: get(env, "INERTIA_RECORD_MAX_BYTES")?,
         resume: get(env, "INERTIA_RESUME")?,
@@ -1058,6 +1111,21 @@ mod tests {
                 .physics_threads,
             1
         );
+        assert_eq!(auto.physics_pin_threads, PhysicsPinning::Auto);
+        assert_eq!(
+            run(&["--physics-pin-threads", "never"])
+                .unwrap()
+                .world_config()
+                .pin_threads,
+            inertia_physics::ThreadPinning::Never
+        );
+        assert_eq!(
+            ServerConfig::from_args(["s"], env_of(&[("INERTIA_PHYSICS_PIN_THREADS", "always")]))
+                .unwrap()
+                .physics_pin_threads,
+            PhysicsPinning::Always
+        );
+        assert!(run(&["--physics-pin-threads", "sometimes"]).is_err());
         assert!(run(&["--tick-realtime"]).unwrap().tick_realtime);
         assert!(
             ServerConfig::from_args(["s"], env_of(&[("INERTIA_TICK_REALTIME", "true")]))

@@ -40,8 +40,8 @@ use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{
-    FluidDesc, FluidHandle, SoftBodyHandle, SoftCloth, SoftMaterial, SoftSolid, SolidShape, World,
-    WorldConfig,
+    FluidDesc, FluidHandle, SoftBodyHandle, SoftCloth, SoftMaterial, SoftSolid, SolidShape,
+    ThreadPinning, World, WorldConfig,
 };
 
 use crate::report::{median, note, progress, Record, Sink, Suspended};
@@ -74,9 +74,15 @@ impl Scene {
 
     /// The scene's world at `threads` threads; `readback`: a GPU system
     /// is read back every step.
-    fn build(self, threads: usize, readback: bool) -> Result<(World, Handle), BenchError> {
+    fn build(
+        self,
+        threads: usize,
+        pin_threads: ThreadPinning,
+        readback: bool,
+    ) -> Result<(World, Handle), BenchError> {
         let mut w = World::new(WorldConfig {
             threads,
+            pin_threads,
             energy_accounting: false,
             gpu_readback_every_step: readback,
             ..WorldConfig::default()
@@ -204,7 +210,9 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         .filter(|s| opts.wants(&s.name()))
         .collect();
     let (warmup, steps) = if opts.quick { (2, 6) } else { (30, 120) };
-    let threads = [1usize, 2];
+    // One thread, and two pinned as asked (by default where the process
+    // owns its cores).
+    let threads = [(1usize, ThreadPinning::Auto), (2, opts.pin_threads)];
     let pb = progress(scenes.len() as u64, "soft");
     let mut sink = Suspended::new(&pb, sink);
     // Cloth cases to run on the GPU, with the one-thread CPU world each is
@@ -217,8 +225,8 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     for scene in scenes {
         pb.set_message(scene.name());
         let mut worlds = Vec::new();
-        for &t in &threads {
-            worlds.push(scene.build(t, true)?);
+        for &(t, pin) in &threads {
+            worlds.push(scene.build(t, pin, true)?);
         }
         for _ in 0..warmup {
             for (w, _) in &mut worlds {
@@ -250,7 +258,8 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
             let r = Record::new()
                 .field("case", scene.name())
                 .field("backend", "cpu")
-                .field("threads", threads[k])
+                .field("threads", threads[k].0)
+                .field("pinned", w.pinned_cores().is_some())
                 .build_flags();
             let r = match *h {
                 Handle::Soft(h) => {
@@ -357,7 +366,7 @@ fn gpu_case(
         .field("case", scene.name())
         .field("backend", "gpu")
         .field("threads", crate::report::logical_cores());
-    let (mut w, _) = scene.build(1, true)?;
+    let (mut w, _) = scene.build(1, ThreadPinning::Auto, true)?;
     let adapter = match w.gpu_context() {
         Ok(ctx) => (ctx.description(), ctx.is_cpu_adapter()),
         Err(e) => {
@@ -453,7 +462,7 @@ fn fluid_gpu_case(
         );
         return Ok(());
     }
-    let (mut w, Handle::Fluid(h)) = scene.build(1, false)? else {
+    let (mut w, Handle::Fluid(h)) = scene.build(1, ThreadPinning::Auto, false)? else {
         return Err("not a fluid".into());
     };
     if let Err(e) = w.set_fluid_backend(h, Backend::Gpu) {

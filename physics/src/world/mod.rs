@@ -22,12 +22,14 @@ mod backend;
 mod fluid;
 mod joints;
 mod particles;
+mod pinning;
 mod query;
 mod query_index;
 mod rigid;
 mod soft;
 mod state;
 
+pub use pinning::ThreadPinning;
 pub use query_index::QueryIndex;
 
 use std::sync::Arc;
@@ -67,6 +69,10 @@ pub struct WorldConfig {
     /// refused ([`PhysicsError::TooManyBodies`]), and so is restoring a
     /// saved state that holds more. [`usize::MAX`] (the default): no limit.
     pub max_bodies: usize,
+    /// Whether the world's own worker threads (`threads` ≥ 2) are pinned
+    /// one to a core ([`ThreadPinning`]; by default where the process owns
+    /// its cores).
+    pub pin_threads: ThreadPinning,
 }
 
 impl Default for WorldConfig {
@@ -76,6 +82,7 @@ impl Default for WorldConfig {
             energy_accounting: true,
             gpu_readback_every_step: true,
             max_bodies: usize::MAX,
+            pin_threads: ThreadPinning::Auto,
         }
     }
 }
@@ -118,6 +125,8 @@ pub struct StepReport {
 pub struct World {
     config: WorldConfig,
     pool: Option<Arc<rayon::ThreadPool>>,
+    /// The core each worker of `pool` is pinned to, if pinned.
+    pinned: Option<Vec<usize>>,
     tick: u64,
     time: f64,
     systems: Arena<ParticleSystem>,
@@ -172,11 +181,28 @@ impl World {
     /// An empty world.
     pub fn new(config: WorldConfig) -> Result<Self, PhysicsError> {
         // One thread: run on the caller, no pool and no hand-off per step.
+        let pinned = if config.threads <= 1 {
+            None
+        } else {
+            pinning::plan(
+                config.pin_threads,
+                config.threads,
+                pinning::allowed_cores().as_deref(),
+            )
+        };
         let pool = if config.threads <= 1 {
             None
         } else {
+            let cores = pinned.clone();
             let p = rayon::ThreadPoolBuilder::new()
                 .num_threads(config.threads)
+                .start_handler(move |k| {
+                    if let Some(core) = cores.as_ref().and_then(|c| c.get(k)) {
+                        // A core the OS refuses leaves the thread where it
+                        // may run: placement, never results.
+                        pinning::pin_current_thread(*core);
+                    }
+                })
                 .build()
                 .map_err(|e| PhysicsError::ThreadPool(e.to_string()))?;
             Some(Arc::new(p))
@@ -184,6 +210,7 @@ impl World {
         Ok(Self {
             config,
             pool,
+            pinned,
             tick: 0,
             time: 0.0,
             systems: Arena::default(),
@@ -211,6 +238,13 @@ impl World {
     /// The configuration.
     pub fn config(&self) -> &WorldConfig {
         &self.config
+    }
+
+    /// The core each of the world's worker threads was pinned to
+    /// ([`WorldConfig::pin_threads`]), in worker order; `None` if they were
+    /// not pinned. A core the OS refused is listed all the same.
+    pub fn pinned_cores(&self) -> Option<&[usize]> {
+        self.pinned.as_deref()
     }
 
     /// Sets [`WorldConfig::max_bodies`]; refused
