@@ -38,7 +38,9 @@ where
     F: Fn(usize, usize) + Sync,
 {
     let total: usize = blocks.iter().sum();
-    if total <= 1 || super::inline() || rayon::current_num_threads() <= 1 {
+    // No stage of two blocks: nothing to share (a rope, a small cloth).
+    let alone = blocks.iter().all(|&n| n <= 1);
+    if alone || super::inline() || rayon::current_num_threads() <= 1 {
         for (s, &n) in blocks.iter().enumerate() {
             for b in 0..n {
                 run(s, b);
