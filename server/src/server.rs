@@ -156,6 +156,11 @@ pub async fn start_with_rules(
     })?;
     let bodies = built.world.bodies().count();
     info!(scene = %built.name, entities = built.entities.len(), bodies, max_bodies = config.max_bodies, "scene built");
+    info!(
+        threads = built.world.config().threads,
+        pinned_to = ?built.world.pinned_cores(),
+        "physics threads"
+    );
 
     let socket = std::net::UdpSocket::bind(listen).map_err(|source| StartError::Bind {
         what: "game port",
