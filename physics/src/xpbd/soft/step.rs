@@ -38,6 +38,8 @@ pub(crate) fn step(
         })
         .collect();
     let mut grad = Vec::new();
+    // The colours stay as they are over the substeps (tearing comes after).
+    let stages = Stages::of(body);
     let self_collide = body.material.self_collision && radius > 0.0;
     let mut self_collision = std::mem::take(&mut body.self_collision);
     if self_collide {
@@ -52,7 +54,7 @@ pub(crate) fn step(
             // one pass over the particles.
             finish_substep(body, h, keep, Some(g));
         }
-        project_constraints(body, inv_h2, &mut grad);
+        project_constraints(body, &stages, inv_h2, &mut grad);
         coupling.advance(f64::from(h));
         coupling.follow(f64::from(k + 1) / f64::from(n));
         for &(k, t) in &attached {
@@ -115,8 +117,38 @@ fn predict(body: &mut SoftBody, g: Vec3, h: f32) {
     );
 }
 
-/// Every constraint once, kind after kind, colour after colour.
-fn project_constraints(body: &mut SoftBody, inv_h2: f32, grad: &mut Vec<Vec3>) {
+/// The blocks of every colour of every kind, in solve order, for
+/// [`for_each_stage_block`]: distance, then bending, volume and tether
+/// colours, each kind starting at its own stage.
+struct Stages {
+    blocks: Vec<usize>,
+    bends: usize,
+    volumes: usize,
+    tethered: usize,
+}
+
+impl Stages {
+    fn of(body: &SoftBody) -> Self {
+        let mut blocks = Vec::new();
+        body.distance.stages(&mut blocks);
+        let bends = blocks.len();
+        body.bend.stages(&mut blocks);
+        let volumes = blocks.len();
+        body.tets.stages(&mut blocks);
+        let tethered = blocks.len();
+        body.tethers.stages(&mut blocks);
+        Self {
+            blocks,
+            bends,
+            volumes,
+            tethered,
+        }
+    }
+}
+
+/// Every constraint once, kind after kind, colour after colour, in one
+/// hand-off to the threads.
+fn project_constraints(body: &mut SoftBody, stages: &Stages, inv_h2: f32, grad: &mut Vec<Vec3>) {
     let SoftBody {
         x,
         w,
@@ -128,16 +160,13 @@ fn project_constraints(body: &mut SoftBody, inv_h2: f32, grad: &mut Vec<Vec3>) {
     } = body;
     let w = &w[..];
     let xs = Scatter::new(x);
-    // Every colour of every kind, in one hand-off to the threads.
-    let mut blocks = Vec::new();
-    distance.stages(&mut blocks);
-    let bends = blocks.len();
-    bend.stages(&mut blocks);
-    let volumes = blocks.len();
-    tets.stages(&mut blocks);
-    let tethered = blocks.len();
-    tethers.stages(&mut blocks);
-    for_each_stage_block(&blocks, |s, b| {
+    let &Stages {
+        ref blocks,
+        bends,
+        volumes,
+        tethered,
+    } = stages;
+    for_each_stage_block(blocks, |s, b| {
         if s < bends {
             distance.block(s, b).project_lanes(
                 |four| lanes::project_distances(four, xs, w, inv_h2),
