@@ -181,18 +181,14 @@ impl World {
     /// An empty world.
     pub fn new(config: WorldConfig) -> Result<Self, PhysicsError> {
         // One thread: run on the caller, no pool and no hand-off per step.
-        let pinned = if config.threads <= 1 {
-            None
+        let (pool, pinned) = if config.threads <= 1 {
+            (None, None)
         } else {
-            pinning::plan(
+            let pinned = pinning::plan(
                 config.pin_threads,
                 config.threads,
                 pinning::allowed_cores().as_deref(),
-            )
-        };
-        let pool = if config.threads <= 1 {
-            None
-        } else {
+            );
             let cores = pinned.clone();
             let p = rayon::ThreadPoolBuilder::new()
                 .num_threads(config.threads)
@@ -205,7 +201,7 @@ impl World {
                 })
                 .build()
                 .map_err(|e| PhysicsError::ThreadPool(e.to_string()))?;
-            Some(Arc::new(p))
+            (Some(Arc::new(p)), pinned)
         };
         Ok(Self {
             config,

@@ -137,8 +137,8 @@ pub(crate) struct Target<'a> {
     /// Where the body stood as the step began (centre of mass, m, and
     /// rotation), when known ([`Coupling::over_step`]).
     start: Option<(DVec3, glam::DQuat)>,
-    /// Whether the body moves within the stage: particles can move it, or
-    /// the rigid stage moved it over the step (set with `start`).
+    /// Whether the body moves within the stage ([`Target::finds_moves`],
+    /// kept with `start`).
     moves: bool,
     /// Where the body stands along its path over the step, before
     /// `moved`: centre of mass (m) and rotation ([`Coupling::follow`]).
@@ -195,7 +195,7 @@ impl<'a> Target<'a> {
         let shape = b.shape.as_ref()?;
         let pose = b.pose();
         let movable = b.kind == BodyKind::Dynamic && !b.quarantined;
-        Some(Target {
+        let mut target = Target {
             key,
             shape,
             aabb: shape.aabb(&pose).expanded(reach),
@@ -215,9 +215,11 @@ impl<'a> Target<'a> {
             now: pose,
             local_com: b.local_com,
             start: None,
-            moves: movable && b.inv_mass > 0.0,
+            moves: false,
             path: (b.com, b.rotation),
-        })
+        };
+        target.moves = target.finds_moves();
+        Some(target)
     }
 
     /// Velocity of the body's material at `p`, m/s: its motion over the
@@ -249,6 +251,15 @@ impl<'a> Target<'a> {
     /// Whether particles can move the body.
     pub(crate) fn movable(&self) -> bool {
         self.inv_mass > 0.0
+    }
+
+    /// Whether the body moves within the stage: particles can move it, or
+    /// the rigid stage moved it over the step.
+    fn finds_moves(&self) -> bool {
+        self.movable()
+            || self
+                .start
+                .is_some_and(|(com, rotation)| com != self.com || rotation != self.rotation)
     }
 
     /// A point given in the body's frame, in the world, m: where the body
@@ -618,9 +629,7 @@ impl<'a> Coupling<'a> {
                 t.linvel = v;
                 t.angvel = w;
                 t.start = start.pose_of(t.key);
-                t.moves = t.movable()
-                    || t.start
-                        .is_some_and(|(com, rotation)| com != t.com || rotation != t.rotation);
+                t.moves = t.finds_moves();
             }
         }
     }
