@@ -13,6 +13,7 @@ use clap::{Parser, ValueEnum};
 use inertia_bench::report::{Machine, Reporter};
 use inertia_bench::suites::Suite;
 use inertia_bench::Opts;
+use inertia_server::config::PhysicsPinning;
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum SuiteArg {
@@ -100,8 +101,8 @@ struct Cli {
     /// Pin the workers of the two-thread worlds one to a core (`soft`):
     /// auto (where the process may run on no more cores than that), never
     /// or always (default auto).
-    #[arg(long, value_enum, default_value_t = Pinning::Auto)]
-    pin_threads: Pinning,
+    #[arg(long, value_enum, default_value_t = PhysicsPinning::Auto)]
+    pin_threads: PhysicsPinning,
     /// Draw the suite's records as SVG into DIR (`physics.svg`,
     /// `capacity.svg`, `bandwidth.svg`, `replay.svg`, `soft.svg`; other
     /// suites have no picture yet).
@@ -136,24 +137,6 @@ fn draw(
         Err(e) => {
             eprintln!("inertia-bench {}: {e}", suite.name());
             ExitCode::FAILURE
-        }
-    }
-}
-
-/// `--pin-threads`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum Pinning {
-    Auto,
-    Never,
-    Always,
-}
-
-impl From<Pinning> for inertia_physics::ThreadPinning {
-    fn from(p: Pinning) -> Self {
-        match p {
-            Pinning::Auto => Self::Auto,
-            Pinning::Never => Self::Never,
-            Pinning::Always => Self::Always,
         }
     }
 }
