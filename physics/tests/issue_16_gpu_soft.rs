@@ -1,5 +1,6 @@
 //! Soft bodies on the GPU (feature `gpu`) follow the CPU within
-//! `SOFT_GPU_TOLERANCE`, touch rigid bodies and push them back as the CPU
+//! `SOFT_GPU_TOLERANCE`, touch rigid bodies and push them back, hang from
+//! them, keep their inflated volume, flow plastically and tear as the CPU
 //! does; what the GPU path does not run is refused.
 //!
 //! Run: `cargo test -p inertia-physics --features gpu --test integration issue_16_gpu_soft::`.
@@ -12,8 +13,8 @@ use inertia_physics::gpu::SOFT_GPU_TOLERANCE;
 use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{
-    Backend, BodyHandle, PhysicsError, SoftBodyHandle, SoftCloth, SoftMaterial, SoftSolid,
-    SolidShape, World, WorldConfig,
+    Backend, BodyHandle, PhysicsError, Plasticity, SoftBalloon, SoftBody, SoftBodyHandle,
+    SoftCloth, SoftMaterial, SoftRope, SoftSolid, SolidShape, World, WorldConfig,
 };
 
 use crate::common::at;
@@ -248,4 +249,282 @@ fn issue_16_a_body_the_gpu_cannot_take_moves_a_soft_body_to_the_cpu() {
         .positions()
         .iter()
         .all(|p| p.is_finite()));
+}
+
+/// The particle of `a` farthest from its twin in `b`, m.
+fn farthest(a: &SoftBody, b: &SoftBody) -> f32 {
+    a.positions()
+        .iter()
+        .zip(b.positions())
+        .map(|(p, q)| (*p - *q).length())
+        .fold(0.0f32, f32::max)
+}
+
+/// A rope between two pins with a crate hung from two of its particles
+/// (attachments, both ways), an inflated balloon dropped on a slab
+/// (pressure, contacts), and a bar bent past its yield by a kinematic
+/// hand it is attached to (plasticity; the hand is a cylinder, a shape
+/// the GPU does not touch but holds on to).
+fn held_inflated_bent(w: &mut World) -> ([SoftBodyHandle; 3], BodyHandle, BodyHandle) {
+    w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    crate::common::ground(w);
+    let rope = SoftRope {
+        start: DVec3::new(-1.0, 3.0, 5.0),
+        end: DVec3::new(1.0, 3.0, 5.0),
+        segments: 8,
+        mass: 1.0,
+        compliance: 0.0,
+        pin_start: true,
+        pin_end: true,
+        tethers: false,
+        material: SoftMaterial {
+            substeps: 20,
+            damping: 0.5,
+            ..SoftMaterial::default()
+        },
+    };
+    let r = w.add_soft_body(&rope.build().unwrap()).unwrap();
+    let crate_ = RigidBodyDesc::dynamic(
+        Shape::cuboid(DVec3::new(0.3, 0.1, 0.2)).unwrap(),
+        50.0,
+        at(DVec3::new(0.0, 2.5, 5.0)),
+    )
+    .unwrap();
+    let c = w.add_body(&crate_).unwrap();
+    w.attach_soft_to_body(r, 3, c, DVec3::new(-0.25, 3.0, 5.0), 0.0)
+        .unwrap();
+    w.attach_soft_to_body(r, 5, c, DVec3::new(0.25, 3.0, 5.0), 1e-6)
+        .unwrap();
+    let balloon = SoftBalloon {
+        centre: DVec3::new(0.0, 0.6, -3.0),
+        radius: 0.4,
+        subdivisions: 3,
+        pressure: 1.2,
+        material: SoftMaterial {
+            collision_radius: 0.01,
+            damping: 0.5,
+            ..SoftMaterial::default()
+        },
+        ..SoftBalloon::default()
+    };
+    let b = w.add_soft_body(&balloon.build().unwrap()).unwrap();
+    let bar = SoftSolid {
+        shape: SolidShape::Box {
+            half_extents: DVec3::new(0.5, 0.05, 0.05),
+        },
+        position: DVec3::new(5.5, 1.0, 0.0),
+        cell: 0.05,
+        density: 500.0,
+        edge_compliance: 1e-8,
+        volume_compliance: 0.0,
+        material: SoftMaterial {
+            damping: 2.0,
+            substeps: 20,
+            gravity_scale: 0.0,
+            plasticity: Some(Plasticity {
+                yield_strain: 0.01,
+                creep: 20.0,
+                max_strain: 0.3,
+            }),
+            ..SoftMaterial::default()
+        },
+        ..SoftSolid::default()
+    };
+    let mut desc = bar.build().unwrap();
+    let mut tip = Vec::new();
+    for (k, p) in desc.positions.iter().enumerate() {
+        if p.x < 5.0 + 1e-6 {
+            desc.masses[k] = 0.0;
+        }
+        if p.x > 6.0 - 1e-6 {
+            tip.push(k as u32);
+        }
+    }
+    let bar = w.add_soft_body(&desc).unwrap();
+    let hand = RigidBodyDesc::kinematic(
+        Shape::cylinder(0.05, 0.02).unwrap(),
+        at(DVec3::new(6.0, 1.0, 0.0)),
+    );
+    let hand = w.add_body(&hand).unwrap();
+    for &k in &tip {
+        let p = w.soft_body(bar).unwrap().positions()[k as usize].as_dvec3();
+        w.attach_soft_to_body(bar, k, hand, p, 0.0).unwrap();
+    }
+    ([r, b, bar], c, hand)
+}
+
+/// Attachments, pressure and plastic flow on the GPU: the crate hangs
+/// from the rope, the balloon keeps its inflated volume on the slab and
+/// the bar keeps a set, as on the CPU and within the GPU's tolerance; the
+/// bar's rest lengths come back with its positions.
+#[test]
+fn issue_16_attachments_pressure_and_plasticity_on_the_gpu_follow_the_cpu() {
+    if skip() {
+        return;
+    }
+    let mut cpu = World::new(WorldConfig::default()).unwrap();
+    let mut gpu = World::new(WorldConfig::default()).unwrap();
+    let (bodies, c, hand) = held_inflated_bent(&mut cpu);
+    held_inflated_bent(&mut gpu);
+    for h in bodies {
+        gpu.set_soft_backend(h, Backend::Gpu).unwrap();
+    }
+    let bend = |w: &mut World, step: usize| {
+        let f = (step as f64 / 30.0).min(1.0);
+        w.set_body_pose(hand, at(DVec3::new(6.0, 1.0 - 0.3 * f, 0.0)))
+            .unwrap();
+    };
+    for step in 1..=60 {
+        bend(&mut cpu, step);
+        bend(&mut gpu, step);
+        cpu.step(DT).unwrap();
+        gpu.step(DT).unwrap();
+    }
+    let [rope, balloon, bar] =
+        bodies.map(|h| (cpu.soft_body(h).unwrap(), gpu.soft_body(h).unwrap()));
+    for (name, (a, b)) in [("rope", rope), ("balloon", balloon), ("bar", bar)] {
+        assert_eq!(b.backend(), Backend::Gpu, "{name}");
+        println!(
+            "{name}: the GPU stands at most {:.2e} m from the CPU",
+            farthest(a, b)
+        );
+    }
+    // The crate hangs from the rope below where it was hung.
+    let (ca, cg) = (cpu.body(c).unwrap(), gpu.body(c).unwrap());
+    println!(
+        "crate: y = {:.4} m on the CPU, {:.4} m on the GPU",
+        ca.center_of_mass().y,
+        cg.center_of_mass().y
+    );
+    assert!(cg.center_of_mass().y < 2.5 && cg.center_of_mass().y > 2.0);
+    assert!((ca.center_of_mass() - cg.center_of_mass()).length() < 5e-3);
+    assert!(farthest(rope.0, rope.1) < 5e-3);
+    // The balloon keeps its inflated volume as on the CPU.
+    let (va, vg) = (balloon.0.enclosed_volume(), balloon.1.enclosed_volume());
+    println!("balloon: volume {va:.4} m³ on the CPU, {vg:.4} m³ on the GPU");
+    assert!((va - vg).abs() < 0.01 * va, "{va} {vg}");
+    assert!(farthest(balloon.0, balloon.1) < SOFT_GPU_TOLERANCE);
+    // The bar's rest lengths flowed as on the CPU.
+    let flowed = |b: &SoftBody| b.edges().filter(|e| e.2 != e.3).count();
+    let rest_gap = bar
+        .0
+        .edges()
+        .zip(bar.1.edges())
+        .map(|(a, b)| (a.2 - b.2).abs())
+        .fold(0.0f32, f32::max);
+    println!(
+        "bar: {} rest lengths flowed on the CPU, {} on the GPU, at most {rest_gap:.2e} m apart",
+        flowed(bar.0),
+        flowed(bar.1)
+    );
+    assert!(flowed(bar.1) > 0);
+    assert!(rest_gap < 1e-3, "{rest_gap}");
+    assert!(farthest(bar.0, bar.1) < SOFT_GPU_TOLERANCE);
+    // Let go, the bar keeps its set on the GPU as on the CPU.
+    for w in [&mut cpu, &mut gpu] {
+        w.remove_body(hand).unwrap();
+        for _ in 0..60 {
+            w.step(DT).unwrap();
+        }
+    }
+    let tip_drop = |w: &World| {
+        let b = w.soft_body(bodies[2]).unwrap();
+        b.positions()
+            .iter()
+            .map(|p| 1.0 - p.y)
+            .fold(0.0f32, f32::max)
+    };
+    println!(
+        "bar let go: its tip stays {:.4} m down on the CPU, {:.4} m on the GPU",
+        tip_drop(&cpu),
+        tip_drop(&gpu)
+    );
+    assert!(tip_drop(&gpu) > 0.05);
+    assert!((tip_drop(&cpu) - tip_drop(&gpu)).abs() < 0.01);
+}
+
+/// A hanging cloth that tears on the GPU tears on the same step and at
+/// the same edges as on the CPU: it is read back every step, tears on
+/// the CPU, and goes up again.
+#[test]
+fn issue_16_a_cloth_on_the_gpu_tears_where_the_cpu_does() {
+    if skip() {
+        return;
+    }
+    let n = 20;
+    let cloth = SoftCloth {
+        corner: DVec3::new(-1.0, 3.0, 0.0),
+        across: DVec3::new(2.0, 0.0, 0.0),
+        down: DVec3::new(0.0, -2.0, 0.0),
+        rows: n,
+        cols: n,
+        mass: 2.0,
+        stretch_compliance: 1e-3,
+        shear_compliance: 1e-3,
+        bend_compliance: 100.0,
+        pinned: vec![[0, 0], [0, n - 1]],
+        tethers: false,
+        material: SoftMaterial {
+            tear_strain: Some(0.08),
+            ..SoftMaterial::default()
+        },
+    };
+    let desc = cloth.build().unwrap();
+    let mut worlds = [false, true].map(|_| {
+        let mut w = World::new(WorldConfig {
+            gpu_readback_every_step: false,
+            ..WorldConfig::default()
+        })
+        .unwrap();
+        w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+        let h = w.add_soft_body(&desc).unwrap();
+        (w, h)
+    });
+    let h = worlds[1].1;
+    worlds[1].0.set_soft_backend(h, Backend::Gpu).unwrap();
+    let edges =
+        |w: &World| -> Vec<[u32; 2]> { w.soft_body(h).unwrap().edges().map(|e| e.0).collect() };
+    let all = edges(&worlds[0].0);
+    let mut first = [None, None];
+    for step in 0..600 {
+        for (k, (w, _)) in worlds.iter_mut().enumerate() {
+            w.step(DT).unwrap();
+            if first[k].is_none() && edges(w).len() < all.len() {
+                let left = edges(w);
+                let torn: Vec<[u32; 2]> =
+                    all.iter().filter(|e| !left.contains(e)).copied().collect();
+                first[k] = Some((step, torn));
+            }
+        }
+        if first.iter().all(Option::is_some) {
+            break;
+        }
+    }
+    let [Some(on_cpu), Some(on_gpu)] = first else {
+        panic!("the cloth tore on both: {first:?}");
+    };
+    println!(
+        "first tear on the CPU: step {} {:?}; on the GPU: step {} {:?}",
+        on_cpu.0, on_cpu.1, on_gpu.0, on_gpu.1
+    );
+    assert_eq!(on_cpu, on_gpu);
+    // It steps on, torn, on the GPU.
+    assert_eq!(worlds[1].0.soft_body(h).unwrap().backend(), Backend::Gpu);
+    for (w, _) in &mut worlds {
+        for _ in 0..30 {
+            w.step(DT).unwrap();
+        }
+    }
+    let (a, b) = (
+        worlds[0].0.soft_body(h).unwrap(),
+        worlds[1].0.soft_body(h).unwrap(),
+    );
+    println!(
+        "30 steps on: {} and {} edges left, the GPU at most {:.2e} m from the CPU",
+        a.edges().count(),
+        b.edges().count(),
+        farthest(a, b)
+    );
+    assert!(b.positions().iter().all(|p| p.is_finite()));
+    assert!(b.triangles().len() < desc.triangles.len());
 }

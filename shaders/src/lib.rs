@@ -93,13 +93,19 @@ pub mod layout {
     /// `struct FieldForce`: three `vec4<f32>`.
     pub const FIELD_FORCE_BYTES: usize = 48;
     /// `struct Params` of `xpbd_soft.wgsl`: one dispatch's uniform slot.
-    pub const SOFT_PARAMS_BYTES: usize = 96;
+    pub const SOFT_PARAMS_BYTES: usize = 128;
     /// `struct Distance` of `xpbd_soft.wgsl`.
     pub const SOFT_DISTANCE_BYTES: usize = 16;
     /// `struct Quad` of `xpbd_soft.wgsl` (hinges and tetrahedra).
     pub const SOFT_QUAD_BYTES: usize = 32;
     /// `struct Tether` of `xpbd_soft.wgsl`.
     pub const SOFT_TETHER_BYTES: usize = 16;
+    /// `struct Attachment` of `xpbd_soft.wgsl`: a particle held to a rigid
+    /// body.
+    pub const SOFT_ATTACHMENT_BYTES: usize = 32;
+    /// Triangles, and particles, whose pressure sums one invocation of
+    /// `shell_sums` takes (`SHELL_CHUNK` of `xpbd_soft.wgsl`).
+    pub const SHELL_CHUNK: usize = 256;
     /// `struct FluidParams` of `pbf.wgsl`: one step's uniform block (the
     /// wall table's 2 × 64 entries included).
     pub const FLUID_PARAMS_BYTES: usize = 144 + 2 * 64 * 4;

@@ -128,13 +128,19 @@ fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
         names,
         [
             "advance_bodies",
+            "attach",
             "collide",
             "find_contacts",
             "finish",
+            "flow",
             "predict",
             "project",
             "reduce_bodies",
             "reduce_chunks",
+            "shell_apply",
+            "shell_gradient",
+            "shell_sums",
+            "shell_total",
             "take_pushes"
         ]
     );
@@ -152,6 +158,7 @@ fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
         ("Distance", layout::SOFT_DISTANCE_BYTES),
         ("Quad", layout::SOFT_QUAD_BYTES),
         ("Tether", layout::SOFT_TETHER_BYTES),
+        ("Attachment", layout::SOFT_ATTACHMENT_BYTES),
         ("Shape", layout::SHAPE_BYTES),
         ("Push", layout::PUSH_BYTES),
         ("Motion", layout::MOTION_BYTES),
@@ -162,6 +169,7 @@ fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
         ("WORKGROUP_SIZE", layout::WORKGROUP_SIZE as usize),
         ("BODY_SLOTS", layout::BODY_SLOTS),
         ("PUSH_CHUNK", layout::PUSH_CHUNK),
+        ("SHELL_CHUNK", layout::SHELL_CHUNK),
     ] {
         let decl = format!("const {constant}: u32 = {value}u;");
         assert!(

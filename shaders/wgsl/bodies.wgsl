@@ -32,6 +32,9 @@
 const SHAPE_CUBOID: u32 = 0u;
 const SHAPE_SPHERE: u32 = 1u;
 const SHAPE_CAPSULE: u32 = 2u;
+// A body particles are attached to but never touch (any shape: only its
+// pose and mass matter).
+const SHAPE_UNTOUCHED: u32 = 3u;
 // Nothing: no neighbour, no shape, a shape the particles cannot move.
 const NONE: u32 = 0xffffffffu;
 // Bodies a particle keeps over a step.
@@ -249,6 +252,9 @@ fn project_local(s: Shape, p: vec3<f32>) -> vec4<f32> {
 // is inside or closer than `within` (m).
 fn surface(s: Shape, p: vec3<f32>, within: f32) -> Surface {
     var out = Surface(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false);
+    if (s.kind.x == SHAPE_UNTOUCHED) {
+        return out;
+    }
     let local = to_local(s, p);
     let proj = project_local(s, local);
     let inside = proj.w > 0.5;
@@ -429,9 +435,27 @@ fn advance_bodies(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_wor
     motion[b] = m;
 }
 
+// Movable body `slot` moved by the positional impulse `impulse` (N s²)
+// with moment `moment` about its centre of mass (N m s²), and given the
+// velocity of that move over the substep (`Target::shift`).
+fn shift(slot: u32, impulse: vec3<f32>, moment: vec3<f32>) {
+    if (!(finite3(impulse) && finite3(moment))) {
+        return;
+    }
+    var m = motion[slot];
+    let s = shapes[m.shape.x];
+    let dx = impulse * s.inv_mass.x;
+    let dtheta = s.inv_inertia_x.xyz * moment.x + s.inv_inertia_y.xyz * moment.y
+        + s.inv_inertia_z.xyz * moment.z;
+    m.dx = vec4<f32>(m.dx.xyz + dx, 0.0);
+    m.dq = turned(m.dq, dtheta);
+    m.dv = vec4<f32>(m.dv.xyz + dx / params.substep, 0.0);
+    m.dw = vec4<f32>(m.dw.xyz + dtheta / params.substep, 0.0);
+    motion[slot] = m;
+}
+
 // Each movable body moved by what the substep's contacts pushed it with
-// (summed by `reduce_chunks` and `reduce_bodies`), and given the velocity
-// of that move (`Coupling::take_pushes`).
+// (summed by `reduce_chunks` and `reduce_bodies`; `Coupling::take_pushes`).
 @compute @workgroup_size(64)
 fn take_pushes(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let b = linear(id, groups);
@@ -444,17 +468,5 @@ fn take_pushes(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgr
     if (all(impulse == vec3<f32>(0.0)) && all(moment == vec3<f32>(0.0))) {
         return;
     }
-    if (!(finite3(impulse) && finite3(moment))) {
-        return;
-    }
-    var m = motion[b];
-    let s = shapes[m.shape.x];
-    let dx = impulse * s.inv_mass.x;
-    let dtheta = s.inv_inertia_x.xyz * moment.x + s.inv_inertia_y.xyz * moment.y
-        + s.inv_inertia_z.xyz * moment.z;
-    m.dx = vec4<f32>(m.dx.xyz + dx, 0.0);
-    m.dq = turned(m.dq, dtheta);
-    m.dv = vec4<f32>(m.dv.xyz + dx / params.substep, 0.0);
-    m.dw = vec4<f32>(m.dw.xyz + dtheta / params.substep, 0.0);
-    motion[b] = m;
+    shift(b, impulse, moment);
 }

@@ -5,21 +5,34 @@
 // Once a step, `find_contacts` keeps the bodies within reach of each
 // particle (at most BODY_SLOTS, the CPU's candidates). Each substep is a
 // run of dispatches, each its own usage scope (so each sees the writes of
-// the one before): `predict` (or `finish` of the last substep fused with
-// this one's prediction), then one `project` dispatch per colour of each
-// constraint kind (distance, bending, volume, tethers), in the CPU's
-// colour order, then `collide` (each particle kept the collision radius
-// out of its contacts' bodies, with friction). A dynamic body shares each
-// correction with the particle as an XPBD contact does (`Coupling::press`):
-// each substep `advance_bodies` moves it on by the velocity the stage gave
-// it, `collide` keeps each particle's pushes, `reduce_chunks` and
-// `reduce_bodies` sum them per body in a fixed order, and `take_pushes`
-// moves the body by them (`motion`), so the next substep meets it there. Within a colour no two constraints move the same
-// particle, so every invocation writes only its own constraint's
+// the one before), in the CPU's order (xpbd/soft/step.rs):
+// - `predict` (or `finish` of the last substep fused with this one's
+//   prediction);
+// - one `project` dispatch per colour of each constraint kind (distance,
+//   bending, volume, tethers), in the CPU's colour order;
+// - for an inflated shell, the pressure constraint: `shell_gradient`,
+//   `shell_sums`, `shell_total`, `shell_apply`;
+// - `advance_bodies`, then `attach` (the attachments to rigid bodies, one
+//   invocation, in order, each moving its body before the next);
+// - `collide` (each particle kept the collision radius out of its
+//   contacts' bodies, with friction), and the reductions of what the
+//   contacts gave the bodies.
+// After the last substep's `finish`, `flow` lets a plastic body's rest
+// lengths follow its strain.
+//
+// A dynamic body shares each correction with the particle as an XPBD
+// contact does (`Coupling::press`): each substep `advance_bodies` moves it
+// on by the velocity the stage gave it, `collide` keeps each particle's
+// pushes, `reduce_chunks` and `reduce_bodies` sum them per body in a fixed
+// order, and `take_pushes` moves the body by them (`motion`), so the next
+// substep meets it there. Within a colour no two constraints move the
+// same particle, so every invocation writes only its own constraint's
 // particles and nothing needs atomics; an overflow colour (a particle in
 // more than 64 constraints of a kind) is projected by one invocation, in
-// order, as the CPU does. The formulas are the CPU's (constraints.rs),
-// operation for operation, the arctangent the same polynomial.
+// order, as the CPU does. The pressure constraint's sums run over chunks
+// of SHELL_CHUNK triangles and particles, then over the chunks, in order:
+// no atomics there either. The formulas are the CPU's (constraints.rs,
+// step.rs), operation for operation, the arctangent the same polynomial.
 //
 // A particle is a vec4: xyz position (m) and w its inverse mass (1/kg; 0:
 // pinned). Units: m, s, kg; compliance per constraint as on the CPU.
@@ -28,6 +41,9 @@ const WORKGROUP_SIZE: u32 = 64u;
 const PI: f32 = 3.14159265358979;
 const TAU: f32 = 6.28318530717959;
 const HALF_PI: f32 = 1.57079632679490;
+// Triangles, and particles, whose pressure sums one invocation of
+// `shell_sums` takes.
+const SHELL_CHUNK: u32 = 256u;
 
 // What one dispatch does (a slot of a dynamic-offset uniform buffer).
 struct SoftParams {
@@ -69,8 +85,24 @@ struct SoftParams {
     t: f32,
     // The substep, s (`bodies.wgsl`'s name for `h`).
     substep: f32,
-    pad0: u32,
-    pad1: u32,
+    // Attachments to rigid bodies (`attach`).
+    attachments: u32,
+    // The pressure shell: its triangles, and the chunks `shell_sums`
+    // takes (of SHELL_CHUNK triangles and of SHELL_CHUNK particles).
+    triangles: u32,
+    shell_chunks: u32,
+    // The volume kept (m³), and the pressure's compliance over h² (Pa⁻¹
+    // s⁻²).
+    goal_volume: f32,
+    pressure_alpha: f32,
+    // `flow`: distance constraints, the strain past which a rest length
+    // flows, the largest permanent strain, and the fraction of the excess
+    // that flows this step.
+    distances_n: u32,
+    yield_strain: f32,
+    max_strain: f32,
+    flow_rate: f32,
+    pad: u32,
 }
 
 // Two particles, rest length (m, bits), compliance (m/N, bits).
@@ -98,11 +130,20 @@ struct Tether {
     pad: f32,
 }
 
+// A particle held to a point of a rigid body (`SoftAttachment`).
+struct Attachment {
+    // xyz: the point in the body's frame (m); w: the compliance (m/N).
+    local: vec4<f32>,
+    // x: the particle; y: the body's shape this step (NONE: none).
+    who: vec4<u32>,
+}
+
 @group(0) @binding(0) var<uniform> params: SoftParams;
 @group(0) @binding(1) var<storage, read_write> x: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> v: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> prev: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> distances: array<Distance>;
+// Their rest lengths flow in a plastic body (`flow`).
+@group(0) @binding(4) var<storage, read_write> distances: array<Distance>;
 @group(0) @binding(5) var<storage, read> bends: array<Quad>;
 @group(0) @binding(6) var<storage, read> tets: array<Quad>;
 @group(0) @binding(7) var<storage, read> tethers: array<Tether>;
@@ -118,6 +159,18 @@ struct Tether {
 @group(0) @binding(11) var<storage, read_write> partials: array<Push>;
 // Per movable body: what the stage did to it so far.
 @group(0) @binding(12) var<storage, read_write> motion: array<Motion>;
+// The attachments to rigid bodies, their shapes resolved for the step.
+@group(0) @binding(13) var<storage, read> attachments: array<Attachment>;
+// The pressure shell: its triangles (three particles each), then, per
+// particle, where its list of corners starts (n + 1 offsets), then the
+// lists (triangle * 3 + corner, in triangle order).
+@group(0) @binding(14) var<storage, read> shell: array<u32>;
+// Per particle: the pressure gradient (xyz) and its inverse mass times
+// the gradient's square (w); then per chunk of `shell_sums`: the volume
+// (x) and the weights (y); then the multiplier's change (x).
+@group(0) @binding(15) var<storage, read_write> pressure: array<vec4<f32>>;
+// Per distance constraint: its rest length as built (m).
+@group(0) @binding(16) var<storage, read> rest0: array<f32>;
 
 fn linear(id: vec3<u32>, groups: vec3<u32>) -> u32 {
     return id.x + id.y * groups.x * WORKGROUP_SIZE;
@@ -404,4 +457,151 @@ fn collide(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
         p = press(i, slot, shape, p, q, own.w, params.radius, params.friction);
     }
     x[i] = vec4<f32>(p, own.w);
+}
+
+// ---- attachments to rigid bodies (step.rs `attach`) ----
+
+// Every attachment, in order, by one invocation: a zero-length compliant
+// constraint from the particle to the body's point, both moved by their
+// shares; the body moves before the next attachment meets it.
+@compute @workgroup_size(64)
+fn attach(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    if (linear(id, groups) != 0u) {
+        return;
+    }
+    for (var k = 0u; k < params.attachments; k++) {
+        let a = attachments[k];
+        let shape = a.who.y;
+        if (shape == NONE) {
+            continue;
+        }
+        let i = a.who.x;
+        let own = x[i];
+        let s = body_at(shape, params.t);
+        let anchor = to_world(s, a.local.xyz);
+        let d = own.xyz - anchor;
+        let len = length(d);
+        if (len < 1e-9 || !finite(len)) {
+            continue;
+        }
+        let n = d / len;
+        let total = own.w + inv_mass_along(s, anchor, n) + a.local.w * params.inv_h2;
+        if (total <= 0.0) {
+            continue;
+        }
+        let dl = -len / total;
+        x[i] = vec4<f32>(own.xyz + n * (own.w * dl), own.w);
+        let slot = shapes[shape].kind.y;
+        if (slot != NONE) {
+            let impulse = -n * dl;
+            shift(slot, impulse, cross(anchor - s.com.xyz, impulse));
+        }
+    }
+}
+
+// ---- pressure (step.rs `project_pressure`) ----
+
+// The position of corner `c` of shell triangle `t`.
+fn corner(t: u32, c: u32) -> vec3<f32> {
+    return x[shell[3u * t + c]].xyz;
+}
+
+// Each particle's share of the enclosed volume's gradient, summed over
+// its triangles in triangle order (as the CPU adds them).
+@compute @workgroup_size(64)
+fn shell_gradient(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let offsets = 3u * params.triangles;
+    let lists = offsets + params.n + 1u;
+    var g = vec3<f32>(0.0);
+    for (var e = shell[offsets + i]; e < shell[offsets + i + 1u]; e++) {
+        let entry = shell[lists + e];
+        let t = entry / 3u;
+        let c = entry % 3u;
+        g += cross(corner(t, (c + 1u) % 3u), corner(t, (c + 2u) % 3u)) / 6.0;
+    }
+    let w = x[i].w;
+    pressure[i] = vec4<f32>(g, w * dot(g, g));
+}
+
+// Each chunk's enclosed volume (of its SHELL_CHUNK triangles) and weights
+// (of its SHELL_CHUNK particles), summed in order.
+@compute @workgroup_size(64)
+fn shell_sums(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let chunk = linear(id, groups);
+    if (chunk >= params.shell_chunks) {
+        return;
+    }
+    var volume = 0.0;
+    let t_end = min((chunk + 1u) * SHELL_CHUNK, params.triangles);
+    for (var t = chunk * SHELL_CHUNK; t < t_end; t++) {
+        volume += dot(corner(t, 0u), cross(corner(t, 1u), corner(t, 2u))) / 6.0;
+    }
+    var weights = 0.0;
+    let i_end = min((chunk + 1u) * SHELL_CHUNK, params.n);
+    for (var i = chunk * SHELL_CHUNK; i < i_end; i++) {
+        weights += pressure[i].w;
+    }
+    pressure[params.n + chunk] = vec4<f32>(volume, weights, 0.0, 0.0);
+}
+
+// The chunks' sums, in order, and the multiplier's change (one
+// invocation).
+@compute @workgroup_size(64)
+fn shell_total(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    if (linear(id, groups) != 0u) {
+        return;
+    }
+    var volume = 0.0;
+    var k = params.pressure_alpha;
+    for (var chunk = 0u; chunk < params.shell_chunks; chunk++) {
+        let s = pressure[params.n + chunk];
+        volume += s.x;
+        k += s.y;
+    }
+    var dl = 0.0;
+    if (k > 1e-30) {
+        dl = -(volume - params.goal_volume) / k;
+    }
+    pressure[params.n + params.shell_chunks] = vec4<f32>(dl, volume, 0.0, 0.0);
+}
+
+// Each particle moved along its gradient by its share.
+@compute @workgroup_size(64)
+fn shell_apply(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear(id, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let p = x[i];
+    let dl = pressure[params.n + params.shell_chunks].x;
+    x[i] = vec4<f32>(p.xyz + pressure[i].xyz * (p.w * dl), p.w);
+}
+
+// ---- plasticity (step.rs, after the substeps) ----
+
+// Each distance constraint strained past the yield: its rest length
+// moves toward the length that leaves it at the yield strain, by the
+// step's fraction, within the largest permanent strain of its length as
+// built.
+@compute @workgroup_size(64)
+fn flow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = linear(id, groups);
+    if (c >= params.distances_n) {
+        return;
+    }
+    var d = distances[c];
+    let len = length(x[d.p.y].xyz - x[d.p.x].xyz);
+    let strain = len / d.rest - 1.0;
+    if (abs(strain) <= params.yield_strain) {
+        return;
+    }
+    let goal = len / (1.0 + params.yield_strain * sign(strain));
+    let rest = d.rest + (goal - d.rest) * params.flow_rate;
+    let r0 = rest0[c];
+    d.rest = clamp(rest, r0 * max(1.0 - params.max_strain, 0.01), r0 * (1.0 + params.max_strain));
+    distances[c] = d;
 }

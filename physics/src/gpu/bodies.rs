@@ -36,6 +36,8 @@ pub const MAX_GPU_BODIES: usize = 256;
 const CUBOID: u32 = 0;
 const SPHERE: u32 = 1;
 const CAPSULE: u32 = 2;
+/// A body particles are attached to but never touch (any shape).
+const UNTOUCHED: u32 = 3;
 
 /// A shape the particles cannot move (the shader's `NONE`).
 const FIXED: u32 = u32::MAX;
@@ -107,6 +109,8 @@ pub(crate) struct NearBodies {
     pub(crate) shapes: Vec<GpuShape>,
     /// The bodies the particles can move, by their slot.
     pub(crate) movable: Vec<Movable>,
+    /// Each shape's body (arena index and generation).
+    keys: Vec<(u32, u32)>,
 }
 
 /// A body the particles can move.
@@ -119,6 +123,11 @@ pub(crate) struct Movable {
 }
 
 impl NearBodies {
+    /// The index in [`NearBodies::shapes`] of body `key`, if it is there.
+    pub(crate) fn shape_of(&self, key: (u32, u32)) -> Option<u32> {
+        self.keys.iter().position(|k| *k == key).map(|k| k as u32)
+    }
+
     /// Every movable body unmoved, as a stage starts.
     pub(crate) fn still(&self) -> Vec<GpuMotion> {
         self.movable
@@ -163,16 +172,20 @@ pub(crate) fn near_box(x: &[glam::Vec3], reach: f32) -> Option<Aabb> {
 }
 
 /// The bodies of `bodies` particles on the GPU meet over a step, in handle
-/// order: every body whose box meets `near` (m; all of them when `None`),
-/// each moving at its mean velocity since `start` (the CPU's friction,
-/// [`StepStart`]). Dynamic bodies take the particles' impulses back.
+/// order, each moving at its mean velocity since `start` (the CPU's
+/// friction, [`StepStart`]): the bodies `attached` names and, where the
+/// particles `touch` bodies, every body whose box meets `near` (m; all of
+/// them when `None`). Dynamic bodies take the particles' impulses back.
 /// Refused with [`PhysicsError::Gpu`] naming the body: a shape the shader
-/// does not handle (cuboids, spheres and capsules only), or more than
-/// [`MAX_GPU_BODIES`] bodies.
+/// does not touch (cuboids, spheres and capsules only; a body only
+/// attached to may be of any shape), or more than [`MAX_GPU_BODIES`]
+/// bodies.
 pub(crate) fn gather(
     bodies: &Arena<RigidBody>,
     start: &StepStart,
     near: Option<&Aabb>,
+    attached: &[(u32, u32)],
+    touch: bool,
 ) -> Result<NearBodies, PhysicsError> {
     let mut out = NearBodies::default();
     for (index, generation, b) in bodies.iter() {
@@ -183,12 +196,13 @@ pub(crate) fn gather(
             continue;
         };
         let pose = b.pose();
-        if let Some(near) = near {
-            if !shape.aabb(&pose).intersects(near) {
-                continue;
-            }
+        let wanted = attached.contains(&(index, generation))
+            || (touch && near.is_none_or(|near| shape.aabb(&pose).intersects(near)));
+        if !wanted {
+            continue;
         }
         let (kind, size) = match shape {
+            _ if !touch => (UNTOUCHED, [0.0; 4]),
             Shape::Cuboid { half_extents } => (CUBOID, v4(*half_extents, 0.0)),
             Shape::Sphere { radius } => (SPHERE, [*radius as f32, 0.0, 0.0, 0.0]),
             Shape::Capsule {
@@ -226,6 +240,7 @@ pub(crate) fn gather(
         let (start_com, start_rotation) = start
             .pose_of((index, generation))
             .unwrap_or((b.com, b.rotation));
+        out.keys.push((index, generation));
         let quat = |q: glam::DQuat| [q.x as f32, q.y as f32, q.z as f32, q.w as f32];
         let r = DMat3::from_quat(pose.rotation);
         out.shapes.push(GpuShape {
@@ -266,10 +281,19 @@ pub(crate) struct BodyBuffers {
 }
 
 impl BodyBuffers {
-    /// The buffers for `n` particles (`label` names them); unless `used`,
-    /// the smallest ones (particles that never meet a body).
-    pub(crate) fn new(device: &wgpu::Device, label: &str, n: usize, used: bool) -> Self {
-        let sized = |bytes: usize| if used { bytes } else { 0 };
+    /// The buffers for `n` particles (`label` names them): the shapes and
+    /// motions where they `meet` bodies, the pushes too where they
+    /// `touch` them (contacts; attachments move their bodies themselves);
+    /// the smallest ones for what they never do.
+    pub(crate) fn new(
+        device: &wgpu::Device,
+        label: &str,
+        n: usize,
+        meet: bool,
+        touch: bool,
+    ) -> Self {
+        let met = |bytes: usize| if meet || touch { bytes } else { 0 };
+        let touched = |bytes: usize| if touch { bytes } else { 0 };
         let buffer = |what: &str, bytes: usize, usage: wgpu::BufferUsages| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(&format!("{label} {what}")),
@@ -284,23 +308,23 @@ impl BodyBuffers {
         Self {
             shapes: buffer(
                 "shapes",
-                sized(MAX_GPU_BODIES * std::mem::size_of::<GpuShape>()),
+                met(MAX_GPU_BODIES * std::mem::size_of::<GpuShape>()),
                 storage | copy_dst,
             ),
-            pushes: buffer("pushes", sized(n * BODY_SLOTS * PUSH_BYTES), storage),
+            pushes: buffer("pushes", touched(n * BODY_SLOTS * PUSH_BYTES), storage),
             partials: buffer(
                 "summed pushes",
-                sized((chunks + 1) * MAX_GPU_BODIES * PUSH_BYTES),
+                touched((chunks + 1) * MAX_GPU_BODIES * PUSH_BYTES),
                 storage,
             ),
             motion: buffer(
                 "body motion",
-                sized(MAX_GPU_BODIES * MOTION_BYTES),
+                met(MAX_GPU_BODIES * MOTION_BYTES),
                 storage | copy_dst | wgpu::BufferUsages::COPY_SRC,
             ),
             moves: buffer(
                 "body moves",
-                sized(MAX_GPU_BODIES * MOTION_BYTES),
+                met(MAX_GPU_BODIES * MOTION_BYTES),
                 wgpu::BufferUsages::MAP_READ | copy_dst,
             ),
             chunks: chunks as u32,

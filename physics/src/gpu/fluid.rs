@@ -290,7 +290,7 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
         let lambda = scratch("fluid lambda", 16 * n, none);
         let omega = scratch("fluid omega", 16 * n, none);
         let planes = scratch("fluid planes", BODY_SLOTS * FLUID_PLANE_BYTES * n, none);
-        let bodies = BodyBuffers::new(d, "fluid", n, true);
+        let bodies = BodyBuffers::new(d, "fluid", n, true, true);
         let substeps = fluid.step_constants().substeps.max(1);
         let params = d.create_buffer(&wgpu::BufferDescriptor {
             label: Some("fluid params"),

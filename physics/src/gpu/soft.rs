@@ -6,22 +6,31 @@
 //! |---|---|---|
 //! | `params` | one 256-byte uniform slot per dispatch of a substep | CPU, every step |
 //! | `x`, `v`, `prev` | particle position + inverse mass, velocity, start of substep (16 B each) | the passes |
-//! | `distances`, `bends`, `tets`, `tethers` | constraints in colour order | upload only |
+//! | `distances` | distance constraints in colour order | upload; `flow` (rest lengths) |
+//! | `bends`, `tets`, `tethers` | constraints in colour order | upload only |
+//! | `attachments` | particles held to rigid bodies, each body's shape this step | CPU, every step |
+//! | `shell` | the pressure shell's triangles and each particle's corners | upload only |
+//! | `pressure` | per particle: the volume's gradient; per chunk: sums | the `shell_*` passes |
+//! | `rest0` | each distance constraint's rest length as built | upload only |
 //! | `shapes` | the rigid bodies near the body (`gpu/bodies.rs`) | CPU, every step |
 //! | `contacts` | per particle: the bodies within its reach for the step | `find_contacts` |
 //! | `pushes` | per particle and contact: what it gave a dynamic body | `collide` |
 //! | `partials` | per chunk and dynamic body, then per body: a substep's summed pushes | `reduce_chunks`, `reduce_bodies` |
 //! | `motion` | per dynamic body: what the stage did to it | CPU, every step; `advance_bodies`, `take_pushes` |
-//! | `readback` | staging copy of `x` and `v` for the CPU | copy |
+//! | `readback` | staging copy of `x` and `v` (and a plastic body's distances) for the CPU | copy |
 //! | `moves` | staging copy of `motion` | copy |
 //!
-//! What runs here: gravity, damping, pins, distance, bending, volume and
-//! tether constraints, and contacts with rigid bodies (cuboids, spheres,
-//! capsules) with friction, the dynamic ones sharing each correction
-//! within the stage as on the CPU (`Coupling::press`; `gpu/bodies.rs`). Attachments, pressure, self-collision, plasticity
-//! and tearing run only on the CPU: a body that uses any of them is
-//! refused ([`check_supported`]). How far a GPU run may drift from the CPU
-//! run is [`SOFT_GPU_TOLERANCE`].
+//! What runs here: gravity, damping, pins, distance, bending, volume,
+//! tether and pressure constraints, attachments to rigid bodies of any
+//! shape, contacts with rigid bodies (cuboids, spheres, capsules) with
+//! friction, the dynamic ones sharing each correction within the stage as
+//! on the CPU (`Coupling::press`; `gpu/bodies.rs`), and plastic flow.
+//! Tearing changes the body's constraints, so it is found on the CPU from
+//! the positions read back after each step (a tearing body is read back
+//! every step) and a torn body is uploaded again
+//! (`World::stage_soft`). Self-collision runs only on the CPU: a body that
+//! uses it is refused ([`check_supported`]). How far a GPU run may drift
+//! from the CPU run is [`SOFT_GPU_TOLERANCE`].
 
 use std::sync::Arc;
 
@@ -79,7 +88,21 @@ struct SoftParams {
     t: f32,
     /// s.
     substep: f32,
-    pad: [u32; 2],
+    attachments: u32,
+    /// The pressure shell's triangles, and the chunks `shell_sums` takes.
+    triangles: u32,
+    shell_chunks: u32,
+    /// m³.
+    goal_volume: f32,
+    /// The pressure's compliance over h², 1/(Pa·s²).
+    pressure_alpha: f32,
+    /// `flow`: distance constraints, yield strain, largest permanent
+    /// strain, and the fraction of the excess that flows this step.
+    distances_n: u32,
+    yield_strain: f32,
+    max_strain: f32,
+    flow_rate: f32,
+    pad: u32,
 }
 
 const _: () =
@@ -98,6 +121,12 @@ pub(crate) enum Entry {
     ReduceBodies,
     AdvanceBodies,
     TakePushes,
+    Attach,
+    ShellGradient,
+    ShellSums,
+    ShellTotal,
+    ShellApply,
+    Flow,
 }
 
 /// The constraint kinds, numbered as the shader's `params.kind`.
@@ -122,10 +151,16 @@ pub(crate) struct SoftPipelines {
     reduce_bodies: wgpu::ComputePipeline,
     advance_bodies: wgpu::ComputePipeline,
     take_pushes: wgpu::ComputePipeline,
+    attach: wgpu::ComputePipeline,
+    shell_gradient: wgpu::ComputePipeline,
+    shell_sums: wgpu::ComputePipeline,
+    shell_total: wgpu::ComputePipeline,
+    shell_apply: wgpu::ComputePipeline,
+    flow: wgpu::ComputePipeline,
 }
 
 /// Storage buffers the soft body's passes bind.
-const STORAGE_BUFFERS: u32 = 12;
+const STORAGE_BUFFERS: u32 = 16;
 
 impl SoftPipelines {
     /// Compiles the pipelines; `None` when the adapter binds too few
@@ -143,7 +178,7 @@ impl SoftPipelines {
                 storage_binding(1, false),
                 storage_binding(2, false),
                 storage_binding(3, false),
-                storage_binding(4, true),
+                storage_binding(4, false),
                 storage_binding(5, true),
                 storage_binding(6, true),
                 storage_binding(7, true),
@@ -152,6 +187,10 @@ impl SoftPipelines {
                 storage_binding(10, false),
                 storage_binding(11, false),
                 storage_binding(12, false),
+                storage_binding(13, true),
+                storage_binding(14, true),
+                storage_binding(15, false),
+                storage_binding(16, true),
             ],
         );
         let pipeline = |entry: &str| program.pipeline(device, entry);
@@ -165,6 +204,12 @@ impl SoftPipelines {
             reduce_bodies: pipeline("reduce_bodies"),
             advance_bodies: pipeline("advance_bodies"),
             take_pushes: pipeline("take_pushes"),
+            attach: pipeline("attach"),
+            shell_gradient: pipeline("shell_gradient"),
+            shell_sums: pipeline("shell_sums"),
+            shell_total: pipeline("shell_total"),
+            shell_apply: pipeline("shell_apply"),
+            flow: pipeline("flow"),
             layout: program.layout,
         })
     }
@@ -180,6 +225,12 @@ impl SoftPipelines {
             Entry::ReduceBodies => &self.reduce_bodies,
             Entry::AdvanceBodies => &self.advance_bodies,
             Entry::TakePushes => &self.take_pushes,
+            Entry::Attach => &self.attach,
+            Entry::ShellGradient => &self.shell_gradient,
+            Entry::ShellSums => &self.shell_sums,
+            Entry::ShellTotal => &self.shell_total,
+            Entry::ShellApply => &self.shell_apply,
+            Entry::Flow => &self.flow,
         }
     }
 }
@@ -200,6 +251,19 @@ pub(crate) struct GpuSoftBody {
     params: wgpu::Buffer,
     x: wgpu::Buffer,
     v: wgpu::Buffer,
+    /// The distance constraints (their rest lengths flow in a plastic
+    /// body).
+    distances: wgpu::Buffer,
+    /// Distance constraints whose rest lengths flow and come back with
+    /// the positions (a plastic body's; none otherwise).
+    distances_n: u32,
+    /// The attachments, rewritten every step.
+    attachments: wgpu::Buffer,
+    /// Attachments the buffer holds.
+    attachments_n: u32,
+    /// The pressure shell's triangles, and the chunks `shell_sums` takes.
+    triangles: u32,
+    shell_chunks: u32,
     /// The rigid bodies it meets (`gpu/bodies.rs`).
     bodies: BodyBuffers,
     readback: wgpu::Buffer,
@@ -212,31 +276,92 @@ pub(crate) struct GpuSoftBody {
 
 /// Why a soft body cannot step on the GPU, if it cannot.
 pub(crate) fn check_supported(body: &SoftBody) -> Result<(), PhysicsError> {
-    let m = body.material();
     let refuse = |what: &str| {
         Err(PhysicsError::Gpu(format!(
             "soft bodies with {what} step on the CPU only"
         )))
     };
-    if !body.attachments.is_empty() {
-        return refuse("attachments to rigid bodies");
-    }
-    if body.pressure.is_some() {
-        return refuse("pressure");
-    }
-    if m.self_collision {
+    if body.material().self_collision {
         return refuse("self-collision");
     }
-    if m.plasticity.is_some() {
-        return refuse("plasticity");
-    }
-    if m.tear_strain.is_some() {
-        return refuse("tearing");
-    }
-    if body.len() > u32::MAX as usize / 2 {
+    // The shell's lists count three corners a triangle in `u32`.
+    if body.len() > u32::MAX as usize / 2 || body.triangles.len() > u32::MAX as usize / 4 {
         return refuse("this many particles");
     }
     Ok(())
+}
+
+/// WGSL `struct Attachment` of `xpbd_soft.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuAttachment {
+    /// xyz: the point in the body's frame, m; w: the compliance, m/N.
+    local: [f32; 4],
+    /// x: the particle; y: the body's index among the step's shapes, or
+    /// `u32::MAX` (the shader's `NONE`) when it is not there.
+    who: [u32; 4],
+}
+
+const _: () =
+    assert!(std::mem::size_of::<GpuAttachment>() == inertia_shaders::layout::SOFT_ATTACHMENT_BYTES);
+
+/// The bodies `body`'s attachments hold it to (arena index and
+/// generation), for [`gather`](super::bodies::gather).
+pub(crate) fn attached(body: &SoftBody) -> Vec<(u32, u32)> {
+    body.attachments
+        .iter()
+        .map(|a| (a.body.index, a.body.generation))
+        .collect()
+}
+
+/// `body`'s attachments as the shader takes them, each body found among
+/// the step's shapes `near`.
+fn attachments(body: &SoftBody, near: &NearBodies) -> Vec<GpuAttachment> {
+    body.attachments
+        .iter()
+        .map(|a| {
+            let l = a.local.as_vec3();
+            let shape = near
+                .shape_of((a.body.index, a.body.generation))
+                .unwrap_or(u32::MAX);
+            GpuAttachment {
+                local: [l.x, l.y, l.z, a.compliance],
+                who: [a.particle, shape, 0, 0],
+            }
+        })
+        .collect()
+}
+
+/// The pressure shell as `xpbd_soft.wgsl`'s `shell` holds it: the
+/// triangles, then per particle where its corners start (`n + 1`
+/// offsets), then the corners (`triangle * 3 + corner`, in triangle
+/// order). Empty for a body without pressure.
+fn shell(body: &SoftBody) -> Vec<u32> {
+    if body.pressure.is_none() {
+        return Vec::new();
+    }
+    let n = body.len();
+    let mut counts = vec![0u32; n + 1];
+    for t in &body.triangles {
+        for &i in t {
+            counts[i as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        counts[i + 1] += counts[i];
+    }
+    let mut corners = vec![0u32; 3 * body.triangles.len()];
+    let mut next = counts.clone();
+    for (k, t) in body.triangles.iter().enumerate() {
+        for (c, &i) in t.iter().enumerate() {
+            corners[next[i as usize] as usize] = 3 * k as u32 + c as u32;
+            next[i as usize] += 1;
+        }
+    }
+    let mut out: Vec<u32> = body.triangles.iter().flatten().copied().collect();
+    out.extend_from_slice(&counts);
+    out.extend_from_slice(&corners);
+    out
 }
 
 fn colours<C>(c: &Coloured<C>, kind: Kind, out: &mut Vec<Dispatch>) {
@@ -316,6 +441,12 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
         .iter()
         .map(|t| [t.p[0], t.p[1], t.max.to_bits(), 0])
         .collect();
+    let rest0: Vec<f32> = if body.material().plasticity.is_some() {
+        body.distance.items.iter().map(|d| d.rest0).collect()
+    } else {
+        Vec::new()
+    };
+    let shell = shell(body);
     let mut plan = Vec::new();
     colours(&body.distance, Kind::Distance, &mut plan);
     colours(&body.bend, Kind::Bending, &mut plan);
@@ -340,6 +471,21 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
             body.len()
         )));
     }
+    let shell_chunks = if body.pressure.is_some() {
+        let chunk = inertia_shaders::layout::SHELL_CHUNK;
+        body.triangles
+            .len()
+            .div_ceil(chunk)
+            .max(body.len().div_ceil(chunk)) as u32
+    } else {
+        0
+    };
+    // A plastic body's distances come back with its positions.
+    let plastic_distances = if rest0.is_empty() {
+        0
+    } else {
+        body.distance.items.len() as u32
+    };
     ctx.scoped("uploading a soft body to the GPU", || {
         let copy = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let x = storage(ctx, "soft x", bytemuck::cast_slice(&xw), copy);
@@ -354,7 +500,7 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
             ctx,
             "soft distances",
             bytemuck::cast_slice(&distances),
-            wgpu::BufferUsages::empty(),
+            wgpu::BufferUsages::COPY_SRC,
         );
         let b = storage(
             ctx,
@@ -374,6 +520,14 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
             bytemuck::cast_slice(&tethers),
             wgpu::BufferUsages::empty(),
         );
+        let none = wgpu::BufferUsages::empty();
+        let sh = storage(
+            ctx,
+            "soft pressure shell",
+            bytemuck::cast_slice(&shell),
+            none,
+        );
+        let r0 = storage(ctx, "soft rest lengths", bytemuck::cast_slice(&rest0), none);
         let params = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("soft params"),
             size: slots * SLOT,
@@ -391,12 +545,24 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
                 mapped_at_creation: false,
             })
         };
-        let none = wgpu::BufferUsages::empty();
         let contacts = scratch("soft contacts", per_particle(16), none);
-        let bodies = BodyBuffers::new(&ctx.device, "soft", n as usize, touches);
+        let attached = body.attachments.len();
+        let attachments = scratch(
+            "soft attachments",
+            attached * std::mem::size_of::<GpuAttachment>(),
+            wgpu::BufferUsages::COPY_DST,
+        );
+        // Per particle, per chunk, and the multiplier.
+        let sums = if body.pressure.is_some() {
+            n as usize + shell_chunks as usize + 1
+        } else {
+            0
+        };
+        let pressure = scratch("soft pressure", 16 * sums, none);
+        let bodies = BodyBuffers::new(&ctx.device, "soft", n as usize, attached > 0, touches);
         let readback = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("soft readback"),
-            size: (2 * u64::from(n) * 16).max(32),
+            size: readback_bytes(n, plastic_distances).max(32),
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -430,6 +596,10 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
                 entry(10, &bodies.pushes),
                 entry(11, &bodies.partials),
                 entry(12, &bodies.motion),
+                entry(13, &attachments),
+                entry(14, &sh),
+                entry(15, &pressure),
+                entry(16, &r0),
             ],
         });
         Ok(Arc::new(GpuSoftBody {
@@ -437,6 +607,16 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
             params,
             x,
             v: vb,
+            distances: d,
+            distances_n: plastic_distances,
+            attachments,
+            attachments_n: attached as u32,
+            triangles: if body.pressure.is_some() {
+                body.triangles.len() as u32
+            } else {
+                0
+            },
+            shell_chunks,
             bodies,
             readback,
             group,
@@ -447,9 +627,10 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
 }
 
 /// Steps `body` on the GPU by `dt` s under `gravity` (m/s², the world's)
-/// against the rigid bodies `near` it (`gpu/bodies.rs`; none for a body
-/// without a collision radius); with `readback`, copies the new positions
-/// and velocities into the CPU mirror. Returns what the particles gave the
+/// against the rigid bodies `near` it (`gpu/bodies.rs`: those it touches
+/// and those it is attached to, gathered as [`attached`] and its collision
+/// radius say); with `readback`, copies the new positions and velocities
+/// (and a plastic body's rest lengths) into the CPU mirror. Returns what the particles gave the
 /// dynamic bodies, for
 /// [`apply_changes`](crate::xpbd::coupling::apply_changes).
 pub(crate) fn step(
@@ -471,10 +652,6 @@ pub(crate) fn step(
     let h = dt / n as f32;
     let g = gravity * m.gravity_scale as f32;
     let radius = m.collision_radius as f32;
-    // Bodies are met only by a body with a collision radius (its buffers
-    // are sized for them).
-    let none = NearBodies::default();
-    let near = if radius > 0.0 { near } else { &none };
     let shapes: &[GpuShape] = &near.shapes;
     if shapes.len() > MAX_GPU_BODIES {
         return Err(PhysicsError::Gpu(format!(
@@ -482,10 +659,27 @@ pub(crate) fn step(
         )));
     }
     let movable = near.movable.len();
+    if body.attachments.len() > gpu.attachments_n as usize {
+        return Err(PhysicsError::Gpu(
+            "the soft body gained attachments since its upload".into(),
+        ));
+    }
+    let held = attachments(body, near);
+    let (goal_volume, pressure_compliance) = body
+        .pressure
+        .map_or((0.0, 0.0), |p| (p.target, p.compliance));
+    let (yield_strain, max_strain, flow_rate) = m.plasticity.map_or((0.0, 0.0, 0.0), |p| {
+        (
+            p.yield_strain as f32,
+            p.max_strain as f32,
+            (p.creep as f32 * dt).min(1.0),
+        )
+    });
+    let inv_h2 = 1.0 / (h * h);
     let base = SoftParams {
         gravity: [g.x, g.y, g.z, 0.0],
         h,
-        inv_h2: 1.0 / (h * h),
+        inv_h2,
         keep: (1.0 - m.damping as f32 * h).max(0.0),
         n: gpu.n,
         offset: 0,
@@ -502,7 +696,16 @@ pub(crate) fn step(
         dt,
         t: 1.0,
         substep: h,
-        pad: [0; 2],
+        attachments: held.len() as u32,
+        triangles: gpu.triangles,
+        shell_chunks: gpu.shell_chunks,
+        goal_volume,
+        pressure_alpha: pressure_compliance * inv_h2,
+        distances_n: gpu.distances_n,
+        yield_strain,
+        max_strain,
+        flow_rate,
+        pad: 0,
     };
     if n > gpu.substeps {
         return Err(PhysicsError::Gpu(
@@ -551,6 +754,9 @@ pub(crate) fn step(
     // One workgroup a chunk, one invocation a body.
     let chunks = ctx.workgroups(gpu.bodies.chunks * inertia_shaders::layout::WORKGROUP_SIZE)?;
     let bodies = ctx.workgroups(movable as u32)?;
+    let one = (1, 1);
+    let shell_chunks = ctx.workgroups(gpu.shell_chunks)?;
+    let flows = ctx.workgroups(gpu.distances_n)?;
     let grids = gpu
         .colours
         .iter()
@@ -563,6 +769,10 @@ pub(crate) fn step(
     ctx.scoped("a GPU soft-body step", || {
         ctx.queue.write_buffer(&gpu.params, 0, &bytes);
         gpu.bodies.upload(&ctx.queue, near);
+        if !held.is_empty() {
+            ctx.queue
+                .write_buffer(&gpu.attachments, 0, bytemuck::cast_slice(&held));
+        }
         let mut encoder = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -578,7 +788,10 @@ pub(crate) fn step(
                 pass.set_bind_group(0, &gpu.group, &[(slot as u64 * SLOT) as u32]);
                 pass.dispatch_workgroups(grid.0, grid.1, 1);
             };
-            let touches = !shapes.is_empty();
+            // Contacts are looked for where the particles touch bodies
+            // (the shapes of a body without a collision radius are only
+            // those it is attached to).
+            let touches = radius > 0.0 && !shapes.is_empty();
             if touches {
                 run(Entry::FindContacts, 0, particles);
             }
@@ -591,19 +804,31 @@ pub(crate) fn step(
                 for (c, d) in gpu.colours.iter().enumerate() {
                     run(Entry::Project(d.kind), c + 3, grids[c]);
                 }
+                if gpu.shell_chunks > 0 {
+                    run(Entry::ShellGradient, 0, particles);
+                    run(Entry::ShellSums, 0, shell_chunks);
+                    run(Entry::ShellTotal, 0, one);
+                    run(Entry::ShellApply, 0, particles);
+                }
                 if movable > 0 {
                     run(Entry::AdvanceBodies, 0, bodies);
                 }
+                if !held.is_empty() {
+                    run(Entry::Attach, contact_slot(k), one);
+                }
                 if touches {
                     run(Entry::Collide, contact_slot(k), particles);
-                }
-                if movable > 0 {
-                    run(Entry::ReduceChunks, 0, chunks);
-                    run(Entry::ReduceBodies, 0, bodies);
-                    run(Entry::TakePushes, 0, bodies);
+                    if movable > 0 {
+                        run(Entry::ReduceChunks, 0, chunks);
+                        run(Entry::ReduceBodies, 0, bodies);
+                        run(Entry::TakePushes, 0, bodies);
+                    }
                 }
             }
             run(Entry::Finish, 2, particles);
+            if gpu.distances_n > 0 {
+                run(Entry::Flow, 0, flows);
+            }
         }
         gpu.bodies.record_moves(&mut encoder, movable);
         if readback {
@@ -628,14 +853,31 @@ impl GpuSoftBody {
         let size = u64::from(self.n) * 16;
         encoder.copy_buffer_to_buffer(&self.x, 0, &self.readback, 0, size);
         encoder.copy_buffer_to_buffer(&self.v, 0, &self.readback, size, size);
+        if self.distances_n > 0 {
+            let bytes = u64::from(self.distances_n) * 16;
+            encoder.copy_buffer_to_buffer(&self.distances, 0, &self.readback, 2 * size, bytes);
+        }
     }
 }
 
-/// Copies the GPU's positions and velocities into the CPU mirror (after
-/// a submitted [`GpuSoftBody::record_readback`]).
+/// Bytes read back for `n` particles and `distances` flowing distance
+/// constraints: positions, velocities, then the constraints.
+fn readback_bytes(n: u32, distances: u32) -> u64 {
+    2 * u64::from(n) * 16 + u64::from(distances) * 16
+}
+
+impl GpuSoftBody {}
+
+/// Copies the GPU's positions and velocities (and a plastic body's rest
+/// lengths) into the CPU mirror (after a submitted
+/// [`GpuSoftBody::record_readback`]).
 fn read(ctx: &GpuContext, body: &mut SoftBody, gpu: &GpuSoftBody) -> Result<(), PhysicsError> {
     let n = gpu.n as usize;
-    let bytes = ctx.read_back(&gpu.readback, 2 * n as u64 * 16, "a soft body")?;
+    let bytes = ctx.read_back(
+        &gpu.readback,
+        readback_bytes(gpu.n, gpu.distances_n),
+        "a soft body",
+    )?;
     let data: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
     for i in 0..n {
         let [a, b, c, _] = data[i];
@@ -643,6 +885,10 @@ fn read(ctx: &GpuContext, body: &mut SoftBody, gpu: &GpuSoftBody) -> Result<(), 
         body.x[i] = Vec3::new(a, b, c);
         body.prev[i] = body.x[i];
         body.v[i] = Vec3::new(d, e, f);
+    }
+    let distances: &[[u32; 4]] = bytemuck::cast_slice(&data[2 * n..]);
+    for (d, g) in body.distance.items.iter_mut().zip(distances) {
+        d.rest = f32::from_bits(g[2]);
     }
     Ok(())
 }

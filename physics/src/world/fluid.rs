@@ -107,7 +107,13 @@ impl World {
                     let fluid = self.fluid(h).expect("checked above");
                     let reach = fluid.reach(0.0, self.gravity.as_vec3());
                     let near = crate::gpu::bodies::near_box(&fluid.x, reach);
-                    crate::gpu::bodies::gather(&self.bodies, &self.step_start, near.as_ref())?;
+                    crate::gpu::bodies::gather(
+                        &self.bodies,
+                        &self.step_start,
+                        near.as_ref(),
+                        &[],
+                        true,
+                    )?;
                     self.gpu_context()?;
                     let ctx = self.gpu.as_ref().expect("context created above");
                     let fluid = self

@@ -77,14 +77,15 @@ impl World {
     /// the GPU (feature `gpu`) it takes the same small steps in `f32`,
     /// colour by colour (`gpu/soft.rs`), with contacts against the rigid
     /// bodies near it that push the dynamic ones back as on the CPU
-    /// (`gpu/bodies.rs`). Bodies with attachments, pressure,
-    /// self-collision, plasticity or tearing are refused there
-    /// ([`PhysicsError::Gpu`]), and so are such changes to a body on the
-    /// GPU, and so is a body near a rigid body of a shape other than a
-    /// cuboid, sphere or capsule (a step that finds one near later moves
-    /// the body back to the CPU and says so in
-    /// [`StepReport::soft_bodies_to_cpu`](crate::StepReport)). A saved state does not keep the backend: a restored body steps
-    /// on the CPU until moved again. With
+    /// (`gpu/bodies.rs`), attachments, pressure and plastic flow; a
+    /// tearing body is read back every step and tears on the CPU, then
+    /// goes up again. Bodies with self-collision are refused there
+    /// ([`PhysicsError::Gpu`]), and so is a body with contacts near a
+    /// rigid body of a shape other than a cuboid, sphere or capsule (a
+    /// step that finds one near later moves the body back to the CPU and
+    /// says so in [`StepReport::soft_bodies_to_cpu`](crate::StepReport)).
+    /// A saved state does not keep the backend: a restored body steps on
+    /// the CPU until moved again. With
     /// [`WorldConfig::gpu_readback_every_step`](crate::WorldConfig) off,
     /// call [`World::sync_gpu`] before reading or saving it.
     pub fn set_soft_backend(
@@ -111,11 +112,19 @@ impl World {
                         .soft_bodies
                         .get_mut(h.index, h.generation)
                         .expect("checked above");
-                    if body.material.collision_radius > 0.0 {
-                        let reach = body.material.collision_radius as f32 + 1e-3;
-                        let near = crate::gpu::bodies::near_box(&body.x, reach);
-                        crate::gpu::bodies::gather(&self.bodies, &self.step_start, near.as_ref())?;
-                    }
+                    // Refused here, not at the next step: bodies near it
+                    // (or held to it) the GPU cannot take.
+                    let touch = body.material.collision_radius > 0.0;
+                    let reach = body.material.collision_radius as f32 + 1e-3;
+                    let near = crate::gpu::bodies::near_box(&body.x, reach);
+                    let attached = crate::gpu::soft::attached(body);
+                    crate::gpu::bodies::gather(
+                        &self.bodies,
+                        &self.step_start,
+                        near.as_ref(),
+                        &attached,
+                        touch,
+                    )?;
                     let gpu = crate::gpu::soft::upload(ctx, body)?;
                     body.gpu = super::super::xpbd::soft::GpuSlot(Some(gpu));
                     body.backend = Backend::Gpu;
@@ -164,23 +173,42 @@ impl World {
             .pose()
             .inverse_transform_point(at);
         let soft = self.soft_mut(h)?;
-        if soft.backend == crate::particle_system::Backend::Gpu {
-            return Err(PhysicsError::Gpu(
-                "soft bodies with attachments step on the CPU only".into(),
-            ));
-        }
         if particle as usize >= soft.len() {
             return Err(PhysicsError::Invalid {
                 what: "soft attachment",
                 why: format!("particle {particle} of {}", soft.len()),
             });
         }
-        soft.attachments.push(SoftAttachment {
+        let attachment = SoftAttachment {
             particle,
             body,
             local,
             compliance: compliance as f32,
-        });
+        };
+        #[cfg(feature = "gpu")]
+        if let Some(gpu) = soft.gpu.0.clone() {
+            // On the GPU: it comes back, takes the attachment and goes up
+            // again (its buffers are sized for its attachments).
+            let ctx = self
+                .gpu
+                .as_ref()
+                .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
+            let soft = self
+                .soft_bodies
+                .get_mut(h.index, h.generation)
+                .expect("found above");
+            crate::gpu::soft::download(ctx, soft, &gpu)?;
+            soft.attachments.push(attachment);
+            match crate::gpu::soft::upload(ctx, soft) {
+                Ok(gpu) => soft.gpu.0 = Some(gpu),
+                Err(e) => {
+                    soft.attachments.pop();
+                    return Err(e);
+                }
+            }
+            return Ok(());
+        }
+        soft.attachments.push(attachment);
         Ok(())
     }
 
@@ -219,23 +247,42 @@ impl World {
                 let ctx = gpu
                     .as_ref()
                     .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
-                let readback = config.gpu_readback_every_step;
-                let near = if body.material.collision_radius > 0.0 {
-                    let reach =
-                        body.material.collision_radius as f32 + body.travel(dt32, gravity) + 1e-3;
-                    let near = readback
-                        .then(|| crate::gpu::bodies::near_box(&body.x, reach))
-                        .flatten();
-                    crate::gpu::bodies::gather(bodies, step_start, near.as_ref())
-                } else {
-                    Ok(Default::default())
-                };
-                match near {
+                // A tearing body tears on the CPU, from its positions.
+                let tears = body.material.tear_strain;
+                let readback = config.gpu_readback_every_step || tears.is_some();
+                body.attachments
+                    .retain(|a| bodies.get(a.body.index, a.body.generation).is_some());
+                let touch = body.material.collision_radius > 0.0;
+                let reach =
+                    body.material.collision_radius as f32 + body.travel(dt32, gravity) + 1e-3;
+                let near = (readback && touch)
+                    .then(|| crate::gpu::bodies::near_box(&body.x, reach))
+                    .flatten();
+                let attached = crate::gpu::soft::attached(body);
+                match crate::gpu::bodies::gather(
+                    bodies,
+                    step_start,
+                    near.as_ref(),
+                    &attached,
+                    touch,
+                ) {
                     Ok(near) => {
                         let changes = crate::gpu::soft::step(
                             ctx, body, &on_gpu, dt32, gravity, &near, readback,
                         )?;
                         apply_changes(bodies, &changes);
+                        if tears.is_some_and(|t| soft::tear(body, t as f32)) {
+                            // Its constraints changed: it goes up again.
+                            match crate::gpu::soft::upload(ctx, body) {
+                                Ok(gpu) => body.gpu.0 = Some(gpu),
+                                Err(why) => {
+                                    body.gpu.0 = None;
+                                    body.backend = crate::particle_system::Backend::Cpu;
+                                    let h = SoftBodyHandle { index, generation };
+                                    report.soft_bodies_to_cpu.push((h, why));
+                                }
+                            }
+                        }
                         if readback && config.energy_accounting {
                             let g = gravity.as_dvec3() * body.material.gravity_scale;
                             add_energy(energy, &body.x, &body.v, &body.w, g);
@@ -291,7 +338,7 @@ impl World {
                 let near = readback
                     .then(|| crate::gpu::bodies::near_box(&fluid.x, reach))
                     .flatten();
-                match crate::gpu::bodies::gather(bodies, step_start, near.as_ref()) {
+                match crate::gpu::bodies::gather(bodies, step_start, near.as_ref(), &[], true) {
                     Ok(near) => {
                         let changes = crate::gpu::fluid::step(
                             ctx, fluid, &on_gpu, dt32, gravity, &near, readback,

@@ -23,7 +23,7 @@ mod step;
 mod tetra;
 
 pub use build::{SoftBalloon, SoftCloth, SoftRope};
-pub(crate) use step::step;
+pub(crate) use step::{step, tear};
 pub use tetra::{SoftSolid, SolidShape};
 
 use glam::{DVec3, Vec3};

@@ -308,8 +308,8 @@ fn finish_substep(body: &mut SoftBody, h: f32, keep: f32, next: Option<Vec3>) {
 }
 
 /// The distance constraints stretched past `limit` break, the most
-/// strained first, with what lies on their edge.
-fn tear(body: &mut SoftBody, limit: f32) {
+/// strained first, with what lies on their edge; whether any broke.
+pub(crate) fn tear(body: &mut SoftBody, limit: f32) -> bool {
     let x = &body.x;
     let mut over: Vec<(f32, [u32; 2])> = body
         .distance
@@ -321,7 +321,7 @@ fn tear(body: &mut SoftBody, limit: f32) {
         })
         .collect();
     if over.is_empty() {
-        return;
+        return false;
     }
     // Most strained first; ties by the edge's particles (a total order).
     over.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
@@ -333,6 +333,7 @@ fn tear(body: &mut SoftBody, limit: f32) {
     body.bend
         .retain(|b| !on_edge(&[b.p[0], b.p[1], b.p[2]]) && !on_edge(&[b.p[0], b.p[1], b.p[3]]));
     body.tets.retain(|t| !on_edge(&t.p));
+    true
 }
 
 fn sorted([a, b]: [u32; 2]) -> [u32; 2] {
