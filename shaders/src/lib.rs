@@ -44,15 +44,28 @@ pub const XPBD_SOFT: &str = concat!(
     include_str!("../wgsl/xpbd_soft.wgsl")
 );
 
-/// Position-based fluids on the GPU: the neighbour grid by a counting
-/// sort (`count`, `scan`, `scatter`, `sort_cells`), the walls near each
-/// particle (`find_walls`), the substeps (`predict`, `densities`,
-/// `corrections`, `collide`) and the velocity passes after them
-/// (`vorticity`, `confine`, `xsph`, `take_velocities`) ([`BODIES`]
-/// first).
+/// The neighbour grid by a counting sort (`count`, `scan`, `scatter`,
+/// `sort_cells`) and the walk over a particle's neighbours. Not a shader
+/// of its own: the head of [`PBF`] and [`XPBD_SELF_COLLISION`].
+pub const GRID: &str = include_str!("../wgsl/grid.wgsl");
+
+/// Position-based fluids on the GPU: the neighbour grid ([`GRID`]), the
+/// walls near each particle (`find_walls`), the substeps (`predict`,
+/// `densities`, `corrections`, `collide`) and the velocity passes after
+/// them (`vorticity`, `confine`, `xsph`, `take_velocities`) ([`BODIES`]
+/// and [`GRID`] first).
 pub const PBF: &str = concat!(
     include_str!("../wgsl/bodies.wgsl"),
+    include_str!("../wgsl/grid.wgsl"),
     include_str!("../wgsl/pbf.wgsl")
+);
+
+/// Cloth self-collision on the GPU: its candidates on the neighbour grid
+/// once a step ([`GRID`] first), and each substep a Jacobi pass (`keep`,
+/// `self_collide`).
+pub const XPBD_SELF_COLLISION: &str = concat!(
+    include_str!("../wgsl/grid.wgsl"),
+    include_str!("../wgsl/xpbd_self_collision.wgsl")
 );
 
 /// The viewer's scene shader (`inertia-viewer`): lit, instanced meshes
@@ -69,6 +82,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("particle_interactions.wgsl", PARTICLE_INTERACTIONS),
     ("particle_integrate.wgsl", PARTICLE_INTEGRATE),
     ("xpbd_soft.wgsl", XPBD_SOFT),
+    ("xpbd_self_collision.wgsl", XPBD_SELF_COLLISION),
     ("pbf.wgsl", PBF),
 ];
 
@@ -98,6 +112,8 @@ pub mod layout {
     pub const SOFT_DISTANCE_BYTES: usize = 16;
     /// `struct Quad` of `xpbd_soft.wgsl` (hinges and tetrahedra).
     pub const SOFT_QUAD_BYTES: usize = 32;
+    /// `struct SelfParams` of `xpbd_self_collision.wgsl`.
+    pub const SELF_PARAMS_BYTES: usize = 32;
     /// `struct Tether` of `xpbd_soft.wgsl`.
     pub const SOFT_TETHER_BYTES: usize = 16;
     /// `struct Attachment` of `xpbd_soft.wgsl`: a particle held to a rigid

@@ -180,6 +180,46 @@ fn the_soft_body_shader_has_its_entry_points_and_the_engine_layout() {
 }
 
 #[test]
+fn the_self_collision_shader_has_its_entry_points_and_the_engine_layout() {
+    let module = validated(
+        "xpbd_self_collision.wgsl",
+        inertia_shaders::XPBD_SELF_COLLISION,
+    );
+    let mut names: Vec<&str> = module
+        .entry_points
+        .iter()
+        .map(|e| e.name.as_str())
+        .collect();
+    names.sort_unstable();
+    assert_eq!(
+        names,
+        [
+            "count",
+            "keep",
+            "scan",
+            "scatter",
+            "self_collide",
+            "sort_cells"
+        ]
+    );
+    assert_eq!(
+        struct_size(&module, "SelfParams"),
+        Some(layout::SELF_PARAMS_BYTES)
+    );
+    assert_eq!(struct_size(&module, "Slot"), Some(layout::FLUID_SLOT_BYTES));
+    for (constant, value) in [
+        ("WORKGROUP_SIZE", layout::WORKGROUP_SIZE as usize),
+        ("SCAN_SIZE", layout::FLUID_SCAN_SIZE as usize),
+    ] {
+        let decl = format!("const {constant}: u32 = {value}u;");
+        assert!(
+            inertia_shaders::XPBD_SELF_COLLISION.contains(&decl),
+            "xpbd_self_collision.wgsl must declare `{decl}`"
+        );
+    }
+}
+
+#[test]
 fn shader_constants_match_the_engine_limits() {
     for (name, src) in particle_shaders() {
         for (constant, value) in [

@@ -1,6 +1,6 @@
 // Position-based fluids (physics/src/xpbd/fluid/), on the GPU. The crate
 // puts `bodies.wgsl` (the rigid bodies' shapes, and the reductions of
-// step 5) before this file.
+// step 5) and `grid.wgsl` (the neighbour grid) before this file.
 //
 // The same step as the CPU's `Fluid::step`, stage for stage:
 //
@@ -44,8 +44,6 @@
 // Units: m, s, kg. Positions and velocities are vec4 (w unused).
 
 const WORKGROUP_SIZE: u32 = 64u;
-// Invocations of the single-workgroup prefix sum.
-const SCAN_SIZE: u32 = 256u;
 // Entries of the wall table over [0, h] (boundary.rs's ENTRIES).
 const WALL_ENTRIES: u32 = 64u;
 
@@ -119,12 +117,6 @@ struct FluidParams {
 }
 
 
-// A slot of the neighbour grid: the predicted position (m) and the
-// particle's index (16 bytes).
-struct Slot {
-    p: vec3<f32>,
-    index: u32,
-}
 
 // A wall near a particle over a step: a point of its tangent plane (w: 1
 // when the slot is used) and the normal out of the body (w: the shape's
@@ -143,8 +135,8 @@ struct Plane {
 @group(0) @binding(3) var<storage, read_write> prev: array<vec4<f32>>;
 // Corrected positions (substeps), new velocities (after them).
 @group(0) @binding(4) var<storage, read_write> next: array<vec4<f32>>;
-// Positions predicted for the whole step (the neighbour grid's).
-@group(0) @binding(5) var<storage, read_write> pred: array<vec4<f32>>;
+// Positions predicted for the whole step (where the grid places them).
+@group(0) @binding(5) var<storage, read_write> grid_points: array<vec4<f32>>;
 // Per slot of the grid: a particle and its predicted position.
 @group(0) @binding(6) var<storage, read_write> sorted: array<Slot>;
 // Per key: the count, then the scatter's cursor.
@@ -169,7 +161,6 @@ struct Plane {
 // Per movable body: what the stage did to it so far.
 @group(0) @binding(16) var<storage, read_write> motion: array<Motion>;
 
-var<workgroup> partial: array<u32, 256>;
 
 fn linear(id: vec3<u32>, groups: vec3<u32>) -> u32 {
     return id.x + id.y * groups.x * WORKGROUP_SIZE;
@@ -207,155 +198,29 @@ fn spiky_grad_over_r(r: f32) -> f32 {
     return params.spiky_grad * d * d / r;
 }
 
-// ---- the neighbour grid (grid.rs, hashed layout) ----
+// ---- the neighbour grid (`grid.wgsl`) ----
 
-fn cell_of(p: vec3<f32>) -> vec3<i32> {
-    return vec3<i32>(floor(p * params.inv_cell));
-}
-
-// The three-prime hash (Teschner et al. 2003), masked to the table.
-fn key_of(c: vec3<i32>) -> u32 {
-    let h = (bitcast<u32>(c.x) * 73856093u) ^ (bitcast<u32>(c.y) * 19349663u)
-        ^ (bitcast<u32>(c.z) * 83492791u);
-    return h & (params.table - 1u);
-}
-
-// Each particle's predicted position and its key's count.
-@compute @workgroup_size(64)
-fn count(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear(id, groups);
-    if (i >= params.n) {
-        return;
-    }
+// Where the grid places particle `i`: its position predicted for the
+// whole step (`x + dt v + dt² g`; where it stands when that is not
+// finite).
+fn grid_position(i: u32) -> vec3<f32> {
     let dt = params.dt;
-    var p = x[i].xyz + dt * v[i].xyz + dt * dt * params.gravity.xyz;
-    if (!finite3(p)) {
-        p = x[i].xyz;
-    }
-    pred[i] = vec4<f32>(p, 0.0);
-    atomicAdd(&cells[key_of(cell_of(p))], 1u);
+    let p = x[i].xyz + dt * v[i].xyz + dt * dt * params.gravity.xyz;
+    return select(x[i].xyz, p, finite3(p));
 }
 
-// Exclusive prefix sum of the counts into `start` (one workgroup: each
-// invocation sums a run of keys, the runs' sums are scanned in workgroup
-// memory, then each invocation writes its run's starts).
-@compute @workgroup_size(256)
-fn scan(@builtin(local_invocation_index) t: u32) {
-    let m = params.table;
-    let per = (m + SCAN_SIZE - 1u) / SCAN_SIZE;
-    let lo = min(t * per, m);
-    let hi = min(lo + per, m);
-    var sum = 0u;
-    for (var k = lo; k < hi; k++) {
-        sum += atomicLoad(&cells[k]);
-    }
-    partial[t] = sum;
-    workgroupBarrier();
-    for (var off = 1u; off < SCAN_SIZE; off *= 2u) {
-        var add = 0u;
-        if (t >= off) {
-            add = partial[t - off];
-        }
-        workgroupBarrier();
-        partial[t] += add;
-        workgroupBarrier();
-    }
-    var run = partial[t] - sum;
-    for (var k = lo; k < hi; k++) {
-        start[k] = run;
-        run += atomicLoad(&cells[k]);
-    }
-    if (t == SCAN_SIZE - 1u) {
-        start[m] = partial[t];
-    }
+fn grid_table() -> u32 {
+    return params.table;
 }
 
-// Each particle to a slot of its key (`cells` cleared to serve as the
-// cursors).
-@compute @workgroup_size(64)
-fn scatter(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = linear(id, groups);
-    if (i >= params.n) {
-        return;
-    }
-    let p = pred[i].xyz;
-    let k = key_of(cell_of(p));
-    let slot = start[k] + atomicAdd(&cells[k], 1u);
-    sorted[slot] = Slot(p, i);
+fn grid_inv_cell() -> f32 {
+    return params.inv_cell;
 }
 
-// Each key's slots in ascending particle order (insertion sort: a key
-// holds a few particles).
-@compute @workgroup_size(64)
-fn sort_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = linear(id, groups);
-    if (k >= params.table) {
-        return;
-    }
-    let lo = start[k];
-    let hi = start[k + 1u];
-    for (var a = lo + 1u; a < hi; a++) {
-        let item = sorted[a];
-        var b = a;
-        while (b > lo && sorted[b - 1u].index > item.index) {
-            sorted[b] = sorted[b - 1u];
-            b -= 1u;
-        }
-        sorted[b] = item;
-    }
+// Neighbours lie within the kernel radius.
+fn grid_reach2() -> f32 {
+    return params.h2;
 }
-
-// A walk over the neighbours of one particle: the 27 cells around its
-// predicted position, each cell's slots in order, keeping the other
-// particles of that cell within h (a key two cells share is visited for
-// each, and gives each only its own particles).
-struct Walk {
-    centre: vec3<f32>,
-    home: vec3<i32>,
-    current: vec3<i32>,
-    me: u32,
-    // Next of the 27 cells.
-    k: u32,
-    slot: u32,
-    end: u32,
-}
-
-fn walk_from(i: u32) -> Walk {
-    let p = pred[i].xyz;
-    let c = cell_of(p);
-    return Walk(p, c, c, i, 0u, 0u, 0u);
-}
-
-// The next neighbour's index, or NONE.
-fn next_neighbour(w: ptr<function, Walk>) -> u32 {
-    loop {
-        if ((*w).slot < (*w).end) {
-            let s = sorted[(*w).slot];
-            (*w).slot += 1u;
-            let j = s.index;
-            if (j == (*w).me || any(cell_of(s.p) != (*w).current)) {
-                continue;
-            }
-            let d = s.p - (*w).centre;
-            if (d.x * d.x + d.y * d.y + d.z * d.z < params.h2) {
-                return j;
-            }
-            continue;
-        }
-        if ((*w).k >= 27u) {
-            return NONE;
-        }
-        let k = (*w).k;
-        let o = vec3<i32>(i32(k % 3u) - 1, i32((k / 3u) % 3u) - 1, i32(k / 9u) - 1);
-        (*w).current = (*w).home + o;
-        let key = key_of((*w).current);
-        (*w).slot = start[key];
-        (*w).end = start[key + 1u];
-        (*w).k = k + 1u;
-    }
-    return NONE;
-}
-
 
 // The tangent planes of the shapes near each particle over the step.
 @compute @workgroup_size(64)
@@ -517,7 +382,7 @@ fn densities(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     var walk = walk_from(i);
     loop {
         let j = next_neighbour(&walk);
-        if (j == NONE) {
+        if (j == GRID_END) {
             break;
         }
         let d = p - x[j].xyz;
@@ -574,7 +439,7 @@ fn corrections(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgr
     var walk = walk_from(i);
     loop {
         let j = next_neighbour(&walk);
-        if (j == NONE) {
+        if (j == GRID_END) {
             break;
         }
         let o = p - x[j].xyz;
@@ -679,7 +544,7 @@ fn vorticity(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     var walk = walk_from(i);
     loop {
         let j = next_neighbour(&walk);
-        if (j == NONE) {
+        if (j == GRID_END) {
             break;
         }
         let d = p - x[j].xyz;
@@ -708,7 +573,7 @@ fn confine(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
     var walk = walk_from(i);
     loop {
         let j = next_neighbour(&walk);
-        if (j == NONE) {
+        if (j == GRID_END) {
             break;
         }
         let d = p - x[j].xyz;
@@ -741,7 +606,7 @@ fn xsph(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
     var walk = walk_from(i);
     loop {
         let j = next_neighbour(&walk);
-        if (j == NONE) {
+        if (j == GRID_END) {
             break;
         }
         let d = p - x[j].xyz;

@@ -6,7 +6,7 @@
 //! | `params` | the step's uniform block ([`FluidParams`], the wall table in it), a slot per substep | CPU, every step |
 //! | `x`, `v` | position, velocity (16 B each) | the passes |
 //! | `prev`, `next` | start of the substep; corrected positions, then new velocities | the passes |
-//! | `pred` | positions predicted for the whole step (the neighbour grid's) | `count` |
+//! | `grid_points` | positions predicted for the whole step (where the neighbour grid places them; `gpu/grid.rs`) | `count` |
 //! | `sorted` | per grid slot: predicted position and particle index | `scatter`, `sort_cells` |
 //! | `cells` | per key: integer count, then cursor (atomics) | `count`, `scatter` |
 //! | `start` | per key: first slot (exclusive prefix sum of the counts) | `scan` |
@@ -53,9 +53,10 @@ use crate::xpbd::fluid::Fluid;
 use super::bodies::{BodyBuffers, NearBodies, MAX_GPU_BODIES};
 use super::buffers::at_least;
 use super::context::GpuContext;
+use super::grid::GridBuffers;
 use super::program::{storage_binding, uniform_binding, Program};
 use crate::xpbd::coupling::BodyChange;
-use inertia_shaders::layout::{BODY_SLOTS, FLUID_PLANE_BYTES, FLUID_SLOT_BYTES, PUSH_BYTES};
+use inertia_shaders::layout::{BODY_SLOTS, FLUID_PLANE_BYTES, PUSH_BYTES};
 
 /// Largest distance (m) a GPU-stepped fluid particle may stand from the
 /// CPU-stepped one after 24 steps at 60 Hz of a small dam break (1920
@@ -212,25 +213,18 @@ impl FluidPipelines {
 pub(crate) struct GpuFluid {
     /// Particles.
     pub(crate) n: u32,
-    /// Keys of the grid's hash table (a power of two).
-    table: u32,
     params: wgpu::Buffer,
     x: wgpu::Buffer,
     v: wgpu::Buffer,
     density: wgpu::Buffer,
-    cells: wgpu::Buffer,
+    /// The neighbour grid (`gpu/grid.rs`).
+    grid: GridBuffers,
     /// The rigid bodies it meets (`gpu/bodies.rs`).
     bodies: BodyBuffers,
     readback: wgpu::Buffer,
     group: wgpu::BindGroup,
     /// Substeps the uniform slots were sized for.
     substeps: u32,
-}
-
-/// Keys of the hash table for `n` particles: as on the CPU's hashed grid,
-/// twice the particles rounded up to a power of two, at least 1024.
-fn table_size(n: usize) -> usize {
-    (2 * n).next_power_of_two().max(1024)
 }
 
 /// Uploads `fluid`'s particles (positions, velocities, densities).
@@ -242,7 +236,6 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
         ))
     })?;
     let n = fluid.len();
-    let table = table_size(n);
     let max_binding = ctx
         .limits
         .max_storage_buffer_binding_size
@@ -283,10 +276,7 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
         let db = init("fluid density", bytemuck::cast_slice(&density), copy);
         let prev = scratch("fluid prev", 16 * n, none);
         let next = scratch("fluid next", 16 * n, none);
-        let pred = scratch("fluid pred", 16 * n, none);
-        let sorted = scratch("fluid sorted", FLUID_SLOT_BYTES * n, none);
-        let cells = scratch("fluid cells", 4 * table, wgpu::BufferUsages::COPY_DST);
-        let start = scratch("fluid start", 4 * (table + 1), none);
+        let grid = GridBuffers::new(d, "fluid", n);
         let lambda = scratch("fluid lambda", 16 * n, none);
         let omega = scratch("fluid omega", 16 * n, none);
         let planes = scratch("fluid planes", BODY_SLOTS * FLUID_PLANE_BYTES * n, none);
@@ -309,10 +299,10 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
             &vb,
             &prev,
             &next,
-            &pred,
-            &sorted,
-            &cells,
-            &start,
+            &grid.points,
+            &grid.sorted,
+            &grid.cells,
+            &grid.start,
             &lambda,
             &db,
             &omega,
@@ -346,12 +336,11 @@ pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, P
         });
         Ok(Arc::new(GpuFluid {
             n: n as u32,
-            table: table as u32,
             params,
             x: xb,
             v: vb,
             density: db,
-            cells,
+            grid,
             bodies,
             readback,
             group,
@@ -376,7 +365,7 @@ fn params_for(fluid: &Fluid, gpu: &GpuFluid, dt: f32, g: Vec3, walls: &NearBodie
     FluidParams {
         gravity: [g.x, g.y, g.z, 0.0],
         n: gpu.n,
-        table: gpu.table,
+        table: gpu.grid.table,
         shapes: walls.shapes.len() as u32,
         tensile: u32::from(c.tensile_k > 0.0 && c.tensile_inv_w > 0.0),
         dt,
@@ -470,7 +459,7 @@ pub(crate) fn step(
         .as_ref()
         .ok_or_else(|| PhysicsError::Gpu("no fluid pipelines on this adapter".into()))?;
     let particles = ctx.workgroups(gpu.n)?;
-    let keys = ctx.workgroups(gpu.table)?;
+    let keys = ctx.workgroups(gpu.grid.table)?;
     // One workgroup a chunk, one invocation a body.
     let chunks = ctx.workgroups(gpu.bodies.chunks * inertia_shaders::layout::WORKGROUP_SIZE)?;
     let bodies = ctx.workgroups(movable as u32)?;
@@ -498,12 +487,13 @@ pub(crate) fn step(
             }
         };
         // 1. The neighbour grid: count, prefix sum, scatter, order.
-        encoder.clear_buffer(&gpu.cells, 0, None);
-        run(
+        gpu.grid.record_counts(
             &mut encoder,
-            &[(&pipes.count, particles, 0), (&pipes.scan, (1, 1), 0)],
+            [&pipes.count, &pipes.scan],
+            &gpu.group,
+            &[0],
+            particles,
         );
-        encoder.clear_buffer(&gpu.cells, 0, None);
         let mut stages = vec![
             (&pipes.scatter, particles, 0),
             (&pipes.sort_cells, keys, 0),

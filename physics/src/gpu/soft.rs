@@ -24,13 +24,13 @@
 //! tether and pressure constraints, attachments to rigid bodies of any
 //! shape, contacts with rigid bodies (cuboids, spheres, capsules) with
 //! friction, the dynamic ones sharing each correction within the stage as
-//! on the CPU (`Coupling::press`; `gpu/bodies.rs`), and plastic flow.
-//! Tearing changes the body's constraints, so it is found on the CPU from
-//! the positions read back after each step (a tearing body is read back
-//! every step) and a torn body is uploaded again
-//! (`World::stage_soft`). Self-collision runs only on the CPU: a body that
-//! uses it is refused ([`check_supported`]). How far a GPU run may drift
-//! from the CPU run is [`SOFT_GPU_TOLERANCE`].
+//! on the CPU (`Coupling::press`; `gpu/bodies.rs`), plastic flow, and
+//! self-collision (`gpu/self_collision.rs`, its own program, its passes
+//! in this step's order). Tearing changes the body's constraints, so it
+//! is found on the CPU from the positions read back after each step (a
+//! tearing body is read back every step) and a torn body is uploaded
+//! again (`World::stage_soft`). How far a GPU run may drift from the CPU
+//! run is [`SOFT_GPU_TOLERANCE`].
 
 use std::sync::Arc;
 
@@ -47,6 +47,7 @@ use super::bodies::{BodyBuffers, GpuShape, NearBodies, MAX_GPU_BODIES};
 use super::buffers::at_least;
 use super::context::GpuContext;
 use super::program::{storage_binding, uniform_binding, Program};
+use super::self_collision::{GpuSelfCollision, SelfPipelines};
 
 /// Largest distance (m) a GPU-stepped soft body's particle may stand from
 /// the CPU-stepped one after 60 steps at 60 Hz of a hanging 32 × 32 cloth
@@ -127,6 +128,21 @@ pub(crate) enum Entry {
     ShellTotal,
     ShellApply,
     Flow,
+    /// Self-collision (`gpu/self_collision.rs`, its own bind group).
+    Scatter,
+    SortCells,
+    Keep,
+    SelfCollide,
+}
+
+impl Entry {
+    /// Whether it is a self-collision pass, bound to that program's group.
+    fn self_collision(self) -> bool {
+        matches!(
+            self,
+            Entry::Scatter | Entry::SortCells | Entry::Keep | Entry::SelfCollide
+        )
+    }
 }
 
 /// The constraint kinds, numbered as the shader's `params.kind`.
@@ -157,6 +173,8 @@ pub(crate) struct SoftPipelines {
     shell_total: wgpu::ComputePipeline,
     shell_apply: wgpu::ComputePipeline,
     flow: wgpu::ComputePipeline,
+    /// Self-collision's program.
+    pub(crate) self_collision: SelfPipelines,
 }
 
 /// Storage buffers the soft body's passes bind.
@@ -193,8 +211,10 @@ impl SoftPipelines {
                 storage_binding(16, true),
             ],
         );
+        let self_collision = SelfPipelines::new(device)?;
         let pipeline = |entry: &str| program.pipeline(device, entry);
         Some(Self {
+            self_collision,
             predict: pipeline("predict"),
             finish: pipeline("finish"),
             project: pipeline("project"),
@@ -231,6 +251,10 @@ impl SoftPipelines {
             Entry::ShellTotal => &self.shell_total,
             Entry::ShellApply => &self.shell_apply,
             Entry::Flow => &self.flow,
+            Entry::Scatter => &self.self_collision.scatter,
+            Entry::SortCells => &self.self_collision.sort_cells,
+            Entry::Keep => &self.self_collision.keep,
+            Entry::SelfCollide => &self.self_collision.self_collide,
         }
     }
 }
@@ -266,6 +290,8 @@ pub(crate) struct GpuSoftBody {
     shell_chunks: u32,
     /// The rigid bodies it meets (`gpu/bodies.rs`).
     bodies: BodyBuffers,
+    /// Self-collision's buffers, for a body with it.
+    self_collision: Option<GpuSelfCollision>,
     readback: wgpu::Buffer,
     group: wgpu::BindGroup,
     /// A substep's dispatches after its first (predict or finish).
@@ -276,17 +302,11 @@ pub(crate) struct GpuSoftBody {
 
 /// Why a soft body cannot step on the GPU, if it cannot.
 pub(crate) fn check_supported(body: &SoftBody) -> Result<(), PhysicsError> {
-    let refuse = |what: &str| {
-        Err(PhysicsError::Gpu(format!(
-            "soft bodies with {what} step on the CPU only"
-        )))
-    };
-    if body.material().self_collision {
-        return refuse("self-collision");
-    }
     // The shell's lists count three corners a triangle in `u32`.
     if body.len() > u32::MAX as usize / 2 || body.triangles.len() > u32::MAX as usize / 4 {
-        return refuse("this many particles");
+        return Err(PhysicsError::Gpu(
+            "soft bodies with this many particles step on the CPU only".into(),
+        ));
     }
     Ok(())
 }
@@ -602,7 +622,10 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
                 entry(16, &r0),
             ],
         });
+        let self_collision = (body.material().self_collision && touches)
+            .then(|| GpuSelfCollision::new(&ctx.device, &pipelines.self_collision, body, &x));
         Ok(Arc::new(GpuSoftBody {
+            self_collision,
             n,
             params,
             x,
@@ -750,6 +773,11 @@ pub(crate) fn step(
             },
         );
     }
+    // Self-collision's candidates: within the contact distance plus twice
+    // how far the fastest particle goes in the step (the CPU's reach).
+    let own = gpu.self_collision.as_ref().filter(|_| radius > 0.0);
+    let reach = 2.0 * radius + 2.0 * body.travel(dt, gravity);
+    let own = own.filter(|_| reach.is_finite() && reach > 0.0);
     let particles = ctx.workgroups(gpu.n)?;
     // One workgroup a chunk, one invocation a body.
     let chunks = ctx.workgroups(gpu.bodies.chunks * inertia_shaders::layout::WORKGROUP_SIZE)?;
@@ -757,6 +785,7 @@ pub(crate) fn step(
     let one = (1, 1);
     let shell_chunks = ctx.workgroups(gpu.shell_chunks)?;
     let flows = ctx.workgroups(gpu.distances_n)?;
+    let keys = ctx.workgroups(own.map_or(0, |o| o.table()))?;
     let grids = gpu
         .colours
         .iter()
@@ -778,6 +807,10 @@ pub(crate) fn step(
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("soft step"),
             });
+        if let Some(own) = own {
+            own.write_params(&ctx.queue, reach, 2.0 * radius);
+            own.record_counts(&mut encoder, &pipes.self_collision, particles);
+        }
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("soft step"),
@@ -785,9 +818,16 @@ pub(crate) fn step(
             });
             let mut run = |entry: Entry, slot: usize, grid: (u32, u32)| {
                 pass.set_pipeline(pipes.of(entry));
-                pass.set_bind_group(0, &gpu.group, &[(slot as u64 * SLOT) as u32]);
+                match own {
+                    Some(own) if entry.self_collision() => pass.set_bind_group(0, &own.group, &[]),
+                    _ => pass.set_bind_group(0, &gpu.group, &[(slot as u64 * SLOT) as u32]),
+                }
                 pass.dispatch_workgroups(grid.0, grid.1, 1);
             };
+            if own.is_some() {
+                run(Entry::Scatter, 0, particles);
+                run(Entry::SortCells, 0, keys);
+            }
             // Contacts are looked for where the particles touch bodies
             // (the shapes of a body without a collision radius are only
             // those it is attached to).
@@ -823,6 +863,10 @@ pub(crate) fn step(
                         run(Entry::ReduceBodies, 0, bodies);
                         run(Entry::TakePushes, 0, bodies);
                     }
+                }
+                if own.is_some() {
+                    run(Entry::Keep, 0, particles);
+                    run(Entry::SelfCollide, 0, particles);
                 }
             }
             run(Entry::Finish, 2, particles);

@@ -77,13 +77,15 @@ impl World {
     /// the GPU (feature `gpu`) it takes the same small steps in `f32`,
     /// colour by colour (`gpu/soft.rs`), with contacts against the rigid
     /// bodies near it that push the dynamic ones back as on the CPU
-    /// (`gpu/bodies.rs`), attachments, pressure and plastic flow; a
+    /// (`gpu/bodies.rs`), attachments, pressure, plastic flow and
+    /// self-collision (its candidates on the GPU's neighbour grid); a
     /// tearing body is read back every step and tears on the CPU, then
-    /// goes up again. Bodies with self-collision are refused there
-    /// ([`PhysicsError::Gpu`]), and so is a body with contacts near a
-    /// rigid body of a shape other than a cuboid, sphere or capsule (a
-    /// step that finds one near later moves the body back to the CPU and
-    /// says so in [`StepReport::soft_bodies_to_cpu`](crate::StepReport)).
+    /// goes up again (a self-colliding one is read back every step too,
+    /// for its candidates' reach). A body with contacts near a rigid body
+    /// of a shape other than a cuboid, sphere or capsule is refused there
+    /// ([`PhysicsError::Gpu`]; a step that finds one near later moves the
+    /// body back to the CPU and says so in
+    /// [`StepReport::soft_bodies_to_cpu`](crate::StepReport)).
     /// A saved state does not keep the backend: a restored body steps on
     /// the CPU until moved again. With
     /// [`WorldConfig::gpu_readback_every_step`](crate::WorldConfig) off,
@@ -247,9 +249,13 @@ impl World {
                 let ctx = gpu
                     .as_ref()
                     .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
-                // A tearing body tears on the CPU, from its positions.
+                // A tearing body tears on the CPU, from its positions; a
+                // self-colliding one finds its candidates' reach from its
+                // velocities.
                 let tears = body.material.tear_strain;
-                let readback = config.gpu_readback_every_step || tears.is_some();
+                let readback = config.gpu_readback_every_step
+                    || tears.is_some()
+                    || body.material.self_collision;
                 body.attachments
                     .retain(|a| bodies.get(a.body.index, a.body.generation).is_some());
                 let touch = body.material.collision_radius > 0.0;

@@ -18,7 +18,7 @@
 mod build;
 pub(crate) mod constraints;
 mod lanes;
-mod self_collision;
+pub(crate) mod self_collision;
 mod step;
 mod tetra;
 

@@ -39,35 +39,42 @@ impl PartialEq for SelfCollision {
     }
 }
 
+/// Which particles of `body` are joined, each distance constraint's and
+/// each triangle's: per particle where its list starts (one more entry
+/// than particles), and the lists, each ascending.
+pub(crate) fn joined(body: &SoftBody) -> (Vec<u32>, Vec<u32>) {
+    let n = body.x.len();
+    let mut pairs: Vec<(u32, u32)> = Vec::new();
+    for d in &body.distance.items {
+        pairs.push((d.p[0], d.p[1]));
+        pairs.push((d.p[1], d.p[0]));
+    }
+    for t in &body.triangles {
+        for k in 0..3 {
+            pairs.push((t[k], t[(k + 1) % 3]));
+            pairs.push((t[(k + 1) % 3], t[k]));
+        }
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
+    let mut start = vec![0; n + 1];
+    for &(a, _) in &pairs {
+        start[a as usize + 1] += 1;
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    (start, pairs.into_iter().map(|(_, b)| b).collect())
+}
+
 impl SelfCollision {
-    /// Rebuilds which particles are joined (each distance constraint's
-    /// and each triangle's particles) when the constraints changed.
+    /// Rebuilds which particles are joined when the constraints changed.
     fn joins(&mut self, body: &SoftBody) {
         let n = body.x.len();
         if self.joined_start.len() == n + 1 && self.edges == body.distance.items.len() {
             return;
         }
-        let mut pairs: Vec<(u32, u32)> = Vec::new();
-        for d in &body.distance.items {
-            pairs.push((d.p[0], d.p[1]));
-            pairs.push((d.p[1], d.p[0]));
-        }
-        for t in &body.triangles {
-            for k in 0..3 {
-                pairs.push((t[k], t[(k + 1) % 3]));
-                pairs.push((t[(k + 1) % 3], t[k]));
-            }
-        }
-        pairs.sort_unstable();
-        pairs.dedup();
-        self.joined_start = vec![0; n + 1];
-        for &(a, _) in &pairs {
-            self.joined_start[a as usize + 1] += 1;
-        }
-        for i in 0..n {
-            self.joined_start[i + 1] += self.joined_start[i];
-        }
-        self.joined = pairs.into_iter().map(|(_, b)| b).collect();
+        (self.joined_start, self.joined) = joined(body);
         self.edges = body.distance.items.len();
     }
 
