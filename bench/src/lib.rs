@@ -41,7 +41,8 @@ pub struct Opts {
     /// CPU adapter too (minutes on Mesa lavapipe).
     pub gpu_large: bool,
     /// Whether the worlds of more than one thread pin their workers one to
-    /// a core (`soft`; the default: where the process owns its cores).
+    /// a core (`soft`, `particles`; the default: where the process owns
+    /// its cores).
     pub pin_threads: inertia_physics::ThreadPinning,
 }
 

@@ -379,11 +379,13 @@ fn throughput_record(
         .field("energy_accounting", scene.energy_accounting())
 }
 
-fn config(threads: usize, energy: bool, gpu_readback_every_step: bool) -> WorldConfig {
+/// A world of `threads` workers (0: one a core), pinned as `opts` says.
+fn config(opts: &Opts, threads: usize, energy: bool, gpu_readback_every_step: bool) -> WorldConfig {
     WorldConfig {
         threads,
         energy_accounting: energy,
         gpu_readback_every_step,
+        pin_threads: opts.pin_threads,
         ..WorldConfig::default()
     }
 }
@@ -396,7 +398,7 @@ pub fn cpu_case(
     sink: &mut dyn Sink,
 ) -> Result<(), BenchError> {
     let plan = Plan::new(opts);
-    let mut b = scene.build(config(threads, scene.energy_accounting(), true))?;
+    let mut b = scene.build(config(opts, threads, scene.energy_accounting(), true))?;
     let mut copy = CopyBench::new(b.bytes_per_step(scene) as usize, threads);
     let w = &mut b.world;
     let t = interleaved(&plan, &mut copy, || {
@@ -414,6 +416,7 @@ pub fn cpu_case(
     sink.record(
         throughput_record(scene, &b, "cpu", threads, &t)
             .field("steps", steps)
+            .field("pinned", w.pinned_cores().is_some())
             .field("quarantined", quarantined)
             .num("integrate_share", integrate_share),
     );
@@ -428,7 +431,7 @@ pub fn gpu_case(opts: &Opts, scene: Scene, sink: &mut dyn Sink) -> Result<(), Be
     let plan = Plan::new(opts);
     let threads = logical_cores();
     let energy = scene.energy_accounting();
-    let mut gb = scene.build(config(0, energy, false))?;
+    let mut gb = scene.build(config(opts, 0, energy, false))?;
     let base = Record::new()
         .field("case", scene.name())
         .field("backend", "gpu")
@@ -443,7 +446,7 @@ pub fn gpu_case(opts: &Opts, scene: Scene, sink: &mut dyn Sink) -> Result<(), Be
         return Ok(());
     }
     let mut run = || -> Result<Record, BenchError> {
-        let mut cb = scene.build(config(0, energy, true))?;
+        let mut cb = scene.build(config(opts, 0, energy, true))?;
         let (g, c, csys) = (&mut gb.world, &mut cb.world, cb.sys);
         for _ in 0..plan.compare_steps {
             g.step(DT)?;
