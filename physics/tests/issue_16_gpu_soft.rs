@@ -14,8 +14,8 @@ use inertia_physics::gpu::SOFT_GPU_TOLERANCE;
 use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{
-    Backend, BodyHandle, PhysicsError, Plasticity, SoftBalloon, SoftBody, SoftBodyHandle,
-    SoftCloth, SoftMaterial, SoftRope, SoftSolid, SolidShape, World, WorldConfig,
+    Backend, BodyHandle, PhysicsError, SoftBalloon, SoftBody, SoftBodyHandle, SoftCloth,
+    SoftMaterial, SoftRope, SoftSolid, SolidShape, World, WorldConfig,
 };
 
 use crate::common::at;
@@ -371,48 +371,7 @@ fn held_inflated_bent(w: &mut World) -> ([SoftBodyHandle; 3], BodyHandle, BodyHa
         ..SoftBalloon::default()
     };
     let b = w.add_soft_body(&balloon.build().unwrap()).unwrap();
-    let bar = SoftSolid {
-        shape: SolidShape::Box {
-            half_extents: DVec3::new(0.5, 0.05, 0.05),
-        },
-        position: DVec3::new(5.5, 1.0, 0.0),
-        cell: 0.05,
-        density: 500.0,
-        edge_compliance: 1e-8,
-        volume_compliance: 0.0,
-        material: SoftMaterial {
-            damping: 2.0,
-            substeps: 20,
-            gravity_scale: 0.0,
-            plasticity: Some(Plasticity {
-                yield_strain: 0.01,
-                creep: 20.0,
-                max_strain: 0.3,
-            }),
-            ..SoftMaterial::default()
-        },
-        ..SoftSolid::default()
-    };
-    let mut desc = bar.build().unwrap();
-    let mut tip = Vec::new();
-    for (k, p) in desc.positions.iter().enumerate() {
-        if p.x < 5.0 + 1e-6 {
-            desc.masses[k] = 0.0;
-        }
-        if p.x > 6.0 - 1e-6 {
-            tip.push(k as u32);
-        }
-    }
-    let bar = w.add_soft_body(&desc).unwrap();
-    let hand = RigidBodyDesc::kinematic(
-        Shape::cylinder(0.05, 0.02).unwrap(),
-        at(DVec3::new(6.0, 1.0, 0.0)),
-    );
-    let hand = w.add_body(&hand).unwrap();
-    for &k in &tip {
-        let p = w.soft_body(bar).unwrap().positions()[k as usize].as_dvec3();
-        w.attach_soft_to_body(bar, k, hand, p, 0.0).unwrap();
-    }
+    let (bar, _, hand) = crate::common::plastic_bar(w, 5.0, Shape::cylinder(0.05, 0.02).unwrap());
     ([r, b, bar], c, hand)
 }
 

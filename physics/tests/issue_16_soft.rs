@@ -195,38 +195,7 @@ fn issue_16_a_resting_soft_cube_keeps_its_volume_and_recovers_from_a_squash() {
 fn bend_bar(push: f64) -> (f32, f32) {
     let mut w = earth_world(1);
     w.set_gravity(DVec3::ZERO).unwrap();
-    let solid = SoftSolid {
-        shape: SolidShape::Box {
-            half_extents: DVec3::new(0.5, 0.05, 0.05),
-        },
-        position: DVec3::new(0.5, 1.0, 0.0),
-        cell: 0.05,
-        density: 500.0,
-        edge_compliance: 1e-8,
-        volume_compliance: 0.0,
-        material: SoftMaterial {
-            damping: 2.0,
-            substeps: 20,
-            plasticity: Some(Plasticity {
-                yield_strain: 0.01,
-                creep: 20.0,
-                max_strain: 0.3,
-            }),
-            ..SoftMaterial::default()
-        },
-        ..SoftSolid::default()
-    };
-    let mut desc = solid.build().unwrap();
-    let mut tip = Vec::new();
-    for (k, p) in desc.positions.iter().enumerate() {
-        if p.x < 1e-6 {
-            desc.masses[k] = 0.0;
-        }
-        if p.x > 1.0 - 1e-6 {
-            tip.push(k as u32);
-        }
-    }
-    let h = w.add_soft_body(&desc).unwrap();
+    let (h, tip, hand) = common::plastic_bar(&mut w, 0.0, Shape::sphere(0.02).unwrap());
     let tip_y = |w: &World| -> f32 {
         let b = w.soft_body(h).unwrap();
         tip.iter()
@@ -239,16 +208,6 @@ fn bend_bar(push: f64) -> (f32, f32) {
         translation: DVec3::new(1.0, y, 0.0),
         rotation: DQuat::IDENTITY,
     };
-    let hand = w
-        .add_body(&RigidBodyDesc::kinematic(
-            Shape::sphere(0.02).unwrap(),
-            at(1.0),
-        ))
-        .unwrap();
-    for &k in &tip {
-        let p = w.soft_body(h).unwrap().positions()[k as usize].as_dvec3();
-        w.attach_soft_to_body(h, k, hand, p, 0.0).unwrap();
-    }
     for step in 1..=120 {
         let f = (step as f64 / 60.0).min(1.0);
         w.set_body_pose(hand, at(1.0 - push * f)).unwrap();

@@ -27,7 +27,7 @@ use wgpu::util::DeviceExt;
 use crate::xpbd::soft::self_collision::joined;
 use crate::xpbd::soft::SoftBody;
 
-use super::buffers::at_least;
+use super::buffers::{at_least, bind_buffers};
 use super::grid::GridBuffers;
 use super::program::{storage_binding, uniform_binding, Program};
 
@@ -148,19 +148,7 @@ impl GpuSelfCollision {
             &joined,
             &before,
         ];
-        let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
-            .iter()
-            .enumerate()
-            .map(|(k, b)| wgpu::BindGroupEntry {
-                binding: k as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("soft self-collision"),
-            layout: &pipelines.layout,
-            entries: &entries,
-        });
+        let group = bind_buffers(device, "soft self-collision", &pipelines.layout, &buffers);
         Self {
             n: n as u32,
             params,

@@ -358,3 +358,60 @@ pub fn hammock(w: &mut World, substeps: u32) -> (inertia_physics::SoftBodyHandle
     .unwrap();
     (h, w.add_body(&crate_).unwrap())
 }
+
+/// A plastic bar 1 m long (along x from `x0`, m), 10 cm square, at y =
+/// 1 m: a `SoftSolid` of 5 cm cells (yield at 1 % strain, creep 20/s, at
+/// most 30 % permanent strain, 20 substeps) that feels no gravity, its
+/// end at `x0` pinned and its tip's particles held rigidly to a kinematic
+/// hand of shape `hand` at the tip's centre. Returns the bar, the tip's
+/// particles and the hand.
+pub fn plastic_bar(
+    w: &mut World,
+    x0: f64,
+    hand: Shape,
+) -> (inertia_physics::SoftBodyHandle, Vec<u32>, BodyHandle) {
+    let solid = inertia_physics::SoftSolid {
+        shape: inertia_physics::SolidShape::Box {
+            half_extents: DVec3::new(0.5, 0.05, 0.05),
+        },
+        position: DVec3::new(x0 + 0.5, 1.0, 0.0),
+        cell: 0.05,
+        density: 500.0,
+        edge_compliance: 1e-8,
+        volume_compliance: 0.0,
+        material: inertia_physics::SoftMaterial {
+            damping: 2.0,
+            substeps: 20,
+            gravity_scale: 0.0,
+            plasticity: Some(inertia_physics::Plasticity {
+                yield_strain: 0.01,
+                creep: 20.0,
+                max_strain: 0.3,
+            }),
+            ..inertia_physics::SoftMaterial::default()
+        },
+        ..inertia_physics::SoftSolid::default()
+    };
+    let mut desc = solid.build().unwrap();
+    let mut tip = Vec::new();
+    for (k, p) in desc.positions.iter().enumerate() {
+        if p.x < x0 + 1e-6 {
+            desc.masses[k] = 0.0;
+        }
+        if p.x > x0 + 1.0 - 1e-6 {
+            tip.push(k as u32);
+        }
+    }
+    let bar = w.add_soft_body(&desc).unwrap();
+    let hand = w
+        .add_body(&RigidBodyDesc::kinematic(
+            hand,
+            at(DVec3::new(x0 + 1.0, 1.0, 0.0)),
+        ))
+        .unwrap();
+    for &k in &tip {
+        let p = w.soft_body(bar).unwrap().positions()[k as usize].as_dvec3();
+        w.attach_soft_to_body(bar, k, hand, p, 0.0).unwrap();
+    }
+    (bar, tip, hand)
+}
