@@ -207,33 +207,7 @@ fn issue_16_a_folded_cloth_on_the_gpu_keeps_its_layers_apart_as_the_cpu_does() {
         .unwrap();
         w.set_gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
         crate::common::ground(&mut w);
-        let cloth = SoftCloth {
-            corner: DVec3::new(-0.25, 0.02, 0.0),
-            across: DVec3::new(0.5, 0.0, 0.0),
-            down: DVec3::new(0.0, 0.0, 0.95),
-            rows: 20,
-            cols: 11,
-            mass: 0.3,
-            stretch_compliance: 0.0,
-            shear_compliance: 1e-5,
-            bend_compliance: 10.0,
-            pinned: Vec::new(),
-            tethers: false,
-            material: SoftMaterial {
-                collision_radius: 0.012,
-                self_collision,
-                friction: 0.5,
-                ..SoftMaterial::default()
-            },
-        };
-        let mut desc = cloth.build().unwrap();
-        for row in 10..20 {
-            for col in 0..11 {
-                let i = row * 11 + col;
-                let under = (19 - row) * 11 + col;
-                desc.positions[i] = desc.positions[under] + DVec3::new(0.0, 0.03, 0.0);
-            }
-        }
+        let desc = crate::common::folded_sheet(self_collision);
         let h = w.add_soft_body(&desc).unwrap();
         w.set_soft_backend(h, backend).unwrap();
         for _ in 0..90 {
@@ -244,14 +218,7 @@ fn issue_16_a_folded_cloth_on_the_gpu_keeps_its_layers_apart_as_the_cpu_does() {
         assert_eq!(b.backend(), backend);
         b
     };
-    let upper = |b: &SoftBody| {
-        let x = b.positions();
-        let ys: Vec<f32> = (12..20)
-            .flat_map(|row| (0..11).map(move |col| row * 11 + col))
-            .map(|i| x[i].y)
-            .collect();
-        ys.iter().sum::<f32>() / ys.len() as f32
-    };
+    let upper = crate::common::upper_half_height;
     let cpu = run(Backend::Cpu, true);
     let gpu = run(Backend::Gpu, true);
     let through = run(Backend::Gpu, false);
@@ -474,24 +441,7 @@ fn issue_16_a_cloth_on_the_gpu_tears_where_the_cpu_does() {
         return;
     }
     let n = 20;
-    let cloth = SoftCloth {
-        corner: DVec3::new(-1.0, 3.0, 0.0),
-        across: DVec3::new(2.0, 0.0, 0.0),
-        down: DVec3::new(0.0, -2.0, 0.0),
-        rows: n,
-        cols: n,
-        mass: 2.0,
-        stretch_compliance: 1e-3,
-        shear_compliance: 1e-3,
-        bend_compliance: 100.0,
-        pinned: vec![[0, 0], [0, n - 1]],
-        tethers: false,
-        material: SoftMaterial {
-            tear_strain: Some(0.08),
-            ..SoftMaterial::default()
-        },
-    };
-    let desc = cloth.build().unwrap();
+    let desc = crate::common::tearing_sheet(n);
     let mut worlds = [false, true].map(|_| {
         let mut w = World::new(WorldConfig {
             gpu_readback_every_step: false,

@@ -245,24 +245,7 @@ fn issue_16_a_bar_bent_past_yield_keeps_a_set_and_one_bent_below_it_returns() {
 fn issue_16_a_tearing_cloth_tears_where_the_strain_is_highest() {
     let mut w = earth_world(1);
     let n = 20;
-    let cloth = SoftCloth {
-        corner: DVec3::new(-1.0, 3.0, 0.0),
-        across: DVec3::new(2.0, 0.0, 0.0),
-        down: DVec3::new(0.0, -2.0, 0.0),
-        rows: n,
-        cols: n,
-        mass: 2.0,
-        stretch_compliance: 1e-3,
-        shear_compliance: 1e-3,
-        bend_compliance: 100.0,
-        pinned: vec![[0, 0], [0, n - 1]],
-        tethers: false,
-        material: SoftMaterial {
-            tear_strain: Some(0.08),
-            ..SoftMaterial::default()
-        },
-    };
-    let desc = cloth.build().unwrap();
+    let desc = common::tearing_sheet(n);
     let h = w.add_soft_body(&desc).unwrap();
     let edges0 = w.soft_body(h).unwrap().constraint_counts()[0];
     let mut most_strained = None;
@@ -625,47 +608,13 @@ fn issue_16_cloth_with_self_collision_keeps_its_layers_apart() {
     let run = |self_collision: bool| {
         let mut w = earth_world(2);
         ground(&mut w);
-        let r = 0.012;
-        let cloth = SoftCloth {
-            corner: DVec3::new(-0.25, 0.02, 0.0),
-            across: DVec3::new(0.5, 0.0, 0.0),
-            down: DVec3::new(0.0, 0.0, 0.95),
-            rows: 20,
-            cols: 11,
-            mass: 0.3,
-            stretch_compliance: 0.0,
-            shear_compliance: 1e-5,
-            bend_compliance: 10.0,
-            pinned: Vec::new(),
-            tethers: false,
-            material: SoftMaterial {
-                collision_radius: r,
-                self_collision,
-                friction: 0.5,
-                ..SoftMaterial::default()
-            },
-        };
-        let mut desc = cloth.build().unwrap();
-        // Fold rows 10..20 back over rows 0..10, 3 cm higher.
-        for row in 10..20 {
-            for col in 0..11 {
-                let i = row * 11 + col;
-                let under = (19 - row) * 11 + col;
-                desc.positions[i] = desc.positions[under] + DVec3::new(0.0, 0.03, 0.0);
-            }
-        }
-        let h = w.add_soft_body(&desc).unwrap();
+        let h = w
+            .add_soft_body(&common::folded_sheet(self_collision))
+            .unwrap();
         for _ in 0..90 {
             w.step(DT).unwrap();
         }
-        let b = w.soft_body(h).unwrap();
-        let x = b.positions();
-        // The mean height of the upper half, away from the fold.
-        let upper: Vec<f32> = (12..20)
-            .flat_map(|row| (0..11).map(move |col| row * 11 + col))
-            .map(|i| x[i].y)
-            .collect();
-        upper.iter().sum::<f32>() / upper.len() as f32
+        common::upper_half_height(w.soft_body(h).unwrap())
     };
     let with = run(true);
     let without = run(false);

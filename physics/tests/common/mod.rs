@@ -415,3 +415,74 @@ pub fn plastic_bar(
     }
     (bar, tip, hand)
 }
+
+/// A 0.5 × 0.95 m sheet (11 × 20 particles, 12 mm collision radius)
+/// folded in two on the ground: rows 10..20 laid back over rows 0..10,
+/// 3 cm above them. With `self_collision` its upper half can rest on the
+/// lower; without, it falls through.
+pub fn folded_sheet(self_collision: bool) -> inertia_physics::SoftBodyDesc {
+    let cloth = inertia_physics::SoftCloth {
+        corner: DVec3::new(-0.25, 0.02, 0.0),
+        across: DVec3::new(0.5, 0.0, 0.0),
+        down: DVec3::new(0.0, 0.0, 0.95),
+        rows: 20,
+        cols: 11,
+        mass: 0.3,
+        stretch_compliance: 0.0,
+        shear_compliance: 1e-5,
+        bend_compliance: 10.0,
+        pinned: Vec::new(),
+        tethers: false,
+        material: inertia_physics::SoftMaterial {
+            collision_radius: 0.012,
+            self_collision,
+            friction: 0.5,
+            ..inertia_physics::SoftMaterial::default()
+        },
+    };
+    let mut desc = cloth.build().unwrap();
+    for row in 10..20 {
+        for col in 0..11 {
+            let i = row * 11 + col;
+            let under = (19 - row) * 11 + col;
+            desc.positions[i] = desc.positions[under] + DVec3::new(0.0, 0.03, 0.0);
+        }
+    }
+    desc
+}
+
+/// The mean height (m) of a [`folded_sheet`]'s upper half, away from the
+/// fold.
+pub fn upper_half_height(b: &inertia_physics::SoftBody) -> f32 {
+    let x = b.positions();
+    let upper: Vec<f32> = (12..20)
+        .flat_map(|row| (0..11).map(move |col| row * 11 + col))
+        .map(|i| x[i].y)
+        .collect();
+    upper.iter().sum::<f32>() / upper.len() as f32
+}
+
+/// A 2 m square sheet of `n` × `n` particles hung by its top corners in
+/// the plane z = 0 (2 kg, soft stretch and shear, no tethers) that tears
+/// past 8 % strain.
+pub fn tearing_sheet(n: u32) -> inertia_physics::SoftBodyDesc {
+    inertia_physics::SoftCloth {
+        corner: DVec3::new(-1.0, 3.0, 0.0),
+        across: DVec3::new(2.0, 0.0, 0.0),
+        down: DVec3::new(0.0, -2.0, 0.0),
+        rows: n,
+        cols: n,
+        mass: 2.0,
+        stretch_compliance: 1e-3,
+        shear_compliance: 1e-3,
+        bend_compliance: 100.0,
+        pinned: vec![[0, 0], [0, n - 1]],
+        tethers: false,
+        material: inertia_physics::SoftMaterial {
+            tear_strain: Some(0.08),
+            ..inertia_physics::SoftMaterial::default()
+        },
+    }
+    .build()
+    .unwrap()
+}
