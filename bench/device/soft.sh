@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Runs the soft-body bench (`inertia-bench soft`, the cloth and fluid
-# cases: CPU at 1 and 2 threads and the GPU, with the GPU's distance from
-# the CPU, and the GPU-only `fluid_1m`) on a machine with a real GPU, in
+# Runs the soft-body bench (`inertia-bench soft`, every case: the cloths,
+# the jelly and the fluids on the CPU at 1 and 2 threads and on the GPU,
+# with the GPU's distance from the CPU, and the GPU-only `fluid_1m`) on a machine with a real GPU, in
 # under five minutes, and writes the records where they can be committed
 # (bench/results/<machine>.jsonl). SOFT_ONLY runs one selection instead
 # (a substring of the case names, e.g. `cloth_128`).
@@ -35,9 +35,7 @@ start=$(date +%s)
 if [ -n "${SOFT_ONLY:-}" ]; then
     "$bin" soft --json --only "$SOFT_ONLY" | tee "$out/soft.jsonl"
 else
-    # Two selections (the cases a real GPU shows): the jelly is left out.
-    "$bin" soft --json --only cloth | tee "$out/soft.jsonl"
-    "$bin" soft --json --only fluid | tee -a "$out/soft.jsonl"
+    "$bin" soft --json | tee "$out/soft.jsonl"
 fi
 "$bin" soft --plot "$out" --from "$out/soft.jsonl" 2>&1
 echo "soft bench: $(($(date +%s) - start)) s; records in $out/soft.jsonl, plot in $out/soft.svg" >&2

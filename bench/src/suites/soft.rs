@@ -17,7 +17,8 @@
 //!   apart breaking from one end of a tank four times as long
 //!   (position-based fluids, 4 substeps, the walls static boxes).
 //! * On the GPU (feature `gpu`), after the CPU cases: the cloths (up to
-//!   128² on a CPU adapter), `fluid_10k` and `fluid_100k` (with
+//!   128² on a CPU adapter) and the jelly (with `max_abs_diff_vs_cpu`),
+//!   `fluid_10k` and `fluid_100k` (with
 //!   `max_abs_diff_vs_cpu` and `median_abs_diff_vs_cpu`, against the
 //!   one-thread CPU world after the same steps) and `fluid_1m` (GPU only).
 //!   On a CPU adapter fluids past 10k particles run only with
@@ -215,8 +216,8 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     let threads = [(1usize, ThreadPinning::Auto), (2, opts.pin_threads)];
     let pb = progress(scenes.len() as u64, "soft");
     let mut sink = Suspended::new(&pb, sink);
-    // Cloth cases to run on the GPU, with the one-thread CPU world each is
-    // compared with.
+    // Soft-body cases to run on the GPU, with the one-thread CPU world
+    // each is compared with.
     #[cfg(feature = "gpu")]
     let mut on_gpu = Vec::new();
     // Fluid cases likewise.
@@ -295,9 +296,9 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
             );
         }
         #[cfg(feature = "gpu")]
-        if let (Scene::Cloth(n), Handle::Soft(h)) = (scene, worlds[0].1) {
+        if let (Scene::Cloth(_) | Scene::Jelly(_), Handle::Soft(h)) = (scene, worlds[0].1) {
             let (cpu, _) = worlds.swap_remove(0);
-            on_gpu.push((scene, n, cpu, h));
+            on_gpu.push((scene, cpu, h));
         } else if let (Scene::Fluid(_), Handle::Fluid(h)) = (scene, worlds[0].1) {
             let (cpu, _) = worlds.swap_remove(0);
             fluids_on_gpu.push((scene, Some((cpu, h))));
@@ -312,8 +313,8 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     // The GPU cases last: a CPU adapter's worker threads would otherwise
     // share the cores with the CPU cases after them.
     #[cfg(feature = "gpu")]
-    for (scene, n, cpu, h) in on_gpu {
-        gpu_case(scene, n, warmup, steps, &cpu, h, &mut sink, &pb)?;
+    for (scene, cpu, h) in on_gpu {
+        gpu_case(scene, warmup, steps, &cpu, h, &mut sink, &pb)?;
     }
     #[cfg(feature = "gpu")]
     for (scene, cpu) in fluids_on_gpu {
@@ -344,16 +345,18 @@ fn gpu_step_times(w: &mut World, warmup: usize, steps: usize) -> Result<Vec<f64>
     Ok(times)
 }
 
-/// The cloth on the GPU (feature `gpu`): stepped as many times as the CPU
-/// worlds, each step waited for; `max_abs_diff_vs_cpu` against the
-/// one-thread CPU world `cpu` at the end. On a CPU adapter (Mesa's
-/// lavapipe) cloths larger than 128² are skipped: it runs the shaders on
-/// the cores the CPU rows measure.
+/// Most particles of a soft body stepped on a CPU adapter (a 128² cloth).
 #[cfg(feature = "gpu")]
-#[allow(clippy::too_many_arguments)]
+const MOST_ON_A_CPU_ADAPTER: usize = 128 * 128;
+
+/// A cloth or the jelly on the GPU (feature `gpu`): stepped as many times
+/// as the CPU worlds, each step waited for; `max_abs_diff_vs_cpu` against
+/// the one-thread CPU world `cpu` at the end. On a CPU adapter (Mesa's
+/// lavapipe) bodies larger than a 128² cloth are skipped: it runs the
+/// shaders on the cores the CPU rows measure.
+#[cfg(feature = "gpu")]
 fn gpu_case(
     scene: Scene,
-    n: u32,
     warmup: usize,
     steps: usize,
     cpu: &World,
@@ -374,7 +377,8 @@ fn gpu_case(
             return Ok(());
         }
     };
-    if adapter.1 && n > 128 {
+    let particles = w.soft_body(h).ok_or("soft body vanished")?.len();
+    if adapter.1 && particles > MOST_ON_A_CPU_ADAPTER {
         note(
             pb,
             &format!("{}: skipped on the CPU adapter {}", scene.name(), adapter.0),
@@ -394,13 +398,17 @@ fn gpu_case(
         .zip(c.positions())
         .map(|(p, q)| (*p - *q).length())
         .fold(0.0f32, f32::max);
+    let r = base
+        .field("adapter", adapter.0)
+        .field("particles", b.len())
+        .field("constraints", b.constraints())
+        .field("substeps", b.material().substeps);
+    let r = match scene {
+        Scene::Jelly(_) => r.num("volume_kept", f64::from(b.volume() / b.rest_volume())),
+        _ => r.num("max_strain", f64::from(b.max_strain())),
+    };
     sink.record(
-        base.field("adapter", adapter.0)
-            .field("particles", b.len())
-            .field("constraints", b.constraints())
-            .field("substeps", b.material().substeps)
-            .num("max_strain", f64::from(b.max_strain()))
-            .num("ms_per_step", median(&times) * 1e3)
+        r.num("ms_per_step", median(&times) * 1e3)
             .num("max_abs_diff_vs_cpu", f64::from(diff)),
     );
     Ok(())
