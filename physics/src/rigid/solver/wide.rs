@@ -17,8 +17,9 @@
 //!
 //! The constraints are prepared in `f64` ([`ContactConstraint::prepare`])
 //! and packed here once a step; the passes are the same as the scalar
-//! [`ContactConstraint::solve`] and [`ContactConstraint::warm_start`], lane
-//! by lane, with the manifold's points solved in turn within a lane. What
+//! [`ContactConstraint::solve`] and `ContactConstraint::warm_start` (kept
+//! in test builds), lane by lane, with the manifold's points solved in
+//! turn within a lane. What
 //! the rest of the step reads back (the impulses) is unpacked into the
 //! constraints ([`WideContacts::unpack`]).
 

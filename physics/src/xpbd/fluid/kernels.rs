@@ -102,8 +102,8 @@ impl Kernels {
         (self.spiky * t * t * t, g)
     }
 
-    /// [`Kernels::spiky_pair`] for eight offsets `(dx, dy, dz)` (m) at
-    /// once.
+    /// `Kernels::spiky_pair` (kept in test builds) for eight offsets
+    /// `(dx, dy, dz)` (m) at once.
     #[inline(always)]
     pub(crate) fn spiky_pair_x8(&self, dx: f32x8, dy: f32x8, dz: f32x8) -> (f32x8, f32x8) {
         let r2 = dx * dx + dy * dy + dz * dz;
