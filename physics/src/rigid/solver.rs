@@ -40,7 +40,7 @@
 //!
 //! The constraints are prepared here in `f64`, one at a time; the step's
 //! passes run four constraints of a colour at a time in `f32`
-//! ([`wide`]), on the bodies' hot state ([`hot`]). The scalar passes below
+//! (`wide.rs`), on the bodies' hot state (`hot.rs`). The scalar passes below
 //! are the reference they are tested against, and what the shock pass
 //! runs.
 

@@ -17,7 +17,7 @@
 //!
 //! Positions and velocities are kept in single precision, as the GPU keeps
 //! them. Every parallel pass is deterministic: constraints are coloured
-//! ([`colouring`]) so a colour's constraints never share a particle, and
+//! (`colouring.rs`) so a colour's constraints never share a particle, and
 //! fluid particles gather from their neighbours in a fixed order.
 
 pub(crate) mod colouring;
