@@ -325,15 +325,6 @@ struct GpuAttachment {
 const _: () =
     assert!(std::mem::size_of::<GpuAttachment>() == inertia_shaders::layout::SOFT_ATTACHMENT_BYTES);
 
-/// The bodies `body`'s attachments hold it to (arena index and
-/// generation), for [`gather`](super::bodies::gather).
-pub(crate) fn attached(body: &SoftBody) -> Vec<(u32, u32)> {
-    body.attachments
-        .iter()
-        .map(|a| (a.body.index, a.body.generation))
-        .collect()
-}
-
 /// `body`'s attachments as the shader takes them, each body found among
 /// the step's shapes `near`.
 fn attachments(body: &SoftBody, near: &NearBodies) -> Vec<GpuAttachment> {
@@ -651,11 +642,16 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
 
 /// Steps `body` on the GPU by `dt` s under `gravity` (m/s², the world's)
 /// against the rigid bodies `near` it (`gpu/bodies.rs`: those it touches
-/// and those it is attached to, gathered as [`attached`] and its collision
-/// radius say); with `readback`, copies the new positions and velocities
-/// (and a plastic body's rest lengths) into the CPU mirror. Returns what the particles gave the
+/// and those it is attached to, as its collision radius and
+/// [`SoftBody::attached_bodies`] say); with `readback`, copies the new
+/// positions and velocities (and a plastic body's rest lengths) into the
+/// CPU mirror. `travel` is how far a particle can go in the step (m,
+/// [`SoftBody::travel`], from a fresh mirror): a self-colliding body
+/// needs it for its candidates' reach. Returns what the particles gave the
 /// dynamic bodies, for
 /// [`apply_changes`](crate::xpbd::coupling::apply_changes).
+// The CPU step's inputs (`xpbd/soft/step.rs`) and the GPU's own.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn step(
     ctx: &GpuContext,
     body: &mut SoftBody,
@@ -663,6 +659,7 @@ pub(crate) fn step(
     dt: f32,
     gravity: Vec3,
     near: &NearBodies,
+    travel: Option<f32>,
     readback: bool,
 ) -> Result<Vec<BodyChange>, PhysicsError> {
     if gpu.n as usize != body.len() {
@@ -775,9 +772,11 @@ pub(crate) fn step(
     }
     // Self-collision's candidates: within the contact distance plus twice
     // how far the fastest particle goes in the step (the CPU's reach).
-    let own = gpu.self_collision.as_ref().filter(|_| radius > 0.0);
-    let reach = 2.0 * radius + 2.0 * body.travel(dt, gravity);
-    let own = own.filter(|_| reach.is_finite() && reach > 0.0);
+    let reach = travel.map_or(0.0, |t| 2.0 * radius + 2.0 * t);
+    let own = gpu
+        .self_collision
+        .as_ref()
+        .filter(|_| reach.is_finite() && reach > 0.0);
     let particles = ctx.workgroups(gpu.n)?;
     // One workgroup a chunk, one invocation a body.
     let chunks = ctx.workgroups(gpu.bodies.chunks * inertia_shaders::layout::WORKGROUP_SIZE)?;
@@ -909,8 +908,6 @@ impl GpuSoftBody {
 fn readback_bytes(n: u32, distances: u32) -> u64 {
     2 * u64::from(n) * 16 + u64::from(distances) * 16
 }
-
-impl GpuSoftBody {}
 
 /// Copies the GPU's positions and velocities (and a plastic body's rest
 /// lengths) into the CPU mirror (after a submitted

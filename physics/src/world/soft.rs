@@ -119,7 +119,7 @@ impl World {
                     let touch = body.material.collision_radius > 0.0;
                     let reach = body.material.collision_radius as f32 + 1e-3;
                     let near = crate::gpu::bodies::near_box(&body.x, reach);
-                    let attached = crate::gpu::soft::attached(body);
+                    let attached = body.attached_bodies();
                     crate::gpu::bodies::gather(
                         &self.bodies,
                         &self.step_start,
@@ -244,6 +244,8 @@ impl World {
             ..
         } = self;
         for (index, generation, body) in soft_bodies.iter_mut() {
+            body.attachments
+                .retain(|a| bodies.get(a.body.index, a.body.generation).is_some());
             #[cfg(feature = "gpu")]
             if let Some(on_gpu) = body.gpu.0.clone() {
                 let ctx = gpu
@@ -256,15 +258,16 @@ impl World {
                 let readback = config.gpu_readback_every_step
                     || tears.is_some()
                     || body.material.self_collision;
-                body.attachments
-                    .retain(|a| bodies.get(a.body.index, a.body.generation).is_some());
                 let touch = body.material.collision_radius > 0.0;
-                let reach =
-                    body.material.collision_radius as f32 + body.travel(dt32, gravity) + 1e-3;
-                let near = (readback && touch)
-                    .then(|| crate::gpu::bodies::near_box(&body.x, reach))
-                    .flatten();
-                let attached = crate::gpu::soft::attached(body);
+                // From the mirror, where it is fresh (read back the step
+                // before): the bodies near the particles, and
+                // self-collision's reach.
+                let travel = (readback && touch).then(|| body.travel(dt32, gravity));
+                let near = travel.and_then(|t| {
+                    let reach = body.material.collision_radius as f32 + t + 1e-3;
+                    crate::gpu::bodies::near_box(&body.x, reach)
+                });
+                let attached = body.attached_bodies();
                 match crate::gpu::bodies::gather(
                     bodies,
                     step_start,
@@ -274,7 +277,7 @@ impl World {
                 ) {
                     Ok(near) => {
                         let changes = crate::gpu::soft::step(
-                            ctx, body, &on_gpu, dt32, gravity, &near, readback,
+                            ctx, body, &on_gpu, dt32, gravity, &near, travel, readback,
                         )?;
                         apply_changes(bodies, &changes);
                         if tears.is_some_and(|t| soft::tear(body, t as f32)) {
@@ -282,10 +285,8 @@ impl World {
                             match crate::gpu::soft::upload(ctx, body) {
                                 Ok(gpu) => body.gpu.0 = Some(gpu),
                                 Err(why) => {
-                                    body.gpu.0 = None;
-                                    body.backend = crate::particle_system::Backend::Cpu;
                                     let h = SoftBodyHandle { index, generation };
-                                    report.soft_bodies_to_cpu.push((h, why));
+                                    to_cpu(body, h, why, report);
                                 }
                             }
                         }
@@ -299,22 +300,14 @@ impl World {
                         // Bodies the GPU cannot take came near: the body
                         // goes back to the CPU and steps there, from now on.
                         crate::gpu::soft::download(ctx, body, &on_gpu)?;
-                        body.gpu.0 = None;
-                        body.backend = crate::particle_system::Backend::Cpu;
                         let h = SoftBodyHandle { index, generation };
-                        report.soft_bodies_to_cpu.push((h, why));
+                        to_cpu(body, h, why, report);
                     }
                 }
             }
-            body.attachments
-                .retain(|a| bodies.get(a.body.index, a.body.generation).is_some());
             let travel = body.travel(dt32, gravity);
             let reach = body.material.collision_radius as f32 + travel + 1e-3;
-            let always: Vec<(u32, u32)> = body
-                .attachments
-                .iter()
-                .map(|a| (a.body.index, a.body.generation))
-                .collect();
+            let always = body.attached_bodies();
             let wants_bodies = body.material.collision_radius > 0.0 || !always.is_empty();
             let mut coupling = if wants_bodies {
                 Coupling::gather(bodies, &body.x, &body.w, reach, &always)
@@ -392,6 +385,20 @@ impl World {
         }
         Ok(())
     }
+}
+
+/// Soft body `h`, its mirror up to date, steps on the CPU from now on
+/// because of `why`, which the step's report says.
+#[cfg(feature = "gpu")]
+fn to_cpu(
+    body: &mut SoftBody,
+    h: SoftBodyHandle,
+    why: PhysicsError,
+    report: &mut super::StepReport,
+) {
+    body.gpu.0 = None;
+    body.backend = crate::particle_system::Backend::Cpu;
+    report.soft_bodies_to_cpu.push((h, why));
 }
 
 /// Adds the kinetic and uniform-gravity energy of particles (J) to `energy`.

@@ -568,6 +568,15 @@ impl SoftBody {
         enclosed_volume(&self.x, &self.triangles)
     }
 
+    /// The rigid bodies its attachments hold it to (arena index and
+    /// generation), in attachment order.
+    pub(crate) fn attached_bodies(&self) -> Vec<(u32, u32)> {
+        self.attachments
+            .iter()
+            .map(|a| (a.body.index, a.body.generation))
+            .collect()
+    }
+
     /// How far a particle can go in a step of `dt` s under `gravity`
     /// (m/s², the world's): the fastest particle's speed and what gravity
     /// adds over the step, times `dt`, m.
