@@ -23,7 +23,10 @@ mod step;
 mod tetra;
 
 pub use build::{SoftBalloon, SoftCloth, SoftRope};
-pub(crate) use step::{step, tear};
+pub(crate) use step::step;
+// A soft body on the GPU tears on the CPU between steps.
+#[cfg(feature = "gpu")]
+pub(crate) use step::tear;
 pub use tetra::{SoftSolid, SolidShape};
 
 use glam::{DVec3, Vec3};
