@@ -7,7 +7,7 @@
 
 use glam::{DQuat, DVec3};
 use inertia_client::clock::SnapshotMeta;
-use inertia_client::interp::{InterpEvent, InterpolationBuffer, Snapshot, ViewEntity};
+use inertia_client::interp::{InterpEvent, InterpolationBuffer, ViewEntity};
 
 const HZ: f64 = 60.0;
 const RADIUS: f64 = 2.0;
@@ -63,6 +63,14 @@ enum Action {
     StopSending,
 }
 
+/// A snapshot as the simulated server sends it: its header and the
+/// states it carries.
+#[derive(Debug, Clone)]
+struct Sent {
+    meta: SnapshotMeta,
+    entities: Vec<ViewEntity>,
+}
+
 /// One rendered frame.
 #[derive(Debug, Clone, Copy)]
 struct Rendered {
@@ -87,7 +95,7 @@ struct Sim {
     seq: u16,
     next_send: f64,
     // Link: (arrival wall time, snapshot).
-    in_flight: Vec<(f64, Snapshot)>,
+    in_flight: Vec<(f64, Sent)>,
     // Client.
     next_frame: f64,
     frames: Vec<Rendered>,
@@ -158,7 +166,8 @@ impl Sim {
             self.in_flight.sort_by(|a, b| b.0.total_cmp(&a.0));
             while self.in_flight.last().is_some_and(|p| p.0 <= wall) {
                 let (at, snapshot) = self.in_flight.pop().unwrap();
-                self.buffer.push(at + LOCAL_OFFSET, snapshot);
+                self.buffer
+                    .push_states(at + LOCAL_OFFSET, snapshot.meta, &snapshot.entities);
             }
             // Client frames.
             if wall >= self.next_frame {
@@ -182,7 +191,7 @@ impl Sim {
 
     fn send(&mut self, wall: f64) {
         self.seq = self.seq.wrapping_add(1);
-        let snapshot = Snapshot {
+        let snapshot = Sent {
             meta: SnapshotMeta {
                 seq: self.with_seq.then_some(self.seq),
                 tick: self.tick,

@@ -12,6 +12,10 @@ use serde::{Deserialize, Serialize};
 /// reused within one server run.
 pub type EntityId = u32;
 
+/// The most entities one snapshot view may hold (and so one datagram may
+/// list).
+pub const MAX_ENTITIES: usize = 16_384;
+
 /// Where one entity is and how it moves, as the server knows it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EntityState {
@@ -129,8 +133,8 @@ impl ShapeDesc {
     /// The most parts a compound may hold.
     pub const MAX_PARTS: usize = 64;
     /// The most points a point set may hold: as many as a snapshot view
-    /// ([`crate::snapshot::MAX_ENTITIES`]).
-    pub const MAX_SET_POINTS: u32 = crate::snapshot::MAX_ENTITIES as u32;
+    /// ([`MAX_ENTITIES`]).
+    pub const MAX_SET_POINTS: u32 = MAX_ENTITIES as u32;
     /// The most triangles a point set may list (with
     /// [`Self::MAX_SET_LINES`] lines, its spawn fits one control frame).
     pub const MAX_SET_TRIANGLES: usize = 6144;

@@ -6,9 +6,11 @@
 //! - [`credentials`]: the dev-mode credentials file.
 //! - [`bits`]: the bit packer every message is written with.
 //! - [`quantize`]: positions on a grid and orientations as smallest three.
-//! - [`link`]: a simulated lossy link on a virtual clock, for tests.
+//! - [`sim_link`]: a simulated lossy link on a virtual clock, for tests.
 //! - [`token`]: connect tokens, sealed with the server key, and the replay
 //!   guard.
+//! - [`connection`]: a game connection's life (hello, live, closing) and
+//!   every deadline in it, as state machines the server and the SDK drive.
 //! - [`control`]: the reliable control channel (hello, spawns, events,
 //!   goodbyes) and its framing.
 //! - [`input`]: the client's input datagram and the server's input buffer.
@@ -20,6 +22,7 @@
 pub mod admin;
 pub mod bits;
 pub mod client_session;
+pub mod connection;
 pub mod control;
 pub mod credentials;
 #[cfg(feature = "physics")]
@@ -27,13 +30,14 @@ pub mod engine_shape;
 pub mod entity;
 pub mod input;
 pub mod interest;
-pub mod link;
 pub mod priority;
 pub mod quantize;
 pub mod rng;
 pub mod session;
+pub mod sim_link;
 pub mod snapshot;
 pub mod token;
+pub mod version;
 
 pub use admin::{
     AdminCall, AdminError, AdminErrorKind, AdminHandshake, AdminHello, AdminRefusal, AdminReply,
@@ -50,10 +54,10 @@ pub use control::{
 pub use entity::{EntityDesc, EntityId, EntityKind, EntityState, PlayerInput, ShapeDesc};
 pub use input::{InputBuffer, InputDatagram, InputError, MAX_REDUNDANT_INPUTS};
 pub use interest::Interest;
-pub use link::{LinkConfig, LinkError, LinkStats, SimLink};
 pub use priority::{PriorityAccumulator, PriorityWeights, Standing};
 pub use quantize::{read_rotation, write_rotation, PositionGrid};
 pub use session::{ServerSession, SessionConfig};
+pub use sim_link::{SimLink, SimLinkConfig, SimLinkError, SimLinkStats};
 pub use snapshot::{
     DecodedSnapshot, SnapshotConfig, SnapshotDecoder, SnapshotEncoder, SnapshotError, View,
     ViewEntity,

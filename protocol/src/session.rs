@@ -1,16 +1,18 @@
-//! The server's half of one client's game session, without sockets: what
-//! comes in as datagrams (acknowledgements and inputs) and what goes out
-//! as snapshots. The server's connection code only moves bytes between
-//! the network and a [`ServerSession`]; the tests drive the very same
-//! type through simulated links.
+//! The server's half of one client's game session that sends, without
+//! sockets: what goes out as snapshots, against what the client
+//! acknowledged. The client's datagrams (acknowledgements and inputs) are
+//! taken by its connection ([`crate::connection::ServerConnection::on_datagram`]),
+//! which keeps the inputs and hands on the acknowledgement; the server's
+//! snapshot stage owns every client's [`ServerSession`] and is the only
+//! one to touch it. The tests drive the very same types through simulated
+//! links.
 //!
 //! Snapshots are coded from published frames ([`QuantizedFrame`], one per
 //! frame for every client) at the server's snapshot slots: every client
 //! is served the same frame in the same slot, and one whose rate is lower
 //! takes every `n`-th slot, the same slots on every run.
 
-use crate::entity::{EntityId, PlayerInput};
-use crate::input::{InputBuffer, InputDatagram, InputError};
+use crate::entity::EntityId;
 use crate::interest::Interest;
 use crate::priority::PriorityAccumulator;
 use crate::snapshot::{
@@ -23,8 +25,6 @@ pub const INTEREST_FULL_M: f64 = 60.0;
 /// Beyond this distance of a client's avatar, m, entities are not sent
 /// (and leave the client's view) unless always relevant.
 pub const INTEREST_MAX_M: f64 = 250.0;
-/// Inputs a session remembers for reordering and de-duplication.
-pub const INPUT_BUFFER: usize = 128;
 
 /// How a [`ServerSession`] serves its client.
 #[derive(Debug, Clone, PartialEq)]
@@ -40,14 +40,11 @@ pub struct SessionConfig {
     pub interest_full_m: f64,
     /// Beyond this distance of the avatar entities are not sent, m.
     pub interest_max_m: f64,
-    /// Inputs remembered for reordering and de-duplication.
-    pub input_buffer: usize,
 }
 
 impl SessionConfig {
     /// `snapshot` coding within `budget_bytes` a snapshot, every slot, with
-    /// interest [`INTEREST_FULL_M`] full and [`INTEREST_MAX_M`] at most,
-    /// and [`INPUT_BUFFER`] inputs remembered.
+    /// interest [`INTEREST_FULL_M`] full and [`INTEREST_MAX_M`] at most.
     pub fn new(snapshot: SnapshotConfig, budget_bytes: usize) -> Self {
         Self {
             snapshot,
@@ -55,19 +52,17 @@ impl SessionConfig {
             every_slots: 1,
             interest_full_m: INTEREST_FULL_M,
             interest_max_m: INTEREST_MAX_M,
-            input_buffer: INPUT_BUFFER,
         }
     }
 }
 
 /// One client's session on the server: its snapshot encoder (views sent,
-/// acknowledgements), priorities and interest, and its input buffer.
+/// acknowledgements), priorities and interest.
 #[derive(Debug, Clone)]
 pub struct ServerSession {
     config: SessionConfig,
     encoder: SnapshotEncoder,
     priorities: PriorityAccumulator,
-    inputs: InputBuffer,
     avatar: Option<EntityId>,
     /// The server's divisor on top of `every_slots` when it degrades
     /// (1: none), and which of those slots this client takes.
@@ -81,7 +76,6 @@ impl ServerSession {
         let encoder = SnapshotEncoder::new(config.snapshot)?;
         Ok(Self {
             priorities: PriorityAccumulator::new(Interest::everything()),
-            inputs: InputBuffer::new(config.input_buffer.max(1)),
             encoder,
             config,
             avatar: None,
@@ -112,20 +106,11 @@ impl ServerSession {
         self.avatar
     }
 
-    /// A datagram from the client: its acknowledgements go to the
-    /// encoder, its inputs to the buffer (take them with
-    /// [`Self::poll_input`]). A datagram that does not decode changes
-    /// nothing.
-    pub fn on_datagram(&mut self, bytes: &[u8]) -> Result<(), InputError> {
-        let datagram = InputDatagram::decode(bytes)?;
-        self.encoder.on_ack_state(datagram.ack, datagram.ack_bits);
-        self.inputs.push_datagram(&datagram);
-        Ok(())
-    }
-
-    /// The client's next input in sequence order, each exactly once.
-    pub fn poll_input(&mut self) -> Option<PlayerInput> {
-        self.inputs.pop()
+    /// The client acknowledged snapshot `sequence` (the newest it had
+    /// when it sent a datagram, as its connection read it): the encoder's
+    /// next baseline. Acknowledgements are taken in the order they came.
+    pub fn on_ack(&mut self, sequence: u16) {
+        self.encoder.on_ack(sequence);
     }
 
     /// Whether snapshot slot `slot` (counted by the server from its

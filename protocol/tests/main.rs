@@ -11,6 +11,7 @@ mod common;
 mod support;
 
 mod admin;
+mod connection;
 mod control;
 mod control_vectors;
 mod input_vectors;

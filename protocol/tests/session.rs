@@ -1,19 +1,26 @@
 //! A whole session without sockets: the client's [`ClientSession`] and
 //! the server's [`ServerSession`], the very types the SDK and the server
 //! run, talk through simulated links on a virtual clock.
-//! The hello and welcome go over a reliable, ordered byte stream cut into
-//! arbitrary pieces; snapshots and input datagrams go over lossy,
+//! The hello and welcome go between the connections' state machines
+//! ([`ClientConnection`], [`ServerConnection`]) over a reliable, ordered
+//! byte stream cut into arbitrary pieces; snapshots and input datagrams go over lossy,
 //! jittered, reordering, duplicating links both ways. The client's view
 //! matches the server's at every snapshot it decodes, and every input the
 //! client made reaches the server exactly once and in order.
 
+use std::time::{Duration, Instant};
+
 use glam::{DQuat, DVec3};
+use inertia_protocol::connection::{
+    ClientConnection, ClientConnectionConfig, ClientConnectionEvent, ServerConnection,
+    ServerConnectionConfig, ServerConnectionEvent,
+};
 use inertia_protocol::control::{
-    encode_frame, handshake, ClientControl, FrameDecoder, Refusal, ServerControl, SnapshotParams,
-    TokenRefusal, PROTOCOL_VERSION,
+    handshake, ClientControl, Refusal, ServerControl, SnapshotParams, TokenRefusal,
+    PROTOCOL_VERSION,
 };
 use inertia_protocol::input::{InputDatagram, MAX_REDUNDANT_INPUTS};
-use inertia_protocol::link::{LinkConfig, SimLink};
+use inertia_protocol::sim_link::{SimLink, SimLinkConfig};
 use inertia_protocol::snapshot::{QuantizedFrame, SharedDeltas};
 use inertia_protocol::token::{mint, ReplayGuard, TokenKey};
 use inertia_protocol::{
@@ -23,19 +30,6 @@ use inertia_protocol::{
 
 const SERVER: &str = "127.0.0.1:7777";
 const NOW: u64 = 1_800_000_000;
-
-/// Delivers `bytes` to a frame decoder in pieces of 1, 2, 3, ... bytes, as
-/// a stream may.
-fn deliver_in_pieces(bytes: &[u8], to: &mut FrameDecoder) {
-    let mut at = 0;
-    let mut piece = 1;
-    while at < bytes.len() {
-        let end = (at + piece).min(bytes.len());
-        to.push(&bytes[at..end]).expect("within bounds");
-        at = end;
-        piece = piece % 7 + 1;
-    }
-}
 
 /// A world of `n` bodies on circles, at `tick`.
 fn world(n: u32, tick: u64) -> Vec<EntityState> {
@@ -69,19 +63,46 @@ fn world(n: u32, tick: u64) -> Vec<EntityState> {
         .collect()
 }
 
+/// Moves the control-stream bytes each side has for the other, in pieces
+/// of 1, 2, 3, ... bytes as a stream may cut them, until neither has any.
+fn exchange(client: &mut ClientConnection, server: &mut ServerConnection, now: Instant) {
+    let mut piece = 1;
+    loop {
+        let up = client.pending_control().len().min(piece);
+        let down = server.pending_control().len().min(piece);
+        if up == 0 && down == 0 {
+            return;
+        }
+        let bytes = client.pending_control()[..up].to_vec();
+        client.control_written(up, now);
+        server.on_control_data(&bytes, now);
+        let bytes = server.pending_control()[..down].to_vec();
+        server.control_written(down, now);
+        client.on_control_data(&bytes, now);
+        piece = piece % 7 + 1;
+    }
+}
+
 #[test]
 fn a_session_over_bad_links_keeps_both_ends_in_step() {
-    // The hello, over the reliable stream.
+    // The hello and the welcome over the reliable stream, between the
+    // connections the SDK and the server run; the server's part (the
+    // token, the welcome) as its connection task does it.
+    let t0 = Instant::now();
     let key = TokenKey::from_bytes([9; 32]);
     let token = mint(&key, 42, SERVER, [1; 32], 60, b"team=blue", NOW).unwrap();
-    let hello = encode_frame(&ClientControl::Hello {
-        version: PROTOCOL_VERSION,
-        token: token.to_bytes(),
-    })
-    .unwrap();
-    let mut server_in = FrameDecoder::new();
-    deliver_in_pieces(&hello, &mut server_in);
-    let hello: ClientControl = server_in.next().unwrap().unwrap();
+    let mut client_conn = ClientConnection::new(
+        PROTOCOL_VERSION,
+        token.to_bytes(),
+        ClientConnectionConfig::default(),
+        t0,
+    );
+    let mut server_conn = ServerConnection::new(ServerConnectionConfig::default(), t0);
+    exchange(&mut client_conn, &mut server_conn, t0);
+    let Some(ServerConnectionEvent::Hello { version, token }) = server_conn.poll_event() else {
+        panic!("expected the hello");
+    };
+    let hello = ClientControl::Hello { version, token };
     let mut guard = ReplayGuard::new(16);
     let opened = handshake(&hello, NOW + 1, &key, SERVER, 1, &mut guard).unwrap();
     assert_eq!(opened.client_id, 42);
@@ -96,34 +117,31 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
         velocities: true,
         ..SnapshotConfig::default()
     };
-    let welcome = encode_frame(&ServerControl::Welcome {
-        client_id: opened.client_id,
-        tick: 0,
-        tick_hz: 60,
-        snapshot_hz: 30,
-        position_resolution: config.grid.resolution,
-        position_bound: config.grid.bound,
-        snapshot: SnapshotParams::from_config(&config),
-        server_version: "test".into(),
-    })
-    .unwrap();
-    let mut client_in = FrameDecoder::new();
-    deliver_in_pieces(&welcome, &mut client_in);
-    let ServerControl::Welcome {
-        position_resolution,
-        position_bound,
-        snapshot,
-        ..
-    } = client_in.next().unwrap().unwrap()
-    else {
+    server_conn.admit(
+        &ServerControl::Welcome {
+            client_id: opened.client_id,
+            tick: 0,
+            tick_hz: 60,
+            snapshot_hz: 30,
+            position_resolution: config.grid.resolution,
+            position_bound: config.grid.bound,
+            snapshot: SnapshotParams::from_config(&config),
+            server_version: "test".into(),
+        },
+        t0,
+    );
+    exchange(&mut client_conn, &mut server_conn, t0);
+    assert_eq!(server_conn.poll_event(), Some(ServerConnectionEvent::Live));
+    let Some(ClientConnectionEvent::Welcomed(info)) = client_conn.poll_event() else {
         panic!("expected a welcome");
     };
-    let client_config = snapshot.config(position_resolution, position_bound);
+    assert_eq!(info.client_id, 42);
+    let client_config = info.snapshot;
     assert_eq!(client_config, config);
 
     // Then datagrams, both ways, for 20 s of a 60 Hz world with 30 Hz
     // snapshots and 60 Hz inputs.
-    let bad = LinkConfig {
+    let bad = SimLinkConfig {
         delay: 0.05,
         jitter: 0.02,
         loss: 0.15,
@@ -193,13 +211,19 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
         assert_eq!((newest.sequence, newest.tick), (tick as u32, tick));
         sent_inputs.push(newest);
         up.send(now, bytes);
-        // Server: acks move the baseline; inputs come out once, in order.
+        // Server: the connection keeps the inputs, which come out once,
+        // in order; the acks it hands on move the session's baseline.
+        let at = t0 + Duration::from_secs_f64(now);
         for bytes in up.receive(now) {
-            session.on_datagram(&bytes).unwrap();
-            while let Some(i) = session.poll_input() {
+            if let Some(ack) = server_conn.on_datagram(&bytes, at).unwrap() {
+                session.on_ack(ack);
+            }
+            while let Some(i) = server_conn.poll_input() {
                 received_inputs.push(i);
             }
         }
+        server_conn.handle_timeout(at);
+        assert!(server_conn.is_live(), "a client that sends is never silent");
     }
     // The tail still in flight is not counted.
     let got = received_inputs.len();
@@ -215,8 +239,7 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
     assert!(session.encoder().acked().is_some());
 }
 
-/// A client served every third slot is served in exactly those, and a
-/// datagram that does not decode changes nothing.
+/// A client served every third slot is served in exactly those.
 #[test]
 fn a_slower_client_skips_slots_deterministically() {
     let config = SnapshotConfig::default();
@@ -235,8 +258,6 @@ fn a_slower_client_skips_slots_deterministically() {
         })
         .collect();
     assert_eq!(served, [0, 3, 6, 9]);
-    assert!(session.on_datagram(&[0x49, 0xff]).is_err());
-    assert_eq!(session.poll_input(), None);
     assert_eq!(session.encoder().acked(), None);
 }
 

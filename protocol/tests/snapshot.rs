@@ -5,8 +5,8 @@
 use std::collections::BTreeMap;
 
 use glam::{DQuat, DVec3};
-use inertia_protocol::link::{LinkConfig, SimLink};
 use inertia_protocol::rng::SplitMix;
+use inertia_protocol::sim_link::{SimLink, SimLinkConfig};
 use inertia_protocol::snapshot::{DecodedSnapshot, QuantizedEntity, HELD_VIEWS, MAX_TIME_SCALE};
 use inertia_protocol::{
     EntityState, Interest, PriorityAccumulator, SnapshotConfig, SnapshotDecoder, SnapshotEncoder,
@@ -211,7 +211,7 @@ fn drive_with_delay(
     delay: f64,
 ) -> (u64, u64, u64) {
     let config = config(velocities);
-    let link = LinkConfig {
+    let link = SimLinkConfig {
         delay,
         jitter: 0.02,
         loss: 0.05,

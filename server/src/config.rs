@@ -25,6 +25,7 @@ use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::{Path, PathBuf};
 
 use clap::Parser;
+use inertia_protocol::connection::ServerConnectionConfig;
 
 use crate::orchestrator::{Orchestrating, OrchestratorMode};
 use serde::Deserialize;
@@ -382,6 +383,10 @@ pub struct ServerConfig {
     /// the default, keeps none. Not a command-line setting: each frame
     /// holds every entity's state (about 120 KB at 1000 bodies).
     pub frame_history: usize,
+    /// The deadlines of a game connection's life (the protocol's
+    /// defaults). Not a command-line setting: tests shorten them to see a
+    /// deadline pass without waiting its full length.
+    pub connection: ServerConnectionConfig,
 }
 
 impl Default for ServerConfig {
@@ -421,6 +426,7 @@ impl Default for ServerConfig {
             seek_memory_mb: DEFAULT_SEEK_MEMORY_MB,
             checkpoint_ticks: DEFAULT_CHECKPOINT_TICKS,
             frame_history: 0,
+            connection: ServerConnectionConfig::default(),
         }
     }
 }
@@ -617,6 +623,7 @@ impl ServerConfig {
             seek_memory_mb: layer.seek_memory_mb.unwrap_or(self.seek_memory_mb),
             checkpoint_ticks: layer.checkpoint_ticks.unwrap_or(self.checkpoint_ticks),
             frame_history: self.frame_history,
+            connection: self.connection,
         }
     }
 

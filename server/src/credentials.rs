@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 
 use inertia_protocol::control::PROTOCOL_VERSION;
 use inertia_protocol::credentials::{hex32, to_hex, DevCredentials};
+use inertia_protocol::token::cert_fingerprint;
 use ring::rand::{SecureRandom, SystemRandom};
 use rustls::pki_types::pem::PemObject;
 use rustls::pki_types::{CertificateDer, PrivateKeyDer};
@@ -101,14 +102,6 @@ impl CredentialFiles {
     }
 }
 
-/// SHA-256 of `der`.
-pub fn fingerprint(der: &[u8]) -> [u8; 32] {
-    let digest = ring::digest::digest(&ring::digest::SHA256, der);
-    let mut out = [0u8; 32];
-    out.copy_from_slice(digest.as_ref());
-    out
-}
-
 fn random32() -> [u8; 32] {
     let mut out = [0u8; 32];
     SystemRandom::new()
@@ -167,7 +160,7 @@ pub fn make_dev(
     let (cert, cert_key) = dev_certificate(time::OffsetDateTime::now_utc())?;
     let creds = Credentials {
         token_key: random32(),
-        fingerprint: fingerprint(&cert),
+        fingerprint: cert_fingerprint(&cert),
         cert,
         cert_key,
         admin_token: Some(to_hex(&random32())),
@@ -188,7 +181,7 @@ pub fn renew_dev(
     let (cert, cert_key) = dev_certificate(time::OffsetDateTime::now_utc())?;
     let renewed = Credentials {
         token_key: creds.token_key,
-        fingerprint: fingerprint(&cert),
+        fingerprint: cert_fingerprint(&cert),
         cert,
         cert_key,
         admin_token: creds.admin_token.clone(),
@@ -298,7 +291,7 @@ pub fn load(files: &CredentialFiles) -> Result<Credentials, CredentialsError> {
     };
     Ok(Credentials {
         token_key,
-        fingerprint: fingerprint(&cert),
+        fingerprint: cert_fingerprint(&cert),
         cert,
         cert_key,
         admin_token: None,
@@ -337,7 +330,7 @@ mod tests {
 
         let renewed = renew_dev(&creds, &dir, addr).unwrap();
         assert_ne!(renewed.fingerprint, creds.fingerprint, "a new certificate");
-        assert_eq!(renewed.fingerprint, fingerprint(&renewed.cert));
+        assert_eq!(renewed.fingerprint, cert_fingerprint(&renewed.cert));
         assert_eq!(renewed.token_key, creds.token_key, "tokens stay valid");
         assert_eq!(renewed.admin_token, creds.admin_token);
         let file: DevCredentials = serde_json::from_slice(&fs::read(&path).unwrap()).unwrap();
@@ -360,7 +353,7 @@ mod tests {
         assert_eq!(file.fingerprint().unwrap(), creds.fingerprint);
         assert_eq!(file.token_key_bytes().unwrap(), creds.token_key);
         assert_eq!(file.server_addr, "127.0.0.1:7777");
-        assert_eq!(creds.fingerprint, fingerprint(&creds.cert));
+        assert_eq!(creds.fingerprint, cert_fingerprint(&creds.cert));
         // Debug never shows the secrets.
         let shown = format!("{creds:?}");
         assert!(!shown.contains(creds.admin_token.as_deref().unwrap()));

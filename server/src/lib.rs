@@ -6,6 +6,7 @@ pub mod clock;
 pub mod config;
 pub mod credentials;
 pub mod health;
+pub mod http;
 pub mod metrics;
 pub mod net;
 pub mod orchestrator;

@@ -3,16 +3,21 @@
 //! directory), and on a dev server a session for the page: a fresh connect
 //! token, the WebTransport URL and the certificate hash to pin.
 //!
-//! A session is handed out only by a dev-mode server and only to a peer
-//! on a loopback address: it admits whoever asks, as the dev credentials
-//! file does for whoever can read it.
+//! A session is handed out only by a dev-mode server, only to a peer on a
+//! loopback address, and only to a request that names this server: its
+//! `Host` (and its `Origin`, when a browser sends one) must be `localhost`
+//! or a loopback address, on the port the page is served from. A page of
+//! another origin can reach a loopback port through DNS rebinding (its own
+//! name made to resolve to 127.0.0.1), but the browser then sends that
+//! name as the `Host`, and is refused. A session admits whoever asks, as
+//! the dev credentials file does for whoever can read it.
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use axum::extract::{ConnectInfo, Path as UrlPath, State};
-use axum::http::{header, StatusCode};
+use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
@@ -32,6 +37,9 @@ pub struct PlayConfig {
     pub web_dir: Option<PathBuf>,
     /// A dev server's credentials file: sessions are handed out from it.
     pub dev_credentials: Option<PathBuf>,
+    /// The port the page is served from: a session's request must name
+    /// it when its `Host` or `Origin` has a port (`None`: any port).
+    pub port: Option<u16>,
 }
 
 impl PlayConfig {
@@ -110,6 +118,7 @@ async fn module(State(config): State<PlayConfig>, UrlPath(file): UrlPath<String>
 async fn session(
     State(config): State<PlayConfig>,
     ConnectInfo(peer): ConnectInfo<SocketAddr>,
+    headers: HeaderMap,
 ) -> Response {
     let Some(path) = &config.dev_credentials else {
         return (
@@ -125,6 +134,9 @@ async fn session(
         )
             .into_response();
     }
+    if let Err(why) = names_this_server(&headers, config.port) {
+        return (StatusCode::FORBIDDEN, format!("{why}\n")).into_response();
+    }
     match mint_session(path) {
         Ok(json) => (
             [
@@ -136,6 +148,83 @@ async fn session(
             .into_response(),
         Err(why) => (StatusCode::INTERNAL_SERVER_ERROR, format!("{why}\n")).into_response(),
     }
+}
+
+/// Why a request for a session does not name this server.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ForeignRequest {
+    /// The request has no `Host`, or one that is not text.
+    #[error("the request names no host")]
+    NoHost,
+    /// Its `Host` is not this server on loopback.
+    #[error("sessions go to pages served from localhost only, not from host {0:?}")]
+    Host(String),
+    /// Its `Origin` is not this server on loopback.
+    #[error("sessions go to pages served from localhost only, not to origin {0:?}")]
+    Origin(String),
+}
+
+/// Checks that a request names this server: its `Host`, and its `Origin`
+/// if it has one, are `localhost` or a loopback address, on `port` when
+/// they give one.
+pub fn names_this_server(headers: &HeaderMap, port: Option<u16>) -> Result<(), ForeignRequest> {
+    let host = headers
+        .get(header::HOST)
+        .and_then(|h| h.to_str().ok())
+        .ok_or(ForeignRequest::NoHost)?;
+    if !is_loopback_authority(host, port) {
+        return Err(ForeignRequest::Host(host.to_string()));
+    }
+    if let Some(origin) = headers.get(header::ORIGIN) {
+        let text = origin.to_str().unwrap_or("");
+        // An origin always names its port, if only by its scheme's default.
+        let named = |authority: &str, default: u16| {
+            if authority
+                .rsplit_once(':')
+                .is_some_and(|(_, p)| !p.contains(']'))
+            {
+                authority.to_string()
+            } else {
+                format!("{authority}:{default}")
+            }
+        };
+        let authority = text
+            .strip_prefix("http://")
+            .map(|a| named(a, 80))
+            .or_else(|| text.strip_prefix("https://").map(|a| named(a, 443)));
+        if !authority.is_some_and(|a| is_loopback_authority(&a, port)) {
+            return Err(ForeignRequest::Origin(text.to_string()));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `authority` (`host[:port]`, as a `Host` header or an origin
+/// writes it) is `localhost` or a loopback address, with `port` if it
+/// gives one.
+pub fn is_loopback_authority(authority: &str, port: Option<u16>) -> bool {
+    let (host, given_port) = match authority.rsplit_once(':') {
+        // `[::1]` alone: the colon is inside the brackets.
+        Some((host, p)) if !p.contains(']') => match p.parse::<u16>() {
+            Ok(p) => (host, Some(p)),
+            Err(_) => return false,
+        },
+        _ => (authority, None),
+    };
+    let port_ok = match (given_port, port) {
+        (Some(given), Some(served)) => given == served,
+        _ => true,
+    };
+    let host_ok = if host.eq_ignore_ascii_case("localhost") {
+        true
+    } else if let Some(v6) = host.strip_prefix('[').and_then(|h| h.strip_suffix(']')) {
+        v6.parse::<std::net::Ipv6Addr>()
+            .is_ok_and(|ip| ip.is_loopback())
+    } else {
+        host.parse::<std::net::Ipv4Addr>()
+            .is_ok_and(|ip| ip.is_loopback())
+    };
+    port_ok && host_ok
 }
 
 /// A session from the dev credentials file at `path` (read afresh: the
@@ -199,5 +288,101 @@ mod tests {
         ] {
             assert!(!is_module_name(bad), "{bad}");
         }
+    }
+
+    #[test]
+    fn issue_42_a_session_goes_only_to_requests_that_name_this_server() {
+        let port = Some(9100);
+        for good in [
+            "localhost",
+            "localhost:9100",
+            "LOCALHOST:9100",
+            "127.0.0.1:9100",
+            "127.1.2.3",
+            "[::1]:9100",
+            "[::1]",
+        ] {
+            assert!(is_loopback_authority(good, port), "{good}");
+        }
+        for bad in [
+            "evil.example",
+            "evil.example:9100",
+            "localhost.evil.example:9100",
+            "localhost:9101",
+            "127.0.0.1:80",
+            "10.0.0.1:9100",
+            "0.0.0.0:9100",
+            "[::2]:9100",
+            "[::1:9100",
+            "localhost:",
+            "localhost:x",
+            "",
+        ] {
+            assert!(!is_loopback_authority(bad, port), "{bad}");
+        }
+
+        let headers = |pairs: &[(header::HeaderName, &str)]| {
+            let mut h = HeaderMap::new();
+            for (name, value) in pairs {
+                h.insert(name, value.parse().expect("a header value"));
+            }
+            h
+        };
+        assert_eq!(
+            names_this_server(&headers(&[(header::HOST, "127.0.0.1:9100")]), port),
+            Ok(())
+        );
+        assert_eq!(
+            names_this_server(
+                &headers(&[
+                    (header::HOST, "localhost:9100"),
+                    (header::ORIGIN, "http://localhost:9100")
+                ]),
+                port
+            ),
+            Ok(())
+        );
+        // DNS rebinding: the attacker's name resolves to loopback, and
+        // the browser sends it as the host.
+        assert_eq!(
+            names_this_server(
+                &headers(&[(header::HOST, "rebind.evil.example:9100")]),
+                port
+            ),
+            Err(ForeignRequest::Host("rebind.evil.example:9100".into()))
+        );
+        assert_eq!(
+            names_this_server(
+                &headers(&[
+                    (header::HOST, "127.0.0.1:9100"),
+                    (header::ORIGIN, "http://evil.example")
+                ]),
+                port
+            ),
+            Err(ForeignRequest::Origin("http://evil.example".into()))
+        );
+        assert_eq!(
+            names_this_server(
+                &headers(&[(header::HOST, "127.0.0.1:9100"), (header::ORIGIN, "null")]),
+                port
+            ),
+            Err(ForeignRequest::Origin("null".into()))
+        );
+        // An origin without a port is at its scheme's default, not this
+        // server's.
+        assert_eq!(
+            names_this_server(
+                &headers(&[
+                    (header::HOST, "127.0.0.1:9100"),
+                    (header::ORIGIN, "http://localhost")
+                ]),
+                port
+            ),
+            Err(ForeignRequest::Origin("http://localhost".into()))
+        );
+        assert_eq!(
+            names_this_server(&HeaderMap::new(), port),
+            Err(ForeignRequest::NoHost)
+        );
     }
 }

@@ -19,7 +19,7 @@ use crate::admin::tokens::{AdminTokenStore, TokenFileError};
 use crate::config::ServerConfig;
 use crate::credentials::{self, CredentialFiles, CredentialsError};
 use crate::health::Health;
-use crate::metrics::{self, Metrics};
+use crate::metrics::Metrics;
 use crate::net::{self, NetShared};
 use crate::orchestrator::{Allocation, Orchestrator, Probe};
 use crate::record::matches::MatchesDir;
@@ -259,10 +259,11 @@ pub async fn start_with_rules(
         let play = crate::play::PlayConfig {
             web_dir: crate::play::PlayConfig::find_web_dir(config.web_dir.as_deref()),
             dev_credentials: credentials_path.clone(),
+            port: Some(metrics_addr.port()),
         };
         tasks.push(tokio::spawn(async move {
-            if let Err(e) = metrics::serve_on(metrics_listener, metrics, health, play).await {
-                warn!(error = %e, "metrics endpoint stopped");
+            if let Err(e) = crate::http::serve_on(metrics_listener, metrics, health, play).await {
+                warn!(error = %e, "HTTP endpoint (metrics, health, page) stopped");
             }
         }));
     }
@@ -313,7 +314,8 @@ pub async fn start_with_rules(
         .with_admin_tokens(admin_tokens)
         .with_checkpoint_dir(CheckpointDir::new(config.checkpoint_dir()))
         .with_matches_dir(MatchesDir::new(config.matches_dir()))
-        .with_frame_history(config.frame_history),
+        .with_frame_history(config.frame_history)
+        .with_connection_config(config.connection),
     );
     if config.frame_history > 0 {
         tasks.push(tokio::spawn(shared.clone().record_history()));

@@ -265,8 +265,7 @@ async fn issue_14_a_server_under_agones_is_ready_healthy_counts_players_and_shut
 
     let credentials = server.credentials_path().expect("dev mode").clone();
     let client = tokio::task::spawn_blocking(move || {
-        let (addr, token, _) = inertia_client::dev::dev_token(&credentials, Some(41)).unwrap();
-        inertia_client::BlockingClient::connect(addr, &token).expect("joins")
+        crate::common::player::Player::join_dev(&credentials, Some(41)).expect("joins")
     })
     .await
     .unwrap();
@@ -500,7 +499,7 @@ impl inertia_server::rules::GameRules for Configured {
         &mut self,
         c: inertia_server::rules::ClientId,
         ctx: &mut inertia_server::rules::SimContext<'_>,
-    ) -> Result<inertia_protocol::EntityId, inertia_server::rules::Refusal> {
+    ) -> Result<inertia_protocol::EntityId, inertia_server::rules::JoinRefusal> {
         self.inner.on_connect(c, ctx)
     }
     fn on_disconnect(
@@ -515,7 +514,7 @@ impl inertia_server::rules::GameRules for Configured {
         c: inertia_server::rules::ClientId,
         input: &inertia_protocol::PlayerInput,
         ctx: &mut inertia_server::rules::SimContext<'_>,
-    ) -> Result<(), inertia_server::rules::InputError> {
+    ) -> Result<(), inertia_server::rules::InputRefusal> {
         self.inner.on_input(c, input, ctx)
     }
     fn configure_match(

@@ -17,9 +17,9 @@ use std::sync::{Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use common::wait_for;
+use inertia_admin_client::{AdminClient, AdminClientError};
 use inertia_protocol::admin::{AdminRefusal, AdminRequest, AdminResponse};
 use inertia_protocol::credentials::to_hex;
-use inertia_server::admin::client::{AdminClient, AdminClientError};
 use inertia_server::admin::tokens::{LineProblem, TokenFileError};
 use inertia_server::config::ServerConfig;
 use inertia_server::server::{RunningServer, StartError};
@@ -93,7 +93,7 @@ fn production_files(dir: &Path) -> [u8; 32] {
     std::fs::write(dir.join("cert.pem"), certified.cert.pem()).expect("cert");
     write_private(&dir.join("key.pem"), &certified.signing_key.serialize_pem());
     write_private(&dir.join("token.key"), &to_hex(&[7u8; 32]));
-    inertia_server::credentials::fingerprint(certified.cert.der())
+    inertia_protocol::token::cert_fingerprint(certified.cert.der())
 }
 
 fn production_config(dir: &Path, tokens: Option<PathBuf>) -> ServerConfig {
@@ -288,10 +288,9 @@ async fn issue_11_dev_mode_admits_the_dev_token_beside_the_file() {
     let server = inertia_server::server::start(config)
         .await
         .expect("the server starts");
-    let creds = inertia_server::admin::client::read_credentials(
-        server.credentials_path().expect("dev mode"),
-    )
-    .expect("dev credentials");
+    let creds =
+        inertia_admin_client::read_credentials(server.credentials_path().expect("dev mode"))
+            .expect("dev credentials");
     let fingerprint = creds.fingerprint().expect("fingerprint");
     assert_eq!(creds.admin_token, server.admin_token());
     let connect = |operator: &'static str, token: String| {

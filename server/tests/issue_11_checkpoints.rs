@@ -17,10 +17,10 @@ use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use common::DevServer;
+use inertia_admin_client::{read_credentials, AdminClient};
 use inertia_protocol::admin::{
     AdminCall, AdminErrorKind, AdminRequest, AdminResponse, CheckpointName,
 };
-use inertia_server::admin::client::{read_credentials, AdminClient};
 use inertia_server::config::ServerConfig;
 use inertia_server::replay::checkpoint::{CheckpointDir, CheckpointError, MAX_CHECKPOINT_BYTES};
 use inertia_server::server::SHUTDOWN_DEADLINE;

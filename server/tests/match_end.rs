@@ -4,13 +4,16 @@
 
 use std::time::Duration;
 
-use inertia_client::{dev, BlockingClient};
 use inertia_protocol::control::DisconnectReason;
 use inertia_protocol::{EntityId, PlayerInput};
 use inertia_server::config::ServerConfig;
 use inertia_server::orchestrator::OrchestratorMode;
-use inertia_server::rules::{ClientId, GameRules, InputError, Refusal, SandboxRules, SimContext};
+use inertia_server::rules::{
+    ClientId, GameRules, InputRefusal, JoinRefusal, SandboxRules, SimContext,
+};
 use inertia_server::server::{start, start_with_rules, RunningServer};
+
+use crate::common::player::Player;
 
 fn config(what: &str, match_seconds: Option<u64>) -> ServerConfig {
     let dir = std::env::temp_dir().join(format!("inertia-match-{what}-{}", std::process::id()));
@@ -26,19 +29,16 @@ fn config(what: &str, match_seconds: Option<u64>) -> ServerConfig {
 }
 
 /// A client in the game, joined on the blocking pool.
-async fn join(server: &RunningServer) -> BlockingClient {
+async fn join(server: &RunningServer) -> Player {
     let credentials = server.credentials_path().expect("dev mode").clone();
-    tokio::task::spawn_blocking(move || {
-        let (addr, token, _) = dev::dev_token(&credentials, None).expect("dev token");
-        BlockingClient::connect(addr, &token).expect("joins")
-    })
-    .await
-    .expect("joined")
+    tokio::task::spawn_blocking(move || Player::join_dev(&credentials, None).expect("joins"))
+        .await
+        .expect("joined")
 }
 
 /// Ends `server`'s match as the process does, and returns what `client`
 /// was told.
-async fn end_and_hear(server: RunningServer, client: BlockingClient) -> Option<DisconnectReason> {
+async fn end_and_hear(server: RunningServer, client: Player) -> Option<DisconnectReason> {
     let why = tokio::time::timeout(Duration::from_secs(10), server.match_over())
         .await
         .expect("the match ends");
@@ -88,7 +88,11 @@ struct EndsAfter {
 }
 
 impl GameRules for EndsAfter {
-    fn on_connect(&mut self, c: ClientId, ctx: &mut SimContext<'_>) -> Result<EntityId, Refusal> {
+    fn on_connect(
+        &mut self,
+        c: ClientId,
+        ctx: &mut SimContext<'_>,
+    ) -> Result<EntityId, JoinRefusal> {
         self.inner.on_connect(c, ctx)
     }
     fn on_disconnect(&mut self, c: ClientId, ctx: &mut SimContext<'_>) {
@@ -99,7 +103,7 @@ impl GameRules for EndsAfter {
         c: ClientId,
         input: &PlayerInput,
         ctx: &mut SimContext<'_>,
-    ) -> Result<(), InputError> {
+    ) -> Result<(), InputRefusal> {
         self.inner.on_input(c, input, ctx)
     }
     fn before_tick(&mut self, ctx: &mut SimContext<'_>) {

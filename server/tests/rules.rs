@@ -4,7 +4,7 @@
 
 use inertia_protocol::entity::buttons;
 use inertia_protocol::{EntityKind, PlayerInput};
-use inertia_server::rules::{GameEvent, InputError, Refusal, SandboxRules};
+use inertia_server::rules::{GameEvent, InputRefusal, JoinRefusal, SandboxRules};
 use inertia_server::scene::{Scene, SceneFormat};
 use inertia_server::sim::{SimConfig, Simulation};
 
@@ -205,10 +205,13 @@ fn bad_inputs_are_refused_or_clamped() {
         movement: [f32::NAN, 0.0],
         ..PlayerInput::default()
     };
-    assert!(matches!(sim.input(1, &nan), Err(InputError::NonFinite(_))));
+    assert!(matches!(
+        sim.input(1, &nan),
+        Err(InputRefusal::NonFinite(_))
+    ));
     assert!(matches!(
         sim.input(2, &PlayerInput::default()),
-        Err(InputError::NotJoined(2))
+        Err(InputRefusal::NotJoined(2))
     ));
     let huge = PlayerInput {
         sequence: 2,
@@ -232,14 +235,17 @@ fn bad_inputs_are_refused_or_clamped() {
     };
     assert!(matches!(
         sim.input(1, &replayed),
-        Err(InputError::OutOfOrder { .. })
+        Err(InputRefusal::OutOfOrder { .. })
     ));
     let old = PlayerInput {
         sequence: 3,
         tick: 0,
         ..PlayerInput::default()
     };
-    assert!(matches!(sim.input(1, &old), Err(InputError::Stale { .. })));
+    assert!(matches!(
+        sim.input(1, &old),
+        Err(InputRefusal::Stale { .. })
+    ));
     let ahead = PlayerInput {
         sequence: 4,
         tick: sim.world().tick() + 10_000,
@@ -247,7 +253,7 @@ fn bad_inputs_are_refused_or_clamped() {
     };
     assert!(matches!(
         sim.input(1, &ahead),
-        Err(InputError::Future { .. })
+        Err(InputRefusal::Future { .. })
     ));
     assert_eq!(
         sim.stats()
@@ -263,8 +269,8 @@ fn joining_leaving_and_the_client_cap() {
     let a = sim.join(1).unwrap();
     let b = sim.join(2).unwrap();
     assert_ne!(a, b);
-    assert_eq!(sim.join(1), Err(Refusal::AlreadyJoined(1)));
-    assert_eq!(sim.join(3), Err(Refusal::Full { max: 2 }));
+    assert_eq!(sim.join(1), Err(JoinRefusal::AlreadyJoined(1)));
+    assert_eq!(sim.join(3), Err(JoinRefusal::Full { max: 2 }));
     // Two avatars do not start inside each other.
     let d = (avatar_pos(&sim, a) - avatar_pos(&sim, b)).length();
     assert!(d > 0.7, "{d}");

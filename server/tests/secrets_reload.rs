@@ -7,12 +7,13 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use inertia_client::BlockingClient;
 use inertia_protocol::credentials::to_hex;
 use inertia_protocol::token::{mint, TokenKey};
 use inertia_server::config::ServerConfig;
 use inertia_server::secrets::WATCH_PERIOD;
 use inertia_server::server::{start, RunningServer};
+
+use crate::common::player::Player;
 
 fn temp_dir(what: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("inertia-secrets-{what}-{}", std::process::id()));
@@ -33,7 +34,7 @@ fn certificate(dir: &Path) -> [u8; 32] {
     let certified = rcgen::generate_simple_self_signed(vec!["localhost".into()]).expect("cert");
     replace(&dir.join("cert.pem"), &certified.cert.pem());
     replace(&dir.join("key.pem"), &certified.signing_key.serialize_pem());
-    inertia_server::credentials::fingerprint(certified.cert.der())
+    inertia_protocol::token::cert_fingerprint(certified.cert.der())
 }
 
 async fn production(dir: &Path, key: [u8; 32]) -> (RunningServer, [u8; 32]) {
@@ -71,7 +72,7 @@ async fn admitted(server: &RunningServer, key: [u8; 32], fingerprint: [u8; 32], 
     )
     .expect("minted");
     // The client (and its runtime) ends on the blocking pool.
-    tokio::task::spawn_blocking(move || BlockingClient::connect(addr, &token).is_ok())
+    tokio::task::spawn_blocking(move || Player::join(addr, &token).is_ok())
         .await
         .expect("tried")
 }

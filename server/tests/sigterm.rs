@@ -9,20 +9,19 @@ use crate::common;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use inertia_client::{dev, BlockingClient};
 use inertia_protocol::control::DisconnectReason;
 use inertia_server::record::{Record, RecordReader};
 
+use common::player::Player;
 use common::{wait_for, DevServer};
 
 #[test]
 fn sigterm_says_goodbye_to_clients_and_exits_zero() {
     let mut server = DevServer::start("sigterm");
     let credentials = server.credentials.clone();
-    let (addr, token, _) = dev::dev_token(&credentials, Some(3)).expect("dev token");
-    let client = BlockingClient::connect(addr, &token).expect("joins");
+    let client = Player::join_dev(&credentials, Some(3)).expect("joins");
     wait_for("snapshots", Duration::from_secs(10), || {
-        client.stats().snapshots_received > 3
+        client.snapshots() > 3
     });
 
     let status = Command::new("kill")

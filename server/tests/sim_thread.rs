@@ -5,7 +5,7 @@
 use std::time::{Duration, Instant};
 
 use inertia_protocol::PlayerInput;
-use inertia_server::rules::{Refusal, SandboxRules};
+use inertia_server::rules::{JoinRefusal, SandboxRules};
 use inertia_server::scene::{Scene, SceneFormat};
 use inertia_server::sim::{CommandError, SimConfig, SimHandle};
 
@@ -141,7 +141,7 @@ async fn async_join_and_frame_subscription() {
         ..SimConfig::default()
     });
     let a = h.join(5).await.unwrap();
-    assert_eq!(h.join(6).await, Err(Refusal::Full { max: 1 }));
+    assert_eq!(h.join(6).await, Err(JoinRefusal::Full { max: 1 }));
     let mut rx = h.subscribe();
     let before = rx.borrow_and_update().tick;
     // A frame is also published when only the catalog changed (the join's

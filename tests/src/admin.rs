@@ -5,10 +5,10 @@
 use std::future::Future;
 use std::time::{Duration, Instant};
 
+use inertia_admin_client::{read_credentials, AdminClient};
 use inertia_client::Client;
 use inertia_protocol::admin::{AdminErrorKind, AdminRequest, AdminResponse, StatusReport};
 use inertia_protocol::EntityId;
-use inertia_server::admin::client::{read_credentials, AdminClient};
 use inertia_server::server::RunningServer;
 
 /// An admin connection to a dev-mode `server` with its admin credential

@@ -4,7 +4,8 @@
 
 use inertia_protocol::{EntityId, PlayerInput};
 use inertia_server::rules::{
-    ClientId, GameEvent, GameRules, InputError, Refusal, SandboxRules, SandboxSettings, SimContext,
+    ClientId, GameEvent, GameRules, InputRefusal, JoinRefusal, SandboxRules, SandboxSettings,
+    SimContext,
 };
 
 /// The sandbox rules, failing `after` ticks after the first join.
@@ -31,7 +32,7 @@ impl GameRules for FaultRules {
         &mut self,
         client: ClientId,
         ctx: &mut SimContext<'_>,
-    ) -> Result<EntityId, Refusal> {
+    ) -> Result<EntityId, JoinRefusal> {
         self.joined_at.get_or_insert(ctx.tick());
         self.inner.on_connect(client, ctx)
     }
@@ -45,7 +46,7 @@ impl GameRules for FaultRules {
         client: ClientId,
         input: &PlayerInput,
         ctx: &mut SimContext<'_>,
-    ) -> Result<(), InputError> {
+    ) -> Result<(), InputRefusal> {
         self.inner.on_input(client, input, ctx)
     }
 

@@ -5,10 +5,10 @@
 
 use std::time::{Duration, Instant};
 
+use inertia_admin_client::read_credentials;
 use inertia_protocol::control::{
     encode_frame, ClientControl, FrameDecoder, ServerControl, PROTOCOL_VERSION,
 };
-use inertia_server::admin::client::read_credentials;
 use inertia_server::server::RunningServer;
 
 use crate::server::token;
@@ -30,7 +30,7 @@ pub fn endpoint(config: quinn::ClientConfig) -> quinn::Endpoint {
 
 /// The game's client configuration, pinned to the server.
 pub fn game_config(server: &RunningServer) -> quinn::ClientConfig {
-    inertia_client::net::tls::client_config(fingerprint(server)).expect("TLS")
+    inertia_tls::client_config(fingerprint(server)).expect("TLS")
 }
 
 /// The next control message on `recv`, or `None` when the stream ends or

@@ -7,6 +7,7 @@
 
 use std::time::{Duration, Instant};
 
+use inertia_admin_client::{connect_quic, read_credentials, AdminClient, AdminClientError};
 use inertia_client::Client;
 use inertia_protocol::admin::{
     AdminErrorKind, AdminHandshake, AdminRefusal, AdminRequest, AdminResponse, CheckpointName,
@@ -14,9 +15,6 @@ use inertia_protocol::admin::{
 };
 use inertia_protocol::control::{encode_frame, DisconnectReason, FrameDecoder};
 use inertia_protocol::{EntityId, EntityKind, ShapeDesc};
-use inertia_server::admin::client::{
-    connect_quic, read_credentials, AdminClient, AdminClientError,
-};
 use inertia_server::server::RunningServer;
 use inertia_tests::admin::{error_kind, ok, status, wait_for};
 use inertia_tests::server::{start_server, test_config, token};

@@ -6,8 +6,8 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
+use inertia_admin_client::AdminClient;
 use inertia_protocol::admin::{AdminErrorKind, AdminRequest, AdminResponse};
-use inertia_server::admin::client::AdminClient;
 use inertia_server::config::ServerConfig;
 use inertia_server::record::{Record, RecordReader};
 use inertia_server::server::RunningServer;

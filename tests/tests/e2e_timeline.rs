@@ -10,12 +10,12 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
+use inertia_admin_client::AdminClient;
 use inertia_client::{Client, ClientEvent};
 use inertia_protocol::admin::{
     AdminErrorKind, AdminRequest, AdminResponse, CheckpointName, TimeMode,
 };
 use inertia_protocol::EntityId;
-use inertia_server::admin::client::AdminClient;
 use inertia_tests::admin::{admin, call, error_kind, ids_named, ok, status, wait_for};
 use inertia_tests::server::{start_server, test_config, token};
 

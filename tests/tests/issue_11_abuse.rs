@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
+use inertia_admin_client::read_credentials;
 use inertia_client::Client;
 use inertia_protocol::admin::{
     AdminErrorKind, AdminRequest, AdminResponse, CheckpointName, MassSpec, SpawnDesc,
@@ -28,7 +29,6 @@ use inertia_protocol::control::{
 };
 use inertia_protocol::token::{mint, ConnectToken, TokenKey};
 use inertia_protocol::{EntityKind, ShapeDesc};
-use inertia_server::admin::client::read_credentials;
 use inertia_server::net::tls::STREAM_WINDOW;
 use inertia_server::server::RunningServer;
 use inertia_tests::admin::{admin, call, ok, status};
@@ -347,7 +347,7 @@ impl Initials {
     fn new(server: SocketAddr, fingerprint: [u8; 32]) -> Initials {
         Initials {
             endpoint: Self::endpoint(),
-            config: inertia_client::net::tls::client_config(fingerprint).expect("TLS"),
+            config: inertia_tls::client_config(fingerprint).expect("TLS"),
             server,
         }
     }

@@ -33,7 +33,8 @@ use inertia_physics::rigid::shape::Shape;
 use inertia_protocol::entity::buttons;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput};
 use inertia_server::rules::{
-    validate_input, ClientId, EntityLook, GameRules, InputError, InputWindow, Refusal, SimContext,
+    validate_input, ClientId, EntityLook, GameRules, InputRefusal, InputWindow, JoinRefusal,
+    SimContext,
 };
 use inertia_server::server::start_with_rules;
 use inertia_tests::server::{test_config, token};
@@ -98,10 +99,10 @@ impl GameRules for Gallery {
         &mut self,
         client: ClientId,
         ctx: &mut SimContext<'_>,
-    ) -> Result<EntityId, Refusal> {
+    ) -> Result<EntityId, JoinRefusal> {
         if self.target.is_none() {
             let desc = RigidBodyDesc::kinematic(
-                Shape::sphere(RADIUS).map_err(|e| Refusal::Rules(e.to_string()))?,
+                Shape::sphere(RADIUS).map_err(|e| JoinRefusal::Rules(e.to_string()))?,
                 Pose::from_translation(DVec3::new(0.0, TARGET_Y, TARGET_Z)),
             );
             let look = EntityLook {
@@ -112,11 +113,11 @@ impl GameRules for Gallery {
             };
             self.target = Some(
                 ctx.spawn(&desc, look)
-                    .map_err(|e| Refusal::Rules(e.to_string()))?,
+                    .map_err(|e| JoinRefusal::Rules(e.to_string()))?,
             );
         }
         let desc = RigidBodyDesc::kinematic(
-            Shape::sphere(0.3).map_err(|e| Refusal::Rules(e.to_string()))?,
+            Shape::sphere(0.3).map_err(|e| JoinRefusal::Rules(e.to_string()))?,
             Pose::from_translation(SHOOTER),
         );
         let look = EntityLook {
@@ -127,7 +128,7 @@ impl GameRules for Gallery {
         };
         let avatar = ctx
             .spawn(&desc, look)
-            .map_err(|e| Refusal::Rules(e.to_string()))?;
+            .map_err(|e| JoinRefusal::Rules(e.to_string()))?;
         self.shooters.push((client, avatar));
         Ok(avatar)
     }
@@ -144,10 +145,10 @@ impl GameRules for Gallery {
         client: ClientId,
         input: &PlayerInput,
         ctx: &mut SimContext<'_>,
-    ) -> Result<(), InputError> {
+    ) -> Result<(), InputRefusal> {
         let input = validate_input(input, ctx.tick(), InputWindow::default())?;
         let Some(&(_, avatar)) = self.shooters.iter().find(|s| s.0 == client) else {
-            return Err(InputError::NotJoined(client));
+            return Err(InputRefusal::NotJoined(client));
         };
         if input.buttons & FIRE == 0 {
             return Ok(());

@@ -21,3 +21,4 @@ mod issue_16_point_sets;
 mod issue_17_inputs_on_their_tick;
 mod issue_17_lag_compensation;
 mod issue_17_prediction;
+mod issue_42_connections;

@@ -9,8 +9,8 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use inertia_admin_client::AdminClient;
 use inertia_protocol::admin::{AdminRequest, AdminResponse, StatusReport};
-use inertia_server::admin::client::AdminClient;
 use tokio::sync::mpsc;
 
 /// How often the status is asked for when nothing else is sent.

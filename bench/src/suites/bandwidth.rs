@@ -29,8 +29,8 @@ use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{BodyHandle, World, WorldConfig};
 use inertia_protocol::{
-    EntityState, Interest, LinkConfig, PositionGrid, PriorityAccumulator, SimLink, SnapshotConfig,
-    SnapshotDecoder, SnapshotEncoder,
+    EntityState, Interest, PositionGrid, PriorityAccumulator, SimLink, SimLinkConfig,
+    SnapshotConfig, SnapshotDecoder, SnapshotEncoder,
 };
 
 use crate::report::{logical_cores, progress, Record, Sink, Suspended};
@@ -213,7 +213,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     let ticks = u64::from(seconds * SNAPSHOT_HZ);
     let dt = 1.0 / f64::from(SNAPSHOT_HZ);
     let config = codec_config();
-    let link = LinkConfig {
+    let link = SimLinkConfig {
         delay: DELAY,
         jitter: JITTER,
         loss: LOSS,

@@ -1,16 +1,17 @@
 //! The connection's background task: a thin shell that moves bytes
-//! between quinn and the sans-IO [`ClientSession`] (snapshot datagrams
-//! in, input datagrams out when the session says they are due), reads
-//! control frames, and obeys the [`super::Client`]'s commands. Everything
-//! it learns goes into [`State`], which the game reads under a short lock.
+//! between quinn and the sans-IO types: the connection's life
+//! ([`ClientConnection`]: control messages, the goodbye, every deadline)
+//! and the [`ClientSession`] (snapshot datagrams in, input datagrams out
+//! when the session says they are due), and obeys the
+//! [`super::Client`]'s commands. Everything it learns goes into
+//! [`State`], which the game reads under a short lock.
 
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use inertia_protocol::control::{
-    encode_frame, ClientControl, DisconnectReason, FrameDecoder, GameEvent, ServerControl,
-};
+use inertia_protocol::connection::{ClientConnection, ClientConnectionEvent};
+use inertia_protocol::control::{DisconnectReason, GameEvent, ServerControl};
 use inertia_protocol::{ClientSession, EntityId};
 use tokio::sync::mpsc;
 
@@ -183,7 +184,9 @@ impl State {
         }
     }
 
-    fn on_control(&mut self, msg: ServerControl) -> Result<(), String> {
+    /// A control message after the welcome (the connection checks that
+    /// none is a second welcome or a refusal).
+    fn on_control(&mut self, msg: ServerControl) {
         match msg {
             ServerControl::Spawn(desc) => {
                 let id = desc.id;
@@ -201,11 +204,8 @@ impl State {
                 self.disconnected = Some(reason.clone());
                 self.event(ClientEvent::Disconnected(reason));
             }
-            other @ (ServerControl::Welcome { .. } | ServerControl::Refused(_)) => {
-                return Err(format!("unexpected after the welcome: {other:?}"));
-            }
+            ServerControl::Welcome { .. } | ServerControl::Refused(_) => {}
         }
-        Ok(())
     }
 }
 
@@ -218,9 +218,10 @@ pub(crate) enum Command {
 
 pub(crate) struct Driver {
     pub connection: quinn::Connection,
+    /// The connection's life, past its welcome.
+    pub conn: ClientConnection,
     pub send: quinn::SendStream,
     pub recv: quinn::RecvStream,
-    pub frames: FrameDecoder,
     pub state: Arc<Mutex<State>>,
     pub commands: mpsc::UnboundedReceiver<Command>,
     pub epoch: Instant,
@@ -232,76 +233,83 @@ impl Driver {
     }
 }
 
-/// Hands every whole control frame received so far to the state.
-fn take_frames(d: &mut Driver) -> Result<(), String> {
-    while let Some(msg) = d.frames.next::<ServerControl>() {
-        msg.map_err(|e| e.to_string())
-            .and_then(|m| d.lock().on_control(m))?;
-    }
-    Ok(())
+/// What the control stream's sending half did.
+enum Sent {
+    Wrote(usize),
+    Failed,
+    /// The finished stream was taken by the server.
+    Taken,
 }
 
 /// Runs the connection until it ends.
 pub(crate) async fn run(mut d: Driver) {
     let mut buf = vec![0u8; 16 * 1024];
-    // The read that brought the welcome may have brought what followed it
-    // too (the catalog, when the two arrive together): it is not left
-    // waiting for the next read, which may never come.
-    let reason = 'run: {
-        if let Err(e) = take_frames(&mut d) {
-            break 'run protocol_error(&d.connection, e);
-        }
-        // When the next input is due: it moves only when one is sent.
-        let mut due = input_due(&d);
-        loop {
-            tokio::select! {
-                datagram = d.connection.read_datagram() => match datagram {
-                    Ok(bytes) => {
-                        let now = d.epoch.elapsed().as_secs_f64();
-                        d.lock().on_datagram(now, &bytes);
-                    }
-                    Err(e) => break closed_reason(&e),
-                },
-                read = d.recv.read(&mut buf) => match read {
-                    Ok(Some(n)) => {
-                        if let Err(e) = d.frames.push(&buf[..n]) {
-                            break protocol_error(&d.connection, e.to_string());
-                        }
-                        if let Err(e) = take_frames(&mut d) {
-                            break protocol_error(&d.connection, e);
-                        }
-                    }
-                    Ok(None) | Err(_) => {
-                        let e = d.connection.closed().await;
-                        break closed_reason(&e);
-                    }
-                },
-                _ = tokio::time::sleep_until(due) => {
-                    let datagram = {
-                        let now = d.epoch.elapsed().as_secs_f64();
-                        let rtt = d.connection.rtt().as_secs_f64();
-                        d.lock().poll_input(now, rtt)
-                    };
-                    if let Some(bytes) = datagram {
-                        let _ = d.connection.send_datagram(bytes.into());
-                    }
-                    due = input_due(&d);
-                },
-                command = d.commands.recv() => {
-                    // A dropped client closes too.
-                    let _ = command;
-                    if let Ok(bytes) = encode_frame(&ClientControl::Goodbye) {
-                        let _ = d.send.write_all(&bytes).await;
-                    }
-                    let _ = d.send.finish();
-                    // Give the goodbye a moment to arrive before closing.
-                    let _ = tokio::time::timeout(Duration::from_millis(200), d.send.stopped()).await;
-                    d.connection.close(0u32.into(), b"client left");
-                    break DisconnectReason::ClientLeft;
-                },
+    let mut commands_open = true;
+    // When the next input is due: it moves only when one is sent.
+    let mut due = input_due(&d);
+    loop {
+        // What came so far, the messages behind the welcome included.
+        while let Some(event) = d.conn.poll_event() {
+            if let ClientConnectionEvent::Message(msg) = event {
+                d.lock().on_control(msg);
             }
         }
-    };
+        if d.conn.is_closed() {
+            break;
+        }
+        if d.conn.wants_finish() {
+            let _ = d.send.finish();
+            d.conn.finish_sent();
+        }
+        let deadline = d.conn.poll_timeout().map(tokio::time::Instant::from_std);
+        let reads = d.conn.reads_control();
+        let live = d.conn.is_live();
+        tokio::select! {
+            datagram = d.connection.read_datagram() => match datagram {
+                Ok(bytes) => {
+                    let now = d.epoch.elapsed().as_secs_f64();
+                    d.lock().on_datagram(now, &bytes);
+                }
+                Err(e) => d.conn.on_lost(closed_reason(&e)),
+            },
+            read = d.recv.read(&mut buf), if reads => match read {
+                Ok(Some(n)) => d.conn.on_control_data(&buf[..n], Instant::now()),
+                // The server closes next, saying why.
+                Ok(None) | Err(_) => d.conn.on_control_finished(Instant::now()),
+            },
+            sent = write_control(&mut d.send, d.conn.pending_control(), d.conn.awaits_finish()) => match sent {
+                Sent::Wrote(n) => d.conn.control_written(n, Instant::now()),
+                Sent::Taken => d.conn.on_finish_taken(),
+                // The goodbye cannot go: closing says it too.
+                Sent::Failed => d.conn.on_finish_taken(),
+            },
+            () = sleep_until(deadline) => d.conn.handle_timeout(Instant::now()),
+            _ = tokio::time::sleep_until(due), if live => {
+                let datagram = {
+                    let now = d.epoch.elapsed().as_secs_f64();
+                    let rtt = d.connection.rtt().as_secs_f64();
+                    d.lock().poll_input(now, rtt)
+                };
+                if let Some(bytes) = datagram {
+                    let _ = d.connection.send_datagram(bytes.into());
+                }
+                due = input_due(&d);
+            },
+            command = d.commands.recv(), if commands_open => {
+                // A dropped client closes too.
+                commands_open = command.is_some();
+                d.conn.close(Instant::now());
+            },
+        }
+    }
+    if let Some(close) = d.conn.close_frame() {
+        d.connection
+            .close(close.code.into(), close.reason.as_bytes());
+    }
+    let reason = d
+        .conn
+        .end()
+        .map_or(DisconnectReason::ClientLeft, |end| end.reason());
     let mut s = d.lock();
     if s.disconnected.is_none() {
         s.disconnected = Some(reason.clone());
@@ -309,17 +317,34 @@ pub(crate) async fn run(mut d: Driver) {
     }
 }
 
+/// Writes `pending` to the control stream, or waits for the finished
+/// stream to be taken; otherwise never ready.
+async fn write_control(send: &mut quinn::SendStream, pending: &[u8], awaits_finish: bool) -> Sent {
+    if !pending.is_empty() {
+        match send.write(pending).await {
+            Ok(n) => Sent::Wrote(n),
+            Err(_) => Sent::Failed,
+        }
+    } else if awaits_finish {
+        let _ = send.stopped().await;
+        Sent::Taken
+    } else {
+        std::future::pending().await
+    }
+}
+
+/// Sleeps until `deadline`, or forever without one.
+pub(super) async fn sleep_until(deadline: Option<tokio::time::Instant>) {
+    match deadline {
+        Some(deadline) => tokio::time::sleep_until(deadline).await,
+        None => std::future::pending().await,
+    }
+}
+
 /// When the session's next input datagram is due, on tokio's clock.
 fn input_due(d: &Driver) -> tokio::time::Instant {
     let at = d.lock().session.next_input_at();
     tokio::time::Instant::from_std(d.epoch) + Duration::from_secs_f64(at.max(0.0))
-}
-
-fn protocol_error(connection: &quinn::Connection, what: String) -> DisconnectReason {
-    let reason = DisconnectReason::ProtocolError { what };
-    let (code, text) = reason.to_close();
-    connection.close(code.into(), text.as_bytes());
-    reason
 }
 
 fn closed_reason(e: &quinn::ConnectionError) -> DisconnectReason {

@@ -4,18 +4,16 @@
 //! table, and sends inputs with acknowledgements.
 
 mod driver;
-pub mod tls;
 
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use inertia_protocol::control::{
-    encode_frame, ClientControl, DisconnectReason, FrameDecoder, Refusal, ServerControl,
-    PROTOCOL_VERSION,
+use inertia_protocol::connection::{
+    ClientConnection, ClientConnectionConfig, ClientConnectionEnd, ClientConnectionEvent,
 };
+use inertia_protocol::control::{DisconnectReason, Refusal, PROTOCOL_VERSION};
 use inertia_protocol::input::MAX_REDUNDANT_INPUTS;
-use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::ConnectToken;
 use inertia_protocol::{ClientConfig, ClientSession};
 use tokio::sync::mpsc;
@@ -23,8 +21,12 @@ use tokio::sync::mpsc;
 pub use driver::ClientEvent;
 use driver::{Command, State};
 
-/// How long the handshake may take before [`ClientError::Timeout`].
-pub const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(5);
+/// What the server said about itself when it welcomed us (the
+/// protocol's).
+pub use inertia_protocol::connection::ServerInfo;
+/// How long the handshake may take before [`ClientError::Timeout`] (the
+/// protocol's).
+pub use inertia_protocol::connection::HANDSHAKE_TIMEOUT;
 
 /// Why a connection failed or ended.
 #[derive(Debug, thiserror::Error)]
@@ -98,23 +100,6 @@ impl Default for ConnectOptions {
     }
 }
 
-/// What the server said about itself when it welcomed us.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ServerInfo {
-    /// Our client id.
-    pub client_id: u64,
-    /// The server's tick when it welcomed us.
-    pub tick: u64,
-    /// Physics ticks per second of simulation time, Hz.
-    pub tick_hz: u32,
-    /// Snapshots per second, Hz.
-    pub snapshot_hz: u32,
-    /// The snapshot coding the server uses.
-    pub snapshot: SnapshotConfig,
-    /// The server's build.
-    pub server_version: String,
-}
-
 /// A connected client. Cheap to share across threads; every method locks a
 /// short-lived mutex. The connection runs on the tokio runtime that
 /// [`Client::connect`] was called on.
@@ -128,24 +113,49 @@ pub struct Client {
     endpoint: quinn::Endpoint,
 }
 
-async fn read_frame(
+/// Says hello on the control stream and waits for the answer, as `conn`
+/// directs: the server's welcome, or why not.
+async fn handshake(
+    conn: &mut ClientConnection,
+    send: &mut quinn::SendStream,
     recv: &mut quinn::RecvStream,
-    frames: &mut FrameDecoder,
-) -> Result<ServerControl, ClientError> {
+) -> Result<ServerInfo, ClientError> {
     let mut buf = [0u8; 4096];
     loop {
-        if let Some(msg) = frames.next::<ServerControl>() {
-            return msg.map_err(|e| ClientError::Protocol(e.to_string()));
+        if let Some(ClientConnectionEvent::Welcomed(info)) = conn.poll_event() {
+            return Ok(info);
         }
-        match recv
-            .read(&mut buf)
-            .await
-            .map_err(|e| ClientError::Protocol(format!("control stream: {e}")))?
-        {
-            Some(n) => frames
-                .push(&buf[..n])
-                .map_err(|e| ClientError::Protocol(e.to_string()))?,
-            None => return Err(ClientError::Protocol("control stream closed".into())),
+        match conn.end() {
+            Some(ClientConnectionEnd::Refused(Refusal::VersionMismatch { server, client })) => {
+                return Err(ClientError::VersionMismatch {
+                    server: *server,
+                    client: *client,
+                })
+            }
+            Some(ClientConnectionEnd::Refused(r)) => return Err(ClientError::Refused(r.clone())),
+            Some(ClientConnectionEnd::HandshakeTimeout) => {
+                return Err(ClientError::Timeout(HANDSHAKE_TIMEOUT))
+            }
+            Some(ClientConnectionEnd::Protocol(what)) => {
+                return Err(ClientError::Protocol(what.clone()))
+            }
+            Some(ClientConnectionEnd::Disconnected(reason)) => {
+                return Err(ClientError::Protocol(format!("disconnected: {reason:?}")))
+            }
+            None => {}
+        }
+        let deadline = conn.poll_timeout().map(tokio::time::Instant::from_std);
+        tokio::select! {
+            written = send.write(conn.pending_control()), if !conn.pending_control().is_empty() => match written {
+                Ok(n) => conn.control_written(n, Instant::now()),
+                Err(e) => return Err(ClientError::Protocol(format!("control stream: {e}"))),
+            },
+            read = recv.read(&mut buf) => match read {
+                Ok(Some(n)) => conn.on_control_data(&buf[..n], Instant::now()),
+                Ok(None) => conn.on_control_finished(Instant::now()),
+                Err(e) => return Err(ClientError::Protocol(format!("control stream: {e}"))),
+            },
+            () = driver::sleep_until(deadline) => conn.handle_timeout(Instant::now()),
         }
     }
 }
@@ -169,61 +179,27 @@ impl Client {
         });
         let mut endpoint = quinn::Endpoint::client(bind)?;
         endpoint.set_default_client_config(
-            tls::client_config(token.public.cert_fingerprint).map_err(ClientError::Tls)?,
+            inertia_tls::client_config(token.public.cert_fingerprint).map_err(ClientError::Tls)?,
         );
-        let handshake = async {
+        let started = Instant::now();
+        let mut conn = ClientConnection::new(
+            options.protocol_version,
+            token.to_bytes(),
+            ClientConnectionConfig::default(),
+            started,
+        );
+        let opened = async {
             let connection = endpoint.connect(addr, "localhost")?.await?;
-            let (mut send, mut recv) = connection.open_bi().await?;
-            let hello = ClientControl::Hello {
-                version: options.protocol_version,
-                token: token.to_bytes(),
-            };
-            let bytes = encode_frame(&hello).map_err(|e| ClientError::Protocol(e.to_string()))?;
-            send.write_all(&bytes)
-                .await
-                .map_err(|e| ClientError::Protocol(format!("control stream: {e}")))?;
-            let mut frames = FrameDecoder::new();
-            match read_frame(&mut recv, &mut frames).await? {
-                ServerControl::Welcome {
-                    client_id,
-                    tick,
-                    tick_hz,
-                    snapshot_hz,
-                    position_resolution,
-                    position_bound,
-                    snapshot,
-                    server_version,
-                } => {
-                    let snapshot = snapshot.config(position_resolution, position_bound);
-                    let info = ServerInfo {
-                        client_id,
-                        tick,
-                        tick_hz,
-                        snapshot_hz,
-                        snapshot,
-                        server_version,
-                    };
-                    Ok((connection, send, recv, frames, info))
-                }
-                ServerControl::Refused(Refusal::VersionMismatch { server, client }) => {
-                    Err(ClientError::VersionMismatch { server, client })
-                }
-                ServerControl::Refused(r) => Err(ClientError::Refused(r)),
-                other => Err(ClientError::Protocol(format!(
-                    "expected a welcome, got {other:?}"
-                ))),
-            }
+            let (send, recv) = connection.open_bi().await?;
+            Ok::<_, ClientError>((connection, send, recv))
         };
-        let (connection, send, recv, frames, info) =
-            match tokio::time::timeout(HANDSHAKE_TIMEOUT, handshake).await {
-                Ok(result) => result?,
-                Err(_) => return Err(ClientError::Timeout(HANDSHAKE_TIMEOUT)),
-            };
-        if info.tick_hz == 0 || info.snapshot_hz == 0 {
-            return Err(ClientError::Protocol(
-                "the server announced a zero rate".into(),
-            ));
-        }
+        let deadline = tokio::time::Instant::from_std(started + HANDSHAKE_TIMEOUT);
+        let (connection, mut send, mut recv) = match tokio::time::timeout_at(deadline, opened).await
+        {
+            Ok(opened) => opened?,
+            Err(_) => return Err(ClientError::Timeout(HANDSHAKE_TIMEOUT)),
+        };
+        let info = handshake(&mut conn, &mut send, &mut recv).await?;
         let session = ClientSession::new(
             ClientConfig {
                 snapshot: info.snapshot,
@@ -247,9 +223,9 @@ impl Client {
         let (commands, command_rx) = mpsc::unbounded_channel();
         tokio::spawn(driver::run(driver::Driver {
             connection: connection.clone(),
+            conn,
             send,
             recv,
-            frames,
             state: state.clone(),
             commands: command_rx,
             epoch,

@@ -7,7 +7,7 @@ use crate::priority::{PriorityAccumulator, Standing};
 use super::code::{varuint_bits, write_varuint, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES};
 use super::frame::QuantizedFrame;
 use super::sent::{Sent, SentLog};
-use super::shared::{DeltaRef, SharedDeltas};
+use super::shared::{DeltaCache, DeltaRef};
 use super::view::{QuantizedEntity, View};
 use super::{ConfigError, SnapshotConfig, MAX_ENTITIES, MAX_TIME_SCALE, SNAPSHOT_TAG};
 
@@ -47,6 +47,34 @@ pub struct SnapshotEncoder {
     /// The deltas of [`Self::encode_frame`], which shares them with no
     /// other client (kept for their memory).
     own: SharedDeltas,
+}
+
+/// What the encoders of one frame share, made once and kept: the deltas
+/// coded so far, each entity's coded once per baseline state and copied
+/// for every client that needs it ([`super::shared`]), and the working
+/// memory of one encode, lent to each encoder in turn ([`Work`]).
+#[derive(Debug, Clone, Default)]
+pub struct SharedDeltas {
+    deltas: DeltaCache,
+    work: Work,
+}
+
+impl SharedDeltas {
+    /// Holds nothing yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Deltas handed out that had been coded before (for another client
+    /// with the same baseline state), since this was made.
+    pub fn reused(&self) -> u64 {
+        self.deltas.reused()
+    }
+
+    /// Deltas coded for the current frame.
+    pub fn coded(&self) -> usize {
+        self.deltas.coded()
+    }
 }
 
 /// The buffers one encode fills, kept between encodes so a snapshot
@@ -236,7 +264,7 @@ impl SnapshotEncoder {
         budget_bytes: usize,
     ) -> Vec<u8> {
         let config = self.config;
-        shared.start(frame);
+        shared.deltas.start(frame);
         let (tick, paused) = (frame.tick, frame.paused);
         // The decoder refuses scales no clock produces (the frame's field
         // is public, so it is checked here too).
@@ -253,7 +281,7 @@ impl SnapshotEncoder {
         };
 
         // Walk the frame and the baseline together, by id.
-        let mut work = shared.take_work();
+        let mut work = std::mem::take(&mut shared.work);
         let Work {
             removed,
             candidates,
@@ -385,7 +413,7 @@ impl SnapshotEncoder {
             }
             let base_state = (!new).then(|| &base_entities[c.in_base as usize].1);
             let index = c.index as usize;
-            let (delta, bits) = shared.delta(frame, index, base_state, &config);
+            let (delta, bits) = shared.deltas.delta(frame, index, base_state, &config);
             let id_at = |j: usize| frame.ids()[j];
             let prev = chosen.before(index).map(id_at);
             let next = chosen.after(index).map(id_at);
@@ -448,7 +476,7 @@ impl SnapshotEncoder {
         let mut prev = None;
         for &(id, _, delta) in by_id {
             write_varuint(&mut w, id_gap(prev, id), &ID_CLASSES);
-            shared.write(frame, delta, &config, &mut w);
+            shared.deltas.write(frame, delta, &config, &mut w);
             prev = Some(id);
         }
         debug_assert!(
@@ -481,7 +509,7 @@ impl SnapshotEncoder {
         });
         self.spare = replaced.unwrap_or_default();
         self.next = sequence.wrapping_add(1);
-        shared.put_work(work);
+        shared.work = work;
         bytes
     }
 }

@@ -76,10 +76,9 @@ mod shared;
 mod view;
 
 pub use decoder::{DecodeStats, DecodedSnapshot, SnapshotDecoder};
-pub use encoder::{EncodeReport, SnapshotEncoder};
+pub use encoder::{EncodeReport, SharedDeltas, SnapshotEncoder};
 pub use frame::QuantizedFrame;
 pub use sent::HELD_VIEWS;
-pub use shared::SharedDeltas;
 pub use view::{QuantizedEntity, QuantizedRotation, View, ViewEntity};
 
 use thiserror::Error;
@@ -95,13 +94,13 @@ pub const SNAPSHOT_TAG: u8 = 0x53;
 /// many snapshots is gone and the next snapshot is coded without one.
 pub const RING: usize = 64;
 
-/// The most entities one view may hold (and so one datagram may list).
-pub const MAX_ENTITIES: usize = 16_384;
+pub use crate::entity::MAX_ENTITIES;
 
-/// The largest time scale a snapshot header may carry, either way: the
-/// admin protocol's [`crate::admin::MAX_TIME_SCALE`]. Negative scales down
-/// to its negation mean history playing backwards.
-pub const MAX_TIME_SCALE: f32 = crate::admin::MAX_TIME_SCALE as f32;
+/// The largest time scale a snapshot header may carry, either way, and so
+/// the largest an operator may ask for (the admin protocol's limit is
+/// this one). Negative scales down to its negation mean history playing
+/// backwards.
+pub const MAX_TIME_SCALE: f32 = 64.0;
 
 /// How snapshots are quantized and sized. Both ends must use the same.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -4,7 +4,7 @@
 //! How an entity is coded depends only on its state in the frame and its
 //! state in the client's baseline (or on there being none). Clients that
 //! received the same update of an entity hold the same baseline state of
-//! it, so their deltas of it are the same bits: [`SharedDeltas`] keeps,
+//! it, so their deltas of it are the same bits: [`DeltaCache`] keeps,
 //! for one [`QuantizedFrame`], each delta sized so far (every client sizes
 //! every changed entity to fill its budget) and, once some client sends
 //! it, its bits (packed in one buffer of words, with a range per delta),
@@ -17,7 +17,6 @@
 use crate::bits::{BitWriter, WordPacker};
 
 use super::code::{write_body, BitCount, BitSink};
-use super::encoder::Work;
 use super::frame::QuantizedFrame;
 use super::view::QuantizedEntity;
 use super::SnapshotConfig;
@@ -32,7 +31,7 @@ struct Delta {
     base: Option<QuantizedEntity>,
     /// The entity's index in the frame.
     index: u32,
-    /// Its bits, a range of words of [`SharedDeltas::words`]; [`NONE`]
+    /// Its bits, a range of words of [`DeltaCache::words`]; [`NONE`]
     /// until a client first writes it (most deltas are sized, for the budget, by
     /// far more clients than send them).
     start: u32,
@@ -76,7 +75,7 @@ fn digest(base: Option<&QuantizedEntity>) -> u64 {
 /// encoder of that frame (see the module docs). Made once and kept: it
 /// empties itself when handed a different frame.
 #[derive(Debug, Clone, Default)]
-pub struct SharedDeltas {
+pub(crate) struct DeltaCache {
     /// The frame the deltas are of ([`QuantizedFrame::serial`]).
     frame: Option<u64>,
     /// Each entity's newest delta, by index into the frame, or [`NONE`].
@@ -89,8 +88,6 @@ pub struct SharedDeltas {
     words: Vec<u64>,
     /// Lookups answered from a delta coded before.
     reused: u64,
-    /// The working memory of one encode, lent to each encoder in turn.
-    work: Work,
 }
 
 /// A handle to one coded delta.
@@ -127,31 +124,16 @@ impl Recorder<'_> {
     }
 }
 
-impl SharedDeltas {
-    /// Holds nothing yet.
-    pub fn new() -> Self {
-        Self::default()
-    }
-
+impl DeltaCache {
     /// Deltas handed out that had been coded before (for another client
     /// with the same baseline state), since this was made.
-    pub fn reused(&self) -> u64 {
+    pub(crate) fn reused(&self) -> u64 {
         self.reused
     }
 
     /// Deltas coded for the current frame.
-    pub fn coded(&self) -> usize {
+    pub(crate) fn coded(&self) -> usize {
         self.deltas.len()
-    }
-
-    /// Lends the working memory of one encode (see [`Work`]).
-    pub(crate) fn take_work(&mut self) -> Work {
-        std::mem::take(&mut self.work)
-    }
-
-    /// Takes back what [`Self::take_work`] lent.
-    pub(crate) fn put_work(&mut self, work: Work) {
-        self.work = work;
     }
 
     /// Makes the deltas those of `frame`, emptying them if they were of

@@ -28,9 +28,8 @@
 //! [`Metrics::admin_actions`](crate::metrics::Metrics) by action and
 //! outcome. No token is ever logged.
 //!
-//! [`client::AdminClient`] is the tool's side.
+//! The tool's side is the `inertia-admin-client` crate's `AdminClient`.
 
-pub mod client;
 pub mod throttle;
 pub mod tokens;
 

@@ -1,61 +1,45 @@
-//! One client's connection: the hello and token check, then a single loop
-//! that sends what the snapshot stage ([`super::snapshots`]) made at the
-//! client's slots that had control messages (its catalog changes and
-//! events on the reliable control stream, then its snapshot datagram, so
-//! that both leave in one packet; the stage queues a snapshot without
-//! them itself), feeds the client's datagrams (acks and inputs) into its
-//! [`ServerSession`], which it shares with the stage, and the inputs on
-//! to the simulation, and says goodbye on shutdown.
+//! One client's connection: a thin shell that moves bytes and timers
+//! between the link (raw QUIC or WebTransport, [`super::link`]) and the
+//! connection's state machine ([`ServerConnection`], in the protocol
+//! crate, where every state and deadline of its life is decided and
+//! tested on a virtual clock).
 //!
-//! Nothing here waits on a client without a deadline. The client has
-//! [`HELLO_TIMEOUT`] to say hello and as long again to take its welcome;
-//! a client that does not is let go, and leaves the world if it had
-//! joined. After the welcome, control messages go through an [`Outbox`]
-//! that the loop writes from as the client's flow-control window allows,
-//! so a client that stops reading still gets snapshots, is still read,
-//! kicked and told of a shutdown, and is dropped once its control stream
-//! has not moved for [`CONTROL_STALL`] (or more than [`OUTBOX_LIMIT`]
-//! bytes wait for it). A joined client that sends no datagram for
-//! [`SILENT_TIMEOUT`] is let go too. Goodbyes wait at most
-//! [`GOODBYE_WAIT`].
+//! The shell does what needs the server: it checks a hello's token and
+//! asks the tick thread for room ([`ServerConnectionEvent::Hello`]); once the client
+//! is live it hands it to the snapshot stage ([`super::snapshots`]), which
+//! owns its session; its datagrams go to the connection, which keeps the
+//! inputs (passed on to the simulation) and hands each acknowledgement to
+//! the stage's mailbox for the client; and writes what the stage made at the client's
+//! slots (its control messages first, then its snapshot datagram, so that
+//! both leave in one packet); when the connection ends it takes the
+//! client out of the world ([`ServerConnectionEvent::Ending`]) and closes the link
+//! as the state machine says.
 
 use std::future::Future;
 use std::sync::Arc;
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
-use glam::DVec3;
+use inertia_protocol::connection::{ServerConnection, ServerConnectionEnd, ServerConnectionEvent};
 use inertia_protocol::control::{
-    encode_frame, handshake, truncate_utf8, ClientControl, DisconnectReason, FrameDecoder, Refusal,
-    ServerControl, SnapshotParams, TokenRefusal, MAX_REASON_BYTES,
+    handshake, truncate_utf8, ClientControl, DisconnectReason, Refusal, ServerControl,
+    SnapshotParams, TokenRefusal, MAX_REASON_BYTES,
 };
-use inertia_protocol::{EntityId, EntityKind, ServerSession, SessionConfig};
+use inertia_protocol::EntityId;
+use tokio::sync::oneshot;
 use tracing::{debug, info, info_span, warn, Instrument};
 
 use super::link::{Link, LinkError, LinkRecv, LinkSend};
-use super::snapshots::Served;
+use super::snapshots::{Served, ServedGuard};
 use super::NetShared;
 use crate::rules;
-use crate::sim::{CommandError, Frame, SimExit};
+use crate::sim::{CommandError, SimExit};
 
-/// How long a client has to open its control stream and say hello, and
-/// then again to take the answer.
-pub const HELLO_TIMEOUT: Duration = Duration::from_secs(5);
-/// Longest a client may leave its control stream unread while the server
-/// has something for it (the connection's idle timeout).
-pub const CONTROL_STALL: Duration = super::tls::IDLE_TIMEOUT;
-/// Most control-stream bytes that may wait for a client; beyond, it is
-/// dropped as too far behind (a full catalog of `--max-bodies` bodies is
-/// well under this).
-pub const OUTBOX_LIMIT: usize = 16 << 20;
-/// Longest a joined client may send no datagram (its acknowledgements
-/// and inputs, which the SDK sends at its input rate whatever the player
-/// does) before it is let go. QUIC keep-alives alone do not count: a
-/// client that stops playing but keeps its connection open would hold a
-/// slot, an avatar and full snapshots without a baseline forever.
-pub const SILENT_TIMEOUT: Duration = super::tls::IDLE_TIMEOUT;
-/// Longest a goodbye (and what is queued before it) waits for the
-/// client's window.
-pub const GOODBYE_WAIT: Duration = Duration::from_secs(1);
+/// The deadlines of a connection's life (the protocol's; the control
+/// stall and the silence match the QUIC idle timeout,
+/// [`super::tls::IDLE_TIMEOUT`]).
+pub use inertia_protocol::connection::{
+    CONTROL_STALL, GOODBYE_WAIT, HELLO_TIMEOUT, OUTBOX_LIMIT, SILENT_TIMEOUT,
+};
 
 /// QUIC close codes the server uses (the protocol's).
 pub use inertia_protocol::control::close_code;
@@ -64,27 +48,6 @@ pub(crate) fn unix_now() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| d.as_secs())
-}
-
-/// Why serving a client stopped.
-#[derive(Debug)]
-enum End {
-    /// The connection closed or failed.
-    Closed(String),
-    /// The client said goodbye.
-    Goodbye,
-    /// The client broke the protocol on the control stream.
-    Protocol(String),
-    /// The server is stopping, for this reason.
-    Shutdown(DisconnectReason),
-    /// An operator kicked the client.
-    Kicked(String),
-}
-
-async fn write(send: &mut LinkSend, msg: &ServerControl) -> Result<usize, String> {
-    let bytes = encode_frame(msg).map_err(|e| e.to_string())?;
-    send.write_all(&bytes).await.map_err(|e| e.to_string())?;
-    Ok(bytes.len())
 }
 
 /// The `reason` label of a refused hello.
@@ -108,12 +71,12 @@ fn refusal_reason(refusal: &Refusal) -> &'static str {
 }
 
 /// What a client is told when the rules refuse its join: the real reason.
-fn join_refusal(client: u64, refusal: rules::Refusal) -> Refusal {
+fn join_refusal(client: u64, refusal: rules::JoinRefusal) -> Refusal {
     match refusal {
-        rules::Refusal::Full { .. } => Refusal::ServerFull,
-        rules::Refusal::AlreadyJoined(_) => Refusal::AlreadyConnected,
-        rules::Refusal::Unavailable => Refusal::Busy,
-        refusal @ (rules::Refusal::NoRoom | rules::Refusal::Rules(_)) => {
+        rules::JoinRefusal::Full { .. } => Refusal::ServerFull,
+        rules::JoinRefusal::AlreadyJoined(_) => Refusal::AlreadyConnected,
+        rules::JoinRefusal::Unavailable => Refusal::Busy,
+        refusal @ (rules::JoinRefusal::NoRoom | rules::JoinRefusal::Rules(_)) => {
             info!(client, reason = %refusal, "join refused by the rules");
             let mut reason = refusal.to_string();
             truncate_utf8(&mut reason, MAX_REASON_BYTES);
@@ -150,69 +113,171 @@ fn not_running(shared: &NetShared) -> Option<Refusal> {
 }
 
 /// Serves one game connection to its end.
-pub async fn serve(connection: Link, id: u64, shared: Arc<NetShared>) {
-    let span = info_span!("connection", id, remote = %connection.remote_address(), web = connection.is_web_transport(), client = tracing::field::Empty);
-    async move {
-        if let Some(admitted) = hello(&connection, id, &shared).await {
-            run(connection, admitted, &shared).await
-        }
-    }
-    .instrument(span)
-    .await
+pub async fn serve(link: Link, id: u64, shared: Arc<NetShared>) {
+    let span = info_span!("connection", id, remote = %link.remote_address(), web = link.is_web_transport(), client = tracing::field::Empty);
+    let shell = Shell {
+        conn: ServerConnection::new(shared.connection, Instant::now()),
+        link,
+        id,
+        shared,
+        send: None,
+        recv: None,
+        joined: None,
+        served: None,
+        kick: None,
+    };
+    shell.run().instrument(span).await
 }
 
-/// Lets go of a client that did not say hello, or take the answer, in
-/// time.
-fn too_slow(connection: &Link, shared: &NetShared) {
-    debug!("no hello in time");
-    shared.metrics.refused("hello_timeout");
-    connection.close(close_code::REFUSED, b"no hello in time");
-}
-
-/// A client past its hello.
-struct Admitted {
+/// A client the world let in.
+#[derive(Debug, Clone, Copy)]
+struct Joined {
     client: u64,
     avatar: EntityId,
-    send: LinkSend,
-    recv: LinkRecv,
-    frames: FrameDecoder,
 }
 
-/// Reads the hello and answers it; `None` when the client was refused,
-/// too slow or vanished. The client's part (opening the stream, the
-/// hello, taking the answer) is bounded by [`HELLO_TIMEOUT`]; the join,
-/// the tick thread's part, is not. A client that joined but did not take
-/// its welcome leaves again.
-async fn hello(connection: &Link, id: u64, shared: &NetShared) -> Option<Admitted> {
-    let read = async {
-        let (send, mut recv) = connection.accept_bi().await.ok()?;
-        let mut frames = FrameDecoder::new();
-        let mut buf = [0u8; 2048];
-        let msg = loop {
-            if let Some(msg) = frames.next::<ClientControl>() {
-                break msg.map_err(|e| e.to_string());
+/// What the task holds around the connection's state machine.
+struct Shell {
+    conn: ServerConnection,
+    link: Link,
+    /// The connection's number.
+    id: u64,
+    shared: Arc<NetShared>,
+    /// The control stream's halves, once the client opened it (`send`
+    /// from then on, `recv` until it ends).
+    send: Option<LinkSend>,
+    recv: Option<LinkRecv>,
+    /// The client, once the world let it in (until it leaves).
+    joined: Option<Joined>,
+    /// Its place in the snapshot stage, while live.
+    served: Option<(Arc<Served>, ServedGuard)>,
+    /// Where an operator's kick comes from, while live.
+    kick: Option<oneshot::Receiver<String>>,
+}
+
+/// What the control stream's sending half did.
+enum Sent {
+    Wrote(usize),
+    Failed(LinkError),
+    /// The finished stream was taken by the client.
+    Taken,
+}
+
+impl Shell {
+    async fn run(mut self) {
+        let mut shutdown = self.shared.shutdown.clone();
+        let mut shutdown_open = true;
+        let mut buf = vec![0u8; 4096];
+        // One timer, moved only when the connection's deadline comes
+        // earlier than it is set for: a live client's silence deadline
+        // moves on with every datagram, and a timer set afresh each time
+        // would be registered and dropped several times a slot for every
+        // client. A timer that fires early finds nothing due and is set
+        // again.
+        let timer = tokio::time::sleep(std::time::Duration::from_secs(3600));
+        tokio::pin!(timer);
+        let mut armed: Option<tokio::time::Instant> = None;
+        loop {
+            self.act().await;
+            if self.conn.is_closed() {
+                break;
             }
-            match recv.read(&mut buf).await {
-                Ok(Some(n)) => {
-                    if let Err(e) = frames.push(&buf[..n]) {
-                        break Err(e.to_string());
+            if self.conn.wants_finish() {
+                if let Some(send) = &mut self.send {
+                    send.finish();
+                }
+                self.conn.finish_sent();
+            }
+            let deadline = self.conn.poll_timeout().map(tokio::time::Instant::from_std);
+            if let Some(deadline) = deadline {
+                if armed.is_none_or(|at| deadline < at) {
+                    timer.as_mut().reset(deadline);
+                    armed = Some(deadline);
+                }
+            }
+            let reads = self.conn.reads_control();
+            tokio::select! {
+                opened = self.link.accept_bi(), if self.send.is_none() => match opened {
+                    Ok((send, recv)) => {
+                        self.send = Some(send);
+                        self.recv = Some(recv);
+                    }
+                    Err(e) => self.conn.on_lost(&e.to_string()),
+                },
+                datagram = self.link.read_datagram() => match datagram {
+                    Ok(bytes) => self.on_datagram(&bytes),
+                    Err(e) => self.conn.on_lost(&e.to_string()),
+                },
+                read = read_control(self.recv.as_mut(), &mut buf), if reads => {
+                    let now = Instant::now();
+                    match read {
+                        Ok(Some(n)) => self.conn.on_control_data(&buf[..n], now),
+                        Ok(None) => {
+                            self.recv = None;
+                            self.conn.on_control_finished();
+                        }
+                        Err(LinkError::Lost(e)) => self.conn.on_lost(&e),
+                        Err(LinkError::Stream(e)) => {
+                            self.recv = None;
+                            self.conn.on_control_reset(&e, now);
+                        }
                     }
                 }
-                _ => return None,
+                sent = write_control(self.send.as_mut(), self.conn.pending_control(), self.conn.awaits_finish()) => match sent {
+                    Sent::Wrote(n) => self.conn.control_written(n, Instant::now()),
+                    Sent::Taken => self.conn.on_finish_taken(),
+                    Sent::Failed(LinkError::Lost(e)) => self.conn.on_lost(&e),
+                    Sent::Failed(LinkError::Stream(e)) => self.conn.on_control_write_failed(&e, Instant::now()),
+                },
+                () = &mut timer, if armed.is_some() => {
+                    armed = None;
+                    self.conn.handle_timeout(Instant::now());
+                }
+                changed = shutdown.changed(), if shutdown_open => {
+                    shutdown_open = changed.is_ok();
+                    let reason = shutdown.borrow().clone().unwrap_or(DisconnectReason::ServerShutdown);
+                    self.conn.shut_down(reason, Instant::now());
+                }
+                kicked = kicked(self.kick.as_mut()) => match kicked {
+                    Some(reason) => self.conn.kick(reason, Instant::now()),
+                    // Another connection of the same client took the kick.
+                    None => self.kick = None,
+                },
+                () = slot_ready(self.served.as_ref()) => self.send_slot(),
             }
-        };
-        Some((send, recv, frames, msg))
-    };
-    let (mut send, recv, frames, msg) = match tokio::time::timeout(HELLO_TIMEOUT, read).await {
-        Ok(Some(read)) => read,
-        Ok(None) => return None,
-        Err(_) => {
-            too_slow(connection, shared);
-            return None;
         }
-    };
-    let result = match msg {
-        Ok(hello) => {
+        self.closed();
+    }
+
+    /// Acts on what the connection asks of the server.
+    async fn act(&mut self) {
+        while let Some(event) = self.conn.poll_event() {
+            match event {
+                ServerConnectionEvent::Hello { version, token } => {
+                    let hello = ClientControl::Hello { version, token };
+                    match self.decide(&hello).await {
+                        Ok((joined, welcome)) => {
+                            tracing::Span::current().record("client", joined.client);
+                            self.joined = Some(joined);
+                            self.conn.admit(&welcome, Instant::now());
+                        }
+                        Err(refusal) => {
+                            info!(?refusal, "hello refused");
+                            self.conn.refuse(refusal, Instant::now());
+                        }
+                    }
+                }
+                ServerConnectionEvent::Live => self.start_serving(),
+                ServerConnectionEvent::Ending => self.stop_serving(),
+            }
+        }
+    }
+
+    /// Checks a hello and asks the world for room: the client and its
+    /// welcome, or why not.
+    async fn decide(&self, hello: &ClientControl) -> Result<(Joined, ServerControl), Refusal> {
+        let shared = &self.shared;
+        let token = {
             let now = unix_now();
             let keys = shared.token_keys.read().unwrap_or_else(|e| e.into_inner());
             let mut guard = shared.guard.lock().unwrap_or_else(|e| e.into_inner());
@@ -221,502 +286,250 @@ async fn hello(connection: &Link, id: u64, shared: &NetShared) -> Option<Admitte
             // other.
             let mut result = Err(Refusal::Token(TokenRefusal::Forged));
             for key in keys.at(now) {
-                result = handshake(&hello, now, key, &shared.public_addr, id, &mut guard);
+                result = handshake(hello, now, key, &shared.public_addr, self.id, &mut guard);
                 if !matches!(result, Err(Refusal::Token(TokenRefusal::Forged))) {
                     break;
                 }
             }
-            result
-        }
-        Err(e) => {
-            debug!(error = %e, "malformed hello");
-            Err(Refusal::Malformed)
-        }
-    };
-    let result = match result {
-        Ok(token) => match not_running(shared) {
-            Some(refusal) => Err(refusal),
-            None => join(shared, token.client_id).await,
-        },
-        Err(r) => Err(r),
-    };
-    match result {
-        Ok((client, avatar)) => {
-            tracing::Span::current().record("client", client);
-            let frame = shared.sim.frame();
-            let welcome = ServerControl::Welcome {
-                client_id: client,
-                tick: frame.tick,
-                tick_hz: shared.tick_hz,
-                snapshot_hz: shared.snapshot_hz,
-                position_resolution: shared.snapshot.grid.resolution,
-                position_bound: shared.snapshot.grid.bound,
-                snapshot: SnapshotParams::from_config(&shared.snapshot),
-                server_version: env!("CARGO_PKG_VERSION").to_string(),
-            };
-            match tokio::time::timeout(HELLO_TIMEOUT, write(&mut send, &welcome)).await {
-                Ok(Ok(_)) => {}
-                Ok(Err(_)) => {
-                    let _ = shared.sim.leave(client);
-                    return None;
-                }
-                Err(_) => {
-                    // Joined, but the welcome never went: the avatar goes.
-                    let _ = shared.sim.leave(client);
-                    too_slow(connection, shared);
-                    return None;
-                }
-            }
-            info!(client, avatar, "client joined");
-            Some(Admitted {
-                client,
-                avatar,
-                send,
-                recv,
-                frames,
-            })
-        }
-        Err(refusal) => {
-            info!(?refusal, "hello refused");
-            shared.metrics.refused(refusal_reason(&refusal));
-            let refused = ServerControl::Refused(refusal);
-            let _ = tokio::time::timeout(GOODBYE_WAIT, write(&mut send, &refused)).await;
-            send.finish();
-            let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
-            connection.close(close_code::REFUSED, b"refused");
-            None
-        }
-    }
-}
-
-/// Control messages on their way to a client, whole frames in order,
-/// written as its flow-control window allows (see the module docs).
-#[derive(Debug)]
-struct Outbox {
-    bytes: Vec<u8>,
-    /// Where the unwritten bytes start.
-    start: usize,
-    /// When the stream last moved, or the first bytes came to wait.
-    moved: tokio::time::Instant,
-}
-
-impl Outbox {
-    fn new() -> Outbox {
-        Outbox {
-            bytes: Vec::new(),
-            start: 0,
-            moved: tokio::time::Instant::now(),
-        }
-    }
-
-    /// Queues `msg`; its framed length.
-    fn push(&mut self, msg: &ServerControl) -> Result<usize, String> {
-        let frame = encode_frame(msg).map_err(|e| e.to_string())?;
-        Ok(self.push_coded(&frame))
-    }
-
-    /// Queues a message already coded as a control frame.
-    fn push_coded(&mut self, frame: &[u8]) -> usize {
-        if self.is_empty() {
-            self.moved = tokio::time::Instant::now();
-        }
-        self.bytes.extend_from_slice(frame);
-        frame.len()
-    }
-
-    /// The bytes still to write.
-    fn pending(&self) -> &[u8] {
-        &self.bytes[self.start..]
-    }
-
-    fn len(&self) -> usize {
-        self.bytes.len() - self.start
-    }
-
-    fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// `n` bytes were written.
-    fn advance(&mut self, n: usize) {
-        self.start += n;
-        if self.start == self.bytes.len() {
-            self.bytes.clear();
-            self.start = 0;
-        } else if self.start > (64 << 10) && self.start * 2 > self.bytes.len() {
-            self.bytes.drain(..self.start);
-            self.start = 0;
-        }
-        self.moved = tokio::time::Instant::now();
-    }
-
-    /// When the client will have left its stream unread too long, while
-    /// something waits for it.
-    fn stall_deadline(&self) -> Option<tokio::time::Instant> {
-        (!self.is_empty()).then(|| self.moved + CONTROL_STALL)
-    }
-
-    /// Writes what the client's flow-control window takes now, without
-    /// waiting for it to open (the connection loop writes the rest).
-    fn write_now(&mut self, send: &mut LinkSend) -> Result<(), LinkError> {
-        let waker = std::task::Waker::noop();
-        let mut cx = std::task::Context::from_waker(waker);
-        while !self.is_empty() {
-            let written = {
-                let write = std::pin::pin!(send.write(self.pending()));
-                write.poll(&mut cx)
-            };
-            match written {
-                std::task::Poll::Ready(Ok(n)) => self.advance(n),
-                std::task::Poll::Ready(Err(e)) => return Err(e),
-                std::task::Poll::Pending => break,
-            }
-        }
-        Ok(())
-    }
-
-    /// Writes everything queued; false when the stream failed.
-    async fn flush(&mut self, send: &mut LinkSend) -> bool {
-        while !self.is_empty() {
-            match send.write(self.pending()).await {
-                Ok(n) => self.advance(n),
-                Err(_) => return false,
-            }
-        }
-        true
-    }
-
-    /// Queues `msg` and writes it out behind whatever waits, within
-    /// [`GOODBYE_WAIT`]; whether it all went.
-    async fn say_last(&mut self, send: &mut LinkSend, msg: &ServerControl) -> bool {
-        if self.push(msg).is_err() {
-            return false;
-        }
-        matches!(
-            tokio::time::timeout(GOODBYE_WAIT, self.flush(send)).await,
-            Ok(true)
-        )
-    }
-}
-
-async fn run(connection: Link, admitted: Admitted, shared: &NetShared) {
-    let Admitted {
-        client,
-        avatar,
-        mut send,
-        mut recv,
-        mut frames,
-    } = admitted;
-    let previous = shared
-        .connected
-        .lock()
-        .map(|mut c| c.insert(client, connection.stable_id() as u64))
-        .ok()
-        .flatten();
-    if previous.is_some() {
-        warn!(client, "client id connected twice");
-    }
-    let (kick_tx, kick_rx) = tokio::sync::oneshot::channel();
-    if let Ok(mut k) = shared.kicks.lock() {
-        k.insert(client, (connection.stable_id() as u64, kick_tx));
-    }
-    let mut outbox = Outbox::new();
-    let end = session(
-        &connection,
-        client,
-        avatar,
-        &mut send,
-        &mut outbox,
-        &mut recv,
-        &mut frames,
-        kick_rx,
-        shared,
-    )
-    .await;
-    if let Ok(mut k) = shared.kicks.lock() {
-        if k.get(&client).map(|(c, _)| *c) == Some(connection.stable_id() as u64) {
-            k.remove(&client);
-        }
-    }
-    let _ = shared.sim.leave(client);
-    match end {
-        End::Shutdown(reason) => {
-            let goodbye = ServerControl::Goodbye(reason.clone());
-            outbox.say_last(&mut send, &goodbye).await;
-            send.finish();
-            let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
-            close_saying(&connection, &reason);
-            info!(client, "client told of shutdown");
-        }
-        End::Goodbye => {
-            connection.close(close_code::GOODBYE, b"goodbye");
-            info!(client, "client left");
-        }
-        End::Protocol(what) => {
-            warn!(client, %what, "protocol error");
-            let reason = DisconnectReason::ProtocolError { what };
-            outbox
-                .say_last(&mut send, &ServerControl::Goodbye(reason.clone()))
-                .await;
-            // Closing at once would drop the goodbye in flight.
-            send.finish();
-            let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
-            close_saying(&connection, &reason);
-        }
-        End::Kicked(reason) => {
-            let said = DisconnectReason::Kicked {
-                reason: reason.clone(),
-            };
-            outbox
-                .say_last(&mut send, &ServerControl::Goodbye(said.clone()))
-                .await;
-            send.finish();
-            let _ = tokio::time::timeout(Duration::from_millis(500), send.stopped()).await;
-            close_saying(&connection, &said);
-            info!(client, %reason, "client kicked");
-        }
-        End::Closed(e) => info!(client, reason = %e, "connection closed"),
-    }
-    // Connected until told why it ends: a shutdown drains clients by
-    // waiting for this, so the goodbye is on its way before the endpoint
-    // closes under it.
-    if let Ok(mut c) = shared.connected.lock() {
-        if c.get(&client) == Some(&(connection.stable_id() as u64)) {
-            c.remove(&client);
-        }
-    }
-}
-
-/// Closes `connection` with a code and text that say `reason` on their
-/// own: a client that sees the close before the goodbye (a close discards
-/// what is still in flight) learns the same reason from it.
-fn close_saying(connection: &Link, reason: &DisconnectReason) {
-    let (code, text) = reason.to_close();
-    connection.close(code, text.as_bytes());
-}
-
-#[allow(clippy::too_many_arguments)]
-async fn session(
-    connection: &Link,
-    client: u64,
-    avatar: EntityId,
-    send: &mut LinkSend,
-    outbox: &mut Outbox,
-    recv: &mut LinkRecv,
-    frames: &mut FrameDecoder,
-    mut kick: tokio::sync::oneshot::Receiver<String>,
-    shared: &NetShared,
-) -> End {
-    let budget = (shared.budget_bytes_per_sec / u64::from(shared.snapshot_hz.max(1))) as usize;
-    let config = SessionConfig::new(shared.snapshot, budget);
-    let mut game_session = ServerSession::new(config).expect("validated at start-up");
-    game_session.set_avatar(avatar);
-    // The snapshot stage serves this client's slots from here on.
-    let served = Arc::new(Served::new(
-        connection.clone(),
-        client,
-        game_session,
-        &shared.sim.frame(),
-    ));
-    let _serving = shared
-        .served
-        .add(connection.stable_id() as u64, served.clone());
-    let mut shutdown = shared.shutdown.clone();
-    let mut buf = vec![0u8; 4096];
-    let mut kick_open = true;
-    let mut heard = tokio::time::Instant::now();
-    // One timer for the silence, moved on only when it fires: a timer made
-    // afresh on each turn of the loop would be registered and dropped twice
-    // a slot for every client.
-    let silence = tokio::time::sleep_until(heard + SILENT_TIMEOUT);
-    tokio::pin!(silence);
-    loop {
-        let stall = outbox.stall_deadline();
-        tokio::select! {
-            () = served.ready.notified() => {
-                if let Err(e) = send_slot(&served, outbox, send, shared) {
-                    return e;
-                }
-            }
-            datagram = connection.read_datagram() => match datagram {
-                Ok(bytes) => {
-                    heard = tokio::time::Instant::now();
-                    shared.metrics.bytes_received.inc_by(bytes.len() as u64);
-                    shared.metrics.packets_received.inc();
-                    let Ok(mut session) = served.session.lock() else {
-                        return End::Protocol("session state lost".into());
-                    };
-                    match session.on_datagram(&bytes) {
-                        Ok(()) => {
-                            while let Some(input) = session.poll_input() {
-                                if shared.sim.input(client, input).is_err() {
-                                    shared.metrics.inputs_rejected.inc();
-                                }
-                            }
-                        }
-                        Err(e) => {
-                            debug!(client, error = %e, "malformed datagram dropped");
-                            shared.metrics.malformed_datagrams.inc();
-                        }
-                    }
-                }
-                Err(e) => return End::Closed(e.to_string()),
-            },
-            read = recv.read(&mut buf) => match read {
-                Ok(Some(n)) => {
-                    if let Err(e) = frames.push(&buf[..n]) {
-                        return End::Protocol(e.to_string());
-                    }
-                    // Every message a client may send after its hello ends
-                    // the session.
-                    if let Some(msg) = frames.next::<ClientControl>() {
-                        match msg {
-                            Ok(ClientControl::Goodbye) => return End::Goodbye,
-                            Ok(ClientControl::Hello { .. }) => {
-                                return End::Protocol("a second hello".into())
-                            }
-                            Err(e) => return End::Protocol(e.to_string()),
-                        }
-                    }
-                }
-                // The client will send nothing more, not even a goodbye:
-                // it has left.
-                Ok(None) => return End::Goodbye,
-                Err(LinkError::Lost(e)) => return End::Closed(e),
-                Err(e) => return End::Protocol(format!("control stream: {e}")),
-            },
-            written = send.write(outbox.pending()), if !outbox.is_empty() => match written {
-                Ok(n) => outbox.advance(n),
-                Err(LinkError::Lost(e)) => return End::Closed(e),
-                Err(e) => return End::Protocol(format!("control stream: {e}")),
-            },
-            _ = tokio::time::sleep_until(stall.unwrap_or_else(tokio::time::Instant::now)), if stall.is_some() => {
-                return End::Protocol(format!(
-                    "the control stream was not read for {} s ({} bytes waiting)",
-                    CONTROL_STALL.as_secs(),
-                    outbox.len()
-                ));
-            }
-            () = &mut silence => {
-                if heard + SILENT_TIMEOUT > tokio::time::Instant::now() {
-                    silence.as_mut().reset(heard + SILENT_TIMEOUT);
-                    continue;
-                }
-                return End::Protocol(format!(
-                    "silent: no acknowledgement or input for {} s",
-                    SILENT_TIMEOUT.as_secs()
-                ));
-            }
-            _ = shutdown.changed() => {
-                let reason = shutdown
-                    .borrow()
-                    .clone()
-                    .unwrap_or(DisconnectReason::ServerShutdown);
-                return End::Shutdown(reason);
-            }
-            reason = &mut kick, if kick_open => match reason {
-                Ok(reason) => return End::Kicked(reason),
-                // Another connection of the same client took the kick.
-                Err(_) => kick_open = false,
-            },
-        }
-    }
-}
-
-/// Sends what the snapshot stage made for the client at its last slot
-/// (see [`SlotOutput`]): its control messages first, written at once as far
-/// as the client's window allows (the rest as it opens), then its snapshot
-/// datagram, so that quinn puts them in one packet. Refuses a client more
-/// than [`OUTBOX_LIMIT`] bytes behind.
-///
-/// [`SlotOutput`]: super::snapshots::SlotOutput
-fn send_slot(
-    served: &Served,
-    outbox: &mut Outbox,
-    send: &mut LinkSend,
-    shared: &NetShared,
-) -> Result<(), End> {
-    let datagram = {
-        let Ok(mut out) = served.out.lock() else {
-            return Err(End::Protocol("slot output lost".into()));
+            result?
         };
-        if let Some(e) = out.error.take() {
-            return Err(End::Protocol(format!("control stream: {e}")));
+        if let Some(refusal) = not_running(shared) {
+            return Err(refusal);
         }
-        outbox.push_coded(&out.control);
-        out.control.clear();
-        out.datagram.take()
-    };
-    if outbox.len() > OUTBOX_LIMIT {
-        return Err(End::Protocol(format!(
-            "{} bytes wait for the client, more than {OUTBOX_LIMIT}",
-            outbox.len()
-        )));
+        let (client, avatar) = join(shared, token.client_id).await?;
+        let frame = shared.sim.frame();
+        let welcome = ServerControl::Welcome {
+            client_id: client,
+            tick: frame.tick,
+            tick_hz: shared.tick_hz,
+            snapshot_hz: shared.snapshot_hz,
+            position_resolution: shared.snapshot.grid.resolution,
+            position_bound: shared.snapshot.grid.bound,
+            snapshot: SnapshotParams::from_config(&shared.snapshot),
+            server_version: env!("CARGO_PKG_VERSION").to_string(),
+        };
+        Ok((Joined { client, avatar }, welcome))
     }
-    outbox.write_now(send).map_err(|e| match e {
-        LinkError::Lost(e) => End::Closed(e),
-        e => End::Protocol(format!("control stream: {e}")),
-    })?;
-    if let Some(bytes) = datagram {
-        super::snapshots::send_datagram(&served.connection, bytes, shared);
+
+    /// The welcome went: the client is counted as connected, can be
+    /// kicked, and is served snapshots.
+    fn start_serving(&mut self) {
+        let Some(Joined { client, avatar }) = self.joined else {
+            return;
+        };
+        info!(client, avatar, "client joined");
+        let shared = &self.shared;
+        let stable = self.link.stable_id() as u64;
+        let previous = shared
+            .connected
+            .lock()
+            .map(|mut c| c.insert(client, stable))
+            .ok()
+            .flatten();
+        if previous.is_some() {
+            warn!(client, "client id connected twice");
+        }
+        let (kick_tx, kick_rx) = oneshot::channel();
+        if let Ok(mut k) = shared.kicks.lock() {
+            k.insert(client, (stable, kick_tx));
+        }
+        self.kick = Some(kick_rx);
+        let served = Arc::new(Served::new(
+            self.link.clone(),
+            client,
+            avatar,
+            &shared.sim.frame(),
+        ));
+        let guard = shared.served.add(stable, served.clone());
+        self.served = Some((served, guard));
+        // A shutdown while the client said hello is told to it now.
+        if let Some(reason) = shared.shutdown.borrow().clone() {
+            self.conn.shut_down(reason, Instant::now());
+        }
+    }
+
+    /// The connection is ending: the client leaves the world and is no
+    /// longer served; its last words may still be on their way.
+    fn stop_serving(&mut self) {
+        let shared = &self.shared;
+        let stable = self.link.stable_id() as u64;
+        self.served = None;
+        self.kick = None;
+        if let Some(Joined { client, .. }) = self.joined {
+            if let Ok(mut k) = shared.kicks.lock() {
+                if k.get(&client).map(|(c, _)| *c) == Some(stable) {
+                    k.remove(&client);
+                }
+            }
+            let _ = shared.sim.leave(client);
+        }
+        let client = self.joined.map(|j| j.client);
+        match self.conn.end() {
+            Some(ServerConnectionEnd::HelloTimeout) => {
+                debug!("no hello (or no welcome taken) in time");
+                shared.metrics.refused("hello_timeout");
+            }
+            Some(ServerConnectionEnd::StreamEndedBeforeHello) => {
+                debug!("the control stream ended before a whole hello");
+                shared.metrics.refused("stream_ended_before_hello");
+            }
+            Some(ServerConnectionEnd::Refused(refusal)) => {
+                shared.metrics.refused(refusal_reason(refusal))
+            }
+            Some(ServerConnectionEnd::Left) => info!(?client, "client left"),
+            Some(ServerConnectionEnd::Protocol(what)) => warn!(?client, %what, "protocol error"),
+            Some(ServerConnectionEnd::Shutdown(_)) => info!(?client, "client told of shutdown"),
+            Some(ServerConnectionEnd::Kicked(reason)) => info!(?client, %reason, "client kicked"),
+            Some(ServerConnectionEnd::Lost(e)) => info!(?client, reason = %e, "connection closed"),
+            None => {}
+        }
+    }
+
+    /// Closes the link as the connection says; the client is no longer
+    /// connected (a shutdown drains clients by waiting for this, so the
+    /// goodbye is on its way before the endpoint closes under it).
+    fn closed(self) {
+        if let Some(close) = self.conn.close_frame() {
+            self.link.close(close.code, close.reason.as_bytes());
+        }
+        if let Some(Joined { client, .. }) = self.joined {
+            if let Ok(mut c) = self.shared.connected.lock() {
+                if c.get(&client) == Some(&(self.link.stable_id() as u64)) {
+                    c.remove(&client);
+                }
+            }
+        }
+    }
+
+    /// A datagram from the client: its acknowledgements and inputs, when
+    /// live.
+    fn on_datagram(&mut self, bytes: &[u8]) {
+        let shared = &self.shared;
+        shared.metrics.bytes_received.inc_by(bytes.len() as u64);
+        shared.metrics.packets_received.inc();
+        let client = self.joined.map(|j| j.client);
+        match self.conn.on_datagram(bytes, Instant::now()) {
+            Ok(ack) => {
+                if let (Some(ack), Some((served, _))) = (ack, &self.served) {
+                    served.push_ack(ack);
+                }
+            }
+            Err(e) => {
+                debug!(?client, error = %e, "malformed datagram dropped");
+                shared.metrics.malformed_datagrams.inc();
+            }
+        }
+        if let Some(client) = client {
+            while let Some(input) = self.conn.poll_input() {
+                if shared.sim.input(client, input).is_err() {
+                    shared.metrics.inputs_rejected.inc();
+                }
+            }
+        }
+    }
+
+    /// Sends what the snapshot stage made for the client at its last slot
+    /// (see [`SlotOutput`]): its control messages first, written at once
+    /// as far as the client's window allows (the rest as it opens), then
+    /// its snapshot datagram, so that quinn puts them in one packet.
+    ///
+    /// [`SlotOutput`]: super::snapshots::SlotOutput
+    fn send_slot(&mut self) {
+        let Some((served, _)) = &self.served else {
+            return;
+        };
+        let served = served.clone();
+        let now = Instant::now();
+        let datagram = {
+            let Ok(mut out) = served.out.lock() else {
+                self.conn.fail("slot output lost".into(), now);
+                return;
+            };
+            if let Some(e) = out.error.take() {
+                self.conn.fail(format!("control stream: {e}"), now);
+                return;
+            }
+            self.conn.queue_control(&out.control, now);
+            out.control.clear();
+            out.datagram.take()
+        };
+        if let Some(send) = &mut self.send {
+            if let Err(e) = write_now(send, &mut self.conn) {
+                match e {
+                    LinkError::Lost(e) => self.conn.on_lost(&e),
+                    LinkError::Stream(e) => self.conn.on_control_write_failed(&e, now),
+                }
+                return;
+            }
+        }
+        if let Some(bytes) = datagram {
+            if self.conn.is_live() {
+                super::snapshots::send_datagram(&served.connection, bytes, &self.shared);
+            }
+        }
+    }
+}
+
+/// Writes what the connection has for the client as far as its
+/// flow-control window takes it now, without waiting for it to open (the
+/// connection loop writes the rest).
+fn write_now(send: &mut LinkSend, conn: &mut ServerConnection) -> Result<(), LinkError> {
+    let waker = std::task::Waker::noop();
+    let mut cx = std::task::Context::from_waker(waker);
+    while !conn.pending_control().is_empty() {
+        let written = {
+            let write = std::pin::pin!(send.write(conn.pending_control()));
+            write.poll(&mut cx)
+        };
+        match written {
+            std::task::Poll::Ready(Ok(n)) => conn.control_written(n, Instant::now()),
+            std::task::Poll::Ready(Err(e)) => return Err(e),
+            std::task::Poll::Pending => break,
+        }
     }
     Ok(())
 }
 
-/// The avatar a client owns in a frame's catalog, if any.
-pub fn avatar_of(frame: &Frame, client: u64) -> Option<EntityId> {
-    frame
-        .catalog
-        .iter()
-        .find(|(_, d)| d.kind == EntityKind::Avatar && d.owner == Some(client))
-        .map(|(&id, _)| id)
-}
-
-/// The point of interest of a client: its avatar's position, if known.
-pub fn interest_point(frame: &Frame, avatar: EntityId) -> Option<DVec3> {
-    frame
-        .entities
-        .binary_search_by_key(&avatar, |e| e.id)
-        .ok()
-        .map(|i| frame.entities[i].position)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn despawn(id: EntityId) -> ServerControl {
-        ServerControl::Despawn { id }
+/// Reads the control stream, once there is one to read.
+async fn read_control(
+    recv: Option<&mut LinkRecv>,
+    buf: &mut [u8],
+) -> Result<Option<usize>, LinkError> {
+    match recv {
+        Some(recv) => recv.read(buf).await,
+        None => std::future::pending().await,
     }
+}
 
-    #[test]
-    fn the_outbox_keeps_frames_in_order_and_knows_when_it_stalled() {
-        let mut outbox = Outbox::new();
-        assert!(outbox.is_empty());
-        assert_eq!(outbox.stall_deadline(), None, "nothing waits: no stall");
-        let mut expected = Vec::new();
-        for id in 0..20_000 {
-            let n = outbox.push(&despawn(id)).expect("encodes");
-            expected.extend(encode_frame(&despawn(id)).expect("encodes"));
-            assert!(n > 4);
+/// Writes `pending` to the control stream, or waits for the finished
+/// stream to be taken; otherwise never ready.
+async fn write_control(send: Option<&mut LinkSend>, pending: &[u8], awaits_finish: bool) -> Sent {
+    match send {
+        Some(send) if !pending.is_empty() => match send.write(pending).await {
+            Ok(n) => Sent::Wrote(n),
+            Err(e) => Sent::Failed(e),
+        },
+        Some(send) if awaits_finish => {
+            send.stopped().await;
+            Sent::Taken
         }
-        let queued_at = tokio::time::Instant::now();
-        let deadline = outbox.stall_deadline().expect("bytes wait");
-        assert!(deadline <= queued_at + CONTROL_STALL);
-        assert!(deadline + Duration::from_secs(1) > queued_at + CONTROL_STALL);
-        // Written a little at a time, compacted on the way: the same
-        // bytes in the same order.
-        let mut written = Vec::new();
-        while !outbox.is_empty() {
-            let n = outbox.pending().len().min(7_001);
-            written.extend_from_slice(&outbox.pending()[..n]);
-            outbox.advance(n);
-            if !outbox.is_empty() {
-                assert!(outbox.stall_deadline().expect("waits") >= deadline);
-            }
-        }
-        assert_eq!(written, expected);
-        assert_eq!(outbox.stall_deadline(), None);
-        assert!(outbox.bytes.is_empty(), "nothing kept once written");
+        _ => std::future::pending().await,
+    }
+}
+
+/// An operator's kick, while one can come: `None` when the sender is
+/// gone.
+async fn kicked(kick: Option<&mut oneshot::Receiver<String>>) -> Option<String> {
+    match kick {
+        Some(kick) => kick.await.ok(),
+        None => std::future::pending().await,
+    }
+}
+
+/// The snapshot stage left something for the client, while it is served.
+async fn slot_ready(served: Option<&(Arc<Served>, ServedGuard)>) {
+    match served {
+        Some((served, _)) => served.ready.notified().await,
+        None => std::future::pending().await,
     }
 }

@@ -21,10 +21,12 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use inertia_protocol::admin::ADMIN_ALPN;
+use inertia_protocol::connection::ServerConnectionConfig;
 use inertia_protocol::control::DisconnectReason;
 use inertia_protocol::control::WEB_TRANSPORT_ALPN;
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::{ReplayGuard, TokenKey};
+use inertia_protocol::SessionConfig;
 use tokio::sync::{oneshot, watch};
 use tracing::{debug, info};
 
@@ -87,6 +89,8 @@ pub struct NetShared {
     pub matches: MatchesDir,
     /// The clients the snapshot stage serves ([`snapshots::run`]).
     pub served: Arc<snapshots::ServedClients>,
+    /// The deadlines of each game connection's life.
+    pub connection: ServerConnectionConfig,
 }
 
 impl std::fmt::Debug for NetShared {
@@ -135,6 +139,7 @@ impl NetShared {
             ),
             matches: MatchesDir::new(crate::config::ServerConfig::default().matches_dir()),
             served: Arc::default(),
+            connection: ServerConnectionConfig::default(),
         }
     }
 
@@ -155,6 +160,19 @@ impl NetShared {
     /// [`Self::record_history`]).
     pub fn with_frame_history(mut self, frames: usize) -> Self {
         self.history_len = frames;
+        self
+    }
+
+    /// How each client's session codes its snapshots: the server's coding
+    /// within its per-client budget, one snapshot's worth.
+    pub fn session_config(&self) -> SessionConfig {
+        let budget = self.budget_bytes_per_sec / u64::from(self.snapshot_hz.max(1));
+        SessionConfig::new(self.snapshot, budget as usize)
+    }
+
+    /// The same, with `config`'s deadlines for each game connection.
+    pub fn with_connection_config(mut self, config: ServerConnectionConfig) -> Self {
+        self.connection = config;
         self
     }
 

@@ -16,9 +16,12 @@
 //! a real-time tick it runs real-time too, below the tick and above the
 //! network workers.
 //!
-//! Each client's [`ServerSession`] sits behind a lock it shares with its
-//! connection task, which feeds it the client's datagrams (acks and
-//! inputs); the stage holds one client's lock at a time, for one encode.
+//! The stage owns every client's [`ServerSession`] (its encoder,
+//! priorities and interest) and is the only one to touch it. The client's
+//! connection task takes its datagrams: it keeps the inputs and leaves
+//! each acknowledgement in the client's mailbox ([`Served::push_ack`]),
+//! which the stage empties into the session, in arrival order, before it
+//! codes the client's next snapshot.
 //!
 //! A slot's control messages (the catalog's changes, the events since the
 //! client's last slot: [`Told`]) and its snapshot leave together. The
@@ -46,23 +49,31 @@ use std::time::{Duration, Instant};
 use inertia_protocol::admin::TimeMode;
 use inertia_protocol::control::{encode_frame, InputReport, ServerControl};
 use inertia_protocol::snapshot::{QuantizedFrame, SharedDeltas};
-use inertia_protocol::ServerSession;
+use inertia_protocol::{EntityId, ServerSession, SessionConfig};
 
 use super::catalog::Told;
 use super::governor::{degrade_rank, rate_for, Candidate, Decision, RateGovernor};
 use super::NetShared;
 use crate::sim::Frame;
 
-/// One connected client as the stage serves it.
+/// Acknowledgements a client's mailbox holds at most between two of its
+/// snapshots; beyond, the oldest go (a newer one makes a better
+/// baseline anyway).
+pub const MAX_PENDING_ACKS: usize = 64;
+
+/// One connected client as the stage serves it: what its connection task
+/// and the stage share.
 #[derive(Debug)]
 pub struct Served {
     /// Its connection, for the path's datagram size.
     pub connection: super::link::Link,
     /// Its client id.
     pub client: u64,
-    /// Its session (encoder, priorities, inputs), shared with its
-    /// connection task.
-    pub session: Mutex<ServerSession>,
+    /// The avatar it joined with (its session follows it after).
+    pub avatar: EntityId,
+    /// The snapshots it acknowledged since its last one was coded, in
+    /// arrival order (at most [`MAX_PENDING_ACKS`]).
+    acks: Mutex<Vec<u16>>,
     /// What its slots made, for its connection task to send.
     pub out: Mutex<SlotOutput>,
     /// Wakes its connection task when `out` has something.
@@ -70,17 +81,18 @@ pub struct Served {
 }
 
 impl Served {
-    /// A client joined at `frame`, to be served through `session`.
+    /// A client joined at `frame` with `avatar`.
     pub fn new(
         connection: super::link::Link,
         client: u64,
-        session: ServerSession,
+        avatar: EntityId,
         frame: &Frame,
     ) -> Self {
         Self {
             connection,
             client,
-            session: Mutex::new(session),
+            avatar,
+            acks: Mutex::new(Vec::new()),
             out: Mutex::new(SlotOutput {
                 told: Told::new(&frame.events),
                 inputs_told: None,
@@ -89,6 +101,30 @@ impl Served {
                 error: None,
             }),
             ready: tokio::sync::Notify::new(),
+        }
+    }
+}
+
+impl Served {
+    /// The client acknowledged snapshot `sequence` (its connection read
+    /// it from a datagram): the stage's session takes it before the next
+    /// snapshot.
+    pub fn push_ack(&self, sequence: u16) {
+        if let Ok(mut acks) = self.acks.lock() {
+            if acks.len() >= MAX_PENDING_ACKS {
+                acks.remove(0);
+            }
+            acks.push(sequence);
+        }
+    }
+
+    /// Hands the acknowledgements waiting to `session`, in arrival order.
+    fn take_acks(&self, session: &mut ServerSession) {
+        if let Ok(mut acks) = self.acks.lock() {
+            for &sequence in acks.iter() {
+                session.on_ack(sequence);
+            }
+            acks.clear();
         }
     }
 }
@@ -213,6 +249,9 @@ pub async fn run(shared: Arc<NetShared>) {
     let mut clients = Vec::new();
     let mut governor = RateGovernor::new(shared.snapshot_hz, shared.tick_hz);
     let mut handed_out = RatesHandedOut::default();
+    // Every client's session, by connection number: the stage's alone.
+    let mut sessions: BTreeMap<u64, ServerSession> = BTreeMap::new();
+    let session_config = shared.session_config();
     loop {
         tokio::select! {
             changed = frames.changed() => if changed.is_err() { return },
@@ -226,16 +265,24 @@ pub async fn run(shared: Arc<NetShared>) {
             continue;
         }
         shared.served.snapshot_into(&mut clients);
+        follow_clients(&mut sessions, &clients, &session_config);
         if !clients.is_empty() {
             let serving = Instant::now();
             let degraded = governor.degraded();
             if handed_out.stale(degraded, &clients) {
-                set_rates(&clients, degraded);
+                set_rates(&clients, &mut sessions, degraded);
                 handed_out.record(degraded, &clients);
             }
             let quantized = frame.quantized(&shared.snapshot);
-            for (_, served) in &clients {
-                serve(served, &frame, quantized, &mut deltas, slot, &shared);
+            for (id, served) in &clients {
+                if let Some(session) = sessions.get_mut(id) {
+                    let slot_of = Slot {
+                        frame: &frame,
+                        quantized,
+                        number: slot,
+                    };
+                    serve(served, session, &slot_of, &mut deltas, &shared);
+                }
             }
             let decision =
                 governor.after_slot(serving.elapsed(), frame.tick_duration, clients.len());
@@ -273,20 +320,44 @@ pub async fn run(shared: Arc<NetShared>) {
     }
 }
 
+/// Makes a session for each client new to the stage (with its avatar)
+/// and drops those of clients it no longer serves.
+fn follow_clients(
+    sessions: &mut BTreeMap<u64, ServerSession>,
+    clients: &[(u64, Arc<Served>)],
+    config: &SessionConfig,
+) {
+    sessions.retain(|id, _| clients.binary_search_by_key(id, |(c, _)| *c).is_ok());
+    for (id, served) in clients {
+        sessions.entry(*id).or_insert_with(|| {
+            let mut session = ServerSession::new(config.clone()).expect("validated at start-up");
+            session.set_avatar(served.avatar);
+            session
+        });
+    }
+}
+
+/// One snapshot slot: its number and the frame it serves, quantized.
+struct Slot<'a> {
+    frame: &'a Frame,
+    quantized: &'a QuantizedFrame,
+    number: u64,
+}
+
 /// Serves one client its slot: brings what it has been told up to date
-/// with `frame` (catalog, events), codes its snapshot in the room those
+/// with the frame (catalog, events), codes its snapshot in the room those
 /// control messages leave in the packet, and hands both to its connection
 /// task, which writes the control messages and then queues the datagram,
 /// so that quinn sends them (and an acknowledgement) in one packet. A
 /// snapshot with no control message beside it is queued from here.
 fn serve(
     served: &Served,
-    frame: &Frame,
-    quantized: &QuantizedFrame,
+    session: &mut ServerSession,
+    slot: &Slot<'_>,
     deltas: &mut SharedDeltas,
-    slot: u64,
     shared: &NetShared,
 ) {
+    let (frame, quantized) = (slot.frame, slot.quantized);
     // What the slot tells the client, and the room it takes; the lock is
     // not held over the encode, so the connection task is never kept
     // waiting for one.
@@ -319,14 +390,10 @@ fn serve(
     };
     let max = served.connection.max_datagram_size().unwrap_or(1200);
     let max = max.saturating_sub(room_beside(control));
+    served.take_acks(session);
+    follow_avatar(session, frame, served.client);
     let started = Instant::now();
-    let bytes = match served.session.lock() {
-        Ok(mut session) => {
-            follow_avatar(&mut session, frame, served.client);
-            session.poll_snapshot(quantized, deltas, slot, max)
-        }
-        Err(_) => None,
-    };
+    let bytes = session.poll_snapshot(quantized, deltas, slot.number, max);
     let encoding = started.elapsed();
     if bytes.is_some() {
         shared
@@ -395,7 +462,7 @@ fn follow_avatar(session: &mut ServerSession, frame: &Frame, client: u64) {
         .avatar()
         .is_some_and(|avatar| !frame.catalog.contains_key(&avatar));
     if gone && frame.mode == TimeMode::Live {
-        if let Some(id) = super::connection::avatar_of(frame, client) {
+        if let Some(id) = frame.avatar_of(client) {
             session.set_avatar(id);
         }
     }
@@ -427,25 +494,22 @@ impl RatesHandedOut {
 
 /// Gives the first `degraded` clients by [`degrade_rank`] the lower rate
 /// and every other client its full rate.
-fn set_rates(clients: &[(u64, Arc<Served>)], degraded: usize) {
-    let mut order: Vec<(Candidate, &Served)> = clients
+fn set_rates(
+    clients: &[(u64, Arc<Served>)],
+    sessions: &mut BTreeMap<u64, ServerSession>,
+    degraded: usize,
+) {
+    let mut order: Vec<Candidate> = clients
         .iter()
-        .map(|(id, served)| {
-            let plays = served
-                .session
-                .lock()
-                .is_ok_and(|session| session.avatar().is_some());
-            let candidate = Candidate {
-                connection: *id,
-                plays,
-            };
-            (candidate, served.as_ref())
+        .map(|(id, _)| Candidate {
+            connection: *id,
+            plays: sessions.get(id).is_some_and(|s| s.avatar().is_some()),
         })
         .collect();
-    order.sort_unstable_by_key(|(c, _)| degrade_rank(c));
-    for (rank, (_, served)) in order.iter().enumerate() {
+    order.sort_unstable_by_key(degrade_rank);
+    for (rank, candidate) in order.iter().enumerate() {
         let (divisor, phase) = rate_for(rank, degraded);
-        if let Ok(mut session) = served.session.lock() {
+        if let Some(session) = sessions.get_mut(&candidate.connection) {
             session.set_rate_divisor(divisor, phase);
         }
     }

@@ -5,7 +5,7 @@ use tokio::sync::oneshot;
 
 use super::clock_control::ClockControl;
 use super::Simulation;
-use crate::rules::{ClientId, Refusal};
+use crate::rules::{ClientId, JoinRefusal};
 use inertia_protocol::{EntityId, PlayerInput};
 
 /// A command to the tick thread.
@@ -16,7 +16,7 @@ pub enum Command {
         /// The client.
         client: ClientId,
         /// Where the answer goes.
-        reply: oneshot::Sender<Result<EntityId, Refusal>>,
+        reply: oneshot::Sender<Result<EntityId, JoinRefusal>>,
     },
     /// A client left.
     Leave {

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use inertia_protocol::control::{encode_frame, InputReport, ServerControl};
 use inertia_protocol::snapshot::{QuantizedFrame, SnapshotConfig};
-use inertia_protocol::{EntityDesc, EntityId, EntityState};
+use inertia_protocol::{EntityDesc, EntityId, EntityKind, EntityState};
 
 use super::{Simulation, TimeMode};
 use crate::net::events::to_wire;
@@ -195,6 +195,14 @@ impl Frame {
                 config,
             )
         })
+    }
+
+    /// The avatar `client` owns in this frame's catalog, if any.
+    pub fn avatar_of(&self, client: u64) -> Option<EntityId> {
+        self.catalog
+            .iter()
+            .find(|(_, d)| d.kind == EntityKind::Avatar && d.owner == Some(client))
+            .map(|(&id, _)| id)
     }
 }
 

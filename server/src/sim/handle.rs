@@ -15,30 +15,10 @@ use super::clock_control::ClockControl;
 use super::command::{Command, CommandError, SimCall};
 use super::frame::Frame;
 use super::stats::SimStats;
-use super::thread::{run, Publisher};
+use super::thread::{run, Publisher, SimExit};
 use super::{SimConfig, Simulation};
-use crate::rules::{ClientId, GameRules, Refusal};
+use crate::rules::{ClientId, GameRules, JoinRefusal};
 use crate::scene::BuiltScene;
-
-/// How the tick thread ended.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum SimExit {
-    /// It was asked to stop ([`SimHandle::shutdown`], or every handle
-    /// dropped) and ended its recording with a keyframe.
-    Shutdown,
-    /// It failed: a panic in a tick, a command or an admin call. The world
-    /// is frozen at the tick it reached.
-    Failed {
-        /// The panic's message.
-        reason: String,
-        /// The tick reached.
-        tick: u64,
-        /// Whether the state was sound (the failure came between ticks)
-        /// and a final keyframe of it was written; otherwise the recording
-        /// ends at the last whole tick and `--resume` re-simulates to it.
-        keyframe: bool,
-    },
-}
 
 /// The network layer's handle on the tick thread. Dropping it stops the
 /// thread (after its current loop); [`SimHandle::shutdown`] also waits,
@@ -137,27 +117,27 @@ impl SimHandle {
     pub fn request_join(
         &self,
         client: ClientId,
-    ) -> Result<oneshot::Receiver<Result<EntityId, Refusal>>, CommandError> {
+    ) -> Result<oneshot::Receiver<Result<EntityId, JoinRefusal>>, CommandError> {
         let (reply, rx) = oneshot::channel();
         self.send(Command::Join { client, reply })?;
         Ok(rx)
     }
 
     /// A client joins: its avatar's entity id, or why not.
-    pub async fn join(&self, client: ClientId) -> Result<EntityId, Refusal> {
+    pub async fn join(&self, client: ClientId) -> Result<EntityId, JoinRefusal> {
         let rx = self
             .request_join(client)
-            .map_err(|_| Refusal::Unavailable)?;
-        rx.await.unwrap_or(Err(Refusal::Unavailable))
+            .map_err(|_| JoinRefusal::Unavailable)?;
+        rx.await.unwrap_or(Err(JoinRefusal::Unavailable))
     }
 
     /// [`SimHandle::join`] for threads outside an async runtime (panics
     /// inside one, like `oneshot::Receiver::blocking_recv`).
-    pub fn join_blocking(&self, client: ClientId) -> Result<EntityId, Refusal> {
+    pub fn join_blocking(&self, client: ClientId) -> Result<EntityId, JoinRefusal> {
         let rx = self
             .request_join(client)
-            .map_err(|_| Refusal::Unavailable)?;
-        rx.blocking_recv().unwrap_or(Err(Refusal::Unavailable))
+            .map_err(|_| JoinRefusal::Unavailable)?;
+        rx.blocking_recv().unwrap_or(Err(JoinRefusal::Unavailable))
     }
 
     /// A client left.

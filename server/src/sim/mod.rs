@@ -56,7 +56,7 @@ use inertia_protocol::{EntityDesc, EntityId, PlayerInput};
 use crate::clock::Clock;
 use crate::record::Recorder;
 use crate::replay::{History, JournalEntry, SimState, StateError};
-use crate::rules::{ClientId, GameEvent, GameRules, InputError, Refusal, SimContext};
+use crate::rules::{ClientId, GameEvent, GameRules, InputRefusal, JoinRefusal, SimContext};
 use crate::scene::{BuiltScene, EntityTable};
 use recording::Recording;
 
@@ -81,11 +81,12 @@ pub use command::{Command, CommandError, SimCall};
 pub use config::{SimConfig, DEFAULT_CHECKPOINT_TICKS};
 pub use edit::EditError;
 pub use frame::{CatalogChange, Frame, RecentEvent, RECENT_CATALOG_CHANGES, RECENT_EVENTS};
-pub use handle::{spawn, SimExit, SimHandle};
+pub use handle::{spawn, SimHandle};
 pub use input_schedule::{InputSchedule, Offered, ScheduleConfig};
 pub use pose_history::{KeptPose, PoseHistory, RewindError, Rewound};
 pub use recording::RecorderOpening;
 pub use stats::{SimStats, RATE_WINDOW, TICK_WINDOW};
+pub use thread::SimExit;
 
 /// What the simulation is showing.
 pub use inertia_protocol::admin::TimeMode;
@@ -493,7 +494,7 @@ impl Simulation {
 
     /// A client joins (refused when full or already in). While history
     /// is shown the client joins the live world.
-    pub fn join(&mut self, client: ClientId) -> Result<EntityId, Refusal> {
+    pub fn join(&mut self, client: ClientId) -> Result<EntityId, JoinRefusal> {
         if self.view.is_some() {
             return self.with_live(|s| s.join(client));
         }
@@ -504,12 +505,12 @@ impl Simulation {
         r
     }
 
-    fn join_here(&mut self, client: ClientId) -> Result<EntityId, Refusal> {
+    fn join_here(&mut self, client: ClientId) -> Result<EntityId, JoinRefusal> {
         if self.shown().clients.contains(&client) {
-            return Err(Refusal::AlreadyJoined(client));
+            return Err(JoinRefusal::AlreadyJoined(client));
         }
         if self.shown().clients.len() >= self.config.max_clients as usize {
-            return Err(Refusal::Full {
+            return Err(JoinRefusal::Full {
                 max: self.config.max_clients,
             });
         }
@@ -549,10 +550,10 @@ impl Simulation {
     /// (see [`input_schedule`]) and then checked and applied by the rules;
     /// one whose tick has passed is applied at once. Inputs that arrive
     /// while history is shown are dropped (the live world is not running).
-    pub fn input(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputError> {
+    pub fn input(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputRefusal> {
         if self.view.is_some() || !self.live.clients.contains(&client) {
             self.count_rejected_input();
-            return Err(InputError::NotJoined(client));
+            return Err(InputRefusal::NotJoined(client));
         }
         let now = self.live.world.tick();
         match self.inputs.offer(client, input, now) {
@@ -560,14 +561,14 @@ impl Simulation {
             Offered::Late => self.apply_input(client, input),
             Offered::TooEarly => {
                 self.count_rejected_input();
-                Err(InputError::Future {
+                Err(InputRefusal::Future {
                     tick: input.tick,
                     now,
                 })
             }
             Offered::Full => {
                 self.count_rejected_input();
-                Err(InputError::Backlog {
+                Err(InputRefusal::Backlog {
                     max: self.inputs.config().max_pending,
                 })
             }
@@ -594,7 +595,7 @@ impl Simulation {
 
     /// Applies an input now: the rules check it, and an accepted one goes
     /// into the journal of this tick.
-    fn apply_input(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputError> {
+    fn apply_input(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputRefusal> {
         let r = self.input_here(client, input);
         if r.is_ok() {
             self.journal_push(JournalEntry::Input(client, *input));
@@ -609,11 +610,11 @@ impl Simulation {
         }
     }
 
-    fn input_here(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputError> {
+    fn input_here(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputRefusal> {
         let r = if self.shown().clients.contains(&client) {
             self.with_ctx(|rules, ctx| rules.on_input(client, input, ctx))
         } else {
-            Err(InputError::NotJoined(client))
+            Err(InputRefusal::NotJoined(client))
         };
         if r.is_err() {
             self.count_rejected_input();

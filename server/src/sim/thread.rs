@@ -14,9 +14,28 @@ use tokio::sync::watch;
 
 use super::command::Command;
 use super::frame::Frame;
-use super::handle::SimExit;
 use super::Simulation;
 use crate::rules::ClientId;
+
+/// How the tick thread ended.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SimExit {
+    /// It was asked to stop ([`SimHandle::shutdown`](super::SimHandle::shutdown), or every handle
+    /// dropped) and ended its recording with a keyframe.
+    Shutdown,
+    /// It failed: a panic in a tick, a command or an admin call. The world
+    /// is frozen at the tick it reached.
+    Failed {
+        /// The panic's message.
+        reason: String,
+        /// The tick reached.
+        tick: u64,
+        /// Whether the state was sound (the failure came between ticks)
+        /// and a final keyframe of it was written; otherwise the recording
+        /// ends at the last whole tick and `--resume` re-simulates to it.
+        keyframe: bool,
+    },
+}
 
 /// Longest sleep between loops while paused, so the loop notices closed
 /// channels.

@@ -19,13 +19,13 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{Parser, Subcommand};
+use inertia_admin_client::{
+    cert_file_fingerprint, read_credentials, read_token_file, AdminClient, AdminClientError,
+};
 use inertia_protocol::admin::{
     AdminRequest, AdminResponse, CheckpointName, MatchName, SpawnDesc, StatusReport,
 };
 use inertia_protocol::credentials::{hex32, DevCredentials, DEV_CREDENTIALS_PATH};
-use inertia_server::admin::client::{
-    cert_file_fingerprint, read_credentials, read_token_file, AdminClient, AdminClientError,
-};
 use inertia_server::admin::error_kind_name;
 use serde_json::json;
 

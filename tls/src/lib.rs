@@ -1,7 +1,12 @@
-//! TLS for the client: the server's certificate is accepted only when its
-//! SHA-256 equals the fingerprint in the connect token (certificate
-//! pinning), so a self-signed dev certificate is as safe as a CA-issued one
-//! and no certificate authority is consulted.
+//! The QUIC client set-up every Inertia client shares (the game SDK, the
+//! admin client, tests that speak to a server by hand): TLS 1.3 in which
+//! the server's certificate is accepted only when its SHA-256 equals the
+//! fingerprint given (from a connect token, a dev credentials file or an
+//! operator's certificate file: certificate pinning), so a self-signed dev
+//! certificate is as safe as a CA-issued one and no certificate authority
+//! is consulted. The fingerprint is the protocol's
+//! ([`inertia_protocol::token::cert_fingerprint`]), the one a token
+//! carries.
 
 use std::sync::Arc;
 
@@ -11,6 +16,7 @@ use rustls::pki_types::{CertificateDer, ServerName, UnixTime};
 use rustls::{DigitallySignedStruct, SignatureScheme};
 
 use inertia_protocol::control::ALPN;
+use inertia_protocol::token::cert_fingerprint;
 
 /// Accepts exactly one certificate: the one whose SHA-256 is `fingerprint`.
 #[derive(Debug)]
@@ -28,8 +34,7 @@ impl ServerCertVerifier for PinnedCertificate {
         _ocsp_response: &[u8],
         _now: UnixTime,
     ) -> Result<ServerCertVerified, rustls::Error> {
-        let digest = ring::digest::digest(&ring::digest::SHA256, end_entity.as_ref());
-        if digest.as_ref() == self.fingerprint {
+        if cert_fingerprint(end_entity.as_ref()) == self.fingerprint {
             Ok(ServerCertVerified::assertion())
         } else {
             Err(rustls::Error::General(
@@ -73,7 +78,8 @@ impl ServerCertVerifier for PinnedCertificate {
     }
 }
 
-/// The quinn client configuration that pins `fingerprint`.
+/// The quinn client configuration of a game connection that pins
+/// `fingerprint`.
 pub fn client_config(fingerprint: [u8; 32]) -> Result<quinn::ClientConfig, String> {
     client_config_for(fingerprint, ALPN)
 }

@@ -10,7 +10,7 @@ use thiserror::Error;
 
 /// What the link does to packets. Times in seconds of the virtual clock.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LinkConfig {
+pub struct SimLinkConfig {
     /// One-way delay, s.
     pub delay: f64,
     /// Each packet's delay varies uniformly within `±jitter`, s (at most
@@ -22,9 +22,9 @@ pub struct LinkConfig {
     pub duplicate: f64,
 }
 
-impl LinkConfig {
+impl SimLinkConfig {
     /// A perfect link: no delay, loss or duplication.
-    pub const PERFECT: LinkConfig = LinkConfig {
+    pub const PERFECT: SimLinkConfig = SimLinkConfig {
         delay: 0.0,
         jitter: 0.0,
         loss: 0.0,
@@ -34,7 +34,7 @@ impl LinkConfig {
 
 /// A link setting out of range.
 #[derive(Debug, Clone, PartialEq, Error)]
-pub enum LinkError {
+pub enum SimLinkError {
     /// The setting and why it was refused.
     #[error("link {what}: {why}")]
     Invalid {
@@ -47,7 +47,7 @@ pub enum LinkError {
 
 /// What happened to the packets so far.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct LinkStats {
+pub struct SimLinkStats {
     /// Packets handed to [`SimLink::send`].
     pub sent: u64,
     /// Packets lost.
@@ -61,12 +61,12 @@ pub struct LinkStats {
 /// One direction of a simulated link.
 #[derive(Debug)]
 pub struct SimLink {
-    config: LinkConfig,
+    config: SimLinkConfig,
     rng: crate::rng::SplitMix,
     /// Packets in flight by (arrival time, order sent).
     in_flight: BinaryHeap<Reverse<(Arrival, u64, Vec<u8>)>>,
     next: u64,
-    stats: LinkStats,
+    stats: SimLinkStats,
 }
 
 /// An arrival time with a total order (times are finite by construction).
@@ -90,8 +90,8 @@ impl Ord for Arrival {
 impl SimLink {
     /// A link that behaves as `config` says, its randomness drawn from
     /// `seed`.
-    pub fn new(config: LinkConfig, seed: u64) -> Result<Self, LinkError> {
-        let invalid = |what, why: String| Err(LinkError::Invalid { what, why });
+    pub fn new(config: SimLinkConfig, seed: u64) -> Result<Self, SimLinkError> {
+        let invalid = |what, why: String| Err(SimLinkError::Invalid { what, why });
         if !(config.delay.is_finite() && config.delay >= 0.0) {
             return invalid(
                 "delay",
@@ -117,7 +117,7 @@ impl SimLink {
             rng: crate::rng::SplitMix(seed),
             in_flight: BinaryHeap::new(),
             next: 0,
-            stats: LinkStats::default(),
+            stats: SimLinkStats::default(),
         })
     }
 
@@ -166,7 +166,7 @@ impl SimLink {
     }
 
     /// Counts so far.
-    pub fn stats(&self) -> LinkStats {
+    pub fn stats(&self) -> SimLinkStats {
         self.stats
     }
 }
@@ -185,7 +185,7 @@ mod tests {
 
     #[test]
     fn a_perfect_link_delivers_everything_in_order_at_once() {
-        let mut link = SimLink::new(LinkConfig::PERFECT, 1).unwrap();
+        let mut link = SimLink::new(SimLinkConfig::PERFECT, 1).unwrap();
         for k in 0..100 {
             link.send(0.0, numbered(k));
         }
@@ -196,7 +196,7 @@ mod tests {
 
     #[test]
     fn loss_delay_jitter_and_duplicates_are_as_configured() {
-        let config = LinkConfig {
+        let config = SimLinkConfig {
             delay: 0.05,
             jitter: 0.01,
             loss: 0.05,
@@ -241,7 +241,7 @@ mod tests {
 
     #[test]
     fn the_same_seed_gives_the_same_run() {
-        let config = LinkConfig {
+        let config = SimLinkConfig {
             delay: 0.03,
             jitter: 0.02,
             loss: 0.2,
@@ -263,27 +263,27 @@ mod tests {
 
     #[test]
     fn bad_settings_are_refused() {
-        let ok = LinkConfig {
+        let ok = SimLinkConfig {
             delay: 0.05,
             jitter: 0.01,
             loss: 0.05,
             duplicate: 0.0,
         };
         for bad in [
-            LinkConfig { delay: -1.0, ..ok },
-            LinkConfig {
+            SimLinkConfig { delay: -1.0, ..ok },
+            SimLinkConfig {
                 delay: f64::NAN,
                 ..ok
             },
-            LinkConfig { jitter: 0.1, ..ok },
-            LinkConfig { loss: 1.5, ..ok },
-            LinkConfig {
+            SimLinkConfig { jitter: 0.1, ..ok },
+            SimLinkConfig { loss: 1.5, ..ok },
+            SimLinkConfig {
                 duplicate: f64::NAN,
                 ..ok
             },
         ] {
             assert!(
-                matches!(SimLink::new(bad, 1), Err(LinkError::Invalid { .. })),
+                matches!(SimLink::new(bad, 1), Err(SimLinkError::Invalid { .. })),
                 "{bad:?}"
             );
         }

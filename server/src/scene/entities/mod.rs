@@ -9,14 +9,19 @@
 //! maps ids to physics handles and back, and counts its changes in a
 //! `version` so the tick loop republishes the catalog only when it changed.
 
+mod describe;
+mod stored;
+
 use std::collections::BTreeMap;
 
 use inertia_physics::glam::{DQuat, DVec3};
 use inertia_physics::rigid::body::BodyKind;
-use inertia_physics::rigid::shape::{HeightField, Shape};
 use inertia_physics::{BodyHandle, FluidHandle, ParticleHandle, SoftBodyHandle, World};
 use inertia_protocol::control::truncate_utf8;
-use inertia_protocol::{EntityDesc, EntityId, EntityKind, EntityState, ShapeDesc};
+use inertia_protocol::{EntityDesc, EntityId, EntityState, ShapeDesc};
+
+pub use describe::{entity_kind, height_field_desc, shape_desc};
+pub use stored::{TableError, MAX_TABLE_BYTES};
 
 /// Longest entity name sent to clients, bytes.
 pub const MAX_NAME_BYTES: usize = 64;
@@ -350,277 +355,18 @@ impl EntityTable {
     }
 }
 
-/// Largest stored entity table [`EntityTable::from_bytes`] accepts, bytes.
-pub const MAX_TABLE_BYTES: usize = 256 * 1024 * 1024;
-
-/// An entity as stored beside a saved world (field order is the format:
-/// postcard writes by position).
-#[derive(serde::Serialize, serde::Deserialize)]
-struct StoredEntity {
-    #[serde(deserialize_with = "inertia_protocol::control::deserialize_entity")]
-    desc: EntityDesc,
-    /// 0 a body `[index, generation, 0, 0]`; 1 a particle
-    /// `[system index, system generation, slot, generation]`; 2 a soft
-    /// body and 3 a fluid, `[index, generation, 0, 0]`.
-    source_kind: u8,
-    source: [u32; 4],
-    always_stream: bool,
-}
-
-#[derive(serde::Serialize, serde::Deserialize)]
-struct StoredTable {
-    next_id: EntityId,
-    version: u64,
-    entries: Vec<StoredEntity>,
-}
-
-/// Why a stored entity table was refused.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("entity table: {0}")]
-pub struct TableError(pub String);
-
-impl EntityTable {
-    /// The table as bytes, to store beside the world's saved state (the
-    /// physics handles it holds are only meaningful with that state).
-    pub fn to_bytes(&self) -> Vec<u8> {
-        let stored = StoredTable {
-            next_id: self.next_id,
-            version: self.version,
-            entries: self
-                .entries
-                .values()
-                .map(|e| {
-                    let (source_kind, source) = match e.source {
-                        EntitySource::Body(h) => {
-                            let [i, g] = h.to_raw();
-                            (0, [i, g, 0, 0])
-                        }
-                        EntitySource::Particle(h) => (1, h.to_raw()),
-                        EntitySource::SoftBody(h) => {
-                            let [i, g] = h.to_raw();
-                            (2, [i, g, 0, 0])
-                        }
-                        EntitySource::Fluid(h) => {
-                            let [i, g] = h.to_raw();
-                            (3, [i, g, 0, 0])
-                        }
-                    };
-                    StoredEntity {
-                        desc: e.desc.clone(),
-                        source_kind,
-                        source,
-                        always_stream: e.always_stream,
-                    }
-                })
-                .collect(),
-        };
-        // Serialising owned plain data into a Vec cannot fail.
-        postcard::to_allocvec(&stored).unwrap_or_default()
-    }
-
-    /// A table from [`EntityTable::to_bytes`]. Every description is checked
-    /// as the control channel checks a spawn; ids must be unique and not 0,
-    /// and no physics object may have two entities.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, TableError> {
-        if bytes.len() > MAX_TABLE_BYTES {
-            return Err(TableError(format!("{} bytes is too large", bytes.len())));
-        }
-        let stored: StoredTable =
-            postcard::from_bytes(bytes).map_err(|e| TableError(e.to_string()))?;
-        let mut table = EntityTable::new();
-        table.next_id = stored.next_id;
-        table.version = stored.version;
-        for e in stored.entries {
-            let id = e.desc.id;
-            inertia_protocol::control::validate_entity(&e.desc)
-                .map_err(|err| TableError(format!("entity {id}: {err}")))?;
-            if id == 0 {
-                return Err(TableError("entity id 0 is not an id".into()));
-            }
-            let source = match e.source_kind {
-                0 => EntitySource::Body(BodyHandle::from_raw([e.source[0], e.source[1]])),
-                1 => EntitySource::Particle(ParticleHandle::from_raw(e.source)),
-                2 => EntitySource::SoftBody(SoftBodyHandle::from_raw([e.source[0], e.source[1]])),
-                3 => EntitySource::Fluid(FluidHandle::from_raw([e.source[0], e.source[1]])),
-                k => return Err(TableError(format!("entity {id}: unknown source kind {k}"))),
-            };
-            let clash = match source {
-                EntitySource::Body(h) => table.by_body.insert(h, id).is_some(),
-                EntitySource::Particle(h) => table.by_particle.insert(h, id).is_some(),
-                EntitySource::SoftBody(h) => table.by_soft_body.insert(h, id).is_some(),
-                EntitySource::Fluid(h) => table.by_fluid.insert(h, id).is_some(),
-            };
-            if clash {
-                return Err(TableError(format!(
-                    "entity {id}: its physics object has another entity"
-                )));
-            }
-            let entity = Entity {
-                desc: e.desc,
-                source,
-                always_stream: e.always_stream,
-            };
-            if table.entries.insert(id, entity).is_some() {
-                return Err(TableError(format!("entity id {id} appears twice")));
-            }
-        }
-        // A point set's points take the ids after its own: no entity may
-        // have one of them.
-        let mut taken_to = 0u64;
-        for (&id, e) in &table.entries {
-            if u64::from(id) <= taken_to {
-                return Err(TableError(format!(
-                    "entity id {id} is a point of the set before it"
-                )));
-            }
-            taken_to = u64::from(id) + e.desc.ids_taken() - 1;
-        }
-        Ok(table)
-    }
-}
-
 /// What a soft body's description is made from that tearing changes: its
 /// triangles and its edges.
 fn topology(body: &inertia_physics::xpbd::soft::SoftBody) -> [usize; 2] {
     [body.triangles().len(), body.constraint_counts()[0]]
 }
 
-/// The entity kind a body of `kind` is drawn as.
-pub fn entity_kind(kind: BodyKind) -> EntityKind {
-    match kind {
-        BodyKind::Dynamic => EntityKind::Dynamic,
-        BodyKind::Kinematic => EntityKind::Kinematic,
-        BodyKind::Static => EntityKind::Static,
-    }
-}
-
-/// How a client draws `shape`. Shapes beyond the protocol's limits (too
-/// many points or parts, nested compounds) are drawn as their bounding
-/// box; a heightfield of more samples than a description holds is thinned
-/// ([`height_field_desc`]).
-pub fn shape_desc(shape: &Shape) -> ShapeDesc {
-    exact_shape_desc(shape, true).unwrap_or_else(|| bounding_box(shape))
-}
-
-fn f3(v: DVec3) -> [f32; 3] {
-    v.as_vec3().to_array()
-}
-
-fn exact_shape_desc(shape: &Shape, top: bool) -> Option<ShapeDesc> {
-    Some(match shape {
-        Shape::Sphere { radius } => ShapeDesc::Sphere {
-            radius: *radius as f32,
-        },
-        Shape::Cuboid { half_extents } => ShapeDesc::Cuboid {
-            half_extents: f3(*half_extents),
-        },
-        Shape::Capsule {
-            half_height,
-            radius,
-        } => ShapeDesc::Capsule {
-            half_height: *half_height as f32,
-            radius: *radius as f32,
-        },
-        Shape::Cylinder {
-            half_height,
-            radius,
-        } => ShapeDesc::Cylinder {
-            half_height: *half_height as f32,
-            radius: *radius as f32,
-        },
-        Shape::ConvexHull(hull) => {
-            let v = hull.vertices();
-            if v.len() > ShapeDesc::MAX_POINTS {
-                return None;
-            }
-            ShapeDesc::ConvexHull {
-                points: v.iter().map(|&p| f3(p)).collect(),
-            }
-        }
-        Shape::TriMesh(mesh) => {
-            if mesh.vertices().len() > ShapeDesc::MAX_POINTS
-                || mesh.triangles().len() > ShapeDesc::MAX_POINTS
-            {
-                return None;
-            }
-            ShapeDesc::TriMesh {
-                vertices: mesh.vertices().iter().map(|&p| f3(p)).collect(),
-                triangles: mesh.triangles().to_vec(),
-            }
-        }
-        Shape::HeightField(field) => height_field_desc(field),
-        Shape::Compound(parts) => {
-            if !top || parts.len() > ShapeDesc::MAX_PARTS {
-                return None;
-            }
-            let mut out = Vec::with_capacity(parts.len());
-            for (pose, part) in parts.iter() {
-                let part = exact_shape_desc(part, false)?;
-                out.push((
-                    f3(pose.translation),
-                    pose.rotation.as_quat().to_array(),
-                    part,
-                ));
-            }
-            ShapeDesc::Compound { parts: out }
-        }
-    })
-}
-
-/// A heightfield's description: every sample when they fit in
-/// [`ShapeDesc::MAX_POINTS`], else every `step`-th row and column (the last
-/// ones always kept, so the field keeps its size), the smallest step that
-/// fits.
-pub fn height_field_desc(field: &HeightField) -> ShapeDesc {
-    let (rows, cols) = (field.rows(), field.cols());
-    let picks = |n: usize, step: usize| -> Vec<usize> {
-        let mut v: Vec<usize> = (0..n).step_by(step).collect();
-        if v.last() != Some(&(n - 1)) {
-            v.push(n - 1);
-        }
-        v
-    };
-    let mut step = 1;
-    let (rs, cs) = loop {
-        let (rs, cs) = (picks(rows, step), picks(cols, step));
-        if rs.len() * cs.len() <= ShapeDesc::MAX_POINTS {
-            break (rs, cs);
-        }
-        step += 1;
-    };
-    let scale = field.scale();
-    let heights = rs
-        .iter()
-        .flat_map(|&r| cs.iter().map(move |&c| (r, c)))
-        .map(|(r, c)| (field.heights()[r * cols + c] * scale.y) as f32)
-        .collect();
-    ShapeDesc::HeightField {
-        rows: rs.len() as u32,
-        cols: cs.len() as u32,
-        size: [scale.x as f32, scale.z as f32],
-        heights,
-    }
-}
-
-fn bounding_box(shape: &Shape) -> ShapeDesc {
-    let b = shape.local_aabb();
-    let center = (b.min + b.max) * 0.5;
-    let cuboid = ShapeDesc::Cuboid {
-        half_extents: f3(((b.max - b.min) * 0.5).max(DVec3::splat(1e-3))),
-    };
-    if center.length() < 1e-9 {
-        cuboid
-    } else {
-        ShapeDesc::Compound {
-            parts: vec![(f3(center), [0.0, 0.0, 0.0, 1.0], cuboid)],
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use inertia_physics::rigid::pose::Pose;
+    use inertia_physics::rigid::shape::{HeightField, Shape};
+    use inertia_protocol::EntityKind;
 
     #[test]
     fn a_heightfield_is_described_whole_or_thinned_to_fit_keeping_its_corners() {

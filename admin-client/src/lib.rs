@@ -1,6 +1,7 @@
 //! The operator's side of the admin channel: connect with the admin
 //! credential (the server's certificate pinned by its fingerprint), then
-//! one call at a time. `inertia-admin` and the tests use it.
+//! one call at a time. `inertia-admin`, the viewer and the tests use it;
+//! the server's side is `inertia_server::admin`.
 //!
 //! Against a dev-mode server everything comes from its dev credentials
 //! file ([`AdminClient::connect_dev`]). Against any other the operator
@@ -134,13 +135,13 @@ pub fn cert_file_fingerprint(path: &Path) -> Result<[u8; 32], AdminClientError> 
     } else {
         CertificateDer::from(bytes)
     };
-    Ok(crate::credentials::fingerprint(&der))
+    Ok(inertia_protocol::token::cert_fingerprint(&der))
 }
 
 /// The quinn client configuration for the admin channel, pinning the
 /// server certificate whose SHA-256 is `fingerprint`.
 pub fn client_config(fingerprint: [u8; 32]) -> Result<quinn::ClientConfig, String> {
-    inertia_client::net::tls::client_config_for(fingerprint, ADMIN_ALPN)
+    inertia_tls::client_config_for(fingerprint, ADMIN_ALPN)
 }
 
 /// The dev credentials file at `path`.

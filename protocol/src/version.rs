@@ -1,0 +1,6 @@
+//! The version of the whole wire protocol, below everything that speaks
+//! it (the control channel, the datagrams, connect tokens).
+
+/// The version of the whole wire protocol (control, datagrams and tokens).
+/// A client and server speak only when theirs are equal.
+pub const PROTOCOL_VERSION: u16 = 4;

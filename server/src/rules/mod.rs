@@ -1,0 +1,224 @@
+//! Game rules: what players may do to the world.
+//!
+//! The tick thread calls a [`GameRules`] implementation at fixed points —
+//! a client joins or leaves, an input arrives, before and after every tick
+//! — and hands it a [`SimContext`]: controlled access to the world and the
+//! entity table. Rules spawn and despawn entities and push bodies through
+//! the context, which caps every force and impulse at its
+//! [`ControlLimits`], so no rule (and no input it forwards) can launch a
+//! body at absurd speed.
+//!
+//! Inputs come from the network and are untrusted: [`validate_input`]
+//! refuses NaN and infinities and inputs for ticks outside a window around
+//! now, and clamps the rest (movement length ≤ 1, yaw wrapped to ±π,
+//! unknown button bits cleared). [`SandboxRules`] is the default game: a
+//! capsule avatar per client, moved by a capped control force towards the
+//! desired velocity, a jump only when standing on something, and a push
+//! for whatever is in front.
+//!
+//! Rules may answer an input against the world as its player saw it (lag
+//! compensation): [`SimContext::cast_ray_at`] and
+//! [`SimContext::overlap_sphere_at`] take the input's
+//! [`PlayerInput::view_tick`] and test the moving bodies at their poses
+//! of that tick, kept by the simulation's
+//! [`PoseHistory`](crate::sim::PoseHistory) for as long as the rules ask
+//! ([`GameRules::rewind_window_ms`]); static bodies are tested as they
+//! are.
+//!
+//! One concept a file: the rules' trait and the events and refusals it
+//! speaks in, here; `input.rs` an input's validation; `context.rs` what
+//! the rules may do to the world ([`SimContext`]); `sandbox.rs` the
+//! default game ([`SandboxRules`]).
+
+mod context;
+mod input;
+mod sandbox;
+
+use inertia_protocol::{EntityId, PlayerInput};
+
+pub use context::{ContextError, ControlLimits, EntityLook, RewindCount, SimContext};
+pub use input::{validate_input, InputRefusal, InputWindow};
+pub use sandbox::{SandboxRules, SandboxSettings};
+
+/// A connected client, as the network layer numbers it.
+pub type ClientId = u64;
+
+/// Why a client may not join.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum JoinRefusal {
+    /// The server holds its maximum number of clients.
+    #[error("server full ({max} clients)")]
+    Full {
+        /// The maximum.
+        max: u32,
+    },
+    /// This client id is already in the game.
+    #[error("client {0} has already joined")]
+    AlreadyJoined(ClientId),
+    /// No free place to put an avatar.
+    #[error("no room to spawn an avatar")]
+    NoRoom,
+    /// The simulation is shutting down or not answering.
+    #[error("the simulation is not running")]
+    Unavailable,
+    /// The rules refused, for their own reason.
+    #[error("{0}")]
+    Rules(String),
+}
+
+/// Why something happened to an entity without anyone asking.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RemovalReason {
+    /// It left the world bounds.
+    OutOfBounds,
+    /// Its state went non-finite.
+    Quarantined,
+    /// The rules removed it.
+    Despawned,
+}
+
+/// Something clients may want to show: sent reliably with the frame of the
+/// tick it happened in.
+#[derive(Debug, Clone, PartialEq)]
+pub enum GameEvent {
+    /// A client joined and got an avatar.
+    Joined {
+        /// The client.
+        client: ClientId,
+        /// Its avatar.
+        avatar: EntityId,
+    },
+    /// A client left.
+    Left {
+        /// The client.
+        client: ClientId,
+    },
+    /// A client's avatar was lost (fell off the world) and made anew.
+    Respawned {
+        /// The client.
+        client: ClientId,
+        /// The new avatar.
+        avatar: EntityId,
+    },
+    /// An avatar jumped.
+    Jumped {
+        /// The avatar.
+        avatar: EntityId,
+    },
+    /// An avatar pushed a body.
+    Pushed {
+        /// The avatar.
+        avatar: EntityId,
+        /// What it pushed.
+        target: EntityId,
+        /// The impulse given, N·s.
+        impulse: [f64; 3],
+    },
+    /// An entity was removed by the simulation.
+    Removed {
+        /// The entity (its id is never reused).
+        entity: EntityId,
+        /// Why.
+        reason: RemovalReason,
+    },
+    /// A game-specific event.
+    Custom {
+        /// What happened.
+        name: String,
+        /// The entity concerned, if any.
+        entity: Option<EntityId>,
+    },
+}
+
+/// What a game does with players. Called on the tick thread only, in this
+/// order each loop: joins and leaves, inputs, then per tick `before_tick`,
+/// the physics step, `after_tick`, and `events`.
+pub trait GameRules: Send {
+    /// A client joins: make its avatar and return its entity id, or refuse.
+    fn on_connect(
+        &mut self,
+        client: ClientId,
+        ctx: &mut SimContext<'_>,
+    ) -> Result<EntityId, JoinRefusal>;
+
+    /// A client left (or was dropped): clean up after it.
+    fn on_disconnect(&mut self, client: ClientId, ctx: &mut SimContext<'_>);
+
+    /// An input arrived. Validate it (see [`validate_input`]) before acting
+    /// on any field; a refused input changes nothing.
+    fn on_input(
+        &mut self,
+        client: ClientId,
+        input: &PlayerInput,
+        ctx: &mut SimContext<'_>,
+    ) -> Result<(), InputRefusal>;
+
+    /// How far back these rules look when they answer an input against
+    /// the world the player saw (`SimContext::cast_ray_at` and
+    /// `overlap_sphere_at`), ms: the server keeps the moving bodies' poses
+    /// that long (capped by `SimConfig::max_rewind_ms`), and carries them
+    /// in every saved state. Rules that never look back keep the default,
+    /// 0, and pay nothing; a shooter asks for about 500 (a view lags its
+    /// input's tick by a round trip, the input's margin and the client's
+    /// interpolation delay).
+    fn rewind_window_ms(&self) -> u32 {
+        0
+    }
+
+    /// Before each physics step: turn the latest inputs into forces.
+    fn before_tick(&mut self, _ctx: &mut SimContext<'_>) {}
+
+    /// After each physics step.
+    fn after_tick(&mut self, _ctx: &mut SimContext<'_>) {}
+
+    /// An orchestrator allocated this server for a match with `settings`
+    /// (Agones: the allocation's labels and annotations, see
+    /// [`crate::orchestrator::allocation`]): set the rules variant and seed
+    /// the match's random choices. Called on the tick thread, after the
+    /// allocation's scene (if any) is loaded and before the match's
+    /// players join. An error is logged and changes nothing the rules did
+    /// not. Rules with no variants and no randomness keep the default.
+    fn configure_match(
+        &mut self,
+        _settings: &crate::orchestrator::MatchSettings,
+        _ctx: &mut SimContext<'_>,
+    ) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Whether the game is over, and why (for the players, at most
+    /// [`MAX_REASON_BYTES`](inertia_protocol::control::MAX_REASON_BYTES)):
+    /// asked after each live tick; once it says so, the server drains,
+    /// telling every client `MatchOver` with the reason, and stops. Rules
+    /// that never end a match keep the default.
+    fn match_over(&self) -> Option<String> {
+        None
+    }
+
+    /// Events the rules gathered since the last call (drained).
+    fn events(&mut self) -> Vec<GameEvent> {
+        Vec::new()
+    }
+
+    /// Everything the rules remember between ticks (players, their latest
+    /// inputs, cooldowns, scores), as bytes. Keyframes and checkpoints
+    /// carry it, and seeking, `--resume` and `load` re-simulate from it,
+    /// so state left out here makes re-simulation differ from the
+    /// recording. Rules that remember nothing keep the default (empty).
+    fn save_state(&self) -> Vec<u8> {
+        Vec::new()
+    }
+
+    /// Replaces the rules' state with one from [`GameRules::save_state`].
+    /// On error nothing changes.
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        if bytes.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "these rules keep no state, but {} bytes were given",
+                bytes.len()
+            ))
+        }
+    }
+}

@@ -1,0 +1,322 @@
+//! The default game: a capsule avatar per client, walked by a capped
+//! control force, a jump from the ground and a push for what is in front.
+
+use std::collections::BTreeMap;
+
+use inertia_physics::character::{self, WalkSettings};
+use inertia_physics::glam::DVec3;
+use inertia_physics::rigid::body::{BodyKind, RigidBodyDesc};
+use inertia_physics::rigid::pose::Pose;
+use inertia_physics::rigid::shape::Shape;
+use inertia_protocol::entity::buttons;
+use inertia_protocol::{EntityId, EntityKind, PlayerInput};
+
+use super::{
+    validate_input, ClientId, EntityLook, GameEvent, GameRules, InputRefusal, InputWindow,
+    JoinRefusal, SimContext,
+};
+
+/// Tuning of [`SandboxRules`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SandboxSettings {
+    /// The avatar's capsule and how it walks and jumps (the SDK's
+    /// prediction walks it with the same settings).
+    pub walk: WalkSettings,
+    /// How far in front a push reaches, m.
+    pub push_reach: f64,
+    /// Impulse of a push, N·s (capped by the context's limits).
+    pub push_impulse: f64,
+    /// Least time between pushes, s.
+    pub push_cooldown: f64,
+    /// How far input ticks may stray from the server's.
+    pub input_window: InputWindow,
+}
+
+impl Default for SandboxSettings {
+    fn default() -> Self {
+        Self {
+            walk: WalkSettings::default(),
+            push_reach: 1.5,
+            push_impulse: 400.0,
+            push_cooldown: 0.4,
+            input_window: InputWindow::default(),
+        }
+    }
+}
+
+/// One client in the sandbox (saved with the rules' state: field order is
+/// the format).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+struct Player {
+    avatar: EntityId,
+    /// The latest accepted (clamped) input.
+    input: PlayerInput,
+    last_sequence: Option<u32>,
+    /// Buttons of the previous input, for press edges.
+    held: u8,
+    /// A jump (push) was pressed since the last tick.
+    jump_pressed: bool,
+    push_pressed: bool,
+    /// No jump (push) before this tick.
+    jump_ready_at: u64,
+    push_ready_at: u64,
+}
+
+/// The default game: every client walks a capsule avatar around the scene,
+/// jumps, and pushes things.
+#[derive(Debug, Default)]
+pub struct SandboxRules {
+    settings: SandboxSettings,
+    players: BTreeMap<ClientId, Player>,
+    events: Vec<GameEvent>,
+}
+
+impl SandboxRules {
+    /// Sandbox rules with `settings`.
+    pub fn new(settings: SandboxSettings) -> Self {
+        Self {
+            settings,
+            players: BTreeMap::new(),
+            events: Vec::new(),
+        }
+    }
+
+    /// The avatar of a client.
+    pub fn avatar(&self, client: ClientId) -> Option<EntityId> {
+        self.players.get(&client).map(|p| p.avatar)
+    }
+
+    fn avatar_desc(&self, at: DVec3) -> Result<RigidBodyDesc, JoinRefusal> {
+        self.settings
+            .walk
+            .body_desc(at)
+            .map_err(|e| JoinRefusal::Rules(e.to_string()))
+    }
+
+    fn spawn_avatar(
+        &self,
+        client: ClientId,
+        ctx: &mut SimContext<'_>,
+    ) -> Result<EntityId, JoinRefusal> {
+        let s = &self.settings;
+        let half = s.walk.half_height + s.walk.radius;
+        let shape = Shape::capsule(s.walk.half_height, s.walk.radius)
+            .map_err(|e| JoinRefusal::Rules(e.to_string()))?;
+        // The first spawn point with nothing in the way; then the same
+        // points lifted by one avatar height at a time.
+        let mut place = None;
+        'search: for lift in 0..4 {
+            for &p in ctx.spawn_points() {
+                let at = p + DVec3::Y * (lift as f64 * (2.0 * half + 0.1));
+                let free = ctx
+                    .world()
+                    .overlap_shape(&shape, Pose::from_translation(at))
+                    .map(|hits| {
+                        hits.iter()
+                            .all(|&h| ctx.world().body(h).is_some_and(|b| b.is_sensor()))
+                    })
+                    .unwrap_or(false);
+                if free {
+                    place = Some(at);
+                    break 'search;
+                }
+            }
+        }
+        let at = place.ok_or(JoinRefusal::NoRoom)?;
+        let desc = self.avatar_desc(at)?;
+        let palette = [
+            [66, 133, 244, 255],
+            [219, 68, 55, 255],
+            [244, 180, 0, 255],
+            [15, 157, 88, 255],
+            [171, 71, 188, 255],
+        ];
+        ctx.spawn(
+            &desc,
+            EntityLook {
+                kind: EntityKind::Avatar,
+                color: palette[(client % palette.len() as u64) as usize],
+                owner: Some(client),
+                name: format!("avatar {client}"),
+            },
+        )
+        .map_err(|e| JoinRefusal::Rules(e.to_string()))
+    }
+
+    /// Whether the avatar stands on something: rays from its centre down
+    /// to a little below its feet hit a solid body (see
+    /// [`WalkSettings::grounded`]).
+    fn grounded(&self, avatar: EntityId, ctx: &SimContext<'_>) -> bool {
+        let Some(b) = ctx.body(avatar) else {
+            return false;
+        };
+        self.settings
+            .walk
+            .grounded(b.center_of_mass(), |from, dir, reach| {
+                ctx.cast_ray(from, dir, reach, Some(avatar)).is_some()
+            })
+    }
+
+    fn drive(&mut self, client: ClientId, ctx: &mut SimContext<'_>) {
+        let s = self.settings;
+        let Some(p) = self.players.get_mut(&client) else {
+            return;
+        };
+        let avatar = p.avatar;
+        let (jump, push) = (
+            std::mem::take(&mut p.jump_pressed),
+            std::mem::take(&mut p.push_pressed),
+        );
+        let input = p.input;
+        let Some(b) = ctx.body(avatar) else { return };
+        let (v, com) = (b.linear_velocity(), b.center_of_mass());
+        let grounded = self.grounded(avatar, ctx);
+        let Some(p) = self.players.get_mut(&client) else {
+            return;
+        };
+
+        // Walk: a force towards the desired horizontal velocity.
+        let walk = s.walk;
+        let _ = ctx.set_control_force(avatar, walk.walk_force(input.movement, v, grounded));
+
+        let tick = ctx.tick();
+        let dt = ctx.dt();
+        if let Some(j) = walk.jump(jump, grounded, tick, p.jump_ready_at, v, dt) {
+            if ctx.apply_impulse(avatar, j.impulse, com).is_ok() {
+                p.jump_ready_at = j.ready_at;
+                ctx.emit(GameEvent::Jumped { avatar });
+            }
+        }
+        if push && tick >= p.push_ready_at {
+            p.push_ready_at = tick + character::ticks(s.push_cooldown, dt);
+            let yaw = f64::from(input.yaw);
+            let facing = DVec3::new(yaw.sin(), 0.0, yaw.cos());
+            let radius = s.push_reach * 0.5;
+            let center = com + facing * (s.walk.radius + radius);
+            for target in ctx.overlap_sphere(center, radius) {
+                if target == avatar {
+                    continue;
+                }
+                let Some(tb) = ctx.body(target) else { continue };
+                if tb.kind() != BodyKind::Dynamic {
+                    continue;
+                }
+                let at = tb.center_of_mass();
+                let dir = (facing + DVec3::Y * 0.2).normalize();
+                if let Ok(given) = ctx.apply_impulse(target, dir * s.push_impulse, at) {
+                    ctx.emit(GameEvent::Pushed {
+                        avatar,
+                        target,
+                        impulse: given.to_array(),
+                    });
+                }
+            }
+        }
+    }
+}
+
+impl GameRules for SandboxRules {
+    fn on_connect(
+        &mut self,
+        client: ClientId,
+        ctx: &mut SimContext<'_>,
+    ) -> Result<EntityId, JoinRefusal> {
+        if self.players.contains_key(&client) {
+            return Err(JoinRefusal::AlreadyJoined(client));
+        }
+        let avatar = self.spawn_avatar(client, ctx)?;
+        self.players.insert(
+            client,
+            Player {
+                avatar,
+                input: PlayerInput::default(),
+                last_sequence: None,
+                held: 0,
+                jump_pressed: false,
+                push_pressed: false,
+                jump_ready_at: 0,
+                push_ready_at: 0,
+            },
+        );
+        self.events.push(GameEvent::Joined { client, avatar });
+        Ok(avatar)
+    }
+
+    fn on_disconnect(&mut self, client: ClientId, ctx: &mut SimContext<'_>) {
+        if let Some(p) = self.players.remove(&client) {
+            ctx.despawn(p.avatar);
+            self.events.push(GameEvent::Left { client });
+        }
+    }
+
+    fn on_input(
+        &mut self,
+        client: ClientId,
+        input: &PlayerInput,
+        ctx: &mut SimContext<'_>,
+    ) -> Result<(), InputRefusal> {
+        let p = self
+            .players
+            .get_mut(&client)
+            .ok_or(InputRefusal::NotJoined(client))?;
+        let input = validate_input(input, ctx.tick(), self.settings.input_window)?;
+        if let Some(last) = p.last_sequence {
+            // Wrapping comparison: newer means ahead by less than half the
+            // sequence space.
+            if input.sequence.wrapping_sub(last) == 0
+                || input.sequence.wrapping_sub(last) > u32::MAX / 2
+            {
+                return Err(InputRefusal::OutOfOrder {
+                    sequence: input.sequence,
+                    last,
+                });
+            }
+        }
+        let pressed = input.buttons & !p.held;
+        p.jump_pressed |= pressed & buttons::JUMP != 0;
+        p.push_pressed |= pressed & buttons::PUSH != 0;
+        p.held = input.buttons;
+        p.last_sequence = Some(input.sequence);
+        p.input = input;
+        Ok(())
+    }
+
+    fn before_tick(&mut self, ctx: &mut SimContext<'_>) {
+        let clients: Vec<ClientId> = self.players.keys().copied().collect();
+        for client in clients {
+            let lost = self
+                .players
+                .get(&client)
+                .is_some_and(|p| ctx.entities().get(p.avatar).is_none());
+            if lost {
+                match self.spawn_avatar(client, ctx) {
+                    Ok(avatar) => {
+                        if let Some(p) = self.players.get_mut(&client) {
+                            p.avatar = avatar;
+                        }
+                        self.events.push(GameEvent::Respawned { client, avatar });
+                    }
+                    // No room this tick: try again next tick.
+                    Err(_) => continue,
+                }
+            }
+            self.drive(client, ctx);
+        }
+    }
+
+    fn events(&mut self) -> Vec<GameEvent> {
+        std::mem::take(&mut self.events)
+    }
+
+    fn save_state(&self) -> Vec<u8> {
+        postcard::to_allocvec(&self.players).unwrap_or_default()
+    }
+
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let players: BTreeMap<ClientId, Player> =
+            postcard::from_bytes(bytes).map_err(|e| format!("sandbox players: {e}"))?;
+        self.players = players;
+        self.events.clear();
+        Ok(())
+    }
+}
