@@ -28,6 +28,7 @@ use clap::Parser;
 use inertia_protocol::connection::ServerConnectionConfig;
 
 use crate::orchestrator::{Orchestrating, OrchestratorMode};
+use crate::sim::SimConfig;
 use serde::Deserialize;
 
 /// Default UDP port of the QUIC game and admin endpoint.
@@ -914,6 +915,38 @@ fn agones_sdk_port(env: &impl Fn(&str) -> Option<String>) -> Result<Option<u16>,
     }
 }
 
+/// The tick loop's defaults are the server's.
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self::from(&ServerConfig::default())
+    }
+}
+
+/// How the tick loop runs under this configuration (without metrics or a
+/// recorder: the server adds its own).
+impl From<&ServerConfig> for SimConfig {
+    fn from(c: &ServerConfig) -> Self {
+        SimConfig {
+            tick_hz: c.tick_hz,
+            max_catch_up_ticks: c.max_catch_up_ticks,
+            max_clients: c.max_clients,
+            limits: crate::rules::ControlLimits::default(),
+            control_capacity: 256,
+            // Four seconds of 60 Hz inputs from every client.
+            input_capacity: (c.max_clients as usize * 240).max(1024),
+            max_control_per_loop: 64,
+            max_inputs_per_loop: (c.max_clients as usize * 8).max(256),
+            metrics: None,
+            recording: None,
+            record_at_start: false,
+            history_budget: usize::try_from(c.seek_memory_mb << 20).unwrap_or(usize::MAX),
+            checkpoint_ticks: c.checkpoint_ticks,
+            tick_realtime: c.tick_realtime,
+            max_rewind_ms: crate::pose_history::DEFAULT_MAX_REWIND_MS,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1264,7 +1297,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!((c.seek_memory_mb, c.checkpoint_ticks), (64, 30));
-        let sim = crate::sim::SimConfig::from(&c);
+        let sim = SimConfig::from(&c);
         assert_eq!((sim.history_budget, sim.checkpoint_ticks), (64 << 20, 30));
         assert!(matches!(
             ServerConfig::from_args(["s", "--seek-memory-mb", "1"], env_of(&[])),

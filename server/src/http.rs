@@ -163,12 +163,15 @@ mod tests {
         metrics.snapshot_size.observe(900.0);
         metrics.snapshot_encode.observe(40e-6);
         metrics.malformed_datagrams.inc();
-        metrics.set_seek_memory(&crate::replay::HeldBytes {
+        let held = crate::replay::HeldBytes {
             keyframes: 4096,
             checkpoints: 512,
             hashes: 0,
             journal: 64,
-        });
+        };
+        for (part, bytes) in held.parts() {
+            metrics.set_seek_memory(part, bytes);
+        }
         let (status, body) = get(addr, "/metrics").await;
         assert_eq!(status, 200);
         for needle in [

@@ -11,6 +11,7 @@ pub mod metrics;
 pub mod net;
 pub mod orchestrator;
 pub mod play;
+pub mod pose_history;
 pub mod priority;
 pub mod process;
 pub mod record;

@@ -279,18 +279,12 @@ impl Metrics {
             .get()
     }
 
-    /// Sets the memory held for seeking, by part.
-    pub fn set_seek_memory(&self, held: &crate::replay::HeldBytes) {
-        for (part, bytes) in [
-            ("keyframes", held.keyframes),
-            ("checkpoints", held.checkpoints),
-            ("hashes", held.hashes),
-            ("journal", held.journal),
-        ] {
-            self.seek_memory
-                .get_or_create(&[("part", part)])
-                .set(i64::try_from(bytes).unwrap_or(i64::MAX));
-        }
+    /// Sets the memory held for seeking by one part (`keyframes`,
+    /// `checkpoints`, `hashes` or `journal`), bytes.
+    pub fn set_seek_memory(&self, part: &'static str, bytes: usize) {
+        self.seek_memory
+            .get_or_create(&[("part", part)])
+            .set(i64::try_from(bytes).unwrap_or(i64::MAX));
     }
 
     /// The OpenMetrics text exposition of every metric.

@@ -111,8 +111,8 @@ impl Secrets {
             Err(e) => warn!(error = %e, "secrets not reloaded; the ones in use stay"),
         }
         // Logs and counts its own outcome.
-        if self.shared.admin_tokens.file().is_some() {
-            let _ = self.shared.admin_tokens.reload();
+        if self.shared.admin.tokens.file().is_some() {
+            let _ = self.shared.admin.tokens.reload();
         }
     }
 
@@ -147,7 +147,8 @@ impl Secrets {
         .collect();
         paths.extend(
             self.shared
-                .admin_tokens
+                .admin
+                .tokens
                 .file()
                 .map(std::path::Path::to_path_buf),
         );

@@ -16,6 +16,7 @@ use tokio::task::JoinHandle;
 use tracing::{error, info, warn};
 
 use crate::admin::tokens::{AdminTokenStore, TokenFileError};
+use crate::admin::AdminShared;
 use crate::config::ServerConfig;
 use crate::credentials::{self, CredentialFiles, CredentialsError};
 use crate::health::Health;
@@ -236,7 +237,7 @@ pub async fn start_with_rules(
             simulation.leave(client);
         }
     }
-    let sim = SimHandle::run(simulation).map_err(StartError::Thread)?;
+    let sim = Arc::new(SimHandle::run(simulation).map_err(StartError::Thread)?);
 
     let health = Arc::new(Health::new());
     let metrics_listener = tokio::net::TcpListener::bind(config.metrics)
@@ -299,6 +300,15 @@ pub async fn start_with_rules(
         },
         ..default
     };
+    let admin = AdminShared::new(
+        sim.clone(),
+        metrics.clone(),
+        config.tick_hz,
+        shutdown_rx.clone(),
+        CheckpointDir::new(config.checkpoint_dir()),
+        MatchesDir::new(config.matches_dir()),
+    )
+    .with_tokens(admin_tokens);
     let shared = Arc::new(
         NetShared::new(
             sim,
@@ -310,10 +320,8 @@ pub async fn start_with_rules(
             config.tick_hz,
             config.client_budget_bytes_per_sec(),
             shutdown_rx,
+            Arc::new(admin),
         )
-        .with_admin_tokens(admin_tokens)
-        .with_checkpoint_dir(CheckpointDir::new(config.checkpoint_dir()))
-        .with_matches_dir(MatchesDir::new(config.matches_dir()))
         .with_frame_history(config.frame_history)
         .with_connection_config(config.connection),
     );
@@ -604,7 +612,7 @@ impl RunningServer {
     /// The admin credentials in use (a handle the process's SIGHUP
     /// handler keeps to reload them).
     pub fn admin_tokens(&self) -> Arc<AdminTokenStore> {
-        self.shared.admin_tokens.clone()
+        self.shared.admin.tokens.clone()
     }
 
     /// Reads the admin token file again: a good file replaces the
@@ -612,7 +620,7 @@ impl RunningServer {
     /// bad one is logged and the operators in use stay. What SIGHUP does.
     /// Blocking (it reads a file).
     pub fn reload_admin_tokens(&self) -> Result<usize, TokenFileError> {
-        self.shared.admin_tokens.reload()
+        self.shared.admin.tokens.reload()
     }
 
     /// The server's secret files and their reload (outside dev mode):
@@ -623,7 +631,7 @@ impl RunningServer {
 
     /// Where `save` and `load` keep checkpoints.
     pub fn checkpoints(&self) -> &CheckpointDir {
-        &self.shared.checkpoints
+        &self.shared.admin.checkpoints
     }
 
     /// The simulation.
@@ -699,7 +707,10 @@ impl RunningServer {
         // Kept before the orchestrator hears of the end: under Agones,
         // Shutdown deletes the pod, and a copy to a shared volume must be
         // done by then.
-        let (matches, recording) = (self.shared.matches.clone(), self.recording_dir.clone());
+        let (matches, recording) = (
+            self.shared.admin.matches.clone(),
+            self.recording_dir.clone(),
+        );
         let now = crate::net::connection::unix_now();
         let kept = match tokio::task::spawn_blocking(move || matches.keep(&recording, now)).await {
             Ok(Ok(Some(name))) => {

@@ -12,7 +12,7 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use common::{admin, wait_for, DevServer};
-use inertia_server::replay::verify::verify;
+use inertia_server::sim::verify::verify;
 use inertia_server::replay::{History, DEFAULT_KEYFRAME_BUDGET};
 use inertia_server::rules::SandboxRules;
 

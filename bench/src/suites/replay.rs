@@ -37,7 +37,7 @@ use inertia_protocol::input::quantize_input;
 use inertia_protocol::rng::SplitMix;
 use inertia_protocol::{EntityId, PlayerInput};
 use inertia_server::record::{Record, RecordReader, RecorderConfig};
-use inertia_server::replay::verify::verify;
+use inertia_server::sim::verify::verify;
 use inertia_server::replay::SimState;
 use inertia_server::rules::SandboxRules;
 use inertia_server::scene::{Scene, SceneFormat};

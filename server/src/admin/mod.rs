@@ -30,8 +30,13 @@
 //!
 //! The tool's side is the `inertia-admin-client` crate's `AdminClient`.
 
+mod kicks;
+mod shared;
 pub mod throttle;
 pub mod tokens;
+
+pub use kicks::Kicks;
+pub use shared::AdminShared;
 
 use std::net::{IpAddr, SocketAddr};
 use std::sync::Arc;
@@ -44,7 +49,6 @@ use inertia_protocol::admin::{
 use inertia_protocol::control::{encode_frame, ControlMessage, FrameDecoder};
 use tracing::{debug, info, warn};
 
-use crate::net::NetShared;
 use crate::record::matches::MatchesError;
 use crate::replay::checkpoint::CheckpointError;
 use crate::replay::WorldEdit;
@@ -136,7 +140,7 @@ pub fn judge_hello(
     hello: &AdminHello,
     ip: IpAddr,
     now: Instant,
-    shared: &NetShared,
+    shared: &AdminShared,
 ) -> Result<tokens::Admitted, AdminRefusal> {
     if hello.version != ADMIN_PROTOCOL_VERSION {
         return Err(AdminRefusal::VersionMismatch {
@@ -144,12 +148,7 @@ pub fn judge_hello(
             client: hello.version,
         });
     }
-    let throttle = || {
-        shared
-            .admin_throttle
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-    };
+    let throttle = || shared.throttle.lock().unwrap_or_else(|e| e.into_inner());
     if let Err(wait) = throttle().check(ip, now) {
         let retry_after_ms = u32::try_from(wait.as_nanos().div_ceil(1_000_000)).unwrap_or(u32::MAX);
         return Err(AdminRefusal::Throttled { retry_after_ms });
@@ -157,11 +156,7 @@ pub fn judge_hello(
     if hello.check().is_err() {
         return Err(AdminRefusal::Malformed);
     }
-    match shared
-        .admin_tokens
-        .current()
-        .admit(&hello.operator, &hello.token)
-    {
+    match shared.tokens.current().admit(&hello.operator, &hello.token) {
         Some(admitted) => {
             throttle().success(ip);
             Ok(admitted)
@@ -239,7 +234,7 @@ async fn read_next<T: ControlMessage>(
 }
 
 /// Serves one admin connection to its end.
-pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared>) {
+pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<AdminShared>) {
     let remote = connection.remote_address();
     let (mut send, mut recv) = match tokio::time::timeout(HELLO_TIMEOUT, connection.accept_bi())
         .await
@@ -328,12 +323,7 @@ pub async fn serve(connection: quinn::Connection, id: u64, shared: Arc<NetShared
                 // Every call is checked against the operators as they are
                 // now: one removed from the token file by a reload is
                 // refused here, and their session ends.
-                if shared
-                    .admin_tokens
-                    .current()
-                    .admit(&operator, &token)
-                    .is_none()
-                {
+                if shared.tokens.current().admit(&operator, &token).is_none() {
                     warn!(target: AUDIT, connection = id, %remote, operator = %operator.escape_debug(), "admin credential revoked by a reload: session ended");
                     shared.metrics.admin_action("call", "revoked");
                     connection.close(close_code::REFUSED.into(), b"admin credential revoked");
@@ -391,7 +381,7 @@ fn refuse_silently(
     connection: &quinn::Connection,
     id: u64,
     remote: SocketAddr,
-    shared: &NetShared,
+    shared: &AdminShared,
     why: &str,
 ) {
     warn!(target: AUDIT, connection = id, %remote, why, outcome = "refused_malformed", "admin connection without a hello");
@@ -405,7 +395,7 @@ struct Session<'a> {
     operator: String,
     remote: SocketAddr,
     connection: u64,
-    shared: &'a NetShared,
+    shared: &'a AdminShared,
 }
 
 fn unavailable(e: CommandError) -> AdminError {
@@ -582,7 +572,7 @@ impl Session<'_> {
                 Ok(AdminResponse::Ok)
             }
             AdminRequest::Kick { client, reason } => {
-                if self.shared.kick(*client, reason.clone()) {
+                if self.shared.kicks.kick(*client, reason.clone()) {
                     Ok(AdminResponse::Ok)
                 } else {
                     Err(AdminError::new(

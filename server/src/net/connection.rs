@@ -329,11 +329,7 @@ impl Shell {
         if previous.is_some() {
             warn!(client, "client id connected twice");
         }
-        let (kick_tx, kick_rx) = oneshot::channel();
-        if let Ok(mut k) = shared.kicks.lock() {
-            k.insert(client, (stable, kick_tx));
-        }
-        self.kick = Some(kick_rx);
+        self.kick = Some(shared.admin.kicks.admit(client, stable));
         let served = Arc::new(Served::new(
             self.link.clone(),
             client,
@@ -356,11 +352,7 @@ impl Shell {
         self.served = None;
         self.kick = None;
         if let Some(Joined { client, .. }) = self.joined {
-            if let Ok(mut k) = shared.kicks.lock() {
-                if k.get(&client).map(|(c, _)| *c) == Some(stable) {
-                    k.remove(&client);
-                }
-            }
+            shared.admin.kicks.forget(client, stable);
             let _ = shared.sim.leave(client);
         }
         let client = self.joined.map(|j| j.client);

@@ -7,7 +7,6 @@
 
 pub mod catalog;
 pub mod connection;
-pub mod events;
 pub mod gate;
 pub mod governor;
 pub mod link;
@@ -27,14 +26,11 @@ use inertia_protocol::control::WEB_TRANSPORT_ALPN;
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::{ReplayGuard, TokenKey};
 use inertia_protocol::SessionConfig;
-use tokio::sync::{oneshot, watch};
+use tokio::sync::watch;
 use tracing::{debug, info};
 
-use crate::admin::throttle::{HelloThrottle, ThrottleConfig};
-use crate::admin::tokens::AdminTokenStore;
+use crate::admin::AdminShared;
 use crate::metrics::Metrics;
-use crate::record::matches::MatchesDir;
-use crate::replay::checkpoint::CheckpointDir;
 use crate::sim::{Frame, SimHandle};
 use gate::{Admission, GateConfig, HandshakeGate};
 use token_keys::TokenKeys;
@@ -45,7 +41,7 @@ pub const REPLAY_GUARD_CAPACITY: usize = 65_536;
 /// What every connection shares.
 pub struct NetShared {
     /// The simulation.
-    pub sim: SimHandle,
+    pub sim: Arc<SimHandle>,
     /// Metrics.
     pub metrics: Metrics,
     /// The keys connect tokens are opened with (the current one, and a
@@ -76,17 +72,8 @@ pub struct NetShared {
     next_connection: AtomicU64,
     /// Clients connected now, by client id, with their connection number.
     pub connected: Mutex<BTreeMap<u64, u64>>,
-    /// How to kick each connected client, by client id: its connection
-    /// number and where the reason goes.
-    pub kicks: Mutex<BTreeMap<u64, (u64, oneshot::Sender<String>)>>,
-    /// Who the admin channel admits (none by default).
-    pub admin_tokens: Arc<AdminTokenStore>,
-    /// Failed admin hellos by source address.
-    pub admin_throttle: Mutex<HelloThrottle>,
-    /// Where `save` and `load` keep checkpoints.
-    pub checkpoints: CheckpointDir,
-    /// Where finished matches' recordings are kept.
-    pub matches: MatchesDir,
+    /// What the admin connections share.
+    pub admin: Arc<AdminShared>,
     /// The clients the snapshot stage serves ([`snapshots::run`]).
     pub served: Arc<snapshots::ServedClients>,
     /// The deadlines of each game connection's life.
@@ -106,7 +93,7 @@ impl NetShared {
     /// Shared state for a server.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
-        sim: SimHandle,
+        sim: Arc<SimHandle>,
         metrics: Metrics,
         token_key: TokenKey,
         public_addr: String,
@@ -115,11 +102,10 @@ impl NetShared {
         tick_hz: u32,
         budget_bytes_per_sec: u64,
         shutdown: watch::Receiver<Option<DisconnectReason>>,
+        admin: Arc<AdminShared>,
     ) -> Self {
         Self {
             sim,
-            admin_tokens: Arc::new(AdminTokenStore::none(metrics.clone())),
-            admin_throttle: Mutex::new(HelloThrottle::default()),
             metrics,
             token_keys: std::sync::RwLock::new(TokenKeys::new(token_key)),
             public_addr,
@@ -133,27 +119,10 @@ impl NetShared {
             history_len: 0,
             next_connection: AtomicU64::new(1),
             connected: Mutex::new(BTreeMap::new()),
-            kicks: Mutex::new(BTreeMap::new()),
-            checkpoints: CheckpointDir::new(
-                crate::config::ServerConfig::default().checkpoint_dir(),
-            ),
-            matches: MatchesDir::new(crate::config::ServerConfig::default().matches_dir()),
+            admin,
             served: Arc::default(),
             connection: ServerConnectionConfig::default(),
         }
-    }
-
-    /// The same, admitting admin connections with the credentials of
-    /// `tokens`.
-    pub fn with_admin_tokens(mut self, tokens: Arc<AdminTokenStore>) -> Self {
-        self.admin_tokens = tokens;
-        self
-    }
-
-    /// The same, throttling failed admin hellos with `config`.
-    pub fn with_admin_throttle(mut self, config: ThrottleConfig) -> Self {
-        self.admin_throttle = Mutex::new(HelloThrottle::new(config));
-        self
     }
 
     /// The same, keeping the last `frames` frames by tick (see
@@ -174,28 +143,6 @@ impl NetShared {
     pub fn with_connection_config(mut self, config: ServerConnectionConfig) -> Self {
         self.connection = config;
         self
-    }
-
-    /// The same, keeping checkpoints in `dir`.
-    pub fn with_checkpoint_dir(mut self, dir: CheckpointDir) -> Self {
-        self.checkpoints = dir;
-        self
-    }
-
-    /// The same, keeping finished matches' recordings in `dir`.
-    pub fn with_matches_dir(mut self, dir: MatchesDir) -> Self {
-        self.matches = dir;
-        self
-    }
-
-    /// Tells client `client` to leave with `reason`; false when it is not
-    /// connected.
-    pub fn kick(&self, client: u64, reason: String) -> bool {
-        let entry = self.kicks.lock().ok().and_then(|mut k| k.remove(&client));
-        match entry {
-            Some((_, tx)) => tx.send(reason).is_ok(),
-            None => false,
-        }
     }
 
     /// The frame of `tick`, if still held.
@@ -302,7 +249,7 @@ async fn route(incoming: quinn::Incoming, id: u64, shared: Arc<NetShared>, hands
         tokio::spawn(refuse_uni_streams(connection.clone()));
     }
     match alpn.as_deref() {
-        Some(ADMIN_ALPN) => crate::admin::serve(connection, id, shared).await,
+        Some(ADMIN_ALPN) => crate::admin::serve(connection, id, shared.admin.clone()).await,
         Some(WEB_TRANSPORT_ALPN) => web_transport::serve(connection, id, shared).await,
         _ => connection::serve(link::Link::Quic(connection), id, shared).await,
     }

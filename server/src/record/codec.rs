@@ -460,4 +460,51 @@ mod tests {
         // Trailing bytes after a tick hash.
         assert!(Record::decode(RecordKind::TickHash, &[0; 17]).is_err());
     }
+
+    // TMPGOLDEN
+    #[test]
+    fn tmp_golden_formats() {
+        use crate::replay::journal::{self, JournalEntry, WorldEdit};
+        use crate::replay::SimState;
+        let mut rec = Vec::new();
+        for r in [
+            Record::SessionStart { tick: 7, tick_hz: 60, scene: "démo".into() },
+            Record::Keyframe { tick: 8, state: vec![1, 2, 3] },
+            Record::Inputs { tick: 9, inputs: vec![(1, input(1)), (u64::MAX, input(2))] },
+            Record::TickHash { tick: u64::MAX, hash: 0xDEAD_BEEF },
+            Record::Journal { tick: 3, entries: vec![4, 5] },
+            Record::AdminEdit { tick: 10, who: "ops".into(), what: vec![9; 10] },
+        ] {
+            r.encode_payload(&mut rec).unwrap();
+        }
+        std::fs::write("/tmp/golden_record.bin", &rec).unwrap();
+        let wire = inertia_protocol::input::quantize_input(&input(70_000));
+        let mut early = input(5);
+        early.tick = 990;
+        let early = inertia_protocol::input::quantize_input(&early);
+        let entries = vec![
+            JournalEntry::Join(7),
+            JournalEntry::Input(7, wire),
+            JournalEntry::Input(8, early),
+            JournalEntry::Input(u64::MAX, input(3)),
+            JournalEntry::Edit(Box::new(WorldEdit::Despawn { id: 4 })),
+            JournalEntry::Leave(300),
+        ];
+        let j = journal::encode(1000, &entries);
+        std::fs::write("/tmp/golden_journal.bin", &j).unwrap();
+        assert_eq!(journal::decode(1000, &j).unwrap().len(), entries.len());
+        let state = SimState {
+            tick: 77,
+            applied: 3,
+            world: vec![1, 2, 3],
+            entities: crate::scene::entities::EntityTable::new(),
+            spawn_points: vec![inertia_physics::glam::DVec3::new(1.0, -2.5, 3.0)],
+            clients: vec![5, u64::MAX],
+            rules: vec![9, 9],
+            poses: Some(crate::pose_history::PoseHistory::new(4)),
+        };
+        let s = state.encode();
+        std::fs::write("/tmp/golden_state.bin", &s).unwrap();
+        assert_eq!(SimState::peek(&s).unwrap(), (77, 3));
+    }
 }

@@ -112,6 +112,16 @@ pub struct HeldBytes {
 }
 
 impl HeldBytes {
+    /// Each part by its metric label, bytes.
+    pub fn parts(&self) -> [(&'static str, usize); 4] {
+        [
+            ("keyframes", self.keyframes),
+            ("checkpoints", self.checkpoints),
+            ("hashes", self.hashes),
+            ("journal", self.journal),
+        ]
+    }
+
     /// The bytes the budget bounds: keyframes and checkpoints.
     pub fn budgeted(&self) -> usize {
         self.keyframes + self.checkpoints

@@ -20,7 +20,6 @@ pub mod checkpoint;
 pub mod history;
 pub mod journal;
 pub mod state;
-pub mod verify;
 
 pub use history::{
     Damage, DamageKind, HeldBytes, HeldKeyframe, History, HistoryError, SalvageReport,

@@ -34,10 +34,10 @@
 
 use inertia_physics::glam::DVec3;
 
+use crate::pose_history::PoseHistory;
 use crate::record::compress::unpack;
 use crate::rules::ClientId;
 use crate::scene::entities::{EntityTable, TableError};
-use crate::sim::PoseHistory;
 
 /// The magic bytes a saved simulation state starts with.
 pub const STATE_MAGIC: [u8; 4] = *b"ISIM";

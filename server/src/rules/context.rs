@@ -9,8 +9,8 @@ use inertia_physics::rigid::shape::Shape;
 use inertia_physics::{PhysicsError, QueryIndex, World};
 use inertia_protocol::{EntityDesc, EntityId, EntityKind};
 
+use crate::pose_history::{KeptPose, PoseHistory, RewindError, Rewound};
 use crate::scene::{shape_desc, EntitySource, EntityTable};
-use crate::sim::{KeptPose, PoseHistory, RewindError, Rewound};
 
 use super::{ClientId, GameEvent};
 

@@ -21,22 +21,25 @@
 //! [`SimContext::overlap_sphere_at`] take the input's
 //! [`PlayerInput::view_tick`] and test the moving bodies at their poses
 //! of that tick, kept by the simulation's
-//! [`PoseHistory`](crate::sim::PoseHistory) for as long as the rules ask
+//! [`PoseHistory`](crate::pose_history::PoseHistory) for as long as the rules ask
 //! ([`GameRules::rewind_window_ms`]); static bodies are tested as they
 //! are.
 //!
-//! One concept a file: the rules' trait and the events and refusals it
-//! speaks in, here; `input.rs` an input's validation; `context.rs` what
+//! One concept a file: the rules' trait and the refusals it speaks in,
+//! here; `event.rs` what happens that clients may show, and its wire form;
+//! `input.rs` an input's validation; `context.rs` what
 //! the rules may do to the world ([`SimContext`]); `sandbox.rs` the
 //! default game ([`SandboxRules`]).
 
 mod context;
+mod event;
 mod input;
 mod sandbox;
 
 use inertia_protocol::{EntityId, PlayerInput};
 
 pub use context::{ContextError, ControlLimits, EntityLook, RewindCount, SimContext};
+pub use event::{GameEvent, RemovalReason};
 pub use input::{validate_input, InputRefusal, InputWindow};
 pub use sandbox::{SandboxRules, SandboxSettings};
 
@@ -64,70 +67,6 @@ pub enum JoinRefusal {
     /// The rules refused, for their own reason.
     #[error("{0}")]
     Rules(String),
-}
-
-/// Why something happened to an entity without anyone asking.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RemovalReason {
-    /// It left the world bounds.
-    OutOfBounds,
-    /// Its state went non-finite.
-    Quarantined,
-    /// The rules removed it.
-    Despawned,
-}
-
-/// Something clients may want to show: sent reliably with the frame of the
-/// tick it happened in.
-#[derive(Debug, Clone, PartialEq)]
-pub enum GameEvent {
-    /// A client joined and got an avatar.
-    Joined {
-        /// The client.
-        client: ClientId,
-        /// Its avatar.
-        avatar: EntityId,
-    },
-    /// A client left.
-    Left {
-        /// The client.
-        client: ClientId,
-    },
-    /// A client's avatar was lost (fell off the world) and made anew.
-    Respawned {
-        /// The client.
-        client: ClientId,
-        /// The new avatar.
-        avatar: EntityId,
-    },
-    /// An avatar jumped.
-    Jumped {
-        /// The avatar.
-        avatar: EntityId,
-    },
-    /// An avatar pushed a body.
-    Pushed {
-        /// The avatar.
-        avatar: EntityId,
-        /// What it pushed.
-        target: EntityId,
-        /// The impulse given, N·s.
-        impulse: [f64; 3],
-    },
-    /// An entity was removed by the simulation.
-    Removed {
-        /// The entity (its id is never reused).
-        entity: EntityId,
-        /// Why.
-        reason: RemovalReason,
-    },
-    /// A game-specific event.
-    Custom {
-        /// What happened.
-        name: String,
-        /// The entity concerned, if any.
-        entity: Option<EntityId>,
-    },
 }
 
 /// What a game does with players. Called on the tick thread only, in this

@@ -1,7 +1,7 @@
 //! How the tick loop runs: rates, channel capacities, limits, recording
-//! and the seek memory budget, derived from the server's configuration.
+//! and the seek memory budget (the server's configuration derives it:
+//! [`crate::config`]).
 
-use crate::config::ServerConfig;
 use crate::metrics::Metrics;
 use crate::record::RecorderConfig;
 use crate::rules::ControlLimits;
@@ -49,36 +49,7 @@ pub struct SimConfig {
     /// input against the world the player saw (lag compensation), ms
     /// (default 1000). The window kept is what the rules ask for
     /// ([`crate::rules::GameRules::rewind_window_ms`]) up to this; see
-    /// [`super::pose_history`]. A view older than the window is answered
+    /// [`crate::pose_history`]. A view older than the window is answered
     /// at the oldest tick kept.
     pub max_rewind_ms: u32,
-}
-
-impl Default for SimConfig {
-    fn default() -> Self {
-        Self::from(&ServerConfig::default())
-    }
-}
-
-impl From<&ServerConfig> for SimConfig {
-    fn from(c: &ServerConfig) -> Self {
-        SimConfig {
-            tick_hz: c.tick_hz,
-            max_catch_up_ticks: c.max_catch_up_ticks,
-            max_clients: c.max_clients,
-            limits: ControlLimits::default(),
-            control_capacity: 256,
-            // Four seconds of 60 Hz inputs from every client.
-            input_capacity: (c.max_clients as usize * 240).max(1024),
-            max_control_per_loop: 64,
-            max_inputs_per_loop: (c.max_clients as usize * 8).max(256),
-            metrics: None,
-            recording: None,
-            record_at_start: false,
-            history_budget: usize::try_from(c.seek_memory_mb << 20).unwrap_or(usize::MAX),
-            checkpoint_ticks: c.checkpoint_ticks,
-            tick_realtime: c.tick_realtime,
-            max_rewind_ms: super::pose_history::DEFAULT_MAX_REWIND_MS,
-        }
-    }
 }

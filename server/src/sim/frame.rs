@@ -11,7 +11,6 @@ use inertia_protocol::snapshot::{QuantizedFrame, SnapshotConfig};
 use inertia_protocol::{EntityDesc, EntityId, EntityKind, EntityState};
 
 use super::{Simulation, TimeMode};
-use crate::net::events::to_wire;
 use crate::rules::GameEvent;
 
 /// Events a [`Frame`] carries: the most recent ones, whatever frame they
@@ -122,7 +121,7 @@ impl RecentEvent {
     pub fn wire(&self) -> Option<&[u8]> {
         self.wire
             .get_or_init(
-                || match encode_frame(&ServerControl::Event(to_wire(&self.event))) {
+                || match encode_frame(&ServerControl::Event(self.event.to_wire())) {
                     Ok(bytes) => Some(bytes),
                     Err(e) => {
                         tracing::warn!(tick = self.tick, error = %e, "an event that cannot be coded is not sent");

@@ -54,6 +54,7 @@ use inertia_physics::World;
 use inertia_protocol::{EntityDesc, EntityId, PlayerInput};
 
 use crate::clock::Clock;
+use crate::pose_history::PoseHistory;
 use crate::record::Recorder;
 use crate::replay::{History, JournalEntry, SimState, StateError};
 use crate::rules::{ClientId, GameEvent, GameRules, InputRefusal, JoinRefusal, SimContext};
@@ -67,7 +68,6 @@ pub mod edit;
 pub mod frame;
 pub mod handle;
 pub mod input_schedule;
-pub mod pose_history;
 pub mod recording;
 pub mod resume;
 pub mod startup;
@@ -75,6 +75,7 @@ pub mod stats;
 pub mod thread;
 pub mod tick;
 pub mod timeline;
+pub mod verify;
 
 pub use clock_control::ClockControl;
 pub use command::{Command, CommandError, SimCall};
@@ -83,7 +84,6 @@ pub use edit::EditError;
 pub use frame::{CatalogChange, Frame, RecentEvent, RECENT_CATALOG_CHANGES, RECENT_EVENTS};
 pub use handle::{spawn, SimHandle};
 pub use input_schedule::{InputSchedule, Offered, ScheduleConfig};
-pub use pose_history::{KeptPose, PoseHistory, RewindError, Rewound};
 pub use recording::RecorderOpening;
 pub use stats::{SimStats, RATE_WINDOW, TICK_WINDOW};
 pub use thread::SimExit;
@@ -155,13 +155,13 @@ pub(crate) struct Timeline {
     spawn_points: Vec<DVec3>,
     clock: Clock,
     /// The moving bodies' poses over the last ticks, for lag
-    /// compensation ([`pose_history`]).
+    /// compensation ([`crate::pose_history`]).
     poses: PoseHistory,
 }
 
 /// Ticks of pose window the rules ask for, within the configured cap.
 fn rewind_window(rules: &dyn GameRules, config: &SimConfig) -> usize {
-    pose_history::rewind_ticks(
+    crate::pose_history::rewind_ticks(
         rules.rewind_window_ms().min(config.max_rewind_ms),
         config.tick_hz,
     )

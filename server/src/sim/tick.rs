@@ -211,7 +211,9 @@ impl Simulation {
             m.bodies.set(bodies as i64);
             m.connected_clients.set(self.live_clients() as i64);
             if let Some(h) = &self.history {
-                m.set_seek_memory(&h.held());
+                for (part, bytes) in h.held().parts() {
+                    m.set_seek_memory(part, bytes);
+                }
             }
         }
     }

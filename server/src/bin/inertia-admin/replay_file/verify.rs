@@ -10,7 +10,7 @@ use std::process::ExitCode;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use inertia_server::record::{Corruption, RecordError};
-use inertia_server::replay::verify::{verify, VerifyError, VerifyReport};
+use inertia_server::sim::verify::{verify, VerifyError, VerifyReport};
 use inertia_server::rules::SandboxRules;
 use serde_json::json;
 

@@ -5,11 +5,11 @@
 use std::path::Path;
 use std::time::Instant;
 
-use super::journal;
-use super::state::SimState;
+use super::{SimConfig, Simulation};
 use crate::record::{Record, RecordReader};
+use crate::replay::journal;
+use crate::replay::SimState;
 use crate::rules::GameRules;
-use crate::sim::{SimConfig, Simulation};
 
 /// What [`verify`] found.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -24,7 +24,7 @@
 //! Static bodies are not kept and are answered as they are now: they do
 //! not move. The window holds at most `capacity` ticks: as many as the
 //! game rules ask for ([`crate::rules::GameRules::rewind_window_ms`], none
-//! by default, up to [`super::SimConfig::max_rewind_ms`]; a player's view
+//! by default, up to [`crate::sim::SimConfig::max_rewind_ms`]; a player's view
 //! lags its input's tick by the input's lead, a round trip and a margin,
 //! plus the client's interpolation delay, about 250 ms at a 100 ms round
 //! trip, so rules that compensate ask for about 500 ms). Keeping a window
@@ -514,6 +514,7 @@ mod tests {
     fn the_window_round_trips_through_bytes_and_refuses_garbage() {
         let (poses, ..) = history(6, 9);
         let bytes = poses.to_bytes();
+        std::fs::write("/tmp/golden_pose.bin", &bytes).unwrap(); // TMPGOLDEN
         assert_eq!(PoseHistory::from_bytes(&bytes), Ok(poses));
         for cut in 0..bytes.len() {
             assert!(PoseHistory::from_bytes(&bytes[..cut]).is_err(), "cut {cut}");
