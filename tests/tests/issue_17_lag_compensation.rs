@@ -33,7 +33,7 @@ use inertia_physics::rigid::shape::Shape;
 use inertia_protocol::entity::buttons;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput};
 use inertia_server::rules::{
-    validate_input, ClientId, EntityLook, GameRules, InputRefusal, InputWindow, JoinRefusal,
+    validate_input, ClientId, EntityLook, GameRules, InputRefusal, JoinRefusal,
     SimContext,
 };
 use inertia_server::server::start_with_rules;
@@ -146,7 +146,7 @@ impl GameRules for Gallery {
         input: &PlayerInput,
         ctx: &mut SimContext<'_>,
     ) -> Result<(), InputRefusal> {
-        let input = validate_input(input, ctx.tick(), InputWindow::default())?;
+        let input = validate_input(input)?;
         let Some(&(_, avatar)) = self.shooters.iter().find(|s| s.0 == client) else {
             return Err(InputRefusal::NotJoined(client));
         };

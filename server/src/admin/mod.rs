@@ -53,7 +53,7 @@ use crate::record::matches::MatchesError;
 use crate::replay::checkpoint::CheckpointError;
 use crate::replay::WorldEdit;
 use crate::sim::edit::EditOutcome;
-use crate::sim::timeline::{SeekReport, TimeError};
+use crate::sim::time_travel::{SeekReport, TimeError};
 use crate::sim::{ClockControl, CommandError, EditError, Simulation};
 
 /// How long an admin tool has to say hello.

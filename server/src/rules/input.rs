@@ -1,5 +1,7 @@
 //! An input from the network, validated before any field of it is read:
-//! refused when not finite or outside the tick window, clamped otherwise.
+//! refused when not finite, clamped otherwise. Its tick was checked
+//! against the server's before it reached the rules, by the simulation's
+//! input schedule ([`crate::sim::input_schedule`]).
 
 use std::f64::consts::PI;
 
@@ -19,7 +21,7 @@ pub enum InputRefusal {
     /// A field was NaN or infinite.
     #[error("input field {0} is not a finite number")]
     NonFinite(&'static str),
-    /// Meant for a tick too long ago.
+    /// Meant for a tick too long ago (refused by the input schedule).
     #[error("input for tick {tick} is too old (now {now})")]
     Stale {
         /// The input's tick.
@@ -27,7 +29,7 @@ pub enum InputRefusal {
         /// The server's tick.
         now: u64,
     },
-    /// Meant for a tick too far ahead.
+    /// Meant for a tick too far ahead (refused by the input schedule).
     #[error("input for tick {tick} is too far ahead (now {now})")]
     Future {
         /// The input's tick.
@@ -52,26 +54,8 @@ pub enum InputRefusal {
     },
 }
 
-/// How far an input's tick may lie from the server's.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct InputWindow {
-    /// Ticks into the past (default 120: 2 s at 60 Hz).
-    pub past: u64,
-    /// Ticks into the future (default 60: 1 s at 60 Hz).
-    pub future: u64,
-}
-
-impl Default for InputWindow {
-    fn default() -> Self {
-        Self {
-            past: 120,
-            future: 60,
-        }
-    }
-}
-
-/// Checks and clamps one input against the server tick `now`: NaN or
-/// infinite fields and ticks outside `window` are refused; movement is
+/// Checks and clamps one input: NaN or infinite fields are refused;
+/// movement is
 /// clamped to [−1, 1] per axis and length 1, yaw wrapped into (−π, π], and
 /// undefined button bits cleared.
 ///
@@ -82,29 +66,13 @@ impl Default for InputWindow {
 /// [`MAX_VIEW_BEHIND`] becomes that. The rewind itself is capped later, by
 /// the pose window ([`SimContext::cast_ray_at`]), which knows how far back
 /// the server keeps poses.
-pub fn validate_input(
-    input: &PlayerInput,
-    now: u64,
-    window: InputWindow,
-) -> Result<PlayerInput, InputRefusal> {
+pub fn validate_input(input: &PlayerInput) -> Result<PlayerInput, InputRefusal> {
     let [mx, mz] = input.movement;
     if !(mx.is_finite() && mz.is_finite()) {
         return Err(InputRefusal::NonFinite("movement"));
     }
     if !input.yaw.is_finite() {
         return Err(InputRefusal::NonFinite("yaw"));
-    }
-    if input.tick.saturating_add(window.past) < now {
-        return Err(InputRefusal::Stale {
-            tick: input.tick,
-            now,
-        });
-    }
-    if input.tick > now.saturating_add(window.future) {
-        return Err(InputRefusal::Future {
-            tick: input.tick,
-            now,
-        });
     }
     let (mut mx, mut mz) = (mx.clamp(-1.0, 1.0), mz.clamp(-1.0, 1.0));
     let len = (mx * mx + mz * mz).sqrt();
@@ -148,7 +116,6 @@ mod tests {
 
     #[test]
     fn non_finite_input_is_refused() {
-        let w = InputWindow::default();
         for bad in [
             input([f32::NAN, 0.0], 0.0, 0),
             input([0.0, f32::INFINITY], 0.0, 0),
@@ -156,7 +123,7 @@ mod tests {
             input([0.0, 0.0], f32::NEG_INFINITY, 0),
         ] {
             assert!(matches!(
-                validate_input(&bad, 100, w),
+                validate_input(&bad),
                 Err(InputRefusal::NonFinite(_))
             ));
         }
@@ -164,29 +131,24 @@ mod tests {
 
     #[test]
     fn huge_input_is_clamped() {
-        let w = InputWindow::default();
-        let v = validate_input(&input([1e30, -1e30], 1e9, 0xff), 100, w).unwrap();
+        let v = validate_input(&input([1e30, -1e30], 1e9, 0xff)).unwrap();
         let len = (v.movement[0].powi(2) + v.movement[1].powi(2)).sqrt();
         assert!((len - 1.0).abs() < 1e-6, "{v:?}");
         assert!(v.yaw.abs() <= std::f32::consts::PI + 1e-6);
         assert_eq!(v.buttons, buttons::ALL);
-        let v = validate_input(&input([0.3, 0.4], 0.5, 0), 100, w).unwrap();
+        let v = validate_input(&input([0.3, 0.4], 0.5, 0)).unwrap();
         assert_eq!(v.movement, [0.3, 0.4]);
         assert_eq!(v.yaw, 0.5);
     }
 
     #[test]
     fn bad_views_are_clamped_not_refused() {
-        let w = InputWindow::default();
         let view = |view_behind| {
             validate_input(
                 &PlayerInput {
                     view_behind,
                     ..input([0.5, 0.0], 0.0, 0)
-                },
-                100,
-                w,
-            )
+                })
             .map(|v| (v.view_behind, v.movement))
         };
         for (bad, want) in [
@@ -205,34 +167,8 @@ mod tests {
             &PlayerInput {
                 view_behind: 2.5,
                 ..input([0.0, 0.0], 0.0, 0)
-            },
-            100,
-            w,
-        )
+            })
         .unwrap();
         assert_eq!(v.view_tick(), 97.5);
-    }
-
-    #[test]
-    fn inputs_outside_the_tick_window_are_refused() {
-        let w = InputWindow {
-            past: 10,
-            future: 5,
-        };
-        let at = |tick| PlayerInput {
-            tick,
-            ..PlayerInput::default()
-        };
-        assert!(validate_input(&at(90), 100, w).is_ok());
-        assert!(validate_input(&at(105), 100, w).is_ok());
-        assert!(matches!(
-            validate_input(&at(89), 100, w),
-            Err(InputRefusal::Stale { .. })
-        ));
-        assert!(matches!(
-            validate_input(&at(106), 100, w),
-            Err(InputRefusal::Future { .. })
-        ));
-        assert!(validate_input(&at(u64::MAX), u64::MAX - 1, w).is_ok());
     }
 }

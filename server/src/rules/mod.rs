@@ -8,9 +8,9 @@
 //! [`ControlLimits`], so no rule (and no input it forwards) can launch a
 //! body at absurd speed.
 //!
-//! Inputs come from the network and are untrusted: [`validate_input`]
-//! refuses NaN and infinities and inputs for ticks outside a window around
-//! now, and clamps the rest (movement length ≤ 1, yaw wrapped to ±π,
+//! Inputs come from the network and are untrusted: the simulation's input
+//! schedule refuses inputs for ticks outside a window around now, and
+//! [`validate_input`] refuses NaN and infinities and clamps the rest (movement length ≤ 1, yaw wrapped to ±π,
 //! unknown button bits cleared). [`SandboxRules`] is the default game: a
 //! capsule avatar per client, moved by a capped control force towards the
 //! desired velocity, a jump only when standing on something, and a push
@@ -40,7 +40,7 @@ use inertia_protocol::{EntityId, PlayerInput};
 
 pub use context::{ContextError, ControlLimits, EntityLook, RewindCount, SimContext};
 pub use event::{GameEvent, RemovalReason};
-pub use input::{validate_input, InputRefusal, InputWindow};
+pub use input::{validate_input, InputRefusal};
 pub use sandbox::{SandboxRules, SandboxSettings};
 
 /// A connected client, as the network layer numbers it.

@@ -12,7 +12,7 @@ use inertia_protocol::entity::buttons;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput};
 
 use super::{
-    validate_input, ClientId, EntityLook, GameEvent, GameRules, InputRefusal, InputWindow,
+    validate_input, ClientId, EntityLook, GameEvent, GameRules, InputRefusal,
     JoinRefusal, SimContext,
 };
 
@@ -28,8 +28,6 @@ pub struct SandboxSettings {
     pub push_impulse: f64,
     /// Least time between pushes, s.
     pub push_cooldown: f64,
-    /// How far input ticks may stray from the server's.
-    pub input_window: InputWindow,
 }
 
 impl Default for SandboxSettings {
@@ -39,7 +37,6 @@ impl Default for SandboxSettings {
             push_reach: 1.5,
             push_impulse: 400.0,
             push_cooldown: 0.4,
-            input_window: InputWindow::default(),
         }
     }
 }
@@ -253,13 +250,13 @@ impl GameRules for SandboxRules {
         &mut self,
         client: ClientId,
         input: &PlayerInput,
-        ctx: &mut SimContext<'_>,
+        _ctx: &mut SimContext<'_>,
     ) -> Result<(), InputRefusal> {
         let p = self
             .players
             .get_mut(&client)
             .ok_or(InputRefusal::NotJoined(client))?;
-        let input = validate_input(input, ctx.tick(), self.settings.input_window)?;
+        let input = validate_input(input)?;
         if let Some(last) = p.last_sequence {
             // Wrapping comparison: newer means ahead by less than half the
             // sequence space.

@@ -101,7 +101,7 @@ impl Simulation {
     /// Applies an operator's edit to the live world and notes it in the
     /// journal. Refused, changing nothing, while history is shown.
     pub fn edit(&mut self, edit: WorldEdit) -> Result<EditOutcome, EditError> {
-        if self.view.is_some() {
+        if self.timelines.view.is_some() {
             return Err(EditError::NotLive {
                 shown: self.shown().world.tick(),
                 live: self.live_tick(),
@@ -120,7 +120,7 @@ impl Simulation {
                 if !self.with_ctx(|_, ctx| ctx.despawn(id)) {
                     return Err(EditError::UnknownEntity(id));
                 }
-                self.ctx_events.push(GameEvent::Removed {
+                self.events.push(GameEvent::Removed {
                     entity: id,
                     reason: RemovalReason::Despawned,
                 });

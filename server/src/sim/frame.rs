@@ -216,30 +216,8 @@ impl Simulation {
     /// [`Self::frame`], its states written into `states` (emptied; passed
     /// in for its memory).
     pub(crate) fn frame_in(&mut self, mut states: Vec<EntityState>) -> Frame {
-        if !self.pending_events.is_empty() {
-            let mut recent = self.recent_events.as_ref().clone();
-            for (tick, event) in self.pending_events.drain(..) {
-                self.events_published += 1;
-                let number = self.events_published;
-                recent.push(Arc::new(RecentEvent::new(number, tick, event)));
-            }
-            let excess = recent.len().saturating_sub(RECENT_EVENTS);
-            recent.drain(..excess);
-            self.recent_events = Arc::new(recent);
-        }
-        if self.catalog_stale || self.shown().entities.version() != self.catalog_seen {
-            let catalog = Arc::new(self.shown().entities.catalog());
-            self.catalog_version += 1;
-            let change = CatalogChange::between(self.catalog_version, &self.catalog, &catalog);
-            let mut changes = self.catalog_changes.as_ref().clone();
-            changes.push(Arc::new(change));
-            let excess = changes.len().saturating_sub(RECENT_CATALOG_CHANGES);
-            changes.drain(..excess);
-            self.catalog_changes = Arc::new(changes);
-            self.catalog = catalog;
-            self.catalog_seen = self.shown().entities.version();
-            self.catalog_stale = false;
-        }
+        self.publication.update(&self.timelines.shown().entities);
+        let publication = &self.publication;
         Frame {
             tick: self.shown().world.tick(),
             sim_time: self.shown().world.time(),
@@ -255,11 +233,11 @@ impl Simulation {
                     .states_into(&self.shown().world, &mut states);
                 states
             },
-            catalog: self.catalog.clone(),
-            catalog_version: self.catalog_version,
-            catalog_changes: self.catalog_changes.clone(),
-            events: self.recent_events.clone(),
-            tick_duration: self.last_tick,
+            catalog: publication.catalog.clone(),
+            catalog_version: publication.catalog_version,
+            catalog_changes: publication.catalog_changes.clone(),
+            events: publication.recent_events.clone(),
+            tick_duration: self.meter.last_tick(),
             overruns: self.shown().clock.overruns(),
             clients: self.live_clients() as u32,
             live_tick: self.live_tick(),

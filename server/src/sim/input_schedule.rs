@@ -14,6 +14,12 @@
 //! - **Too early**: an input more than [`ScheduleConfig::max_ahead`] ticks
 //!   ahead is refused and counted (a client whose clock ran away cannot
 //!   park inputs for minutes).
+//! - **Too late**: an input more than [`ScheduleConfig::max_behind`] ticks
+//!   behind is refused and counted (it would move a player on a world
+//!   long gone).
+//!
+//! The schedule is the one place that checks an input's tick against the
+//! server's: the rules see only inputs within this window.
 //! - **Order**: inputs arrive in sequence order (the session's
 //!   `InputBuffer` sees to that). Each client's effective ticks never go
 //!   backwards: an input stamped earlier than the one before it is held
@@ -33,22 +39,25 @@ use inertia_protocol::PlayerInput;
 
 use crate::rules::ClientId;
 
-/// How far ahead inputs may be held, and how many.
+/// How far from the server's tick inputs may be, and how many may wait.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ScheduleConfig {
     /// The furthest ahead of the server's tick an input may be, ticks.
     pub max_ahead: u64,
+    /// The furthest behind the server's tick an input may be, ticks.
+    pub max_behind: u64,
     /// The most inputs one client may have waiting.
     pub max_pending: usize,
 }
 
 impl ScheduleConfig {
-    /// Inputs up to one second ahead at `tick_hz`, and up to twice that
-    /// many waiting per client.
+    /// Inputs up to one second ahead and two seconds behind at `tick_hz`,
+    /// and up to two seconds' worth waiting per client.
     pub fn for_tick_rate(tick_hz: u32) -> Self {
         let ahead = u64::from(tick_hz.max(1));
         Self {
             max_ahead: ahead,
+            max_behind: 2 * ahead,
             max_pending: (2 * ahead as usize).max(16),
         }
     }
@@ -64,6 +73,9 @@ pub enum Offered {
     /// Refused (counted): more than [`ScheduleConfig::max_ahead`] ticks
     /// ahead.
     TooEarly,
+    /// Refused (counted): more than [`ScheduleConfig::max_behind`] ticks
+    /// behind.
+    TooLate,
     /// Refused (counted): [`ScheduleConfig::max_pending`] inputs of this
     /// client are waiting already.
     Full,
@@ -118,6 +130,10 @@ impl InputSchedule {
         if tick > now.saturating_add(self.config.max_ahead) {
             c.timing.refused += 1;
             return Offered::TooEarly;
+        }
+        if input.tick.saturating_add(self.config.max_behind) < now {
+            c.timing.refused += 1;
+            return Offered::TooLate;
         }
         if c.pending.len() >= self.config.max_pending {
             c.timing.refused += 1;
@@ -208,6 +224,7 @@ mod tests {
     fn schedule() -> InputSchedule {
         InputSchedule::new(ScheduleConfig {
             max_ahead: 10,
+            max_behind: 20,
             max_pending: 4,
         })
     }
@@ -268,6 +285,18 @@ mod tests {
         s.forget(1);
         assert_eq!(s.pending(), 0);
         assert_eq!(s.timing(1), None);
+    }
+
+    #[test]
+    fn inputs_outside_the_tick_window_are_refused() {
+        let mut s = schedule();
+        assert_eq!(s.offer(1, &input(1, 79), 100), Offered::TooLate);
+        assert_eq!(s.offer(1, &input(2, 80), 100), Offered::Late);
+        assert_eq!(s.offer(2, &input(1, 110), 100), Offered::Held);
+        assert_eq!(s.offer(2, &input(2, 111), 100), Offered::TooEarly);
+        assert_eq!(s.offer(3, &input(1, u64::MAX), u64::MAX - 1), Offered::Held);
+        assert_eq!(s.offer(4, &input(1, 0), u64::MAX), Offered::TooLate);
+        assert_eq!(s.timing(1).unwrap().refused, 1);
     }
 
     #[test]

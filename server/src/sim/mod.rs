@@ -16,12 +16,15 @@
 //!   tick never blocks a reader (they keep the previous frame).
 //!
 //! Each loop: drain commands → ask the [`Clock`] how many ticks are due →
-//! per tick `before_tick` (rules turn inputs into forces) → `World::step` →
-//! remove what left the world or went non-finite → `after_tick` → publish
-//! one frame → sleep on the control channel until the next tick is due.
+//! run each tick as its named, timed stages ([`Simulation::tick`]: inputs,
+//! rules before, physics, rules after, record) → publish one frame → sleep
+//! on the control channel until the next tick is due.
 //!
 //! [`Simulation`] is that loop's state without the thread, for tests and
-//! tools that want to drive ticks by hand.
+//! tools that want to drive ticks by hand. It is a handful of explicit
+//! parts, each in its own file, that the tick's stages and the commands
+//! work on: the timelines (live, and history shown), the rules, the input
+//! schedule, the recording, the publication of frames and the meter.
 //!
 //! While recording (see [`crate::record::recorder`]), everything that
 //! changes the simulation between ticks — joins, leaves, accepted inputs,
@@ -32,34 +35,39 @@
 //! [`SimState`](crate::replay::SimState) (`Keyframe`). A session starts
 //! with `SessionStart` and a keyframe; the thread's shutdown ends it with a
 //! keyframe of the last tick. The same records go into an in-memory
-//! [`History`] that seeking uses (see [`timeline`]). The tick thread never
+//! [`History`](crate::replay::History) that seeking uses (see
+//! [`time_travel`]). The tick thread never
 //! waits on the disk: a record the recorder cannot take stops the
 //! recording (a gap would break replay).
 //!
-//! The module is laid out by concept: [`config`] (how the loop runs),
-//! [`frame`] (what it publishes), [`command`] (what it is asked),
+//! The module is laid out by concept. The parts: `timeline.rs` (the live
+//! timeline and the one shown), [`input_schedule`] (inputs waiting for
+//! their ticks), [`recording`] (the recording state machine and the
+//! journal), `publication.rs` (events and the catalog for frames) and
+//! `meter.rs` (what ticks cost; [`stats`] the counters it shares). What
+//! works on them: [`tick`] (one tick's stages and the clock),
+//! [`time_travel`] (showing history), [`edit`] (live edits),
 //! [`clock_control`] (the one path for pause, speed, step and run-to),
-//! [`tick`] (one tick and the clock), [`recording`] (the recording state
-//! machine), [`timeline`] (showing history), [`edit`] (live edits),
-//! [`stats`] (shared counters), [`handle`] (the network layer's side) and
-//! [`thread`] (the loop itself).
+//! [`resume`] (carrying on after a crash) and [`verify`] (re-simulating a
+//! recording). Around them: [`config`] (how the loop runs), [`frame`]
+//! (what it publishes), [`command`] (what it is asked), [`handle`] (the
+//! network layer's side) and [`thread`] (the loop itself).
 
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
-use std::sync::atomic::Ordering;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
-use std::time::{Duration, Instant};
 
-use inertia_physics::glam::DVec3;
 use inertia_physics::World;
-use inertia_protocol::{EntityDesc, EntityId, PlayerInput};
+use inertia_protocol::{EntityId, PlayerInput};
 
 use crate::clock::Clock;
 use crate::pose_history::PoseHistory;
-use crate::record::Recorder;
-use crate::replay::{History, JournalEntry, SimState, StateError};
+use crate::replay::{JournalEntry, SimState, StateError};
 use crate::rules::{ClientId, GameEvent, GameRules, InputRefusal, JoinRefusal, SimContext};
 use crate::scene::{BuiltScene, EntityTable};
+use meter::TickMeter;
+use publication::Publication;
 use recording::Recording;
+use timeline::{Timeline, Timelines};
 
 pub mod clock_control;
 pub mod command;
@@ -68,13 +76,16 @@ pub mod edit;
 pub mod frame;
 pub mod handle;
 pub mod input_schedule;
+mod meter;
+mod publication;
 pub mod recording;
 pub mod resume;
 pub mod startup;
 pub mod stats;
 pub mod thread;
 pub mod tick;
-pub mod timeline;
+pub mod time_travel;
+mod timeline;
 pub mod verify;
 
 pub use clock_control::ClockControl;
@@ -84,6 +95,7 @@ pub use edit::EditError;
 pub use frame::{CatalogChange, Frame, RecentEvent, RECENT_CATALOG_CHANGES, RECENT_EVENTS};
 pub use handle::{spawn, SimHandle};
 pub use input_schedule::{InputSchedule, Offered, ScheduleConfig};
+pub use meter::TickStages;
 pub use recording::RecorderOpening;
 pub use stats::{SimStats, RATE_WINDOW, TICK_WINDOW};
 pub use thread::SimExit;
@@ -91,72 +103,35 @@ pub use thread::SimExit;
 /// What the simulation is showing.
 pub use inertia_protocol::admin::TimeMode;
 
-/// The tick loop's state, without the thread.
+/// The tick loop's state, without the thread: explicit parts, each with
+/// its own file, that the tick and the commands work on.
 pub struct Simulation {
-    /// The live timeline: what players are in. While history is shown it
-    /// stands still, and joins and leaves still reach it.
-    live: Timeline,
+    /// The live timeline, and history shown in its place
+    /// ([`timeline`], [`time_travel`]).
+    timelines: Timelines,
     /// The game rules; their own state is that of the timeline shown
-    /// (the live one's is put aside in the [`timeline::View`] meanwhile).
+    /// (the live one's is put aside in the [`time_travel::View`]
+    /// meanwhile).
     rules: Box<dyn GameRules>,
+    /// Events the rules' context gathered in the current call.
+    events: Vec<GameEvent>,
+    /// The live clients' inputs waiting for their ticks
+    /// ([`input_schedule`]).
+    inputs: InputSchedule,
+    /// The recording, the current tick's journal and the history held
+    /// for seeking ([`recording`]).
+    recording: Recording,
+    /// What frames are published from besides the timeline shown
+    /// ([`publication`]).
+    publication: Publication,
+    /// What ticks and their stages cost, and the shared counters
+    /// ([`meter`]).
+    meter: TickMeter,
     config: SimConfig,
-    catalog: Arc<BTreeMap<EntityId, EntityDesc>>,
-    catalog_version: u64,
-    /// The most recent catalog changes, for [`Frame::catalog_changes`].
-    catalog_changes: Arc<Vec<Arc<CatalogChange>>>,
-    ctx_events: Vec<GameEvent>,
-    pending_events: Vec<(u64, GameEvent)>,
-    recent_events: Arc<Vec<Arc<RecentEvent>>>,
-    /// Events published so far (the number of the newest).
-    events_published: u64,
-    last_tick: Duration,
-    stats: Arc<SimStats>,
-    /// Durations of the last [`TICK_WINDOW`] ticks.
-    recent_ticks: VecDeque<Duration>,
-    /// The first live ticks' cost against the budget, said once.
-    startup: startup::TickCostCheck,
-    /// When ticks ran lately, with how many, within [`RATE_WINDOW`].
-    recent_runs: VecDeque<(Instant, u32)>,
-    started: Instant,
     scene_name: String,
-    recording: Option<Recording>,
-    /// A stopped recorder whose thread may still be writing out.
-    retired: Option<Recorder>,
-    /// Journal entries of the current tick not yet handed to the recorder.
-    journal: Vec<JournalEntry>,
-    /// Journal entries of the current tick handed over so far.
-    journal_at_tick: u32,
-    /// The recording held in memory for seeking (kept when recording
-    /// stops, until a recording that cannot follow it starts).
-    history: Option<History>,
-    /// History shown instead of the live timeline, if any.
-    view: Option<timeline::View>,
-    /// The entity table version the catalog was last made from.
-    catalog_seen: u64,
-    /// The shown state was swapped: remake the catalog.
-    catalog_stale: bool,
-    /// A recorder is being opened off the tick thread.
-    opening_recorder: bool,
     /// A tick is under way (still set after a panic inside one: the state
     /// is then half a tick and not worth a keyframe).
     in_tick: bool,
-    /// The live clients' inputs waiting for their ticks.
-    inputs: InputSchedule,
-}
-
-/// One line of simulated time: the world and what the clock and the
-/// server keep beside it. A simulation has its live timeline and, while
-/// an operator looks at history, the timeline shown (see [`timeline`]).
-#[derive(Debug)]
-pub(crate) struct Timeline {
-    world: World,
-    entities: EntityTable,
-    clients: BTreeSet<ClientId>,
-    spawn_points: Vec<DVec3>,
-    clock: Clock,
-    /// The moving bodies' poses over the last ticks, for lag
-    /// compensation ([`crate::pose_history`]).
-    poses: PoseHistory,
 }
 
 /// Ticks of pose window the rules ask for, within the configured cap.
@@ -167,12 +142,18 @@ fn rewind_window(rules: &dyn GameRules, config: &SimConfig) -> usize {
     )
 }
 
-/// The timeline shown, from the two fields that hold one, so a caller can
-/// borrow it apart from the simulation's other fields.
-fn shown_of<'a>(view: &'a mut Option<timeline::View>, live: &'a mut Timeline) -> &'a mut Timeline {
-    match view {
-        Some(view) => &mut view.shown,
-        None => live,
+/// The whole state of timeline `shown` under `rules`, with `applied`
+/// entries of the current tick's journal in it.
+fn capture(shown: &Timeline, rules: &dyn GameRules, applied: u32) -> SimState {
+    SimState {
+        tick: shown.world.tick(),
+        applied,
+        world: shown.world.save(),
+        entities: shown.entities.clone(),
+        spawn_points: shown.spawn_points.clone(),
+        clients: shown.clients.iter().copied().collect(),
+        rules: rules.save_state(),
+        poses: Some(shown.poses.clone()),
     }
 }
 
@@ -191,62 +172,41 @@ impl Simulation {
     /// The timeline shown, ticked and streamed: history while it is
     /// shown, else the live one.
     fn shown(&self) -> &Timeline {
-        match &self.view {
-            Some(view) => &view.shown,
-            None => &self.live,
-        }
+        self.timelines.shown()
     }
 
     /// [`Self::shown`], to change.
     fn shown_mut(&mut self) -> &mut Timeline {
-        shown_of(&mut self.view, &mut self.live)
+        self.timelines.shown_mut()
     }
 
     /// A simulation of a built scene under `rules`.
     pub fn new(scene: BuiltScene, rules: Box<dyn GameRules>, config: SimConfig) -> Self {
         let clock =
             Clock::new(config.tick_hz, config.max_catch_up_ticks).with_tick(scene.world.tick());
-        let catalog = Arc::new(scene.entities.catalog());
-        let catalog_version = scene.entities.version();
-        let config_tick_hz = config.tick_hz;
         let mut poses = PoseHistory::new(rewind_window(rules.as_ref(), &config));
         poses.record(scene.world.tick(), &scene.world, &scene.entities);
         let mut sim = Simulation {
-            live: Timeline {
-                world: scene.world,
-                entities: scene.entities,
-                clients: BTreeSet::new(),
-                spawn_points: scene.spawn_points,
-                clock,
-                poses,
+            publication: Publication::new(&scene.entities),
+            timelines: Timelines {
+                live: Timeline {
+                    world: scene.world,
+                    entities: scene.entities,
+                    clients: BTreeSet::new(),
+                    spawn_points: scene.spawn_points,
+                    clock,
+                    poses,
+                },
+                view: None,
             },
             rules,
-            startup: startup::TickCostCheck::new(config.tick_hz),
+            events: Vec::new(),
+            inputs: InputSchedule::new(ScheduleConfig::for_tick_rate(config.tick_hz)),
+            recording: Recording::new(&config),
+            meter: TickMeter::new(config.tick_hz, config.metrics.clone()),
             config,
-            catalog,
-            catalog_version,
-            catalog_changes: Arc::new(Vec::new()),
-            ctx_events: Vec::new(),
-            pending_events: Vec::new(),
-            recent_events: Arc::new(Vec::new()),
-            events_published: 0,
-            last_tick: Duration::ZERO,
-            stats: Arc::new(SimStats::default()),
-            recent_ticks: VecDeque::with_capacity(TICK_WINDOW),
-            recent_runs: VecDeque::new(),
-            started: Instant::now(),
             scene_name: scene.name,
-            recording: None,
-            retired: None,
-            journal: Vec::new(),
-            journal_at_tick: 0,
-            history: None,
-            view: None,
-            catalog_seen: catalog_version,
-            catalog_stale: false,
-            opening_recorder: false,
             in_tick: false,
-            inputs: InputSchedule::new(ScheduleConfig::for_tick_rate(config_tick_hz)),
         };
         sim.update_gauges();
         if sim.config.record_at_start {
@@ -290,25 +250,16 @@ impl Simulation {
     /// The whole state of what is shown now, with `applied` entries of
     /// the current tick's journal in it.
     pub fn capture(&self, applied: u32) -> SimState {
-        SimState {
-            tick: self.shown().world.tick(),
-            applied,
-            world: self.shown().world.save(),
-            entities: self.shown().entities.clone(),
-            spawn_points: self.shown().spawn_points.clone(),
-            clients: self.shown().clients.iter().copied().collect(),
-            rules: self.rules.save_state(),
-            poses: Some(self.shown().poses.clone()),
-        }
+        capture(self.shown(), self.rules.as_ref(), applied)
     }
 
     /// The state to save in a checkpoint: the shown state, with every
     /// journal entry of its tick applied so far.
     pub fn checkpoint(&self) -> SimState {
-        let applied = if self.view.is_some() {
-            0
+        let applied = if self.timelines.is_live() {
+            self.recording.applied_at_tick()
         } else {
-            self.journal_at_tick + self.journal.len() as u32
+            0
         };
         self.capture(applied)
     }
@@ -338,7 +289,7 @@ impl Simulation {
             Some(poses) => shown.poses = poses.clone(),
             None => shown.poses = PoseHistory::new(window),
         }
-        let shown = shown_of(&mut self.view, &mut self.live);
+        let shown = self.timelines.shown_mut();
         if shown
             .poses
             .span()
@@ -348,7 +299,7 @@ impl Simulation {
                 .poses
                 .record(state.tick, &shown.world, &shown.entities);
         }
-        self.catalog_stale = true;
+        self.publication.timeline_swapped();
         self.update_gauges();
         Ok(())
     }
@@ -419,7 +370,7 @@ impl Simulation {
         self.go_live();
         self.flush_journal();
         self.with_ctx(|rules, ctx| rules.configure_match(settings, ctx))?;
-        if self.recording.is_some() {
+        if self.recording.is_on() {
             self.record_admin_edit("allocation", "match configured");
             self.stop_recording();
             self.start_recording()?;
@@ -430,7 +381,7 @@ impl Simulation {
     /// Whether the game rules have ended the match, and why: asked of the
     /// live timeline only (history shown never ends it).
     pub fn match_over(&self) -> Option<String> {
-        if self.view.is_some() {
+        if self.timelines.view.is_some() {
             return None;
         }
         let mut why = self.rules.match_over()?;
@@ -443,7 +394,7 @@ impl Simulation {
 
     /// The shared counters.
     pub fn stats(&self) -> Arc<SimStats> {
-        self.stats.clone()
+        self.meter.stats().clone()
     }
 
     fn dt(&self) -> f64 {
@@ -454,12 +405,12 @@ impl Simulation {
         let tick = self.shown().world.tick();
         let dt = self.dt();
         // The shown timeline, borrowed apart from the rules and events.
-        let shown = shown_of(&mut self.view, &mut self.live);
+        let shown = self.timelines.shown_mut();
         let mut ctx = SimContext::new(
             &mut shown.world,
             &mut shown.entities,
             &shown.spawn_points,
-            &mut self.ctx_events,
+            &mut self.events,
             tick,
             dt,
             self.config.limits,
@@ -467,14 +418,7 @@ impl Simulation {
         .with_poses(&shown.poses);
         let r = f(self.rules.as_mut(), &mut ctx);
         let rewinds = ctx.rewinds();
-        if rewinds.asked > 0 {
-            self.stats
-                .rewinds
-                .fetch_add(rewinds.asked, Ordering::Relaxed);
-            self.stats
-                .rewinds_clamped
-                .fetch_add(rewinds.clamped, Ordering::Relaxed);
-        }
+        self.meter.rewound(rewinds.asked, rewinds.clamped);
         r
     }
 
@@ -486,16 +430,15 @@ impl Simulation {
 
     fn collect_events(&mut self) {
         let tick = self.shown().world.tick();
-        let mut events = std::mem::take(&mut self.ctx_events);
-        events.extend(self.rules.events());
-        self.pending_events
-            .extend(events.into_iter().map(|e| (tick, e)));
+        let events = std::mem::take(&mut self.events);
+        self.publication
+            .push_events(tick, events.into_iter().chain(self.rules.events()));
     }
 
     /// A client joins (refused when full or already in). While history
     /// is shown the client joins the live world.
     pub fn join(&mut self, client: ClientId) -> Result<EntityId, JoinRefusal> {
-        if self.view.is_some() {
+        if self.timelines.view.is_some() {
             return self.with_live(|s| s.join(client));
         }
         let r = self.join_here(client);
@@ -526,7 +469,7 @@ impl Simulation {
     /// A client leaves (unknown clients are ignored). While history is
     /// shown the client leaves the live world.
     pub fn leave(&mut self, client: ClientId) {
-        if self.view.is_some() {
+        if self.timelines.view.is_some() {
             return self.with_live(|s| s.leave(client));
         }
         if self.shown().clients.contains(&client) {
@@ -536,7 +479,7 @@ impl Simulation {
     }
 
     fn leave_here(&mut self, client: ClientId) {
-        if self.view.is_none() {
+        if self.timelines.view.is_none() {
             self.inputs.forget(client);
         }
         if self.shown_mut().clients.remove(&client) {
@@ -551,14 +494,21 @@ impl Simulation {
     /// one whose tick has passed is applied at once. Inputs that arrive
     /// while history is shown are dropped (the live world is not running).
     pub fn input(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputRefusal> {
-        if self.view.is_some() || !self.live.clients.contains(&client) {
+        if self.timelines.view.is_some() || !self.timelines.live.clients.contains(&client) {
             self.count_rejected_input();
             return Err(InputRefusal::NotJoined(client));
         }
-        let now = self.live.world.tick();
+        let now = self.timelines.live.world.tick();
         match self.inputs.offer(client, input, now) {
             Offered::Held => Ok(()),
             Offered::Late => self.apply_input(client, input),
+            Offered::TooLate => {
+                self.count_rejected_input();
+                Err(InputRefusal::Stale {
+                    tick: input.tick,
+                    now,
+                })
+            }
             Offered::TooEarly => {
                 self.count_rejected_input();
                 Err(InputRefusal::Future {
@@ -584,7 +534,7 @@ impl Simulation {
     /// and every second of ticks ends the window of
     /// [`InputReport::min_lead`](inertia_protocol::control::InputReport::min_lead).
     fn apply_due_inputs(&mut self) {
-        let now = self.live.world.tick();
+        let now = self.timelines.live.world.tick();
         for (client, input) in self.inputs.due(now) {
             let _ = self.apply_input(client, &input);
         }
@@ -604,18 +554,15 @@ impl Simulation {
     }
 
     fn count_rejected_input(&self) {
-        self.stats.inputs_rejected.fetch_add(1, Ordering::Relaxed);
-        if let Some(m) = &self.config.metrics {
-            m.inputs_rejected.inc();
-        }
+        self.meter.input_refused();
     }
 
+    /// Hands an input to the rules. Whether its client is in was asked
+    /// once, as it arrived ([`Self::input`]); a client that left since had
+    /// its waiting inputs dropped, and a journal holds only inputs of
+    /// clients in at the time.
     fn input_here(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputRefusal> {
-        let r = if self.shown().clients.contains(&client) {
-            self.with_ctx(|rules, ctx| rules.on_input(client, input, ctx))
-        } else {
-            Err(InputRefusal::NotJoined(client))
-        };
+        let r = self.with_ctx(|rules, ctx| rules.on_input(client, input, ctx));
         if r.is_err() {
             self.count_rejected_input();
         }

@@ -257,11 +257,11 @@ impl Simulation {
         drop(writer);
         report.torn_tail = opened.cut;
         report.newest_damaged = opened.damaged;
-        self.history = Some(history);
+        self.recording.history = Some(history);
         report.clients = self.shown().clients.iter().copied().collect();
         let shown = self.shown_mut();
         shown.clock = shown.clock.clone().with_tick(shown.world.tick());
-        self.catalog_stale = true;
+        self.publication.timeline_swapped();
         report.seconds = started.elapsed().as_secs_f64();
         if report.mismatches > 0 {
             tracing::error!(

@@ -1,86 +1,81 @@
-//! One tick (rules, physics step, clean-up, rules, records), the clock
-//! deciding how many are due, and the tick's own measurements.
+//! One tick as named, timed stages over the simulation's parts, the clock
+//! deciding how many are due, and the gauges.
 
-use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use inertia_protocol::EntityId;
 
-use super::stats::{RATE_WINDOW, TICK_WINDOW};
+use super::meter::{Stopwatch, TickMeter, TickStages};
+use super::timeline::Timeline;
 use super::{startup, Simulation};
 use crate::rules::{GameEvent, RemovalReason};
 
 impl Simulation {
-    /// Runs one tick: rules, physics step, clean-up, rules.
+    /// Runs one tick, stage by stage (each timed, in [`TickStages`]):
+    ///
+    /// 1. **inputs** — the live clients' inputs due now go to the rules,
+    ///    and the journal so far to the recorder;
+    /// 2. **rules before** — the rules' `before_tick` (inputs become
+    ///    forces);
+    /// 3. **physics** — the world steps; what left it or went non-finite
+    ///    leaves the entity table too, as a `Removed` event;
+    /// 4. **rules after** — the rules' `after_tick`, the poses kept for
+    ///    lag compensation, and the tick's events for the next frame;
+    /// 5. **record** — the tick's hash (and keyframe or checkpoint) to the
+    ///    recording, live only.
     pub fn tick(&mut self) {
         let _span = tracing::debug_span!("tick", tick = self.shown().world.tick() + 1).entered();
-        if self.view.is_none() {
+        let live = self.timelines.is_live();
+        let mut watch = Stopwatch::start();
+        let mut stages = TickStages::default();
+
+        if live {
             self.apply_due_inputs();
         }
         self.flush_journal();
+        stages.inputs = watch.lap();
+
         self.in_tick = true;
-        let t0 = Instant::now();
         self.with_ctx(|rules, ctx| rules.before_tick(ctx));
+        stages.rules_before = watch.lap();
+
         let dt = self.dt();
-        let shown = super::shown_of(&mut self.view, &mut self.live);
-        match shown.world.step(dt) {
-            Ok(report) => {
-                let mut removed = |id: Option<EntityId>, reason: RemovalReason| {
-                    if let Some(entity) = id {
-                        self.ctx_events.push(GameEvent::Removed { entity, reason });
-                    }
-                };
-                for h in report.removed_bodies {
-                    removed(shown.entities.remove_body(h), RemovalReason::OutOfBounds);
-                }
-                for h in report.quarantined_bodies {
-                    let _ = shown.world.remove_body(h);
-                    removed(shown.entities.remove_body(h), RemovalReason::Quarantined);
-                }
-                for h in report.quarantined {
-                    let _ = shown.world.remove_particle(h);
-                    let id = shown.entities.by_particle(h);
-                    if let Some(id) = id {
-                        shown.entities.remove(id);
-                    }
-                    removed(id, RemovalReason::Quarantined);
-                }
-                if shown.world.soft_bodies().next().is_some() {
-                    shown.entities.reshape_soft_bodies(&shown.world);
-                }
-            }
-            Err(e) => {
-                // Only a bad dt fails a step, and dt is fixed and checked.
-                self.stats.step_errors.fetch_add(1, Ordering::Relaxed);
-                tracing::error!(error = %e, "physics step failed");
-            }
-        }
+        step_world(self.timelines.shown_mut(), dt, &mut self.events, &self.meter);
+        stages.physics = watch.lap();
+
         self.with_ctx(|rules, ctx| rules.after_tick(ctx));
         // The tick as published: what clients will draw as this tick.
-        let shown = super::shown_of(&mut self.view, &mut self.live);
+        let shown = self.timelines.shown_mut();
         shown
             .poses
             .record(shown.world.tick(), &shown.world, &shown.entities);
         self.collect_events();
         self.in_tick = false;
-        self.last_tick = t0.elapsed();
-        if self.view.is_none() {
+        stages.rules_after = watch.lap();
+
+        if live {
             self.record_tick();
-            if let Some(cost) = self.startup.observe(self.last_tick) {
-                self.say_startup_cost(cost);
-            }
         }
-        if self.recent_ticks.len() == TICK_WINDOW {
-            self.recent_ticks.pop_front();
+        stages.record = watch.lap();
+
+        if let Some(cost) = self.meter.ticked(stages, live) {
+            self.say_startup_cost(cost);
         }
-        self.recent_ticks.push_back(self.last_tick);
-        self.stats.ticks.fetch_add(1, Ordering::Relaxed);
-        self.stats
-            .last_tick_ns
-            .store(self.last_tick.as_nanos() as u64, Ordering::Relaxed);
-        if let Some(m) = &self.config.metrics {
-            m.tick_duration.observe(self.last_tick.as_secs_f64());
-        }
+    }
+
+    /// What each stage of the last tick took.
+    pub fn last_tick_stages(&self) -> TickStages {
+        self.meter.last_stages()
+    }
+
+    /// The records of the tick just run (see [`super::recording`]).
+    fn record_tick(&mut self) {
+        let tick = self.shown().world.tick();
+        let hash = self.shown().world.state_hash();
+        let (timelines, rules) = (&self.timelines, &*self.rules);
+        self.recording.record_tick(tick, hash, &self.meter, |applied| {
+            super::capture(timelines.shown(), rules, applied)
+        });
     }
 
     /// Logs what the first live ticks cost against the tick budget: a
@@ -120,7 +115,7 @@ impl Simulation {
     /// What the first live ticks cost against the tick budget, once
     /// [`startup::STARTUP_TICKS`] have run.
     pub fn startup_cost(&self) -> Option<startup::TickCost> {
-        self.startup.verdict()
+        self.meter.startup_cost()
     }
 
     /// Runs `n` ticks now, whatever the clock says.
@@ -137,27 +132,9 @@ impl Simulation {
         let before = self.shown().clock.overruns();
         let n = self.shown_mut().clock.advance(wall_elapsed);
         self.run_due(n);
-        let now = Instant::now();
-        if n > 0 {
-            self.recent_runs.push_back((now, n));
-        }
-        while self
-            .recent_runs
-            .front()
-            .is_some_and(|(t, _)| now.duration_since(*t) > RATE_WINDOW)
-        {
-            self.recent_runs.pop_front();
-        }
-        let overruns = self.shown().clock.overruns() - before;
-        if overruns > 0 {
-            self.stats.overruns.fetch_add(overruns, Ordering::Relaxed);
-            self.stats
-                .dropped_ticks
-                .store(self.shown().clock.dropped_ticks(), Ordering::Relaxed);
-            if let Some(m) = &self.config.metrics {
-                m.tick_overruns.inc_by(overruns);
-            }
-        }
+        let clock = &self.shown().clock;
+        let (overruns, dropped) = (clock.overruns() - before, clock.dropped_ticks());
+        self.meter.ran(n, Instant::now(), overruns, dropped);
         self.update_gauges();
         n
     }
@@ -167,33 +144,18 @@ impl Simulation {
         self.shown().world.state_hash()
     }
 
-    /// The 99th percentile of the last [`TICK_WINDOW`] tick durations
-    /// (zero before the first tick).
+    /// The 99th percentile of the last
+    /// [`TICK_WINDOW`](super::TICK_WINDOW) tick durations (zero before the
+    /// first tick).
     pub fn tick_p99(&self) -> Duration {
-        let mut d: Vec<Duration> = self.recent_ticks.iter().copied().collect();
-        if d.is_empty() {
-            return Duration::ZERO;
-        }
-        d.sort_unstable();
-        let i = ((d.len() as f64 * 0.99).ceil() as usize).clamp(1, d.len()) - 1;
-        d[i]
+        self.meter.tick_p99()
     }
 
     /// Ticks run by the clock per wall second over the last
-    /// [`RATE_WINDOW`] (or since start, if shorter), Hz.
+    /// [`RATE_WINDOW`](super::RATE_WINDOW) (or since start, if shorter),
+    /// Hz.
     pub fn achieved_rate(&self) -> f64 {
-        let now = Instant::now();
-        let ran: u64 = self
-            .recent_runs
-            .iter()
-            .filter(|(t, _)| now.duration_since(*t) <= RATE_WINDOW)
-            .map(|(_, n)| u64::from(*n))
-            .sum();
-        let span = now.duration_since(self.started).min(RATE_WINDOW);
-        if span.is_zero() {
-            return 0.0;
-        }
-        ran as f64 / span.as_secs_f64()
+        self.meter.achieved_rate()
     }
 
     /// Clients in the live game.
@@ -203,18 +165,46 @@ impl Simulation {
 
     pub(super) fn update_gauges(&self) {
         let bodies = self.shown().world.bodies().count() as u64;
-        self.stats.bodies.store(bodies, Ordering::Relaxed);
-        self.stats
-            .clients
-            .store(self.live_clients() as u64, Ordering::Relaxed);
-        if let Some(m) = &self.config.metrics {
-            m.bodies.set(bodies as i64);
-            m.connected_clients.set(self.live_clients() as i64);
-            if let Some(h) = &self.history {
-                for (part, bytes) in h.held().parts() {
-                    m.set_seek_memory(part, bytes);
-                }
-            }
+        let held = self.recording.history.as_ref().map(|h| h.held());
+        self.meter
+            .gauges(bodies, self.live_clients() as u64, held);
+    }
+}
+
+/// The physics stage: steps the world of `shown` by `dt` s, and takes
+/// what the step removed (out of bounds) or quarantined (non-finite) out
+/// of the entity table, with a `Removed` event each.
+fn step_world(shown: &mut Timeline, dt: f64, events: &mut Vec<GameEvent>, meter: &TickMeter) {
+    let report = match shown.world.step(dt) {
+        Ok(report) => report,
+        Err(e) => {
+            // Only a bad dt fails a step, and dt is fixed and checked.
+            meter.step_failed();
+            tracing::error!(error = %e, "physics step failed");
+            return;
         }
+    };
+    let mut removed = |id: Option<EntityId>, reason: RemovalReason| {
+        if let Some(entity) = id {
+            events.push(GameEvent::Removed { entity, reason });
+        }
+    };
+    for h in report.removed_bodies {
+        removed(shown.entities.remove_body(h), RemovalReason::OutOfBounds);
+    }
+    for h in report.quarantined_bodies {
+        let _ = shown.world.remove_body(h);
+        removed(shown.entities.remove_body(h), RemovalReason::Quarantined);
+    }
+    for h in report.quarantined {
+        let _ = shown.world.remove_particle(h);
+        let id = shown.entities.by_particle(h);
+        if let Some(id) = id {
+            shown.entities.remove(id);
+        }
+        removed(id, RemovalReason::Quarantined);
+    }
+    if shown.world.soft_bodies().next().is_some() {
+        shown.entities.reshape_soft_bodies(&shown.world);
     }
 }

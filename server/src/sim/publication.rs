@@ -1,0 +1,104 @@
+//! The publication of frames: the events of the ticks since the last
+//! frame numbered and kept among the recent ones, and the entity catalog
+//! remade (with the change it made) when the entity table changed or the
+//! timeline shown was swapped. Everything else a [`Frame`](super::Frame) carries is
+//! read off the timeline shown when it is made.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use inertia_protocol::{EntityDesc, EntityId};
+
+use super::frame::{CatalogChange, RecentEvent, RECENT_CATALOG_CHANGES, RECENT_EVENTS};
+use crate::rules::GameEvent;
+use crate::scene::EntityTable;
+
+/// What frames are published from besides the timeline shown.
+#[derive(Debug)]
+pub(super) struct Publication {
+    /// Every live entity's description, as last published.
+    pub(super) catalog: Arc<BTreeMap<EntityId, EntityDesc>>,
+    /// Bumped whenever the catalog changes.
+    pub(super) catalog_version: u64,
+    /// The most recent catalog changes, for
+    /// [`Frame::catalog_changes`](super::Frame::catalog_changes).
+    pub(super) catalog_changes: Arc<Vec<Arc<CatalogChange>>>,
+    /// The most recent events, for [`Frame::events`](super::Frame::events).
+    pub(super) recent_events: Arc<Vec<Arc<RecentEvent>>>,
+    /// Events of the ticks since the last frame, with their ticks.
+    pending_events: Vec<(u64, GameEvent)>,
+    /// Events published so far (the number of the newest).
+    events_published: u64,
+    /// The entity table version the catalog was last made from.
+    catalog_seen: u64,
+    /// The timeline shown was swapped: remake the catalog.
+    catalog_stale: bool,
+}
+
+impl Publication {
+    /// Publication of a simulation whose entities are `entities`.
+    pub(super) fn new(entities: &EntityTable) -> Self {
+        Self {
+            catalog: Arc::new(entities.catalog()),
+            catalog_version: entities.version(),
+            catalog_changes: Arc::new(Vec::new()),
+            recent_events: Arc::new(Vec::new()),
+            pending_events: Vec::new(),
+            events_published: 0,
+            catalog_seen: entities.version(),
+            catalog_stale: false,
+        }
+    }
+
+    /// Events that happened in `tick`, for the next frame.
+    pub(super) fn push_events(&mut self, tick: u64, events: impl IntoIterator<Item = GameEvent>) {
+        self.pending_events
+            .extend(events.into_iter().map(|e| (tick, e)));
+    }
+
+    /// How many events wait for the next frame.
+    pub(super) fn pending(&self) -> usize {
+        self.pending_events.len()
+    }
+
+    /// Forgets the events that came after the first `kept` waiting (the
+    /// ticks a seek passed over are not news to anyone).
+    pub(super) fn forget_pending_after(&mut self, kept: usize) {
+        self.pending_events.truncate(kept);
+    }
+
+    /// The timeline shown was swapped (its entity table's version says
+    /// nothing of the last one's): the next frame remakes the catalog.
+    pub(super) fn timeline_swapped(&mut self) {
+        self.catalog_stale = true;
+    }
+
+    /// Brings the recent events and the catalog up to date for a frame of
+    /// `entities`.
+    pub(super) fn update(&mut self, entities: &EntityTable) {
+        if !self.pending_events.is_empty() {
+            let mut recent = self.recent_events.as_ref().clone();
+            for (tick, event) in self.pending_events.drain(..) {
+                self.events_published += 1;
+                let number = self.events_published;
+                recent.push(Arc::new(RecentEvent::new(number, tick, event)));
+            }
+            let excess = recent.len().saturating_sub(RECENT_EVENTS);
+            recent.drain(..excess);
+            self.recent_events = Arc::new(recent);
+        }
+        if self.catalog_stale || entities.version() != self.catalog_seen {
+            let catalog = Arc::new(entities.catalog());
+            self.catalog_version += 1;
+            let change = CatalogChange::between(self.catalog_version, &self.catalog, &catalog);
+            let mut changes = self.catalog_changes.as_ref().clone();
+            changes.push(Arc::new(change));
+            let excess = changes.len().saturating_sub(RECENT_CATALOG_CHANGES);
+            changes.drain(..excess);
+            self.catalog_changes = Arc::new(changes);
+            self.catalog = catalog;
+            self.catalog_seen = entities.version();
+            self.catalog_stale = false;
+        }
+    }
+}
