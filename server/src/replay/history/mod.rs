@@ -69,6 +69,12 @@ use std::sync::Arc;
 use super::journal::{self, JournalEntry};
 use super::state::{SimState, StateError};
 use crate::record::{Corruption, Record, RecordReader, Salvaged, SegmentDamage};
+pub use packer::PACK_QUEUE;
+use packer::{PackJob, Packer};
+
+mod packer;
+#[cfg(test)]
+mod tests;
 
 /// Default memory budget for keyframes and checkpoints held for seeking,
 /// bytes (1 GiB: ten minutes of a thousand moving bodies, checkpointed
@@ -147,29 +153,6 @@ pub const JOURNAL_BYTES_PER_ENTRY: usize = std::mem::size_of::<JournalEntry>();
 /// themselves (its map entry and list header).
 pub const JOURNAL_BYTES_PER_TICK: usize = 64;
 
-/// Level of checkpoint packing: zstd's fastest strategy (the packer
-/// thread shares the machine with the tick thread).
-const CHECKPOINT_LEVEL: i32 = 1;
-
-/// The window and hash table (log2 sizes) a checkpoint is packed with
-/// against a keyframe of `keyframe` bytes: the window spans the keyframe
-/// and the checkpoint, and the table has a slot for every other position
-/// of the keyframe. Level 1's own table (2^13 slots) forgets most of a
-/// 1.3 MB keyframe, and a checkpoint packed with it held about twice the
-/// bytes that changed (measured on the replay bench's 1000-body scene:
-/// 510 kB, against 234 kB with this table, for 3.7 ms of packing instead
-/// of 2.4 ms).
-fn checkpoint_table(keyframe: usize) -> (u32, u32) {
-    let log2 = |n: usize| usize::BITS - n.max(1).leading_zeros();
-    let window = log2(2 * keyframe).clamp(20, MAX_WINDOW_LOG);
-    let hash = log2(keyframe).saturating_sub(1).clamp(16, 24);
-    (window, hash)
-}
-
-/// The largest window a checkpoint is packed with (zstd unpacks up to
-/// 2^27 without being told more).
-const MAX_WINDOW_LOG: u32 = 27;
-
 /// A recording in memory. See the module docs.
 pub struct History {
     /// Ticks at which recording sessions started (a session's ticks can be
@@ -194,91 +177,6 @@ pub struct History {
     checkpoint_bytes: usize,
     /// The thread that packs checkpoints (started with the first).
     packer: Option<Packer>,
-}
-
-/// A checkpoint to pack against its keyframe.
-struct PackJob {
-    tick: u64,
-    base: (u64, u32),
-    dictionary: Arc<Vec<u8>>,
-    raw: Vec<u8>,
-}
-
-/// The checkpoint packer: a thread (`inertia-pack`) that zstd-packs each
-/// checkpoint against its keyframe, so the tick thread only captures the
-/// state. Packed checkpoints come back through `done` and are taken in on
-/// the next tick.
-struct Packer {
-    jobs: Option<std::sync::mpsc::SyncSender<PackJob>>,
-    done: std::sync::mpsc::Receiver<(u64, Checkpoint)>,
-}
-
-/// Checkpoints waiting to be packed; more are dropped (seeks then start a
-/// little further back).
-pub const PACK_QUEUE: usize = 16;
-
-/// A compressor that packs checkpoints against `keyframe` (its table is
-/// built once, on the first checkpoint); `None` if zstd refuses it.
-fn checkpoint_packer(keyframe: &[u8]) -> Option<zstd::bulk::Compressor<'static>> {
-    use zstd::zstd_safe::CParameter;
-    let (window, hash) = checkpoint_table(keyframe.len());
-    let mut c = zstd::bulk::Compressor::with_dictionary(CHECKPOINT_LEVEL, keyframe).ok()?;
-    c.set_parameter(CParameter::WindowLog(window)).ok()?;
-    c.set_parameter(CParameter::HashLog(hash)).ok()?;
-    Some(c)
-}
-
-impl Packer {
-    fn start() -> Packer {
-        let (jobs, rx) = std::sync::mpsc::sync_channel::<PackJob>(PACK_QUEUE);
-        let (tx, done) = std::sync::mpsc::channel();
-        let spawned = std::thread::Builder::new()
-            .name("inertia-pack".into())
-            .spawn(move || {
-                // Background work: not at the tick's priority.
-                crate::priority::restore_after_tick();
-                let mut prepared: Option<((u64, u32), zstd::bulk::Compressor<'static>)> = None;
-                // zstd needs room for the worst case (a little more than
-                // the state) to pack into; a checkpoint is most often a
-                // tiny fraction of that, so it is copied out exactly sized.
-                let mut scratch: Vec<u8> = Vec::new();
-                for job in rx {
-                    if prepared.as_ref().map(|(k, _)| *k) != Some(job.base) {
-                        // The old dictionary goes before the next is made.
-                        drop(prepared.take());
-                        prepared = checkpoint_packer(&job.dictionary).map(|c| (job.base, c));
-                    }
-                    drop(job.dictionary);
-                    let Some((_, packer)) = &mut prepared else {
-                        continue;
-                    };
-                    scratch.clear();
-                    scratch.reserve(zstd::zstd_safe::compress_bound(job.raw.len()));
-                    let packed = packer.compress_to_buffer(&job.raw, &mut scratch);
-                    if packed.is_ok() {
-                        let checkpoint = Checkpoint {
-                            base: job.base,
-                            len: job.raw.len(),
-                            packed: scratch.as_slice().to_vec(),
-                        };
-                        if tx.send((job.tick, checkpoint)).is_err() {
-                            return;
-                        }
-                    }
-                }
-            });
-        Packer {
-            jobs: spawned.ok().map(|_| jobs),
-            done,
-        }
-    }
-
-    /// Hands a job over without waiting; dropped when the queue is full.
-    fn send(&self, job: PackJob) {
-        if let Some(jobs) = &self.jobs {
-            let _ = jobs.try_send(job);
-        }
-    }
 }
 
 impl std::fmt::Debug for History {
@@ -829,189 +727,5 @@ impl History {
                 self.start_session(tick);
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::time::{Duration, Instant};
-
-    /// Bytes that pack poorly on their own (a simple generator).
-    fn noise(len: usize, seed: u64) -> Vec<u8> {
-        let mut x = seed | 1;
-        (0..len)
-            .map(|_| {
-                x ^= x << 13;
-                x ^= x >> 7;
-                x ^= x << 17;
-                x as u8
-            })
-            .collect()
-    }
-
-    /// Takes in packed checkpoints until `n` are held (5 s at most).
-    fn wait_for_checkpoints(h: &mut History, n: usize) {
-        let start = Instant::now();
-        while h.checkpoint_stats().0 < n {
-            assert!(
-                start.elapsed() < Duration::from_secs(5),
-                "the packer is stuck"
-            );
-            std::thread::sleep(Duration::from_millis(5));
-            h.collect_packed();
-        }
-    }
-
-    #[test]
-    fn hashes_are_held_in_runs_with_gaps_and_overwrites() {
-        let mut h = History::new(1 << 20);
-        h.start_session(0);
-        for t in 0..5000 {
-            h.add_hash(t, t * 3);
-        }
-        for t in 6000..6010 {
-            h.add_hash(t, t * 3);
-        }
-        h.add_hash(3, 7);
-        h.add_hash(5500, 1);
-        h.add_hash(5999, 2);
-        h.add_hash(6000, 4);
-        assert_eq!(h.hash_at(3), Some(7));
-        assert_eq!(h.hash_at(4095), Some(4095 * 3));
-        assert_eq!(h.hash_at(4096), Some(4096 * 3));
-        assert_eq!(h.hash_at(4999), Some(4999 * 3));
-        assert_eq!(h.hash_at(5000), None);
-        assert_eq!(h.hash_at(5500), Some(1));
-        assert_eq!(h.hash_at(5501), None);
-        assert_eq!(h.hash_at(5999), Some(2));
-        assert_eq!(h.hash_at(6000), Some(4));
-        assert_eq!(h.hash_at(6009), Some(6009 * 3));
-        assert_eq!(h.hash_at(6010), None);
-        assert!(h.reachable(0) && h.reachable(5999) && !h.reachable(5998));
-        assert_eq!(h.last_hashed(), Some(6009));
-        assert_eq!(h.range(), Some((0, 6009)));
-        assert_eq!(h.hashed_ticks(), 5000 + 10 + 2);
-        // Runs: 0, 4096, 5500, 5999, 6000.
-        let run = HASH_RUN * HASH_BYTES_PER_TICK + HASH_RUN_OVERHEAD;
-        assert_eq!(h.held().hashes, 5 * run);
-    }
-
-    #[test]
-    fn journal_is_counted() {
-        let mut h = History::new(1 << 20);
-        h.add_journal(5, &[JournalEntry::Join(1), JournalEntry::Join(2)]);
-        h.add_journal(5, &[JournalEntry::Leave(1)]);
-        h.add_journal(9, &[JournalEntry::Join(3)]);
-        h.add_journal(10, &[]);
-        assert_eq!(h.journal_at(5).len(), 3);
-        assert_eq!(h.journal_entries(), 4);
-        assert_eq!(
-            h.held().journal,
-            2 * JOURNAL_BYTES_PER_TICK + 4 * JOURNAL_BYTES_PER_ENTRY
-        );
-    }
-
-    #[test]
-    fn keyframes_are_held_without_spare_capacity() {
-        let mut h = History::new(1 << 20);
-        h.start_session(0);
-        let mut bytes = Vec::with_capacity(20_000);
-        bytes.extend_from_slice(&noise(10_000, 1));
-        h.add_keyframe(0, 0, Arc::new(bytes));
-        assert_eq!(h.keyframe_stats(), (1, 10_000));
-        assert_eq!(h.held().keyframes, 10_000);
-    }
-
-    #[test]
-    fn checkpoints_are_held_exactly_sized_and_unpack() {
-        let mut h = History::new(1 << 20);
-        h.start_session(0);
-        let keyframe = noise(200_000, 2);
-        h.add_keyframe(0, 0, Arc::new(keyframe.clone()));
-        let mut raw = keyframe.clone();
-        raw[1000] ^= 0xff;
-        h.add_checkpoint(10, raw.clone());
-        wait_for_checkpoints(&mut h, 1);
-        let (_, packed) = h.checkpoint_stats();
-        // Nearly the keyframe: a few hundred bytes, not the ~200 kB zstd
-        // reserves to pack into.
-        assert!(packed < 2_000, "a checkpoint holds {packed} bytes");
-        let c = h.checkpoints.get(&10).expect("held");
-        assert_eq!(c.packed.capacity(), c.packed.len());
-        let base = h.base_for(12).expect("a base");
-        assert_eq!((base.tick, base.bytes.as_slice()), (10, raw.as_slice()));
-    }
-
-    /// A 1000-body world saves about 1.3 MB. A checkpoint that differs from
-    /// such a keyframe in a few scattered places packs to little more than
-    /// what differs, however far into the keyframe the unchanged bytes
-    /// lie. (Packed at level 1 with its small hash table, most of a
-    /// keyframe this size could not be found: checkpoints held twice what
-    /// they needed, and the seek memory then thinned them.)
-    #[test]
-    fn issue_13_checkpoints_find_what_is_unchanged_anywhere_in_a_large_keyframe() {
-        let mut h = History::new(1 << 30);
-        h.start_session(0);
-        let keyframe = noise(1_500_000, 4);
-        h.add_keyframe(0, 0, Arc::new(keyframe.clone()));
-        let mut raw = keyframe.clone();
-        // One changed 8-byte value every 1000 bytes: 12 kB of news.
-        for i in (500..raw.len()).step_by(1000) {
-            for b in &mut raw[i..i + 8] {
-                *b = b.wrapping_add(0x5a);
-            }
-        }
-        h.add_checkpoint(10, raw.clone());
-        wait_for_checkpoints(&mut h, 1);
-        let (_, packed) = h.checkpoint_stats();
-        assert!(
-            packed < 60_000,
-            "a checkpoint with 12 kB changed holds {packed} bytes"
-        );
-        let base = h.base_for(10).expect("a base");
-        assert_eq!(base.bytes.as_slice(), raw.as_slice());
-    }
-
-    #[test]
-    fn removing_a_keyframe_gives_back_what_it_counted() {
-        let mut h = History::new(1 << 20);
-        h.start_session(0);
-        let mut bytes = Vec::with_capacity(20_000);
-        bytes.extend_from_slice(&noise(10_000, 3));
-        let shared = Arc::new(bytes);
-        // Held elsewhere too (the recorder's copy): kept at its capacity.
-        h.add_keyframe(0, 0, shared.clone());
-        assert_eq!(h.held().keyframes, 20_000);
-        h.remove_keyframe(0, 0);
-        assert_eq!(h.held().keyframes, 0, "counted by capacity both ways");
-        drop(shared);
-    }
-
-    #[test]
-    fn keyframes_and_checkpoints_stay_within_the_budget() {
-        const BUDGET: usize = 600_000;
-        let mut h = History::new(BUDGET);
-        h.start_session(0);
-        for k in 0..10u64 {
-            let keyframe = noise(100_000, k + 10);
-            h.add_keyframe(k * 100, 0, Arc::new(keyframe.clone()));
-            assert!(h.held().budgeted() <= BUDGET, "{:?}", h.held());
-            for c in 1..10u64 {
-                let mut raw = keyframe.clone();
-                raw[c as usize * 1000] ^= 0xff;
-                h.add_checkpoint(k * 100 + c * 10, raw);
-                std::thread::sleep(Duration::from_millis(2));
-                h.collect_packed();
-                assert!(h.held().budgeted() <= BUDGET, "{:?}", h.held());
-            }
-        }
-        wait_for_checkpoints(&mut h, 1);
-        // The first keyframe (a session's) and the newest stay.
-        assert!(h.keyframes.contains_key(&(0, 0)) && h.keyframes.contains_key(&(900, 0)));
-        assert_eq!(
-            h.held().budgeted(),
-            h.keyframe_stats().1 + h.checkpoint_stats().1
-        );
     }
 }
