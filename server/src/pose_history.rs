@@ -54,6 +54,7 @@
 
 use std::collections::VecDeque;
 
+use inertia_codec::{ByteReader, ByteWriter, CodecError};
 use inertia_physics::rigid::body::BodyKind;
 use inertia_physics::rigid::pose::Pose;
 use inertia_physics::World;
@@ -282,13 +283,14 @@ impl PoseHistory {
             .map(|t| 12 + t.bodies.len() * POSE_BYTES)
             .sum();
         let mut out = Vec::with_capacity(8 + n);
-        out.extend_from_slice(&(self.capacity as u32).to_le_bytes());
-        out.extend_from_slice(&(self.ticks.len() as u32).to_le_bytes());
+        let mut w = ByteWriter::new(&mut out);
+        w.u32(self.capacity as u32);
+        w.u32(self.ticks.len() as u32);
         for t in &self.ticks {
-            out.extend_from_slice(&t.tick.to_le_bytes());
-            out.extend_from_slice(&(t.bodies.len() as u32).to_le_bytes());
+            w.u64(t.tick);
+            w.u32(t.bodies.len() as u32);
             for k in &t.bodies {
-                out.extend_from_slice(&k.entity.to_le_bytes());
+                w.u32(k.entity);
                 let p = k.pose;
                 for v in p
                     .translation
@@ -296,7 +298,7 @@ impl PoseHistory {
                     .into_iter()
                     .chain(p.rotation.to_array())
                 {
-                    out.extend_from_slice(&v.to_bits().to_le_bytes());
+                    w.f64(v);
                 }
             }
         }
@@ -308,31 +310,31 @@ impl PoseHistory {
     /// entities within a tick too, poses must be finite; trailing bytes
     /// are refused.
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, String> {
-        let mut r = Reader { bytes, at: 0 };
-        let capacity = r.u32()? as usize;
+        let mut r = ByteReader::new(bytes);
+        let capacity = r.u32().map_err(short)? as usize;
         if capacity == 0 || capacity > MAX_REWIND_TICKS {
             return Err(format!("pose window of {capacity} ticks"));
         }
-        let count = r.u32()? as usize;
+        let count = r.u32().map_err(short)? as usize;
         if count > capacity {
             return Err(format!("{count} ticks in a window of {capacity}"));
         }
         let mut history = Self::new(capacity);
         for _ in 0..count {
-            let tick = r.u64()?;
+            let tick = r.u64().map_err(short)?;
             if history.ticks.back().is_some_and(|t| t.tick >= tick) {
                 return Err(format!("pose window tick {tick} does not increase"));
             }
-            let n = r.u32()? as usize;
-            if n.saturating_mul(POSE_BYTES) > bytes.len() - r.at {
+            let n = r.u32().map_err(short)? as usize;
+            if n.saturating_mul(POSE_BYTES) > r.remaining() {
                 return Err(format!("{n} poses cannot fit"));
             }
             let mut bodies = Vec::with_capacity(n);
             for _ in 0..n {
-                let entity = r.u32()?;
+                let entity = r.u32().map_err(short)?;
                 let mut v = [0.0f64; 7];
                 for x in &mut v {
-                    *x = f64::from_bits(r.u64()?);
+                    *x = r.f64().map_err(short)?;
                 }
                 if !v.iter().all(|x| x.is_finite()) {
                     return Err(format!("pose of entity {entity} is not finite"));
@@ -348,42 +350,19 @@ impl PoseHistory {
             }
             history.ticks.push_back(TickPoses { tick, bodies });
         }
-        if r.at != bytes.len() {
+        if !r.is_empty() {
             return Err(format!(
                 "{} trailing bytes after the pose window",
-                bytes.len() - r.at
+                r.remaining()
             ));
         }
         Ok(history)
     }
 }
 
-/// Reads little-endian fields off the front of a saved window.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl Reader<'_> {
-    fn take<const N: usize>(&mut self) -> Result<[u8; N], String> {
-        let end = self
-            .at
-            .checked_add(N)
-            .filter(|&e| e <= self.bytes.len())
-            .ok_or_else(|| format!("pose window ends early at byte {}", self.at))?;
-        let mut out = [0u8; N];
-        out.copy_from_slice(&self.bytes[self.at..end]);
-        self.at = end;
-        Ok(out)
-    }
-
-    fn u32(&mut self) -> Result<u32, String> {
-        self.take().map(u32::from_le_bytes)
-    }
-
-    fn u64(&mut self) -> Result<u64, String> {
-        self.take().map(u64::from_le_bytes)
-    }
+/// A field of a saved window runs past its end.
+fn short(e: CodecError) -> String {
+    format!("pose window {e}")
 }
 
 #[cfg(test)]
@@ -514,7 +493,6 @@ mod tests {
     fn the_window_round_trips_through_bytes_and_refuses_garbage() {
         let (poses, ..) = history(6, 9);
         let bytes = poses.to_bytes();
-        std::fs::write("/tmp/golden_pose.bin", &bytes).unwrap(); // TMPGOLDEN
         assert_eq!(PoseHistory::from_bytes(&bytes), Ok(poses));
         for cut in 0..bytes.len() {
             assert!(PoseHistory::from_bytes(&bytes[..cut]).is_err(), "cut {cut}");

@@ -16,10 +16,10 @@ use std::time::{Duration, Instant};
 use inertia_protocol::PlayerInput;
 use inertia_server::record::{Record, RecordReader, Recorder, RecorderConfig};
 use inertia_server::replay::journal::{self, JournalEntry};
-use inertia_server::sim::verify::verify;
 use inertia_server::replay::SimState;
 use inertia_server::rules::SandboxRules;
 use inertia_server::scene::{Scene, SceneFormat};
+use inertia_server::sim::verify::verify;
 use inertia_server::sim::{SimConfig, SimHandle, Simulation};
 
 fn temp_dir(what: &str) -> PathBuf {

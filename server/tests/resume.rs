@@ -12,9 +12,9 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use common::{admin, wait_for, DevServer};
-use inertia_server::sim::verify::verify;
 use inertia_server::replay::{History, DEFAULT_KEYFRAME_BUDGET};
 use inertia_server::rules::SandboxRules;
+use inertia_server::sim::verify::verify;
 
 /// `args` with `--json`, retried while the server is still starting.
 fn json(credentials: &Path, args: &[&str]) -> serde_json::Value {

@@ -33,8 +33,7 @@ use inertia_physics::rigid::shape::Shape;
 use inertia_protocol::entity::buttons;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput};
 use inertia_server::rules::{
-    validate_input, ClientId, EntityLook, GameRules, InputRefusal, JoinRefusal,
-    SimContext,
+    validate_input, ClientId, EntityLook, GameRules, InputRefusal, JoinRefusal, SimContext,
 };
 use inertia_server::server::start_with_rules;
 use inertia_tests::server::{test_config, token};

@@ -37,10 +37,10 @@ use inertia_protocol::input::quantize_input;
 use inertia_protocol::rng::SplitMix;
 use inertia_protocol::{EntityId, PlayerInput};
 use inertia_server::record::{Record, RecordReader, RecorderConfig};
-use inertia_server::sim::verify::verify;
 use inertia_server::replay::SimState;
 use inertia_server::rules::SandboxRules;
 use inertia_server::scene::{Scene, SceneFormat};
+use inertia_server::sim::verify::verify;
 use inertia_server::sim::{SimConfig, Simulation};
 
 use crate::report::{logical_cores, median, note, progress, Record as Out, Sink};

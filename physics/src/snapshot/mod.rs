@@ -1,13 +1,14 @@
 //! Save and restore of the complete world state in a compact binary form.
 //!
-//! Layout (little-endian): magic `INRTWRLD`, format version (u32), the
-//! state, and a 64-bit checksum of everything before it. The state is
-//! written by one walk (`encode_world`) that the [state hash](crate::hash)
-//! also uses, so the hash covers exactly what is saved. Everything the step
-//! reads is in it — including the Verlet history, the slot tables and free
-//! lists (which decide future handles) — so restore-then-step gives the same
-//! bits as never-saved-then-step. Derived data (spring adjacency, scratch
-//! buffers, GPU buffers) is rebuilt.
+//! Layout (little-endian, through [`inertia_codec`]): magic `INRTWRLD`,
+//! format version (u32), the state, and a 64-bit checksum of everything
+//! before it. The state is written by one walk (`encode_world`) that the
+//! [state hash](crate::hash) also uses, so the hash covers exactly what is
+//! saved. Everything the step reads is in it — including the Verlet
+//! history, the slot tables and free lists (which decide future handles) —
+//! so restore-then-step gives the same bits as never-saved-then-step.
+//! Derived data (spring adjacency, scratch buffers, GPU buffers) is
+//! rebuilt.
 //!
 //! Decoding treats the bytes as untrusted: every count is bounded by the bytes
 //! left, every value is validated as if it came through the public API, and
@@ -23,6 +24,7 @@ use crate::handle::BodyHandle;
 use crate::rigid::aabb::Aabb;
 
 use glam::DVec3;
+use inertia_codec::{ByteReader, ByteWriter, CodecError};
 
 use crate::arena::{Arena, Entry};
 use crate::forces::{
@@ -105,19 +107,19 @@ pub(crate) struct ByteSink(pub(crate) Vec<u8>);
 
 impl Sink for ByteSink {
     fn u8(&mut self, v: u8) {
-        self.0.push(v);
+        ByteWriter::new(&mut self.0).u8(v);
     }
     fn u32(&mut self, v: u32) {
-        self.0.extend_from_slice(&v.to_le_bytes());
+        ByteWriter::new(&mut self.0).u32(v);
     }
     fn u64(&mut self, v: u64) {
-        self.0.extend_from_slice(&v.to_le_bytes());
+        ByteWriter::new(&mut self.0).u64(v);
     }
     fn f32(&mut self, v: f32) {
-        self.0.extend_from_slice(&v.to_bits().to_le_bytes());
+        ByteWriter::new(&mut self.0).f32(v);
     }
     fn f64(&mut self, v: f64) {
-        self.0.extend_from_slice(&v.to_bits().to_le_bytes());
+        ByteWriter::new(&mut self.0).f64(v);
     }
 }
 
@@ -337,9 +339,10 @@ pub(crate) struct DecodedWorld {
     pub(crate) fluids: Arena<crate::xpbd::fluid::Fluid>,
 }
 
+/// Reads the state's values off the file's bytes: the byte fields come
+/// from [`ByteReader`], their meaning and bounds from here.
 struct Reader<'a> {
-    b: &'a [u8],
-    pos: usize,
+    bytes: ByteReader<'a>,
     /// The format version being read.
     version: u32,
 }
@@ -348,30 +351,32 @@ fn invalid<T>(msg: impl Into<String>) -> Result<T, SnapshotError> {
     Err(SnapshotError::Invalid(msg.into()))
 }
 
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], SnapshotError> {
-        if self.b.len() - self.pos < n {
-            return Err(SnapshotError::Truncated(self.b.len()));
-        }
-        let s = &self.b[self.pos..self.pos + n];
-        self.pos += n;
-        Ok(s)
+/// A short read: the state ends at byte `at + remaining`, before what it
+/// claims to hold.
+fn truncated(e: CodecError) -> SnapshotError {
+    match e {
+        CodecError::Truncated { at, remaining, .. } => SnapshotError::Truncated(at + remaining),
+        // The state has no varints.
+        other => SnapshotError::Invalid(other.to_string()),
+    }
+}
+
+impl Reader<'_> {
+    /// Where the state's bytes end (the checksum follows).
+    fn end(&self) -> usize {
+        self.bytes.position() + self.bytes.remaining()
     }
     fn u8(&mut self) -> Result<u8, SnapshotError> {
-        Ok(self.take(1)?[0])
+        self.bytes.u8().map_err(truncated)
     }
     fn u32(&mut self) -> Result<u32, SnapshotError> {
-        Ok(u32::from_le_bytes(
-            self.take(4)?.try_into().expect("4 bytes"),
-        ))
+        self.bytes.u32().map_err(truncated)
     }
     fn u64(&mut self) -> Result<u64, SnapshotError> {
-        Ok(u64::from_le_bytes(
-            self.take(8)?.try_into().expect("8 bytes"),
-        ))
+        self.bytes.u64().map_err(truncated)
     }
     fn f64(&mut self) -> Result<f64, SnapshotError> {
-        Ok(f64::from_bits(self.u64()?))
+        self.bytes.f64().map_err(truncated)
     }
     fn finite(&mut self, what: &str) -> Result<f64, SnapshotError> {
         let v = self.f64()?;
@@ -382,7 +387,7 @@ impl<'a> Reader<'a> {
         }
     }
     fn finite32(&mut self, what: &str) -> Result<f32, SnapshotError> {
-        let v = f32::from_bits(self.u32()?);
+        let v = self.bytes.f32().map_err(truncated)?;
         if v.is_finite() {
             Ok(v)
         } else {
@@ -399,9 +404,9 @@ impl<'a> Reader<'a> {
     /// A count of items at least `min_size` bytes each, bounded by the bytes left.
     fn count(&mut self, min_size: usize) -> Result<usize, SnapshotError> {
         let n = self.u64()?;
-        let left = (self.b.len() - self.pos) as u64;
+        let left = self.bytes.remaining() as u64;
         if n > left / min_size.max(1) as u64 {
-            return Err(SnapshotError::Truncated(self.b.len()));
+            return Err(SnapshotError::Truncated(self.end()));
         }
         Ok(n as usize)
     }
@@ -674,10 +679,14 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         return Err(SnapshotError::Truncated(bytes.len()));
     }
     let body_end = bytes.len() - 8;
-    let stored = u64::from_le_bytes(bytes[body_end..].try_into().expect("8 bytes"));
+    let stored = ByteReader::new(&bytes[body_end..])
+        .u64()
+        .map_err(truncated)?;
+    let mut state = ByteReader::new(&bytes[..body_end]);
+    // Past the magic, checked above.
+    state.bytes(MAGIC.len()).map_err(truncated)?;
     let mut r = Reader {
-        b: &bytes[..body_end],
-        pos: MAGIC.len(),
+        bytes: state,
         version: FORMAT_VERSION,
     };
     let version = r.u32()?;
@@ -745,8 +754,8 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     } else {
         Arena::default()
     };
-    if r.pos != r.b.len() {
-        return Err(SnapshotError::Trailing(r.b.len() - r.pos));
+    if !r.bytes.is_empty() {
+        return Err(SnapshotError::Trailing(r.bytes.remaining()));
     }
     Ok(DecodedWorld {
         tick,

@@ -32,7 +32,8 @@
 //! rewind itself (see the server's lag compensation).
 //!
 //! A varint is groups of 7 value bits, least significant first, each after
-//! a bit saying whether another group follows. The encoding is canonical:
+//! a bit saying whether another group follows. The signed tick step is
+//! zigzagged first ([`inertia_codec::zigzag()`]). The encoding is canonical:
 //! the decoder refuses anything the encoder would not have written
 //! (non-minimal varints, a step spelled long, nonzero padding, trailing
 //! bytes), so `encode(decode(bytes)) == bytes` for every accepted datagram.
@@ -41,6 +42,7 @@ mod buffer;
 
 use std::f64::consts::TAU;
 
+use inertia_codec::{unzigzag, zigzag};
 use thiserror::Error;
 
 use crate::bits::{BitError, BitReader, BitWriter};
@@ -159,6 +161,13 @@ pub enum InputError {
 }
 
 /// Writes `v` as a varint (see the module notes).
+///
+/// Not the byte-level LEB128 [varint](inertia_codec#varints): this one is
+/// bit-packed in the middle of a datagram, not byte-aligned; each group's
+/// flag comes before its 7 value bits rather than as the high bit of a
+/// byte; and its reader refuses non-minimal forms and bounds the value
+/// bits per field (a 32-bit step, the 12-bit view), which the datagram's
+/// canonical form needs. Only the zigzag is shared.
 fn write_varint(w: &mut BitWriter, mut v: u64) {
     loop {
         let group = v & 0x7F;
@@ -200,14 +209,6 @@ fn read_varint(r: &mut BitReader<'_>, max_bits: u32) -> Result<u64, InputError> 
             });
         }
     }
-}
-
-fn zigzag(v: i64) -> u64 {
-    ((v << 1) ^ (v >> 63)) as u64
-}
-
-fn unzigzag(v: u64) -> i64 {
-    ((v >> 1) as i64) ^ -((v & 1) as i64)
 }
 
 fn movement_index(x: f32) -> u64 {

@@ -3,6 +3,12 @@
 //! deltas from a baseline. Each writer is generic over [`BitSink`] so that
 //! the encoder can count an entity's exact size with the very code that
 //! writes it.
+//!
+//! These are bit-level codes of their own, not the byte codec's LEB128
+//! varint and zigzag ([`inertia_codec`]): a value's size class is told in
+//! truncated unary and its bits follow at exactly the class's width, so a
+//! small value costs a few bits rather than a byte; and a delta is two's
+//! complement in its class's fixed width, where a zigzag would save no bit.
 
 use crate::bits::{BitReader, BitWriter};
 

@@ -36,7 +36,7 @@
 //! A (subkey, nonce) pair then repeats only when all 24 random bytes do,
 //! which is negligible for any number of tokens a server key will see.
 //!
-//! ## Layout (all integers little-endian)
+//! ## Layout (all integers little-endian, through [`inertia_codec`])
 //!
 //! ```text
 //! public  version u16 | expires_at u64 | nonce [24] | cert_fingerprint [32]
@@ -50,6 +50,7 @@ mod replay_guard;
 
 use std::fmt;
 
+use inertia_codec::{ByteReader, ByteWriter, CodecError};
 use ring::aead::{self, Aad, LessSafeKey, Nonce, UnboundKey, CHACHA20_POLY1305};
 use ring::rand::{SecureRandom, SystemRandom};
 use ring::{digest, hkdf};
@@ -220,13 +221,14 @@ pub struct PublicToken {
 
 impl PublicToken {
     fn write(&self, out: &mut Vec<u8>) {
-        out.extend_from_slice(&self.version.to_le_bytes());
-        out.extend_from_slice(&self.expires_at.to_le_bytes());
-        out.extend_from_slice(&self.nonce);
-        out.extend_from_slice(&self.cert_fingerprint);
+        let mut w = ByteWriter::new(out);
+        w.u16(self.version);
+        w.u64(self.expires_at);
+        w.bytes(&self.nonce);
+        w.bytes(&self.cert_fingerprint);
         // Bounded by mint and by from_bytes.
-        out.push(self.server_addr.len() as u8);
-        out.extend_from_slice(self.server_addr.as_bytes());
+        w.u8(self.server_addr.len() as u8);
+        w.bytes(self.server_addr.as_bytes());
     }
 
     fn to_bytes(&self) -> Vec<u8> {
@@ -455,13 +457,14 @@ fn mint_with(
     };
     let mut private =
         Vec::with_capacity(PRIVATE_FIXED + server_addr.len() + user_data.len() + TAG_BYTES);
-    private.extend_from_slice(&client_id.to_le_bytes());
-    private.extend_from_slice(&token_id);
-    private.extend_from_slice(&expires_at.to_le_bytes());
-    private.push(server_addr.len() as u8);
-    private.extend_from_slice(server_addr.as_bytes());
-    private.extend_from_slice(&(user_data.len() as u16).to_le_bytes());
-    private.extend_from_slice(user_data);
+    let mut w = ByteWriter::new(&mut private);
+    w.u64(client_id);
+    w.bytes(&token_id);
+    w.u64(expires_at);
+    w.u8(server_addr.len() as u8);
+    w.bytes(server_addr.as_bytes());
+    w.u16(user_data.len() as u16);
+    w.bytes(user_data);
     let aad = public.to_bytes();
     key.subkey(&nonce)
         .seal_in_place_append_tag(aead_nonce(&nonce), Aad::from(&aad[..]), &mut private)
@@ -529,69 +532,48 @@ impl TokenIssuer {
     }
 }
 
-/// Reads fields off the front of untrusted bytes.
-struct Cursor<'a> {
-    bytes: &'a [u8],
+/// The bytes ended inside the field `what` (a token has no varints, so
+/// every [`CodecError`] is this).
+fn ends_inside(what: &'static str) -> impl Fn(CodecError) -> TokenFormatError {
+    move |_| TokenFormatError::Truncated { what }
 }
 
-impl<'a> Cursor<'a> {
-    fn take(&mut self, n: usize, what: &'static str) -> Result<&'a [u8], TokenFormatError> {
-        if self.bytes.len() < n {
-            return Err(TokenFormatError::Truncated { what });
-        }
-        let (head, tail) = self.bytes.split_at(n);
-        self.bytes = tail;
-        Ok(head)
+/// A length-prefixed field of at most `max` bytes; the prefix is one byte
+/// when `wide` is false, two otherwise.
+fn field<'a>(
+    r: &mut ByteReader<'a>,
+    wide: bool,
+    max: usize,
+    what: &'static str,
+) -> Result<&'a [u8], TokenFormatError> {
+    let len = if wide {
+        usize::from(r.u16().map_err(ends_inside(what))?)
+    } else {
+        usize::from(r.u8().map_err(ends_inside(what))?)
+    };
+    if len > max {
+        return Err(TokenFormatError::FieldTooLong { what, len, max });
     }
+    r.bytes(len).map_err(ends_inside(what))
+}
 
-    fn array<const N: usize>(&mut self, what: &'static str) -> Result<[u8; N], TokenFormatError> {
-        let mut out = [0u8; N];
-        out.copy_from_slice(self.take(N, what)?);
-        Ok(out)
-    }
+/// A field of UTF-8 text, its length in one byte, at most `max` bytes.
+fn text(
+    r: &mut ByteReader<'_>,
+    max: usize,
+    what: &'static str,
+) -> Result<String, TokenFormatError> {
+    let raw = field(r, false, max, what)?;
+    std::str::from_utf8(raw)
+        .map(str::to_owned)
+        .map_err(|_| TokenFormatError::NotUtf8 { what })
+}
 
-    fn u16(&mut self, what: &'static str) -> Result<u16, TokenFormatError> {
-        Ok(u16::from_le_bytes(self.array(what)?))
-    }
-
-    fn u64(&mut self, what: &'static str) -> Result<u64, TokenFormatError> {
-        Ok(u64::from_le_bytes(self.array(what)?))
-    }
-
-    /// A length-prefixed field of at most `max` bytes; the prefix is one
-    /// byte when `wide` is false, two otherwise.
-    fn field(
-        &mut self,
-        wide: bool,
-        max: usize,
-        what: &'static str,
-    ) -> Result<&'a [u8], TokenFormatError> {
-        let len = if wide {
-            usize::from(self.u16(what)?)
-        } else {
-            usize::from(self.array::<1>(what)?[0])
-        };
-        if len > max {
-            return Err(TokenFormatError::FieldTooLong { what, len, max });
-        }
-        self.take(len, what)
-    }
-
-    fn text(&mut self, max: usize, what: &'static str) -> Result<String, TokenFormatError> {
-        let raw = self.field(false, max, what)?;
-        std::str::from_utf8(raw)
-            .map(str::to_owned)
-            .map_err(|_| TokenFormatError::NotUtf8 { what })
-    }
-
-    fn finish(&self) -> Result<(), TokenFormatError> {
-        if self.bytes.is_empty() {
-            Ok(())
-        } else {
-            Err(TokenFormatError::TrailingBytes {
-                extra: self.bytes.len(),
-            })
-        }
+/// Refuses bytes after the last field.
+fn finish(r: &ByteReader<'_>) -> Result<(), TokenFormatError> {
+    match r.remaining() {
+        0 => Ok(()),
+        extra => Err(TokenFormatError::TrailingBytes { extra }),
     }
 }
 
@@ -602,8 +584,9 @@ impl ConnectToken {
             PUBLIC_FIXED + self.public.server_addr.len() + 2 + self.sealed.len(),
         );
         self.public.write(&mut out);
-        out.extend_from_slice(&(self.sealed.len() as u16).to_le_bytes());
-        out.extend_from_slice(&self.sealed);
+        let mut w = ByteWriter::new(&mut out);
+        w.u16(self.sealed.len() as u16);
+        w.bytes(&self.sealed);
         out
     }
 
@@ -617,14 +600,14 @@ impl ConnectToken {
                 max: MAX_TOKEN_BYTES,
             });
         }
-        let mut c = Cursor { bytes };
-        let version = c.u16("version")?;
-        let expires_at = c.u64("expiry")?;
-        let nonce = c.array("nonce")?;
-        let cert_fingerprint = c.array("certificate fingerprint")?;
-        let server_addr = c.text(MAX_SERVER_ADDR_BYTES, "server address")?;
-        let sealed = c.field(true, MAX_SEALED_BYTES, "sealed part")?;
-        c.finish()?;
+        let mut r = ByteReader::new(bytes);
+        let version = r.u16().map_err(ends_inside("version"))?;
+        let expires_at = r.u64().map_err(ends_inside("expiry"))?;
+        let nonce = r.array().map_err(ends_inside("nonce"))?;
+        let cert_fingerprint = r.array().map_err(ends_inside("certificate fingerprint"))?;
+        let server_addr = text(&mut r, MAX_SERVER_ADDR_BYTES, "server address")?;
+        let sealed = field(&mut r, true, MAX_SEALED_BYTES, "sealed part")?;
+        finish(&r)?;
         if sealed.len() < PRIVATE_FIXED + TAG_BYTES {
             return Err(TokenFormatError::Truncated {
                 what: "sealed part",
@@ -663,13 +646,13 @@ impl ConnectToken {
             .subkey(&public.nonce)
             .open_in_place(aead_nonce(&public.nonce), Aad::from(&aad[..]), &mut buf)
             .map_err(|_| TokenError::Forged)?;
-        let mut c = Cursor { bytes: plain };
-        let client_id = c.u64("client id")?;
-        let token_id = c.array("token id")?;
-        let expires_at = c.u64("expiry")?;
-        let server_addr = c.text(MAX_SERVER_ADDR_BYTES, "server address")?;
-        let user_data = c.field(true, MAX_USER_DATA_BYTES, "user data")?.to_vec();
-        c.finish()?;
+        let mut r = ByteReader::new(plain);
+        let client_id = r.u64().map_err(ends_inside("client id"))?;
+        let token_id = r.array().map_err(ends_inside("token id"))?;
+        let expires_at = r.u64().map_err(ends_inside("expiry"))?;
+        let server_addr = text(&mut r, MAX_SERVER_ADDR_BYTES, "server address")?;
+        let user_data = field(&mut r, true, MAX_USER_DATA_BYTES, "user data")?.to_vec();
+        finish(&r)?;
         if expires_at != public.expires_at || server_addr != public.server_addr {
             return Err(TokenFormatError::Inconsistent.into());
         }

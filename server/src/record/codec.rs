@@ -1,11 +1,13 @@
 //! The [`Record`] type and its payload encoding (the bytes inside a frame;
 //! see the layout in the [module docs](super)).
 //!
-//! Payloads are written by hand, little-endian, fixed-width, rather than by a
-//! generic serializer: the layout is then documented byte by byte, stays put
-//! when a derive changes, and a float's exact bit pattern (NaN included) is
-//! what comes back — replays compare state hashes bit for bit.
+//! Payloads are written field by field ([`inertia_codec`]), little-endian,
+//! fixed-width, rather than by a generic serializer: the layout is then
+//! documented byte by byte, stays put when a derive changes, and a float's
+//! exact bit pattern (NaN included) is what comes back — replays compare
+//! state hashes bit for bit.
 
+use inertia_codec::{ByteReader, ByteWriter};
 use inertia_protocol::PlayerInput;
 
 use super::error::{Corruption, RecordError};
@@ -162,17 +164,18 @@ impl Record {
             });
         }
         out.reserve(len as usize);
-        out.extend_from_slice(&self.tick().to_le_bytes());
+        let mut w = ByteWriter::new(out);
+        w.u64(self.tick());
         // Lengths below fit in u32: each is part of a payload ≤ MAX_RECORD_BYTES.
         match self {
             Self::SessionStart { tick_hz, scene, .. } => {
-                out.extend_from_slice(&tick_hz.to_le_bytes());
-                out.extend_from_slice(&(scene.len() as u32).to_le_bytes());
-                out.extend_from_slice(scene.as_bytes());
+                w.u32(*tick_hz);
+                w.u32(scene.len() as u32);
+                w.bytes(scene.as_bytes());
             }
-            Self::Keyframe { state, .. } => out.extend_from_slice(state),
+            Self::Keyframe { state, .. } => w.bytes(state),
             Self::Inputs { inputs, .. } => {
-                out.extend_from_slice(&(inputs.len() as u32).to_le_bytes());
+                w.u32(inputs.len() as u32);
                 for (client, input) in inputs {
                     // Destructured so a new field in PlayerInput fails to
                     // compile here instead of silently not being recorded.
@@ -184,22 +187,22 @@ impl Record {
                         buttons,
                         view_behind,
                     } = *input;
-                    out.extend_from_slice(&client.to_le_bytes());
-                    out.extend_from_slice(&sequence.to_le_bytes());
-                    out.extend_from_slice(&tick.to_le_bytes());
-                    out.extend_from_slice(&movement[0].to_bits().to_le_bytes());
-                    out.extend_from_slice(&movement[1].to_bits().to_le_bytes());
-                    out.extend_from_slice(&yaw.to_bits().to_le_bytes());
-                    out.push(buttons);
-                    out.extend_from_slice(&view_behind.to_bits().to_le_bytes());
+                    w.u64(*client);
+                    w.u32(sequence);
+                    w.u64(tick);
+                    w.f32(movement[0]);
+                    w.f32(movement[1]);
+                    w.f32(yaw);
+                    w.u8(buttons);
+                    w.f32(view_behind);
                 }
             }
-            Self::TickHash { hash, .. } => out.extend_from_slice(&hash.to_le_bytes()),
-            Self::Journal { entries, .. } => out.extend_from_slice(entries),
+            Self::TickHash { hash, .. } => w.u64(*hash),
+            Self::Journal { entries, .. } => w.bytes(entries),
             Self::AdminEdit { who, what, .. } => {
-                out.extend_from_slice(&(who.len() as u32).to_le_bytes());
-                out.extend_from_slice(who.as_bytes());
-                out.extend_from_slice(what);
+                w.u32(who.len() as u32);
+                w.bytes(who.as_bytes());
+                w.bytes(what);
             }
         }
         Ok(())
@@ -209,13 +212,13 @@ impl Record {
     /// checked against what is left, trailing bytes are refused, nothing
     /// panics.
     pub(crate) fn decode(kind: RecordKind, payload: &[u8]) -> Result<Self, Corruption> {
-        let mut r = Cursor { rest: payload };
+        let mut r = ByteReader::new(payload);
         let tick = r.u64()?;
         let record = match kind {
             RecordKind::SessionStart => {
                 let tick_hz = r.u32()?;
                 let len = r.u32()?;
-                let scene = r.string(len)?;
+                let scene = string(&mut r, len)?;
                 Self::SessionStart {
                     tick,
                     tick_hz,
@@ -224,7 +227,7 @@ impl Record {
             }
             RecordKind::Keyframe => Self::Keyframe {
                 tick,
-                state: r.take_rest().to_vec(),
+                state: r.rest().to_vec(),
             },
             RecordKind::Inputs | RecordKind::InputsWithView => {
                 let with_view = kind == RecordKind::InputsWithView;
@@ -234,7 +237,7 @@ impl Record {
                     INPUT_ENTRY_BYTES_V1
                 };
                 let count = r.u32()? as usize;
-                if r.rest.len() / entry != count || r.rest.len() % entry != 0 {
+                if r.remaining() / entry != count || r.remaining() % entry != 0 {
                     return Err(Corruption::BadPayload("input count does not match length"));
                 }
                 let mut inputs = Vec::with_capacity(count);
@@ -243,14 +246,10 @@ impl Record {
                     let input = PlayerInput {
                         sequence: r.u32()?,
                         tick: r.u64()?,
-                        movement: [f32::from_bits(r.u32()?), f32::from_bits(r.u32()?)],
-                        yaw: f32::from_bits(r.u32()?),
+                        movement: [r.f32()?, r.f32()?],
+                        yaw: r.f32()?,
                         buttons: r.u8()?,
-                        view_behind: if with_view {
-                            f32::from_bits(r.u32()?)
-                        } else {
-                            0.0
-                        },
+                        view_behind: if with_view { r.f32()? } else { 0.0 },
                     };
                     inputs.push((client, input));
                 }
@@ -262,19 +261,19 @@ impl Record {
             },
             RecordKind::Journal => Self::Journal {
                 tick,
-                entries: r.take_rest().to_vec(),
+                entries: r.rest().to_vec(),
             },
             RecordKind::AdminEdit => {
                 let len = r.u32()?;
-                let who = r.string(len)?;
+                let who = string(&mut r, len)?;
                 Self::AdminEdit {
                     tick,
                     who,
-                    what: r.take_rest().to_vec(),
+                    what: r.rest().to_vec(),
                 }
             }
         };
-        if r.rest.is_empty() {
+        if r.is_empty() {
             Ok(record)
         } else {
             Err(Corruption::BadPayload("trailing bytes"))
@@ -282,47 +281,10 @@ impl Record {
     }
 }
 
-/// Reads little-endian fields off the front of a byte slice.
-struct Cursor<'a> {
-    rest: &'a [u8],
-}
-
-impl<'a> Cursor<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], Corruption> {
-        if n > self.rest.len() {
-            return Err(Corruption::BadPayload("field runs past the payload"));
-        }
-        let (head, tail) = self.rest.split_at(n);
-        self.rest = tail;
-        Ok(head)
-    }
-
-    fn take_rest(&mut self) -> &'a [u8] {
-        std::mem::take(&mut self.rest)
-    }
-
-    fn array<const N: usize>(&mut self) -> Result<[u8; N], Corruption> {
-        let mut out = [0u8; N];
-        out.copy_from_slice(self.take(N)?);
-        Ok(out)
-    }
-
-    fn u8(&mut self) -> Result<u8, Corruption> {
-        Ok(self.array::<1>()?[0])
-    }
-
-    fn u32(&mut self) -> Result<u32, Corruption> {
-        self.array().map(u32::from_le_bytes)
-    }
-
-    fn u64(&mut self) -> Result<u64, Corruption> {
-        self.array().map(u64::from_le_bytes)
-    }
-
-    fn string(&mut self, len: u32) -> Result<String, Corruption> {
-        let bytes = self.take(len as usize)?;
-        String::from_utf8(bytes.to_vec()).map_err(|_| Corruption::BadPayload("string is not UTF-8"))
-    }
+/// `len` bytes of UTF-8 text.
+fn string(r: &mut ByteReader<'_>, len: u32) -> Result<String, Corruption> {
+    let bytes = r.bytes(len as usize)?;
+    String::from_utf8(bytes.to_vec()).map_err(|_| Corruption::BadPayload("string is not UTF-8"))
 }
 
 #[cfg(test)]
@@ -459,52 +421,5 @@ mod tests {
         assert!(Record::decode(RecordKind::InputsWithView, &old).is_err());
         // Trailing bytes after a tick hash.
         assert!(Record::decode(RecordKind::TickHash, &[0; 17]).is_err());
-    }
-
-    // TMPGOLDEN
-    #[test]
-    fn tmp_golden_formats() {
-        use crate::replay::journal::{self, JournalEntry, WorldEdit};
-        use crate::replay::SimState;
-        let mut rec = Vec::new();
-        for r in [
-            Record::SessionStart { tick: 7, tick_hz: 60, scene: "démo".into() },
-            Record::Keyframe { tick: 8, state: vec![1, 2, 3] },
-            Record::Inputs { tick: 9, inputs: vec![(1, input(1)), (u64::MAX, input(2))] },
-            Record::TickHash { tick: u64::MAX, hash: 0xDEAD_BEEF },
-            Record::Journal { tick: 3, entries: vec![4, 5] },
-            Record::AdminEdit { tick: 10, who: "ops".into(), what: vec![9; 10] },
-        ] {
-            r.encode_payload(&mut rec).unwrap();
-        }
-        std::fs::write("/tmp/golden_record.bin", &rec).unwrap();
-        let wire = inertia_protocol::input::quantize_input(&input(70_000));
-        let mut early = input(5);
-        early.tick = 990;
-        let early = inertia_protocol::input::quantize_input(&early);
-        let entries = vec![
-            JournalEntry::Join(7),
-            JournalEntry::Input(7, wire),
-            JournalEntry::Input(8, early),
-            JournalEntry::Input(u64::MAX, input(3)),
-            JournalEntry::Edit(Box::new(WorldEdit::Despawn { id: 4 })),
-            JournalEntry::Leave(300),
-        ];
-        let j = journal::encode(1000, &entries);
-        std::fs::write("/tmp/golden_journal.bin", &j).unwrap();
-        assert_eq!(journal::decode(1000, &j).unwrap().len(), entries.len());
-        let state = SimState {
-            tick: 77,
-            applied: 3,
-            world: vec![1, 2, 3],
-            entities: crate::scene::entities::EntityTable::new(),
-            spawn_points: vec![inertia_physics::glam::DVec3::new(1.0, -2.5, 3.0)],
-            clients: vec![5, u64::MAX],
-            rules: vec![9, 9],
-            poses: Some(crate::pose_history::PoseHistory::new(4)),
-        };
-        let s = state.encode();
-        std::fs::write("/tmp/golden_state.bin", &s).unwrap();
-        assert_eq!(SimState::peek(&s).unwrap(), (77, 3));
     }
 }

@@ -2,6 +2,8 @@
 
 use std::path::PathBuf;
 
+use inertia_codec::CodecError;
+
 /// Why a stretch of a segment file is not a valid record. Carried by
 /// [`RecordError::Corrupt`] with the file and byte offset.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -44,6 +46,14 @@ impl Corruption {
     /// other kind is damage to report, never to cut.
     pub fn is_torn_write(self) -> bool {
         self == Self::Truncated
+    }
+}
+
+/// A payload field that the codec could not read runs past the payload
+/// (payloads hold no varints, so that is the one codec error they meet).
+impl From<CodecError> for Corruption {
+    fn from(_: CodecError) -> Self {
+        Self::BadPayload("field runs past the payload")
     }
 }
 

@@ -8,7 +8,8 @@
 //!
 //! A journal payload is a varint count followed by the entries, each a tag
 //! byte and its fields. Varints are LEB128 (7 bits a byte, least
-//! significant first, at most 10 bytes); `zigzag` maps signed to unsigned.
+//! significant first, at most 10 bytes); `zigzag` maps signed to unsigned;
+//! fixed-width fields are little-endian (all [`inertia_codec`]).
 //!
 //! ```text
 //! 1 Join      varint client
@@ -30,6 +31,7 @@
 //!
 //! An input takes about 12 bytes this way, against 38 written out in full.
 
+use inertia_codec::{unzigzag, zigzag, ByteReader, ByteWriter, CodecError};
 use inertia_protocol::admin::SpawnDesc;
 use inertia_protocol::input::{
     pack_input_body, pack_view_behind, unpack_input_body, unpack_view_behind,
@@ -91,126 +93,71 @@ fn err(what: impl Into<String>) -> JournalError {
     JournalError(what.into())
 }
 
-fn put_varint(out: &mut Vec<u8>, mut v: u64) {
-    loop {
-        let byte = (v & 0x7F) as u8;
-        v >>= 7;
-        if v == 0 {
-            out.push(byte);
-            return;
-        }
-        out.push(byte | 0x80);
+/// The payload ends early or holds a varint past 64 bits.
+impl From<CodecError> for JournalError {
+    fn from(e: CodecError) -> Self {
+        err(e.to_string())
     }
-}
-
-fn zigzag(v: i64) -> u64 {
-    ((v << 1) ^ (v >> 63)) as u64
-}
-
-fn unzigzag(v: u64) -> i64 {
-    ((v >> 1) as i64) ^ -((v & 1) as i64)
 }
 
 /// Encodes the entries applied while the world stood at `tick`.
 pub fn encode(tick: u64, entries: &[JournalEntry]) -> Vec<u8> {
     let mut out = Vec::with_capacity(2 + entries.len() * 12);
-    put_varint(&mut out, entries.len() as u64);
+    let mut w = ByteWriter::new(&mut out);
+    w.varint(entries.len() as u64);
     for e in entries {
         match e {
             JournalEntry::Join(c) => {
-                out.push(1);
-                put_varint(&mut out, *c);
+                w.u8(1);
+                w.varint(*c);
             }
             JournalEntry::Leave(c) => {
-                out.push(2);
-                put_varint(&mut out, *c);
+                w.u8(2);
+                w.varint(*c);
             }
             JournalEntry::Input(c, input) => {
                 match (pack_input_body(input), pack_view_behind(input)) {
                     (Some(body), Some(view)) => {
-                        out.push(6);
-                        put_varint(&mut out, *c);
-                        put_varint(&mut out, u64::from(input.sequence));
-                        put_varint(&mut out, zigzag(input.tick.wrapping_sub(tick) as i64));
-                        out.extend_from_slice(&body);
-                        put_varint(&mut out, u64::from(view));
+                        w.u8(6);
+                        w.varint(*c);
+                        w.varint(u64::from(input.sequence));
+                        w.varint(zigzag(input.tick.wrapping_sub(tick) as i64));
+                        w.bytes(&body);
+                        w.varint(u64::from(view));
                     }
                     _ => {
-                        out.push(7);
-                        put_varint(&mut out, *c);
-                        put_varint(&mut out, u64::from(input.sequence));
-                        out.extend_from_slice(&input.tick.to_le_bytes());
-                        out.extend_from_slice(&input.movement[0].to_bits().to_le_bytes());
-                        out.extend_from_slice(&input.movement[1].to_bits().to_le_bytes());
-                        out.extend_from_slice(&input.yaw.to_bits().to_le_bytes());
-                        out.push(input.buttons);
-                        out.extend_from_slice(&input.view_behind.to_bits().to_le_bytes());
+                        w.u8(7);
+                        w.varint(*c);
+                        w.varint(u64::from(input.sequence));
+                        w.u64(input.tick);
+                        w.f32(input.movement[0]);
+                        w.f32(input.movement[1]);
+                        w.f32(input.yaw);
+                        w.u8(input.buttons);
+                        w.f32(input.view_behind);
                     }
                 }
             }
             JournalEntry::Edit(edit) => {
-                out.push(5);
+                w.u8(5);
                 let bytes = postcard::to_allocvec(edit).unwrap_or_default();
-                put_varint(&mut out, bytes.len() as u64);
-                out.extend_from_slice(&bytes);
+                w.varint(bytes.len() as u64);
+                w.bytes(&bytes);
             }
         }
     }
     out
 }
 
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], JournalError> {
-        let end = self
-            .at
-            .checked_add(n)
-            .filter(|&e| e <= self.bytes.len())
-            .ok_or_else(|| err(format!("ends early at byte {}", self.at)))?;
-        let s = &self.bytes[self.at..end];
-        self.at = end;
-        Ok(s)
-    }
-
-    fn u8(&mut self) -> Result<u8, JournalError> {
-        Ok(self.take(1)?[0])
-    }
-
-    fn array<const N: usize>(&mut self) -> Result<[u8; N], JournalError> {
-        let mut a = [0u8; N];
-        a.copy_from_slice(self.take(N)?);
-        Ok(a)
-    }
-
-    fn varint(&mut self) -> Result<u64, JournalError> {
-        let mut v = 0u64;
-        for shift in (0..70).step_by(7) {
-            let byte = self.u8()?;
-            let bits = u64::from(byte & 0x7F);
-            if shift == 63 && bits > 1 {
-                return Err(err("a varint overflows 64 bits"));
-            }
-            v |= bits << shift;
-            if byte & 0x80 == 0 {
-                return Ok(v);
-            }
-        }
-        Err(err("a varint runs past 10 bytes"))
-    }
-
-    fn u32_varint(&mut self) -> Result<u32, JournalError> {
-        u32::try_from(self.varint()?).map_err(|_| err("a sequence number passes 32 bits"))
-    }
+/// A varint that must fit 32 bits (a sequence number).
+fn u32_varint(r: &mut ByteReader<'_>) -> Result<u32, JournalError> {
+    u32::try_from(r.varint()?).map_err(|_| err("a sequence number passes 32 bits"))
 }
 
 /// Decodes a journal payload written for `tick`. Counts and lengths are
 /// bounded; trailing bytes are refused.
 pub fn decode(tick: u64, bytes: &[u8]) -> Result<Vec<JournalEntry>, JournalError> {
-    let mut r = Reader { bytes, at: 0 };
+    let mut r = ByteReader::new(bytes);
     let count = r.varint()?;
     if count > MAX_JOURNAL_ENTRIES || count > bytes.len() as u64 {
         return Err(err(format!("{count} entries cannot fit")));
@@ -222,7 +169,7 @@ pub fn decode(tick: u64, bytes: &[u8]) -> Result<Vec<JournalEntry>, JournalError
             2 => JournalEntry::Leave(r.varint()?),
             tag @ (3 | 6) => {
                 let client = r.varint()?;
-                let sequence = r.u32_varint()?;
+                let sequence = u32_varint(&mut r)?;
                 let input_tick = tick.wrapping_add(unzigzag(r.varint()?) as u64);
                 let body = r.array::<PACKED_INPUT_BODY_BYTES>()?;
                 let mut input = unpack_input_body(body, sequence, input_tick)
@@ -237,17 +184,13 @@ pub fn decode(tick: u64, bytes: &[u8]) -> Result<Vec<JournalEntry>, JournalError
             }
             tag @ (4 | 7) => {
                 let client = r.varint()?;
-                let sequence = r.u32_varint()?;
-                let input_tick = u64::from_le_bytes(r.array()?);
-                let mx = f32::from_bits(u32::from_le_bytes(r.array()?));
-                let mz = f32::from_bits(u32::from_le_bytes(r.array()?));
-                let yaw = f32::from_bits(u32::from_le_bytes(r.array()?));
+                let sequence = u32_varint(&mut r)?;
+                let input_tick = r.u64()?;
+                let mx = r.f32()?;
+                let mz = r.f32()?;
+                let yaw = r.f32()?;
                 let buttons = r.u8()?;
-                let view_behind = if tag == 7 {
-                    f32::from_bits(u32::from_le_bytes(r.array()?))
-                } else {
-                    0.0
-                };
+                let view_behind = if tag == 7 { r.f32()? } else { 0.0 };
                 JournalEntry::Input(
                     client,
                     PlayerInput {
@@ -265,7 +208,7 @@ pub fn decode(tick: u64, bytes: &[u8]) -> Result<Vec<JournalEntry>, JournalError
                 if n > MAX_EDIT_BYTES {
                     return Err(err(format!("an edit of {n} bytes is too large")));
                 }
-                let bytes = r.take(n as usize)?;
+                let bytes = r.bytes(n as usize)?;
                 let edit: WorldEdit =
                     postcard::from_bytes(bytes).map_err(|e| err(format!("edit: {e}")))?;
                 JournalEntry::Edit(Box::new(edit))
@@ -274,8 +217,8 @@ pub fn decode(tick: u64, bytes: &[u8]) -> Result<Vec<JournalEntry>, JournalError
         };
         out.push(entry);
     }
-    if r.at != bytes.len() {
-        return Err(err(format!("{} trailing bytes", bytes.len() - r.at)));
+    if !r.is_empty() {
+        return Err(err(format!("{} trailing bytes", r.remaining())));
     }
     Ok(out)
 }

@@ -5,7 +5,7 @@
 //!
 //! # Encoding
 //!
-//! Little-endian:
+//! Little-endian ([`inertia_codec`]):
 //!
 //! ```text
 //! 0..4    magic "ISIM"
@@ -32,6 +32,7 @@
 //! on disk and checkpoint files are these bytes packed with zstd
 //! ([`crate::record::compress`]); decoding unpacks them first.
 
+use inertia_codec::{ByteReader, ByteWriter, CodecError};
 use inertia_physics::glam::DVec3;
 
 use crate::pose_history::PoseHistory;
@@ -115,24 +116,25 @@ impl SimState {
             + (4 + self.rules.len())
             + (4 + poses.len());
         let mut out = Vec::with_capacity(len);
-        out.extend_from_slice(&STATE_MAGIC);
-        out.extend_from_slice(&STATE_VERSION.to_le_bytes());
-        out.extend_from_slice(&self.tick.to_le_bytes());
-        out.extend_from_slice(&self.applied.to_le_bytes());
-        put_bytes(&mut out, &self.world);
-        put_bytes(&mut out, &table);
-        out.extend_from_slice(&(self.spawn_points.len() as u32).to_le_bytes());
+        let mut w = ByteWriter::new(&mut out);
+        w.bytes(&STATE_MAGIC);
+        w.u16(STATE_VERSION);
+        w.u64(self.tick);
+        w.u32(self.applied);
+        put_bytes(&mut w, &self.world);
+        put_bytes(&mut w, &table);
+        w.u32(self.spawn_points.len() as u32);
         for p in &self.spawn_points {
             for v in p.to_array() {
-                out.extend_from_slice(&v.to_bits().to_le_bytes());
+                w.f64(v);
             }
         }
-        out.extend_from_slice(&(self.clients.len() as u32).to_le_bytes());
-        for c in &self.clients {
-            out.extend_from_slice(&c.to_le_bytes());
+        w.u32(self.clients.len() as u32);
+        for &c in &self.clients {
+            w.u64(c);
         }
-        put_bytes(&mut out, &self.rules);
-        put_bytes(&mut out, &poses);
+        put_bytes(&mut w, &self.rules);
+        put_bytes(&mut w, &poses);
         debug_assert_eq!(out.len(), len);
         out
     }
@@ -141,11 +143,8 @@ impl SimState {
     /// (packed states are unpacked first).
     pub fn peek(bytes: &[u8]) -> Result<(u64, u32), StateError> {
         let bytes = unpack(bytes).map_err(|e| StateError::Malformed(e.to_string()))?;
-        let mut r = Reader {
-            bytes: &bytes,
-            at: 0,
-        };
-        r.header()?;
+        let mut r = ByteReader::new(&bytes);
+        header(&mut r)?;
         Ok((r.u64()?, r.u32()?))
     }
 
@@ -157,8 +156,8 @@ impl SimState {
     }
 
     fn decode_raw(bytes: &[u8]) -> Result<SimState, StateError> {
-        let mut r = Reader { bytes, at: 0 };
-        let version = r.header()?;
+        let mut r = ByteReader::new(bytes);
+        let version = header(&mut r)?;
         let tick = r.u64()?;
         if tick > inertia_physics::limits::MAX_TICK {
             return Err(StateError::Malformed(format!(
@@ -167,9 +166,9 @@ impl SimState {
             )));
         }
         let applied = r.u32()?;
-        let world = r.bytes()?.to_vec();
-        let entities = EntityTable::from_bytes(r.bytes()?)?;
-        let n = r.count(24)?;
+        let world = sized_bytes(&mut r)?.to_vec();
+        let entities = EntityTable::from_bytes(sized_bytes(&mut r)?)?;
+        let n = count(&mut r, 24)?;
         let mut spawn_points = Vec::with_capacity(n);
         for _ in 0..n {
             let p = DVec3::new(r.f64()?, r.f64()?, r.f64()?);
@@ -178,23 +177,23 @@ impl SimState {
             }
             spawn_points.push(p);
         }
-        let n = r.count(8)?;
+        let n = count(&mut r, 8)?;
         let mut clients = Vec::with_capacity(n);
         for _ in 0..n {
             clients.push(r.u64()?);
         }
-        let rules = r.bytes()?.to_vec();
+        let rules = sized_bytes(&mut r)?.to_vec();
         let poses = match version {
             1 => None,
-            _ => match r.bytes()? {
+            _ => match sized_bytes(&mut r)? {
                 [] => None,
                 bytes => Some(PoseHistory::from_bytes(bytes).map_err(StateError::Malformed)?),
             },
         };
-        if r.at != bytes.len() {
+        if !r.is_empty() {
             return Err(StateError::Malformed(format!(
                 "{} trailing bytes",
-                bytes.len() - r.at
+                r.remaining()
             )));
         }
         Ok(SimState {
@@ -210,69 +209,44 @@ impl SimState {
     }
 }
 
-fn put_bytes(out: &mut Vec<u8>, bytes: &[u8]) {
-    out.extend_from_slice(&(bytes.len() as u32).to_le_bytes());
-    out.extend_from_slice(bytes);
+/// A field runs past the end of the bytes (the state has no varints).
+impl From<CodecError> for StateError {
+    fn from(e: CodecError) -> Self {
+        Self::Malformed(e.to_string())
+    }
 }
 
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
+/// A u32 length, then that many bytes.
+fn put_bytes(w: &mut ByteWriter<'_>, bytes: &[u8]) {
+    w.u32(bytes.len() as u32);
+    w.bytes(bytes);
 }
 
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], StateError> {
-        let end = self
-            .at
-            .checked_add(n)
-            .filter(|&e| e <= self.bytes.len())
-            .ok_or_else(|| StateError::Malformed(format!("ends early at byte {}", self.at)))?;
-        let s = &self.bytes[self.at..end];
-        self.at = end;
-        Ok(s)
+/// Checks the magic and returns the format version.
+fn header(r: &mut ByteReader<'_>) -> Result<u16, StateError> {
+    if r.bytes(4).ok() != Some(&STATE_MAGIC[..]) {
+        return Err(StateError::BadMagic);
     }
+    let version = r.u16()?;
+    if !(OLDEST_STATE_VERSION..=STATE_VERSION).contains(&version) {
+        return Err(StateError::Version(version));
+    }
+    Ok(version)
+}
 
-    /// Checks the magic and returns the format version.
-    fn header(&mut self) -> Result<u16, StateError> {
-        if self.bytes.len() < 4 || self.take(4)? != STATE_MAGIC {
-            return Err(StateError::BadMagic);
-        }
-        let version = u16::from_le_bytes(self.take(2)?.try_into().unwrap_or_default());
-        if !(OLDEST_STATE_VERSION..=STATE_VERSION).contains(&version) {
-            return Err(StateError::Version(version));
-        }
-        Ok(version)
-    }
+/// What [`put_bytes`] wrote.
+fn sized_bytes<'a>(r: &mut ByteReader<'a>) -> Result<&'a [u8], StateError> {
+    let n = r.u32()? as usize;
+    Ok(r.bytes(n)?)
+}
 
-    fn u32(&mut self) -> Result<u32, StateError> {
-        Ok(u32::from_le_bytes(
-            self.take(4)?.try_into().unwrap_or_default(),
-        ))
+/// A count of items of `size` bytes each, bounded by what is left.
+fn count(r: &mut ByteReader<'_>, size: usize) -> Result<usize, StateError> {
+    let n = r.u32()? as usize;
+    if n.saturating_mul(size) > r.remaining() {
+        return Err(StateError::Malformed(format!(
+            "{n} items cannot fit in what is left"
+        )));
     }
-
-    fn u64(&mut self) -> Result<u64, StateError> {
-        Ok(u64::from_le_bytes(
-            self.take(8)?.try_into().unwrap_or_default(),
-        ))
-    }
-
-    fn f64(&mut self) -> Result<f64, StateError> {
-        Ok(f64::from_bits(self.u64()?))
-    }
-
-    fn bytes(&mut self) -> Result<&'a [u8], StateError> {
-        let n = self.u32()? as usize;
-        self.take(n)
-    }
-
-    /// A count of items of `size` bytes each, bounded by what is left.
-    fn count(&mut self, size: usize) -> Result<usize, StateError> {
-        let n = self.u32()? as usize;
-        if n.saturating_mul(size) > self.bytes.len() - self.at {
-            return Err(StateError::Malformed(format!(
-                "{n} items cannot fit in what is left"
-            )));
-        }
-        Ok(n)
-    }
+    Ok(n)
 }

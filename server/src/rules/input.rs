@@ -144,11 +144,10 @@ mod tests {
     #[test]
     fn bad_views_are_clamped_not_refused() {
         let view = |view_behind| {
-            validate_input(
-                &PlayerInput {
-                    view_behind,
-                    ..input([0.5, 0.0], 0.0, 0)
-                })
+            validate_input(&PlayerInput {
+                view_behind,
+                ..input([0.5, 0.0], 0.0, 0)
+            })
             .map(|v| (v.view_behind, v.movement))
         };
         for (bad, want) in [
@@ -163,11 +162,10 @@ mod tests {
         ] {
             assert_eq!(view(bad), Ok((want, [0.5, 0.0])), "{bad}");
         }
-        let v = validate_input(
-            &PlayerInput {
-                view_behind: 2.5,
-                ..input([0.0, 0.0], 0.0, 0)
-            })
+        let v = validate_input(&PlayerInput {
+            view_behind: 2.5,
+            ..input([0.0, 0.0], 0.0, 0)
+        })
         .unwrap();
         assert_eq!(v.view_tick(), 97.5);
     }

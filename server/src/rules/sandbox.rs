@@ -12,8 +12,8 @@ use inertia_protocol::entity::buttons;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput};
 
 use super::{
-    validate_input, ClientId, EntityLook, GameEvent, GameRules, InputRefusal,
-    JoinRefusal, SimContext,
+    validate_input, ClientId, EntityLook, GameEvent, GameRules, InputRefusal, JoinRefusal,
+    SimContext,
 };
 
 /// Tuning of [`SandboxRules`].

@@ -40,7 +40,12 @@ impl Simulation {
         stages.rules_before = watch.lap();
 
         let dt = self.dt();
-        step_world(self.timelines.shown_mut(), dt, &mut self.events, &self.meter);
+        step_world(
+            self.timelines.shown_mut(),
+            dt,
+            &mut self.events,
+            &self.meter,
+        );
         stages.physics = watch.lap();
 
         self.with_ctx(|rules, ctx| rules.after_tick(ctx));
@@ -73,9 +78,10 @@ impl Simulation {
         let tick = self.shown().world.tick();
         let hash = self.shown().world.state_hash();
         let (timelines, rules) = (&self.timelines, &*self.rules);
-        self.recording.record_tick(tick, hash, &self.meter, |applied| {
-            super::capture(timelines.shown(), rules, applied)
-        });
+        self.recording
+            .record_tick(tick, hash, &self.meter, |applied| {
+                super::capture(timelines.shown(), rules, applied)
+            });
     }
 
     /// Logs what the first live ticks cost against the tick budget: a
@@ -166,8 +172,7 @@ impl Simulation {
     pub(super) fn update_gauges(&self) {
         let bodies = self.shown().world.bodies().count() as u64;
         let held = self.recording.history.as_ref().map(|h| h.held());
-        self.meter
-            .gauges(bodies, self.live_clients() as u64, held);
+        self.meter.gauges(bodies, self.live_clients() as u64, held);
     }
 }
 

@@ -196,8 +196,8 @@ impl Simulation {
             return Ok(());
         }
         self.flush_journal();
-        let world =
-            World::new(*self.timelines.live.world.config()).map_err(|e| TimeError::World(e.to_string()))?;
+        let world = World::new(*self.timelines.live.world.config())
+            .map_err(|e| TimeError::World(e.to_string()))?;
         let mut clock = Clock::new(self.config.tick_hz, self.config.max_catch_up_ticks)
             .with_tick(self.timelines.live.world.tick());
         clock.pause();
@@ -242,7 +242,11 @@ impl Simulation {
         if tick > live {
             return Err(TimeError::InTheFuture { tick, live });
         }
-        let history = self.recording.history.as_ref().ok_or(TimeError::NoHistory)?;
+        let history = self
+            .recording
+            .history
+            .as_ref()
+            .ok_or(TimeError::NoHistory)?;
         if tick != live && !history.reachable(tick) {
             return Err(self.history_range_error(tick));
         }
@@ -372,7 +376,9 @@ impl Simulation {
     /// The view reached the end of its forward play: a replay returns to
     /// the live world as it was; forward play hands its clock over.
     fn finish_forward(&mut self) {
-        let Some(view) = &self.timelines.view else { return };
+        let Some(view) = &self.timelines.view else {
+            return;
+        };
         match view.play {
             Play::Replay { .. } => {
                 self.go_live();
@@ -534,7 +540,11 @@ impl Simulation {
         SeekReport {
             tick,
             state_hash: self.shown().world.state_hash(),
-            recorded_hash: self.recording.history.as_ref().and_then(|h| h.hash_at(tick)),
+            recorded_hash: self
+                .recording
+                .history
+                .as_ref()
+                .and_then(|h| h.hash_at(tick)),
             base_tick: tick,
             resimulated: 0,
         }

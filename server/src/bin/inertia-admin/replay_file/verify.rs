@@ -10,8 +10,8 @@ use std::process::ExitCode;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use inertia_server::record::{Corruption, RecordError};
-use inertia_server::sim::verify::{verify, VerifyError, VerifyReport};
 use inertia_server::rules::SandboxRules;
+use inertia_server::sim::verify::{verify, VerifyError, VerifyReport};
 use serde_json::json;
 
 use super::{count, data_error, hex, misuse, scan};
