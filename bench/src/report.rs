@@ -47,9 +47,9 @@ pub fn logical_cores() -> usize {
 
 /// One measured case: an ordered set of named fields.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct Record(pub Map<String, Value>);
+pub struct Measurement(pub Map<String, Value>);
 
-impl Record {
+impl Measurement {
     /// An empty record.
     pub fn new() -> Self {
         Self::default()
@@ -98,11 +98,11 @@ pub fn target_cpu_native() -> bool {
 pub trait Sink {
     /// Receives one measured case (without `suite` and `machine`, which the
     /// reporter adds).
-    fn record(&mut self, r: Record);
+    fn record(&mut self, r: Measurement);
 }
 
-impl Sink for Vec<Record> {
-    fn record(&mut self, r: Record) {
+impl Sink for Vec<Measurement> {
+    fn record(&mut self, r: Measurement) {
         self.push(r);
     }
 }
@@ -137,7 +137,7 @@ impl Reporter {
 
     /// The full record as printed: `suite` and `machine` first, then the
     /// suite's fields.
-    pub fn complete(&self, r: Record) -> Map<String, Value> {
+    pub fn complete(&self, r: Measurement) -> Map<String, Value> {
         let mut m = Map::new();
         m.insert("suite".into(), Value::from(self.suite.clone()));
         m.insert(
@@ -152,7 +152,7 @@ impl Reporter {
 }
 
 impl Sink for Reporter {
-    fn record(&mut self, r: Record) {
+    fn record(&mut self, r: Measurement) {
         let m = self.complete(r);
         self.printed.push(m.clone());
         let mut out = std::io::stdout().lock();
@@ -253,7 +253,7 @@ impl<'a> Suspended<'a> {
 }
 
 impl Sink for Suspended<'_> {
-    fn record(&mut self, r: Record) {
+    fn record(&mut self, r: Measurement) {
         let inner = &mut *self.inner;
         self.pb.suspend(|| inner.record(r));
     }
@@ -303,7 +303,7 @@ mod tests {
 
     #[test]
     fn non_finite_numbers_become_null() {
-        let r = Record::new().num("x", f64::INFINITY).num("y", 1.5);
+        let r = Measurement::new().num("x", f64::INFINITY).num("y", 1.5);
         assert_eq!(r.get("x"), Some(&Value::Null));
         assert_eq!(r.get("y"), Some(&Value::from(1.5)));
     }

@@ -9,11 +9,11 @@
 use std::ffi::{c_char, CStr};
 use std::net::SocketAddr;
 
-use inertia_client::interp::Frame;
+use inertia_client::interp::Sample;
 use inertia_client::net::ClientEvent;
-use inertia_client::point_sets::PointSetFrame;
+use inertia_client::point_sets::PointSetSample;
 use inertia_client::{BlockingClient, ConnectOptions};
-use inertia_protocol::control::{DisconnectReason, GameEvent};
+use inertia_protocol::control::{DisconnectReason, WireEvent};
 use inertia_protocol::token::ConnectToken;
 use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
 
@@ -26,7 +26,7 @@ pub struct InertiaClient {
     client: BlockingClient,
     /// The picture of the last `inertia_sample`, which `inertia_point_set`
     /// reads so that a frame's sets and bodies agree.
-    frame: Frame,
+    frame: Sample,
 }
 
 /// The handle behind `client`, or a failure when it is null.
@@ -87,7 +87,7 @@ fn join(
         .map_err(|e| Failure::new(InertiaStatus::ConnectFailed, e.to_string()))?;
     let handle = Box::new(InertiaClient {
         client,
-        frame: Frame::default(),
+        frame: Sample::default(),
     });
     *out = Box::into_raw(handle);
     Ok(())
@@ -298,20 +298,20 @@ fn event_of(e: ClientEvent) -> InertiaEvent {
             out.kind = InertiaEventKind::Disconnected;
             write_c_string(&mut out.text, &reason_text(&reason));
         }
-        ClientEvent::Game(GameEvent::Contact { a, b, impulse }) => {
+        ClientEvent::Game(WireEvent::Contact { a, b, impulse }) => {
             out.kind = InertiaEventKind::Contact;
             (out.entity, out.other, out.value) = (a, b, f64::from(impulse));
         }
-        ClientEvent::Game(GameEvent::Explosion { position, radius }) => {
+        ClientEvent::Game(WireEvent::Explosion { position, radius }) => {
             out.kind = InertiaEventKind::Explosion;
             [out.x, out.y, out.z] = position;
             out.value = f64::from(radius);
         }
-        ClientEvent::Game(GameEvent::Message { text }) => {
+        ClientEvent::Game(WireEvent::Message { text }) => {
             out.kind = InertiaEventKind::Message;
             write_c_string(&mut out.text, &text);
         }
-        ClientEvent::Game(GameEvent::Custom { name, data }) => {
+        ClientEvent::Game(WireEvent::Custom { name, data }) => {
             out.kind = InertiaEventKind::Custom;
             write_c_string(&mut out.text, &name);
             let n = data.len().min(INERTIA_EVENT_DATA_BYTES);
@@ -515,7 +515,7 @@ pub unsafe extern "C" fn inertia_point_set(
         let frame = &h.frame;
         let n = h.client.with_entities(|t| {
             let e = t.get(set)?;
-            let points = PointSetFrame::gather(&e.desc, frame, &e.points)?;
+            let points = PointSetSample::gather(&e.desc, frame, &e.points)?;
             for (i, (p, known)) in points.positions.iter().zip(&points.present).enumerate() {
                 if i >= capacity {
                     break;

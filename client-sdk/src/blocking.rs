@@ -8,7 +8,7 @@ use inertia_protocol::control::DisconnectReason;
 use inertia_protocol::token::ConnectToken;
 use inertia_protocol::EntityDesc;
 
-use crate::interp::Frame;
+use crate::interp::Sample;
 use crate::net::{Client, ClientError, ClientEvent, ConnectOptions, ServerInfo};
 use crate::stats::ClientStats;
 
@@ -64,17 +64,17 @@ impl BlockingClient {
     }
 
     /// See [`Client::sample`].
-    pub fn sample(&self) -> Frame {
+    pub fn sample(&self) -> Sample {
         self.client().sample()
     }
 
     /// See [`Client::sample_at`].
-    pub fn sample_at(&self, local_time: f64) -> Frame {
+    pub fn sample_at(&self, local_time: f64) -> Sample {
         self.client().sample_at(local_time)
     }
 
     /// See [`Client::with_entities`].
-    pub fn with_entities<R>(&self, f: impl FnOnce(&crate::entities::EntityTable) -> R) -> R {
+    pub fn with_entities<R>(&self, f: impl FnOnce(&crate::entities::KnownEntities) -> R) -> R {
         self.client().with_entities(f)
     }
 

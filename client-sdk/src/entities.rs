@@ -9,7 +9,7 @@
 //! A soft body or a fluid is one entity whose description is a
 //! [`ShapeDesc::PointSet`]: its points travel as the entities just after
 //! its id, with no spawn of their own. Their states are kept with the set
-//! ([`Entity::points`]); [`crate::point_sets`] draws them.
+//! ([`KnownEntity::points`]); [`crate::point_sets`] draws them.
 
 use std::collections::BTreeMap;
 
@@ -29,7 +29,7 @@ pub struct LatestState {
 
 /// One known entity.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Entity {
+pub struct KnownEntity {
     /// What it is and looks like, as spawned.
     pub desc: EntityDesc,
     /// Its newest state from a snapshot, if one came since the spawn.
@@ -39,7 +39,7 @@ pub struct Entity {
     pub points: Vec<Option<LatestState>>,
 }
 
-impl Entity {
+impl KnownEntity {
     fn new(desc: EntityDesc, latest: Option<LatestState>) -> Self {
         let points = match desc.shape {
             ShapeDesc::PointSet { points, .. } => vec![None; points as usize],
@@ -53,7 +53,7 @@ impl Entity {
     }
 }
 
-impl Entity {
+impl KnownEntity {
     /// Its newest known position, m: from the latest snapshot, else as
     /// spawned.
     pub fn position(&self) -> DVec3 {
@@ -80,7 +80,7 @@ impl Entity {
     }
 }
 
-/// What [`EntityTable::update`] did with a state.
+/// What [`KnownEntities::update`] did with a state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Update {
     /// Stored as the entity's newest state.
@@ -93,12 +93,12 @@ pub enum Update {
 
 /// Entities by id, in id order. See the [module docs](self).
 #[derive(Debug, Clone, Default)]
-pub struct EntityTable {
-    entities: BTreeMap<EntityId, Entity>,
+pub struct KnownEntities {
+    entities: BTreeMap<EntityId, KnownEntity>,
     early: BTreeMap<EntityId, LatestState>,
 }
 
-impl EntityTable {
+impl KnownEntities {
     /// The most states held for entities not spawned yet.
     pub const MAX_EARLY: usize = 4096;
 
@@ -116,14 +116,14 @@ impl EntityTable {
         let new = match self.entities.get_mut(&id) {
             Some(e) => {
                 let mut points = std::mem::take(&mut e.points);
-                *e = Entity::new(desc, e.latest);
+                *e = KnownEntity::new(desc, e.latest);
                 points.truncate(e.points.len());
                 e.points[..points.len()].copy_from_slice(&points);
                 false
             }
             None => {
                 let latest = self.early.remove(&id);
-                self.entities.insert(id, Entity::new(desc, latest));
+                self.entities.insert(id, KnownEntity::new(desc, latest));
                 true
             }
         };
@@ -212,7 +212,7 @@ impl EntityTable {
     }
 
     /// One entity.
-    pub fn get(&self, id: EntityId) -> Option<&Entity> {
+    pub fn get(&self, id: EntityId) -> Option<&KnownEntity> {
         self.entities.get(&id)
     }
 
@@ -237,7 +237,7 @@ impl EntityTable {
     }
 
     /// The entities in id order.
-    pub fn iter(&self) -> impl Iterator<Item = (EntityId, &Entity)> + '_ {
+    pub fn iter(&self) -> impl Iterator<Item = (EntityId, &KnownEntity)> + '_ {
         self.entities.iter().map(|(&id, e)| (id, e))
     }
 }
@@ -273,7 +273,7 @@ mod tests {
 
     #[test]
     fn spawn_update_despawn_and_iterate_in_id_order() {
-        let mut table = EntityTable::new();
+        let mut table = KnownEntities::new();
         assert!(table.spawn(desc(5, "b")));
         assert!(table.spawn(desc(2, "a")));
         assert!(!table.spawn(desc(5, "b2")));
@@ -292,12 +292,12 @@ mod tests {
 
     #[test]
     fn updating_a_snapshot_at_once_is_updating_each_state() {
-        let spawned = |table: &mut EntityTable| {
+        let spawned = |table: &mut KnownEntities| {
             for id in (2..=40).step_by(2) {
                 table.spawn(desc(id, "x"));
             }
         };
-        let (mut walked, mut each) = (EntityTable::new(), EntityTable::new());
+        let (mut walked, mut each) = (KnownEntities::new(), KnownEntities::new());
         spawned(&mut walked);
         spawned(&mut each);
         // Ascending, with ids not spawned yet among them; a few of many
@@ -316,7 +316,7 @@ mod tests {
             }
         }
         assert_eq!(walked.held(), each.held());
-        let all = |t: &EntityTable| t.iter().map(|(_, e)| e.clone()).collect::<Vec<_>>();
+        let all = |t: &KnownEntities| t.iter().map(|(_, e)| e.clone()).collect::<Vec<_>>();
         assert_eq!(all(&walked), all(&each));
         assert_eq!(walked.get(2).unwrap().latest.unwrap().state.position.x, 3.0);
         walked.spawn(desc(5, "late"));
@@ -325,14 +325,14 @@ mod tests {
 
     #[test]
     fn a_state_before_its_spawn_is_held_and_attached() {
-        let mut table = EntityTable::new();
+        let mut table = KnownEntities::new();
         assert_eq!(table.update(3, state(9, 7.0)), Update::Held);
         assert_eq!(table.held(), 1);
         table.spawn(desc(9, "late"));
         assert_eq!(table.held(), 0);
         assert_eq!(table.get(9).unwrap().latest.unwrap().tick, 3);
         assert_eq!(table.get(9).unwrap().position().x, 7.0);
-        for id in 100..100 + EntityTable::MAX_EARLY as u32 {
+        for id in 100..100 + KnownEntities::MAX_EARLY as u32 {
             table.update(1, state(id, 0.0));
         }
         assert_eq!(table.update(1, state(1, 0.0)), Update::Dropped);

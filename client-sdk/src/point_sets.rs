@@ -3,7 +3,7 @@
 //! The server describes a soft body (rope, cloth, jelly) or a fluid as one
 //! entity whose shape is a [`ShapeDesc::PointSet`], and streams its points
 //! as the entities just after its id, interpolated like any entity. Here
-//! they are gathered back into one [`PointSetFrame`] per set: the points'
+//! they are gathered back into one [`PointSetSample`] per set: the points'
 //! positions at the render tick, which of them are known, and the set's
 //! triangles and lines, for a game to upload as a dynamic mesh (cloth, a
 //! solid's surface), a line strip (a rope) or instanced points (a fluid).
@@ -11,12 +11,12 @@
 use glam::Vec3;
 use inertia_protocol::{EntityDesc, EntityId, EntityKind, ShapeDesc};
 
-use crate::entities::{EntityTable, LatestState};
-use crate::interp::Frame;
+use crate::entities::{KnownEntities, LatestState};
+use crate::interp::Sample;
 
-/// One soft body or fluid at a frame's render tick.
+/// One soft body or fluid at a sample's render tick.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PointSetFrame<'a> {
+pub struct PointSetSample<'a> {
     /// The set's entity.
     pub id: EntityId,
     /// Its description: kind ([`EntityKind::SoftBody`] or
@@ -29,7 +29,7 @@ pub struct PointSetFrame<'a> {
     pub present: Vec<bool>,
 }
 
-impl PointSetFrame<'_> {
+impl PointSetSample<'_> {
     /// Drawing radius of a point, m.
     pub fn radius(&self) -> f32 {
         match self.desc.shape {
@@ -98,14 +98,14 @@ impl PointSetFrame<'_> {
     }
 }
 
-impl<'a> PointSetFrame<'a> {
+impl<'a> PointSetSample<'a> {
     /// The set `desc` describes at `frame`'s render tick: a point is where
     /// the frame puts its entity (interpolated), else where `newest` (its
     /// newest state by point index, if kept) has it, else unknown. `None`
     /// when `desc` is not a point set.
     pub fn gather(
         desc: &'a EntityDesc,
-        frame: &Frame,
+        frame: &Sample,
         newest: &[Option<LatestState>],
     ) -> Option<Self> {
         let ShapeDesc::PointSet { points, .. } = desc.shape else {
@@ -140,12 +140,12 @@ impl<'a> PointSetFrame<'a> {
 }
 
 /// Every soft body and fluid the table knows, drawn at `frame`'s render
-/// tick ([`PointSetFrame::gather`] with the newest state of each point).
-pub fn point_sets<'a>(frame: &Frame, table: &'a EntityTable) -> Vec<PointSetFrame<'a>> {
+/// tick ([`PointSetSample::gather`] with the newest state of each point).
+pub fn point_sets<'a>(frame: &Sample, table: &'a KnownEntities) -> Vec<PointSetSample<'a>> {
     table
         .iter()
         .filter(|(_, e)| matches!(e.desc.kind, EntityKind::SoftBody | EntityKind::Fluid))
-        .filter_map(|(_, e)| PointSetFrame::gather(&e.desc, frame, &e.points))
+        .filter_map(|(_, e)| PointSetSample::gather(&e.desc, frame, &e.points))
         .collect()
 }
 
@@ -197,7 +197,7 @@ mod tests {
 
     #[test]
     fn points_are_gathered_from_the_frame_and_the_newest_states() {
-        let mut table = EntityTable::new();
+        let mut table = KnownEntities::new();
         // A point's state before the set's spawn is held, then attached.
         table.update(1, state(12, [0.0, 1.0, 0.0]));
         table.spawn(cloth(10));
@@ -208,7 +208,7 @@ mod tests {
         table.update(2, state(11, [0.0, 0.0, 0.0]));
         // The frame has points 0 and 2 (interpolated) and another entity
         // after the set; point 3 is not known yet.
-        let frame = Frame {
+        let frame = Sample {
             render_tick: 2.0,
             entities: vec![
                 rendered(3, [9.0; 3]),
@@ -238,7 +238,7 @@ mod tests {
 
     #[test]
     fn a_respawned_set_keeps_the_points_it_still_has() {
-        let mut table = EntityTable::new();
+        let mut table = KnownEntities::new();
         table.spawn(cloth(10));
         table.update(1, state(14, [3.0, 0.0, 0.0]));
         let mut torn = cloth(10);
@@ -249,7 +249,7 @@ mod tests {
             lines: vec![],
         };
         assert!(!table.spawn(torn));
-        let frame = Frame::default();
+        let frame = Sample::default();
         let sets = point_sets(&frame, &table);
         assert_eq!(sets[0].positions[3], Vec3::new(3.0, 0.0, 0.0));
         assert_eq!(sets[0].triangles().len(), 1);

@@ -69,7 +69,7 @@ pub fn drive_world(data: &[u8]) {
         let before = world.state_hash();
         // Past the checksum, or every mutation would stop there.
         let mut sealed = data.to_vec();
-        inertia_physics::snapshot::reseal(&mut sealed);
+        inertia_physics::saved_state::reseal(&mut sealed);
         if world.restore(&sealed).is_err() {
             assert_eq!(
                 world.state_hash(),
@@ -97,7 +97,7 @@ pub fn drive_state(data: &[u8]) {
     let again = SimState::decode(&encoded).expect("an encoded state decodes");
     assert_eq!(again.encode(), encoded);
     // Past the world's checksum, or every mutation of it would stop there.
-    inertia_physics::snapshot::reseal(&mut state.world);
+    inertia_physics::saved_state::reseal(&mut state.world);
 
     thread_local! {
         /// One simulation for every run, put back to its first state

@@ -38,17 +38,17 @@ pub mod forces;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod handle;
-pub mod hash;
 pub mod integrator;
 pub mod limits;
 mod parallel;
+mod particle_contact;
 pub mod particle_system;
 pub mod profile;
+pub mod ragdoll;
 pub mod rigid;
-pub mod snapshot;
+pub mod saved_state;
 pub mod soft_body;
 pub mod spring;
-mod step;
 pub mod world;
 pub mod xpbd;
 
@@ -68,7 +68,7 @@ pub use particle_system::{
     Backend, ParticleDesc, ParticleState, ParticleSystem, SystemDesc, MAX_GROUPS,
 };
 pub use profile::{ProfileTotals, RigidProfile, StepProfile};
-pub use snapshot::SnapshotError;
+pub use saved_state::SavedStateError;
 pub use soft_body::{build_cloth, build_rope, Cloth, ClothDesc, Rope, RopeDesc, SpringStiffness};
 pub use spring::SpringParams;
 pub use world::{QueryIndex, StepReport, ThreadPinning, World, WorldConfig};

@@ -5,8 +5,8 @@
 //! world is left as it was.
 
 use inertia_physics::limits::{MAX_TICK, MAX_TIME};
-use inertia_physics::snapshot::reseal;
-use inertia_physics::{SnapshotError, World, WorldConfig};
+use inertia_physics::saved_state::reseal;
+use inertia_physics::{SavedStateError, World, WorldConfig};
 
 /// Byte offsets in a saved world: magic (8), version (4), tick (8), time (8).
 const TICK_AT: usize = 12;
@@ -36,7 +36,7 @@ fn issue_11_saved_tick_past_the_last_is_refused() {
     for tick in [u64::MAX - 1, u64::MAX, MAX_TICK + 1] {
         let bad = with(&saved, TICK_AT, tick.to_le_bytes());
         match w.restore(&bad) {
-            Err(SnapshotError::Invalid(why)) => assert!(why.contains("tick"), "{why}"),
+            Err(SavedStateError::Invalid(why)) => assert!(why.contains("tick"), "{why}"),
             other => panic!("tick {tick}: {other:?}"),
         }
         assert_eq!(w.state_hash(), hash, "a refused restore changed nothing");
@@ -55,7 +55,7 @@ fn issue_11_saved_time_outside_its_range_is_refused() {
     for time in [-1.0f64, MAX_TIME * 2.0, f64::MAX] {
         let bad = with(&saved, TIME_AT, time.to_bits().to_le_bytes());
         match w.restore(&bad) {
-            Err(SnapshotError::Invalid(why)) => assert!(why.contains("time"), "{why}"),
+            Err(SavedStateError::Invalid(why)) => assert!(why.contains("time"), "{why}"),
             other => panic!("time {time}: {other:?}"),
         }
     }

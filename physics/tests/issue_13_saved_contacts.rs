@@ -132,7 +132,7 @@ fn issue_13_a_state_saved_in_format_5_restores_with_its_pair_contacts() {
     let saved = w.save();
     assert_eq!(
         u32::from_le_bytes(saved[8..12].try_into().unwrap()),
-        inertia_physics::snapshot::FORMAT_VERSION
+        inertia_physics::saved_state::FORMAT_VERSION
     );
 }
 
@@ -152,7 +152,7 @@ fn issue_13_a_format_5_figure_beyond_single_precision_is_refused() {
         .position(|w| w == impulse.to_bits().to_le_bytes())
         .expect("the last pair's impulse");
     bytes[at..at + 8].copy_from_slice(&1e300f64.to_bits().to_le_bytes());
-    assert!(inertia_physics::snapshot::reseal(&mut bytes));
+    assert!(inertia_physics::saved_state::reseal(&mut bytes));
     let mut w = ground_world();
     let before = w.state_hash();
     let err = w.restore(&bytes).unwrap_err();

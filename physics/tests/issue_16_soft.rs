@@ -481,11 +481,11 @@ fn issue_16_a_saved_soft_body_with_a_broken_colouring_is_refused() {
         .expect("the edge");
     let mut bad = saved.clone();
     bad[at + 4..at + 8].copy_from_slice(&4u32.to_le_bytes());
-    inertia_physics::snapshot::reseal(&mut bad);
+    inertia_physics::saved_state::reseal(&mut bad);
     let mut other = earth_world(1);
     let err = other.restore(&bad);
     assert!(
-        matches!(&err, Err(inertia_physics::SnapshotError::Invalid(m)) if m.contains("colouring")),
+        matches!(&err, Err(inertia_physics::SavedStateError::Invalid(m)) if m.contains("colouring")),
         "{err:?}"
     );
     assert_eq!(other.soft_bodies().count(), 0, "nothing was restored");

@@ -345,7 +345,7 @@ fn a_ragdoll_falls_down_stairs_and_comes_to_rest_in_one_piece() {
 }
 
 fn ragdoll_down_stairs(lean: f64, turn: f64) {
-    use inertia_physics::rigid::ragdoll::{build_ragdoll, RagdollDesc};
+    use inertia_physics::ragdoll::{build_ragdoll, RagdollDesc};
     let mut w = common::world();
     w.set_gravity(DVec3::new(0.0, -G, 0.0)).unwrap();
     // Six steps climbing towards -z (0.2 m rise, 0.4 m run) above a floor.

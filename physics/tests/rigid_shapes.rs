@@ -8,9 +8,9 @@ use std::f64::consts::PI;
 
 use inertia_physics::glam::{DMat3, DQuat, DVec3};
 use inertia_physics::rigid::aabb::Aabb;
-use inertia_physics::rigid::hull::ConvexHull;
 use inertia_physics::rigid::mass::{parallel_axis, MassProperties};
 use inertia_physics::rigid::pose::Pose;
+use inertia_physics::rigid::shape::hull::ConvexHull;
 use inertia_physics::rigid::shape::{Shape, ShapeError};
 
 // ---------------------------------------------------------------- helpers

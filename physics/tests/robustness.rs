@@ -5,7 +5,7 @@ use crate::common;
 use inertia_physics::glam::DVec3;
 use inertia_physics::{
     Drag, Explosion, GravityMethod, Integrator, MutualGravity, ParticleDesc, PhysicsError,
-    SnapshotError, SpringParams, SystemDesc, UniformGravity, Wind, World,
+    SavedStateError, SpringParams, SystemDesc, UniformGravity, Wind, World,
 };
 
 fn small_world() -> (
@@ -290,9 +290,9 @@ fn corrupt_saved_states_are_refused_without_panics() {
     let h0 = w.state_hash();
     assert!(matches!(
         w.restore(b"nonsense"),
-        Err(SnapshotError::BadMagic)
+        Err(SavedStateError::BadMagic)
     ));
-    assert!(matches!(w.restore(&[]), Err(SnapshotError::BadMagic)));
+    assert!(matches!(w.restore(&[]), Err(SavedStateError::BadMagic)));
     for cut in 0..good.len() {
         assert!(
             w.restore(&good[..cut]).is_err(),

@@ -12,7 +12,7 @@ use std::collections::VecDeque;
 use crate::entity::{buttons, PlayerInput};
 use crate::input::{InputDatagram, MAX_REDUNDANT_INPUTS, MAX_VIEW_BEHIND};
 use crate::snapshot::{
-    ConfigError, DecodedSnapshot, SnapshotConfig, SnapshotDecoder, SnapshotError,
+    DecodedSnapshot, SnapshotConfig, SnapshotConfigError, SnapshotDecoder, SnapshotError,
 };
 
 /// How a [`ClientSession`] talks to its server.
@@ -51,7 +51,7 @@ pub struct ClientSession {
 impl ClientSession {
     /// A session that has received nothing, whose first input is due at
     /// once; `tick` is the server's tick from its welcome.
-    pub fn new(config: ClientConfig, tick: u64) -> Result<Self, ConfigError> {
+    pub fn new(config: ClientConfig, tick: u64) -> Result<Self, SnapshotConfigError> {
         let config = ClientConfig {
             input_hz: config.input_hz.max(1),
             input_redundancy: config.input_redundancy.clamp(1, MAX_REDUNDANT_INPUTS),

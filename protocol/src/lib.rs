@@ -48,7 +48,7 @@ pub use bits::{BitError, BitReader, BitWriter};
 pub use client_session::{ClientConfig, ClientSession};
 pub use control::{
     encode_frame, handshake, ClientControl, ControlError, ControlMessage, DisconnectReason,
-    FrameDecoder, GameEvent, Refusal, ServerControl, SnapshotParams, TokenRefusal, ALPN,
+    FrameDecoder, Refusal, ServerControl, SnapshotParams, TokenRefusal, WireEvent, ALPN,
     MAX_CONTROL_FRAME, PROTOCOL_VERSION,
 };
 pub use entity::{EntityDesc, EntityId, EntityKind, EntityState, PlayerInput, ShapeDesc};

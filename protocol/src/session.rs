@@ -16,7 +16,8 @@ use crate::entity::EntityId;
 use crate::interest::Interest;
 use crate::priority::PriorityAccumulator;
 use crate::snapshot::{
-    ConfigError, EncodeReport, QuantizedFrame, SharedDeltas, SnapshotConfig, SnapshotEncoder,
+    EncodeReport, QuantizedFrame, SharedDeltas, SnapshotConfig, SnapshotConfigError,
+    SnapshotEncoder,
 };
 
 /// Within this distance of a client's avatar, m, entities are fully
@@ -72,7 +73,7 @@ pub struct ServerSession {
 
 impl ServerSession {
     /// A session that has sent nothing and received nothing.
-    pub fn new(config: SessionConfig) -> Result<Self, ConfigError> {
+    pub fn new(config: SessionConfig) -> Result<Self, SnapshotConfigError> {
         let encoder = SnapshotEncoder::new(config.snapshot)?;
         Ok(Self {
             priorities: PriorityAccumulator::new(Interest::everything()),

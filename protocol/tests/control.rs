@@ -4,7 +4,7 @@
 
 use inertia_protocol::control::{
     decode_payload, encode_frame, handshake, ClientControl, ControlError, DisconnectReason,
-    FrameDecoder, GameEvent, Refusal, ServerControl, SnapshotParams, TokenRefusal,
+    FrameDecoder, Refusal, ServerControl, SnapshotParams, TokenRefusal, WireEvent,
     MAX_CONTROL_FRAME, PROTOCOL_VERSION,
 };
 use inertia_protocol::entity::{buttons, EntityDesc, EntityKind, PlayerInput};
@@ -81,18 +81,18 @@ fn refusal() -> impl Strategy<Value = Refusal> {
     ]
 }
 
-fn event() -> impl Strategy<Value = GameEvent> {
+fn event() -> impl Strategy<Value = WireEvent> {
     prop_oneof![
-        (any::<u32>(), any::<u32>(), -1e6f32..1e6).prop_map(|(a, b, impulse)| GameEvent::Contact {
+        (any::<u32>(), any::<u32>(), -1e6f32..1e6).prop_map(|(a, b, impulse)| WireEvent::Contact {
             a,
             b,
             impulse
         }),
         ([-1e6f64..1e6, -1e6f64..1e6, -1e6f64..1e6], size())
-            .prop_map(|(position, radius)| GameEvent::Explosion { position, radius }),
-        "\\PC{0,100}".prop_map(|text| GameEvent::Message { text }),
+            .prop_map(|(position, radius)| WireEvent::Explosion { position, radius }),
+        "\\PC{0,100}".prop_map(|text| WireEvent::Message { text }),
         ("[a-z_]{0,64}", vec(any::<u8>(), 0..300))
-            .prop_map(|(name, data)| GameEvent::Custom { name, data }),
+            .prop_map(|(name, data)| WireEvent::Custom { name, data }),
     ]
 }
 
@@ -444,7 +444,7 @@ proptest! {
 
 #[test]
 fn bounds_that_serde_cannot_see_are_refused_on_decode() {
-    let long_name = ServerControl::Event(GameEvent::Custom {
+    let long_name = ServerControl::Event(WireEvent::Custom {
         name: "n".repeat(65),
         data: vec![],
     });
@@ -453,7 +453,7 @@ fn bounds_that_serde_cannot_see_are_refused_on_decode() {
         decode_payload::<ServerControl>(&payload),
         Err(ControlError::TooLong { .. })
     ));
-    let nan = ServerControl::Event(GameEvent::Contact {
+    let nan = ServerControl::Event(WireEvent::Contact {
         a: 1,
         b: 2,
         impulse: f32::NAN,

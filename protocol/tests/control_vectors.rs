@@ -12,8 +12,8 @@
 //! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test integration control_vectors::`.
 
 use inertia_protocol::control::{
-    decode_payload, encode_frame, ClientControl, DisconnectReason, GameEvent, InputReport, Refusal,
-    ServerControl, SnapshotParams, TokenRefusal, PROTOCOL_VERSION,
+    decode_payload, encode_frame, ClientControl, DisconnectReason, InputReport, Refusal,
+    ServerControl, SnapshotParams, TokenRefusal, WireEvent, PROTOCOL_VERSION,
 };
 use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
 use serde_json::{json, Value};
@@ -286,7 +286,7 @@ fn server_messages() -> Vec<(&'static str, ServerControl)> {
         ("despawn", ServerControl::Despawn { id: 4_000_000_000 }),
         (
             "event: contact",
-            ServerControl::Event(GameEvent::Contact {
+            ServerControl::Event(WireEvent::Contact {
                 a: 1,
                 b: 300,
                 impulse: 12.5,
@@ -294,20 +294,20 @@ fn server_messages() -> Vec<(&'static str, ServerControl)> {
         ),
         (
             "event: explosion",
-            ServerControl::Event(GameEvent::Explosion {
+            ServerControl::Event(WireEvent::Explosion {
                 position: [-3.0, 0.5, 7.25],
                 radius: 4.0,
             }),
         ),
         (
             "event: message",
-            ServerControl::Event(GameEvent::Message {
+            ServerControl::Event(WireEvent::Message {
                 text: "round 2 — fight".into(),
             }),
         ),
         (
             "event: custom",
-            ServerControl::Event(GameEvent::Custom {
+            ServerControl::Event(WireEvent::Custom {
                 name: "score".into(),
                 data: vec![0, 1, 2, 255],
             }),

@@ -89,7 +89,8 @@ impl Secrets {
         let now = crate::net::connection::unix_now();
         let token_key = self
             .shared
-            .token_keys
+            .tokens
+            .keys
             .write()
             .unwrap_or_else(|e| e.into_inner())
             .rotate(TokenKey::from_bytes(creds.token_key), now);

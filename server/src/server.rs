@@ -21,7 +21,7 @@ use crate::config::ServerConfig;
 use crate::credentials::{self, CredentialFiles, CredentialsError};
 use crate::health::Health;
 use crate::metrics::Metrics;
-use crate::net::{self, NetShared};
+use crate::net::{self, ConnectTokens, NetShared, Streaming};
 use crate::orchestrator::{Allocation, Orchestrator, Probe};
 use crate::record::matches::MatchesDir;
 use crate::replay::checkpoint::CheckpointDir;
@@ -313,12 +313,13 @@ pub async fn start_with_rules(
         NetShared::new(
             sim,
             metrics,
-            TokenKey::from_bytes(creds.token_key),
-            addr.to_string(),
-            snapshot,
-            config.snapshot_hz,
-            config.tick_hz,
-            config.client_budget_bytes_per_sec(),
+            ConnectTokens::new(TokenKey::from_bytes(creds.token_key), addr.to_string()),
+            Streaming {
+                snapshot,
+                snapshot_hz: config.snapshot_hz,
+                tick_hz: config.tick_hz,
+                budget_bytes_per_sec: config.client_budget_bytes_per_sec(),
+            },
             shutdown_rx,
             Arc::new(admin),
         )

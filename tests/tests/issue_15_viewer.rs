@@ -7,11 +7,11 @@
 
 use std::time::{Duration, Instant};
 
-use inertia_client::interp::Frame;
+use inertia_client::interp::Sample;
 use inertia_protocol::admin::{AdminRequest, StatusReport, TimeMode};
 use inertia_tests::server::{start_server, test_config};
 use inertia_viewer::headless::{self, Image, OffScreen, When};
-use inertia_viewer::view::{ConnectArgs, View};
+use inertia_viewer::view::{ConnectArgs, Viewer};
 
 const SKIP_ENV: &str = "INERTIA_SKIP_GPU_TESTS";
 
@@ -44,7 +44,7 @@ fn differing(a: &Image, b: &Image) -> f64 {
 
 /// Keeps the viewer running (as a window would, 30 frames a second) until
 /// `done` holds of the admin status, for at most 20 s.
-fn until(view: &mut View, what: &str, done: impl Fn(&StatusReport) -> bool) -> StatusReport {
+fn until(view: &mut Viewer, what: &str, done: impl Fn(&StatusReport) -> bool) -> StatusReport {
     let start = Instant::now();
     loop {
         view.update();
@@ -62,7 +62,7 @@ fn until(view: &mut View, what: &str, done: impl Fn(&StatusReport) -> bool) -> S
 }
 
 /// Runs the viewer for `seconds`, as a window would.
-fn run_for(view: &mut View, seconds: f64) -> Frame {
+fn run_for(view: &mut Viewer, seconds: f64) -> Sample {
     let start = Instant::now();
     loop {
         let frame = view.update();
@@ -85,14 +85,14 @@ async fn issue_15_the_viewer_draws_the_demo_and_its_clock_controls_pause_and_see
         let Some(mut screen) = off_screen(480, 270) else {
             return;
         };
-        let mut view = View::connect(&args).expect("joins");
+        let mut view = Viewer::connect(&args).expect("joins");
         headless::wait_for(&mut view, When::Settled).expect("the world arrives");
 
         // The demo's objects are drawn: against the same picture with
         // only the scenery (what snapshots never move), the bodies cover
         // a good part of it.
         let full = screen.capture(&mut view, false).expect("a picture");
-        let scenery = view.catalogue.draw_list(&Frame::default());
+        let scenery = view.catalogue.draw_list(&Sample::default());
         let moving = view.catalogue.draw_list(&view.client().sample());
         assert!(
             moving.items.len() > scenery.items.len() + 100,

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use crate::camera::OrbitCamera;
 use crate::render::{HudPaint, Renderer};
 use crate::scene::{Catalogue, DrawList};
-use crate::view::View;
+use crate::view::Viewer;
 use crate::ViewerError;
 
 /// The off-screen format: 8-bit sRGB, as PNG files hold.
@@ -147,7 +147,7 @@ impl OffScreen {
 
     /// Draws `view`'s world as it should be shown now, HUD included when
     /// `hud` is true, and reads the picture back.
-    pub fn capture(&mut self, view: &mut View, hud: bool) -> Result<Image, ViewerError> {
+    pub fn capture(&mut self, view: &mut Viewer, hud: bool) -> Result<Image, ViewerError> {
         if hud && !self.hud_laid_out {
             // egui sizes a window on its first frame and shows it from the
             // second: the first frame is drawn and thrown away. A picture
@@ -261,7 +261,7 @@ const WAIT_LIMIT: Duration = Duration::from_secs(60);
 
 /// Waits until `when`, drawing (and discarding) frames at about 30 per
 /// second so the viewer runs as it would on screen.
-pub fn wait_for(view: &mut View, when: When) -> Result<(), ViewerError> {
+pub fn wait_for(view: &mut Viewer, when: When) -> Result<(), ViewerError> {
     let start = Instant::now();
     let tick_hz = f64::from(view.client().server_info().tick_hz.max(1));
     let limit = match when {
@@ -307,7 +307,7 @@ pub fn wait_for(view: &mut View, when: When) -> Result<(), ViewerError> {
 /// Writes frames `frame_00000.png`, … into `dir` at `fps` frames per
 /// second for `seconds` of wall time; returns the files written.
 pub fn record_frames(
-    view: &mut View,
+    view: &mut Viewer,
     screen: &mut OffScreen,
     dir: &Path,
     seconds: f64,

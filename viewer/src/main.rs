@@ -13,7 +13,7 @@ use clap::Parser;
 use inertia_client::dev;
 use inertia_viewer::camera::OrbitCamera;
 use inertia_viewer::headless::{self, OffScreen, When};
-use inertia_viewer::view::{ConnectArgs, View};
+use inertia_viewer::view::{ConnectArgs, Viewer};
 use inertia_viewer::{window, ViewerError};
 
 #[derive(Debug, Parser)]
@@ -95,7 +95,7 @@ fn run(args: Args) -> Result<(), ViewerError> {
             "--headless needs --screenshot OUT.png or --frames DIR".into(),
         ));
     }
-    let mut view = View::connect(&ConnectArgs {
+    let mut view = Viewer::connect(&ConnectArgs {
         server: args.dev.server,
         credentials: args.dev.credentials.clone(),
         admin: !args.no_admin,

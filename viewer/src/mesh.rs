@@ -3,7 +3,7 @@
 //! are not shared); round surfaces get smooth normals.
 
 use glam::{DVec3, Quat, Vec3};
-use inertia_physics::rigid::hull::ConvexHull;
+use inertia_physics::rigid::shape::hull::ConvexHull;
 use inertia_protocol::ShapeDesc;
 
 /// One corner of a triangle, as the scene shader reads it.

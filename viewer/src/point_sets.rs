@@ -5,14 +5,14 @@
 //! as one small ball per point by the instanced path ([`crate::scene`]).
 
 use glam::Vec3;
-use inertia_client::point_sets::PointSetFrame;
+use inertia_client::point_sets::PointSetSample;
 
 use crate::mesh::{Mesh, Vertex};
 
 /// The mesh of a set's drawn triangles and lines, world coordinates, m.
 /// Both faces of a cloth are lit alike (the scene pipeline does not cull,
 /// and the shader lights the face towards the eye).
-pub fn surface_of(set: &PointSetFrame<'_>) -> Mesh {
+pub fn surface_of(set: &PointSetSample<'_>) -> Mesh {
     let mut mesh = Mesh::default();
     let normals = set.normals();
     // Only the points a drawn triangle uses become vertices.
@@ -92,8 +92,8 @@ mod tests {
         }
     }
 
-    fn frame_of(desc: &EntityDesc, present: [bool; 4]) -> PointSetFrame<'_> {
-        PointSetFrame {
+    fn frame_of(desc: &EntityDesc, present: [bool; 4]) -> PointSetSample<'_> {
+        PointSetSample {
             id: 1,
             desc,
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(1.0, 0.0, 1.0)],

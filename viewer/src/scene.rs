@@ -6,8 +6,8 @@ use std::collections::{BTreeMap, HashMap};
 use std::hash::{Hash, Hasher};
 
 use glam::{DQuat, DVec3, Mat4, Quat, Vec3};
-use inertia_client::interp::Frame;
-use inertia_client::point_sets::PointSetFrame;
+use inertia_client::interp::Sample;
+use inertia_client::point_sets::PointSetSample;
 use inertia_protocol::{EntityDesc, EntityId, EntityKind, ShapeDesc};
 
 use crate::mesh::Mesh;
@@ -251,7 +251,7 @@ impl Catalogue {
     /// The frame's entities where it has them, and the described entities
     /// it does not move (static scenery, water) where they were described.
     /// Entities not yet described are left out.
-    pub fn draw_list(&self, frame: &Frame) -> DrawList {
+    pub fn draw_list(&self, frame: &Sample) -> DrawList {
         let mut items = Vec::with_capacity(self.looks.len());
         let mut placed = std::collections::HashSet::with_capacity(frame.entities.len());
         for e in &frame.entities {
@@ -269,7 +269,7 @@ impl Catalogue {
         let mut surfaces = Vec::new();
         for (id, desc) in &self.sets {
             let (Some(look), Some(set)) =
-                (self.looks.get(id), PointSetFrame::gather(desc, frame, &[]))
+                (self.looks.get(id), PointSetSample::gather(desc, frame, &[]))
             else {
                 continue;
             };
@@ -322,7 +322,7 @@ fn item(look: &Look, model: Mat4) -> DrawItem {
 }
 
 /// Where an entity is in `frame`, m.
-pub fn position_in(frame: &Frame, id: EntityId) -> Option<Vec3> {
+pub fn position_in(frame: &Sample, id: EntityId) -> Option<Vec3> {
     frame.get(id).map(|e| e.position.as_vec3())
 }
 
@@ -376,7 +376,7 @@ mod tests {
         cat.learn(&desc(1, EntityKind::Dynamic, ball.clone()));
         cat.learn(&desc(2, EntityKind::Dynamic, ball));
         cat.learn(&desc(3, EntityKind::Static, ShapeDesc::Ground));
-        let frame = Frame {
+        let frame = Sample {
             render_tick: 10.0,
             entities: vec![rendered(1, 3.0), rendered(9, 0.0)],
         };
@@ -413,7 +413,7 @@ mod tests {
             },
         ));
         cat.learn(&desc(2, EntityKind::Static, ShapeDesc::Ground));
-        let list = cat.draw_list(&Frame::default());
+        let list = cat.draw_list(&Sample::default());
         assert!(
             list.items[0].finish != Finish::Translucent
                 && list.items[1].finish == Finish::Translucent
@@ -427,7 +427,7 @@ mod tests {
         d.color = [255, 0, 188, 128];
         d.rotation = [0.0, 0.0, 0.0, 0.0];
         cat.learn(&d);
-        let list = cat.draw_list(&Frame::default());
+        let list = cat.draw_list(&Sample::default());
         let c = list.items[0].color;
         assert_eq!(c[0], 1.0);
         assert_eq!(c[1], 0.0);
@@ -453,7 +453,7 @@ mod tests {
         cat.learn(&set(10, EntityKind::SoftBody, 3, vec![[0, 1, 2]]));
         cat.learn(&set(20, EntityKind::Fluid, 5, vec![]));
         // The cloth's three points, and two of the fluid's five.
-        let frame = Frame {
+        let frame = Sample {
             render_tick: 1.0,
             entities: vec![
                 rendered(11, 0.0),

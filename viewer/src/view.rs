@@ -1,13 +1,13 @@
 //! One viewer's state, window or not: the SDK connection, the catalogue of
 //! what was described, the camera, the HUD and the admin link. Each frame
-//! [`View::prepare`] turns the interpolated world and the HUD into what the
+//! [`Viewer::prepare`] turns the interpolated world and the HUD into what the
 //! [`crate::render::Renderer`] draws.
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use inertia_client::interp::Frame;
+use inertia_client::interp::Sample;
 use inertia_client::{dev, BlockingClient, ClientEvent};
 
 use crate::admin::AdminLink;
@@ -38,7 +38,7 @@ pub struct Prepared {
     /// What egui wants of the window (cursor, clipboard).
     pub platform: egui::PlatformOutput,
     /// The interpolated world the list was made from.
-    pub frame: Frame,
+    pub frame: Sample,
 }
 
 impl std::fmt::Debug for Prepared {
@@ -52,7 +52,7 @@ impl std::fmt::Debug for Prepared {
 }
 
 /// A connected viewer.
-pub struct View {
+pub struct Viewer {
     client: BlockingClient,
     server: SocketAddr,
     /// What was described so far.
@@ -69,9 +69,9 @@ pub struct View {
     last_census: Instant,
 }
 
-impl std::fmt::Debug for View {
+impl std::fmt::Debug for Viewer {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("View")
+        f.debug_struct("Viewer")
             .field("server", &self.server)
             .field("entities", &self.catalogue.len())
             .field("camera", &self.camera)
@@ -79,7 +79,7 @@ impl std::fmt::Debug for View {
     }
 }
 
-impl View {
+impl Viewer {
     /// Joins the server as a client (and as its operator with `admin`).
     pub fn connect(args: &ConnectArgs) -> Result<Self, ViewerError> {
         let (addr, token, _) = dev::dev_token(&args.credentials, None).map_err(|e| {
@@ -201,7 +201,7 @@ impl View {
 
     /// Takes in what arrived (descriptions, departures) and returns the
     /// world interpolated to now, with the camera moved if it follows.
-    pub fn update(&mut self) -> Frame {
+    pub fn update(&mut self) -> Sample {
         let now = Instant::now();
         let dt = self
             .last_frame
@@ -224,7 +224,7 @@ impl View {
         frame
     }
 
-    /// One frame: [`View::update`], then, with `hud_input` (the screen's
+    /// One frame: [`Viewer::update`], then, with `hud_input` (the screen's
     /// size and events), the HUD laid out. The HUD's textures must reach
     /// the renderer: a [`Prepared`] with a HUD is to be drawn.
     pub fn prepare(&mut self, hud_input: Option<egui::RawInput>) -> Prepared {

@@ -20,11 +20,11 @@ use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
 use crate::render::Renderer;
-use crate::view::View;
+use crate::view::Viewer;
 use crate::ViewerError;
 
 /// Opens a window on `view` and runs until it is closed.
-pub fn run(view: View) -> Result<(), ViewerError> {
+pub fn run(view: Viewer) -> Result<(), ViewerError> {
     let event_loop = EventLoop::new()
         .map_err(|e| ViewerError::Window(format!("no display to open a window on: {e}")))?;
     let mut app = App {
@@ -55,7 +55,7 @@ struct Gpu {
 }
 
 struct App {
-    view: View,
+    view: Viewer,
     window: Option<Gpu>,
     error: Option<ViewerError>,
     keys: HashSet<KeyCode>,
@@ -65,7 +65,7 @@ struct App {
 }
 
 impl Gpu {
-    fn new(event_loop: &ActiveEventLoop, view: &View) -> Result<Self, ViewerError> {
+    fn new(event_loop: &ActiveEventLoop, view: &Viewer) -> Result<Self, ViewerError> {
         let attributes = Window::default_attributes()
             .with_title("Inertia viewer")
             .with_inner_size(winit::dpi::LogicalSize::new(1280.0, 720.0));

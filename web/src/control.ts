@@ -90,7 +90,7 @@ export type Refusal =
   | "SimulationStopped"
   | { Rejected: { reason: string } };
 
-export type GameEvent =
+export type WireEvent =
   | { Contact: { a: number; b: number; impulse: number } }
   | { Explosion: { position: Vec3; radius: number } }
   | { Message: { text: string } }
@@ -110,7 +110,7 @@ export type ServerControl =
   | { Refused: Refusal }
   | { Spawn: EntityDesc }
   | { Despawn: { id: number } }
-  | { Event: GameEvent }
+  | { Event: WireEvent }
   | { Goodbye: DisconnectReason }
   | { InputTiming: InputReport };
 
@@ -412,8 +412,8 @@ function refusal(r: Reader): Refusal {
   }
 }
 
-function gameEvent(r: Reader): GameEvent {
-  switch (r.variant("GameEvent", 4)) {
+function gameEvent(r: Reader): WireEvent {
+  switch (r.variant("WireEvent", 4)) {
     case 0:
       return { Contact: { a: r.u32(), b: r.u32(), impulse: r.f32() } };
     case 1:

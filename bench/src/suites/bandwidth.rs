@@ -33,7 +33,7 @@ use inertia_protocol::{
     SnapshotConfig, SnapshotDecoder, SnapshotEncoder,
 };
 
-use crate::report::{logical_cores, progress, Record, Sink, Suspended};
+use crate::report::{logical_cores, progress, Measurement, Sink, Suspended};
 use crate::{BenchError, Opts};
 
 /// Snapshots (and physics steps) per second.
@@ -331,7 +331,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     let stats = decoder.stats();
     let mut out = Suspended::new(&pb, sink);
     out.record(
-        Record::new()
+        Measurement::new()
             .field("case", "fiedler_cubes")
             .field("scene", "fiedler_cubes")
             .field("entities", n)

@@ -79,7 +79,7 @@ use inertia_server::config::ServerConfig;
 use inertia_server::server::{start, RunningServer};
 
 use super::bots::{process_cpu_s, stat_cpu, stat_fields, BotReport, Bots};
-use crate::report::{logical_cores, note, progress, Record, Sink, Suspended};
+use crate::report::{logical_cores, note, progress, Measurement, Sink, Suspended};
 use crate::{BenchError, Opts};
 
 /// Client counts stepped through by default (`--clients`).
@@ -495,7 +495,7 @@ fn steps(
             && min_hz >= target_hz
             && reports.iter().all(|r| !r.disconnected);
         out.record(
-            Record::new()
+            Measurement::new()
                 .field("case", format!("capacity_{k}"))
                 .field("scene", "capacity")
                 .field("clients", k)
@@ -592,7 +592,7 @@ fn steps(
     let bounded_by = verdict(&last);
     note(&pb, &format!("capacity: {bounded_by}"));
     sink.record(
-        Record::new()
+        Measurement::new()
             .field("case", "capacity_max")
             .field("scene", "capacity")
             .field("max_clients_at_60hz", served_max.unwrap_or(0))

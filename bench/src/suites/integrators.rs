@@ -40,7 +40,7 @@ use inertia_physics::{
     SystemDesc, World, WorldConfig,
 };
 
-use crate::report::{note, progress, Record, Sink, Suspended};
+use crate::report::{note, progress, Measurement, Sink, Suspended};
 use crate::{BenchError, Opts};
 
 // Oscillator.
@@ -279,7 +279,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
                 drift.seconds * 1e9 / drift_steps as f64
             ),
         );
-        let mut r = Record::new()
+        let mut r = Measurement::new()
             .field("integrator", integrator.name())
             .field("threads", 1)
             .field("expected_order", integrator.order())

@@ -26,7 +26,7 @@ use inertia_physics::{
     GravityMethod, Integrator, MutualGravity, ParticleDesc, SystemDesc, World, WorldConfig,
 };
 
-use crate::report::{median, note, progress, Record, Sink, SplitMix64, Suspended};
+use crate::report::{median, note, progress, Measurement, Sink, SplitMix64, Suspended};
 use crate::suites::particles::{sci, thread_counts};
 use crate::{BenchError, Opts};
 
@@ -163,7 +163,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         pb.set_message(format!("exact threads={t}"));
         let exact_s = time_steps(&positions, GravityMethod::Exact, t, exact_reps)?;
         sink.record(
-            Record::new()
+            Measurement::new()
                 .field("case", case.clone())
                 .field("method", "exact")
                 .field("theta", serde_json::Value::Null)
@@ -180,7 +180,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
             let s = time_steps(&positions, GravityMethod::BarnesHut { theta }, t, bh_reps)?;
             let bound = rms_error_bound(theta);
             sink.record(
-                Record::new()
+                Measurement::new()
                     .field("case", case.clone())
                     .field("method", "barnes_hut")
                     .num("theta", theta)

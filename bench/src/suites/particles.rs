@@ -72,7 +72,9 @@ use inertia_physics::{
 };
 
 use crate::copy::CopyBench;
-use crate::report::{logical_cores, median, note, progress, Record, Sink, SplitMix64, Suspended};
+use crate::report::{
+    logical_cores, median, note, progress, Measurement, Sink, SplitMix64, Suspended,
+};
 use crate::{BenchError, Opts};
 
 /// Simulation step, s: a 60 Hz game tick.
@@ -87,25 +89,25 @@ pub const CLOTH_BYTES_PER_SPRING: f64 = 88.0;
 
 /// A scene to step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Scene {
+pub enum ParticleScene {
     /// `n` free particles under gravity, drag and wind.
     Particles(usize),
     /// An `n` × `n` cloth under gravity and wind.
     Cloth(usize),
 }
 
-impl Scene {
+impl ParticleScene {
     /// The case name, e.g. `particles_1e6` or `cloth_256`.
     pub fn name(self) -> String {
         match self {
-            Scene::Particles(n) => format!("particles_{}", sci(n)),
-            Scene::Cloth(n) => format!("cloth_{n}"),
+            ParticleScene::Particles(n) => format!("particles_{}", sci(n)),
+            ParticleScene::Cloth(n) => format!("cloth_{n}"),
         }
     }
 
     /// Whether the world keeps energy accounting on for this case.
     pub fn energy_accounting(self) -> bool {
-        matches!(self, Scene::Particles(_))
+        matches!(self, ParticleScene::Particles(_))
     }
 
     /// Builds the scene in a new world.
@@ -124,7 +126,7 @@ impl Scene {
             },
         )?;
         let springs = match self {
-            Scene::Particles(n) => {
+            ParticleScene::Particles(n) => {
                 w.add_force(sys, Drag::default())?;
                 let mut rng = SplitMix64(0x1E27_1A00 ^ n as u64);
                 let descs: Vec<ParticleDesc> = (0..n)
@@ -151,7 +153,7 @@ impl Scene {
                 w.add_particles(sys, &descs)?;
                 0
             }
-            Scene::Cloth(n) => {
+            ParticleScene::Cloth(n) => {
                 // 10 cm spacing, 10 g per particle; stiffnesses soft enough
                 // that the engine's stability bound (Gershgorin, `ω_max dt
                 // <= 1`) needs no substep at 60 Hz: 2·(4·2.5 + 4·1 + 4·0.5)
@@ -216,10 +218,10 @@ pub struct Built {
 impl Built {
     /// Bytes one step must move: the per-pass traffic of the module docs
     /// times the number of substeps.
-    pub fn bytes_per_step(&self, scene: Scene) -> f64 {
+    pub fn bytes_per_step(&self, scene: ParticleScene) -> f64 {
         let pass = match scene {
-            Scene::Particles(_) => PARTICLE_BYTES * self.particles as f64,
-            Scene::Cloth(_) => {
+            ParticleScene::Particles(_) => PARTICLE_BYTES * self.particles as f64,
+            ParticleScene::Cloth(_) => {
                 CLOTH_BYTES_PER_PARTICLE * self.particles as f64
                     + CLOTH_BYTES_PER_SPRING * self.springs as f64
             }
@@ -275,18 +277,18 @@ impl Plan {
 }
 
 /// The scenes of the suite.
-pub fn scenes(opts: &Opts) -> Vec<Scene> {
+pub fn scenes(opts: &Opts) -> Vec<ParticleScene> {
     if opts.quick {
         vec![
-            Scene::Particles(10_000),
-            Scene::Particles(100_000),
-            Scene::Cloth(64),
+            ParticleScene::Particles(10_000),
+            ParticleScene::Particles(100_000),
+            ParticleScene::Cloth(64),
         ]
     } else {
         vec![
-            Scene::Particles(100_000),
-            Scene::Particles(1_000_000),
-            Scene::Cloth(256),
+            ParticleScene::Particles(100_000),
+            ParticleScene::Particles(1_000_000),
+            ParticleScene::Cloth(256),
         ]
     }
 }
@@ -351,17 +353,17 @@ fn interleaved(
 }
 
 fn throughput_record(
-    scene: Scene,
+    scene: ParticleScene,
     built: &Built,
     backend: &str,
     threads: usize,
     t: &Timing,
-) -> Record {
+) -> Measurement {
     let (particles, springs) = (built.particles, built.springs);
     let bytes = built.bytes_per_step(scene);
     let bytes_per_s = bytes / t.step_s;
     let copy_bytes_per_s = t.copy_bytes / t.copy_s;
-    let mut r = Record::new()
+    let mut r = Measurement::new()
         .field("case", scene.name())
         .field("backend", backend)
         .field("threads", threads)
@@ -393,7 +395,7 @@ fn config(opts: &Opts, threads: usize, energy: bool, gpu_readback_every_step: bo
 /// Measures one scene on the CPU with `threads` workers.
 pub fn cpu_case(
     opts: &Opts,
-    scene: Scene,
+    scene: ParticleScene,
     threads: usize,
     sink: &mut dyn Sink,
 ) -> Result<(), BenchError> {
@@ -427,12 +429,12 @@ pub fn cpu_case(
 /// throughput with no readback per step (each timed burst ends with one
 /// `sync_gpu`, so the work is really done). If the GPU backend is not
 /// available the record carries an `error` field instead of figures.
-pub fn gpu_case(opts: &Opts, scene: Scene, sink: &mut dyn Sink) -> Result<(), BenchError> {
+pub fn gpu_case(opts: &Opts, scene: ParticleScene, sink: &mut dyn Sink) -> Result<(), BenchError> {
     let plan = Plan::new(opts);
     let threads = logical_cores();
     let energy = scene.energy_accounting();
     let mut gb = scene.build(config(opts, 0, energy, false))?;
-    let base = Record::new()
+    let base = Measurement::new()
         .field("case", scene.name())
         .field("backend", "gpu")
         .field("threads", threads)
@@ -445,7 +447,7 @@ pub fn gpu_case(opts: &Opts, scene: Scene, sink: &mut dyn Sink) -> Result<(), Be
         );
         return Ok(());
     }
-    let mut run = || -> Result<Record, BenchError> {
+    let mut run = || -> Result<Measurement, BenchError> {
         let mut cb = scene.build(config(opts, 0, energy, true))?;
         let (g, c, csys) = (&mut gb.world, &mut cb.world, cb.sys);
         for _ in 0..plan.compare_steps {
@@ -493,7 +495,7 @@ pub fn gpu_case(opts: &Opts, scene: Scene, sink: &mut dyn Sink) -> Result<(), Be
 /// Runs the suite: every scene on the CPU at each thread count and on the
 /// GPU, then the n-body case.
 pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
-    let scenes: Vec<Scene> = scenes(opts)
+    let scenes: Vec<ParticleScene> = scenes(opts)
         .into_iter()
         .filter(|s| opts.wants(&s.name()))
         .collect();
@@ -535,19 +537,21 @@ mod tests {
         assert_eq!(sci(1_000_000), "1e6");
         assert_eq!(sci(100_000), "1e5");
         assert_eq!(sci(65_536), "65536");
-        assert_eq!(Scene::Cloth(256).name(), "cloth_256");
+        assert_eq!(ParticleScene::Cloth(256).name(), "cloth_256");
     }
 
     #[test]
     fn cloth_springs_match_the_byte_model_count() {
-        let b = Scene::Cloth(16).build(WorldConfig::default()).unwrap();
+        let b = ParticleScene::Cloth(16)
+            .build(WorldConfig::default())
+            .unwrap();
         assert_eq!(b.world.system(b.sys).unwrap().spring_count(), b.springs);
         // 2·15·16 structural + 2·15·15 shear + 2·14·16 bend.
         assert_eq!(b.springs, 480 + 450 + 448);
         // Tuned to need no substep at 60 Hz, so no spring is softened.
         assert_eq!(b.substeps, 1);
         assert_eq!(
-            Scene::Particles(10)
+            ParticleScene::Particles(10)
                 .build(WorldConfig::default())
                 .unwrap()
                 .substeps,

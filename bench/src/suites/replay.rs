@@ -43,7 +43,7 @@ use inertia_server::scene::{Scene, SceneFormat};
 use inertia_server::sim::verify::verify;
 use inertia_server::sim::{SimConfig, Simulation};
 
-use crate::report::{logical_cores, median, note, progress, Record as Out, Sink};
+use crate::report::{logical_cores, median, note, progress, Measurement as Out, Sink};
 use crate::{BenchError, Opts};
 
 /// Minutes recorded by default (`--minutes`).

@@ -45,7 +45,7 @@ use plotters::prelude::*;
 
 use super::bots::Bots;
 use super::capacity::exposed;
-use crate::report::{note, progress, Record, Sink};
+use crate::report::{note, progress, Measurement, Sink};
 use crate::{BenchError, Opts};
 
 /// Simulated minutes by default (`--minutes`).
@@ -248,7 +248,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         note(&pb, &format!("soak: no plot ({e})"));
     }
     sink.record(
-        Record::new()
+        Measurement::new()
             .field("case", "soak_demo")
             .num("sim_minutes", last.sim_minutes)
             .num("wall_s", last.wall_s)

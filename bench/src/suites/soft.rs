@@ -45,7 +45,7 @@ use inertia_physics::{
     ThreadPinning, World, WorldConfig,
 };
 
-use crate::report::{median, note, progress, Record, Sink, Suspended};
+use crate::report::{median, note, progress, Measurement, Sink, Suspended};
 use crate::{BenchError, Opts};
 
 /// A 60 Hz tick, s.
@@ -256,7 +256,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         }
         for (k, (w, h)) in worlds.iter().enumerate() {
             let total: f64 = times[k].iter().sum();
-            let r = Record::new()
+            let r = Measurement::new()
                 .field("case", scene.name())
                 .field("backend", "cpu")
                 .field("threads", threads[k].0)
@@ -365,7 +365,7 @@ fn gpu_case(
     pb: &indicatif::ProgressBar,
 ) -> Result<(), BenchError> {
     use inertia_physics::Backend;
-    let base = Record::new()
+    let base = Measurement::new()
         .field("case", scene.name())
         .field("backend", "gpu")
         .field("threads", crate::report::logical_cores());
@@ -448,7 +448,7 @@ fn fluid_gpu_case(
     let Scene::Fluid(n) = scene else {
         return Err("not a fluid".into());
     };
-    let base = Record::new()
+    let base = Measurement::new()
         .field("case", scene.name())
         .field("backend", "gpu")
         .field("threads", crate::report::logical_cores());

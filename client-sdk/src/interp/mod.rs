@@ -153,16 +153,17 @@ pub struct RenderedEntity {
     pub extrapolated: bool,
 }
 
-/// The world as drawn at one local time.
+/// The world as drawn at one local time (what a client samples to draw
+/// a frame of its own).
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct Frame {
+pub struct Sample {
     /// The (fractional) server tick rendered.
     pub render_tick: f64,
     /// The entities, by id.
     pub entities: Vec<RenderedEntity>,
 }
 
-impl Frame {
+impl Sample {
     /// The entities as (id, position m, rotation).
     pub fn iter(&self) -> impl Iterator<Item = (EntityId, DVec3, DQuat)> + '_ {
         self.entities.iter().map(|e| (e.id, e.position, e.rotation))
@@ -298,7 +299,7 @@ pub struct InterpolationBuffer {
     primed: bool,
     stats: InterpStats,
     events: VecDeque<InterpEvent>,
-    frame: Frame,
+    frame: Sample,
 }
 
 /// The most events kept unread.
@@ -327,7 +328,7 @@ impl InterpolationBuffer {
             primed: false,
             stats: InterpStats::default(),
             events: VecDeque::new(),
-            frame: Frame::default(),
+            frame: Sample::default(),
         }
     }
 
@@ -493,7 +494,7 @@ impl InterpolationBuffer {
 
     /// Advances the render clock to `local_time` (s) and draws the world
     /// at the render tick.
-    pub fn sample(&mut self, local_time: f64) -> &Frame {
+    pub fn sample(&mut self, local_time: f64) -> &Sample {
         let t = local_time;
         let dt = self.last_sample.map_or(0.0, |l| (t - l).max(0.0));
         self.last_sample = Some(t.max(self.last_sample.unwrap_or(t)));
@@ -629,8 +630,8 @@ impl InterpolationBuffer {
         d * next.max(u)
     }
 
-    /// The frame drawn by the last [`sample`](Self::sample).
-    pub fn frame(&self) -> &Frame {
+    /// What the last [`sample`](Self::sample) drew.
+    pub fn last_sample(&self) -> &Sample {
         &self.frame
     }
 

@@ -4,19 +4,19 @@
 //! and the [`ClientSession`] (snapshot datagrams in, input datagrams out
 //! when the session says they are due), and obeys the
 //! [`super::Client`]'s commands. Everything it learns goes into
-//! [`State`], which the game reads under a short lock.
+//! [`ClientShared`], which the game reads under a short lock.
 
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use inertia_protocol::connection::{ClientConnection, ClientConnectionEvent};
-use inertia_protocol::control::{DisconnectReason, GameEvent, ServerControl};
+use inertia_protocol::control::{DisconnectReason, ServerControl, WireEvent};
 use inertia_protocol::{ClientSession, EntityId};
 use tokio::sync::mpsc;
 
 use crate::clock::{Discontinuity, SnapshotMeta};
-use crate::entities::EntityTable;
+use crate::entities::KnownEntities;
 use crate::interp::{InterpEvent, InterpolationBuffer};
 use crate::lead::InputLead;
 use crate::predict::Predictor;
@@ -36,7 +36,7 @@ pub enum ClientEvent {
     /// An entity left the world or our view.
     Despawned(EntityId),
     /// A game event from the server.
-    Game(GameEvent),
+    Game(WireEvent),
     /// The server's timeline jumped (seek, rewind, replay): cut or fade.
     Discontinuity(Discontinuity),
     /// Rendering fell far behind after an outage and jumped forwards.
@@ -52,11 +52,11 @@ pub enum ClientEvent {
 
 /// What the connection knows, shared with the game.
 #[derive(Debug)]
-pub(crate) struct State {
+pub(crate) struct ClientShared {
     /// The session: decoder, acknowledgements, inputs and their pacing.
     pub session: ClientSession,
     pub interp: InterpolationBuffer,
-    pub entities: EntityTable,
+    pub entities: KnownEntities,
     /// The newest snapshot decoded: its tick and sequence number.
     pub latest: Option<(u64, u16)>,
     /// The newest snapshot's timing header (tick, time scale, paused).
@@ -71,12 +71,12 @@ pub(crate) struct State {
     pub predictor: Option<Predictor>,
 }
 
-impl State {
+impl ClientShared {
     pub fn new(info: &ServerInfo, session: ClientSession) -> Self {
         Self {
             session,
             interp: InterpolationBuffer::new(f64::from(info.tick_hz)),
-            entities: EntityTable::new(),
+            entities: KnownEntities::new(),
             latest: None,
             latest_meta: None,
             events: VecDeque::new(),
@@ -211,7 +211,7 @@ impl State {
 
 /// What the [`super::Client`] asks of its task.
 #[derive(Debug)]
-pub(crate) enum Command {
+pub(crate) enum DriverCommand {
     /// Say goodbye and close.
     Close,
 }
@@ -222,13 +222,13 @@ pub(crate) struct Driver {
     pub conn: ClientConnection,
     pub send: quinn::SendStream,
     pub recv: quinn::RecvStream,
-    pub state: Arc<Mutex<State>>,
-    pub commands: mpsc::UnboundedReceiver<Command>,
+    pub state: Arc<Mutex<ClientShared>>,
+    pub commands: mpsc::UnboundedReceiver<DriverCommand>,
     pub epoch: Instant,
 }
 
 impl Driver {
-    fn lock(&self) -> std::sync::MutexGuard<'_, State> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, ClientShared> {
         self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
 }
@@ -402,7 +402,7 @@ mod tests {
             0,
         )
         .unwrap();
-        let mut state = State::new(&info, session);
+        let mut state = ClientShared::new(&info, session);
         let mut encoder = SnapshotEncoder::new(config).unwrap();
         let mut priorities = PriorityAccumulator::default();
         // Both fit the first snapshot.

@@ -19,7 +19,7 @@ use inertia_protocol::{ClientConfig, ClientSession};
 use tokio::sync::mpsc;
 
 pub use driver::ClientEvent;
-use driver::{Command, State};
+use driver::{ClientShared, DriverCommand};
 
 /// What the server said about itself when it welcomed us (the
 /// protocol's).
@@ -105,8 +105,8 @@ impl Default for ConnectOptions {
 /// [`Client::connect`] was called on.
 #[derive(Debug)]
 pub struct Client {
-    state: Arc<Mutex<State>>,
-    commands: mpsc::UnboundedSender<Command>,
+    state: Arc<Mutex<ClientShared>>,
+    commands: mpsc::UnboundedSender<DriverCommand>,
     info: ServerInfo,
     epoch: Instant,
     connection: quinn::Connection,
@@ -217,7 +217,7 @@ impl Client {
             .map(|config| crate::predict::Predictor::new(config, info.client_id, info.tick_hz))
             .transpose()?;
         let epoch = Instant::now();
-        let mut state = State::new(&info, session);
+        let mut state = ClientShared::new(&info, session);
         state.predictor = predictor;
         let state = Arc::new(Mutex::new(state));
         let (commands, command_rx) = mpsc::unbounded_channel();
@@ -256,7 +256,7 @@ impl Client {
         self.info.client_id
     }
 
-    fn lock(&self) -> std::sync::MutexGuard<'_, State> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, ClientShared> {
         self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
 
@@ -270,7 +270,7 @@ impl Client {
 
     /// The world as it should be drawn now: interpolated behind the
     /// server by the buffer's delay.
-    pub fn sample(&self) -> crate::interp::Frame {
+    pub fn sample(&self) -> crate::interp::Sample {
         self.sample_at(self.local_time())
     }
 
@@ -282,7 +282,7 @@ impl Client {
     /// compensation): sample the frame you draw, then set the input. With
     /// prediction on, the own avatar is where prediction puts it (see
     /// [`Client::predicted_avatar`]), ahead of the interpolated rest.
-    pub fn sample_at(&self, local_time: f64) -> crate::interp::Frame {
+    pub fn sample_at(&self, local_time: f64) -> crate::interp::Sample {
         let mut s = self.lock();
         let predicted = s.predictor.as_ref().and_then(|p| p.avatar());
         let mut frame = s.interp.sample(local_time).clone();
@@ -337,7 +337,7 @@ impl Client {
 
     /// Runs `f` on the entity table: descriptions and the newest state each
     /// entity's snapshots carried.
-    pub fn with_entities<R>(&self, f: impl FnOnce(&crate::entities::EntityTable) -> R) -> R {
+    pub fn with_entities<R>(&self, f: impl FnOnce(&crate::entities::KnownEntities) -> R) -> R {
         f(&self.lock().entities)
     }
 
@@ -369,7 +369,7 @@ impl Client {
     /// Says goodbye and closes the connection, waiting briefly for the
     /// server to hear it.
     pub async fn close(self) {
-        let _ = self.commands.send(Command::Close);
+        let _ = self.commands.send(DriverCommand::Close);
         let _ = tokio::time::timeout(Duration::from_secs(1), self.connection.closed()).await;
         self.endpoint.close(0u32.into(), b"client left");
         let _ = tokio::time::timeout(Duration::from_secs(1), self.endpoint.wait_idle()).await;

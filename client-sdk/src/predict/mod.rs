@@ -66,7 +66,7 @@ pub use config::PredictionConfig;
 pub use smoothing::{Fold, VisualOffset};
 pub use stats::PredictionStats;
 
-use crate::entities::EntityTable;
+use crate::entities::KnownEntities;
 use stats::StatsCollector;
 
 /// Why a [`Predictor`] could not be made.
@@ -266,7 +266,7 @@ impl Predictor {
     /// carried); `entities` is the entity table after it. Updates the
     /// neighbours, and compares the avatar with its prediction, rolling
     /// back and replaying when they disagree.
-    pub fn on_snapshot(&mut self, tick: u64, updated: &[ViewEntity], entities: &EntityTable) {
+    pub fn on_snapshot(&mut self, tick: u64, updated: &[ViewEntity], entities: &KnownEntities) {
         let own = entities.iter().find(|(_, e)| {
             e.desc.kind == EntityKind::Avatar && e.desc.owner == Some(self.client_id)
         });
@@ -456,7 +456,7 @@ impl Predictor {
     /// Puts what lies within the neighbour radius of the avatar (at `near`,
     /// or where it is predicted) in the local world, moving ones at their
     /// newest poses, and takes out what left.
-    fn sync_neighbours(&mut self, own: EntityId, entities: &EntityTable, near: Option<DVec3>) {
+    fn sync_neighbours(&mut self, own: EntityId, entities: &KnownEntities, near: Option<DVec3>) {
         let Some(center) = near.or_else(|| self.avatar().map(|a| a.predicted)) else {
             return;
         };

@@ -18,8 +18,8 @@ fn desc(id: EntityId, kind: EntityKind, shape: ShapeDesc, at: [f64; 3]) -> Entit
 }
 
 /// A floor and the own avatar standing on it.
-fn table() -> EntityTable {
-    let mut t = EntityTable::new();
+fn table() -> KnownEntities {
+    let mut t = KnownEntities::new();
     t.spawn(desc(
         1,
         EntityKind::Static,
@@ -71,7 +71,7 @@ fn script(t: u64) -> PlayerInput {
     }
 }
 
-fn predictor(table: &EntityTable) -> Predictor {
+fn predictor(table: &KnownEntities) -> Predictor {
     let mut p = Predictor::new(PredictionConfig::default(), CLIENT, 60).unwrap();
     p.on_snapshot(0, &[state(DVec3::new(0.0, 0.9, 0.0), DVec3::ZERO)], table);
     p
@@ -80,7 +80,7 @@ fn predictor(table: &EntityTable) -> Predictor {
 /// The "server": the same controller run on every input, its state by
 /// tick, shifted by `shift(tick)` (as if something the client cannot
 /// know had pushed it).
-fn server_states(ticks: u64, table: &EntityTable) -> Vec<(DVec3, DVec3)> {
+fn server_states(ticks: u64, table: &KnownEntities) -> Vec<(DVec3, DVec3)> {
     let mut s = predictor(table);
     let mut out = vec![(DVec3::new(0.0, 0.9, 0.0), DVec3::ZERO)];
     for t in 0..ticks {

@@ -27,7 +27,6 @@ pub use uniform_gravity::UniformGravity;
 pub use wind::Wind;
 
 use crate::error::PhysicsError;
-use crate::particle_system::ParticleSystem;
 use wind::CompiledWind;
 
 /// A force generator attached to a particle system.
@@ -114,18 +113,22 @@ pub(crate) struct FieldForces {
 }
 
 impl FieldForces {
-    /// The forces on `sys` over the step `[t, t + dt]` (s), under the
-    /// world's uniform `gravity` (m/s², scaled by the system's gravity
-    /// scale) and the system's own forces.
-    pub(crate) fn compile(sys: &ParticleSystem, gravity: DVec3, t: f64, dt: f64) -> Self {
+    /// `forces` over the step `[t, t + dt]` (s), under the uniform
+    /// `gravity` (m/s², the world's scaled by the system's gravity scale).
+    pub(crate) fn compile<'a>(
+        forces: impl IntoIterator<Item = &'a Force>,
+        gravity: DVec3,
+        t: f64,
+        dt: f64,
+    ) -> Self {
         let mut f = FieldForces {
-            gravity: gravity * sys.gravity_scale,
+            gravity,
             t,
             dt,
             ..Default::default()
         };
-        for (_, _, e) in sys.forces.iter() {
-            match e.force {
+        for force in forces {
+            match *force {
                 Force::UniformGravity(g) => f.gravity += g.acceleration(),
                 Force::Drag(d) => f.drag = Some(f.drag.map_or(d, |prev| prev.combined(&d))),
                 Force::Wind(w) => f.winds.push(w.compiled()),

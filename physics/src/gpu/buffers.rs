@@ -20,7 +20,7 @@ use wgpu::util::DeviceExt;
 use crate::error::PhysicsError;
 
 use super::context::GpuContext;
-use super::layout::{Body, Params};
+use super::layout::{GpuBody, Params};
 
 /// GPU buffers of one particle system.
 ///
@@ -46,9 +46,9 @@ pub(crate) struct GpuSystem {
 
 /// What [`GpuSystem::create`] uploads.
 pub(crate) struct Contents<'a> {
-    pub(crate) bodies: &'a [Body],
+    pub(crate) bodies: &'a [GpuBody],
     pub(crate) props: &'a [super::layout::Props],
-    pub(crate) springs: &'a [super::layout::Spring],
+    pub(crate) springs: &'a [super::layout::GpuSpring],
     pub(crate) csr: &'a [u32],
     pub(crate) control: &'a [[f32; 4]],
 }
@@ -206,7 +206,7 @@ impl GpuSystem {
                 0,
                 &self.readback,
                 0,
-                u64::from(self.n) * std::mem::size_of::<Body>() as u64,
+                u64::from(self.n) * std::mem::size_of::<GpuBody>() as u64,
             );
         }
     }
@@ -215,12 +215,12 @@ impl GpuSystem {
     /// returns the bodies it holds. Blocks until the GPU is done.
     ///
     /// [`record_readback`]: GpuSystem::record_readback
-    pub(crate) fn read_bodies(&self, ctx: &GpuContext) -> Result<Vec<Body>, PhysicsError> {
+    pub(crate) fn read_bodies(&self, ctx: &GpuContext) -> Result<Vec<GpuBody>, PhysicsError> {
         if self.n == 0 {
             return Ok(Vec::new());
         }
-        let bytes = u64::from(self.n) * std::mem::size_of::<Body>() as u64;
+        let bytes = u64::from(self.n) * std::mem::size_of::<GpuBody>() as u64;
         let data = ctx.read_back(&self.readback, bytes, "particle state")?;
-        Ok(bytemuck::pod_collect_to_vec::<u8, Body>(&data))
+        Ok(bytemuck::pod_collect_to_vec::<u8, GpuBody>(&data))
     }
 }

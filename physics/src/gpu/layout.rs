@@ -12,10 +12,10 @@ use inertia_shaders::layout as wgsl;
 use crate::error::PhysicsError;
 use crate::particle_system::ParticleSystem;
 
-/// WGSL `struct Body`: the state a step reads and writes (32 bytes).
+/// WGSL `struct GpuBody`: the state a step reads and writes (32 bytes).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-pub(crate) struct Body {
+pub(crate) struct GpuBody {
     /// Position, m.
     pub(crate) pos: [f32; 3],
     /// `FLAG_*` bits.
@@ -47,10 +47,10 @@ pub(crate) struct Props {
     pub(crate) group: u32,
 }
 
-/// WGSL `struct Spring` (20 bytes).
+/// WGSL `struct GpuSpring` (20 bytes).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-pub(crate) struct Spring {
+pub(crate) struct GpuSpring {
     /// Dense index of end a.
     pub(crate) a: u32,
     /// Dense index of end b.
@@ -110,9 +110,9 @@ pub(crate) struct Params {
 }
 
 const _: () = {
-    assert!(std::mem::size_of::<Body>() == wgsl::BODY_BYTES);
+    assert!(std::mem::size_of::<GpuBody>() == wgsl::BODY_BYTES);
     assert!(std::mem::size_of::<Props>() == wgsl::PROPS_BYTES);
-    assert!(std::mem::size_of::<Spring>() == wgsl::SPRING_BYTES);
+    assert!(std::mem::size_of::<GpuSpring>() == wgsl::SPRING_BYTES);
     assert!(std::mem::size_of::<FieldForce>() == wgsl::FIELD_FORCE_BYTES);
     assert!(std::mem::size_of::<Params>() == wgsl::PARAMS_BYTES);
 };
@@ -140,10 +140,10 @@ pub(crate) fn vec4_f32(what: &str, v: DVec3, w: f64) -> Result<[f32; 4], Physics
 }
 
 /// The bodies (positions, velocities, flags) of `sys`.
-pub(crate) fn bodies(sys: &ParticleSystem) -> Result<Vec<Body>, PhysicsError> {
+pub(crate) fn bodies(sys: &ParticleSystem) -> Result<Vec<GpuBody>, PhysicsError> {
     (0..sys.len())
         .map(|i| {
-            Ok(Body {
+            Ok(GpuBody {
                 pos: vec3_f32("particle position", sys.position[i])?,
                 flags: sys.flags[i],
                 vel: vec3_f32("particle velocity", sys.velocity[i])?,
@@ -176,12 +176,12 @@ pub(crate) fn props(sys: &ParticleSystem) -> Result<Vec<Props>, PhysicsError> {
 }
 
 /// The compiled springs of `sys` (its topology must be fresh).
-pub(crate) fn springs(sys: &ParticleSystem) -> Result<Vec<Spring>, PhysicsError> {
+pub(crate) fn springs(sys: &ParticleSystem) -> Result<Vec<GpuSpring>, PhysicsError> {
     let t = &sys.topology;
     (0..t.a.len())
         .map(|s| {
             let p = &t.params[s];
-            Ok(Spring {
+            Ok(GpuSpring {
                 a: t.a[s],
                 b: t.b[s],
                 rest_length: to_f32("spring rest length", p.rest_length)?,

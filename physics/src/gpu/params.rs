@@ -11,7 +11,7 @@ use glam::DVec3;
 use inertia_shaders::layout as wgsl;
 
 use crate::error::PhysicsError;
-use crate::forces::{FieldForces, Force, GravityMethod};
+use crate::forces::{Force, GravityMethod};
 use crate::integrator::Integrator;
 use crate::particle_system::ParticleSystem;
 
@@ -80,7 +80,7 @@ pub(crate) fn compile(
             "time step dt = {dt} s rounds to 0 in the GPU backend's f32"
         )));
     }
-    let field = FieldForces::compile(sys, gravity, t, dt);
+    let field = sys.field_forces(gravity, t, dt);
     let mut p = Params::zeroed();
     p.gravity = vec4_f32("uniform gravity", field.gravity, 0.0)?;
     p.n = sys.len() as u32;

@@ -111,11 +111,11 @@ const _: () =
 
 /// What a dispatch runs: the shader's entry points, `project` by kind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Entry {
+pub(crate) enum EntryPoint {
     Predict,
     Finish,
     /// `project` of one constraint kind (the shader's `params.kind`).
-    Project(Kind),
+    Project(ConstraintKind),
     FindContacts,
     Collide,
     ReduceChunks,
@@ -135,19 +135,22 @@ pub(crate) enum Entry {
     SelfCollide,
 }
 
-impl Entry {
+impl EntryPoint {
     /// Whether it is a self-collision pass, bound to that program's group.
     fn self_collision(self) -> bool {
         matches!(
             self,
-            Entry::Scatter | Entry::SortCells | Entry::Keep | Entry::SelfCollide
+            EntryPoint::Scatter
+                | EntryPoint::SortCells
+                | EntryPoint::Keep
+                | EntryPoint::SelfCollide
         )
     }
 }
 
 /// The constraint kinds, numbered as the shader's `params.kind`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Kind {
+pub(crate) enum ConstraintKind {
     Distance = 0,
     Bending = 1,
     Volume = 2,
@@ -234,27 +237,27 @@ impl SoftPipelines {
         })
     }
 
-    fn of(&self, e: Entry) -> &wgpu::ComputePipeline {
+    fn of(&self, e: EntryPoint) -> &wgpu::ComputePipeline {
         match e {
-            Entry::Predict => &self.predict,
-            Entry::Finish => &self.finish,
-            Entry::Project(_) => &self.project,
-            Entry::FindContacts => &self.find_contacts,
-            Entry::Collide => &self.collide,
-            Entry::ReduceChunks => &self.reduce_chunks,
-            Entry::ReduceBodies => &self.reduce_bodies,
-            Entry::AdvanceBodies => &self.advance_bodies,
-            Entry::TakePushes => &self.take_pushes,
-            Entry::Attach => &self.attach,
-            Entry::ShellGradient => &self.shell_gradient,
-            Entry::ShellSums => &self.shell_sums,
-            Entry::ShellTotal => &self.shell_total,
-            Entry::ShellApply => &self.shell_apply,
-            Entry::Flow => &self.flow,
-            Entry::Scatter => &self.self_collision.scatter,
-            Entry::SortCells => &self.self_collision.sort_cells,
-            Entry::Keep => &self.self_collision.keep,
-            Entry::SelfCollide => &self.self_collision.self_collide,
+            EntryPoint::Predict => &self.predict,
+            EntryPoint::Finish => &self.finish,
+            EntryPoint::Project(_) => &self.project,
+            EntryPoint::FindContacts => &self.find_contacts,
+            EntryPoint::Collide => &self.collide,
+            EntryPoint::ReduceChunks => &self.reduce_chunks,
+            EntryPoint::ReduceBodies => &self.reduce_bodies,
+            EntryPoint::AdvanceBodies => &self.advance_bodies,
+            EntryPoint::TakePushes => &self.take_pushes,
+            EntryPoint::Attach => &self.attach,
+            EntryPoint::ShellGradient => &self.shell_gradient,
+            EntryPoint::ShellSums => &self.shell_sums,
+            EntryPoint::ShellTotal => &self.shell_total,
+            EntryPoint::ShellApply => &self.shell_apply,
+            EntryPoint::Flow => &self.flow,
+            EntryPoint::Scatter => &self.self_collision.scatter,
+            EntryPoint::SortCells => &self.self_collision.sort_cells,
+            EntryPoint::Keep => &self.self_collision.keep,
+            EntryPoint::SelfCollide => &self.self_collision.self_collide,
         }
     }
 }
@@ -262,7 +265,7 @@ impl SoftPipelines {
 /// One dispatch of a substep.
 #[derive(Debug, Clone, Copy)]
 struct Dispatch {
-    kind: Kind,
+    kind: ConstraintKind,
     offset: u32,
     count: u32,
     serial: bool,
@@ -375,7 +378,7 @@ fn shell(body: &SoftBody) -> Vec<u32> {
     out
 }
 
-fn colours<C>(c: &Coloured<C>, kind: Kind, out: &mut Vec<Dispatch>) {
+fn colours<C>(c: &Coloured<C>, kind: ConstraintKind, out: &mut Vec<Dispatch>) {
     let mut start = 0u32;
     for (k, &end) in c.ends.iter().enumerate() {
         out.push(Dispatch {
@@ -459,10 +462,10 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
     };
     let shell = shell(body);
     let mut plan = Vec::new();
-    colours(&body.distance, Kind::Distance, &mut plan);
-    colours(&body.bend, Kind::Bending, &mut plan);
-    colours(&body.tets, Kind::Volume, &mut plan);
-    colours(&body.tethers, Kind::Tether, &mut plan);
+    colours(&body.distance, ConstraintKind::Distance, &mut plan);
+    colours(&body.bend, ConstraintKind::Bending, &mut plan);
+    colours(&body.tets, ConstraintKind::Volume, &mut plan);
+    colours(&body.tethers, ConstraintKind::Tether, &mut plan);
     // Predict, finish and predict, finish, the colours, and each
     // substep's contacts.
     let substeps = body.material().substeps.max(1);
@@ -815,7 +818,7 @@ pub(crate) fn step(
                 label: Some("soft step"),
                 timestamp_writes: None,
             });
-            let mut run = |entry: Entry, slot: usize, grid: (u32, u32)| {
+            let mut run = |entry: EntryPoint, slot: usize, grid: (u32, u32)| {
                 pass.set_pipeline(pipes.of(entry));
                 match own {
                     Some(own) if entry.self_collision() => pass.set_bind_group(0, &own.group, &[]),
@@ -824,53 +827,53 @@ pub(crate) fn step(
                 pass.dispatch_workgroups(grid.0, grid.1, 1);
             };
             if own.is_some() {
-                run(Entry::Scatter, 0, particles);
-                run(Entry::SortCells, 0, keys);
+                run(EntryPoint::Scatter, 0, particles);
+                run(EntryPoint::SortCells, 0, keys);
             }
             // Contacts are looked for where the particles touch bodies
             // (the shapes of a body without a collision radius are only
             // those it is attached to).
             let touches = radius > 0.0 && !shapes.is_empty();
             if touches {
-                run(Entry::FindContacts, 0, particles);
+                run(EntryPoint::FindContacts, 0, particles);
             }
             for k in 0..n {
                 if k == 0 {
-                    run(Entry::Predict, 0, particles);
+                    run(EntryPoint::Predict, 0, particles);
                 } else {
-                    run(Entry::Finish, 1, particles);
+                    run(EntryPoint::Finish, 1, particles);
                 }
                 for (c, d) in gpu.colours.iter().enumerate() {
-                    run(Entry::Project(d.kind), c + 3, grids[c]);
+                    run(EntryPoint::Project(d.kind), c + 3, grids[c]);
                 }
                 if gpu.shell_chunks > 0 {
-                    run(Entry::ShellGradient, 0, particles);
-                    run(Entry::ShellSums, 0, shell_chunks);
-                    run(Entry::ShellTotal, 0, one);
-                    run(Entry::ShellApply, 0, particles);
+                    run(EntryPoint::ShellGradient, 0, particles);
+                    run(EntryPoint::ShellSums, 0, shell_chunks);
+                    run(EntryPoint::ShellTotal, 0, one);
+                    run(EntryPoint::ShellApply, 0, particles);
                 }
                 if movable > 0 {
-                    run(Entry::AdvanceBodies, 0, bodies);
+                    run(EntryPoint::AdvanceBodies, 0, bodies);
                 }
                 if !held.is_empty() {
-                    run(Entry::Attach, contact_slot(k), one);
+                    run(EntryPoint::Attach, contact_slot(k), one);
                 }
                 if touches {
-                    run(Entry::Collide, contact_slot(k), particles);
+                    run(EntryPoint::Collide, contact_slot(k), particles);
                     if movable > 0 {
-                        run(Entry::ReduceChunks, 0, chunks);
-                        run(Entry::ReduceBodies, 0, bodies);
-                        run(Entry::TakePushes, 0, bodies);
+                        run(EntryPoint::ReduceChunks, 0, chunks);
+                        run(EntryPoint::ReduceBodies, 0, bodies);
+                        run(EntryPoint::TakePushes, 0, bodies);
                     }
                 }
                 if own.is_some() {
-                    run(Entry::Keep, 0, particles);
-                    run(Entry::SelfCollide, 0, particles);
+                    run(EntryPoint::Keep, 0, particles);
+                    run(EntryPoint::SelfCollide, 0, particles);
                 }
             }
-            run(Entry::Finish, 2, particles);
+            run(EntryPoint::Finish, 2, particles);
             if gpu.distances_n > 0 {
-                run(Entry::Flow, 0, flows);
+                run(EntryPoint::Flow, 0, flows);
             }
         }
         gpu.bodies.record_moves(&mut encoder, movable);

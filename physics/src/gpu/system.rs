@@ -4,13 +4,12 @@ use glam::DVec3;
 
 use crate::energy::Energy;
 use crate::error::PhysicsError;
-use crate::forces::FieldForces;
+use crate::particle_system::step::FLAG_NEW_QUARANTINE;
 use crate::particle_system::{ParticleSystem, FLAG_PINNED, FLAG_QUARANTINED};
-use crate::step::FLAG_NEW_QUARANTINE;
 
 use super::buffers::{Contents, GpuSystem};
 use super::context::GpuContext;
-use super::layout::{self, Body};
+use super::layout::{self, GpuBody};
 use super::params;
 
 /// Uploads `sys` to GPU buffers (stored in `sys.gpu`). Refuses, leaving
@@ -71,7 +70,7 @@ pub(crate) fn download(ctx: &GpuContext, sys: &mut ParticleSystem) -> Result<(),
 }
 
 /// Copies GPU bodies (f32) into the CPU arrays (f64).
-fn write_mirror(sys: &mut ParticleSystem, bodies: &[Body]) -> Result<(), PhysicsError> {
+fn write_mirror(sys: &mut ParticleSystem, bodies: &[GpuBody]) -> Result<(), PhysicsError> {
     if bodies.len() != sys.len() {
         return Err(PhysicsError::Gpu(format!(
             "read back {} particles, the system has {}",
@@ -183,7 +182,7 @@ pub(crate) fn step_system(
     if let Some(gpu) = sys.gpu.as_mut() {
         gpu.mirror_fresh = true;
     }
-    let g = FieldForces::compile(sys, gravity, t, dt);
+    let g = sys.field_forces(gravity, t, dt);
     let mut e = Energy::default();
     for i in 0..sys.len() {
         e.kinetic += 0.5 * sys.velocity[i].length_squared() / sys.inv_mass[i];

@@ -18,7 +18,7 @@
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::rigid::body::{BodyKind, RigidBody};
-use crate::rigid::pipeline::BodyIndex;
+use crate::rigid::body_index::BodyIndex;
 
 /// When bodies fall asleep.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -44,13 +44,13 @@ use crate::forces::{Force, GravityMethod};
 use glam::DVec3;
 
 use crate::handle::{BodyHandle, ForceHandle, ParticleHandle};
+use crate::particle_system::step::{fill_masses, step_system, ChunkOut, FLAG_NEW_QUARANTINE};
 use crate::particle_system::{Backend, ParticleSystem, FLAG_QUARANTINED};
 use crate::profile::{ProfileTotals, StepProfile};
 use crate::rigid::body::RigidBody;
 use crate::rigid::forces::BodyField;
 use crate::rigid::pipeline::{self, ContactEvent, ContactForceEvent, Contacts};
 use crate::rigid::solver::SolverConfig;
-use crate::step::{fill_masses, step_system, ChunkOut, FLAG_NEW_QUARANTINE};
 
 /// How a world runs. None of this is simulation state: a world saved with
 /// one configuration restores and steps identically under another.
@@ -341,7 +341,7 @@ impl World {
         let t1 = Instant::now();
         for (_, _, s) in self.systems.iter_mut() {
             if s.backend == Backend::Cpu {
-                crate::rigid::particle_contact::resolve(s, &mut self.bodies);
+                crate::particle_contact::resolve(s, &mut self.bodies);
             }
         }
         profile.rigid.particle_contacts = t1.elapsed();
@@ -578,7 +578,7 @@ impl World {
         let mut total = Energy::default();
         for (_, _, s) in self.systems.iter_mut() {
             let mut e = potential_energy(s);
-            let field = crate::forces::FieldForces::compile(s, self.gravity, self.time, 1.0);
+            let field = s.field_forces(self.gravity, self.time, 1.0);
             for i in 0..s.len() {
                 e.kinetic += 0.5 * s.velocity[i].length_squared() / s.inv_mass[i];
                 e.gravity_uniform += field.gravity_potential(s.position[i], s.inv_mass[i]);

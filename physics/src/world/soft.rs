@@ -128,7 +128,7 @@ impl World {
                         touch,
                     )?;
                     let gpu = crate::gpu::soft::upload(ctx, body)?;
-                    body.gpu = super::super::xpbd::soft::GpuSlot(Some(gpu));
+                    body.gpu = super::super::xpbd::soft::GpuSoftSlot(Some(gpu));
                     body.backend = Backend::Gpu;
                 }
                 Backend::Cpu => {

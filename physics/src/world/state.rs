@@ -2,9 +2,9 @@
 
 use super::World;
 use crate::error::PhysicsError;
-use crate::hash::StateHasher;
 use crate::particle_system::Backend;
-use crate::snapshot::{encode_world, load_world, save_world, SnapshotError, StateRef};
+use crate::saved_state::hash::StateHasher;
+use crate::saved_state::{encode_world, load_world, save_world, SavedStateError, StateRef};
 use crate::world::WorldConfig;
 
 impl World {
@@ -38,7 +38,7 @@ impl World {
         h.finish()
     }
 
-    /// The complete state as compact bytes (see [`crate::snapshot`]).
+    /// The complete state as compact bytes (see [`crate::saved_state`]).
     /// GPU systems are saved from their CPU mirror: with
     /// [`WorldConfig::gpu_readback_every_step`] off, call [`World::sync_gpu`] first.
     pub fn save(&self) -> Vec<u8> {
@@ -46,10 +46,10 @@ impl World {
     }
 
     /// Replaces the whole state with a saved one. On error the world is untouched.
-    pub fn restore(&mut self, bytes: &[u8]) -> Result<(), SnapshotError> {
+    pub fn restore(&mut self, bytes: &[u8]) -> Result<(), SavedStateError> {
         let decoded = load_world(bytes)?;
         if decoded.bodies.len() > self.config.max_bodies {
-            return Err(SnapshotError::Invalid(format!(
+            return Err(SavedStateError::Invalid(format!(
                 "the state holds {} rigid bodies, more than this world's limit of {}",
                 decoded.bodies.len(),
                 self.config.max_bodies
@@ -65,11 +65,11 @@ impl World {
         {
             let ctx = self
                 .gpu_context()
-                .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+                .map_err(|e| SavedStateError::Invalid(e.to_string()))?;
             for (_, _, s) in decoded.systems.iter_mut() {
                 if s.backend == Backend::Gpu {
                     crate::gpu::upload(ctx, s)
-                        .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+                        .map_err(|e| SavedStateError::Invalid(e.to_string()))?;
                 }
             }
         }
@@ -79,7 +79,7 @@ impl World {
             .iter()
             .any(|(_, _, s)| s.backend == Backend::Gpu)
         {
-            return Err(SnapshotError::Invalid(
+            return Err(SavedStateError::Invalid(
                 "state has GPU systems but this build has no `gpu` feature".into(),
             ));
         }

@@ -30,7 +30,7 @@
 //! particles that (and took back as much): a crate dropped into a pool flew
 //! 3.5 m out of it, and one dropped into a hammock bounced back higher than
 //! it fell from. Attachments meet and move their bodies the same way
-//! ([`Target::move_by`]): held to a body standing a whole step ahead, a
+//! ([`CouplingBody::move_by`]): held to a body standing a whole step ahead, a
 //! board hung from one rope's edge spun up until it left the world. At
 //! the end of the stage each body takes its moves and the velocities that
 //! came with them ([`apply_changes`]), and wakes.
@@ -106,7 +106,7 @@ impl StepStart {
 }
 
 /// A body as the particles see it.
-pub(crate) struct Target<'a> {
+pub(crate) struct CouplingBody<'a> {
     /// Arena index and generation.
     pub(crate) key: (u32, u32),
     pub(crate) shape: &'a Shape,
@@ -137,7 +137,7 @@ pub(crate) struct Target<'a> {
     /// Where the body stood as the step began (centre of mass, m, and
     /// rotation), when known ([`Coupling::over_step`]).
     start: Option<(DVec3, glam::DQuat)>,
-    /// Whether the body moves within the stage ([`Target::finds_moves`],
+    /// Whether the body moves within the stage ([`CouplingBody::finds_moves`],
     /// kept with `start`).
     moves: bool,
     /// Where the body stands along its path over the step, before
@@ -185,7 +185,7 @@ fn turned(q: glam::DQuat, theta: DVec3) -> glam::DQuat {
     (q + t * 0.5).normalize()
 }
 
-impl<'a> Target<'a> {
+impl<'a> CouplingBody<'a> {
     /// Body `b` (arena key `key`) as particles see it, its box widened by
     /// `reach` (m); `None` for sensors and bodies without a shape.
     pub(crate) fn of(key: (u32, u32), b: &'a RigidBody, reach: f64) -> Option<Self> {
@@ -195,7 +195,7 @@ impl<'a> Target<'a> {
         let shape = b.shape.as_ref()?;
         let pose = b.pose();
         let movable = b.kind == BodyKind::Dynamic && !b.quarantined;
-        let mut target = Target {
+        let mut target = CouplingBody {
             key,
             shape,
             aabb: shape.aabb(&pose).expanded(reach),
@@ -270,7 +270,7 @@ impl<'a> Target<'a> {
 
     /// Starts a substep of `h` seconds: the velocity the stage gave the
     /// body moves it on (the rigid stage already moved it by the velocity
-    /// it had, along the path [`Target::follow`] takes).
+    /// it had, along the path [`CouplingBody::follow`] takes).
     pub(crate) fn advance(&mut self, h: f64) {
         if self.moved == Motion::default() {
             return;
@@ -319,7 +319,7 @@ impl<'a> Target<'a> {
     }
 
     /// Moves the body by `push` over a substep of `h` seconds, as
-    /// [`Target::move_by`].
+    /// [`CouplingBody::move_by`].
     fn shift(&mut self, push: Push, h: f64) {
         if !(self.movable() && push.p.is_finite() && push.moment.is_finite()) {
             return;
@@ -336,7 +336,7 @@ impl<'a> Target<'a> {
 
 /// The surface of a body nearest a particle.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Surface {
+pub(crate) struct NearestSurface {
     /// The nearest point of the body's surface, m.
     pub(crate) point: DVec3,
     /// Unit normal out of the body, towards the particle.
@@ -366,7 +366,7 @@ impl Push {
 /// The bodies near one soft body or fluid over one step.
 #[derive(Default)]
 pub(crate) struct Coupling<'a> {
-    pub(crate) targets: Vec<Target<'a>>,
+    pub(crate) targets: Vec<CouplingBody<'a>>,
     /// Per particle, where its candidates start in `candidates`; one more
     /// entry than particles.
     start: Vec<u32>,
@@ -393,10 +393,10 @@ impl<'a> Coupling<'a> {
         };
         let reach = f64::from(reach);
         let bounds = bounds.expanded(reach);
-        let targets: Vec<Target<'a>> = bodies
+        let targets: Vec<CouplingBody<'a>> = bodies
             .iter()
             .filter_map(|(index, generation, b)| {
-                let t = Target::of((index, generation), b, reach)?;
+                let t = CouplingBody::of((index, generation), b, reach)?;
                 let wanted = always.contains(&(index, generation));
                 (wanted || t.aabb.intersects(&bounds)).then_some(t)
             })
@@ -458,7 +458,7 @@ impl<'a> Coupling<'a> {
 
     /// The surface of candidate `target` nearest `x`, if the particle is
     /// within `within` (m) of it or inside.
-    pub(crate) fn surface(&self, target: u32, x: Vec3, within: f64) -> Option<Surface> {
+    pub(crate) fn surface(&self, target: u32, x: Vec3, within: f64) -> Option<NearestSurface> {
         let t = &self.targets[target as usize];
         let x = x.as_dvec3();
         let p = project_point_shape(t.shape, &t.now, x)?;
@@ -471,7 +471,7 @@ impl<'a> Coupling<'a> {
             return None;
         }
         let normal = if p.inside { -to / len } else { to / len };
-        Some(Surface {
+        Some(NearestSurface {
             point: p.point,
             normal,
             distance: if p.inside { -p.distance } else { p.distance },
@@ -488,7 +488,7 @@ impl<'a> Coupling<'a> {
     fn correction(
         &self,
         target: u32,
-        s: &Surface,
+        s: &NearestSurface,
         x: Vec3,
         prev: Vec3,
         radius: f32,

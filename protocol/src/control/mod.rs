@@ -70,11 +70,11 @@ pub const MAX_DECODER_BUFFER: usize = 2 * (4 + MAX_CONTROL_FRAME);
 pub const MAX_ENTITY_NAME_BYTES: usize = 64;
 /// Longest server version string in a welcome, bytes.
 pub const MAX_VERSION_BYTES: usize = 64;
-/// Longest text of a [`GameEvent::Message`], bytes.
+/// Longest text of a [`WireEvent::Message`], bytes.
 pub const MAX_MESSAGE_BYTES: usize = 1024;
-/// Longest name of a [`GameEvent::Custom`], bytes.
+/// Longest name of a [`WireEvent::Custom`], bytes.
 pub const MAX_EVENT_NAME_BYTES: usize = 64;
-/// Longest data of a [`GameEvent::Custom`], bytes.
+/// Longest data of a [`WireEvent::Custom`], bytes.
 pub const MAX_EVENT_DATA_BYTES: usize = 16 * 1024;
 /// Longest reason or description in a refusal or goodbye, bytes.
 pub const MAX_REASON_BYTES: usize = 256;
@@ -129,7 +129,7 @@ pub enum ServerControl {
         id: EntityId,
     },
     /// Something happened that the client should show.
-    Event(GameEvent),
+    Event(WireEvent),
     /// The server is closing the connection.
     Goodbye(DisconnectReason),
     /// How the client's inputs have been arriving against the ticks they
@@ -207,10 +207,11 @@ impl SnapshotParams {
     }
 }
 
-/// Something that happened in the world, sent reliably to the clients that
-/// should show it.
+/// Something that happened in the game, as the control stream carries it
+/// to the clients that should show it (a server's own events become one of
+/// these on their way out).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum GameEvent {
+pub enum WireEvent {
     /// Two entities hit each other hard enough to matter.
     Contact {
         /// One entity.

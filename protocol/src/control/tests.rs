@@ -40,7 +40,7 @@ fn frames_split_anywhere_reassemble() {
                 ([1.0; 3], [0.0, 0.0, 0.0, 1.0], ShapeDesc::Ground),
             ],
         })),
-        ServerControl::Event(GameEvent::Message {
+        ServerControl::Event(WireEvent::Message {
             text: "hello".into(),
         }),
     ];
@@ -302,7 +302,7 @@ fn every_message_round_trips() {
             vertices: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
             triangles: vec![[0, 1, 2]],
         })),
-        ServerControl::Event(GameEvent::Custom {
+        ServerControl::Event(WireEvent::Custom {
             name: "score".into(),
             data: vec![1, 2, 3],
         }),

@@ -241,15 +241,15 @@ impl ControlMessage for ServerControl {
             | ServerControl::InputTiming(_) => Ok(()),
             ServerControl::Spawn(e) => validate_entity(e),
             ServerControl::Event(event) => match event {
-                GameEvent::Contact { impulse, .. } => check_finite("contact impulse", &[*impulse]),
-                GameEvent::Explosion { position, radius } => {
+                WireEvent::Contact { impulse, .. } => check_finite("contact impulse", &[*impulse]),
+                WireEvent::Explosion { position, radius } => {
                     check_finite("explosion position", position)?;
                     check_size("explosion radius", *radius)
                 }
-                GameEvent::Message { text } => {
+                WireEvent::Message { text } => {
                     check_len("message text", text.len(), MAX_MESSAGE_BYTES)
                 }
-                GameEvent::Custom { name, data } => {
+                WireEvent::Custom { name, data } => {
                     check_len("event name", name.len(), MAX_EVENT_NAME_BYTES)?;
                     check_len("event data", data.len(), MAX_EVENT_DATA_BYTES)
                 }

@@ -7,8 +7,8 @@ use crate::entity::EntityId;
 use super::code::{read_body, read_varuint, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES};
 use super::view::{QuantizedEntity, Ring, View, ViewEntity};
 use super::{
-    sequence_newer, ConfigError, SnapshotConfig, SnapshotError, MAX_ENTITIES, MAX_TIME_SCALE, RING,
-    SNAPSHOT_TAG,
+    sequence_newer, SnapshotConfig, SnapshotConfigError, SnapshotError, MAX_ENTITIES,
+    MAX_TIME_SCALE, RING, SNAPSHOT_TAG,
 };
 
 /// The fewest bits one listed entity takes (id gap, at-rest bit, position
@@ -74,7 +74,7 @@ pub struct SnapshotDecoder {
 
 impl SnapshotDecoder {
     /// A decoder that has received nothing.
-    pub fn new(config: SnapshotConfig) -> Result<Self, ConfigError> {
+    pub fn new(config: SnapshotConfig) -> Result<Self, SnapshotConfigError> {
         config.validate()?;
         Ok(Self {
             config,

@@ -9,7 +9,7 @@ use super::frame::QuantizedFrame;
 use super::sent::{Sent, SentLog};
 use super::shared::{DeltaCache, DeltaRef};
 use super::view::{QuantizedEntity, View};
-use super::{ConfigError, SnapshotConfig, MAX_ENTITIES, MAX_TIME_SCALE, SNAPSHOT_TAG};
+use super::{SnapshotConfig, SnapshotConfigError, MAX_ENTITIES, MAX_TIME_SCALE, SNAPSHOT_TAG};
 
 /// What the last [`SnapshotEncoder::encode`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -156,7 +156,7 @@ fn id_gap(prev: Option<EntityId>, id: EntityId) -> u64 {
 
 impl SnapshotEncoder {
     /// An encoder that has sent nothing; the first snapshot is sequence 0.
-    pub fn new(config: SnapshotConfig) -> Result<Self, ConfigError> {
+    pub fn new(config: SnapshotConfig) -> Result<Self, SnapshotConfigError> {
         config.validate()?;
         Ok(Self {
             config,

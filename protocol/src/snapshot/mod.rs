@@ -143,7 +143,7 @@ impl Default for SnapshotConfig {
 
 impl SnapshotConfig {
     /// Checks every setting.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), SnapshotConfigError> {
         for (what, g) in [("grid", self.grid), ("velocity_grid", self.velocity_grid)] {
             let ok = g.resolution.is_finite()
                 && g.resolution > 0.0
@@ -151,7 +151,7 @@ impl SnapshotConfig {
                 && g.bound > 0.0
                 && g.bits() <= 32;
             if !ok {
-                return Err(ConfigError {
+                return Err(SnapshotConfigError {
                     what,
                     why: format!(
                         "resolution and bound must be finite and > 0 with at most 32 bits an axis, got {g:?}"
@@ -160,13 +160,13 @@ impl SnapshotConfig {
             }
         }
         if !(4..=16).contains(&self.rotation_bits) {
-            return Err(ConfigError {
+            return Err(SnapshotConfigError {
                 what: "rotation_bits",
                 why: format!("must be 4 to 16, got {}", self.rotation_bits),
             });
         }
         if !(64..=65_507).contains(&self.max_datagram) {
-            return Err(ConfigError {
+            return Err(SnapshotConfigError {
                 what: "max_datagram",
                 why: format!("must be 64 to 65 507 bytes, got {}", self.max_datagram),
             });
@@ -178,7 +178,7 @@ impl SnapshotConfig {
 /// A [`SnapshotConfig`] setting out of range.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
 #[error("snapshot config {what}: {why}")]
-pub struct ConfigError {
+pub struct SnapshotConfigError {
     /// Which setting.
     pub what: &'static str,
     /// Why it was refused.

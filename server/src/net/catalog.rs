@@ -149,7 +149,7 @@ fn push(out: &mut Vec<u8>, msg: &ServerControl) -> Result<(), String> {
 
 #[cfg(test)]
 mod tests {
-    use inertia_protocol::control::{FrameDecoder, GameEvent as WireEvent};
+    use inertia_protocol::control::{FrameDecoder, WireEvent};
     use inertia_protocol::{EntityKind, ShapeDesc};
 
     use super::*;

@@ -279,14 +279,25 @@ impl Shell {
         let shared = &self.shared;
         let token = {
             let now = unix_now();
-            let keys = shared.token_keys.read().unwrap_or_else(|e| e.into_inner());
-            let mut guard = shared.guard.lock().unwrap_or_else(|e| e.into_inner());
+            let keys = shared.tokens.keys.read().unwrap_or_else(|e| e.into_inner());
+            let mut guard = shared
+                .tokens
+                .guard
+                .lock()
+                .unwrap_or_else(|e| e.into_inner());
             // The current key, then a replaced one still in its grace
             // period: a token only one of them seals is forged under the
             // other.
             let mut result = Err(Refusal::Token(TokenRefusal::Forged));
             for key in keys.at(now) {
-                result = handshake(hello, now, key, &shared.public_addr, self.id, &mut guard);
+                result = handshake(
+                    hello,
+                    now,
+                    key,
+                    &shared.tokens.public_addr,
+                    self.id,
+                    &mut guard,
+                );
                 if !matches!(result, Err(Refusal::Token(TokenRefusal::Forged))) {
                     break;
                 }
@@ -301,11 +312,11 @@ impl Shell {
         let welcome = ServerControl::Welcome {
             client_id: client,
             tick: frame.tick,
-            tick_hz: shared.tick_hz,
-            snapshot_hz: shared.snapshot_hz,
-            position_resolution: shared.snapshot.grid.resolution,
-            position_bound: shared.snapshot.grid.bound,
-            snapshot: SnapshotParams::from_config(&shared.snapshot),
+            tick_hz: shared.streaming.tick_hz,
+            snapshot_hz: shared.streaming.snapshot_hz,
+            position_resolution: shared.streaming.snapshot.grid.resolution,
+            position_bound: shared.streaming.snapshot.grid.bound,
+            snapshot: SnapshotParams::from_config(&shared.streaming.snapshot),
             server_version: env!("CARGO_PKG_VERSION").to_string(),
         };
         Ok((Joined { client, avatar }, welcome))

@@ -11,6 +11,7 @@ pub mod gate;
 pub mod governor;
 pub mod link;
 pub mod snapshots;
+pub mod streaming;
 pub mod tls;
 pub mod token_keys;
 pub mod web_transport;
@@ -23,9 +24,6 @@ use inertia_protocol::admin::ADMIN_ALPN;
 use inertia_protocol::connection::ServerConnectionConfig;
 use inertia_protocol::control::DisconnectReason;
 use inertia_protocol::control::WEB_TRANSPORT_ALPN;
-use inertia_protocol::snapshot::SnapshotConfig;
-use inertia_protocol::token::{ReplayGuard, TokenKey};
-use inertia_protocol::SessionConfig;
 use tokio::sync::watch;
 use tracing::{debug, info};
 
@@ -33,10 +31,8 @@ use crate::admin::AdminShared;
 use crate::metrics::Metrics;
 use crate::sim::{Frame, SimHandle};
 use gate::{Admission, GateConfig, HandshakeGate};
-use token_keys::TokenKeys;
-
-/// How many tokens the replay guard remembers at once.
-pub const REPLAY_GUARD_CAPACITY: usize = 65_536;
+pub use streaming::Streaming;
+pub use token_keys::ConnectTokens;
 
 /// What every connection shares.
 pub struct NetShared {
@@ -44,22 +40,10 @@ pub struct NetShared {
     pub sim: Arc<SimHandle>,
     /// Metrics.
     pub metrics: Metrics,
-    /// The keys connect tokens are opened with (the current one, and a
-    /// replaced one for its grace period), rotated by
-    /// [`crate::secrets::Secrets::reload`].
-    pub token_keys: std::sync::RwLock<TokenKeys>,
-    /// The address tokens must name (the server's public `ip:port`).
-    pub public_addr: String,
-    /// Tokens already used, by connection.
-    pub guard: Mutex<ReplayGuard>,
-    /// How snapshots are coded.
-    pub snapshot: SnapshotConfig,
-    /// Snapshots per wall second, Hz.
-    pub snapshot_hz: u32,
-    /// Physics ticks per simulation second, Hz.
-    pub tick_hz: u32,
-    /// Per-client budget, bytes per second.
-    pub budget_bytes_per_sec: u64,
+    /// What connect tokens are opened and checked with.
+    pub tokens: ConnectTokens,
+    /// The snapshot stream every client gets.
+    pub streaming: Streaming,
     /// Becomes the reason every client is given when the server stops
     /// (a shutdown, or the simulation failing).
     pub shutdown: watch::Receiver<Option<DisconnectReason>>,
@@ -83,37 +67,27 @@ pub struct NetShared {
 impl std::fmt::Debug for NetShared {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("NetShared")
-            .field("public_addr", &self.public_addr)
-            .field("snapshot_hz", &self.snapshot_hz)
+            .field("public_addr", &self.tokens.public_addr)
+            .field("snapshot_hz", &self.streaming.snapshot_hz)
             .finish_non_exhaustive()
     }
 }
 
 impl NetShared {
     /// Shared state for a server.
-    #[allow(clippy::too_many_arguments)]
     pub fn new(
         sim: Arc<SimHandle>,
         metrics: Metrics,
-        token_key: TokenKey,
-        public_addr: String,
-        snapshot: SnapshotConfig,
-        snapshot_hz: u32,
-        tick_hz: u32,
-        budget_bytes_per_sec: u64,
+        tokens: ConnectTokens,
+        streaming: Streaming,
         shutdown: watch::Receiver<Option<DisconnectReason>>,
         admin: Arc<AdminShared>,
     ) -> Self {
         Self {
             sim,
             metrics,
-            token_keys: std::sync::RwLock::new(TokenKeys::new(token_key)),
-            public_addr,
-            guard: Mutex::new(ReplayGuard::new(REPLAY_GUARD_CAPACITY)),
-            snapshot,
-            snapshot_hz,
-            tick_hz,
-            budget_bytes_per_sec,
+            tokens,
+            streaming,
             shutdown,
             history: Mutex::new(BTreeMap::new()),
             history_len: 0,
@@ -130,13 +104,6 @@ impl NetShared {
     pub fn with_frame_history(mut self, frames: usize) -> Self {
         self.history_len = frames;
         self
-    }
-
-    /// How each client's session codes its snapshots: the server's coding
-    /// within its per-client budget, one snapshot's worth.
-    pub fn session_config(&self) -> SessionConfig {
-        let budget = self.budget_bytes_per_sec / u64::from(self.snapshot_hz.max(1));
-        SessionConfig::new(self.snapshot, budget as usize)
     }
 
     /// The same, with `config`'s deadlines for each game connection.

@@ -242,16 +242,16 @@ pub fn spawn(
 pub async fn run(shared: Arc<NetShared>) {
     let mut frames = shared.sim.subscribe();
     let mut shutdown = shared.shutdown.clone();
-    let period = Duration::from_secs_f64(1.0 / f64::from(shared.snapshot_hz.max(1)));
+    let period = Duration::from_secs_f64(1.0 / f64::from(shared.streaming.snapshot_hz.max(1)));
     let mut opens = tokio::time::Instant::now();
     let mut slot: u64 = 0;
     let mut deltas = SharedDeltas::new();
     let mut clients = Vec::new();
-    let mut governor = RateGovernor::new(shared.snapshot_hz, shared.tick_hz);
+    let mut governor = RateGovernor::new(shared.streaming.snapshot_hz, shared.streaming.tick_hz);
     let mut handed_out = RatesHandedOut::default();
     // Every client's session, by connection number: the stage's alone.
     let mut sessions: BTreeMap<u64, ServerSession> = BTreeMap::new();
-    let session_config = shared.session_config();
+    let session_config = shared.streaming.session_config();
     loop {
         tokio::select! {
             changed = frames.changed() => if changed.is_err() { return },
@@ -273,7 +273,7 @@ pub async fn run(shared: Arc<NetShared>) {
                 set_rates(&clients, &mut sessions, degraded);
                 handed_out.record(degraded, &clients);
             }
-            let quantized = frame.quantized(&shared.snapshot);
+            let quantized = frame.quantized(&shared.streaming.snapshot);
             for (id, served) in &clients {
                 if let Some(session) = sessions.get_mut(id) {
                     let slot_of = Slot {
@@ -384,7 +384,7 @@ fn serve(
                 return;
             }
         };
-        let told = tell_input_timing(out, frame, served.client, shared.tick_hz);
+        let told = tell_input_timing(out, frame, served.client, shared.streaming.tick_hz);
         shared.metrics.bytes_sent.inc_by(told as u64);
         out.control.len()
     };

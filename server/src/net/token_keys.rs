@@ -1,9 +1,38 @@
 //! The keys connect tokens are opened with: the current one, and after a
 //! rotation the one before it for a grace period, so that tokens a game
 //! backend minted just before the rotation still admit their players
-//! (sans-IO: the caller gives the time).
+//! (sans-IO: the caller gives the time); and [`ConnectTokens`], all a
+//! game connection's hello is checked against.
 
-use inertia_protocol::token::TokenKey;
+use std::sync::{Mutex, RwLock};
+
+use inertia_protocol::token::{ReplayGuard, TokenKey};
+
+/// How many tokens the replay guard remembers at once.
+pub const REPLAY_GUARD_CAPACITY: usize = 65_536;
+
+/// What a connect token is opened and checked with.
+#[derive(Debug)]
+pub struct ConnectTokens {
+    /// The keys tokens are opened with, rotated by
+    /// [`crate::secrets::Secrets::reload`].
+    pub keys: RwLock<TokenKeys>,
+    /// The address tokens must name (the server's public `ip:port`).
+    pub public_addr: String,
+    /// Tokens already used, by connection.
+    pub guard: Mutex<ReplayGuard>,
+}
+
+impl ConnectTokens {
+    /// Tokens opened with `key` that name `public_addr`.
+    pub fn new(key: TokenKey, public_addr: String) -> Self {
+        Self {
+            keys: RwLock::new(TokenKeys::new(key)),
+            public_addr,
+            guard: Mutex::new(ReplayGuard::new(REPLAY_GUARD_CAPACITY)),
+        }
+    }
+}
 
 /// How long a replaced token key still opens tokens, s: longer than a
 /// connect token lives (a backend mints them for the next minute or two).

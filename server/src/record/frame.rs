@@ -45,9 +45,9 @@ pub(crate) fn encode_frame(record: &Record, out: &mut Vec<u8>) -> Result<(), Rec
     Ok(())
 }
 
-/// One step of [`FrameReader`].
+/// One step of [`FrameReader`]: a framed record, the end, or damage.
 #[derive(Debug)]
-pub(crate) enum Frame {
+pub(crate) enum Framed {
     /// An intact record, `len` bytes long with framing.
     Record {
         /// Frame size, bytes.
@@ -121,24 +121,24 @@ impl<R: Read> FrameReader<R> {
     }
 
     /// Reads the next frame.
-    pub(crate) fn next_frame(&mut self) -> io::Result<Frame> {
+    pub(crate) fn next_frame(&mut self) -> io::Result<Framed> {
         if self.done {
-            return Ok(Frame::End);
+            return Ok(Framed::End);
         }
         let frame = self.read_frame()?;
         match &frame {
-            Frame::Record { len, .. } => self.offset += len,
-            Frame::End | Frame::Damaged { .. } => self.done = true,
+            Framed::Record { len, .. } => self.offset += len,
+            Framed::End | Framed::Damaged { .. } => self.done = true,
         }
         Ok(frame)
     }
 
-    fn read_frame(&mut self) -> io::Result<Frame> {
+    fn read_frame(&mut self) -> io::Result<Framed> {
         let offset = self.offset;
-        let damaged = |why| Ok(Frame::Damaged { offset, why });
+        let damaged = |why| Ok(Framed::Damaged { offset, why });
         let left = self.end.saturating_sub(offset);
         if left == 0 {
-            return Ok(Frame::End);
+            return Ok(Framed::End);
         }
         if left < FRAME_OVERHEAD {
             return damaged(Corruption::Truncated);
@@ -175,7 +175,7 @@ impl<R: Read> FrameReader<R> {
             return damaged(Corruption::UnknownKind(head[0]));
         };
         match Record::decode(kind, &payload) {
-            Ok(record) => Ok(Frame::Record {
+            Ok(record) => Ok(Framed::Record {
                 len: frame_len,
                 record,
             }),
@@ -276,15 +276,15 @@ mod tests {
         bytes
     }
 
-    fn read_all(bytes: &[u8]) -> (Vec<Record>, Frame) {
+    fn read_all(bytes: &[u8]) -> (Vec<Record>, Framed) {
         let mut reader = match FrameReader::new(bytes, bytes.len() as u64).unwrap() {
             Ok(r) => r,
-            Err(why) => return (vec![], Frame::Damaged { offset: 0, why }),
+            Err(why) => return (vec![], Framed::Damaged { offset: 0, why }),
         };
         let mut out = Vec::new();
         loop {
             match reader.next_frame().unwrap() {
-                Frame::Record { record, .. } => out.push(record),
+                Framed::Record { record, .. } => out.push(record),
                 other => return (out, other),
             }
         }
@@ -318,7 +318,7 @@ mod tests {
         ];
         let (got, end) = read_all(&segment(&records));
         assert_eq!(got, records);
-        assert!(matches!(end, Frame::End));
+        assert!(matches!(end, Framed::End));
     }
 
     #[test]
@@ -334,7 +334,7 @@ mod tests {
         assert_eq!(got, records[..1]);
         assert!(matches!(
             end,
-            Frame::Damaged {
+            Framed::Damaged {
                 offset,
                 why: Corruption::BadChecksum { .. }
             } if offset == second
@@ -342,7 +342,7 @@ mod tests {
         let (_, end) = read_all(&bytes[..bytes.len() - 1]);
         assert!(matches!(
             end,
-            Frame::Damaged {
+            Framed::Damaged {
                 why: Corruption::Truncated,
                 ..
             }
@@ -350,7 +350,7 @@ mod tests {
         let (_, end) = read_all(b"IREC\x02\x00\x00\x00");
         assert!(matches!(
             end,
-            Frame::Damaged {
+            Framed::Damaged {
                 why: Corruption::UnsupportedVersion(2),
                 ..
             }
@@ -358,7 +358,7 @@ mod tests {
         let (_, end) = read_all(b"NOPE\x01\x00\x00\x00");
         assert!(matches!(
             end,
-            Frame::Damaged {
+            Framed::Damaged {
                 why: Corruption::BadMagic,
                 ..
             }
@@ -397,7 +397,7 @@ mod tests {
         let (_, end) = read_all(&[&bytes[..second], &tail[..]].concat());
         assert!(matches!(
             end,
-            Frame::Damaged {
+            Framed::Damaged {
                 why: Corruption::Truncated,
                 ..
             }
@@ -411,7 +411,7 @@ mod tests {
             assert!(
                 matches!(
                     end,
-                    Frame::Damaged {
+                    Framed::Damaged {
                         offset: 0,
                         why: Corruption::Truncated
                     }
@@ -422,7 +422,7 @@ mod tests {
         let (_, end) = read_all(b"IRX");
         assert!(matches!(
             end,
-            Frame::Damaged {
+            Framed::Damaged {
                 why: Corruption::BadMagic,
                 ..
             }
@@ -437,7 +437,7 @@ mod tests {
         let mut bytes = segment_header().to_vec();
         bytes.extend_from_slice(&frame);
         let (_, end) = read_all(&bytes);
-        let Frame::Damaged { why, .. } = end else {
+        let Framed::Damaged { why, .. } = end else {
             panic!("expected damage, got {end:?}");
         };
         assert_eq!(why, Corruption::UnknownKind(77));

@@ -27,7 +27,7 @@ use inertia_protocol::PlayerInput;
 
 use super::codec::Record;
 use super::error::{Corruption, RecordError, SegmentDamage};
-use super::frame::{Frame, FrameReader};
+use super::frame::{FrameReader, Framed};
 use super::segment::{
     list_segments, parse_segment_file_name, scan_segment, torn_at, SegmentFile, SegmentInfo,
 };
@@ -262,12 +262,12 @@ impl Records {
                 .next_frame()
                 .map_err(|e| RecordError::io(&*path, e))?
             {
-                Frame::Record { record, .. } => return Ok(Some(record)),
-                Frame::End => self.current = None,
-                Frame::Damaged { offset, why } if *newest && torn_at(path, offset, why)? => {
+                Framed::Record { record, .. } => return Ok(Some(record)),
+                Framed::End => self.current = None,
+                Framed::Damaged { offset, why } if *newest && torn_at(path, offset, why)? => {
                     return Ok(None)
                 }
-                Frame::Damaged { offset, why } => {
+                Framed::Damaged { offset, why } => {
                     return Err(RecordError::Corrupt {
                         path: path.clone(),
                         offset,
@@ -362,15 +362,15 @@ impl Salvage {
             let offset = reader.offset();
             let path = &self.segments[index].path;
             match reader.next_frame().map_err(|e| RecordError::io(path, e))? {
-                Frame::Record { record, .. } => {
+                Framed::Record { record, .. } => {
                     return Ok(Some(Salvaged::Record {
                         segment: index,
                         offset,
                         record,
                     }))
                 }
-                Frame::End => self.current = None,
-                Frame::Damaged { offset, why } => {
+                Framed::End => self.current = None,
+                Framed::Damaged { offset, why } => {
                     self.current = None;
                     return self.damaged(index, offset, why).map(Some);
                 }

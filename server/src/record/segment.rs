@@ -10,7 +10,7 @@ use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 use super::error::{Corruption, RecordError};
-use super::frame::{is_torn_frame, Frame, FrameReader, FRAME_OVERHEAD};
+use super::frame::{is_torn_frame, FrameReader, Framed, FRAME_OVERHEAD};
 use super::MAX_RECORD_BYTES;
 
 const PREFIX: &str = "segment-";
@@ -162,13 +162,13 @@ fn scan_frames<R: Read>(
     };
     loop {
         match reader.next_frame().map_err(io)? {
-            Frame::Record { record, .. } => {
+            Framed::Record { record, .. } => {
                 scan.records += 1;
                 scan.first_tick.get_or_insert(record.tick());
                 scan.last_tick = Some(record.tick());
             }
-            Frame::End => break,
-            Frame::Damaged { offset, why } => {
+            Framed::End => break,
+            Framed::Damaged { offset, why } => {
                 scan.damage = Some((offset, why));
                 scan.torn_tail = torn(offset, why)?;
                 break;

@@ -5,7 +5,7 @@
 //! [`WireEvent::Custom`] with a short name and a JSON payload, so a client
 //! can show them without a protocol change.
 
-use inertia_protocol::control::GameEvent as WireEvent;
+use inertia_protocol::control::WireEvent;
 use inertia_protocol::EntityId;
 use serde_json::json;
 

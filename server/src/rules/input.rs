@@ -44,20 +44,11 @@ pub enum InputRefusal {
         /// The most held per client.
         max: usize,
     },
-    /// Not newer than the last accepted input (duplicate or reordered).
-    #[error("input sequence {sequence} is not after {last}")]
-    OutOfOrder {
-        /// The input's sequence number.
-        sequence: u32,
-        /// The last accepted one.
-        last: u32,
-    },
 }
 
 /// Checks and clamps one input: NaN or infinite fields are refused;
-/// movement is
-/// clamped to [−1, 1] per axis and length 1, yaw wrapped into (−π, π], and
-/// undefined button bits cleared.
+/// movement is clamped to [−1, 1] per axis and length 1, yaw wrapped into
+/// (−π, π], and undefined button bits cleared.
 ///
 /// The view offset ([`PlayerInput::view_behind`]) is clamped, never
 /// refused, so a bad view costs the player the compensation of that one

@@ -101,7 +101,7 @@ impl Simulation {
     /// Applies an operator's edit to the live world and notes it in the
     /// journal. Refused, changing nothing, while history is shown.
     pub fn edit(&mut self, edit: WorldEdit) -> Result<EditOutcome, EditError> {
-        if self.timelines.view.is_some() {
+        if self.timelines.past.is_some() {
             return Err(EditError::NotLive {
                 shown: self.shown().world.tick(),
                 live: self.live_tick(),

@@ -110,7 +110,7 @@ pub struct Simulation {
     /// ([`timeline`], [`time_travel`]).
     timelines: Timelines,
     /// The game rules; their own state is that of the timeline shown
-    /// (the live one's is put aside in the [`time_travel::View`]
+    /// (the live one's is put aside in the [`time_travel::ShownHistory`]
     /// meanwhile).
     rules: Box<dyn GameRules>,
     /// Events the rules' context gathered in the current call.
@@ -197,7 +197,7 @@ impl Simulation {
                     clock,
                     poses,
                 },
-                view: None,
+                past: None,
             },
             rules,
             events: Vec::new(),
@@ -381,7 +381,7 @@ impl Simulation {
     /// Whether the game rules have ended the match, and why: asked of the
     /// live timeline only (history shown never ends it).
     pub fn match_over(&self) -> Option<String> {
-        if self.timelines.view.is_some() {
+        if self.timelines.past.is_some() {
             return None;
         }
         let mut why = self.rules.match_over()?;
@@ -438,7 +438,7 @@ impl Simulation {
     /// A client joins (refused when full or already in). While history
     /// is shown the client joins the live world.
     pub fn join(&mut self, client: ClientId) -> Result<EntityId, JoinRefusal> {
-        if self.timelines.view.is_some() {
+        if self.timelines.past.is_some() {
             return self.with_live(|s| s.join(client));
         }
         let r = self.join_here(client);
@@ -469,7 +469,7 @@ impl Simulation {
     /// A client leaves (unknown clients are ignored). While history is
     /// shown the client leaves the live world.
     pub fn leave(&mut self, client: ClientId) {
-        if self.timelines.view.is_some() {
+        if self.timelines.past.is_some() {
             return self.with_live(|s| s.leave(client));
         }
         if self.shown().clients.contains(&client) {
@@ -479,7 +479,7 @@ impl Simulation {
     }
 
     fn leave_here(&mut self, client: ClientId) {
-        if self.timelines.view.is_none() {
+        if self.timelines.past.is_none() {
             self.inputs.forget(client);
         }
         if self.shown_mut().clients.remove(&client) {
@@ -494,7 +494,7 @@ impl Simulation {
     /// one whose tick has passed is applied at once. Inputs that arrive
     /// while history is shown are dropped (the live world is not running).
     pub fn input(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputRefusal> {
-        if self.timelines.view.is_some() || !self.timelines.live.clients.contains(&client) {
+        if self.timelines.past.is_some() || !self.timelines.live.clients.contains(&client) {
             self.count_rejected_input();
             return Err(InputRefusal::NotJoined(client));
         }

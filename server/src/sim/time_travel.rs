@@ -5,7 +5,7 @@
 //! still reach it), and the one shown, a re-simulated past state with a
 //! clock of its own, which is what ticks and what clients see. The rules
 //! object serves whichever is shown: the live timeline's rules state is
-//! put aside in the [`View`] until it comes back. From a past tick the
+//! put aside in the [`ShownHistory`] until it comes back. From a past tick the
 //! operator can:
 //!
 //! - step or resume: the view plays forward through the recorded journal;
@@ -51,7 +51,7 @@ enum Play {
 }
 
 /// History being shown.
-pub(super) struct View {
+pub(super) struct ShownHistory {
     /// The timeline shown in place of the live one.
     pub(super) shown: Timeline,
     /// The rules' state for the live timeline, put aside.
@@ -129,7 +129,7 @@ impl Simulation {
     /// What is shown: live, or history (paused, forward, backwards or a
     /// replay).
     pub fn mode(&self) -> TimeMode {
-        match &self.timelines.view {
+        match &self.timelines.past {
             None => TimeMode::Live,
             Some(v) => match v.play {
                 Play::Reverse if !self.shown().clock.paused() => TimeMode::Reverse,
@@ -144,7 +144,7 @@ impl Simulation {
 
     /// Whether history is shown instead of the live world.
     pub fn showing_history(&self) -> bool {
-        self.timelines.view.is_some()
+        self.timelines.past.is_some()
     }
 
     /// The live world's tick.
@@ -177,14 +177,14 @@ impl Simulation {
     /// Runs `f` on the live timeline while history is shown (joins and
     /// leaves), then shows history again.
     pub(super) fn with_live<R>(&mut self, f: impl FnOnce(&mut Simulation) -> R) -> R {
-        let Some(mut view) = self.timelines.view.take() else {
+        let Some(mut view) = self.timelines.past.take() else {
             return f(self);
         };
         let shown_rules = self.trade_rules(&view.live_rules);
         let r = f(self);
         self.flush_journal();
         view.live_rules = self.trade_rules(&shown_rules);
-        self.timelines.view = Some(view);
+        self.timelines.past = Some(view);
         self.timeline_changed();
         r
     }
@@ -192,7 +192,7 @@ impl Simulation {
     /// Shows an empty timeline in place of the live one (filled next),
     /// paused; the live one stands still meanwhile.
     fn enter_view(&mut self) -> Result<(), TimeError> {
-        if self.timelines.view.is_some() {
+        if self.timelines.past.is_some() {
             return Ok(());
         }
         self.flush_journal();
@@ -209,7 +209,7 @@ impl Simulation {
             clock,
             poses: PoseHistory::new(self.timelines.live.poses.capacity()),
         };
-        self.timelines.view = Some(View {
+        self.timelines.past = Some(ShownHistory {
             shown,
             live_rules: self.rules.save_state(),
             play: Play::Forward,
@@ -222,7 +222,7 @@ impl Simulation {
 
     /// Shows the live timeline again, as it was left.
     pub fn go_live(&mut self) {
-        if let Some(view) = self.timelines.view.take() {
+        if let Some(view) = self.timelines.past.take() {
             self.trade_rules(&view.live_rules);
             self.timeline_changed();
             tracing::info!(tick = self.timelines.live.world.tick(), "live again");
@@ -264,7 +264,7 @@ impl Simulation {
         }
         self.enter_view()?;
         let report = self.show(tick, None)?;
-        if let Some(v) = &mut self.timelines.view {
+        if let Some(v) = &mut self.timelines.past {
             v.play = Play::Forward;
         }
         self.shown_mut().clock.pause();
@@ -277,7 +277,7 @@ impl Simulation {
         if self.recording.history.is_none() {
             return Err(TimeError::NoHistory);
         }
-        if self.timelines.view.is_none() {
+        if self.timelines.past.is_none() {
             // Start from a copy of the live state.
             let now = self.checkpoint();
             self.enter_view()?;
@@ -287,7 +287,7 @@ impl Simulation {
             .clock
             .set_time_scale(speed)
             .map_err(|e| TimeError::World(e.to_string()))?;
-        if let Some(v) = &mut self.timelines.view {
+        if let Some(v) = &mut self.timelines.past {
             v.play = Play::Reverse;
         }
         Ok(())
@@ -301,7 +301,7 @@ impl Simulation {
         }
         self.check_target(to)?;
         let report = self.seek(from)?;
-        if self.timelines.view.is_none() {
+        if self.timelines.past.is_none() {
             // `from` is the live tick: nothing to replay.
             return Ok(report);
         }
@@ -309,7 +309,7 @@ impl Simulation {
             .clock
             .set_time_scale(speed)
             .map_err(|e| TimeError::World(e.to_string()))?;
-        if let Some(v) = &mut self.timelines.view {
+        if let Some(v) = &mut self.timelines.past {
             v.play = Play::Replay { to };
         }
         Ok(report)
@@ -318,7 +318,7 @@ impl Simulation {
     /// Makes the view play forward (an operator's step, resume or speed
     /// while reversing).
     pub fn play_forward(&mut self) {
-        if let Some(v) = &mut self.timelines.view {
+        if let Some(v) = &mut self.timelines.past {
             if v.play == Play::Reverse {
                 v.play = Play::Forward;
             }
@@ -330,7 +330,7 @@ impl Simulation {
     pub(super) fn run_due(&mut self, n: u32) {
         let mut left = n;
         while left > 0 {
-            let Some(view) = &self.timelines.view else {
+            let Some(view) = &self.timelines.past else {
                 for _ in 0..left {
                     self.tick();
                 }
@@ -361,7 +361,7 @@ impl Simulation {
                 }
             }
         }
-        if let Some(v) = &self.timelines.view {
+        if let Some(v) = &self.timelines.past {
             let end = match v.play {
                 Play::Replay { to } => Some(to.min(self.timelines.live.world.tick())),
                 Play::Forward => Some(self.timelines.live.world.tick()),
@@ -376,7 +376,7 @@ impl Simulation {
     /// The view reached the end of its forward play: a replay returns to
     /// the live world as it was; forward play hands its clock over.
     fn finish_forward(&mut self) {
-        let Some(view) = &self.timelines.view else {
+        let Some(view) = &self.timelines.past else {
             return;
         };
         match view.play {
@@ -402,10 +402,10 @@ impl Simulation {
     /// then the step.
     fn view_step(&mut self) {
         let t = self.shown().world.tick();
-        let clean = self.timelines.view.as_ref().is_some_and(|v| v.clean);
+        let clean = self.timelines.past.as_ref().is_some_and(|v| v.clean);
         if !clean {
             // A copy of the live state already holds its tick's journal.
-            if let Some(v) = &mut self.timelines.view {
+            if let Some(v) = &mut self.timelines.past {
                 v.clean = true;
             }
         } else if let Some(history) = self.recording.history.take() {
@@ -461,7 +461,7 @@ impl Simulation {
             .session_of(target)
             .ok_or_else(|| self.history_range_error(target))?;
         let in_session = |t: u64| t >= session && t <= target;
-        let Some(view) = self.timelines.view.as_mut() else {
+        let Some(view) = self.timelines.past.as_mut() else {
             return Err(TimeError::NoHistory);
         };
         // Candidates: the view itself, a cached state, a keyframe.
@@ -503,14 +503,14 @@ impl Simulation {
             // every block on the way, so the next block starts near.
             if cache_from.is_some_and(|c| now >= c || now % REVERSE_BLOCK == 0) {
                 let state = self.capture(0);
-                if let Some(v) = &mut self.timelines.view {
+                if let Some(v) = &mut self.timelines.past {
                     v.cache.insert(now, state);
                 }
             }
         }
         self.publication.forget_pending_after(events_before);
         self.events.clear();
-        if let Some(v) = &mut self.timelines.view {
+        if let Some(v) = &mut self.timelines.past {
             v.clean = true;
             if cache_from.is_some() {
                 // Playing backwards: what is above the target was shown.
@@ -560,7 +560,7 @@ impl Simulation {
         let clock = self.shown().clock.clone();
         let shown = self
             .timelines
-            .view
+            .past
             .as_ref()
             .map(|v| (v.play, v.clean, self.capture(0)));
         let report = self.seek(tick);
@@ -569,7 +569,7 @@ impl Simulation {
             Some((play, clean, state)) => {
                 self.enter_view()?;
                 self.restore(&state)?;
-                if let Some(v) = &mut self.timelines.view {
+                if let Some(v) = &mut self.timelines.past {
                     v.play = play;
                     v.clean = clean;
                 }

@@ -7,7 +7,7 @@ use std::collections::BTreeSet;
 use inertia_physics::glam::DVec3;
 use inertia_physics::World;
 
-use super::time_travel::View;
+use super::time_travel::ShownHistory;
 use crate::clock::Clock;
 use crate::pose_history::PoseHistory;
 use crate::rules::ClientId;
@@ -33,14 +33,14 @@ pub(super) struct Timelines {
     /// joins and leaves still reach it.
     pub(super) live: Timeline,
     /// History shown instead of the live timeline, if any.
-    pub(super) view: Option<View>,
+    pub(super) past: Option<ShownHistory>,
 }
 
 impl Timelines {
     /// The timeline shown, ticked and streamed: history while it is
     /// shown, else the live one.
     pub(super) fn shown(&self) -> &Timeline {
-        match &self.view {
+        match &self.past {
             Some(view) => &view.shown,
             None => &self.live,
         }
@@ -48,7 +48,7 @@ impl Timelines {
 
     /// [`Self::shown`], to change.
     pub(super) fn shown_mut(&mut self) -> &mut Timeline {
-        match &mut self.view {
+        match &mut self.past {
             Some(view) => &mut view.shown,
             None => &mut self.live,
         }
@@ -56,6 +56,6 @@ impl Timelines {
 
     /// Whether the live timeline is shown.
     pub(super) fn is_live(&self) -> bool {
-        self.view.is_none()
+        self.past.is_none()
     }
 }

@@ -17,7 +17,7 @@ use inertia_physics::ProfileTotals;
 use serde_json::Value;
 
 use super::{per_step_ms, percentile, stage_means};
-use crate::report::{median, Record};
+use crate::report::{median, Measurement};
 use crate::BenchError;
 
 /// The case's name (what `--only` matches).
@@ -31,7 +31,7 @@ pub const STEPS_QUICK: usize = 30;
 /// Steps the demo world `warmup` ticks, then times `steps` ticks one by
 /// one, at `threads` physics threads (the world's own pool, as the
 /// server's `--physics-threads` gives it).
-pub fn measure(threads: usize, warmup: usize, steps: usize) -> Result<Record, BenchError> {
+pub fn measure(threads: usize, warmup: usize, steps: usize) -> Result<Measurement, BenchError> {
     let scene = demo_scene()?;
     let mut built = scene.build_with(WorldConfig {
         threads,
@@ -58,7 +58,7 @@ pub fn measure(threads: usize, warmup: usize, steps: usize) -> Result<Record, Be
     }
     let stages = stage_means(&before, world.profile_totals());
     let particle_stages = particle_stage_means(&before, world.profile_totals());
-    Ok(Record::new()
+    Ok(Measurement::new()
         .field("scene", NAME)
         .field("bodies", bodies)
         .field("particles", particles)

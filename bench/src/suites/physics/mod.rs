@@ -27,10 +27,10 @@ use inertia_physics::glam::DVec3;
 use inertia_physics::ProfileTotals;
 use serde_json::Value;
 
-use crate::report::{median, note, progress, Record, Sink, Suspended};
+use crate::report::{median, note, progress, Measurement, Sink, Suspended};
 use crate::suites::particles::thread_counts;
 use crate::{BenchError, Opts};
-use scene::Scene;
+use scene::NeutralScene;
 
 /// Simulation step, s.
 pub const DT: f64 = 1.0 / 60.0;
@@ -143,11 +143,11 @@ fn stage_means(before: &ProfileTotals, after: &ProfileTotals) -> Value {
 /// Runs one case: builds both worlds, warms up, then times `scene.steps`
 /// interleaved steps of each.
 pub fn measure(
-    scene: &Scene,
+    scene: &NeutralScene,
     threads: usize,
     sleeping: bool,
     warmup: usize,
-) -> Result<Record, BenchError> {
+) -> Result<Measurement, BenchError> {
     let pool = rapier3d::rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
@@ -185,7 +185,7 @@ pub fn measure(
     let start: Vec<DVec3> = scene
         .bodies
         .iter()
-        .filter(|b| b.kind == scene::Kind::Dynamic)
+        .filter(|b| b.kind == scene::NeutralKind::Dynamic)
         .map(|b| b.position)
         .collect();
     let (end_o, end_r) = (ours.positions(), rapier.positions());
@@ -209,7 +209,7 @@ pub fn measure(
             Value::from(used_again as f64 / all as f64)
         }
     };
-    Ok(Record::new()
+    Ok(Measurement::new()
         .field("scene", scene.name.clone())
         .field("bodies", scene.dynamic_count())
         .field("static_bodies", scene.static_count())

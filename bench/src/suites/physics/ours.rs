@@ -1,4 +1,4 @@
-//! A [`Scene`] built into an `inertia_physics::World`.
+//! A [`NeutralScene`] built into an `inertia_physics::World`.
 //!
 //! Gravity is set explicitly (the world's gravity is zero until set), the
 //! solver runs [`SOLVER_ITERATIONS`] substeps, and sleeping
@@ -15,7 +15,7 @@ use inertia_physics::rigid::shape::Shape;
 use inertia_physics::rigid::solver::SolverConfig;
 use inertia_physics::{BodyHandle, World, WorldConfig};
 
-use super::scene::{JointKindDesc, Kind, Scene, ShapeDesc};
+use super::scene::{NeutralJointKind, NeutralKind, NeutralScene, NeutralShape};
 use super::{Engine, GRAVITY, SOLVER_ITERATIONS};
 use crate::BenchError;
 
@@ -31,20 +31,20 @@ pub struct Ours {
     manifolds: ManifoldCount,
 }
 
-fn shape(s: &ShapeDesc) -> Result<Shape, BenchError> {
+fn shape(s: &NeutralShape) -> Result<Shape, BenchError> {
     Ok(match s {
-        ShapeDesc::Sphere { radius } => Shape::sphere(*radius)?,
-        ShapeDesc::Cuboid { half_extents } => Shape::cuboid(*half_extents)?,
-        ShapeDesc::Capsule {
+        NeutralShape::Sphere { radius } => Shape::sphere(*radius)?,
+        NeutralShape::Cuboid { half_extents } => Shape::cuboid(*half_extents)?,
+        NeutralShape::Capsule {
             half_height,
             radius,
         } => Shape::capsule(*half_height, *radius)?,
-        ShapeDesc::Cylinder {
+        NeutralShape::Cylinder {
             half_height,
             radius,
         } => Shape::cylinder(*half_height, *radius)?,
-        ShapeDesc::ConvexHull(points) => Shape::convex_hull(points)?,
-        ShapeDesc::HeightField {
+        NeutralShape::ConvexHull(points) => Shape::convex_hull(points)?,
+        NeutralShape::HeightField {
             heights,
             rows,
             cols,
@@ -69,7 +69,7 @@ impl Ours {
     /// the caller (the engine's own single-thread mode); more threads use
     /// the rayon pool the step is called from (`WorldConfig::threads = 0`).
     pub fn build(
-        scene: &Scene,
+        scene: &NeutralScene,
         threads: usize,
         sleeping: bool,
         dt: f64,
@@ -92,8 +92,8 @@ impl Ours {
         for b in &scene.bodies {
             let pose = Pose::new(b.position, b.rotation);
             let mut desc = match b.kind {
-                Kind::Dynamic => RigidBodyDesc::dynamic(shape(&b.shape)?, b.density, pose)?,
-                Kind::Static => RigidBodyDesc::fixed(shape(&b.shape)?, pose),
+                NeutralKind::Dynamic => RigidBodyDesc::dynamic(shape(&b.shape)?, b.density, pose)?,
+                NeutralKind::Static => RigidBodyDesc::fixed(shape(&b.shape)?, pose),
             };
             desc.friction_static = b.friction;
             desc.friction_dynamic = b.friction;
@@ -101,7 +101,7 @@ impl Ours {
             desc.angular_damping = b.angular_damping;
             desc.can_sleep = sleeping;
             let h = world.add_body(&desc)?;
-            if b.kind == Kind::Dynamic {
+            if b.kind == NeutralKind::Dynamic {
                 dynamic.push(h);
             }
             handles.push(h);
@@ -114,8 +114,8 @@ impl Ours {
                 (ra.inverse() * w, rb.inverse() * w)
             };
             let kind = match j.kind {
-                JointKindDesc::Ball => JointKind::Ball,
-                JointKindDesc::SwingTwist { swing, twist } => {
+                NeutralJointKind::Ball => JointKind::Ball,
+                NeutralJointKind::SwingTwist { swing, twist } => {
                     let (axis_a, axis_b) = axes(j.frame);
                     JointKind::SwingTwist {
                         axis_a,
@@ -124,7 +124,7 @@ impl Ours {
                         twist_limits: twist,
                     }
                 }
-                JointKindDesc::Hinge { limits } => {
+                NeutralJointKind::Hinge { limits } => {
                     let (axis_a, axis_b) = axes(j.frame);
                     JointKind::Hinge {
                         axis_a,

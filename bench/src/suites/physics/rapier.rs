@@ -1,4 +1,4 @@
-//! A [`Scene`] built into rapier3d 0.36 (`f32`, glam-based math).
+//! A [`NeutralScene`] built into rapier3d 0.36 (`f32`, glam-based math).
 //!
 //! One `PhysicsWorld` holds the sets, the pipeline, the broad phase
 //! (`BroadPhaseBvh`), the narrow phase and the CCD solver. Integration
@@ -19,7 +19,7 @@ use rapier3d::prelude::{
     PhysicsWorld, Pose, RigidBodyBuilder, RigidBodyHandle, Rot3, Vec3,
 };
 
-use super::scene::{JointKindDesc, Kind, Scene, ShapeDesc};
+use super::scene::{NeutralJointKind, NeutralKind, NeutralScene, NeutralShape};
 use super::{Engine, GRAVITY, SOLVER_ITERATIONS};
 use crate::BenchError;
 
@@ -35,25 +35,25 @@ fn pose(p: DVec3, r: DQuat) -> Pose {
     Pose::from_parts(v(p), q(r))
 }
 
-fn collider(s: &ShapeDesc) -> Result<ColliderBuilder, BenchError> {
+fn collider(s: &NeutralShape) -> Result<ColliderBuilder, BenchError> {
     Ok(match s {
-        ShapeDesc::Sphere { radius } => ColliderBuilder::ball(*radius as f32),
-        ShapeDesc::Cuboid { half_extents: h } => {
+        NeutralShape::Sphere { radius } => ColliderBuilder::ball(*radius as f32),
+        NeutralShape::Cuboid { half_extents: h } => {
             ColliderBuilder::cuboid(h.x as f32, h.y as f32, h.z as f32)
         }
-        ShapeDesc::Capsule {
+        NeutralShape::Capsule {
             half_height,
             radius,
         } => ColliderBuilder::capsule_y(*half_height as f32, *radius as f32),
-        ShapeDesc::Cylinder {
+        NeutralShape::Cylinder {
             half_height,
             radius,
         } => ColliderBuilder::cylinder(*half_height as f32, *radius as f32),
-        ShapeDesc::ConvexHull(points) => {
+        NeutralShape::ConvexHull(points) => {
             let pts: Vec<Vec3> = points.iter().map(|p| v(*p)).collect();
             ColliderBuilder::convex_hull(&pts).ok_or("rapier: convex hull of the points failed")?
         }
-        ShapeDesc::HeightField {
+        NeutralShape::HeightField {
             heights,
             rows,
             cols,
@@ -94,7 +94,7 @@ impl std::fmt::Debug for Rapier {
 impl Rapier {
     /// Builds `scene` in a new rapier world. The step runs on the rayon
     /// pool it is called from (no pool of its own).
-    pub fn build(scene: &Scene, sleeping: bool, dt: f64) -> Result<Self, BenchError> {
+    pub fn build(scene: &NeutralScene, sleeping: bool, dt: f64) -> Result<Self, BenchError> {
         let mut world = PhysicsWorld::new();
         world.gravity = Vec3::new(0.0, GRAVITY as f32, 0.0);
         world.integration_parameters.dt = dt as f32;
@@ -104,8 +104,8 @@ impl Rapier {
         let mut dynamic = Vec::new();
         for b in &scene.bodies {
             let builder = match b.kind {
-                Kind::Dynamic => RigidBodyBuilder::dynamic(),
-                Kind::Static => RigidBodyBuilder::fixed(),
+                NeutralKind::Dynamic => RigidBodyBuilder::dynamic(),
+                NeutralKind::Static => RigidBodyBuilder::fixed(),
             }
             .pose(pose(b.position, b.rotation))
             .angular_damping(b.angular_damping as f32)
@@ -118,7 +118,7 @@ impl Rapier {
                 .restitution(b.restitution as f32)
                 .restitution_combine_rule(CoefficientCombineRule::Max);
             world.colliders.insert_with_parent(c, h, &mut world.bodies);
-            if b.kind == Kind::Dynamic {
+            if b.kind == NeutralKind::Dynamic {
                 dynamic.push(h);
             }
             handles.push(h);
@@ -130,17 +130,17 @@ impl Rapier {
             let frame1 = pose(j.anchor_a, ra.inverse() * j.frame);
             let frame2 = pose(j.anchor_b, rb.inverse() * j.frame);
             let builder = match j.kind {
-                JointKindDesc::Ball => {
+                NeutralJointKind::Ball => {
                     GenericJointBuilder::new(JointAxesMask::LOCKED_SPHERICAL_AXES)
                 }
-                JointKindDesc::SwingTwist { swing, twist } => {
+                NeutralJointKind::SwingTwist { swing, twist } => {
                     let s = swing as f32;
                     GenericJointBuilder::new(JointAxesMask::LOCKED_SPHERICAL_AXES)
                         .limits(JointAxis::AngX, [twist.0 as f32, twist.1 as f32])
                         .limits(JointAxis::AngY, [-s, s])
                         .limits(JointAxis::AngZ, [-s, s])
                 }
-                JointKindDesc::Hinge { limits } => {
+                NeutralJointKind::Hinge { limits } => {
                     GenericJointBuilder::new(JointAxesMask::LOCKED_REVOLUTE_AXES)
                         .limits(JointAxis::AngX, [limits.0 as f32, limits.1 as f32])
                 }

@@ -26,7 +26,7 @@ pub const RAGDOLL_ANGULAR_DAMPING: f64 = 0.5;
 
 /// A collision shape in its own frame.
 #[derive(Debug, Clone, PartialEq)]
-pub enum ShapeDesc {
+pub enum NeutralShape {
     /// A ball of `radius` m.
     Sphere {
         /// Radius, m.
@@ -70,7 +70,7 @@ pub enum ShapeDesc {
 
 /// Whether a body moves.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Kind {
+pub enum NeutralKind {
     /// Moved by gravity, contacts and joints.
     Dynamic,
     /// Never moves.
@@ -79,15 +79,15 @@ pub enum Kind {
 
 /// One body.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Body {
+pub struct NeutralBody {
     /// Its one collision shape.
-    pub shape: ShapeDesc,
+    pub shape: NeutralShape,
     /// Origin of the body frame in the world, m.
     pub position: DVec3,
     /// Body frame → world.
     pub rotation: DQuat,
     /// Dynamic or static.
-    pub kind: Kind,
+    pub kind: NeutralKind,
     /// Uniform density, kg/m³ (dynamic bodies).
     pub density: f64,
     /// Friction coefficient.
@@ -98,14 +98,14 @@ pub struct Body {
     pub angular_damping: f64,
 }
 
-impl Body {
+impl NeutralBody {
     /// A dynamic body of the default density and friction.
-    pub fn dynamic(shape: ShapeDesc, position: DVec3, rotation: DQuat) -> Self {
+    pub fn dynamic(shape: NeutralShape, position: DVec3, rotation: DQuat) -> Self {
         Self {
             shape,
             position,
             rotation,
-            kind: Kind::Dynamic,
+            kind: NeutralKind::Dynamic,
             density: DENSITY,
             friction: FRICTION,
             restitution: 0.0,
@@ -114,9 +114,9 @@ impl Body {
     }
 
     /// A static body.
-    pub fn fixed(shape: ShapeDesc, position: DVec3) -> Self {
+    pub fn fixed(shape: NeutralShape, position: DVec3) -> Self {
         Self {
-            kind: Kind::Static,
+            kind: NeutralKind::Static,
             ..Self::dynamic(shape, position, DQuat::IDENTITY)
         }
     }
@@ -124,7 +124,7 @@ impl Body {
 
 /// What a joint constrains.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum JointKindDesc {
+pub enum NeutralJointKind {
     /// The anchors coincide; rotation is free.
     Ball,
     /// A ball joint whose twist about the frame's X axis stays in `twist`
@@ -143,9 +143,9 @@ pub enum JointKindDesc {
 }
 
 /// A joint between two bodies of the scene (indices into
-/// [`Scene::bodies`]).
+/// [`NeutralScene::bodies`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Joint {
+pub struct NeutralJoint {
     /// First body.
     pub a: usize,
     /// Second body.
@@ -157,18 +157,18 @@ pub struct Joint {
     /// The joint frame in the world when the scene is built.
     pub frame: DQuat,
     /// What it constrains.
-    pub kind: JointKindDesc,
+    pub kind: NeutralJointKind,
 }
 
 /// A scene: bodies, joints, and what the measurement needs to know about it.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Scene {
+pub struct NeutralScene {
     /// Case name, e.g. `pyramid_20`.
     pub name: String,
     /// Every body, static ones included.
-    pub bodies: Vec<Body>,
+    pub bodies: Vec<NeutralBody>,
     /// Every joint.
-    pub joints: Vec<Joint>,
+    pub joints: Vec<NeutralJoint>,
     /// Whether every dynamic body starts at rest in a pose it should keep
     /// (then the drift is measured).
     pub starts_at_rest: bool,
@@ -179,7 +179,7 @@ pub struct Scene {
     pub steps: usize,
 }
 
-impl Scene {
+impl NeutralScene {
     fn new(name: String, steps: usize, starts_at_rest: bool, floor_y: f64) -> Self {
         Self {
             name,
@@ -195,7 +195,7 @@ impl Scene {
     pub fn dynamic_count(&self) -> usize {
         self.bodies
             .iter()
-            .filter(|b| b.kind == Kind::Dynamic)
+            .filter(|b| b.kind == NeutralKind::Dynamic)
             .count()
     }
 
@@ -204,19 +204,19 @@ impl Scene {
         self.bodies.len() - self.dynamic_count()
     }
 
-    fn add(&mut self, body: Body) -> usize {
+    fn add(&mut self, body: NeutralBody) -> usize {
         self.bodies.push(body);
         self.bodies.len() - 1
     }
 
     /// Joins `a` and `b` at the world point `at` with a joint whose frame is
     /// `frame` in the world, as the bodies are placed now.
-    fn join(&mut self, a: usize, b: usize, at: DVec3, frame: DQuat, kind: JointKindDesc) {
+    fn join(&mut self, a: usize, b: usize, at: DVec3, frame: DQuat, kind: NeutralJointKind) {
         let local = |i: usize| {
             let body = &self.bodies[i];
             body.rotation.inverse() * (at - body.position)
         };
-        let joint = Joint {
+        let joint = NeutralJoint {
             a,
             b,
             anchor_a: local(a),
@@ -230,8 +230,8 @@ impl Scene {
     /// A static box whose top face is at `y = 0`, `half_x` by `half_z` m,
     /// centred on (`x`, `z`).
     fn ground(&mut self, x: f64, z: f64, half_x: f64, half_z: f64) {
-        self.add(Body::fixed(
-            ShapeDesc::Cuboid {
+        self.add(NeutralBody::fixed(
+            NeutralShape::Cuboid {
                 half_extents: DVec3::new(half_x, 0.5, half_z),
             },
             DVec3::new(x, -0.5, z),
@@ -244,14 +244,14 @@ impl Scene {
         let t = 0.25;
         let h = 0.5 * height;
         for s in [-1.0, 1.0] {
-            self.add(Body::fixed(
-                ShapeDesc::Cuboid {
+            self.add(NeutralBody::fixed(
+                NeutralShape::Cuboid {
                     half_extents: DVec3::new(t, h, half + 2.0 * t),
                 },
                 DVec3::new(s * (half + t), h, 0.0),
             ));
-            self.add(Body::fixed(
-                ShapeDesc::Cuboid {
+            self.add(NeutralBody::fixed(
+                NeutralShape::Cuboid {
                     half_extents: DVec3::new(half, h, t),
                 },
                 DVec3::new(0.0, h, s * (half + t)),
@@ -266,8 +266,8 @@ impl Scene {
             let n = rows - row;
             for i in 0..n {
                 let x = x0 + (i as f64 - (n as f64 - 1.0) / 2.0) * BOX_SPACING;
-                self.add(Body::dynamic(
-                    ShapeDesc::Cuboid {
+                self.add(NeutralBody::dynamic(
+                    NeutralShape::Cuboid {
                         half_extents: DVec3::splat(0.5),
                     },
                     DVec3::new(x, 0.5 + row as f64, z0),
@@ -284,8 +284,8 @@ const BOX_SPACING: f64 = 1.05;
 
 /// `pyramid_<rows>`: one pyramid of `rows` rows (`rows (rows + 1) / 2`
 /// unit boxes) on a static ground box.
-pub fn pyramid(rows: usize, steps: usize) -> Scene {
-    let mut s = Scene::new(format!("pyramid_{rows}"), steps, true, -1.0);
+pub fn pyramid(rows: usize, steps: usize) -> NeutralScene {
+    let mut s = NeutralScene::new(format!("pyramid_{rows}"), steps, true, -1.0);
     let half = 0.5 * rows as f64 * BOX_SPACING + 5.0;
     s.ground(0.0, 0.0, half, 5.0);
     s.pyramid(rows, 0.0, 0.0);
@@ -294,8 +294,8 @@ pub fn pyramid(rows: usize, steps: usize) -> Scene {
 
 /// `many_pyramids`: `count` pyramids of `rows` rows on one ground, on a
 /// grid 6 wide along X (as many rows of pyramids along Z as needed).
-pub fn many_pyramids(name: String, count: usize, rows: usize, steps: usize) -> Scene {
-    let mut s = Scene::new(name, steps, true, -1.0);
+pub fn many_pyramids(name: String, count: usize, rows: usize, steps: usize) -> NeutralScene {
+    let mut s = NeutralScene::new(name, steps, true, -1.0);
     let across = count.min(6);
     let deep = count.div_ceil(across);
     let dx = rows as f64 * BOX_SPACING + 2.0;
@@ -323,8 +323,8 @@ fn grid_side(n: usize, layers_per_side: usize) -> usize {
 
 /// `balls`: `n` spheres of radius 0.25 m on a jittered grid (0.6 m pitch)
 /// falling into a box container (static floor and four walls).
-pub fn balls(name: String, n: usize, steps: usize) -> Scene {
-    let mut s = Scene::new(name, steps, false, -1.0);
+pub fn balls(name: String, n: usize, steps: usize) -> NeutralScene {
+    let mut s = NeutralScene::new(name, steps, false, -1.0);
     let side = grid_side(n, 1);
     let layers = n.div_ceil(side * side);
     let pitch = 0.6;
@@ -339,8 +339,8 @@ pub fn balls(name: String, n: usize, steps: usize) -> Scene {
         let x = (i as f64 - (side as f64 - 1.0) / 2.0) * pitch + jitter(&mut rng);
         let z = (j as f64 - (side as f64 - 1.0) / 2.0) * pitch + jitter(&mut rng);
         let y = 1.0 + l as f64 * pitch + jitter(&mut rng);
-        let mut b = Body::dynamic(
-            ShapeDesc::Sphere { radius },
+        let mut b = NeutralBody::dynamic(
+            NeutralShape::Sphere { radius },
             DVec3::new(x, y, z),
             DQuat::IDENTITY,
         );
@@ -388,12 +388,12 @@ fn rock(rng: &mut SplitMix64) -> Vec<DVec3> {
 /// rocks)`, where `rocks` are 8 hulls of [`HULL_POINTS`] points drawn first
 /// from the generator seeded with `seed`.
 fn pile(
-    mut s: Scene,
+    mut s: NeutralScene,
     n: usize,
     (side, pitch): (usize, f64),
     seed: u64,
-    shape: impl Fn(usize, &[Arc<Vec<DVec3>>]) -> ShapeDesc,
-) -> Scene {
+    shape: impl Fn(usize, &[Arc<Vec<DVec3>>]) -> NeutralShape,
+) -> NeutralScene {
     let side = if n >= 1000 { side } else { grid_side(n, 3) };
     let layers = n.div_ceil(side * side);
     let half = 0.5 * side as f64 * pitch + 0.5;
@@ -407,7 +407,7 @@ fn pile(
         let z = (j as f64 - (side as f64 - 1.0) / 2.0) * pitch;
         let y = 1.0 + l as f64 * pitch;
         let rotation = random_rotation(&mut rng);
-        s.add(Body::dynamic(
+        s.add(NeutralBody::dynamic(
             shape(k, &rocks),
             DVec3::new(x, y, z),
             rotation,
@@ -420,18 +420,18 @@ fn pile(
 /// in turn, randomly oriented — on a 15 × 15 grid (0.9 m pitch) of layers
 /// (3000 bodies: 14 layers, the top one partly filled), dropped into a box
 /// container.
-pub fn mixed_pile(name: String, n: usize, steps: usize) -> Scene {
-    let s = Scene::new(name, steps, false, -1.0);
+pub fn mixed_pile(name: String, n: usize, steps: usize) -> NeutralScene {
+    let s = NeutralScene::new(name, steps, false, -1.0);
     pile(s, n, (15, 0.9), 0x0051_1E5A, |k, rocks| match k % 3 {
-        0 => ShapeDesc::Capsule {
+        0 => NeutralShape::Capsule {
             half_height: 0.2,
             radius: 0.18,
         },
-        1 => ShapeDesc::Cylinder {
+        1 => NeutralShape::Cylinder {
             half_height: 0.2,
             radius: 0.25,
         },
-        _ => ShapeDesc::ConvexHull(rocks[k % rocks.len()].clone()),
+        _ => NeutralShape::ConvexHull(rocks[k % rocks.len()].clone()),
     })
 }
 
@@ -440,10 +440,10 @@ pub fn mixed_pile(name: String, n: usize, steps: usize) -> Scene {
 /// (0.8 m pitch; 5120 bodies: 20 layers), the lowest 1 m up, dropped into
 /// a box container: Box3D's convex-pile benchmark, hull against hull
 /// only.
-pub fn convex_pile(name: String, n: usize, steps: usize) -> Scene {
-    let s = Scene::new(name, steps, false, -1.0);
+pub fn convex_pile(name: String, n: usize, steps: usize) -> NeutralScene {
+    let s = NeutralScene::new(name, steps, false, -1.0);
     pile(s, n, (16, 0.8), 0x0C0E_7E11, |k, rocks| {
-        ShapeDesc::ConvexHull(rocks[k % rocks.len()].clone())
+        NeutralShape::ConvexHull(rocks[k % rocks.len()].clone())
     })
 }
 
@@ -452,8 +452,8 @@ pub fn convex_pile(name: String, n: usize, steps: usize) -> Scene {
 /// its right and lower neighbour; the top row is static, so the curtain
 /// hangs from it, starting at rest, its lowest row 5 m above a ground box
 /// (out of reach even when the joints stretch).
-pub fn joint_grid(name: String, n: usize, steps: usize) -> Scene {
-    let mut s = Scene::new(name, steps, true, -1.0);
+pub fn joint_grid(name: String, n: usize, steps: usize) -> NeutralScene {
+    let mut s = NeutralScene::new(name, steps, true, -1.0);
     let pitch = 0.25;
     let top = 5.0 + n as f64 * pitch;
     s.ground(0.0, 0.0, 0.5 * n as f64 * pitch + 2.0, 2.0);
@@ -466,11 +466,11 @@ pub fn joint_grid(name: String, n: usize, steps: usize) -> Scene {
                 top - j as f64 * pitch,
                 0.0,
             );
-            let shape = ShapeDesc::Sphere { radius: 0.1 };
+            let shape = NeutralShape::Sphere { radius: 0.1 };
             let body = if j == 0 {
-                Body::fixed(shape, p)
+                NeutralBody::fixed(shape, p)
             } else {
-                Body::dynamic(shape, p, DQuat::IDENTITY)
+                NeutralBody::dynamic(shape, p, DQuat::IDENTITY)
             };
             s.add(body);
         }
@@ -485,7 +485,7 @@ pub fn joint_grid(name: String, n: usize, steps: usize) -> Scene {
                     index(i + 1, j),
                     at,
                     DQuat::IDENTITY,
-                    JointKindDesc::Ball,
+                    NeutralJointKind::Ball,
                 );
             }
             if j + 1 < n {
@@ -495,7 +495,7 @@ pub fn joint_grid(name: String, n: usize, steps: usize) -> Scene {
                     index(i, j + 1),
                     at,
                     DQuat::IDENTITY,
-                    JointKindDesc::Ball,
+                    NeutralJointKind::Ball,
                 );
             }
         }
@@ -518,18 +518,18 @@ fn x_to(axis: DVec3) -> DQuat {
 /// `rotation`: eleven bodies (box pelvis and torso, sphere head, capsule
 /// limbs) and ten joints (swing-twist spine, neck, shoulders and hips,
 /// hinged elbows and knees), 1.8 m tall.
-fn ragdoll(s: &mut Scene, feet: DVec3, rotation: DQuat) {
+fn ragdoll(s: &mut NeutralScene, feet: DVec3, rotation: DQuat) {
     let place = |p: DVec3| feet + rotation * p;
     let along_x = DQuat::from_rotation_z(std::f64::consts::FRAC_PI_2);
-    let part = |s: &mut Scene, shape: ShapeDesc, at: DVec3, local: DQuat| {
-        let mut b = Body::dynamic(shape, place(at), (rotation * local).normalize());
+    let part = |s: &mut NeutralScene, shape: NeutralShape, at: DVec3, local: DQuat| {
+        let mut b = NeutralBody::dynamic(shape, place(at), (rotation * local).normalize());
         b.angular_damping = RAGDOLL_ANGULAR_DAMPING;
         s.add(b)
     };
-    let cuboid = |x: f64, y: f64, z: f64| ShapeDesc::Cuboid {
+    let cuboid = |x: f64, y: f64, z: f64| NeutralShape::Cuboid {
         half_extents: DVec3::new(x, y, z),
     };
-    let capsule = |half_height: f64, radius: f64| ShapeDesc::Capsule {
+    let capsule = |half_height: f64, radius: f64| NeutralShape::Capsule {
         half_height,
         radius,
     };
@@ -547,12 +547,12 @@ fn ragdoll(s: &mut Scene, feet: DVec3, rotation: DQuat) {
     );
     let head = part(
         s,
-        ShapeDesc::Sphere { radius: 0.11 },
+        NeutralShape::Sphere { radius: 0.11 },
         DVec3::new(0.0, 1.66, 0.0),
         DQuat::IDENTITY,
     );
     let frame = |axis: DVec3| (rotation * x_to(axis)).normalize();
-    let st = |swing: f64, twist: f64| JointKindDesc::SwingTwist {
+    let st = |swing: f64, twist: f64| NeutralJointKind::SwingTwist {
         swing,
         twist: (-twist, twist),
     };
@@ -607,7 +607,7 @@ fn ragdoll(s: &mut Scene, feet: DVec3, rotation: DQuat) {
             lower_arm,
             place(DVec3::new(side * 0.48, 1.44, 0.0)),
             frame(DVec3::Y * side),
-            JointKindDesc::Hinge { limits: (0.0, 2.5) },
+            NeutralJointKind::Hinge { limits: (0.0, 2.5) },
         );
         s.join(
             pelvis,
@@ -621,7 +621,7 @@ fn ragdoll(s: &mut Scene, feet: DVec3, rotation: DQuat) {
             lower_leg,
             place(DVec3::new(side * 0.1, 0.5, 0.0)),
             frame(DVec3::X),
-            JointKindDesc::Hinge {
+            NeutralJointKind::Hinge {
                 limits: (-2.5, 0.0),
             },
         );
@@ -634,7 +634,7 @@ pub const RAGDOLL_BODIES: usize = 11;
 /// `ragdolls`: `n` ragdolls on a grid 2.5 m apart, each turned about Y at
 /// random and tipped by up to 0.3 rad, feet 1 m above the highest point of
 /// a static heightfield of gentle hills (`grid × grid` samples, 1 m apart).
-pub fn ragdolls(name: String, n: usize, steps: usize) -> Scene {
+pub fn ragdolls(name: String, n: usize, steps: usize) -> NeutralScene {
     let across = (1..).find(|k| k * k >= n).unwrap_or(1);
     let pitch = 2.5;
     let size = across as f64 * pitch + 8.0;
@@ -652,9 +652,9 @@ pub fn ragdolls(name: String, n: usize, steps: usize) -> Scene {
             heights.push(h);
         }
     }
-    let mut s = Scene::new(name, steps, false, min_h - 1.0);
-    s.add(Body::fixed(
-        ShapeDesc::HeightField {
+    let mut s = NeutralScene::new(name, steps, false, min_h - 1.0);
+    s.add(NeutralBody::fixed(
+        NeutralShape::HeightField {
             heights: Arc::new(heights),
             rows: samples,
             cols: samples,
@@ -713,16 +713,16 @@ pub struct SceneSpec {
     pub name: &'static str,
     /// Measured steps.
     pub steps: usize,
-    build: fn(String, usize) -> Scene,
+    build: fn(String, usize) -> NeutralScene,
 }
 
 impl SceneSpec {
-    fn new(name: &'static str, steps: usize, build: fn(String, usize) -> Scene) -> Self {
+    fn new(name: &'static str, steps: usize, build: fn(String, usize) -> NeutralScene) -> Self {
         Self { name, steps, build }
     }
 
     /// Builds the description.
-    pub fn build(&self) -> Scene {
+    pub fn build(&self) -> NeutralScene {
         (self.build)(self.name.to_string(), self.steps)
     }
 }
@@ -761,11 +761,11 @@ mod tests {
     #[test]
     fn ragdolls_start_above_the_terrain() {
         let r = ragdolls("r".into(), 9, 1);
-        let ShapeDesc::HeightField { heights, .. } = &r.bodies[0].shape else {
+        let NeutralShape::HeightField { heights, .. } = &r.bodies[0].shape else {
             panic!("the first body is the terrain");
         };
         let top = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        for b in r.bodies.iter().filter(|b| b.kind == Kind::Dynamic) {
+        for b in r.bodies.iter().filter(|b| b.kind == NeutralKind::Dynamic) {
             assert!(b.position.y > top + 0.1, "{}", b.position);
         }
     }

@@ -10,8 +10,8 @@ use glam::DVec3;
 use super::epa::epa;
 use super::gjk::{gjk_or_axis, GjkResult};
 use super::{pack_id, reduce, Contact};
-use crate::rigid::hull::{ConvexHull, Face};
 use crate::rigid::pose::Pose;
+use crate::rigid::shape::hull::{ConvexHull, Face};
 
 /// The inner shape that a ball of `radius` sweeps to make the real one.
 #[derive(Debug, Clone, Copy)]

@@ -4,7 +4,6 @@
 
 use glam::DVec3;
 
-use super::bodies::BodyIndex;
 use super::substeps::Solve;
 use super::{
     CachedManifold, ContactEvent, ContactEventKind, ContactForceEvent, ContactKey, Contacts,
@@ -13,6 +12,7 @@ use super::{
 use crate::arena::Arena;
 use crate::handle::{BodyHandle, JointHandle};
 use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::body_index::BodyIndex;
 use crate::rigid::joint::Joint;
 use crate::rigid::solver::ContactConstraint;
 
@@ -20,7 +20,7 @@ use crate::rigid::solver::ContactConstraint;
 #[derive(Debug)]
 pub(crate) struct Found {
     /// The manifolds with points, in pair order.
-    pub(crate) manifolds: super::manifolds::Found,
+    pub(crate) manifolds: super::manifolds::FoundManifolds,
     /// Overlapping pairs from the narrow phase, with whether a sensor is involved.
     pub(crate) touching: Vec<((BodyHandle, BodyHandle), bool)>,
     /// Body pairs (keys, sorted) whose cache entries carry over unchanged.

@@ -7,7 +7,7 @@ use std::collections::BTreeSet;
 use glam::DVec3;
 
 use super::apart::SeparatingAxes;
-use super::bodies::{BodyIndex, Links};
+use super::bodies::Links;
 use super::cache::Cursor;
 use super::pairs::{leaves, pair_bodies, speculative_distance};
 use super::{
@@ -16,6 +16,7 @@ use super::{
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::rigid::body::{CombineRule, RigidBody};
+use crate::rigid::body_index::BodyIndex;
 use crate::rigid::broad_phase::{BroadPhase, Pair};
 use crate::rigid::contact::{ContactPoint, Manifold, ManifoldCount};
 use crate::rigid::joint::{Joint, JointConstraint};
@@ -42,14 +43,14 @@ pub(crate) struct FoundManifold {
 
 /// The manifolds with points, in pair order, as the parallel runs of
 /// pairs found them (run after run). The solver places copies of their
-/// constraints in the order it solves them ([`Found::place_in`]); the
+/// constraints in the order it solves them ([`FoundManifolds::place_in`]); the
 /// finish stage reads them back beside what the cache keeps.
 #[derive(Debug, Default)]
-pub(crate) struct Found {
+pub(crate) struct FoundManifolds {
     runs: Vec<Vec<FoundManifold>>,
 }
 
-impl Found {
+impl FoundManifolds {
     /// The two bodies (slots) of every constraint, in pair order.
     pub(crate) fn ends(&self) -> Vec<(usize, usize)> {
         self.all().map(|f| f.source.ends).collect()
@@ -118,7 +119,7 @@ impl Found {
 #[derive(Debug, Default)]
 pub(crate) struct Narrow {
     /// One constraint per manifold with points.
-    pub(crate) constraints: Found,
+    pub(crate) constraints: FoundManifolds,
     /// Pairs that overlap (or touched and stayed put), with whether either
     /// body is a sensor.
     pub(crate) touching: Vec<((BodyHandle, BodyHandle), bool)>,

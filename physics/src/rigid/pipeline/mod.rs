@@ -12,7 +12,7 @@
 //!    parallel; its points take the impulses they had last step (matched
 //!    by feature id) for warm starting. A pair the last step found apart
 //!    is first projected on the axis that showed it ([`apart`]).
-//! 4. **colouring** ([`colouring`](super::colouring)) — the contact
+//! 4. **colouring** ([`colouring`](super::solver::colouring)) — the contact
 //!    constraints are grouped so that no two of a group move the same
 //!    body, and stored colour by colour (the order they are solved in).
 //! 5. **solve** ([`substeps`]) — [`solver`](super::solver) substeps:
@@ -34,7 +34,6 @@
 
 mod apart;
 mod bodies;
-pub(crate) use bodies::BodyIndex;
 mod cache;
 mod finish;
 mod manifolds;
@@ -51,6 +50,7 @@ use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::profile::RigidProfile;
 use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::body_index::BodyIndex;
 use crate::rigid::broad_phase::BroadPhase;
 use crate::rigid::forces::BodyField;
 use crate::rigid::joint::Joint;
@@ -426,7 +426,7 @@ pub(crate) fn step(
     }
 
     contacts.resting = None;
-    let index = bodies::BodyIndex::new(bodies);
+    let index = BodyIndex::new(bodies);
     let external = bodies::external_loads(bodies, &inputs);
     let links = bodies::Links::new(joints, &contacts.touching);
     links.wake(bodies);

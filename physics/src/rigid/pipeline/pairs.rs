@@ -1,11 +1,11 @@
 //! Stage 2: the broad phase, and waking sleepers that an awake body is
 //! about to hit.
 
-use super::bodies::BodyIndex;
 use super::{AABB_MARGIN, SPECULATIVE_DISTANCE};
 use crate::arena::Arena;
 use crate::rigid::aabb::Aabb;
 use crate::rigid::body::{BodyKind, RigidBody};
+use crate::rigid::body_index::BodyIndex;
 use crate::rigid::broad_phase::{BroadPhase, Pair};
 use crate::rigid::narrow::collide;
 use crate::rigid::pose::Pose;

@@ -3,16 +3,16 @@
 
 use glam::{DQuat, DVec3};
 
-use super::bodies::BodyIndex;
-use super::manifolds::Found;
+use super::manifolds::FoundManifolds;
 use super::shock::Shock;
 use super::{StepInputs, StepMemory};
 use crate::arena::Arena;
 use crate::handle::BodyHandle;
 use crate::rigid::body::{BodyKind, RigidBody};
-use crate::rigid::colouring;
+use crate::rigid::body_index::BodyIndex;
 use crate::rigid::joint::JointConstraint;
 use crate::rigid::motion::free_rotation;
+use crate::rigid::solver::colouring;
 use crate::rigid::solver::{ContactConstraint, ContactPass, SolverBody, WideContacts, WidePass};
 
 /// Bodies per parallel work item when integrating them.
@@ -64,7 +64,7 @@ impl Solve {
     /// empty and are filled here, their room used again).
     pub(crate) fn new(
         bodies: &Arena<RigidBody>,
-        found: &Found,
+        found: &FoundManifolds,
         memory: StepMemory,
         inputs: &StepInputs<'_>,
         external: &[(DVec3, DVec3)],

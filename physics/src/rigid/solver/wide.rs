@@ -28,7 +28,7 @@ use std::ops::Range;
 use super::hot::{HotBody, WideBody};
 use super::lanes::{F4, V3};
 use super::{ContactConstraint, ContactPass, SolverBody, MAX_POINTS};
-use crate::rigid::colouring::{Groups, Shared, MAX_COLOURS};
+use crate::rigid::solver::colouring::{Groups, Shared, MAX_COLOURS};
 
 /// Lanes of a batch.
 pub(crate) const LANES: usize = 4;
@@ -476,7 +476,7 @@ fn apply_row(row: &WideRow, d: V3, lambda: F4, a: &mut WideBody, b: &mut WideBod
 impl WideBlock {
     /// Lane `l` holds the factors of a constraint's block (solve and
     /// relax), over its first `count` points.
-    fn set_lane(&mut self, l: usize, factors: &[super::Block; 2], count: usize) {
+    fn set_lane(&mut self, l: usize, factors: &[super::BlockMatrix; 2], count: usize) {
         for (into, from) in [
             (&mut self.solve, &factors[0]),
             (&mut self.relax, &factors[1]),
@@ -785,7 +785,7 @@ mod tests {
     use glam::{DMat3, DQuat, DVec3};
 
     use super::*;
-    use crate::rigid::colouring;
+    use crate::rigid::solver::colouring;
     use crate::rigid::solver::{ContactSource, PointConstraint, SolverConfig};
 
     /// A small xorshift generator: numbers in `[-1, 1)`.

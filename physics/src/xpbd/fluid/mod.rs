@@ -437,16 +437,16 @@ pub struct Fluid {
     pub(crate) backend: crate::particle_system::Backend,
     /// Its GPU buffers while it steps there.
     #[cfg(feature = "gpu")]
-    pub(crate) gpu: GpuSlot,
+    pub(crate) gpu: GpuFluidSlot,
 }
 
 /// A fluid's GPU buffers (shared by clones of the handle).
 #[cfg(feature = "gpu")]
 #[derive(Clone, Default)]
-pub(crate) struct GpuSlot(pub(crate) Option<std::sync::Arc<crate::gpu::fluid::GpuFluid>>);
+pub(crate) struct GpuFluidSlot(pub(crate) Option<std::sync::Arc<crate::gpu::fluid::GpuFluid>>);
 
 #[cfg(feature = "gpu")]
-impl std::fmt::Debug for GpuSlot {
+impl std::fmt::Debug for GpuFluidSlot {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(if self.0.is_some() { "on the GPU" } else { "-" })
     }
@@ -544,7 +544,7 @@ impl Fluid {
             emitters: Vec::new(),
             backend: crate::particle_system::Backend::Cpu,
             #[cfg(feature = "gpu")]
-            gpu: GpuSlot::default(),
+            gpu: GpuFluidSlot::default(),
         };
         fluid.push(&desc.positions, &desc.velocities);
         Ok(fluid)

@@ -229,24 +229,24 @@ pub struct SoftBody {
     pub(crate) backend: crate::particle_system::Backend,
     /// Its GPU buffers while it steps there.
     #[cfg(feature = "gpu")]
-    pub(crate) gpu: GpuSlot,
+    pub(crate) gpu: GpuSoftSlot,
 }
 
 /// A soft body's GPU buffers, shared by clones; compared as equal (they
 /// are where the state lives, not the state).
 #[cfg(feature = "gpu")]
 #[derive(Clone, Default)]
-pub(crate) struct GpuSlot(pub(crate) Option<std::sync::Arc<crate::gpu::soft::GpuSoftBody>>);
+pub(crate) struct GpuSoftSlot(pub(crate) Option<std::sync::Arc<crate::gpu::soft::GpuSoftBody>>);
 
 #[cfg(feature = "gpu")]
-impl PartialEq for GpuSlot {
+impl PartialEq for GpuSoftSlot {
     fn eq(&self, _: &Self) -> bool {
         true
     }
 }
 
 #[cfg(feature = "gpu")]
-impl std::fmt::Debug for GpuSlot {
+impl std::fmt::Debug for GpuSoftSlot {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(if self.0.is_some() { "on the GPU" } else { "-" })
     }
@@ -466,7 +466,7 @@ impl SoftBody {
             self_collision: Default::default(),
             backend: crate::particle_system::Backend::Cpu,
             #[cfg(feature = "gpu")]
-            gpu: GpuSlot::default(),
+            gpu: GpuSoftSlot::default(),
             prev: x.clone(),
             x,
             v,

@@ -29,7 +29,7 @@ use inertia_server::replay::journal::{self, JournalEntry};
 use inertia_server::replay::SimState;
 use serde_json::{json, Value};
 
-use super::scan::{self, Damage};
+use super::scan::{self, ScanDamage};
 use super::{data_error, hex, misuse};
 use crate::Failure;
 
@@ -61,7 +61,7 @@ pub fn run(
     let mut ticks: Option<(u64, u64)> = None;
     let mut undecodable = 0u64;
     let mut write_error: Option<io::Error> = None;
-    let mut damage: Option<Damage> = None;
+    let mut damage: Option<ScanDamage> = None;
     for (i, file) in files.iter().enumerate().skip(start) {
         let newest = i + 1 == files.len();
         let scan = scan::scan_segment(file, newest, |_, record| {

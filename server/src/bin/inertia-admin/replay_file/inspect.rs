@@ -12,7 +12,7 @@ use inertia_server::replay::journal::{self, JournalEntry};
 use inertia_server::replay::SimState;
 use serde_json::json;
 
-use super::scan::{self, file_name, Damage};
+use super::scan::{self, file_name, ScanDamage};
 use super::{bytes_text, count, misuse, size_text};
 use crate::Failure;
 
@@ -75,7 +75,7 @@ struct Summary {
     kind_bytes: [u64; 7],
     /// The segment files' sizes summed, bytes.
     total_bytes: u64,
-    damage: Vec<Damage>,
+    damage: Vec<ScanDamage>,
     /// Journal records that did not decode: tick and why.
     bad_journals: Vec<(u64, String)>,
 }
@@ -223,7 +223,7 @@ impl Summary {
             },
             "total_bytes": self.total_bytes,
             "bytes_per_sim_hour": self.bytes_per_sim_hour(),
-            "damage": self.damage.iter().map(Damage::json).collect::<Vec<_>>(),
+            "damage": self.damage.iter().map(ScanDamage::json).collect::<Vec<_>>(),
             "bad_journals": self.bad_journals.iter().map(|(tick, why)| json!({
                 "tick": tick,
                 "why": why,
@@ -331,7 +331,7 @@ pub fn run(dir: &Path, json: bool) -> Result<ExitCode, Failure> {
                 // A keyframe that does not decode is damage, checksum or
                 // not: resume and seeks cannot start from it.
                 if let Err(e) = SimState::decode(state) {
-                    bad_keyframes.push(Damage::bad_record(
+                    bad_keyframes.push(ScanDamage::bad_record(
                         &file.path,
                         offset,
                         format!("the keyframe of tick {tick} does not decode: {e}"),
@@ -351,7 +351,7 @@ pub fn run(dir: &Path, json: bool) -> Result<ExitCode, Failure> {
         });
         summary.damage.extend(scan.damage);
     }
-    if summary.ticks.is_none() && summary.damage.iter().any(Damage::not_a_segment) {
+    if summary.ticks.is_none() && summary.damage.iter().any(ScanDamage::not_a_segment) {
         return Err(misuse(
             "not_a_recording",
             format!(
@@ -371,7 +371,7 @@ pub fn run(dir: &Path, json: bool) -> Result<ExitCode, Failure> {
             .damage
             .iter()
             .find(|d| !d.torn_tail)
-            .map(Damage::text)
+            .map(ScanDamage::text)
             .or_else(|| {
                 summary
                     .bad_journals

@@ -1,7 +1,7 @@
 //! Reading a recording segment by segment for the offline tools: every
 //! intact record of a segment, then what ends it — a clean end, a torn
 //! tail (a record cut short at the end of the newest segment with nothing
-//! intact after it), or corruption with its file and byte offset. Damage
+//! intact after it), or corruption with its file and byte offset. ScanDamage
 //! is reported, never a panic, and one damaged segment does not hide the
 //! others (each segment after a directory's first starts at a keyframe).
 
@@ -43,9 +43,9 @@ pub fn open(path: &Path) -> Result<Vec<SegmentFile>, Failure> {
     Ok(segments)
 }
 
-/// Damage found in a segment.
+/// ScanDamage found in a segment.
 #[derive(Debug, Clone)]
-pub struct Damage {
+pub struct ScanDamage {
     /// The segment file.
     pub file: PathBuf,
     /// Byte offset of the first bad byte, from the start of the file.
@@ -65,7 +65,7 @@ pub struct Damage {
     pub rest_unread: bool,
 }
 
-impl Damage {
+impl ScanDamage {
     /// Whether the file is not a segment at all (bad magic at byte 0).
     pub fn not_a_segment(&self) -> bool {
         self.offset == 0 && self.corruption == Some(Corruption::BadMagic)
@@ -91,8 +91,8 @@ impl Damage {
     }
 
     /// A checksummed record at `offset` of `file` whose content is bad.
-    pub fn bad_record(file: &Path, offset: u64, why: String) -> Damage {
-        Damage {
+    pub fn bad_record(file: &Path, offset: u64, why: String) -> ScanDamage {
+        ScanDamage {
             file: file.to_path_buf(),
             offset,
             why,
@@ -126,7 +126,7 @@ pub struct SegmentScan {
     /// The file's size, bytes.
     pub bytes: u64,
     /// What stopped the records early, if anything.
-    pub damage: Option<Damage>,
+    pub damage: Option<ScanDamage>,
     /// True when the caller broke off before the end.
     pub stopped: bool,
 }
@@ -148,7 +148,7 @@ pub fn scan_segment(
         damage: None,
         stopped: false,
     };
-    let io_damage = |offset: u64, e: &dyn std::fmt::Display| Damage {
+    let io_damage = |offset: u64, e: &dyn std::fmt::Display| ScanDamage {
         file: segment.path.clone(),
         offset,
         why: e.to_string(),
@@ -182,7 +182,7 @@ pub fn scan_segment(
                 }
             }
             Err(RecordError::Corrupt { offset, why, .. }) => {
-                scan.damage = Some(Damage {
+                scan.damage = Some(ScanDamage {
                     file: segment.path.clone(),
                     offset,
                     why: why.to_string(),
@@ -206,7 +206,7 @@ pub fn scan_segment(
     scan.bytes = len;
     let end = if len < HEADER_BYTES { 0 } else { intact };
     if end < len || len < HEADER_BYTES {
-        scan.damage = Some(Damage {
+        scan.damage = Some(ScanDamage {
             file: segment.path.clone(),
             offset: end,
             why: Corruption::Truncated.to_string(),

@@ -4,7 +4,7 @@
 //! It covers exactly what [`World::save`](crate::World::save) writes, because
 //! both are produced by the same walk over the state.
 
-use crate::snapshot::Sink;
+use super::StateSink;
 
 /// Hashes 64-bit words: multiply-rotate mixing per word, a strong avalanche
 /// at the end (the finaliser of MurmurHash3).
@@ -45,7 +45,7 @@ impl StateHasher {
     }
 }
 
-impl Sink for StateHasher {
+impl StateSink for StateHasher {
     fn u8(&mut self, v: u8) {
         self.write_u64(u64::from(v));
     }

@@ -9,14 +9,14 @@
 
 use glam::Vec3;
 
-use super::{invalid, option_f64, Reader, Sink, SnapshotError};
+use super::{invalid, option_f64, Reader, SavedStateError, StateSink};
 use crate::xpbd::colouring::{Coloured, Touches};
 use crate::xpbd::soft::constraints::{Bend, Distance, Tet, Tether};
 use crate::xpbd::soft::{
     Plasticity, Pressure, SoftAttachment, SoftBody, SoftMaterial, MAX_SOFT_PARTICLES, MAX_SUBSTEPS,
 };
 
-fn vec3s<S: Sink>(s: &mut S, v: &[Vec3]) {
+fn vec3s<S: StateSink>(s: &mut S, v: &[Vec3]) {
     s.u64(v.len() as u64);
     for p in v {
         s.f32(p.x);
@@ -25,14 +25,14 @@ fn vec3s<S: Sink>(s: &mut S, v: &[Vec3]) {
     }
 }
 
-fn f32s<S: Sink>(s: &mut S, v: &[f32]) {
+fn f32s<S: StateSink>(s: &mut S, v: &[f32]) {
     s.u64(v.len() as u64);
     for x in v {
         s.f32(*x);
     }
 }
 
-fn coloured<S: Sink, C>(s: &mut S, c: &Coloured<C>, mut item: impl FnMut(&mut S, &C)) {
+fn coloured<S: StateSink, C>(s: &mut S, c: &Coloured<C>, mut item: impl FnMut(&mut S, &C)) {
     s.u64(c.items.len() as u64);
     for x in &c.items {
         item(s, x);
@@ -44,7 +44,7 @@ fn coloured<S: Sink, C>(s: &mut S, c: &Coloured<C>, mut item: impl FnMut(&mut S,
     s.u8(u8::from(c.overflow));
 }
 
-pub(super) fn soft_body<S: Sink>(s: &mut S, b: &SoftBody) {
+pub(super) fn soft_body<S: StateSink>(s: &mut S, b: &SoftBody) {
     vec3s(s, &b.x);
     vec3s(s, &b.v);
     f32s(s, &b.w);
@@ -110,7 +110,7 @@ pub(super) fn soft_body<S: Sink>(s: &mut S, b: &SoftBody) {
 }
 
 impl Reader<'_> {
-    fn vec3s32(&mut self, what: &str) -> Result<Vec<Vec3>, SnapshotError> {
+    fn vec3s32(&mut self, what: &str) -> Result<Vec<Vec3>, SavedStateError> {
         let n = self.count(12)?;
         (0..n)
             .map(|_| {
@@ -123,7 +123,7 @@ impl Reader<'_> {
             .collect()
     }
 
-    fn particle_index(&mut self, n: usize) -> Result<u32, SnapshotError> {
+    fn particle_index(&mut self, n: usize) -> Result<u32, SavedStateError> {
         let i = self.u32()?;
         if (i as usize) < n {
             Ok(i)
@@ -132,7 +132,7 @@ impl Reader<'_> {
         }
     }
 
-    fn non_negative32(&mut self, what: &str) -> Result<f32, SnapshotError> {
+    fn non_negative32(&mut self, what: &str) -> Result<f32, SavedStateError> {
         let v = self.finite32(what)?;
         if v < 0.0 {
             return invalid(format!("{what} {v} is negative"));
@@ -144,8 +144,8 @@ impl Reader<'_> {
         &mut self,
         w: &[f32],
         min_size: usize,
-        mut item: impl FnMut(&mut Self) -> Result<C, SnapshotError>,
-    ) -> Result<Coloured<C>, SnapshotError> {
+        mut item: impl FnMut(&mut Self) -> Result<C, SavedStateError>,
+    ) -> Result<Coloured<C>, SavedStateError> {
         let n = self.count(min_size)?;
         let items = (0..n).map(|_| item(self)).collect::<Result<Vec<C>, _>>()?;
         let ends = self.u32s()?;
@@ -155,10 +155,10 @@ impl Reader<'_> {
             t => return invalid(format!("colour overflow flag {t}")),
         };
         Coloured::from_parts(items, ends, overflow, w)
-            .ok_or_else(|| SnapshotError::Invalid("a soft body's colouring is not valid".into()))
+            .ok_or_else(|| SavedStateError::Invalid("a soft body's colouring is not valid".into()))
     }
 
-    pub(super) fn soft_body(&mut self) -> Result<SoftBody, SnapshotError> {
+    pub(super) fn soft_body(&mut self) -> Result<SoftBody, SavedStateError> {
         let x = self.vec3s32("soft body position")?;
         let n = x.len();
         if n == 0 || n > MAX_SOFT_PARTICLES {
@@ -254,7 +254,7 @@ impl Reader<'_> {
                     self.particle_index(n)?,
                 ])
             })
-            .collect::<Result<Vec<_>, SnapshotError>>()?;
+            .collect::<Result<Vec<_>, SavedStateError>>()?;
         let an = self.count(40)?;
         let mut attachments = Vec::with_capacity(an);
         for _ in 0..an {
@@ -296,7 +296,7 @@ impl Reader<'_> {
         }
         material
             .validate()
-            .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+            .map_err(|e| SavedStateError::Invalid(e.to_string()))?;
         Ok(SoftBody {
             self_collision: Default::default(),
             backend: crate::particle_system::Backend::Cpu,

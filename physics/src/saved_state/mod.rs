@@ -1,9 +1,10 @@
-//! Save and restore of the complete world state in a compact binary form.
+//! Save and restore of the complete world state in a compact binary form,
+//! and the state hash (`hash.rs`): both come from one walk over the state.
 //!
 //! Layout (little-endian, through [`inertia_codec`]): magic `INRTWRLD`,
 //! format version (u32), the state, and a 64-bit checksum of everything
 //! before it. The state is written by one walk (`encode_world`) that the
-//! [state hash](crate::hash) also uses, so the hash covers exactly what is
+//! [state hash](hash) also uses, so the hash covers exactly what is
 //! saved. Everything the step reads is in it — including the Verlet
 //! history, the slot tables and free lists (which decide future handles) —
 //! so restore-then-step gives the same bits as never-saved-then-step.
@@ -15,6 +16,7 @@
 //! nothing is applied unless the whole file decodes.
 
 mod fluid;
+pub mod hash;
 mod rigid;
 mod soft;
 
@@ -32,7 +34,6 @@ use crate::forces::{
     Wind,
 };
 use crate::handle::SystemHandle;
-use crate::hash::hash_bytes;
 use crate::integrator::Integrator;
 use crate::particle_system::{
     Backend, ParticleSystem, Slot, FLAG_PINNED, FLAG_QUARANTINED, FREE, MAX_GROUPS,
@@ -41,6 +42,7 @@ use crate::rigid::body::RigidBody;
 use crate::rigid::pipeline::{CachedManifold, ContactCache, ContactKey};
 use crate::rigid::solver::SolverConfig;
 use crate::spring::{Spring, SpringParams};
+use hash::hash_bytes;
 
 const MAGIC: &[u8; 8] = b"INRTWRLD";
 /// The format version this build writes and reads.
@@ -59,7 +61,7 @@ pub const OLDEST_FORMAT_VERSION: u32 = 3;
 
 /// Why a saved state could not be restored. The world is unchanged.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum SnapshotError {
+pub enum SavedStateError {
     /// The bytes do not start with the `INRTWRLD` magic.
     #[error("not an Inertia world state (bad magic)")]
     BadMagic,
@@ -88,7 +90,7 @@ pub enum SnapshotError {
 }
 
 /// Where the state walk writes: bytes, or the hasher.
-pub(crate) trait Sink {
+pub(crate) trait StateSink {
     fn u8(&mut self, v: u8);
     fn u32(&mut self, v: u32);
     fn u64(&mut self, v: u64);
@@ -105,7 +107,7 @@ pub(crate) trait Sink {
 #[derive(Debug, Default)]
 pub(crate) struct ByteSink(pub(crate) Vec<u8>);
 
-impl Sink for ByteSink {
+impl StateSink for ByteSink {
     fn u8(&mut self, v: u8) {
         ByteWriter::new(&mut self.0).u8(v);
     }
@@ -123,12 +125,12 @@ impl Sink for ByteSink {
     }
 }
 
-fn len<S: Sink>(s: &mut S, n: usize) {
+fn len<S: StateSink>(s: &mut S, n: usize) {
     s.u64(n as u64);
 }
 
 /// An optional number: a tag byte, then the number when present.
-fn option_f64<S: Sink>(s: &mut S, v: Option<f64>) {
+fn option_f64<S: StateSink>(s: &mut S, v: Option<f64>) {
     match v {
         None => s.u8(0),
         Some(x) => {
@@ -138,28 +140,28 @@ fn option_f64<S: Sink>(s: &mut S, v: Option<f64>) {
     }
 }
 
-fn vec3s<S: Sink>(s: &mut S, v: &[DVec3]) {
+fn vec3s<S: StateSink>(s: &mut S, v: &[DVec3]) {
     len(s, v.len());
     for &x in v {
         s.vec3(x);
     }
 }
 
-fn f64s<S: Sink>(s: &mut S, v: &[f64]) {
+fn f64s<S: StateSink>(s: &mut S, v: &[f64]) {
     len(s, v.len());
     for &x in v {
         s.f64(x);
     }
 }
 
-fn u32s<S: Sink>(s: &mut S, v: &[u32]) {
+fn u32s<S: StateSink>(s: &mut S, v: &[u32]) {
     len(s, v.len());
     for &x in v {
         s.u32(x);
     }
 }
 
-fn arena<S: Sink, T>(s: &mut S, a: &Arena<T>, mut item: impl FnMut(&mut S, &T)) {
+fn arena<S: StateSink, T>(s: &mut S, a: &Arena<T>, mut item: impl FnMut(&mut S, &T)) {
     len(s, a.entries.len());
     for e in &a.entries {
         match e {
@@ -177,7 +179,7 @@ fn arena<S: Sink, T>(s: &mut S, a: &Arena<T>, mut item: impl FnMut(&mut S, &T)) 
     u32s(s, &a.free);
 }
 
-fn force<S: Sink>(s: &mut S, f: &Force) {
+fn force<S: StateSink>(s: &mut S, f: &Force) {
     match f {
         Force::UniformGravity(g) => {
             s.u8(0);
@@ -228,7 +230,7 @@ fn force<S: Sink>(s: &mut S, f: &Force) {
     }
 }
 
-fn system<S: Sink>(s: &mut S, p: &ParticleSystem) {
+fn system<S: StateSink>(s: &mut S, p: &ParticleSystem) {
     s.u8(p.integrator.code());
     s.u8(match p.backend {
         Backend::Cpu => 0,
@@ -289,7 +291,7 @@ pub(crate) struct StateRef<'a> {
 }
 
 /// The one walk over the world state, shared by save and hash.
-pub(crate) fn encode_world<S: Sink>(s: &mut S, w: &StateRef<'_>) {
+pub(crate) fn encode_world<S: StateSink>(s: &mut S, w: &StateRef<'_>) {
     s.u64(w.tick);
     s.f64(w.time);
     arena(s, w.systems, system);
@@ -347,17 +349,17 @@ struct Reader<'a> {
     version: u32,
 }
 
-fn invalid<T>(msg: impl Into<String>) -> Result<T, SnapshotError> {
-    Err(SnapshotError::Invalid(msg.into()))
+fn invalid<T>(msg: impl Into<String>) -> Result<T, SavedStateError> {
+    Err(SavedStateError::Invalid(msg.into()))
 }
 
 /// A short read: the state ends at byte `at + remaining`, before what it
 /// claims to hold.
-fn truncated(e: CodecError) -> SnapshotError {
+fn truncated(e: CodecError) -> SavedStateError {
     match e {
-        CodecError::Truncated { at, remaining, .. } => SnapshotError::Truncated(at + remaining),
+        CodecError::Truncated { at, remaining, .. } => SavedStateError::Truncated(at + remaining),
         // The state has no varints.
-        other => SnapshotError::Invalid(other.to_string()),
+        other => SavedStateError::Invalid(other.to_string()),
     }
 }
 
@@ -366,19 +368,19 @@ impl Reader<'_> {
     fn end(&self) -> usize {
         self.bytes.position() + self.bytes.remaining()
     }
-    fn u8(&mut self) -> Result<u8, SnapshotError> {
+    fn u8(&mut self) -> Result<u8, SavedStateError> {
         self.bytes.u8().map_err(truncated)
     }
-    fn u32(&mut self) -> Result<u32, SnapshotError> {
+    fn u32(&mut self) -> Result<u32, SavedStateError> {
         self.bytes.u32().map_err(truncated)
     }
-    fn u64(&mut self) -> Result<u64, SnapshotError> {
+    fn u64(&mut self) -> Result<u64, SavedStateError> {
         self.bytes.u64().map_err(truncated)
     }
-    fn f64(&mut self) -> Result<f64, SnapshotError> {
+    fn f64(&mut self) -> Result<f64, SavedStateError> {
         self.bytes.f64().map_err(truncated)
     }
-    fn finite(&mut self, what: &str) -> Result<f64, SnapshotError> {
+    fn finite(&mut self, what: &str) -> Result<f64, SavedStateError> {
         let v = self.f64()?;
         if v.is_finite() {
             Ok(v)
@@ -386,7 +388,7 @@ impl Reader<'_> {
             invalid(format!("{what} is not finite"))
         }
     }
-    fn finite32(&mut self, what: &str) -> Result<f32, SnapshotError> {
+    fn finite32(&mut self, what: &str) -> Result<f32, SavedStateError> {
         let v = self.bytes.f32().map_err(truncated)?;
         if v.is_finite() {
             Ok(v)
@@ -394,7 +396,7 @@ impl Reader<'_> {
             invalid(format!("{what} is not finite"))
         }
     }
-    fn vec3(&mut self, what: &str) -> Result<DVec3, SnapshotError> {
+    fn vec3(&mut self, what: &str) -> Result<DVec3, SavedStateError> {
         Ok(DVec3::new(
             self.finite(what)?,
             self.finite(what)?,
@@ -402,38 +404,38 @@ impl Reader<'_> {
         ))
     }
     /// A count of items at least `min_size` bytes each, bounded by the bytes left.
-    fn count(&mut self, min_size: usize) -> Result<usize, SnapshotError> {
+    fn count(&mut self, min_size: usize) -> Result<usize, SavedStateError> {
         let n = self.u64()?;
         let left = self.bytes.remaining() as u64;
         if n > left / min_size.max(1) as u64 {
-            return Err(SnapshotError::Truncated(self.end()));
+            return Err(SavedStateError::Truncated(self.end()));
         }
         Ok(n as usize)
     }
     /// What [`option_f64`] wrote; a present number must be finite.
-    fn option_f64(&mut self, what: &str) -> Result<Option<f64>, SnapshotError> {
+    fn option_f64(&mut self, what: &str) -> Result<Option<f64>, SavedStateError> {
         match self.u8()? {
             0 => Ok(None),
             1 => Ok(Some(self.finite(what)?)),
             t => invalid(format!("{what} tag {t}")),
         }
     }
-    fn vec3s(&mut self, what: &str) -> Result<Vec<DVec3>, SnapshotError> {
+    fn vec3s(&mut self, what: &str) -> Result<Vec<DVec3>, SavedStateError> {
         let n = self.count(24)?;
         (0..n).map(|_| self.vec3(what)).collect()
     }
-    fn f64s(&mut self, what: &str) -> Result<Vec<f64>, SnapshotError> {
+    fn f64s(&mut self, what: &str) -> Result<Vec<f64>, SavedStateError> {
         let n = self.count(8)?;
         (0..n).map(|_| self.finite(what)).collect()
     }
-    fn u32s(&mut self) -> Result<Vec<u32>, SnapshotError> {
+    fn u32s(&mut self) -> Result<Vec<u32>, SavedStateError> {
         let n = self.count(4)?;
         (0..n).map(|_| self.u32()).collect()
     }
     fn arena<T>(
         &mut self,
-        mut item: impl FnMut(&mut Self) -> Result<T, SnapshotError>,
-    ) -> Result<Arena<T>, SnapshotError> {
+        mut item: impl FnMut(&mut Self) -> Result<T, SavedStateError>,
+    ) -> Result<Arena<T>, SavedStateError> {
         let n = self.count(5)?;
         let mut entries = Vec::with_capacity(n);
         for _ in 0..n {
@@ -450,10 +452,10 @@ impl Reader<'_> {
         }
         let free = self.u32s()?;
         Arena::from_parts(entries, free)
-            .ok_or_else(|| SnapshotError::Invalid("arena free list is inconsistent".into()))
+            .ok_or_else(|| SavedStateError::Invalid("arena free list is inconsistent".into()))
     }
 
-    fn force(&mut self) -> Result<Force, SnapshotError> {
+    fn force(&mut self) -> Result<Force, SavedStateError> {
         let f = match self.u8()? {
             0 => Force::UniformGravity(UniformGravity {
                 g: self.f64()?,
@@ -501,13 +503,13 @@ impl Reader<'_> {
             t => return invalid(format!("force kind {t}")),
         };
         f.validate()
-            .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+            .map_err(|e| SavedStateError::Invalid(e.to_string()))?;
         Ok(f)
     }
 
-    fn system(&mut self, handle: SystemHandle) -> Result<ParticleSystem, SnapshotError> {
+    fn system(&mut self, handle: SystemHandle) -> Result<ParticleSystem, SavedStateError> {
         let integrator = Integrator::from_code(self.u8()?)
-            .ok_or_else(|| SnapshotError::Invalid("unknown integrator".into()))?;
+            .ok_or_else(|| SavedStateError::Invalid("unknown integrator".into()))?;
         let mut p = ParticleSystem::new(handle, crate::SystemDesc::with_integrator(integrator));
         p.backend = match self.u8()? {
             0 => Backend::Cpu,
@@ -554,7 +556,7 @@ impl Reader<'_> {
                     dense: self.u32()?,
                 })
             })
-            .collect::<Result<_, SnapshotError>>()?;
+            .collect::<Result<_, SavedStateError>>()?;
         p.free_slots = self.u32s()?;
         p.group_control = self.vec3s("group control force")?;
         p.springs = self.arena(|r| {
@@ -567,7 +569,7 @@ impl Reader<'_> {
             };
             params
                 .validate()
-                .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+                .map_err(|e| SavedStateError::Invalid(e.to_string()))?;
             Ok(Spring { a, b, params })
         })?;
         p.forces = self.arena(|r| Ok(ForceEntry { force: r.force()? }))?;
@@ -578,7 +580,7 @@ impl Reader<'_> {
 }
 
 /// Cross-checks one decoded system and rebuilds `dense_to_slot`.
-fn validate_system(p: &mut ParticleSystem) -> Result<(), SnapshotError> {
+fn validate_system(p: &mut ParticleSystem) -> Result<(), SavedStateError> {
     let n = p.position.len();
     let same = [
         p.velocity.len(),
@@ -671,12 +673,12 @@ pub fn reseal(bytes: &mut [u8]) -> bool {
     true
 }
 
-pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
+pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SavedStateError> {
     if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
-        return Err(SnapshotError::BadMagic);
+        return Err(SavedStateError::BadMagic);
     }
     if bytes.len() < MAGIC.len() + 4 + 8 {
-        return Err(SnapshotError::Truncated(bytes.len()));
+        return Err(SavedStateError::Truncated(bytes.len()));
     }
     let body_end = bytes.len() - 8;
     let stored = ByteReader::new(&bytes[body_end..])
@@ -691,12 +693,12 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     };
     let version = r.u32()?;
     if !(OLDEST_FORMAT_VERSION..=FORMAT_VERSION).contains(&version) {
-        return Err(SnapshotError::UnsupportedVersion(version));
+        return Err(SavedStateError::UnsupportedVersion(version));
     }
     r.version = version;
     let computed = hash_bytes(&bytes[..body_end]);
     if stored != computed {
-        return Err(SnapshotError::Checksum { stored, computed });
+        return Err(SavedStateError::Checksum { stored, computed });
     }
     let tick = r.u64()?;
     if tick > crate::limits::MAX_TICK {
@@ -731,7 +733,7 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
     }
     let free = r.u32s()?;
     let systems = Arena::from_parts(entries, free)
-        .ok_or_else(|| SnapshotError::Invalid("system free list is inconsistent".into()))?;
+        .ok_or_else(|| SavedStateError::Invalid("system free list is inconsistent".into()))?;
     let gravity = r.vec3("gravity")?;
     let bodies = r.arena(|r| r.body())?;
     let body_forces = r.arena(|r| Ok(ForceEntry { force: r.force()? }))?;
@@ -755,7 +757,7 @@ pub(crate) fn load_world(bytes: &[u8]) -> Result<DecodedWorld, SnapshotError> {
         Arena::default()
     };
     if !r.bytes.is_empty() {
-        return Err(SnapshotError::Trailing(r.bytes.remaining()));
+        return Err(SavedStateError::Trailing(r.bytes.remaining()));
     }
     Ok(DecodedWorld {
         tick,

@@ -17,9 +17,11 @@ use std::sync::Arc;
 use glam::{DMat3, DVec3};
 
 use super::aabb::Aabb;
-use super::hull::ConvexHull;
+pub mod hull;
+
 use super::mass::{self, MassProperties};
 use super::pose::Pose;
+use hull::ConvexHull;
 
 /// Why a shape could not be built or measured.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -10,7 +10,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use glam::{DQuat, DVec3, Quat, Vec3};
 
-use super::{invalid, Reader, Sink, SnapshotError};
+use super::{invalid, Reader, SavedStateError, StateSink};
 use crate::handle::BodyHandle;
 use crate::rigid::aabb::Aabb;
 use crate::rigid::attachment::Attachment;
@@ -24,18 +24,18 @@ use crate::rigid::solver::SolverConfig;
 /// Deepest nesting of compound shapes a saved state may hold.
 pub const MAX_COMPOUND_DEPTH: u32 = 8;
 
-fn quat<S: Sink>(s: &mut S, q: DQuat) {
+fn quat<S: StateSink>(s: &mut S, q: DQuat) {
     for c in q.to_array() {
         s.f64(c);
     }
 }
 
-fn pose<S: Sink>(s: &mut S, p: &Pose) {
+fn pose<S: StateSink>(s: &mut S, p: &Pose) {
     s.vec3(p.translation);
     quat(s, p.rotation);
 }
 
-pub(super) fn body<S: Sink>(s: &mut S, b: &RigidBody) {
+pub(super) fn body<S: StateSink>(s: &mut S, b: &RigidBody) {
     s.u8(b.kind.code());
     s.vec3(b.com);
     quat(s, b.rotation);
@@ -73,14 +73,14 @@ pub(super) fn body<S: Sink>(s: &mut S, b: &RigidBody) {
     }
 }
 
-fn points<S: Sink>(s: &mut S, p: &[DVec3]) {
+fn points<S: StateSink>(s: &mut S, p: &[DVec3]) {
     s.u64(p.len() as u64);
     for &v in p {
         s.vec3(v);
     }
 }
 
-fn shape<S: Sink>(s: &mut S, sh: &Shape) {
+fn shape<S: StateSink>(s: &mut S, sh: &Shape) {
     match sh {
         Shape::Sphere { radius } => {
             s.u8(0);
@@ -141,12 +141,12 @@ fn shape<S: Sink>(s: &mut S, sh: &Shape) {
     }
 }
 
-fn shape_err(e: impl std::fmt::Display) -> SnapshotError {
-    SnapshotError::Invalid(format!("shape: {e}"))
+fn shape_err(e: impl std::fmt::Display) -> SavedStateError {
+    SavedStateError::Invalid(format!("shape: {e}"))
 }
 
 impl Reader<'_> {
-    fn quat(&mut self, what: &str) -> Result<DQuat, SnapshotError> {
+    fn quat(&mut self, what: &str) -> Result<DQuat, SavedStateError> {
         let q = DQuat::from_xyzw(
             self.finite(what)?,
             self.finite(what)?,
@@ -159,13 +159,13 @@ impl Reader<'_> {
         Ok(q)
     }
 
-    fn points(&mut self, what: &str) -> Result<Vec<DVec3>, SnapshotError> {
+    fn points(&mut self, what: &str) -> Result<Vec<DVec3>, SavedStateError> {
         self.vec3s(what)
     }
 
-    pub(super) fn body(&mut self) -> Result<RigidBody, SnapshotError> {
+    pub(super) fn body(&mut self) -> Result<RigidBody, SavedStateError> {
         let kind = BodyKind::from_code(self.u8()?)
-            .ok_or_else(|| SnapshotError::Invalid("body kind".into()))?;
+            .ok_or_else(|| SavedStateError::Invalid("body kind".into()))?;
         let com = self.vec3("body centre of mass")?;
         let rotation = self.quat("body rotation")?;
         let linvel = self.vec3("body velocity")?;
@@ -261,7 +261,7 @@ impl Reader<'_> {
         })
     }
 
-    fn shape(&mut self, depth: u32) -> Result<Shape, SnapshotError> {
+    fn shape(&mut self, depth: u32) -> Result<Shape, SavedStateError> {
         let s = match self.u8()? {
             0 => Shape::sphere(self.finite("sphere radius")?),
             1 => Shape::cuboid(self.vec3("box half extents")?),
@@ -288,7 +288,7 @@ impl Reader<'_> {
                 let n = self.count(12)?;
                 let triangles = (0..n)
                     .map(|_| Ok([self.u32()?, self.u32()?, self.u32()?]))
-                    .collect::<Result<Vec<_>, SnapshotError>>()?;
+                    .collect::<Result<Vec<_>, SavedStateError>>()?;
                 Shape::trimesh(vertices, triangles)
             }
             6 => {
@@ -319,7 +319,7 @@ impl Reader<'_> {
     }
 }
 
-pub(super) fn solver<S: Sink>(s: &mut S, c: &SolverConfig) {
+pub(super) fn solver<S: StateSink>(s: &mut S, c: &SolverConfig) {
     s.u32(c.substeps);
     s.f64(c.contact_hertz);
     s.f64(c.contact_damping_ratio);
@@ -335,7 +335,7 @@ pub(super) fn solver<S: Sink>(s: &mut S, c: &SolverConfig) {
 /// `x` in single precision, which the contact cache keeps; an error
 /// where it is beyond single precision's range (it would be saved as an
 /// infinity, which no save may hold).
-fn single(x: f64, what: &str) -> Result<f32, SnapshotError> {
+fn single(x: f64, what: &str) -> Result<f32, SavedStateError> {
     let y = x as f32;
     if y.is_finite() {
         Ok(y)
@@ -344,7 +344,7 @@ fn single(x: f64, what: &str) -> Result<f32, SnapshotError> {
     }
 }
 
-fn vec3f<S: Sink>(s: &mut S, v: Vec3) {
+fn vec3f<S: StateSink>(s: &mut S, v: Vec3) {
     for c in v.to_array() {
         s.f32(c);
     }
@@ -355,7 +355,7 @@ fn vec3f<S: Sink>(s: &mut S, v: Vec3) {
 /// the step that last solved it (what the pair queries read) and its
 /// points, all in single precision as the cache keeps them (see
 /// [`CachedPoint`]).
-pub(super) fn contacts<S: Sink>(s: &mut S, cache: &ContactCache) {
+pub(super) fn contacts<S: StateSink>(s: &mut S, cache: &ContactCache) {
     s.u64(cache.len() as u64);
     for (k, m) in cache.iter() {
         for v in [k.a.0, k.a.1, k.b.0, k.b.1, k.child_a, k.child_b] {
@@ -389,7 +389,7 @@ pub(super) fn contacts<S: Sink>(s: &mut S, cache: &ContactCache) {
 }
 
 impl Reader<'_> {
-    pub(super) fn solver(&mut self) -> Result<SolverConfig, SnapshotError> {
+    pub(super) fn solver(&mut self) -> Result<SolverConfig, SavedStateError> {
         let c = SolverConfig {
             substeps: self.u32()?,
             contact_hertz: self.finite("contact hertz")?,
@@ -425,7 +425,7 @@ impl Reader<'_> {
 
     /// A real as this version keeps it in the contact cache: single
     /// precision from version 6, double before (rounded).
-    fn cached_real(&mut self, what: &str) -> Result<f32, SnapshotError> {
+    fn cached_real(&mut self, what: &str) -> Result<f32, SavedStateError> {
         if self.version >= 6 {
             self.finite32(what)
         } else {
@@ -433,7 +433,7 @@ impl Reader<'_> {
         }
     }
 
-    fn cached_vec3(&mut self, what: &str) -> Result<Vec3, SnapshotError> {
+    fn cached_vec3(&mut self, what: &str) -> Result<Vec3, SavedStateError> {
         Ok(Vec3::new(
             self.cached_real(what)?,
             self.cached_real(what)?,
@@ -444,7 +444,7 @@ impl Reader<'_> {
     /// The contact cache (see [`contacts`]; earlier versions below).
     pub(super) fn contacts(
         &mut self,
-    ) -> Result<BTreeMap<ContactKey, CachedManifold>, SnapshotError> {
+    ) -> Result<BTreeMap<ContactKey, CachedManifold>, SavedStateError> {
         // Version 3 kept each point's id, anchor on A and impulses only.
         let whole = self.version >= 4;
         // Bytes of the smallest manifold and point.
@@ -542,7 +542,7 @@ impl Reader<'_> {
                         ],
                     })
                 })
-                .collect::<Result<Vec<_>, SnapshotError>>()?;
+                .collect::<Result<Vec<_>, SavedStateError>>()?;
             let kept = CachedManifold {
                 normal_a,
                 reference,
@@ -558,7 +558,7 @@ impl Reader<'_> {
     }
 }
 
-pub(super) fn touching<S: Sink>(s: &mut S, set: &BTreeSet<(BodyHandle, BodyHandle)>) {
+pub(super) fn touching<S: StateSink>(s: &mut S, set: &BTreeSet<(BodyHandle, BodyHandle)>) {
     s.u64(set.len() as u64);
     for (a, b) in set {
         for v in [a.index, a.generation, b.index, b.generation] {
@@ -567,7 +567,7 @@ pub(super) fn touching<S: Sink>(s: &mut S, set: &BTreeSet<(BodyHandle, BodyHandl
     }
 }
 
-pub(super) fn bounds<S: Sink>(s: &mut S, b: Option<Aabb>) {
+pub(super) fn bounds<S: StateSink>(s: &mut S, b: Option<Aabb>) {
     match b {
         None => s.u8(0),
         Some(b) => {
@@ -579,7 +579,9 @@ pub(super) fn bounds<S: Sink>(s: &mut S, b: Option<Aabb>) {
 }
 
 impl Reader<'_> {
-    pub(super) fn touching(&mut self) -> Result<BTreeSet<(BodyHandle, BodyHandle)>, SnapshotError> {
+    pub(super) fn touching(
+        &mut self,
+    ) -> Result<BTreeSet<(BodyHandle, BodyHandle)>, SavedStateError> {
         let n = self.count(16)?;
         let mut set = BTreeSet::new();
         for _ in 0..n {
@@ -598,7 +600,7 @@ impl Reader<'_> {
     pub(super) fn pairs_into(
         &mut self,
         cache: &mut BTreeMap<ContactKey, CachedManifold>,
-    ) -> Result<(), SnapshotError> {
+    ) -> Result<(), SavedStateError> {
         let n = self.count(60)?;
         let mut last: Option<(BodyHandle, BodyHandle)> = None;
         let key = |h: BodyHandle| (h.index, h.generation);
@@ -640,14 +642,14 @@ impl Reader<'_> {
     }
 
     /// A body handle: its arena index, then its generation.
-    pub(super) fn body_handle(&mut self) -> Result<BodyHandle, SnapshotError> {
+    pub(super) fn body_handle(&mut self) -> Result<BodyHandle, SavedStateError> {
         Ok(BodyHandle {
             index: self.u32()?,
             generation: self.u32()?,
         })
     }
 
-    pub(super) fn bounds(&mut self) -> Result<Option<Aabb>, SnapshotError> {
+    pub(super) fn bounds(&mut self) -> Result<Option<Aabb>, SavedStateError> {
         match self.u8()? {
             0 => Ok(None),
             1 => {
@@ -662,7 +664,7 @@ impl Reader<'_> {
     }
 }
 
-pub(super) fn joint<S: Sink>(s: &mut S, j: &Joint) {
+pub(super) fn joint<S: StateSink>(s: &mut S, j: &Joint) {
     let d = &j.desc;
     for v in [d.a.index, d.a.generation, d.b.index, d.b.generation] {
         s.u32(v);
@@ -744,7 +746,7 @@ pub(super) fn joint<S: Sink>(s: &mut S, j: &Joint) {
 }
 
 impl Reader<'_> {
-    fn opt2(&mut self, what: &str) -> Result<Option<(f64, f64)>, SnapshotError> {
+    fn opt2(&mut self, what: &str) -> Result<Option<(f64, f64)>, SavedStateError> {
         match self.u8()? {
             0 => Ok(None),
             1 => Ok(Some((self.finite(what)?, self.finite(what)?))),
@@ -752,7 +754,7 @@ impl Reader<'_> {
         }
     }
 
-    pub(super) fn joint(&mut self) -> Result<Joint, SnapshotError> {
+    pub(super) fn joint(&mut self) -> Result<Joint, SavedStateError> {
         let a = self.body_handle()?;
         let b = self.body_handle()?;
         let anchor_a = self.vec3("joint anchor")?;
@@ -817,7 +819,7 @@ impl Reader<'_> {
     }
 }
 
-pub(super) fn attachment<S: Sink>(s: &mut S, a: &Attachment) {
+pub(super) fn attachment<S: StateSink>(s: &mut S, a: &Attachment) {
     let p = a.particle;
     for v in [
         p.system.index,
@@ -836,7 +838,7 @@ pub(super) fn attachment<S: Sink>(s: &mut S, a: &Attachment) {
 }
 
 impl Reader<'_> {
-    pub(super) fn attachment(&mut self) -> Result<Attachment, SnapshotError> {
+    pub(super) fn attachment(&mut self) -> Result<Attachment, SavedStateError> {
         let system = crate::handle::SystemHandle {
             index: self.u32()?,
             generation: self.u32()?,
@@ -855,7 +857,7 @@ impl Reader<'_> {
         };
         params
             .validate()
-            .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+            .map_err(|e| SavedStateError::Invalid(e.to_string()))?;
         Ok(Attachment {
             particle,
             body,

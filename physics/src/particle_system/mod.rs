@@ -11,10 +11,12 @@ use glam::DVec3;
 
 use crate::arena::Arena;
 use crate::error::{finite3, non_negative, PhysicsError};
-use crate::forces::ForceEntry;
+use crate::forces::{FieldForces, ForceEntry};
 use crate::handle::{ParticleHandle, SystemHandle};
 use crate::integrator::Integrator;
 use crate::spring::{Spring, SpringTopology};
+
+pub(crate) mod step;
 
 /// Per-particle flag: the particle never moves (infinite effective mass).
 pub const FLAG_PINNED: u32 = 1;
@@ -127,7 +129,7 @@ pub struct SystemDesc {
     /// Default 16.
     pub max_substeps: u32,
     /// Radius with which the particles collide with rigid bodies, m; 0 = they
-    /// pass through bodies (see `rigid::particle_contact`).
+    /// pass through bodies (see `particle_contact`).
     pub collision_radius: f64,
     /// Friction coefficient of particles sliding on bodies.
     pub collision_friction: f64,
@@ -223,7 +225,7 @@ pub struct ParticleSystem {
 
     // --- derived, rebuilt on demand, not part of the state ---
     pub(crate) topology: SpringTopology,
-    pub(crate) scratch: crate::step::Scratch,
+    pub(crate) scratch: step::Scratch,
     /// Forces from attachments to rigid bodies for this step: (dense index,
     /// force in N). Derived at the start of each step, not state.
     pub(crate) coupling: Vec<(u32, DVec3)>,
@@ -249,6 +251,18 @@ pub struct ParticleState {
 }
 
 impl ParticleSystem {
+    /// The field forces on this system over the step `[t, t + dt]` (s):
+    /// its own forces, and the world's uniform `gravity` (m/s²) scaled by
+    /// its gravity scale.
+    pub(crate) fn field_forces(&self, gravity: DVec3, t: f64, dt: f64) -> FieldForces {
+        FieldForces::compile(
+            self.forces.iter().map(|(_, _, e)| &e.force),
+            gravity * self.gravity_scale,
+            t,
+            dt,
+        )
+    }
+
     pub(crate) fn new(handle: SystemHandle, desc: SystemDesc) -> Self {
         Self {
             handle,

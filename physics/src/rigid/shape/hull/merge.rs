@@ -10,7 +10,7 @@ use super::{chain_loop, ConvexHull, Face, SLIVER};
 
 /// A polygon mesh over input point indices, in scaled coordinates.
 #[derive(Debug)]
-pub(super) struct Mesh {
+pub(super) struct PolygonMesh {
     /// Each face's loop of point indices, counter-clockwise from outside.
     faces: Vec<Vec<u32>>,
     /// Each face's outward unit normal, from all the triangles it was made
@@ -32,9 +32,9 @@ fn tri_normal(p: &[DVec3], tris: &[MeshTri], t: usize) -> DVec3 {
     newell(p, &across.v).map(|(n, _)| n).unwrap_or(DVec3::Y)
 }
 
-impl Mesh {
-    pub(super) fn from_triangles(p: &[DVec3], tris: &[MeshTri]) -> Mesh {
-        Mesh {
+impl PolygonMesh {
+    pub(super) fn from_triangles(p: &[DVec3], tris: &[MeshTri]) -> PolygonMesh {
+        PolygonMesh {
             faces: tris.iter().map(|t| t.v.to_vec()).collect(),
             normals: (0..tris.len()).map(|t| tri_normal(p, tris, t)).collect(),
         }
@@ -167,7 +167,7 @@ fn newell(p: &[DVec3], f: &[u32]) -> Option<(DVec3, f64)> {
 
 /// Merges adjacent coplanar triangles into polygons, absorbs slivers into
 /// their neighbours, and removes vertices left in the middle of an edge.
-pub(super) fn merge_coplanar(p: &[DVec3], tris: &[MeshTri], tol: f64) -> Mesh {
+pub(super) fn merge_coplanar(p: &[DVec3], tris: &[MeshTri], tol: f64) -> PolygonMesh {
     // Per triangle: area, longest edge, and whether it is a sliver: a
     // height over its longest edge within a few tolerances, so that its
     // plane is rounding noise.
@@ -350,5 +350,5 @@ pub(super) fn merge_coplanar(p: &[DVec3], tris: &[MeshTri], tol: f64) -> Mesh {
             }
         }
     }
-    Mesh { faces, normals }
+    PolygonMesh { faces, normals }
 }

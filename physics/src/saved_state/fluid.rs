@@ -7,10 +7,10 @@
 
 use glam::DVec3;
 
-use super::{invalid, option_f64, Reader, Sink, SnapshotError};
+use super::{invalid, option_f64, Reader, SavedStateError, StateSink};
 use crate::xpbd::fluid::{Fluid, FluidDesc, FluidEmitter, MAX_FLUID_EMITTERS, MAX_FLUID_PARTICLES};
 
-pub(super) fn fluid<S: Sink>(s: &mut S, f: &Fluid) {
+pub(super) fn fluid<S: StateSink>(s: &mut S, f: &Fluid) {
     let d = f.params();
     s.f64(d.spacing);
     option_f64(s, d.kernel_radius);
@@ -54,7 +54,7 @@ pub(super) fn fluid<S: Sink>(s: &mut S, f: &Fluid) {
 }
 
 impl Reader<'_> {
-    pub(super) fn fluid(&mut self) -> Result<Fluid, SnapshotError> {
+    pub(super) fn fluid(&mut self) -> Result<Fluid, SavedStateError> {
         let mut d = FluidDesc::new(self.finite("fluid spacing")?);
         d.kernel_radius = self.option_f64("fluid kernel radius")?;
         d.rest_density = self.finite("fluid rest density")?;
@@ -90,7 +90,7 @@ impl Reader<'_> {
             d.positions.push(DVec3::from(x.map(f64::from)));
             d.velocities.push(DVec3::from(v.map(f64::from)));
         }
-        let mut fluid = Fluid::new(d).map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+        let mut fluid = Fluid::new(d).map_err(|e| SavedStateError::Invalid(e.to_string()))?;
         if self.version >= 9 {
             // Each emitter takes at least 83 bytes.
             let n = self.count(83)?;
@@ -114,7 +114,7 @@ impl Reader<'_> {
                 let emitted = self.u64()?;
                 fluid
                     .restore_emitter(e, shots, emitted)
-                    .map_err(|e| SnapshotError::Invalid(e.to_string()))?;
+                    .map_err(|e| SavedStateError::Invalid(e.to_string()))?;
             }
         }
         Ok(fluid)

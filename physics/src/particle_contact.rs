@@ -31,7 +31,7 @@ use crate::parallel::{par_map_chunks4, CHUNK};
 use crate::particle_system::ParticleSystem;
 use crate::rigid::body::RigidBody;
 use crate::rigid::query::project_point_shape;
-use crate::xpbd::coupling::Target;
+use crate::xpbd::coupling::CouplingBody;
 
 /// An impulse a particle gave a body: the body's key, the point (m) and
 /// the impulse (N·s).
@@ -45,9 +45,9 @@ pub(crate) fn resolve(sys: &mut ParticleSystem, bodies: &mut Arena<RigidBody>) -
         return 0;
     }
     let friction = sys.collision_friction;
-    let targets: Vec<Target<'_>> = bodies
+    let targets: Vec<CouplingBody<'_>> = bodies
         .iter()
-        .filter_map(|(index, generation, b)| Target::of((index, generation), b, radius))
+        .filter_map(|(index, generation, b)| CouplingBody::of((index, generation), b, radius))
         .collect();
     let ParticleSystem {
         position,

@@ -70,9 +70,9 @@ mod quickhull;
 
 use glam::DVec3;
 
-use super::aabb::Aabb;
-use super::shape::ShapeError;
-use merge::{merge_coplanar, Mesh};
+use super::ShapeError;
+use crate::rigid::aabb::Aabb;
+use merge::{merge_coplanar, PolygonMesh};
 use quickhull::Quickhull;
 
 /// Tolerance as a fraction of the cloud's largest extent (see the note).
@@ -241,7 +241,7 @@ impl ConvexHull {
         let mesh = Some(merged)
             .filter(|m| m.is_valid(&scaled, tol))
             .or_else(|| {
-                let plain = Mesh::from_triangles(&scaled, &tris);
+                let plain = PolygonMesh::from_triangles(&scaled, &tris);
                 plain.is_valid(&scaled, tol).then_some(plain)
             })
             .ok_or(ShapeError::HullFailed)?;
@@ -347,7 +347,7 @@ impl ConvexHull {
     /// Volume enclosed by the hull, m³.
     pub fn volume(&self) -> f64 {
         let tris = self.triangles().map(|t| t.map(|i| i as usize));
-        super::mass::polyhedron(&self.vertices, tris).0
+        crate::rigid::mass::polyhedron(&self.vertices, tris).0
     }
 }
 

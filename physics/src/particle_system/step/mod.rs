@@ -100,7 +100,7 @@ pub(crate) fn step_system(
     dt: f64,
 ) -> (ChunkOut, StageTimes) {
     sys.refresh_topology();
-    let field = FieldForces::compile(sys, gravity, t, dt);
+    let field = sys.field_forces(gravity, t, dt);
     let n = sys.position.len();
     let ParticleSystem {
         integrator,
