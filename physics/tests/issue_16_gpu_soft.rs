@@ -500,3 +500,65 @@ fn issue_16_a_cloth_on_the_gpu_tears_where_the_cpu_does() {
     assert!(b.positions().iter().all(|p| p.is_finite()));
     assert!(b.triangles().len() < desc.triangles.len());
 }
+
+/// The world keeps each soft body's GPU buffers by its handle's slot: a
+/// body removed takes its buffers with it, a body added in its place (or
+/// restored from a saved state) steps on the CPU exactly as in a world
+/// that never used the GPU.
+#[test]
+fn issue_42_gpu_buffers_leave_with_their_body() {
+    if skip() {
+        return;
+    }
+    let mut gpu = World::new(WorldConfig::default()).unwrap();
+    let mut cpu = World::new(WorldConfig::default()).unwrap();
+    let (c, j) = scene(&mut gpu);
+    scene(&mut cpu);
+    gpu.set_soft_backend(c, Backend::Gpu).unwrap();
+    gpu.set_soft_backend(j, Backend::Gpu).unwrap();
+    gpu.step(DT).unwrap();
+    let saved = cpu.save();
+    gpu.remove_soft_body(c).unwrap();
+    gpu.remove_soft_body(j).unwrap();
+    cpu.remove_soft_body(c).unwrap();
+    cpu.remove_soft_body(j).unwrap();
+    let rope = SoftRope {
+        start: DVec3::new(0.0, 2.0, 0.0),
+        end: DVec3::new(1.0, 2.0, 0.0),
+        segments: 16,
+        pin_start: true,
+        ..SoftRope::default()
+    }
+    .build()
+    .unwrap();
+    let in_gpu = gpu.add_soft_body(&rope).unwrap();
+    let in_cpu = cpu.add_soft_body(&rope).unwrap();
+    assert_eq!(in_gpu, in_cpu);
+    let slot = |h: SoftBodyHandle| h.to_raw()[0];
+    assert!(
+        slot(in_gpu) == slot(c) || slot(in_gpu) == slot(j),
+        "the new body takes a freed slot"
+    );
+    assert_eq!(gpu.soft_body(in_gpu).unwrap().backend(), Backend::Cpu);
+    for _ in 0..10 {
+        gpu.step(DT).unwrap();
+        cpu.step(DT).unwrap();
+    }
+    assert_eq!(
+        gpu.soft_body(in_gpu).unwrap().positions(),
+        cpu.soft_body(in_cpu).unwrap().positions(),
+        "the new body stepped on the CPU, as in a world without the GPU"
+    );
+    // A restored state's soft bodies step on the CPU, bit for bit.
+    gpu.set_soft_backend(in_gpu, Backend::Gpu).unwrap();
+    gpu.restore(&saved).unwrap();
+    let mut cpu = World::from_saved(WorldConfig::default(), &saved).unwrap();
+    for _ in 0..10 {
+        gpu.step(DT).unwrap();
+        cpu.step(DT).unwrap();
+    }
+    for (h, body) in cpu.soft_bodies() {
+        assert_eq!(gpu.soft_body(h).unwrap().backend(), Backend::Cpu);
+        assert_eq!(gpu.soft_body(h).unwrap().positions(), body.positions());
+    }
+}

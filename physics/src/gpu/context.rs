@@ -41,12 +41,6 @@ pub struct GpuContext {
     pub(crate) springs: wgpu::ComputePipeline,
     pub(crate) interactions: wgpu::ComputePipeline,
     pub(crate) integrate: wgpu::ComputePipeline,
-    /// Soft bodies' pipelines (`gpu/soft.rs`); `None` on an adapter that
-    /// binds too few storage buffers per shader.
-    pub(crate) soft: Option<super::soft::SoftPipelines>,
-    /// Fluids' pipelines (`gpu/fluid.rs`); `None` on an adapter that binds
-    /// too few storage buffers per shader.
-    pub(crate) fluid: Option<super::fluid::FluidPipelines>,
     /// Errors that escaped every error scope (the default handler would
     /// panic); reported by the next call that checks.
     uncaptured: Arc<Mutex<Option<String>>>,
@@ -148,8 +142,6 @@ impl GpuContext {
             inertia_shaders::PARTICLE_INTERACTIONS,
         );
         let integrate = pipeline("particle_integrate", inertia_shaders::PARTICLE_INTEGRATE);
-        let soft = super::soft::SoftPipelines::new(&device);
-        let fluid = super::fluid::FluidPipelines::new(&device);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(PhysicsError::Gpu(format!(
                 "compiling the particle shaders for {} failed: {e}",
@@ -164,8 +156,6 @@ impl GpuContext {
             springs,
             interactions,
             integrate,
-            soft,
-            fluid,
             uncaptured,
         })
     }

@@ -228,8 +228,13 @@ pub(crate) struct GpuFluid {
 }
 
 /// Uploads `fluid`'s particles (positions, velocities, densities).
-pub(crate) fn upload(ctx: &GpuContext, fluid: &Fluid) -> Result<Arc<GpuFluid>, PhysicsError> {
-    let pipelines = ctx.fluid.as_ref().ok_or_else(|| {
+/// `pipelines` are the world's (`None` on an adapter that cannot run them).
+pub(crate) fn upload(
+    ctx: &GpuContext,
+    pipelines: Option<&FluidPipelines>,
+    fluid: &Fluid,
+) -> Result<Arc<GpuFluid>, PhysicsError> {
+    let pipelines = pipelines.ok_or_else(|| {
         PhysicsError::Gpu(format!(
             "the adapter binds {} storage buffers per shader; fluids on the GPU need {STORAGE_BUFFERS}",
             ctx.limits.max_storage_buffers_per_shader_stage
@@ -408,8 +413,10 @@ fn params_for(fluid: &Fluid, gpu: &GpuFluid, dt: f32, g: Vec3, walls: &NearBodie
 /// mirror. Returns what the particles gave the dynamic bodies, for
 /// [`apply_changes`](crate::xpbd::coupling::apply_changes). A `dt` that is
 /// not finite and > 0 does nothing, as on the CPU.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn step(
     ctx: &GpuContext,
+    pipelines: Option<&FluidPipelines>,
     fluid: &mut Fluid,
     gpu: &GpuFluid,
     dt: f32,
@@ -454,10 +461,8 @@ pub(crate) fn step(
         bytes[at..at + std::mem::size_of::<FluidParams>()].copy_from_slice(bytemuck::bytes_of(&p));
     }
     let movable = walls.movable.len();
-    let pipes = ctx
-        .fluid
-        .as_ref()
-        .ok_or_else(|| PhysicsError::Gpu("no fluid pipelines on this adapter".into()))?;
+    let pipes =
+        pipelines.ok_or_else(|| PhysicsError::Gpu("no fluid pipelines on this adapter".into()))?;
     let particles = ctx.workgroups(gpu.n)?;
     let keys = ctx.workgroups(gpu.grid.table)?;
     // One workgroup a chunk, one invocation a body.

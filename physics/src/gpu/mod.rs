@@ -69,6 +69,7 @@ mod context;
 pub(crate) mod fluid;
 mod grid;
 mod layout;
+mod on_gpu;
 mod params;
 mod program;
 mod self_collision;
@@ -82,5 +83,5 @@ pub use fluid::{FLUID_GPU_MEDIAN_TOLERANCE, FLUID_GPU_TOLERANCE};
 pub use soft::SOFT_GPU_TOLERANCE;
 pub use tolerance::{GpuTolerance, GPU_TOLERANCE};
 
-pub(crate) use buffers::GpuSystem;
+pub(crate) use on_gpu::OnGpu;
 pub(crate) use system::{download, step_system, upload};

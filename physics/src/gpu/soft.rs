@@ -403,9 +403,14 @@ fn storage(ctx: &GpuContext, label: &str, bytes: &[u8], extra: wgpu::BufferUsage
 }
 
 /// Uploads `body` (its positions, velocities and constraints).
-pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBody>, PhysicsError> {
+/// `pipelines` are the world's (`None` on an adapter that cannot run them).
+pub(crate) fn upload(
+    ctx: &GpuContext,
+    pipelines: Option<&SoftPipelines>,
+    body: &SoftBody,
+) -> Result<Arc<GpuSoftBody>, PhysicsError> {
     check_supported(body)?;
-    let pipelines = ctx.soft.as_ref().ok_or_else(|| {
+    let pipelines = pipelines.ok_or_else(|| {
         PhysicsError::Gpu(format!(
             "the adapter binds {} storage buffers per shader; soft bodies on the GPU need {STORAGE_BUFFERS}",
             ctx.limits.max_storage_buffers_per_shader_stage
@@ -657,6 +662,7 @@ pub(crate) fn upload(ctx: &GpuContext, body: &SoftBody) -> Result<Arc<GpuSoftBod
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn step(
     ctx: &GpuContext,
+    pipelines: Option<&SoftPipelines>,
     body: &mut SoftBody,
     gpu: &GpuSoftBody,
     dt: f32,
@@ -793,9 +799,7 @@ pub(crate) fn step(
         .iter()
         .map(|d| ctx.workgroups(if d.serial { 1 } else { d.count }))
         .collect::<Result<Vec<_>, _>>()?;
-    let pipes = ctx
-        .soft
-        .as_ref()
+    let pipes = pipelines
         .ok_or_else(|| PhysicsError::Gpu("no soft-body pipelines on this adapter".into()))?;
     ctx.scoped("a GPU soft-body step", || {
         ctx.queue.write_buffer(&gpu.params, 0, &bytes);

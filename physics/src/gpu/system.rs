@@ -12,10 +12,13 @@ use super::context::GpuContext;
 use super::layout::{self, GpuBody};
 use super::params;
 
-/// Uploads `sys` to GPU buffers (stored in `sys.gpu`). Refuses, leaving
-/// `sys` unchanged, what the GPU path cannot step (see
-/// [`params::check_supported`]) and values outside the f32 range.
-pub(crate) fn upload(ctx: &GpuContext, sys: &mut ParticleSystem) -> Result<(), PhysicsError> {
+/// Uploads `sys` to GPU buffers. Refuses, leaving `sys` unchanged, what
+/// the GPU path cannot step (see [`params::check_supported`]) and values
+/// outside the f32 range.
+pub(crate) fn upload(
+    ctx: &GpuContext,
+    sys: &mut ParticleSystem,
+) -> Result<GpuSystem, PhysicsError> {
     params::check_supported(sys)?;
     sys.refresh_topology();
     let mut bodies = layout::bodies(sys)?;
@@ -32,17 +35,17 @@ pub(crate) fn upload(ctx: &GpuContext, sys: &mut ParticleSystem) -> Result<(), P
             control: &layout::control(sys)?,
         },
     )?;
-    sys.gpu = Some(gpu);
-    Ok(())
+    Ok(gpu)
 }
 
-/// Brings `sys`'s CPU arrays up to date with its GPU state (a no-op when
-/// they already are: right after upload, where the mirror keeps the exact
-/// f64 values, and after a step with readback).
-pub(crate) fn download(ctx: &GpuContext, sys: &mut ParticleSystem) -> Result<(), PhysicsError> {
-    let Some(gpu) = sys.gpu.as_ref() else {
-        return Ok(());
-    };
+/// Brings `sys`'s CPU arrays up to date with its GPU state `gpu` (a no-op
+/// when they already are: right after upload, where the mirror keeps the
+/// exact f64 values, and after a step with readback).
+pub(crate) fn download(
+    ctx: &GpuContext,
+    sys: &mut ParticleSystem,
+    gpu: &mut GpuSystem,
+) -> Result<(), PhysicsError> {
     if !gpu.mirror_fresh {
         let bodies = ctx
             .scoped("reading back a particle system", || {
@@ -63,9 +66,7 @@ pub(crate) fn download(ctx: &GpuContext, sys: &mut ParticleSystem) -> Result<(),
     for f in &mut sys.flags {
         *f &= !FLAG_NEW_QUARANTINE;
     }
-    if let Some(gpu) = sys.gpu.as_mut() {
-        gpu.mirror_fresh = true;
-    }
+    gpu.mirror_fresh = true;
     Ok(())
 }
 
@@ -99,6 +100,7 @@ fn write_mirror(sys: &mut ParticleSystem, bodies: &[GpuBody]) -> Result<(), Phys
 pub(crate) fn step_system(
     ctx: &GpuContext,
     sys: &mut ParticleSystem,
+    gpu: &mut GpuSystem,
     gravity: DVec3,
     t: f64,
     dt: f64,
@@ -116,10 +118,6 @@ pub(crate) fn step_system(
             Ok(p)
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let gpu = sys
-        .gpu
-        .as_ref()
-        .ok_or_else(|| PhysicsError::Gpu("the system was never uploaded to the GPU".into()))?;
     let first = &blocks[0];
     if gpu.n != first.n || gpu.n_springs != first.n_springs {
         return Err(PhysicsError::Gpu(
@@ -172,16 +170,12 @@ pub(crate) fn step_system(
     if !readback {
         // Reclaim finished submissions without waiting.
         let _ = ctx.device.poll(wgpu::PollType::Poll);
-        if let Some(gpu) = sys.gpu.as_mut() {
-            gpu.mirror_fresh = false;
-        }
+        gpu.mirror_fresh = false;
         return Ok(Energy::default());
     }
     let bodies = gpu.read_bodies(ctx)?;
     write_mirror(sys, &bodies)?;
-    if let Some(gpu) = sys.gpu.as_mut() {
-        gpu.mirror_fresh = true;
-    }
+    gpu.mirror_fresh = true;
     let g = sys.field_forces(gravity, t, dt);
     let mut e = Energy::default();
     for i in 0..sys.len() {

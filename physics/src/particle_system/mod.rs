@@ -229,8 +229,6 @@ pub struct ParticleSystem {
     /// Forces from attachments to rigid bodies for this step: (dense index,
     /// force in N). Derived at the start of each step, not state.
     pub(crate) coupling: Vec<(u32, DVec3)>,
-    #[cfg(feature = "gpu")]
-    pub(crate) gpu: Option<crate::gpu::GpuSystem>,
 }
 
 /// A read-only copy of one particle's state.
@@ -306,8 +304,6 @@ impl ParticleSystem {
             topology: SpringTopology::default(),
             scratch: Default::default(),
             coupling: Vec::new(),
-            #[cfg(feature = "gpu")]
-            gpu: None,
         }
     }
 

@@ -300,8 +300,6 @@ impl Reader<'_> {
         Ok(SoftBody {
             self_collision: Default::default(),
             backend: crate::particle_system::Backend::Cpu,
-            #[cfg(feature = "gpu")]
-            gpu: Default::default(),
             prev: x.clone(),
             x,
             v,

@@ -21,26 +21,28 @@ impl World {
         {
             match backend {
                 Backend::Gpu => {
-                    self.gpu_context()?;
-                    let ctx = self.gpu.as_ref().expect("context created above");
+                    self.on_gpu()?;
+                    let on_gpu = self.gpu.as_mut().expect("created above");
                     let s = self
                         .systems
                         .get_mut(sys.index, sys.generation)
                         .expect("checked above");
-                    crate::gpu::upload(ctx, s)?;
+                    let buffers = crate::gpu::upload(&on_gpu.ctx, s)?;
+                    on_gpu.systems.insert((sys.index, sys.generation), buffers);
                     s.backend = Backend::Gpu;
                 }
                 Backend::Cpu => {
-                    let ctx = self
+                    let on_gpu = self
                         .gpu
-                        .as_ref()
+                        .as_mut()
                         .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
                     let s = self
                         .systems
                         .get_mut(sys.index, sys.generation)
                         .expect("checked above");
-                    crate::gpu::download(ctx, s)?;
-                    s.gpu = None;
+                    if let Some(mut buffers) = on_gpu.systems.remove(&(sys.index, sys.generation)) {
+                        crate::gpu::download(&on_gpu.ctx, s, &mut buffers)?;
+                    }
                     s.backend = Backend::Cpu;
                 }
             }
@@ -57,20 +59,21 @@ impl World {
     /// CPU mirror.
     pub fn sync_gpu(&mut self) -> Result<(), PhysicsError> {
         #[cfg(feature = "gpu")]
-        if let Some(ctx) = self.gpu.as_ref() {
-            for (_, _, s) in self.systems.iter_mut() {
-                if s.backend == Backend::Gpu {
-                    crate::gpu::download(ctx, s)?;
+        if let Some(on_gpu) = self.gpu.as_mut() {
+            let ctx = &on_gpu.ctx;
+            for (index, generation, s) in self.systems.iter_mut() {
+                if let Some(buffers) = on_gpu.systems.get_mut(&(index, generation)) {
+                    crate::gpu::download(ctx, s, buffers)?;
                 }
             }
-            for (_, _, b) in self.soft_bodies.iter_mut() {
-                if let Some(gpu) = b.gpu.0.clone() {
-                    crate::gpu::soft::download(ctx, b, &gpu)?;
+            for (index, generation, b) in self.soft_bodies.iter_mut() {
+                if let Some(buffers) = on_gpu.soft_bodies.get(&(index, generation)) {
+                    crate::gpu::soft::download(ctx, b, buffers)?;
                 }
             }
-            for (_, _, f) in self.fluids.iter_mut() {
-                if let Some(gpu) = f.gpu.0.clone() {
-                    crate::gpu::fluid::download(ctx, f, &gpu)?;
+            for (index, generation, f) in self.fluids.iter_mut() {
+                if let Some(buffers) = on_gpu.fluids.get(&(index, generation)) {
+                    crate::gpu::fluid::download(ctx, f, buffers)?;
                 }
             }
         }
@@ -80,10 +83,16 @@ impl World {
     /// The GPU context, created on first use.
     #[cfg(feature = "gpu")]
     pub fn gpu_context(&mut self) -> Result<&crate::gpu::GpuContext, PhysicsError> {
+        Ok(&self.on_gpu()?.ctx)
+    }
+
+    /// The world's GPU side, created on first use.
+    #[cfg(feature = "gpu")]
+    pub(super) fn on_gpu(&mut self) -> Result<&mut crate::gpu::OnGpu, PhysicsError> {
         if self.gpu.is_none() {
-            self.gpu = Some(crate::gpu::GpuContext::new()?);
+            self.gpu = Some(crate::gpu::OnGpu::new()?);
         }
-        Ok(self.gpu.as_ref().expect("just created"))
+        Ok(self.gpu.as_mut().expect("just created"))
     }
 
     /// Structural edits (particles, springs) go through the CPU state, so they

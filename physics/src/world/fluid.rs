@@ -21,6 +21,10 @@ impl World {
 
     /// Removes a fluid.
     pub fn remove_fluid(&mut self, h: FluidHandle) -> Result<(), PhysicsError> {
+        #[cfg(feature = "gpu")]
+        if let Some(on_gpu) = self.gpu.as_mut() {
+            on_gpu.fluids.remove(&(h.index, h.generation));
+        }
         self.fluids
             .remove(h.index, h.generation)
             .map(|_| ())
@@ -49,21 +53,22 @@ impl World {
         velocities: &[DVec3],
     ) -> Result<(), PhysicsError> {
         #[cfg(feature = "gpu")]
-        if self.fluid(h).is_some_and(|f| f.gpu.0.is_some()) {
-            // On the GPU: back to the host, the particles added, up again.
-            let ctx = self
-                .gpu
-                .as_ref()
-                .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
-            let fluid = self
-                .fluids
-                .get_mut(h.index, h.generation)
-                .ok_or(PhysicsError::UnknownFluid(h))?;
-            let on_gpu = fluid.gpu.0.clone().expect("checked above");
-            crate::gpu::fluid::download(ctx, fluid, &on_gpu)?;
-            fluid.add_particles(positions, velocities)?;
-            fluid.gpu.0 = Some(crate::gpu::fluid::upload(ctx, fluid)?);
-            return Ok(());
+        if let Some(on_gpu) = self.gpu.as_mut() {
+            let slot = (h.index, h.generation);
+            if let Some(buffers) = on_gpu.fluids.get(&slot) {
+                // On the GPU: back to the host, the particles added, up
+                // again.
+                let fluid = self
+                    .fluids
+                    .get_mut(h.index, h.generation)
+                    .ok_or(PhysicsError::UnknownFluid(h))?;
+                crate::gpu::fluid::download(&on_gpu.ctx, fluid, buffers)?;
+                fluid.add_particles(positions, velocities)?;
+                let buffers =
+                    crate::gpu::fluid::upload(&on_gpu.ctx, on_gpu.fluid_pipelines.as_ref(), fluid)?;
+                on_gpu.fluids.insert(slot, buffers);
+                return Ok(());
+            }
         }
         self.fluids
             .get_mut(h.index, h.generation)
@@ -114,26 +119,31 @@ impl World {
                         &[],
                         true,
                     )?;
-                    self.gpu_context()?;
-                    let ctx = self.gpu.as_ref().expect("context created above");
+                    self.on_gpu()?;
+                    let on_gpu = self.gpu.as_mut().expect("created above");
                     let fluid = self
                         .fluids
                         .get_mut(h.index, h.generation)
                         .expect("checked above");
-                    fluid.gpu.0 = Some(crate::gpu::fluid::upload(ctx, fluid)?);
+                    let buffers = crate::gpu::fluid::upload(
+                        &on_gpu.ctx,
+                        on_gpu.fluid_pipelines.as_ref(),
+                        fluid,
+                    )?;
+                    on_gpu.fluids.insert((h.index, h.generation), buffers);
                     fluid.backend = Backend::Gpu;
                 }
                 Backend::Cpu => {
-                    let ctx = self
+                    let on_gpu = self
                         .gpu
-                        .as_ref()
+                        .as_mut()
                         .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
                     let fluid = self
                         .fluids
                         .get_mut(h.index, h.generation)
                         .expect("checked above");
-                    if let Some(gpu) = fluid.gpu.0.take() {
-                        crate::gpu::fluid::download(ctx, fluid, &gpu)?;
+                    if let Some(buffers) = on_gpu.fluids.remove(&(h.index, h.generation)) {
+                        crate::gpu::fluid::download(&on_gpu.ctx, fluid, &buffers)?;
                     }
                     fluid.backend = Backend::Cpu;
                 }

@@ -162,8 +162,9 @@ pub struct World {
     body_energy: Option<(crate::arena::Revision, DVec3, (f64, f64))>,
     profile: StepProfile,
     totals: ProfileTotals,
+    /// What of the world lives on the GPU (created on first use).
     #[cfg(feature = "gpu")]
-    gpu: Option<crate::gpu::GpuContext>,
+    gpu: Option<crate::gpu::OnGpu>,
 }
 
 impl std::fmt::Debug for World {
@@ -401,7 +402,8 @@ impl World {
     ) -> Result<Energy, PhysicsError> {
         let t = self.time;
         let mut energy = Energy::default();
-        for (_, _, s) in self.systems.iter_mut() {
+        #[cfg_attr(not(feature = "gpu"), allow(unused_variables))]
+        for (index, generation, s) in self.systems.iter_mut() {
             match s.backend {
                 Backend::Cpu => {
                     let (kinetic, gravity, quarantined) =
@@ -418,12 +420,29 @@ impl World {
                     let t0 = Instant::now();
                     #[cfg(feature = "gpu")]
                     {
-                        let ctx = self
+                        let on_gpu = self
                             .gpu
-                            .as_ref()
+                            .as_mut()
                             .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
+                        let buffers =
+                            on_gpu
+                                .systems
+                                .get_mut(&(index, generation))
+                                .ok_or_else(|| {
+                                    PhysicsError::Gpu(
+                                        "the system was never uploaded to the GPU".into(),
+                                    )
+                                })?;
                         let readback = self.config.gpu_readback_every_step;
-                        let e = crate::gpu::step_system(ctx, s, self.gravity, t, dt, readback)?;
+                        let e = crate::gpu::step_system(
+                            &on_gpu.ctx,
+                            s,
+                            buffers,
+                            self.gravity,
+                            t,
+                            dt,
+                            readback,
+                        )?;
                         energy.kinetic += e.kinetic;
                         energy.gravity_uniform += e.gravity_uniform;
                         // Flags are only current after a readback.

@@ -37,6 +37,10 @@ impl World {
 
     /// Removes a system with all its particles, springs and forces.
     pub fn remove_system(&mut self, h: SystemHandle) -> Result<(), PhysicsError> {
+        #[cfg(feature = "gpu")]
+        if let Some(on_gpu) = self.gpu.as_mut() {
+            on_gpu.systems.remove(&(h.index, h.generation));
+        }
         self.systems
             .remove(h.index, h.generation)
             .map(|_| ())

@@ -23,6 +23,10 @@ impl World {
 
     /// Removes a soft body.
     pub fn remove_soft_body(&mut self, h: SoftBodyHandle) -> Result<(), PhysicsError> {
+        #[cfg(feature = "gpu")]
+        if let Some(on_gpu) = self.gpu.as_mut() {
+            on_gpu.soft_bodies.remove(&(h.index, h.generation));
+        }
         self.soft_bodies
             .remove(h.index, h.generation)
             .map(|_| ())
@@ -67,8 +71,10 @@ impl World {
         }
         body.set_pin(i, position.as_vec3());
         #[cfg(feature = "gpu")]
-        if let (Some(gpu), Some(ctx)) = (body.gpu.0.clone(), self.gpu.as_ref()) {
-            crate::gpu::soft::set_pin(ctx, &gpu, i, position.as_vec3());
+        if let Some(on_gpu) = self.gpu.as_ref() {
+            if let Some(buffers) = on_gpu.soft_bodies.get(&(h.index, h.generation)) {
+                crate::gpu::soft::set_pin(&on_gpu.ctx, buffers, i, position.as_vec3());
+            }
         }
         Ok(())
     }
@@ -108,8 +114,8 @@ impl World {
         {
             match backend {
                 Backend::Gpu => {
-                    self.gpu_context()?;
-                    let ctx = self.gpu.as_ref().expect("context created above");
+                    self.on_gpu()?;
+                    let on_gpu = self.gpu.as_mut().expect("created above");
                     let body = self
                         .soft_bodies
                         .get_mut(h.index, h.generation)
@@ -127,21 +133,25 @@ impl World {
                         &attached,
                         touch,
                     )?;
-                    let gpu = crate::gpu::soft::upload(ctx, body)?;
-                    body.gpu = super::super::xpbd::soft::GpuSoftSlot(Some(gpu));
+                    let buffers = crate::gpu::soft::upload(
+                        &on_gpu.ctx,
+                        on_gpu.soft_pipelines.as_ref(),
+                        body,
+                    )?;
+                    on_gpu.soft_bodies.insert((h.index, h.generation), buffers);
                     body.backend = Backend::Gpu;
                 }
                 Backend::Cpu => {
-                    let ctx = self
+                    let on_gpu = self
                         .gpu
-                        .as_ref()
+                        .as_mut()
                         .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
                     let body = self
                         .soft_bodies
                         .get_mut(h.index, h.generation)
                         .expect("checked above");
-                    if let Some(gpu) = body.gpu.0.take() {
-                        crate::gpu::soft::download(ctx, body, &gpu)?;
+                    if let Some(buffers) = on_gpu.soft_bodies.remove(&(h.index, h.generation)) {
+                        crate::gpu::soft::download(&on_gpu.ctx, body, &buffers)?;
                     }
                     body.backend = Backend::Cpu;
                 }
@@ -174,7 +184,15 @@ impl World {
             .ok_or(PhysicsError::UnknownBody(body))?
             .pose()
             .inverse_transform_point(at);
-        let soft = self.soft_mut(h)?;
+        let World {
+            soft_bodies,
+            #[cfg(feature = "gpu")]
+            gpu,
+            ..
+        } = self;
+        let soft = soft_bodies
+            .get_mut(h.index, h.generation)
+            .ok_or(PhysicsError::UnknownSoftBody(h))?;
         if particle as usize >= soft.len() {
             return Err(PhysicsError::Invalid {
                 what: "soft attachment",
@@ -188,27 +206,28 @@ impl World {
             compliance: compliance as f32,
         };
         #[cfg(feature = "gpu")]
-        if let Some(gpu) = soft.gpu.0.clone() {
-            // On the GPU: it comes back, takes the attachment and goes up
-            // again (its buffers are sized for its attachments).
-            let ctx = self
-                .gpu
-                .as_ref()
-                .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
-            let soft = self
-                .soft_bodies
-                .get_mut(h.index, h.generation)
-                .expect("found above");
-            crate::gpu::soft::download(ctx, soft, &gpu)?;
-            soft.attachments.push(attachment);
-            match crate::gpu::soft::upload(ctx, soft) {
-                Ok(gpu) => soft.gpu.0 = Some(gpu),
-                Err(e) => {
-                    soft.attachments.pop();
-                    return Err(e);
-                }
+        if let Some(on_gpu) = gpu.as_mut() {
+            let slot = (h.index, h.generation);
+            if let Some(buffers) = on_gpu.soft_bodies.get(&slot) {
+                // On the GPU: it comes back, takes the attachment and goes
+                // up again (its buffers are sized for its attachments).
+                crate::gpu::soft::download(&on_gpu.ctx, soft, buffers)?;
+                soft.attachments.push(attachment);
+                return match crate::gpu::soft::upload(
+                    &on_gpu.ctx,
+                    on_gpu.soft_pipelines.as_ref(),
+                    soft,
+                ) {
+                    Ok(buffers) => {
+                        on_gpu.soft_bodies.insert(slot, buffers);
+                        Ok(())
+                    }
+                    Err(e) => {
+                        soft.attachments.pop();
+                        Err(e)
+                    }
+                };
             }
-            return Ok(());
         }
         soft.attachments.push(attachment);
         Ok(())
@@ -247,10 +266,14 @@ impl World {
             body.attachments
                 .retain(|a| bodies.get(a.body.index, a.body.generation).is_some());
             #[cfg(feature = "gpu")]
-            if let Some(on_gpu) = body.gpu.0.clone() {
-                let ctx = gpu
-                    .as_ref()
-                    .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
+            let slot = (index, generation);
+            #[cfg(feature = "gpu")]
+            if let Some((on_gpu, buffers)) = gpu
+                .as_mut()
+                .and_then(|g| g.soft_bodies.get(&slot).cloned().map(|b| (g, b)))
+            {
+                let ctx = &on_gpu.ctx;
+                let pipelines = on_gpu.soft_pipelines.as_ref();
                 // A tearing body tears on the CPU, from its positions; a
                 // self-colliding one finds its candidates' reach from its
                 // velocities.
@@ -277,14 +300,17 @@ impl World {
                 ) {
                     Ok(near) => {
                         let changes = crate::gpu::soft::step(
-                            ctx, body, &on_gpu, dt32, gravity, &near, travel, readback,
+                            ctx, pipelines, body, &buffers, dt32, gravity, &near, travel, readback,
                         )?;
                         apply_changes(bodies, &changes);
                         if tears.is_some_and(|t| soft::tear(body, t as f32)) {
                             // Its constraints changed: it goes up again.
-                            match crate::gpu::soft::upload(ctx, body) {
-                                Ok(gpu) => body.gpu.0 = Some(gpu),
+                            match crate::gpu::soft::upload(ctx, pipelines, body) {
+                                Ok(buffers) => {
+                                    on_gpu.soft_bodies.insert(slot, buffers);
+                                }
                                 Err(why) => {
+                                    on_gpu.soft_bodies.remove(&slot);
                                     let h = SoftBodyHandle { index, generation };
                                     to_cpu(body, h, why, report);
                                 }
@@ -299,7 +325,8 @@ impl World {
                     Err(why) => {
                         // Bodies the GPU cannot take came near: the body
                         // goes back to the CPU and steps there, from now on.
-                        crate::gpu::soft::download(ctx, body, &on_gpu)?;
+                        crate::gpu::soft::download(ctx, body, &buffers)?;
+                        on_gpu.soft_bodies.remove(&slot);
                         let h = SoftBodyHandle { index, generation };
                         to_cpu(body, h, why, report);
                     }
@@ -328,10 +355,14 @@ impl World {
         }
         for (index, generation, fluid) in fluids.iter_mut() {
             #[cfg(feature = "gpu")]
-            if let Some(on_gpu) = fluid.gpu.0.clone() {
-                let ctx = gpu
-                    .as_ref()
-                    .ok_or_else(|| PhysicsError::Gpu("no GPU context".into()))?;
+            let slot = (index, generation);
+            #[cfg(feature = "gpu")]
+            if let Some((on_gpu, buffers)) = gpu
+                .as_mut()
+                .and_then(|g| g.fluids.get(&slot).cloned().map(|b| (g, b)))
+            {
+                let ctx = &on_gpu.ctx;
+                let pipelines = on_gpu.fluid_pipelines.as_ref();
                 let readback = config.gpu_readback_every_step;
                 let reach = fluid.reach(dt32, gravity);
                 let near = readback
@@ -340,18 +371,19 @@ impl World {
                 match crate::gpu::bodies::gather(bodies, step_start, near.as_ref(), &[], true) {
                     Ok(near) => {
                         let changes = crate::gpu::fluid::step(
-                            ctx, fluid, &on_gpu, dt32, gravity, &near, readback,
+                            ctx, pipelines, fluid, &buffers, dt32, gravity, &near, readback,
                         )?;
                         apply_changes(bodies, &changes);
                         // Emitters fire on the host: the fluid comes back,
                         // takes the shot and goes up again.
                         if fluid.shot_due(now) {
                             if !readback {
-                                crate::gpu::fluid::download(ctx, fluid, &on_gpu)?;
+                                crate::gpu::fluid::download(ctx, fluid, &buffers)?;
                             }
                             fluid.emit(now);
-                            if fluid.len() != on_gpu.n as usize {
-                                fluid.gpu.0 = Some(crate::gpu::fluid::upload(ctx, fluid)?);
+                            if fluid.len() != buffers.n as usize {
+                                let buffers = crate::gpu::fluid::upload(ctx, pipelines, fluid)?;
+                                on_gpu.fluids.insert(slot, buffers);
                             }
                         }
                         if readback && config.energy_accounting {
@@ -363,8 +395,8 @@ impl World {
                     Err(why) => {
                         // Bodies the GPU cannot take came near: the fluid
                         // goes back to the CPU and steps there, from now on.
-                        crate::gpu::fluid::download(ctx, fluid, &on_gpu)?;
-                        fluid.gpu.0 = None;
+                        crate::gpu::fluid::download(ctx, fluid, &buffers)?;
+                        on_gpu.fluids.remove(&slot);
                         fluid.backend = crate::particle_system::Backend::Cpu;
                         let h = crate::handle::FluidHandle { index, generation };
                         report.fluids_to_cpu.push((h, why));
@@ -387,8 +419,8 @@ impl World {
     }
 }
 
-/// Soft body `h`, its mirror up to date, steps on the CPU from now on
-/// because of `why`, which the step's report says.
+/// Soft body `h`, its mirror up to date and its GPU buffers dropped, steps
+/// on the CPU from now on because of `why`, which the step's report says.
 #[cfg(feature = "gpu")]
 fn to_cpu(
     body: &mut SoftBody,
@@ -396,7 +428,6 @@ fn to_cpu(
     why: PhysicsError,
     report: &mut super::StepReport,
 ) {
-    body.gpu.0 = None;
     body.backend = crate::particle_system::Backend::Cpu;
     report.soft_bodies_to_cpu.push((h, why));
 }

@@ -63,15 +63,21 @@ impl World {
             .iter()
             .any(|(_, _, s)| s.backend == Backend::Gpu)
         {
-            let ctx = self
-                .gpu_context()
+            let on_gpu = self
+                .on_gpu()
                 .map_err(|e| SavedStateError::Invalid(e.to_string()))?;
-            for (_, _, s) in decoded.systems.iter_mut() {
+            let mut uploaded = std::collections::BTreeMap::new();
+            for (index, generation, s) in decoded.systems.iter_mut() {
                 if s.backend == Backend::Gpu {
-                    crate::gpu::upload(ctx, s)
+                    let buffers = crate::gpu::upload(&on_gpu.ctx, s)
                         .map_err(|e| SavedStateError::Invalid(e.to_string()))?;
+                    uploaded.insert((index, generation), buffers);
                 }
             }
+            on_gpu.forget_all();
+            on_gpu.systems = uploaded;
+        } else if let Some(on_gpu) = self.gpu.as_mut() {
+            on_gpu.forget_all();
         }
         #[cfg(not(feature = "gpu"))]
         if decoded

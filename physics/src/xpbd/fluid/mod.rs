@@ -435,21 +435,6 @@ pub struct Fluid {
     /// Where it steps: the CPU, or the GPU (`gpu/fluid.rs`) with these
     /// arrays as the mirror that readbacks fill.
     pub(crate) backend: crate::particle_system::Backend,
-    /// Its GPU buffers while it steps there.
-    #[cfg(feature = "gpu")]
-    pub(crate) gpu: GpuFluidSlot,
-}
-
-/// A fluid's GPU buffers (shared by clones of the handle).
-#[cfg(feature = "gpu")]
-#[derive(Clone, Default)]
-pub(crate) struct GpuFluidSlot(pub(crate) Option<std::sync::Arc<crate::gpu::fluid::GpuFluid>>);
-
-#[cfg(feature = "gpu")]
-impl std::fmt::Debug for GpuFluidSlot {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(if self.0.is_some() { "on the GPU" } else { "-" })
-    }
 }
 
 /// The numbers a step of a fluid uses, for the GPU path (`gpu/fluid.rs`),
@@ -543,8 +528,6 @@ impl Fluid {
             },
             emitters: Vec::new(),
             backend: crate::particle_system::Backend::Cpu,
-            #[cfg(feature = "gpu")]
-            gpu: GpuFluidSlot::default(),
         };
         fluid.push(&desc.positions, &desc.velocities);
         Ok(fluid)

@@ -227,29 +227,6 @@ pub struct SoftBody {
     pub(crate) self_collision: self_collision::SelfCollision,
     /// Where it steps (not saved: a restored body steps on the CPU).
     pub(crate) backend: crate::particle_system::Backend,
-    /// Its GPU buffers while it steps there.
-    #[cfg(feature = "gpu")]
-    pub(crate) gpu: GpuSoftSlot,
-}
-
-/// A soft body's GPU buffers, shared by clones; compared as equal (they
-/// are where the state lives, not the state).
-#[cfg(feature = "gpu")]
-#[derive(Clone, Default)]
-pub(crate) struct GpuSoftSlot(pub(crate) Option<std::sync::Arc<crate::gpu::soft::GpuSoftBody>>);
-
-#[cfg(feature = "gpu")]
-impl PartialEq for GpuSoftSlot {
-    fn eq(&self, _: &Self) -> bool {
-        true
-    }
-}
-
-#[cfg(feature = "gpu")]
-impl std::fmt::Debug for GpuSoftSlot {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(if self.0.is_some() { "on the GPU" } else { "-" })
-    }
 }
 
 fn invalid(what: &'static str, why: impl Into<String>) -> PhysicsError {
@@ -465,8 +442,6 @@ impl SoftBody {
             material: desc.material.clone(),
             self_collision: Default::default(),
             backend: crate::particle_system::Backend::Cpu,
-            #[cfg(feature = "gpu")]
-            gpu: GpuSoftSlot::default(),
             prev: x.clone(),
             x,
             v,
