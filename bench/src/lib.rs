@@ -8,6 +8,7 @@ pub mod copy;
 pub mod plot;
 pub mod report;
 pub mod suites;
+pub mod usage;
 
 /// Any failure of a suite (engine errors, missing particles, ...).
 pub type BenchError = Box<dyn std::error::Error + Send + Sync>;

@@ -45,6 +45,31 @@ pub fn logical_cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
+/// CPU thread counts measured: 1 and 2, and every core if there are more.
+pub fn thread_counts() -> Vec<usize> {
+    let mut t = vec![1, 2];
+    let n = logical_cores();
+    if n > 2 {
+        t.push(n);
+    }
+    t
+}
+
+/// `1e6` for 1 000 000, the number itself otherwise.
+pub fn sci(n: usize) -> String {
+    let mut k = 0;
+    let mut m = n;
+    while m >= 10 && m % 10 == 0 {
+        m /= 10;
+        k += 1;
+    }
+    if m == 1 && k > 0 {
+        format!("1e{k}")
+    } else {
+        n.to_string()
+    }
+}
+
 /// One measured case: an ordered set of named fields.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Measurement(pub Map<String, Value>);

@@ -92,13 +92,13 @@ pub fn codec_config() -> SnapshotConfig {
 
 /// The scene: the world, the small cubes' handles (ids 0..900) and the
 /// player's (id 900).
-struct Scene {
+struct CubeScene {
     world: World,
     bodies: Vec<BodyHandle>,
     player: BodyHandle,
 }
 
-fn build() -> Result<Scene, BenchError> {
+fn build() -> Result<CubeScene, BenchError> {
     let mut world = World::new(WorldConfig::default())?;
     world.set_gravity(DVec3::new(0.0, -9.81, 0.0))?;
     world.add_body(&RigidBodyDesc::fixed(
@@ -135,7 +135,7 @@ fn build() -> Result<Scene, BenchError> {
     d.friction_dynamic = 0.6;
     let player = world.add_body(&d)?;
     bodies.push(player);
-    Ok(Scene {
+    Ok(CubeScene {
         world,
         bodies,
         player,
@@ -158,7 +158,7 @@ fn path(t: f64) -> (DVec3, DVec3) {
 
 /// Steers the player: a force towards its point on the path, matched to
 /// the path's velocity, and a torque that rolls it the way it goes.
-fn drive(scene: &mut Scene, t: f64) -> Result<(), BenchError> {
+fn drive(scene: &mut CubeScene, t: f64) -> Result<(), BenchError> {
     let b = scene.world.body(scene.player).ok_or("player vanished")?;
     let (target, target_v) = path(t);
     let x = b.center_of_mass() * DVec3::new(1.0, 0.0, 1.0);
@@ -172,7 +172,7 @@ fn drive(scene: &mut Scene, t: f64) -> Result<(), BenchError> {
 }
 
 /// Every body's state, ascending by entity id.
-fn states(scene: &Scene) -> Vec<EntityState> {
+fn states(scene: &CubeScene) -> Vec<EntityState> {
     scene
         .bodies
         .iter()

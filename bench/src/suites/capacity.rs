@@ -395,7 +395,7 @@ fn steps(
     std::thread::sleep(Duration::from_secs_f64(idle_s));
     let idle_b = ServerMark::take(server);
     let idle_cpu = (idle_b.cpu_s - idle_a.cpu_s) / (idle_b.at - idle_a.at).as_secs_f64() * 100.0;
-    let idle_rss_mb = super::soak::rss_mb();
+    let idle_rss_mb = crate::usage::rss_mb();
 
     let per_step = warmup + seconds;
     let pb = progress(ks.len() as u64, "capacity");
@@ -464,7 +464,7 @@ fn steps(
         let thread_cpu: Vec<f64> = (0..THREAD_GROUPS.len())
             .map(|g| (b.threads_cpu_s[g] - a.threads_cpu_s[g]) / wall * 100.0)
             .collect();
-        let rss_mb = super::soak::rss_mb();
+        let rss_mb = crate::usage::rss_mb();
         // The server's CPU beyond what it spends with no client, per
         // snapshot sent.
         let cpu_us_per_snapshot = if encodes > 0 {

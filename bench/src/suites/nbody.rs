@@ -27,7 +27,7 @@ use inertia_physics::{
 };
 
 use crate::report::{median, note, progress, Measurement, Sink, SplitMix64, Suspended};
-use crate::suites::particles::{sci, thread_counts};
+use crate::report::{sci, thread_counts};
 use crate::{BenchError, Opts};
 
 /// Plummer softening length (scale radius 1).

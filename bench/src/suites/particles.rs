@@ -73,7 +73,8 @@ use inertia_physics::{
 
 use crate::copy::CopyBench;
 use crate::report::{
-    logical_cores, median, note, progress, Measurement, Sink, SplitMix64, Suspended,
+    logical_cores, median, note, progress, sci, thread_counts, Measurement, Sink, SplitMix64,
+    Suspended,
 };
 use crate::{BenchError, Opts};
 
@@ -230,24 +231,9 @@ impl Built {
     }
 }
 
-/// `1e6` for 1 000 000, the number itself otherwise.
-pub fn sci(n: usize) -> String {
-    let mut k = 0;
-    let mut m = n;
-    while m >= 10 && m % 10 == 0 {
-        m /= 10;
-        k += 1;
-    }
-    if m == 1 && k > 0 {
-        format!("1e{k}")
-    } else {
-        n.to_string()
-    }
-}
-
 /// Sizes and repetitions.
 #[derive(Debug, Clone, Copy)]
-struct Plan {
+struct SizePlan {
     reps: usize,
     /// Wall time one timed burst of steps (or copies) aims at, s.
     burst_s: f64,
@@ -256,17 +242,17 @@ struct Plan {
     compare_steps: usize,
 }
 
-impl Plan {
+impl SizePlan {
     fn new(opts: &Opts) -> Self {
         if opts.quick {
-            Plan {
+            SizePlan {
                 reps: 3,
                 burst_s: 0.002,
                 warmup: 1,
                 compare_steps: 3,
             }
         } else {
-            Plan {
+            SizePlan {
                 reps: 21,
                 burst_s: 0.02,
                 warmup: 3,
@@ -293,16 +279,6 @@ pub fn scenes(opts: &Opts) -> Vec<ParticleScene> {
     }
 }
 
-/// CPU thread counts measured: 1 and 2, and every core if there are more.
-pub fn thread_counts() -> Vec<usize> {
-    let mut t = vec![1, 2];
-    let n = logical_cores();
-    if n > 2 {
-        t.push(n);
-    }
-    t
-}
-
 /// Medians of interleaved copy and step bursts, s per copy and per step.
 struct Timing {
     step_s: f64,
@@ -314,7 +290,7 @@ struct Timing {
 /// every repetition, so neither always runs on a cache the other warmed),
 /// and returns the median time of one of each.
 fn interleaved(
-    plan: &Plan,
+    plan: &SizePlan,
     copy: &mut CopyBench,
     mut step: impl FnMut() -> Result<(), BenchError>,
 ) -> Result<Timing, BenchError> {
@@ -399,7 +375,7 @@ pub fn cpu_case(
     threads: usize,
     sink: &mut dyn Sink,
 ) -> Result<(), BenchError> {
-    let plan = Plan::new(opts);
+    let plan = SizePlan::new(opts);
     let mut b = scene.build(config(opts, threads, scene.energy_accounting(), true))?;
     let mut copy = CopyBench::new(b.bytes_per_step(scene) as usize, threads);
     let w = &mut b.world;
@@ -430,7 +406,7 @@ pub fn cpu_case(
 /// `sync_gpu`, so the work is really done). If the GPU backend is not
 /// available the record carries an `error` field instead of figures.
 pub fn gpu_case(opts: &Opts, scene: ParticleScene, sink: &mut dyn Sink) -> Result<(), BenchError> {
-    let plan = Plan::new(opts);
+    let plan = SizePlan::new(opts);
     let threads = logical_cores();
     let energy = scene.energy_accounting();
     let mut gb = scene.build(config(opts, 0, energy, false))?;

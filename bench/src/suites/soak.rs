@@ -46,6 +46,7 @@ use plotters::prelude::*;
 use super::bots::Bots;
 use super::capacity::exposed;
 use crate::report::{note, progress, Measurement, Sink};
+use crate::usage::{fds, rss_mb};
 use crate::{BenchError, Opts};
 
 /// Simulated minutes by default (`--minutes`).
@@ -71,7 +72,7 @@ pub const FD_SLACK: u64 = 32;
 
 /// One sample.
 #[derive(Debug, Clone, Copy, serde::Serialize)]
-struct Sample {
+struct SoakSample {
     wall_s: f64,
     sim_minutes: f64,
     ticks: u64,
@@ -81,23 +82,6 @@ struct Sample {
     seek_unbudgeted_mb: f64,
     recording_mb: f64,
     clients: u64,
-}
-
-/// The process's resident set, MiB (`VmRSS` in `/proc/self/status`).
-pub(crate) fn rss_mb() -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find_map(|l| l.strip_prefix("VmRSS:"))
-                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-        })
-        .map_or(f64::NAN, |kb| kb / 1024.0)
-}
-
-/// Open file descriptors of this process.
-fn fds() -> u64 {
-    std::fs::read_dir("/proc/self/fd").map_or(0, |d| d.count() as u64)
 }
 
 /// Bytes of every file under `dir`, MiB.
@@ -174,7 +158,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     let pb = progress(target_ticks, "soak (ticks)");
     let stats = server.sim().stats();
     let began = Instant::now();
-    let mut samples: Vec<Sample> = Vec::new();
+    let mut samples: Vec<SoakSample> = Vec::new();
     let mut waves: VecDeque<Bots> = VecDeque::new();
     let mut next_wave = Instant::now();
     let mut next_id = 1u64;
@@ -199,7 +183,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
         let ticks = stats.ticks.load(Ordering::Relaxed);
         let text = server.metrics().encode();
         let (seek_budgeted_mb, seek_unbudgeted_mb) = seek_mb(&text);
-        let sample = Sample {
+        let sample = SoakSample {
             wall_s: began.elapsed().as_secs_f64(),
             sim_minutes: ticks as f64 / f64::from(TICK_HZ) / 60.0,
             ticks,
@@ -237,7 +221,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     let peak_fds = samples.iter().map(|s| s.fds).max().unwrap_or(0);
     let rss_bound = warm.rss_mb + SEEK_MEMORY_MB as f64 + last.seek_unbudgeted_mb + RSS_SLACK_MB;
     let fd_bound = warm.fds + FD_SLACK;
-    let second_half: Vec<&Sample> = samples
+    let second_half: Vec<&SoakSample> = samples
         .iter()
         .filter(|s| s.sim_minutes >= last.sim_minutes / 2.0)
         .collect();
@@ -294,12 +278,12 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
 }
 
 /// Least-squares slope of RSS against simulated time, MiB per hour.
-fn slope_mb_per_hour(samples: &[&Sample]) -> f64 {
+fn slope_mb_per_hour(samples: &[&SoakSample]) -> f64 {
     let n = samples.len() as f64;
     if n < 2.0 {
         return f64::NAN;
     }
-    let hours = |s: &Sample| s.sim_minutes / 60.0;
+    let hours = |s: &SoakSample| s.sim_minutes / 60.0;
     let mx = samples.iter().map(|s| hours(s)).sum::<f64>() / n;
     let my = samples.iter().map(|s| s.rss_mb).sum::<f64>() / n;
     let sxy: f64 = samples
@@ -315,7 +299,11 @@ fn slope_mb_per_hour(samples: &[&Sample]) -> f64 {
 }
 
 /// Draws RSS, its bound and the seek memory against simulated minutes.
-fn draw(path: &Path, samples: &[Sample], rss_bound: f64) -> Result<(), Box<dyn std::error::Error>> {
+fn draw(
+    path: &Path,
+    samples: &[SoakSample],
+    rss_bound: f64,
+) -> Result<(), Box<dyn std::error::Error>> {
     let root = SVGBackend::new(path, (900, 500)).into_drawing_area();
     root.fill(&WHITE)?;
     let x_max = samples.last().map_or(1.0, |s| s.sim_minutes).max(1.0);
@@ -334,7 +322,7 @@ fn draw(path: &Path, samples: &[Sample], rss_bound: f64) -> Result<(), Box<dyn s
         .x_desc("simulated minutes")
         .y_desc("MiB")
         .draw()?;
-    let series = |f: fn(&Sample) -> f64| samples.iter().map(move |s| (s.sim_minutes, f(s)));
+    let series = |f: fn(&SoakSample) -> f64| samples.iter().map(move |s| (s.sim_minutes, f(s)));
     chart
         .draw_series(LineSeries::new(series(|s| s.rss_mb), &BLUE))?
         .label("resident set")
@@ -367,8 +355,8 @@ fn draw(path: &Path, samples: &[Sample], rss_bound: f64) -> Result<(), Box<dyn s
 mod tests {
     use super::*;
 
-    fn at(sim_minutes: f64, rss_mb: f64) -> Sample {
-        Sample {
+    fn at(sim_minutes: f64, rss_mb: f64) -> SoakSample {
+        SoakSample {
             wall_s: 0.0,
             sim_minutes,
             ticks: 0,
@@ -383,10 +371,10 @@ mod tests {
 
     #[test]
     fn slope_is_mib_per_simulated_hour() {
-        let samples: Vec<Sample> = (0..=60)
+        let samples: Vec<SoakSample> = (0..=60)
             .map(|m| at(f64::from(m), 100.0 + 0.5 * f64::from(m)))
             .collect();
-        let refs: Vec<&Sample> = samples.iter().collect();
+        let refs: Vec<&SoakSample> = samples.iter().collect();
         assert!((slope_mb_per_hour(&refs) - 30.0).abs() < 1e-9);
         assert!(slope_mb_per_hour(&refs[..1]).is_nan());
     }

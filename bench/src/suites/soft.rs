@@ -53,7 +53,7 @@ const DT: f64 = 1.0 / 60.0;
 
 /// A scene of the suite.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Scene {
+enum SoftScene {
     /// An `n` × `n` cloth hanging from rings along its top edge.
     Cloth(u32),
     /// A jelly of `n`³ cells on the ground.
@@ -62,14 +62,14 @@ enum Scene {
     Fluid(u32),
 }
 
-impl Scene {
+impl SoftScene {
     fn name(self) -> String {
         match self {
-            Scene::Cloth(n) => format!("cloth_{n}"),
-            Scene::Jelly(n) => format!("jelly_{n}"),
-            Scene::Fluid(n) if n % 1_000_000 == 0 => format!("fluid_{}m", n / 1_000_000),
-            Scene::Fluid(n) if n % 1000 == 0 => format!("fluid_{}k", n / 1000),
-            Scene::Fluid(n) => format!("fluid_{n}"),
+            SoftScene::Cloth(n) => format!("cloth_{n}"),
+            SoftScene::Jelly(n) => format!("jelly_{n}"),
+            SoftScene::Fluid(n) if n % 1_000_000 == 0 => format!("fluid_{}m", n / 1_000_000),
+            SoftScene::Fluid(n) if n % 1000 == 0 => format!("fluid_{}k", n / 1000),
+            SoftScene::Fluid(n) => format!("fluid_{n}"),
         }
     }
 
@@ -94,7 +94,7 @@ impl Scene {
             ..SoftMaterial::default()
         };
         let h = match self {
-            Scene::Cloth(n) => {
+            SoftScene::Cloth(n) => {
                 let side = 0.02 * f64::from(n - 1);
                 let cloth = SoftCloth {
                     corner: DVec3::new(-side / 2.0, side + 1.0, 0.0),
@@ -112,7 +112,7 @@ impl Scene {
                 };
                 Handle::Soft(w.add_soft_body(&cloth.build()?)?)
             }
-            Scene::Jelly(n) => {
+            SoftScene::Jelly(n) => {
                 w.add_body(&RigidBodyDesc::fixed(
                     Shape::cuboid(DVec3::new(10.0, 0.5, 10.0))?,
                     Pose {
@@ -135,7 +135,7 @@ impl Scene {
                 };
                 Handle::Soft(w.add_soft_body(&solid.build()?)?)
             }
-            Scene::Fluid(n) => {
+            SoftScene::Fluid(n) => {
                 // A dam of 2s × s × s particles 5 cm apart (2 s³ ≈ n) at
                 // one end of a tank four times as long.
                 let s = (f64::from(n) / 2.0).cbrt().round();
@@ -189,24 +189,28 @@ fn tank(w: &mut World, inside: DVec3) -> Result<(), BenchError> {
     Ok(())
 }
 
-fn scenes(opts: &Opts) -> Vec<Scene> {
+fn scenes(opts: &Opts) -> Vec<SoftScene> {
     if opts.quick {
-        vec![Scene::Cloth(32), Scene::Jelly(6), Scene::Fluid(2000)]
+        vec![
+            SoftScene::Cloth(32),
+            SoftScene::Jelly(6),
+            SoftScene::Fluid(2000),
+        ]
     } else {
         vec![
-            Scene::Cloth(64),
-            Scene::Cloth(128),
-            Scene::Cloth(387),
-            Scene::Jelly(20),
-            Scene::Fluid(10_000),
-            Scene::Fluid(100_000),
+            SoftScene::Cloth(64),
+            SoftScene::Cloth(128),
+            SoftScene::Cloth(387),
+            SoftScene::Jelly(20),
+            SoftScene::Fluid(10_000),
+            SoftScene::Fluid(100_000),
         ]
     }
 }
 
 /// Runs the suite.
 pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
-    let scenes: Vec<Scene> = scenes(opts)
+    let scenes: Vec<SoftScene> = scenes(opts)
         .into_iter()
         .filter(|s| opts.wants(&s.name()))
         .collect();
@@ -270,7 +274,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
                         .field("constraints", b.constraints())
                         .field("substeps", b.material().substeps);
                     match scene {
-                        Scene::Jelly(_) => {
+                        SoftScene::Jelly(_) => {
                             r.num("volume_kept", f64::from(b.volume() / b.rest_volume()))
                         }
                         _ => r.num("max_strain", f64::from(b.max_strain())),
@@ -296,10 +300,10 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
             );
         }
         #[cfg(feature = "gpu")]
-        if let (Scene::Cloth(_) | Scene::Jelly(_), Handle::Soft(h)) = (scene, worlds[0].1) {
+        if let (SoftScene::Cloth(_) | SoftScene::Jelly(_), Handle::Soft(h)) = (scene, worlds[0].1) {
             let (cpu, _) = worlds.swap_remove(0);
             on_gpu.push((scene, cpu, h));
-        } else if let (Scene::Fluid(_), Handle::Fluid(h)) = (scene, worlds[0].1) {
+        } else if let (SoftScene::Fluid(_), Handle::Fluid(h)) = (scene, worlds[0].1) {
             let (cpu, _) = worlds.swap_remove(0);
             fluids_on_gpu.push((scene, Some((cpu, h))));
         }
@@ -307,8 +311,8 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     }
     // A million particles on the GPU alone: the CPU would take minutes.
     #[cfg(feature = "gpu")]
-    if !opts.quick && opts.wants(&Scene::Fluid(1_000_000).name()) {
-        fluids_on_gpu.push((Scene::Fluid(1_000_000), None));
+    if !opts.quick && opts.wants(&SoftScene::Fluid(1_000_000).name()) {
+        fluids_on_gpu.push((SoftScene::Fluid(1_000_000), None));
     }
     // The GPU cases last: a CPU adapter's worker threads would otherwise
     // share the cores with the CPU cases after them.
@@ -356,7 +360,7 @@ const MOST_ON_A_CPU_ADAPTER: usize = 128 * 128;
 /// shaders on the cores the CPU rows measure.
 #[cfg(feature = "gpu")]
 fn gpu_case(
-    scene: Scene,
+    scene: SoftScene,
     warmup: usize,
     steps: usize,
     cpu: &World,
@@ -404,7 +408,7 @@ fn gpu_case(
         .field("constraints", b.constraints())
         .field("substeps", b.material().substeps);
     let r = match scene {
-        Scene::Jelly(_) => r.num("volume_kept", f64::from(b.volume() / b.rest_volume())),
+        SoftScene::Jelly(_) => r.num("volume_kept", f64::from(b.volume() / b.rest_volume())),
         _ => r.num("max_strain", f64::from(b.max_strain())),
     };
     sink.record(
@@ -418,7 +422,7 @@ fn gpu_case(
 #[cfg(feature = "gpu")]
 #[derive(Debug, Clone, Copy)]
 struct FluidRun {
-    scene: Scene,
+    scene: SoftScene,
     warmup: usize,
     steps: usize,
     /// Run a case sized for a real GPU on a CPU adapter too.
@@ -445,7 +449,7 @@ fn fluid_gpu_case(
         steps,
         large,
     } = run;
-    let Scene::Fluid(n) = scene else {
+    let SoftScene::Fluid(n) = scene else {
         return Err("not a fluid".into());
     };
     let base = Measurement::new()

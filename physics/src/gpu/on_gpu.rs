@@ -19,7 +19,7 @@ use super::fluid::{FluidPipelines, GpuFluid};
 use super::soft::{GpuSoftBody, SoftPipelines};
 
 /// An arena slot: a handle's index and generation.
-type Slot = (u32, u32);
+type HandleSlot = (u32, u32);
 
 /// A world's GPU side.
 pub(crate) struct OnGpu {
@@ -31,12 +31,12 @@ pub(crate) struct OnGpu {
     /// too few storage buffers per shader.
     pub(crate) fluid_pipelines: Option<FluidPipelines>,
     /// The particle systems on the GPU, by slot.
-    pub(crate) systems: BTreeMap<Slot, GpuSystem>,
+    pub(crate) systems: BTreeMap<HandleSlot, GpuSystem>,
     /// The soft bodies on the GPU, by slot (shared with a step in flight
     /// that uploads a body again).
-    pub(crate) soft_bodies: BTreeMap<Slot, Arc<GpuSoftBody>>,
+    pub(crate) soft_bodies: BTreeMap<HandleSlot, Arc<GpuSoftBody>>,
     /// The fluids on the GPU, by slot.
-    pub(crate) fluids: BTreeMap<Slot, Arc<GpuFluid>>,
+    pub(crate) fluids: BTreeMap<HandleSlot, Arc<GpuFluid>>,
 }
 
 impl std::fmt::Debug for OnGpu {

@@ -344,7 +344,7 @@ fn target_leaves<'a>(shape: &'a Shape, pose: Pose, out: &mut Vec<Part<'a>>) {
 }
 
 /// A body the swept path may meet.
-struct Target<'a> {
+struct SweepTarget<'a> {
     handle: BodyHandle,
     shape: &'a Shape,
     pose: Pose,
@@ -366,7 +366,7 @@ struct ChordHit {
 fn nearest_contact(
     parts: &[Part<'_>],
     frame: Pose,
-    target: &Target<'_>,
+    target: &SweepTarget<'_>,
     margin: f64,
 ) -> Result<Option<(DVec3, DVec3, f64)>, PhysicsError> {
     let mut leaves = Vec::new();
@@ -409,7 +409,7 @@ struct Sweep<'a> {
     radius: f64,
     /// Convex pieces of the body; empty: a ray from the centre of mass.
     parts: Vec<Part<'a>>,
-    targets: Vec<Target<'a>>,
+    targets: Vec<SweepTarget<'a>>,
     /// Targets the body touches at the start and moves away from: ignored
     /// until it has left them.
     leaving: Vec<bool>,
@@ -686,7 +686,7 @@ impl World {
         sweep.targets = self
             .shaped_bodies()
             .filter(|(h, other, _, _)| *h != body && !other.sensor && !other.quarantined)
-            .map(|(handle, _, shape, pose)| Target {
+            .map(|(handle, _, shape, pose)| SweepTarget {
                 handle,
                 shape,
                 pose,

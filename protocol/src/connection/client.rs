@@ -108,7 +108,7 @@ impl ClientConnectionEnd {
 }
 
 #[derive(Debug)]
-enum State {
+enum ClientPhase {
     /// The hello is on its way; the welcome is due by `deadline`.
     Hello { deadline: Instant },
     /// Welcomed.
@@ -127,7 +127,7 @@ enum State {
 #[derive(Debug)]
 pub struct ClientConnection {
     config: ClientConnectionConfig,
-    state: State,
+    state: ClientPhase,
     outbox: Outbox,
     frames: FrameDecoder,
     end: Option<ClientConnectionEnd>,
@@ -145,7 +145,7 @@ impl ClientConnection {
     ) -> ClientConnection {
         let mut outbox = Outbox::new(now);
         let mut end = None;
-        let mut state = State::Hello {
+        let mut state = ClientPhase::Hello {
             deadline: now + config.handshake,
         };
         match encode_frame(&ClientControl::Hello { version, token }) {
@@ -156,7 +156,7 @@ impl ClientConnection {
                 end = Some(ClientConnectionEnd::Protocol(format!(
                     "the hello cannot be coded: {e}"
                 )));
-                state = State::Closed { close: None };
+                state = ClientPhase::Closed { close: None };
             }
         }
         ClientConnection {
@@ -185,40 +185,42 @@ impl ClientConnection {
     /// say nothing more, and closes the connection next.
     pub fn on_control_finished(&mut self, now: Instant) {
         match self.state {
-            State::Hello { .. } => self.end_now(
+            ClientPhase::Hello { .. } => self.end_now(
                 ClientConnectionEnd::Protocol("control stream closed".into()),
                 None,
             ),
-            State::Live => {
-                self.state = State::Draining {
+            ClientPhase::Live => {
+                self.state = ClientPhase::Draining {
                     deadline: now + self.config.drain,
                 };
             }
-            State::Leaving { .. } | State::Draining { .. } | State::Closed { .. } => {}
+            ClientPhase::Leaving { .. }
+            | ClientPhase::Draining { .. }
+            | ClientPhase::Closed { .. } => {}
         }
     }
 
     /// The connection closed under the client, for `reason` (the server's
     /// close as [`DisconnectReason::from_close`] reads it, a timeout, ...).
     pub fn on_lost(&mut self, reason: DisconnectReason) {
-        if matches!(self.state, State::Closed { .. }) {
+        if matches!(self.state, ClientPhase::Closed { .. }) {
             return;
         }
         self.set_end(ClientConnectionEnd::Disconnected(reason));
         self.outbox.clear();
-        self.state = State::Closed { close: None };
+        self.state = ClientPhase::Closed { close: None };
     }
 
     /// The game leaves at `now`: a goodbye, then the close.
     pub fn close(&mut self, now: Instant) {
         match self.state {
-            State::Live => match encode_frame(&ClientControl::Goodbye) {
+            ClientPhase::Live => match encode_frame(&ClientControl::Goodbye) {
                 Ok(frame) => {
                     self.set_end(ClientConnectionEnd::Disconnected(
                         DisconnectReason::ClientLeft,
                     ));
                     self.outbox.push_coded(&frame, now);
-                    self.state = State::Leaving {
+                    self.state = ClientPhase::Leaving {
                         phase: LastWords::flushing(now, self.config.goodbye),
                     };
                 }
@@ -227,21 +229,21 @@ impl ClientConnection {
                     Some(left()),
                 ),
             },
-            State::Hello { .. } | State::Draining { .. } => self.end_now(
+            ClientPhase::Hello { .. } | ClientPhase::Draining { .. } => self.end_now(
                 ClientConnectionEnd::Disconnected(DisconnectReason::ClientLeft),
                 Some(left()),
             ),
-            State::Leaving { .. } | State::Closed { .. } => {}
+            ClientPhase::Leaving { .. } | ClientPhase::Closed { .. } => {}
         }
     }
 
     /// Acts on every deadline at or before `now`.
     pub fn handle_timeout(&mut self, now: Instant) {
         match self.state {
-            State::Hello { deadline } if now >= deadline => {
+            ClientPhase::Hello { deadline } if now >= deadline => {
                 self.end_now(ClientConnectionEnd::HandshakeTimeout, Some(left()));
             }
-            State::Draining { deadline } if now >= deadline => {
+            ClientPhase::Draining { deadline } if now >= deadline => {
                 // The server's goodbye (kept) or its silence: the client
                 // closes.
                 self.end_now(
@@ -249,7 +251,7 @@ impl ClientConnection {
                     Some(left()),
                 );
             }
-            State::Leaving { phase } if now >= phase.deadline() => {
+            ClientPhase::Leaving { phase } if now >= phase.deadline() => {
                 if phase.is_flushing() {
                     self.start_finishing(now);
                 } else {
@@ -266,9 +268,9 @@ impl ClientConnection {
     /// The next deadline, if any.
     pub fn poll_timeout(&self) -> Option<Instant> {
         match self.state {
-            State::Hello { deadline } | State::Draining { deadline } => Some(deadline),
-            State::Leaving { phase } => Some(phase.deadline()),
-            State::Live | State::Closed { .. } => None,
+            ClientPhase::Hello { deadline } | ClientPhase::Draining { deadline } => Some(deadline),
+            ClientPhase::Leaving { phase } => Some(phase.deadline()),
+            ClientPhase::Live | ClientPhase::Closed { .. } => None,
         }
     }
 
@@ -287,7 +289,7 @@ impl ClientConnection {
     pub fn control_written(&mut self, n: usize, now: Instant) {
         self.outbox.advance(n, now);
         if self.outbox.is_empty()
-            && matches!(&self.state, State::Leaving { phase } if phase.is_flushing())
+            && matches!(&self.state, ClientPhase::Leaving { phase } if phase.is_flushing())
         {
             self.start_finishing(now);
         }
@@ -296,24 +298,24 @@ impl ClientConnection {
     /// True when the control stream should be finished now; say so with
     /// [`Self::finish_sent`].
     pub fn wants_finish(&self) -> bool {
-        matches!(&self.state, State::Leaving { phase } if phase.wants_finish())
+        matches!(&self.state, ClientPhase::Leaving { phase } if phase.wants_finish())
     }
 
     /// The control stream was finished.
     pub fn finish_sent(&mut self) {
-        if let State::Leaving { phase } = &mut self.state {
+        if let ClientPhase::Leaving { phase } = &mut self.state {
             phase.finish_sent();
         }
     }
 
     /// True while the finished stream waits to be taken by the server.
     pub fn awaits_finish(&self) -> bool {
-        matches!(&self.state, State::Leaving { phase } if phase.awaits_finish())
+        matches!(&self.state, ClientPhase::Leaving { phase } if phase.awaits_finish())
     }
 
     /// The server took the finished stream: the connection closes.
     pub fn on_finish_taken(&mut self) {
-        if matches!(self.state, State::Leaving { .. }) {
+        if matches!(self.state, ClientPhase::Leaving { .. }) {
             self.end_now(
                 ClientConnectionEnd::Disconnected(DisconnectReason::ClientLeft),
                 Some(left()),
@@ -323,24 +325,24 @@ impl ClientConnection {
 
     /// True while the connection wants the server's control-stream bytes.
     pub fn reads_control(&self) -> bool {
-        matches!(self.state, State::Hello { .. } | State::Live)
+        matches!(self.state, ClientPhase::Hello { .. } | ClientPhase::Live)
     }
 
     /// True once welcomed and not ending.
     pub fn is_live(&self) -> bool {
-        matches!(self.state, State::Live)
+        matches!(self.state, ClientPhase::Live)
     }
 
     /// True once done: close the link with [`Self::close_frame`].
     pub fn is_closed(&self) -> bool {
-        matches!(self.state, State::Closed { .. })
+        matches!(self.state, ClientPhase::Closed { .. })
     }
 
     /// The close to put on the link once [`Self::is_closed`] (`None`
     /// before, or when the link is already gone).
     pub fn close_frame(&self) -> Option<&Close> {
         match &self.state {
-            State::Closed { close } => close.as_ref(),
+            ClientPhase::Closed { close } => close.as_ref(),
             _ => None,
         }
     }
@@ -363,11 +365,11 @@ impl ClientConnection {
                 }
             };
             match (&self.state, msg) {
-                (State::Hello { .. }, ServerControl::Refused(refusal)) => {
+                (ClientPhase::Hello { .. }, ServerControl::Refused(refusal)) => {
                     self.end_now(ClientConnectionEnd::Refused(refusal), None);
                 }
                 (
-                    State::Hello { .. },
+                    ClientPhase::Hello { .. },
                     ServerControl::Welcome {
                         client_id,
                         tick,
@@ -380,7 +382,7 @@ impl ClientConnection {
                     },
                 ) => {
                     let snapshot = snapshot.config(position_resolution, position_bound);
-                    self.state = State::Live;
+                    self.state = ClientPhase::Live;
                     self.events
                         .push_back(ClientConnectionEvent::Welcomed(ServerInfo {
                             client_id,
@@ -391,26 +393,28 @@ impl ClientConnection {
                             server_version,
                         }));
                 }
-                (State::Hello { .. }, other) => {
+                (ClientPhase::Hello { .. }, other) => {
                     self.fail(format!("expected a welcome, got {other:?}"));
                 }
-                (State::Live, ServerControl::Goodbye(reason)) => {
+                (ClientPhase::Live, ServerControl::Goodbye(reason)) => {
                     self.set_end(ClientConnectionEnd::Disconnected(reason.clone()));
                     self.events
                         .push_back(ClientConnectionEvent::Message(ServerControl::Goodbye(
                             reason,
                         )));
-                    self.state = State::Draining {
+                    self.state = ClientPhase::Draining {
                         deadline: now + self.config.drain,
                     };
                 }
                 (
-                    State::Live,
+                    ClientPhase::Live,
                     other @ (ServerControl::Welcome { .. } | ServerControl::Refused(_)),
                 ) => {
                     self.fail(format!("unexpected after the welcome: {other:?}"));
                 }
-                (State::Live, msg) => self.events.push_back(ClientConnectionEvent::Message(msg)),
+                (ClientPhase::Live, msg) => {
+                    self.events.push_back(ClientConnectionEvent::Message(msg))
+                }
                 _ => return,
             }
         }
@@ -435,13 +439,13 @@ impl ClientConnection {
     fn end_now(&mut self, end: ClientConnectionEnd, close: Option<Close>) {
         self.set_end(end);
         self.outbox.clear();
-        self.state = State::Closed { close };
+        self.state = ClientPhase::Closed { close };
     }
 
     /// Finishes the stream: what could not be written by now is given up.
     fn start_finishing(&mut self, now: Instant) {
         self.outbox.clear();
-        self.state = State::Leaving {
+        self.state = ClientPhase::Leaving {
             phase: LastWords::finishing(now, self.config.finish),
         };
     }

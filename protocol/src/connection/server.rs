@@ -103,7 +103,7 @@ impl Close {
 }
 
 #[derive(Debug)]
-enum State {
+enum ServerPhase {
     /// Waiting for the client's whole hello until `deadline` (its stream
     /// may not be open yet).
     Hello { deadline: Instant },
@@ -125,7 +125,7 @@ enum State {
 #[derive(Debug)]
 pub struct ServerConnection {
     config: ServerConnectionConfig,
-    state: State,
+    state: ServerPhase,
     outbox: Outbox,
     frames: FrameDecoder,
     /// The client ended its control stream: it will send nothing more.
@@ -144,7 +144,7 @@ impl ServerConnection {
     pub fn new(config: ServerConnectionConfig, now: Instant) -> ServerConnection {
         ServerConnection {
             config,
-            state: State::Hello {
+            state: ServerPhase::Hello {
                 deadline: now + config.hello,
             },
             outbox: Outbox::new(now),
@@ -168,7 +168,7 @@ impl ServerConnection {
         }
         if let Err(e) = self.frames.push(bytes) {
             match self.state {
-                State::Hello { .. } => self.refuse(Refusal::Malformed, now),
+                ServerPhase::Hello { .. } => self.refuse(Refusal::Malformed, now),
                 _ => self.fail(e.to_string(), now),
             }
             return;
@@ -182,15 +182,17 @@ impl ServerConnection {
         self.peer_finished = true;
         match self.state {
             // Nothing can complete the hello now.
-            State::Hello { .. } => self.end_now(
+            ServerPhase::Hello { .. } => self.end_now(
                 ServerConnectionEnd::StreamEndedBeforeHello,
                 Some(hello_cut_short()),
             ),
             // The answer still goes out; a client admitted leaves once
             // welcomed.
-            State::Deciding | State::Welcoming { .. } => {}
-            State::Live { .. } => self.end_now(ServerConnectionEnd::Left, Some(goodbye_close())),
-            State::Closing { .. } | State::Closed { .. } => {}
+            ServerPhase::Deciding | ServerPhase::Welcoming { .. } => {}
+            ServerPhase::Live { .. } => {
+                self.end_now(ServerConnectionEnd::Left, Some(goodbye_close()))
+            }
+            ServerPhase::Closing { .. } | ServerPhase::Closed { .. } => {}
         }
     }
 
@@ -198,13 +200,13 @@ impl ServerConnection {
     /// lives on): `why` is the stream's error.
     pub fn on_control_reset(&mut self, why: &str, now: Instant) {
         match self.state {
-            State::Hello { .. } => self.end_now(
+            ServerPhase::Hello { .. } => self.end_now(
                 ServerConnectionEnd::StreamEndedBeforeHello,
                 Some(hello_cut_short()),
             ),
-            State::Deciding | State::Welcoming { .. } => self.peer_finished = true,
-            State::Live { .. } => self.fail(format!("control stream: {why}"), now),
-            State::Closing { .. } | State::Closed { .. } => {}
+            ServerPhase::Deciding | ServerPhase::Welcoming { .. } => self.peer_finished = true,
+            ServerPhase::Live { .. } => self.fail(format!("control stream: {why}"), now),
+            ServerPhase::Closing { .. } | ServerPhase::Closed { .. } => {}
         }
     }
 
@@ -213,8 +215,8 @@ impl ServerConnection {
     pub fn on_control_write_failed(&mut self, why: &str, now: Instant) {
         self.outbox.clear();
         match self.state {
-            State::Closing { .. } => self.close_now(),
-            State::Closed { .. } => {}
+            ServerPhase::Closing { .. } => self.close_now(),
+            ServerPhase::Closed { .. } => {}
             _ => self.fail(format!("control stream: {why}"), now),
         }
     }
@@ -222,7 +224,7 @@ impl ServerConnection {
     /// The link failed under the connection (`why`): nothing more can be
     /// sent or received.
     pub fn on_lost(&mut self, why: &str) {
-        if matches!(self.state, State::Closed { .. }) {
+        if matches!(self.state, ServerPhase::Closed { .. }) {
             return;
         }
         if self.end.is_none() {
@@ -230,7 +232,7 @@ impl ServerConnection {
             self.events.push_back(ServerConnectionEvent::Ending);
         }
         self.outbox.clear();
-        self.state = State::Closed { close: None };
+        self.state = ServerPhase::Closed { close: None };
     }
 
     /// A datagram came from the client at `now`: its inputs wait in
@@ -241,7 +243,7 @@ impl ServerConnection {
     /// datagram, even one that does not decode, keeps it from going
     /// silent. One that does not decode changes nothing else.
     pub fn on_datagram(&mut self, bytes: &[u8], now: Instant) -> Result<Option<u16>, InputError> {
-        let State::Live { heard } = &mut self.state else {
+        let ServerPhase::Live { heard } = &mut self.state else {
             return Ok(None);
         };
         *heard = now;
@@ -258,14 +260,14 @@ impl ServerConnection {
     /// Admits the client whose hello was [`ServerConnectionEvent::Hello`], with
     /// `welcome`; the client has the hello timeout again to take it.
     pub fn admit(&mut self, welcome: &ServerControl, now: Instant) {
-        if !matches!(self.state, State::Deciding) {
+        if !matches!(self.state, ServerPhase::Deciding) {
             return;
         }
         if let Err(e) = self.outbox.push(welcome, now) {
             self.fail(format!("the welcome cannot be coded: {e}"), now);
             return;
         }
-        self.state = State::Welcoming {
+        self.state = ServerPhase::Welcoming {
             deadline: now + self.config.hello,
         };
     }
@@ -290,7 +292,10 @@ impl ServerConnection {
     /// changes and events) for a live client. A client more than
     /// [`ServerConnectionConfig::outbox_limit`] bytes behind is let go.
     pub fn queue_control(&mut self, frames: &[u8], now: Instant) {
-        if !matches!(self.state, State::Live { .. } | State::Welcoming { .. }) {
+        if !matches!(
+            self.state,
+            ServerPhase::Live { .. } | ServerPhase::Welcoming { .. }
+        ) {
             return;
         }
         self.outbox.push_coded(frames, now);
@@ -318,7 +323,10 @@ impl ServerConnection {
 
     /// An operator or the game removes the client, telling it `reason`.
     pub fn kick(&mut self, reason: String, now: Instant) {
-        if !matches!(self.state, State::Live { .. } | State::Welcoming { .. }) {
+        if !matches!(
+            self.state,
+            ServerPhase::Live { .. } | ServerPhase::Welcoming { .. }
+        ) {
             return;
         }
         let said = DisconnectReason::Kicked {
@@ -331,7 +339,10 @@ impl ServerConnection {
     /// has not said hello yet is left to its hello (its answer will be a
     /// refusal).
     pub fn shut_down(&mut self, reason: DisconnectReason, now: Instant) {
-        if !matches!(self.state, State::Live { .. } | State::Welcoming { .. }) {
+        if !matches!(
+            self.state,
+            ServerPhase::Live { .. } | ServerPhase::Welcoming { .. }
+        ) {
             return;
         }
         self.say_goodbye(ServerConnectionEnd::Shutdown(reason.clone()), reason, now);
@@ -340,13 +351,15 @@ impl ServerConnection {
     /// Acts on every deadline at or before `now`.
     pub fn handle_timeout(&mut self, now: Instant) {
         match self.state {
-            State::Hello { deadline } | State::Welcoming { deadline } if now >= deadline => {
+            ServerPhase::Hello { deadline } | ServerPhase::Welcoming { deadline }
+                if now >= deadline =>
+            {
                 self.end_now(
                     ServerConnectionEnd::HelloTimeout,
                     Some(Close::new(close_code::REFUSED, "no hello in time")),
                 );
             }
-            State::Live { heard } => {
+            ServerPhase::Live { heard } => {
                 let silence = self.config.silence;
                 if now >= heard + silence {
                     self.fail(
@@ -369,7 +382,7 @@ impl ServerConnection {
                     self.fail(what, now);
                 }
             }
-            State::Closing { phase, .. } if now >= phase.deadline() => {
+            ServerPhase::Closing { phase, .. } if now >= phase.deadline() => {
                 if phase.is_flushing() {
                     self.start_finishing(now);
                 } else {
@@ -383,14 +396,16 @@ impl ServerConnection {
     /// The next deadline, if any: call [`Self::handle_timeout`] then.
     pub fn poll_timeout(&self) -> Option<Instant> {
         match &self.state {
-            State::Hello { deadline } | State::Welcoming { deadline } => Some(*deadline),
-            State::Deciding | State::Closed { .. } => None,
-            State::Live { heard } => {
+            ServerPhase::Hello { deadline } | ServerPhase::Welcoming { deadline } => {
+                Some(*deadline)
+            }
+            ServerPhase::Deciding | ServerPhase::Closed { .. } => None,
+            ServerPhase::Live { heard } => {
                 let silent = *heard + self.config.silence;
                 let stall = self.outbox.stall_deadline(self.config.control_stall);
                 Some(stall.map_or(silent, |s| s.min(silent)))
             }
-            State::Closing { phase, .. } => Some(phase.deadline()),
+            ServerPhase::Closing { phase, .. } => Some(phase.deadline()),
         }
     }
 
@@ -413,8 +428,8 @@ impl ServerConnection {
             return;
         }
         match self.state {
-            State::Welcoming { .. } => {
-                self.state = State::Live { heard: now };
+            ServerPhase::Welcoming { .. } => {
+                self.state = ServerPhase::Live { heard: now };
                 self.events.push_back(ServerConnectionEvent::Live);
                 if self.peer_finished {
                     self.end_now(ServerConnectionEnd::Left, Some(goodbye_close()));
@@ -423,7 +438,7 @@ impl ServerConnection {
                     self.take_messages(now);
                 }
             }
-            State::Closing { phase, .. } if phase.is_flushing() => self.start_finishing(now),
+            ServerPhase::Closing { phase, .. } if phase.is_flushing() => self.start_finishing(now),
             _ => {}
         }
     }
@@ -431,18 +446,18 @@ impl ServerConnection {
     /// True when the control stream should be finished now (the last
     /// words are written); say so with [`Self::finish_sent`].
     pub fn wants_finish(&self) -> bool {
-        matches!(&self.state, State::Closing { phase, .. } if phase.wants_finish())
+        matches!(&self.state, ServerPhase::Closing { phase, .. } if phase.wants_finish())
     }
 
     /// True while the finished stream waits to be taken by the client;
     /// say when it was with [`Self::on_finish_taken`].
     pub fn awaits_finish(&self) -> bool {
-        matches!(&self.state, State::Closing { phase, .. } if phase.awaits_finish())
+        matches!(&self.state, ServerPhase::Closing { phase, .. } if phase.awaits_finish())
     }
 
     /// The control stream was finished.
     pub fn finish_sent(&mut self) {
-        if let State::Closing { phase, .. } = &mut self.state {
+        if let ServerPhase::Closing { phase, .. } = &mut self.state {
             phase.finish_sent();
         }
     }
@@ -450,7 +465,7 @@ impl ServerConnection {
     /// The client took everything on the finished stream (or stopped it):
     /// the connection closes.
     pub fn on_finish_taken(&mut self) {
-        if matches!(self.state, State::Closing { .. }) {
+        if matches!(self.state, ServerPhase::Closing { .. }) {
             self.close_now();
         }
     }
@@ -463,14 +478,14 @@ impl ServerConnection {
     /// True once the connection is done: close the link with
     /// [`Self::close_frame`].
     pub fn is_closed(&self) -> bool {
-        matches!(self.state, State::Closed { .. })
+        matches!(self.state, ServerPhase::Closed { .. })
     }
 
     /// The close to put on the link once [`Self::is_closed`] (`None`
     /// before, or when the link is already gone).
     pub fn close_frame(&self) -> Option<&Close> {
         match &self.state {
-            State::Closed { close } => close.as_ref(),
+            ServerPhase::Closed { close } => close.as_ref(),
             _ => None,
         }
     }
@@ -480,16 +495,22 @@ impl ServerConnection {
     /// welcome waits, the stream is left unread, so a client that writes
     /// on meets its flow-control window instead of the server's memory.
     pub fn reads_control(&self) -> bool {
-        matches!(self.state, State::Hello { .. } | State::Live { .. })
+        matches!(
+            self.state,
+            ServerPhase::Hello { .. } | ServerPhase::Live { .. }
+        )
     }
 
     /// True while the client is live (welcomed, and not ending).
     pub fn is_live(&self) -> bool {
-        matches!(self.state, State::Live { .. })
+        matches!(self.state, ServerPhase::Live { .. })
     }
 
     fn is_ending(&self) -> bool {
-        matches!(self.state, State::Closing { .. } | State::Closed { .. })
+        matches!(
+            self.state,
+            ServerPhase::Closing { .. } | ServerPhase::Closed { .. }
+        )
     }
 
     /// Decodes what the client sent, as far as the state lets it. Each
@@ -497,10 +518,10 @@ impl ServerConnection {
     /// message after it the connection), so at most one is taken.
     fn take_messages(&mut self, now: Instant) {
         match self.state {
-            State::Hello { .. } => match self.frames.next::<ClientControl>() {
+            ServerPhase::Hello { .. } => match self.frames.next::<ClientControl>() {
                 None => {}
                 Some(Ok(ClientControl::Hello { version, token })) => {
-                    self.state = State::Deciding;
+                    self.state = ServerPhase::Deciding;
                     self.events
                         .push_back(ServerConnectionEvent::Hello { version, token });
                 }
@@ -509,7 +530,7 @@ impl ServerConnection {
                     self.refuse(Refusal::Malformed, now);
                 }
             },
-            State::Live { .. } => match self.frames.next::<ClientControl>() {
+            ServerPhase::Live { .. } => match self.frames.next::<ClientControl>() {
                 None => {}
                 Some(Ok(ClientControl::Goodbye)) => {
                     self.end_now(ServerConnectionEnd::Left, Some(goodbye_close()));
@@ -518,8 +539,8 @@ impl ServerConnection {
                 Some(Err(e)) => self.fail(e.to_string(), now),
             },
             // Read once the client is live.
-            State::Deciding | State::Welcoming { .. } => {}
-            State::Closing { .. } | State::Closed { .. } => {}
+            ServerPhase::Deciding | ServerPhase::Welcoming { .. } => {}
+            ServerPhase::Closing { .. } | ServerPhase::Closed { .. } => {}
         }
     }
 
@@ -540,7 +561,7 @@ impl ServerConnection {
     /// the stream finished, and the link closed with `close`.
     fn end_saying(&mut self, end: ServerConnectionEnd, close: Close, now: Instant) {
         self.set_end(end);
-        self.state = State::Closing {
+        self.state = ServerPhase::Closing {
             close,
             phase: LastWords::flushing(now, self.config.goodbye),
         };
@@ -553,7 +574,7 @@ impl ServerConnection {
     fn end_now(&mut self, end: ServerConnectionEnd, close: Option<Close>) {
         self.set_end(end);
         self.outbox.clear();
-        self.state = State::Closed { close };
+        self.state = ServerPhase::Closed { close };
     }
 
     fn set_end(&mut self, end: ServerConnectionEnd) {
@@ -567,16 +588,16 @@ impl ServerConnection {
     /// (a finished stream takes no more bytes).
     fn start_finishing(&mut self, now: Instant) {
         self.outbox.clear();
-        if let State::Closing { phase, .. } = &mut self.state {
+        if let ServerPhase::Closing { phase, .. } = &mut self.state {
             *phase = LastWords::finishing(now, self.config.finish);
         }
     }
 
     fn close_now(&mut self) {
-        let state = std::mem::replace(&mut self.state, State::Closed { close: None });
+        let state = std::mem::replace(&mut self.state, ServerPhase::Closed { close: None });
         self.outbox.clear();
         self.state = match state {
-            State::Closing { close, .. } => State::Closed { close: Some(close) },
+            ServerPhase::Closing { close, .. } => ServerPhase::Closed { close: Some(close) },
             other => other,
         };
     }

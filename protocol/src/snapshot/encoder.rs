@@ -85,7 +85,7 @@ impl SharedDeltas {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Work {
     removed: Vec<EntityId>,
-    candidates: Vec<Candidate>,
+    candidates: Vec<ChangedEntity>,
     /// Candidates in the order they are sized, as [`sort_key`]s.
     order: Vec<u128>,
     picked: Vec<(EntityId, usize, DeltaRef)>,
@@ -101,7 +101,7 @@ pub(crate) struct Work {
 /// An entity that differs from the baseline (24 bytes: a thousand of them
 /// are pushed for every snapshot, and ordered by their [`sort_key`]).
 #[derive(Debug, Clone, Copy)]
-struct Candidate {
+struct ChangedEntity {
     /// Its accumulated priority.
     priority: f64,
     id: EntityId,
@@ -111,7 +111,7 @@ struct Candidate {
     in_base: u32,
 }
 
-/// [`Candidate::in_base`] of an entity the baseline does not hold.
+/// [`ChangedEntity::in_base`] of an entity the baseline does not hold.
 const NOT_IN_BASE: u32 = u32::MAX;
 
 /// Candidates are put in priority order this many at a time: a snapshot
@@ -328,7 +328,7 @@ impl SnapshotEncoder {
                 continue;
             }
             let standing = Standing::new(is_always, frame.at_rest(i));
-            candidates.push(Candidate {
+            candidates.push(ChangedEntity {
                 priority: priorities.accumulate_as(id, standing, relevance),
                 id,
                 index: i as u32,

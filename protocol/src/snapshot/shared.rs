@@ -44,7 +44,7 @@ struct Delta {
 /// entity's previous delta (a list per entity), or [`NONE`]. Kept apart
 /// from [`Delta`], 16 bytes to its 60, so walking a list reads little.
 #[derive(Debug, Clone, Copy)]
-struct Link {
+struct DeltaLink {
     digest: u64,
     next: u32,
 }
@@ -81,8 +81,8 @@ pub(crate) struct DeltaCache {
     /// Each entity's newest delta, by index into the frame, or [`NONE`].
     heads: Vec<u32>,
     deltas: Vec<Delta>,
-    /// Each delta's [`Link`], by the same index.
-    links: Vec<Link>,
+    /// Each delta's [`DeltaLink`], by the same index.
+    links: Vec<DeltaLink>,
     /// Every written delta's bits, packed least significant first as a
     /// [`BitWriter`] packs them, each delta from a fresh word.
     words: Vec<u64>,
@@ -96,13 +96,13 @@ pub(crate) struct DeltaRef(u32);
 
 /// Packs a delta's bits into words, for clients to copy a word at a time
 /// (a delta is a dozen writes of a few bits each; copied, two or three).
-struct Recorder<'a> {
+struct DeltaRecorder<'a> {
     words: &'a mut Vec<u64>,
     packer: WordPacker,
     bits: u32,
 }
 
-impl BitSink for Recorder<'_> {
+impl BitSink for DeltaRecorder<'_> {
     fn put(&mut self, value: u64, bits: u32) {
         if bits == 0 {
             return;
@@ -114,7 +114,7 @@ impl BitSink for Recorder<'_> {
     }
 }
 
-impl Recorder<'_> {
+impl DeltaRecorder<'_> {
     /// Pushes the last, partial word.
     fn finish(self) {
         let (word, bits) = self.packer.rest();
@@ -183,7 +183,7 @@ impl DeltaCache {
             end: NONE,
             bits,
         });
-        self.links.push(Link {
+        self.links.push(DeltaLink {
             digest: key,
             next: self.heads[i],
         });
@@ -203,7 +203,7 @@ impl DeltaCache {
         let delta = self.deltas[d.0 as usize];
         let (start, end) = if delta.start == NONE {
             let start = self.words.len();
-            let mut recorder = Recorder {
+            let mut recorder = DeltaRecorder {
                 words: &mut self.words,
                 packer: WordPacker::default(),
                 bits: 0,

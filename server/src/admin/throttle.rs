@@ -76,7 +76,7 @@ impl ThrottleKey {
 
 /// One remembered address.
 #[derive(Debug, Clone, Copy)]
-struct Record {
+struct AddressRecord {
     /// Wrong credentials since it was last forgotten.
     failures: u32,
     /// The latest one.
@@ -87,9 +87,9 @@ struct Record {
     backoff: Duration,
 }
 
-impl Record {
-    fn new(now: Instant) -> Record {
-        Record {
+impl AddressRecord {
+    fn new(now: Instant) -> AddressRecord {
+        AddressRecord {
             failures: 0,
             last_failure: now,
             blocked_until: None,
@@ -112,7 +112,7 @@ impl Record {
 #[derive(Debug, Clone)]
 pub struct HelloThrottle {
     config: ThrottleConfig,
-    table: HashMap<ThrottleKey, Record>,
+    table: HashMap<ThrottleKey, AddressRecord>,
 }
 
 impl Default for HelloThrottle {
@@ -161,9 +161,12 @@ impl HelloThrottle {
             self.make_room(now);
         }
         let config = self.config;
-        let record = self.table.entry(key).or_insert_with(|| Record::new(now));
+        let record = self
+            .table
+            .entry(key)
+            .or_insert_with(|| AddressRecord::new(now));
         if now >= record.forgotten_at(config.window) {
-            *record = Record::new(now);
+            *record = AddressRecord::new(now);
         }
         record.failures = record.failures.saturating_add(1);
         record.last_failure = now;

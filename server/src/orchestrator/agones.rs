@@ -89,7 +89,7 @@ async fn lifecycle(sdk: Sdk, probe: Probe, ready: watch::Sender<bool>) {
     let mut ticker = tokio::time::interval(period / 2);
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut heartbeat = Heartbeat::new();
-    let mut link = Link::Up;
+    let mut link = SdkReach::Up;
     let mut players = Players::new(probe.capacity);
     loop {
         ticker.tick().await;
@@ -106,7 +106,7 @@ async fn lifecycle(sdk: Sdk, probe: Probe, ready: watch::Sender<bool>) {
         if beat.ping() {
             link.note(sdk.health().await);
         }
-        if link == Link::Up {
+        if link == SdkReach::Up {
             players.sync(&sdk, (probe.players)()).await;
         }
     }
@@ -124,21 +124,21 @@ fn health_period(gs: &GameServer) -> Duration {
 
 /// Whether the SDK server answered the last call: a change is logged once.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Link {
+enum SdkReach {
     Up,
     Down,
 }
 
-impl Link {
+impl SdkReach {
     fn note<T>(&mut self, result: Result<T, SdkError>) {
         match (result, *self) {
-            (Ok(_), Link::Down) => {
+            (Ok(_), SdkReach::Down) => {
                 info!("the Agones SDK server answers again");
-                *self = Link::Up;
+                *self = SdkReach::Up;
             }
-            (Err(e), Link::Up) => {
+            (Err(e), SdkReach::Up) => {
                 warn!(error = %e, "the Agones SDK server went away; serving on and retrying");
-                *self = Link::Down;
+                *self = SdkReach::Down;
             }
             _ => {}
         }
@@ -147,7 +147,7 @@ impl Link {
 
 /// What Agones holds of one of the players' counter and list.
 #[derive(Debug)]
-enum Told<T> {
+enum Reported<T> {
     /// The game server does not declare it: never sent again.
     Undeclared,
     /// Not known (nothing sent yet, or the last send failed): sent whole.
@@ -161,16 +161,16 @@ enum Told<T> {
 #[derive(Debug)]
 struct Players {
     capacity: i64,
-    counter: Told<i64>,
-    list: Told<BTreeSet<u64>>,
+    counter: Reported<i64>,
+    list: Reported<BTreeSet<u64>>,
 }
 
 impl Players {
     fn new(capacity: u32) -> Players {
         Players {
             capacity: i64::from(capacity),
-            counter: Told::Unknown,
-            list: Told::Unknown,
+            counter: Reported::Unknown,
+            list: Reported::Unknown,
         }
     }
 
@@ -178,9 +178,9 @@ impl Players {
         let now: BTreeSet<u64> = now.into_iter().collect();
         let count = now.len() as i64;
         let counter_due = match self.counter {
-            Told::Undeclared => false,
-            Told::Unknown => true,
-            Told::Is(told) => told != count,
+            Reported::Undeclared => false,
+            Reported::Unknown => true,
+            Reported::Is(told) => told != count,
         };
         if counter_due {
             let update = CounterUpdate {
@@ -189,19 +189,19 @@ impl Players {
                 count_diff: None,
             };
             match sdk.update_counter(PLAYERS, &update).await {
-                Ok(_) => self.counter = Told::Is(count),
+                Ok(_) => self.counter = Reported::Is(count),
                 Err(e) if e.is_not_found() => {
                     info!("the game server declares no `players` counter; not counting players");
-                    self.counter = Told::Undeclared;
+                    self.counter = Reported::Undeclared;
                 }
                 Err(e) => debug!(error = %e, "players counter not updated; retrying"),
             }
         }
         let result = match &self.list {
-            Told::Undeclared => return,
-            Told::Is(told) if *told == now => return,
+            Reported::Undeclared => return,
+            Reported::Is(told) if *told == now => return,
             // Replaced whole when what Agones holds is unknown.
-            Told::Unknown => sdk
+            Reported::Unknown => sdk
                 .update_list(&List {
                     name: PLAYERS.to_string(),
                     capacity: self.capacity,
@@ -209,17 +209,17 @@ impl Players {
                 })
                 .await
                 .map(drop),
-            Told::Is(told) => change_list(sdk, told, &now).await,
+            Reported::Is(told) => change_list(sdk, told, &now).await,
         };
         self.list = match result {
-            Ok(()) => Told::Is(now),
+            Ok(()) => Reported::Is(now),
             Err(e) if e.is_not_found() => {
                 info!("the game server declares no `players` list; not listing players");
-                Told::Undeclared
+                Reported::Undeclared
             }
             Err(e) => {
                 debug!(error = %e, "players list not updated; retrying");
-                Told::Unknown
+                Reported::Unknown
             }
         };
     }

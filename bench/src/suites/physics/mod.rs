@@ -27,8 +27,8 @@ use inertia_physics::glam::DVec3;
 use inertia_physics::ProfileTotals;
 use serde_json::Value;
 
+use crate::report::thread_counts;
 use crate::report::{median, note, progress, Measurement, Sink, Suspended};
-use crate::suites::particles::thread_counts;
 use crate::{BenchError, Opts};
 use scene::NeutralScene;
 

@@ -28,7 +28,7 @@ pub struct Penetration {
 }
 
 #[derive(Debug, Clone, Copy)]
-struct Face {
+struct PolytopeFace {
     v: [usize; 3],
     n: DVec3,
     d: f64,
@@ -36,7 +36,7 @@ struct Face {
 
 const MAX_ITERATIONS: usize = 96;
 
-fn make_face(pts: &[SupportPoint], v: [usize; 3]) -> Option<Face> {
+fn make_face(pts: &[SupportPoint], v: [usize; 3]) -> Option<PolytopeFace> {
     let (a, b, c) = (pts[v[0]].w, pts[v[1]].w, pts[v[2]].w);
     let n = (b - a).cross(c - a);
     let len = n.length();
@@ -44,7 +44,7 @@ fn make_face(pts: &[SupportPoint], v: [usize; 3]) -> Option<Face> {
         return None;
     }
     let n = n / len;
-    Some(Face { v, n, d: n.dot(a) })
+    Some(PolytopeFace { v, n, d: n.dot(a) })
 }
 
 /// Penetration of the overlapping sets with supports `sa`, `sb`, from GJK's
@@ -85,7 +85,7 @@ where
     // Room kept from one iteration to the next: the horizon's edges and the
     // faces that survive it.
     let mut edges: Vec<[usize; 2]> = Vec::with_capacity(16);
-    let mut kept: Vec<Face> = Vec::with_capacity(faces.len() + 8);
+    let mut kept: Vec<PolytopeFace> = Vec::with_capacity(faces.len() + 8);
     let mut best = faces[0];
     for iterations in 0..MAX_ITERATIONS {
         let (bi, _) = faces
@@ -151,7 +151,7 @@ where
 }
 
 /// The tetrahedron's faces oriented outward (`None` if it is flat).
-fn oriented_faces(pts: &[SupportPoint]) -> Option<Vec<Face>> {
+fn oriented_faces(pts: &[SupportPoint]) -> Option<Vec<PolytopeFace>> {
     let mut faces = Vec::with_capacity(32);
     let centroid: DVec3 = pts.iter().map(|p| p.w).sum::<DVec3>() * 0.25;
     for f in [[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]] {
