@@ -18,10 +18,11 @@
 
 use std::process::ExitCode;
 
+use clap::error::ErrorKind;
 use tracing_subscriber::EnvFilter;
 
 use crate::admin::tokens::AdminTokenStore;
-use crate::config::{LogFormat, ServerConfig};
+use crate::config::{ConfigError, LogFormat, ServerConfig};
 use crate::rules::GameRules;
 use crate::secrets::Secrets;
 
@@ -34,8 +35,20 @@ pub const EXIT_SIMULATION_FAILED: u8 = 3;
 pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> ExitCode {
     let config = match ServerConfig::from_process() {
         Ok(c) => c,
+        // Asked for: to standard output, and done.
+        Err(ConfigError::Cli(e))
+            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) =>
+        {
+            print!("{e}");
+            return ExitCode::SUCCESS;
+        }
+        Err(ConfigError::Cli(e)) => {
+            // clap's own rendering: the usage and a hint.
+            eprint!("{e}");
+            return ExitCode::from(2);
+        }
         Err(e) => {
-            eprintln!("inertia-server: {e}");
+            eprintln!("{}: {e}", program_name());
             return ExitCode::from(2);
         }
     };
@@ -54,7 +67,7 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
     {
         Ok(r) => r,
         Err(e) => {
-            eprintln!("inertia-server: cannot start the I/O runtime: {e}");
+            eprintln!("{}: cannot start the I/O runtime: {e}", program_name());
             return ExitCode::FAILURE;
         }
     };
@@ -66,13 +79,14 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
         let server = match crate::server::start_with_rules(config, rules).await {
             Ok(s) => s,
             Err(e) => {
-                eprintln!("inertia-server: {e}");
+                eprintln!("{}: {e}", program_name());
                 return ExitCode::FAILURE;
             }
         };
         if let Some(path) = server.credentials_path() {
             eprintln!(
-                "inertia-server: dev mode on {} (metrics on http://{}); credentials in {}",
+                "{}: dev mode on {} (metrics on http://{}); credentials in {}",
+                program_name(),
                 server.addr(),
                 server.metrics_addr(),
                 path.display()
@@ -91,7 +105,7 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
                 ExitCode::SUCCESS
             }
             why = server.failed() => {
-                eprintln!("inertia-server: {why}; exiting for a restart");
+                eprintln!("{}: {why}; exiting for a restart", program_name());
                 ExitCode::from(EXIT_SIMULATION_FAILED)
             }
         };
@@ -188,4 +202,19 @@ async fn wait_for_stop() {
     {
         let _ = tokio::signal::ctrl_c().await;
     }
+}
+
+/// The running binary's name, for its messages (`inertia-server`, or a
+/// game's own).
+fn program_name() -> String {
+    std::env::args_os()
+        .next()
+        .and_then(|a| {
+            std::path::Path::new(&a)
+                .file_stem()
+                .and_then(|n| n.to_str())
+                .map(str::to_string)
+        })
+        .filter(|n| !n.is_empty())
+        .unwrap_or_else(|| "inertia-server".to_string())
 }

@@ -86,7 +86,7 @@ impl Secrets {
             self.endpoint.set_server_config(Some(config));
             *fingerprint = creds.fingerprint;
         }
-        let now = crate::net::connection::unix_now();
+        let now = crate::net::admission::unix_now();
         let token_key = self
             .shared
             .tokens

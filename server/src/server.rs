@@ -712,7 +712,7 @@ impl RunningServer {
             self.shared.admin.matches.clone(),
             self.recording_dir.clone(),
         );
-        let now = crate::net::connection::unix_now();
+        let now = crate::net::admission::unix_now();
         let kept = match tokio::task::spawn_blocking(move || matches.keep(&recording, now)).await {
             Ok(Ok(Some(name))) => {
                 info!(%name, "the match's recording is kept");

@@ -20,6 +20,7 @@ mod issue_11_resume;
 mod issue_11_saved_state_bounds;
 mod issue_11_seek_memory;
 mod issue_17_inputs_on_their_tick;
+mod issue_43_command_line;
 mod match_end;
 mod matches;
 mod record_store;

@@ -5,7 +5,7 @@
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
-use clap::Parser;
+use clap::{CommandFactory, FromArgMatches, Parser};
 use serde::Deserialize;
 
 use super::{ConfigError, LogFormat, PhysicsPinning};
@@ -175,6 +175,49 @@ pub struct ServerArgs {
     /// Settings that override the environment and the file.
     #[command(flatten)]
     pub layer: ConfigLayer,
+}
+
+impl ServerArgs {
+    /// Parses `args` (program name first) as the binary named by the
+    /// program name would: `--help` and `--version` speak of it, whatever
+    /// game it serves. `--help` and `--version` come back as the error
+    /// clap renders them with ([`clap::error::ErrorKind::DisplayHelp`],
+    /// [`clap::error::ErrorKind::DisplayVersion`]), to print to standard
+    /// output with status 0 ([`crate::process::run`] does).
+    pub fn parse_command_line<I, T>(args: I) -> Result<ServerArgs, clap::Error>
+    where
+        I: IntoIterator<Item = T>,
+        T: Into<std::ffi::OsString> + Clone,
+    {
+        let args: Vec<std::ffi::OsString> = args.into_iter().map(Into::into).collect();
+        let name = args
+            .first()
+            .and_then(|a| Path::new(a).file_stem())
+            .and_then(|n| n.to_str())
+            .filter(|n| !n.is_empty())
+            .unwrap_or("inertia-server")
+            .to_string();
+        let command = ServerArgs::command()
+            .version(version_line(&name))
+            .name(name.clone())
+            .bin_name(name);
+        let matches = command.try_get_matches_from(args)?;
+        ServerArgs::from_arg_matches(&matches)
+    }
+}
+
+/// What `--version` prints after the name of binary `bin`: the server
+/// library's version and the protocol version its clients must speak
+/// (`0.1.0 (protocol 4)` for `inertia-server`; a game's own binary is
+/// `built on inertia-server 0.1.0, protocol 4`).
+pub fn version_line(bin: &str) -> String {
+    let server = env!("CARGO_PKG_VERSION");
+    let protocol = inertia_protocol::PROTOCOL_VERSION;
+    if bin == "inertia-server" {
+        format!("{server} (protocol {protocol})")
+    } else {
+        format!("built on inertia-server {server}, protocol {protocol}")
+    }
 }
 
 impl ConfigLayer {

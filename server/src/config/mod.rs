@@ -31,7 +31,6 @@ use std::ffi::OsString;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::PathBuf;
 
-use clap::Parser;
 use inertia_protocol::connection::ServerConnectionConfig;
 
 use crate::orchestrator::{Orchestrating, OrchestratorMode};
@@ -46,7 +45,7 @@ mod tests;
 pub use choices::{LogFormat, PhysicsPinning};
 pub use error::ConfigError;
 use layer::{agones_sdk_port, env_layer};
-pub use layer::{parse_toml, ConfigLayer, ServerArgs};
+pub use layer::{parse_toml, version_line, ConfigLayer, ServerArgs};
 
 /// Default UDP port of the QUIC game and admin endpoint.
 pub const DEFAULT_PORT: u16 = 7777;
@@ -246,7 +245,7 @@ impl ServerConfig {
         I: IntoIterator<Item = T>,
         T: Into<OsString> + Clone,
     {
-        let args = ServerArgs::try_parse_from(args)?;
+        let args = ServerArgs::parse_command_line(args)?;
         Self::resolve(&args, env)
     }
 

@@ -4,8 +4,9 @@
 //! crate, where every state and deadline of its life is decided and
 //! tested on a virtual clock).
 //!
-//! The shell does what needs the server: it checks a hello's token and
-//! asks the tick thread for room ([`ServerConnectionEvent::Hello`]); once the client
+//! The shell does what needs the server: it has a hello's token checked
+//! and the tick thread asked for room ([`super::admission`], on
+//! [`ServerConnectionEvent::Hello`]); once the client
 //! is live it hands it to the snapshot stage ([`super::snapshots`]), which
 //! owns its session; its datagrams go to the connection, which keeps the
 //! inputs (passed on to the simulation) and hands each acknowledgement to
@@ -17,22 +18,17 @@
 
 use std::future::Future;
 use std::sync::Arc;
-use std::time::{Instant, SystemTime, UNIX_EPOCH};
+use std::time::Instant;
 
 use inertia_protocol::connection::{ServerConnection, ServerConnectionEnd, ServerConnectionEvent};
-use inertia_protocol::control::{
-    handshake, truncate_utf8, ClientControl, DisconnectReason, Refusal, ServerControl,
-    SnapshotParams, TokenRefusal, MAX_REASON_BYTES,
-};
-use inertia_protocol::EntityId;
+use inertia_protocol::control::{ClientControl, DisconnectReason};
 use tokio::sync::oneshot;
 use tracing::{debug, info, info_span, warn, Instrument};
 
+use super::admission::{admit, refusal_reason, Joined};
 use super::link::{Link, LinkError, LinkRecv, LinkSend};
 use super::snapshots::{Served, ServedGuard};
 use super::NetShared;
-use crate::rules;
-use crate::sim::{CommandError, SimExit};
 
 /// The deadlines of a connection's life (the protocol's; the control
 /// stall and the silence match the QUIC idle timeout,
@@ -43,74 +39,6 @@ pub use inertia_protocol::connection::{
 
 /// QUIC close codes the server uses (the protocol's).
 pub use inertia_protocol::control::close_code;
-
-pub(crate) fn unix_now() -> u64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs())
-}
-
-/// The `reason` label of a refused hello.
-fn refusal_reason(refusal: &Refusal) -> &'static str {
-    use inertia_protocol::control::TokenRefusal as T;
-    match refusal {
-        Refusal::VersionMismatch { .. } => "version_mismatch",
-        Refusal::Token(T::Malformed) => "token_malformed",
-        Refusal::Token(T::Forged) => "token_forged",
-        Refusal::Token(T::Expired { .. }) => "token_expired",
-        Refusal::Token(T::WrongServer { .. }) => "token_wrong_server",
-        Refusal::Token(T::Reused) => "token_reused",
-        Refusal::ServerFull => "server_full",
-        Refusal::ShuttingDown => "shutting_down",
-        Refusal::Malformed => "malformed_hello",
-        Refusal::AlreadyConnected => "already_connected",
-        Refusal::Busy => "busy",
-        Refusal::SimulationStopped => "simulation_stopped",
-        Refusal::Rejected { .. } => "rejected_by_rules",
-    }
-}
-
-/// What a client is told when the rules refuse its join: the real reason.
-fn join_refusal(client: u64, refusal: rules::JoinRefusal) -> Refusal {
-    match refusal {
-        rules::JoinRefusal::Full { .. } => Refusal::ServerFull,
-        rules::JoinRefusal::AlreadyJoined(_) => Refusal::AlreadyConnected,
-        rules::JoinRefusal::Unavailable => Refusal::Busy,
-        refusal @ (rules::JoinRefusal::NoRoom | rules::JoinRefusal::Rules(_)) => {
-            info!(client, reason = %refusal, "join refused by the rules");
-            let mut reason = refusal.to_string();
-            truncate_utf8(&mut reason, MAX_REASON_BYTES);
-            Refusal::Rejected { reason }
-        }
-    }
-}
-
-/// Asks the tick thread to let `client` join: its avatar, or the real
-/// reason it cannot.
-async fn join(shared: &NetShared, client: u64) -> Result<(u64, EntityId), Refusal> {
-    let stopped = || not_running(shared).unwrap_or(Refusal::ShuttingDown);
-    match shared.sim.request_join(client) {
-        Ok(rx) => match rx.await {
-            Ok(Ok(avatar)) => Ok((client, avatar)),
-            Ok(Err(refusal)) => Err(join_refusal(client, refusal)),
-            // The tick thread dropped the question: it has stopped.
-            Err(_) => Err(stopped()),
-        },
-        Err(CommandError::Busy) => Err(Refusal::Busy),
-        Err(CommandError::Stopped) => Err(stopped()),
-    }
-}
-
-/// Why nobody can join now: the simulation failed, or the server is
-/// shutting down; `None` while it runs.
-fn not_running(shared: &NetShared) -> Option<Refusal> {
-    match shared.sim.exit() {
-        Some(SimExit::Failed { .. }) => Some(Refusal::SimulationStopped),
-        Some(SimExit::Shutdown) => Some(Refusal::ShuttingDown),
-        None if shared.shutdown.borrow().is_some() => Some(Refusal::ShuttingDown),
-        None => None,
-    }
-}
 
 /// Serves one game connection to its end.
 pub async fn serve(link: Link, id: u64, shared: Arc<NetShared>) {
@@ -127,13 +55,6 @@ pub async fn serve(link: Link, id: u64, shared: Arc<NetShared>) {
         kick: None,
     };
     shell.run().instrument(span).await
-}
-
-/// A client the world let in.
-#[derive(Debug, Clone, Copy)]
-struct Joined {
-    client: u64,
-    avatar: EntityId,
 }
 
 /// What the task holds around the connection's state machine.
@@ -255,7 +176,7 @@ impl Shell {
             match event {
                 ServerConnectionEvent::Hello { version, token } => {
                     let hello = ClientControl::Hello { version, token };
-                    match self.decide(&hello).await {
+                    match admit(&self.shared, self.id, &hello).await {
                         Ok((joined, welcome)) => {
                             tracing::Span::current().record("client", joined.client);
                             self.joined = Some(joined);
@@ -271,55 +192,6 @@ impl Shell {
                 ServerConnectionEvent::Ending => self.stop_serving(),
             }
         }
-    }
-
-    /// Checks a hello and asks the world for room: the client and its
-    /// welcome, or why not.
-    async fn decide(&self, hello: &ClientControl) -> Result<(Joined, ServerControl), Refusal> {
-        let shared = &self.shared;
-        let token = {
-            let now = unix_now();
-            let keys = shared.tokens.keys.read().unwrap_or_else(|e| e.into_inner());
-            let mut guard = shared
-                .tokens
-                .guard
-                .lock()
-                .unwrap_or_else(|e| e.into_inner());
-            // The current key, then a replaced one still in its grace
-            // period: a token only one of them seals is forged under the
-            // other.
-            let mut result = Err(Refusal::Token(TokenRefusal::Forged));
-            for key in keys.at(now) {
-                result = handshake(
-                    hello,
-                    now,
-                    key,
-                    &shared.tokens.public_addr,
-                    self.id,
-                    &mut guard,
-                );
-                if !matches!(result, Err(Refusal::Token(TokenRefusal::Forged))) {
-                    break;
-                }
-            }
-            result?
-        };
-        if let Some(refusal) = not_running(shared) {
-            return Err(refusal);
-        }
-        let (client, avatar) = join(shared, token.client_id).await?;
-        let frame = shared.sim.frame();
-        let welcome = ServerControl::Welcome {
-            client_id: client,
-            tick: frame.tick,
-            tick_hz: shared.streaming.tick_hz,
-            snapshot_hz: shared.streaming.snapshot_hz,
-            position_resolution: shared.streaming.snapshot.grid.resolution,
-            position_bound: shared.streaming.snapshot.grid.bound,
-            snapshot: SnapshotParams::from_config(&shared.streaming.snapshot),
-            server_version: env!("CARGO_PKG_VERSION").to_string(),
-        };
-        Ok((Joined { client, avatar }, welcome))
     }
 
     /// The welcome went: the client is counted as connected, can be

@@ -5,6 +5,7 @@
 //! physics runs on the simulation's own thread and is reached only through
 //! the [`SimHandle`]'s channels and published frames.
 
+pub(crate) mod admission;
 pub mod catalog;
 pub mod connection;
 pub mod gate;
