@@ -281,6 +281,11 @@ typedef struct InertiaServerInfo {
    The server's build (NUL-terminated).
    */
   char server_version[64];
+  /*
+   Bytes of the game's input (`inertia_set_input_bytes` takes exactly
+   this many; the stock server's sandbox takes 5).
+   */
+  uint32_t input_bytes;
 } InertiaServerInfo;
 
 /*
@@ -614,12 +619,14 @@ void inertia_disconnect(struct InertiaClient *client);
 enum InertiaStatus inertia_server_info(struct InertiaClient *client, struct InertiaServerInfo *out);
 
 /*
- Sets the input for every tick from now on, until changed: movement in
- the horizontal plane (`move_x`, `move_z`, each in [−1, 1], the length
- clamped to 1), facing `yaw` (rad about +Y) and held `buttons` (1 jump,
- 2 push). Each tick's input is stamped with the tick the server will be
- at when it arrives, and the server applies it on that tick
- (`InertiaStats::inputs_late` counts those that came too late).
+ Sets the sandbox game's input (the stock server's) for every tick from
+ now on, until changed: movement in the horizontal plane (`move_x`,
+ `move_z`, each in [−1, 1], the length clamped to 1), facing `yaw` (rad
+ about +Y) and held `buttons` (1 jump, 2 push). Each tick's input is
+ stamped with the tick the server will be at when it arrives, and the
+ server applies it on that tick (`InertiaStats::inputs_late` counts
+ those that came too late). `INERTIA_STATUS_INVALID_ARGUMENT` when the
+ server runs another game (see `inertia_set_input_bytes`).
 
  # Safety
  `client` is a live handle.
@@ -629,6 +636,21 @@ enum InertiaStatus inertia_set_input(struct InertiaClient *client,
                                      float move_z,
                                      float yaw,
                                      uint8_t buttons);
+
+/*
+ Sets the game's input for every tick from now on, until changed: its
+ `len` bytes at `bytes`, encoded as the game lays its input out, exactly
+ `InertiaServerInfo::input_bytes` long (at most 64). Stamped and sent as
+ `inertia_set_input` says. `INERTIA_STATUS_INVALID_ARGUMENT`, changing
+ nothing, for another length or a null `bytes` with a length.
+
+ # Safety
+ `client` is a live handle; `bytes` points to `len` readable bytes (or
+ is null with `len` 0).
+ */
+enum InertiaStatus inertia_set_input_bytes(struct InertiaClient *client,
+                                           const uint8_t *bytes,
+                                           size_t len);
 
 /*
  Takes the oldest waiting event into `*out`; its kind is

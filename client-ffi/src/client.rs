@@ -14,6 +14,7 @@ use inertia_client::net::ClientEvent;
 use inertia_client::point_sets::PointSetSample;
 use inertia_client::{BlockingClient, ConnectOptions};
 use inertia_protocol::control::{DisconnectReason, WireEvent};
+use inertia_protocol::input::InputPayload;
 use inertia_protocol::token::ConnectToken;
 use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
 
@@ -218,17 +219,20 @@ pub unsafe extern "C" fn inertia_server_info(
             snapshot_hz: info.snapshot_hz,
             position_resolution: info.snapshot.grid.resolution,
             server_version,
+            input_bytes: info.input_bytes as u32,
         };
         Ok(())
     })
 }
 
-/// Sets the input for every tick from now on, until changed: movement in
-/// the horizontal plane (`move_x`, `move_z`, each in [−1, 1], the length
-/// clamped to 1), facing `yaw` (rad about +Y) and held `buttons` (1 jump,
-/// 2 push). Each tick's input is stamped with the tick the server will be
-/// at when it arrives, and the server applies it on that tick
-/// (`InertiaStats::inputs_late` counts those that came too late).
+/// Sets the sandbox game's input (the stock server's) for every tick from
+/// now on, until changed: movement in the horizontal plane (`move_x`,
+/// `move_z`, each in [−1, 1], the length clamped to 1), facing `yaw` (rad
+/// about +Y) and held `buttons` (1 jump, 2 push). Each tick's input is
+/// stamped with the tick the server will be at when it arrives, and the
+/// server applies it on that tick (`InertiaStats::inputs_late` counts
+/// those that came too late). `INERTIA_STATUS_INVALID_ARGUMENT` when the
+/// server runs another game (see `inertia_set_input_bytes`).
 ///
 /// # Safety
 /// `client` is a live handle.
@@ -246,8 +250,42 @@ pub unsafe extern "C" fn inertia_set_input(
         if !(move_x.is_finite() && move_z.is_finite() && yaw.is_finite()) {
             return Err(Failure::invalid("movement and yaw must be finite"));
         }
-        h.client.set_input([move_x, move_z], yaw, buttons);
-        Ok(())
+        h.client
+            .set_input([move_x, move_z], yaw, buttons)
+            .map_err(|e| Failure::invalid(e.to_string()))
+    })
+}
+
+/// Sets the game's input for every tick from now on, until changed: its
+/// `len` bytes at `bytes`, encoded as the game lays its input out, exactly
+/// `InertiaServerInfo::input_bytes` long (at most 64). Stamped and sent as
+/// `inertia_set_input` says. `INERTIA_STATUS_INVALID_ARGUMENT`, changing
+/// nothing, for another length or a null `bytes` with a length.
+///
+/// # Safety
+/// `client` is a live handle; `bytes` points to `len` readable bytes (or
+/// is null with `len` 0).
+#[no_mangle]
+pub unsafe extern "C" fn inertia_set_input_bytes(
+    client: *mut InertiaClient,
+    bytes: *const u8,
+    len: usize,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let h = unsafe { handle(client) }?;
+        let bytes = if len == 0 {
+            &[][..]
+        } else if bytes.is_null() {
+            return Err(Failure::invalid("bytes is null"));
+        } else {
+            // SAFETY: as the caller promises: `len` readable bytes.
+            unsafe { std::slice::from_raw_parts(bytes, len) }
+        };
+        let payload = InputPayload::new(bytes).map_err(|e| Failure::invalid(e.to_string()))?;
+        h.client
+            .set_input_payload(payload)
+            .map_err(|e| Failure::invalid(e.to_string()))
     })
 }
 

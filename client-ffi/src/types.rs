@@ -28,6 +28,9 @@ pub struct InertiaServerInfo {
     pub position_resolution: f64,
     /// The server's build (NUL-terminated).
     pub server_version: [c_char; 64],
+    /// Bytes of the game's input (`inertia_set_input_bytes` takes exactly
+    /// this many; the stock server's sandbox takes 5).
+    pub input_bytes: u32,
 }
 
 /// One entity where the picture draws it.

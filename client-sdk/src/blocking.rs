@@ -59,8 +59,24 @@ impl BlockingClient {
     }
 
     /// See [`Client::set_input`].
-    pub fn set_input(&self, movement: [f32; 2], yaw: f32, buttons: u8) {
+    pub fn set_input(&self, movement: [f32; 2], yaw: f32, buttons: u8) -> Result<(), ClientError> {
         self.client().set_input(movement, yaw, buttons)
+    }
+
+    /// See [`Client::set_game_input`].
+    pub fn set_game_input<I: inertia_protocol::input::GameInput>(
+        &self,
+        input: &I,
+    ) -> Result<(), ClientError> {
+        self.client().set_game_input(input)
+    }
+
+    /// See [`Client::set_input_payload`].
+    pub fn set_input_payload(
+        &self,
+        payload: inertia_protocol::input::InputPayload,
+    ) -> Result<(), ClientError> {
+        self.client().set_input_payload(payload)
     }
 
     /// See [`Client::sample`].

@@ -1,9 +1,12 @@
 //! Client input datagrams from the network: decoding never panics, the
-//! format is canonical (what decodes encodes to the same bytes), and the
-//! server's input buffer hands sequences on strictly in order.
+//! format is canonical (what decodes encodes to the same bytes), the
+//! sandbox game's input decoder is too (what it reads of a payload encodes
+//! to the same bytes), and the server's input buffer hands sequences on
+//! strictly in order.
 #![no_main]
 
-use inertia_protocol::input::{InputBuffer, InputDatagram};
+use inertia_protocol::input::{GameInput, InputBuffer, InputDatagram};
+use inertia_sandbox::SandboxInput;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
@@ -17,6 +20,11 @@ fuzz_target!(|data: &[u8]| {
         rest = tail;
         if let Ok(d) = InputDatagram::decode(datagram) {
             assert_eq!(d.encode().as_deref(), Ok(datagram), "not canonical");
+            for input in &d.inputs {
+                if let Ok(game) = SandboxInput::from_payload(&input.payload) {
+                    assert_eq!(game.to_payload(), input.payload, "sandbox input not canonical");
+                }
+            }
             buffer.push_datagram(&d);
         }
         if let Some(input) = buffer.pop() {

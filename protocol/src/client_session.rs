@@ -9,8 +9,9 @@
 
 use std::collections::VecDeque;
 
-use crate::entity::{buttons, PlayerInput};
-use crate::input::{InputDatagram, MAX_REDUNDANT_INPUTS, MAX_VIEW_BEHIND};
+use crate::input::{
+    InputDatagram, InputPayload, PlayerInput, MAX_REDUNDANT_INPUTS, MAX_VIEW_BEHIND,
+};
 use crate::snapshot::{
     DecodedSnapshot, SnapshotConfig, SnapshotConfigError, SnapshotDecoder, SnapshotError,
 };
@@ -35,6 +36,10 @@ pub struct ClientSession {
     config: ClientConfig,
     decoder: SnapshotDecoder,
     input: PlayerInput,
+    /// Whether the game has set its input yet: no input is made before
+    /// (datagrams carry the acknowledgements alone), since only the game
+    /// knows what its players want by default.
+    input_set: bool,
     /// The render tick of the last frame the game drew, ticks; `None`
     /// before the first.
     view_tick: Option<f64>,
@@ -63,6 +68,7 @@ impl ClientSession {
                 tick,
                 ..PlayerInput::default()
             },
+            input_set: false,
             view_tick: None,
             sent: VecDeque::new(),
             stamped: None,
@@ -86,17 +92,16 @@ impl ClientSession {
         Ok(&self.decoded)
     }
 
-    /// What the player wants from now on: movement in the horizontal
-    /// plane (each in [−1, 1]), facing angle (rad) and held buttons
-    /// (bits outside [`buttons::ALL`] are dropped: the wire has no room
-    /// for them).
-    pub fn set_input(&mut self, movement: [f32; 2], yaw: f32, buttons: u8) {
+    /// What the player wants from now on: the game's input, as its bytes
+    /// ([`GameInput::to_payload`](crate::input::GameInput::to_payload)).
+    /// Every input stamped from now on carries it; none is made before
+    /// the first call.
+    pub fn set_input(&mut self, payload: InputPayload) {
         self.input = PlayerInput {
-            movement,
-            yaw,
-            buttons: buttons & buttons::ALL,
+            payload,
             ..self.input
         };
+        self.input_set = true;
     }
 
     /// The (fractional) server tick of the world the game drew last: the
@@ -150,7 +155,7 @@ impl ClientSession {
         }
         let target = tick.unwrap_or(self.input.tick);
         let first = self.stamped.map_or(target, |last| last.saturating_add(1));
-        if target >= first {
+        if target >= first && self.input_set {
             let most = self.config.input_redundancy as u64;
             let from = first.max(target.saturating_sub(most - 1));
             for t in from..=target {
@@ -199,8 +204,9 @@ impl ClientSession {
 mod tests {
     use super::*;
 
+    /// A session whose game has set its input (three bytes).
     fn session(hz: u32, redundancy: usize) -> ClientSession {
-        ClientSession::new(
+        let mut s = ClientSession::new(
             ClientConfig {
                 snapshot: SnapshotConfig::default(),
                 input_hz: hz,
@@ -208,7 +214,35 @@ mod tests {
             },
             100,
         )
-        .unwrap()
+        .unwrap();
+        s.set_input(InputPayload::new(&[1, 2, 3]).unwrap());
+        s
+    }
+
+    #[test]
+    fn issue_43_no_input_is_made_before_the_game_sets_one() {
+        let mut s = ClientSession::new(
+            ClientConfig {
+                snapshot: SnapshotConfig::default(),
+                input_hz: 60,
+                input_redundancy: 4,
+            },
+            100,
+        )
+        .unwrap();
+        // Only the game knows what its players want by default: until it
+        // says, datagrams carry the acknowledgements alone.
+        let bytes = s.poll_input(0.0, Some(100)).unwrap();
+        assert!(InputDatagram::decode(&bytes).unwrap().inputs.is_empty());
+        assert_eq!(s.stamped_tick(), None);
+        s.set_input(InputPayload::new(&[9]).unwrap());
+        let bytes = s.poll_input(1.0 / 60.0, Some(101)).unwrap();
+        let d = InputDatagram::decode(&bytes).unwrap();
+        assert_eq!(d.inputs.len(), 1);
+        assert_eq!(
+            (d.inputs[0].tick, d.inputs[0].payload.as_bytes()),
+            (101, &[9u8][..])
+        );
     }
 
     #[test]
@@ -218,8 +252,8 @@ mod tests {
         // 1 s at 1 ms steps, the wanted tick moving at 62.5 Hz: two new
         // ticks (sometimes three) per datagram.
         for ms in 0..1000 {
-            // Bits beyond the known buttons are dropped, not a lost input.
-            s.set_input([0.5, -0.5], 0.1, if ms % 200 < 100 { 0xff } else { 0 });
+            let held = if ms % 200 < 100 { 0xff } else { 0 };
+            s.set_input(InputPayload::new(&[0x40, held]).unwrap());
             if let Some(bytes) = s.poll_input(f64::from(ms) / 1000.0, Some(100 + ms as u64 / 16)) {
                 sent.push(InputDatagram::decode(&bytes).unwrap());
             }
@@ -229,7 +263,7 @@ mod tests {
         for (k, d) in sent.iter().enumerate() {
             assert!(d.inputs.len() <= 3, "datagram {k}");
             assert_eq!(d.ack, None, "nothing received, nothing acknowledged");
-            assert!(d.inputs.iter().all(|i| i.buttons & !buttons::ALL == 0));
+            assert!(d.inputs.iter().all(|i| i.payload.len() == 2));
             // Newest first, one sequence and one tick apart.
             for pair in d.inputs.windows(2) {
                 assert_eq!(pair[0].sequence, pair[1].sequence + 1, "datagram {k}");

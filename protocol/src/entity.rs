@@ -3,7 +3,7 @@
 //!
 //! These are plain values. The snapshot codec turns [`EntityState`]s into
 //! datagrams; the control channel carries [`EntityDesc`]s (on spawn) and
-//! [`PlayerInput`]s travel in the client's datagrams.
+//! [`PlayerInput`](crate::input::PlayerInput)s travel in the client's datagrams.
 
 use glam::{DQuat, DVec3};
 use serde::{Deserialize, Serialize};
@@ -216,53 +216,5 @@ impl EntityDesc {
             ShapeDesc::PointSet { points, .. } => 1 + u64::from(points),
             _ => 1,
         }
-    }
-}
-
-/// Buttons a player can hold, as bits of [`PlayerInput::buttons`].
-pub mod buttons {
-    /// Jump (acts on the press, when the avatar stands on something).
-    pub const JUMP: u8 = 1;
-    /// Push what is in front of the avatar.
-    pub const PUSH: u8 = 2;
-    /// Every defined button.
-    pub const ALL: u8 = JUMP | PUSH;
-}
-
-/// One tick's worth of a player's intent. The server validates and clamps
-/// every field before acting on it.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct PlayerInput {
-    /// The client's input sequence number, increasing by one per input.
-    pub sequence: u32,
-    /// The server tick the client meant this input for (its estimate).
-    pub tick: u64,
-    /// Desired movement in the horizontal plane (x, z), each in [−1, 1];
-    /// the length is clamped to 1.
-    pub movement: [f32; 2],
-    /// Facing angle about +Y, rad.
-    pub yaw: f32,
-    /// Held buttons ([`buttons`]).
-    pub buttons: u8,
-    /// How far behind `tick` the world the player saw was when this input
-    /// was made, ticks (fractional, ≥ 0): the client's interpolation render
-    /// tick is `tick − view_behind` ([`PlayerInput::view_tick`]). Rules use
-    /// it to ask what the player aimed at (lag compensation). Travels in
-    /// 1/16 tick steps, capped at
-    /// [`MAX_VIEW_BEHIND`](crate::input::MAX_VIEW_BEHIND); 0 means "the
-    /// world as it is" (no rewind).
-    ///
-    /// Kept relative to `tick` rather than as an absolute tick so that it is
-    /// exact at every tick (an `f64` tick loses 1/16 steps past 2⁴⁹) and
-    /// the bounds a server checks (finite, not ahead, not too far back)
-    /// are bounds on this one number.
-    pub view_behind: f32,
-}
-
-impl PlayerInput {
-    /// The (fractional) server tick the player was drawing when it made
-    /// this input: `tick − view_behind`, ticks.
-    pub fn view_tick(&self) -> f64 {
-        self.tick as f64 - f64::from(self.view_behind)
     }
 }

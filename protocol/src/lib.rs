@@ -51,7 +51,8 @@ pub use control::{
     FrameDecoder, Refusal, ServerControl, SnapshotParams, TokenRefusal, WireEvent, ALPN,
     MAX_CONTROL_FRAME, PROTOCOL_VERSION,
 };
-pub use entity::{EntityDesc, EntityId, EntityKind, EntityState, PlayerInput, ShapeDesc};
+pub use entity::{EntityDesc, EntityId, EntityKind, EntityState, ShapeDesc};
+pub use input::PlayerInput;
 pub use input::{InputBuffer, InputDatagram, InputError, MAX_REDUNDANT_INPUTS};
 pub use interest::Interest;
 pub use priority::{PriorityAccumulator, PriorityWeights, Standing};

@@ -2,5 +2,6 @@
 //! it (the control channel, the datagrams, connect tokens).
 
 /// The version of the whole wire protocol (control, datagrams and tokens).
-/// A client and server speak only when theirs are equal.
-pub const PROTOCOL_VERSION: u16 = 4;
+/// A client and server speak only when theirs are equal. 5: inputs carry
+/// the game's own bytes, and the welcome says how many.
+pub const PROTOCOL_VERSION: u16 = 5;

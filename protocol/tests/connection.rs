@@ -56,6 +56,7 @@ fn welcome() -> ServerControl {
         position_resolution: 0.001,
         position_bound: 1000.0,
         snapshot: SnapshotParams::default(),
+        input_bytes: 5,
         server_version: "test".into(),
     }
 }

@@ -7,12 +7,15 @@ use inertia_protocol::control::{
     FrameDecoder, Refusal, ServerControl, SnapshotParams, TokenRefusal, WireEvent,
     MAX_CONTROL_FRAME, PROTOCOL_VERSION,
 };
-use inertia_protocol::entity::{buttons, EntityDesc, EntityKind, PlayerInput};
-use inertia_protocol::input::{quantize_input, InputBuffer, InputDatagram, MAX_REDUNDANT_INPUTS};
+use inertia_protocol::entity::{EntityDesc, EntityKind};
+use inertia_protocol::input::{
+    quantize_input, InputBuffer, InputDatagram, InputPayload, MAX_INPUT_BYTES, MAX_REDUNDANT_INPUTS,
+};
 use inertia_protocol::token::{
     mint, open, ConnectToken, ReplayGuard, TokenError, TokenKey, MAX_SERVER_ADDR_BYTES,
     MAX_TOKEN_BYTES, MAX_USER_DATA_BYTES,
 };
+use inertia_protocol::PlayerInput;
 use proptest::collection::vec;
 use proptest::prelude::*;
 
@@ -136,6 +139,7 @@ fn server_control() -> impl Strategy<Value = ServerControl> {
                     position_resolution,
                     position_bound,
                     snapshot: SnapshotParams::default(),
+                    input_bytes: (tick % 65) as u16,
                     server_version,
                 }
             ),
@@ -155,26 +159,20 @@ fn client_control() -> impl Strategy<Value = ClientControl> {
     ]
 }
 
+/// An input whose payload is filled in by the datagram (one size for all).
 fn player_input() -> impl Strategy<Value = PlayerInput> {
     (
         any::<u32>(),
         any::<u64>(),
-        [-1.5f32..1.5, -1.5f32..1.5],
-        -20.0f32..20.0,
-        0..=buttons::ALL,
         // Views behind the tick: none, within the cap, past it, ahead.
         prop_oneof![Just(0.0f32), 0.0f32..300.0, -5.0f32..0.0],
     )
-        .prop_map(
-            |(sequence, tick, movement, yaw, buttons, view_behind)| PlayerInput {
-                sequence,
-                tick,
-                movement,
-                yaw,
-                buttons,
-                view_behind,
-            },
-        )
+        .prop_map(|(sequence, tick, view_behind)| PlayerInput {
+            sequence,
+            tick,
+            payload: InputPayload::EMPTY,
+            view_behind,
+        })
 }
 
 /// Datagrams as a client writes them: consecutive sequences and ticks
@@ -193,7 +191,21 @@ fn input_datagram() -> impl Strategy<Value = InputDatagram> {
             0..MAX_REDUNDANT_INPUTS,
         ),
     )
-        .prop_map(|(ack, ack_bits, newest, older)| {
+        .prop_flat_map(|d| {
+            // Payloads of one size, often repeated.
+            let n = d.3.len() + 1;
+            (
+                Just(d),
+                (0..=MAX_INPUT_BYTES).prop_flat_map(move |size| {
+                    vec(
+                        prop_oneof![2 => Just(None), 1 => vec(any::<u8>(), size).prop_map(Some)],
+                        n,
+                    )
+                    .prop_map(move |p| (size, p))
+                }),
+            )
+        })
+        .prop_map(|((ack, ack_bits, newest, older), (size, payloads))| {
             let mut inputs = vec![newest];
             for (step, tick_step, body) in older {
                 let prev = inputs[inputs.len() - 1];
@@ -202,6 +214,13 @@ fn input_datagram() -> impl Strategy<Value = InputDatagram> {
                     tick: prev.tick.wrapping_sub(tick_step as u64),
                     ..body
                 });
+            }
+            let mut payload = InputPayload::new(&vec![0; size]).unwrap();
+            for (input, fresh) in inputs.iter_mut().zip(payloads) {
+                if let Some(bytes) = fresh {
+                    payload = InputPayload::new(&bytes).unwrap();
+                }
+                input.payload = payload;
             }
             InputDatagram {
                 ack,

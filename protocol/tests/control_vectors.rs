@@ -54,6 +54,7 @@ fn server_messages() -> Vec<(&'static str, ServerControl)> {
             velocity_bound: 512.0,
             max_datagram: 1200,
         },
+        input_bytes: 5,
         server_version: "0.1.0".into(),
     };
     let mut avatar = entity(

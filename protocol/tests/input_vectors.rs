@@ -1,10 +1,11 @@
 //! Golden vectors of the client's input datagram
 //! (`tests/vectors/inputs.json`): datagrams the Rust encoder writes for
 //! acknowledgements and inputs of every form the layout has (no ack; an
-//! ack with its bits; one input; eight, with sequence and tick steps of
-//! one and of more, backwards ticks, turns past a whole circle and every
-//! button; views behind the tick of none, one varint group and two,
-//! rounded, capped, ahead of the tick and NaN (written as `null`)). The
+//! ack with its bits; one input; an empty payload and the largest; eight,
+//! with sequence and tick steps of one and of more, backwards ticks,
+//! payloads repeated and changed; views behind the tick of none, one
+//! varint group and two, rounded, capped, ahead of the tick and NaN
+//! (written as `null`)). Payloads are hex. The
 //! browser client's encoder (`web/src/input.ts`) must write
 //! the same bytes from the same fields.
 //!
@@ -12,7 +13,7 @@
 //! change the datagrams rewrites the file with
 //! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test integration input_vectors::`.
 
-use inertia_protocol::entity::buttons;
+use inertia_protocol::input::{InputPayload, MAX_INPUT_BYTES};
 use inertia_protocol::{InputDatagram, PlayerInput};
 use serde_json::{json, Value};
 
@@ -21,13 +22,11 @@ use support::check_vectors;
 
 const FILE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/vectors/inputs.json");
 
-fn input(sequence: u32, tick: u64, movement: [f32; 2], yaw: f32, pressed: u8) -> PlayerInput {
+fn input(sequence: u32, tick: u64, payload: &[u8]) -> PlayerInput {
     PlayerInput {
         sequence,
         tick,
-        movement,
-        yaw,
-        buttons: pressed,
+        payload: InputPayload::new(payload).expect("a payload in bounds"),
         view_behind: 0.0,
     }
 }
@@ -52,14 +51,10 @@ fn datagrams() -> Vec<(&'static str, InputDatagram)> {
             // Views of none, one varint group and two, rounded to the
             // nearest sixteenth, past the cap, ahead of the tick, NaN.
             let view = [0.0, 7.9375, 8.0, 3.03, 300.0, -2.0, f32::NAN, 12.25][k as usize];
+            // Payloads repeated (k = 1, 2 and 6, 7) and changed.
+            let b = [0u8, 0, 0, 3, 4, 250, 6, 6][k as usize];
             seen(
-                input(
-                    sequence,
-                    tick,
-                    [k as f32 / 7.0 * 2.0 - 1.0, 0.3 - k as f32 * 0.1],
-                    -7.0 + k as f32 * 1.9,
-                    [0, buttons::JUMP, buttons::PUSH, buttons::ALL][k as usize % 4],
-                ),
+                input(sequence, tick, &[b, 0x7f, b ^ 0x55, 0x10, 0x02]),
                 view,
             )
         })
@@ -79,7 +74,7 @@ fn datagrams() -> Vec<(&'static str, InputDatagram)> {
             InputDatagram {
                 ack: None,
                 ack_bits: 0,
-                inputs: vec![input(7, 123, [1.0, -1.0], 3.25, buttons::JUMP)],
+                inputs: vec![input(7, 123, &[0xfe, 0x00, 0x15, 0x18, 0x01])],
             },
         ),
         (
@@ -88,9 +83,30 @@ fn datagrams() -> Vec<(&'static str, InputDatagram)> {
                 ack: Some(12),
                 ack_bits: u32::MAX,
                 inputs: vec![seen(
-                    input(u32::MAX, (1 << 40) + 3, [0.0, 0.5], 0.0, 0),
+                    input(u32::MAX, (1 << 40) + 3, &[0x7f, 0xbf, 0, 0, 0]),
                     15.5,
                 )],
+            },
+        ),
+        (
+            "a game without input bytes",
+            InputDatagram {
+                ack: None,
+                ack_bits: 0,
+                inputs: vec![input(3, 9, &[]), input(2, 8, &[])],
+            },
+        ),
+        (
+            "the largest payloads",
+            InputDatagram {
+                ack: Some(1),
+                ack_bits: 0,
+                inputs: (0..3u8)
+                    .map(|k| {
+                        let bytes: Vec<u8> = (0..MAX_INPUT_BYTES as u8).map(|b| b ^ k).collect();
+                        input(50 - u32::from(k), 500 - u64::from(k), &bytes)
+                    })
+                    .collect(),
             },
         ),
         (
@@ -124,9 +140,7 @@ fn vectors() -> Value {
                     json!({
                         "sequence": i.sequence,
                         "tick": i.tick.to_string(),
-                        "movement": i.movement,
-                        "yaw": i.yaw,
-                        "buttons": i.buttons,
+                        "payload": i.payload.as_bytes().iter().map(|b| format!("{b:02x}")).collect::<String>(),
                         // NaN has no JSON: written as null.
                         "view_behind": (!i.view_behind.is_nan()).then_some(i.view_behind),
                     })

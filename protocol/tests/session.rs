@@ -126,6 +126,7 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
             position_resolution: config.grid.resolution,
             position_bound: config.grid.bound,
             snapshot: SnapshotParams::from_config(&config),
+            input_bytes: 5,
             server_version: "test".into(),
         },
         t0,
@@ -198,9 +199,12 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
         // Client: a new stick every tick; one datagram a tick, carrying
         // it (quantized for the wire) and the seven before.
         client.set_input(
-            [((tick % 7) as f32 - 3.0) / 3.0, 0.5],
-            (tick % 100) as f32 * 0.06,
-            (tick % 4) as u8 & 3,
+            inertia_protocol::input::InputPayload::new(&[
+                (tick % 7) as u8,
+                0x80,
+                (tick % 100) as u8,
+            ])
+            .unwrap(),
         );
         let bytes = client
             .poll_input(now, Some(tick))

@@ -49,8 +49,12 @@ pub struct Metrics {
     pub snapshot_rate_steps: Family<[(&'static str, &'static str); 1], Counter>,
     /// Datagrams dropped because they did not decode.
     pub malformed_datagrams: Counter,
-    /// Inputs refused by validation (NaN, out of window, out of order).
+    /// Inputs refused (by the input schedule, the game's decoder or its
+    /// rules), all clients together.
     pub inputs_rejected: Counter,
+    /// Inputs refused per connected `client` and `reason` (see
+    /// [`INPUT_REFUSAL_REASONS`]); a client's series go when it leaves.
+    pub inputs_refused: Family<Vec<(String, String)>, Counter>,
     /// Connection attempts refused or failed before they were served, by
     /// `reason`: `tls` (no common ALPN, bad certificate), `handshake`,
     /// `handshake_timeout`, `handshake_limit`, `hello_timeout` (no hello,
@@ -88,6 +92,26 @@ impl Default for Metrics {
     }
 }
 
+/// Why an input was refused, as `/metrics` labels it: `not_joined`, `stale`
+/// (for a tick long past), `future` (too far ahead), `backlog` (too many
+/// waiting), `undecodable` (the game's decoder refused its payload),
+/// `wrong_size` (a datagram of inputs of another size than the game's).
+pub const INPUT_REFUSAL_REASONS: [&str; 6] = [
+    "not_joined",
+    "stale",
+    "future",
+    "backlog",
+    "undecodable",
+    "wrong_size",
+];
+
+fn input_labels(client: u64, reason: &str) -> Vec<(String, String)> {
+    vec![
+        ("client".to_string(), client.to_string()),
+        ("reason".to_string(), reason.to_string()),
+    ]
+}
+
 impl Metrics {
     /// Fresh metrics, registered under the `inertia_` prefix.
     pub fn new() -> Self {
@@ -115,6 +139,7 @@ impl Metrics {
             snapshot_rate_steps: Family::default(),
             malformed_datagrams: Counter::default(),
             inputs_rejected: Counter::default(),
+            inputs_refused: Family::default(),
             refused_connections: Family::default(),
             handshake_retries: Counter::default(),
             admin_actions: Family::default(),
@@ -193,8 +218,13 @@ impl Metrics {
         );
         r.register(
             "inputs_rejected",
-            "Player inputs refused by validation",
+            "Player inputs refused, all clients together",
             m.inputs_rejected.clone(),
+        );
+        r.register(
+            "inputs_refused",
+            "Player inputs refused, by connected client and reason",
+            m.inputs_refused.clone(),
         );
         r.register(
             "refused_connections",
@@ -242,6 +272,31 @@ impl Metrics {
         self.refused_connections
             .get_or_create(&vec![("reason".to_string(), reason.to_string())])
             .inc();
+    }
+
+    /// Counts one input of `client` refused for `reason` (one of
+    /// [`INPUT_REFUSAL_REASONS`]).
+    pub fn input_refused(&self, client: u64, reason: &'static str) {
+        self.inputs_rejected.inc();
+        self.inputs_refused
+            .get_or_create(&input_labels(client, reason))
+            .inc();
+    }
+
+    /// Inputs of `client` refused so far for `reason` (0 for none, or a
+    /// client that left).
+    pub fn inputs_refused_count(&self, client: u64, reason: &'static str) -> u64 {
+        self.inputs_refused
+            .get(&input_labels(client, reason))
+            .map_or(0, |c| c.get())
+    }
+
+    /// `client` left: its input series go (a server sees many clients come
+    /// and go; their series must not pile up).
+    pub fn forget_client(&self, client: u64) {
+        for reason in INPUT_REFUSAL_REASONS {
+            self.inputs_refused.remove(&input_labels(client, reason));
+        }
     }
 
     /// Connection attempts refused so far for `reason`.

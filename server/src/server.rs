@@ -8,6 +8,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use inertia_protocol::admin::MatchName;
+use inertia_protocol::connection::ServerConnectionConfig;
 use inertia_protocol::control::{truncate_utf8, DisconnectReason, MAX_REASON_BYTES};
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::TokenKey;
@@ -34,6 +35,9 @@ use crate::sim::{Frame, SimConfig, SimExit, SimHandle, Simulation};
 /// Why the server could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum StartError {
+    /// The game's input is larger than the protocol carries.
+    #[error("the game's input is {0} bytes, the most an input carries is {max}", max = inertia_protocol::input::MAX_INPUT_BYTES)]
+    InputTooLarge(usize),
     /// The configuration is invalid.
     #[error("configuration: {0}")]
     Config(#[from] crate::config::ConfigError),
@@ -204,6 +208,10 @@ pub async fn start_with_rules(
         ..SimConfig::from(&config)
     };
     let history_budget = sim_config.history_budget;
+    let input_bytes = rules.input_bytes();
+    if input_bytes > inertia_protocol::input::MAX_INPUT_BYTES {
+        return Err(StartError::InputTooLarge(input_bytes));
+    }
     let mut simulation = Simulation::new(built, rules, sim_config);
     if config.resume {
         let plan = read_for_resume(&config.recording_dir(), history_budget)?;
@@ -324,7 +332,10 @@ pub async fn start_with_rules(
             Arc::new(admin),
         )
         .with_frame_history(config.frame_history)
-        .with_connection_config(config.connection),
+        .with_connection_config(ServerConnectionConfig {
+            input_bytes: Some(input_bytes),
+            ..config.connection
+        }),
     );
     if config.frame_history > 0 {
         tasks.push(tokio::spawn(shared.clone().record_history()));

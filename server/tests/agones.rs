@@ -495,6 +495,9 @@ struct Configured {
 }
 
 impl inertia_server::rules::GameRules for Configured {
+    fn input_bytes(&self) -> usize {
+        self.inner.input_bytes()
+    }
     fn on_connect(
         &mut self,
         c: inertia_server::rules::ClientId,

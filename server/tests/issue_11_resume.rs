@@ -6,6 +6,7 @@
 //! decode is damage too: resume falls back to the keyframe before it.
 
 use crate::common;
+use inertia_protocol::input::GameInput;
 
 use std::collections::BTreeMap;
 use std::fs;
@@ -87,9 +88,12 @@ fn drive(s: &mut Simulation, ticks: u64) {
             let input = PlayerInput {
                 sequence: (s.world().tick() / 3 + 1) as u32,
                 tick: s.world().tick(),
-                movement: [((i % 50) as f32 / 50.0), 0.5],
-                yaw: 0.25,
-                buttons: 0,
+                payload: inertia_sandbox::SandboxInput {
+                    movement: [((i % 50) as f32 / 50.0), 0.5],
+                    yaw: 0.25,
+                    buttons: 0,
+                }
+                .to_payload(),
                 view_behind: 0.0,
             };
             let _ = s.input(7, &input);

@@ -11,10 +11,11 @@
 //! inputs on arrival amounts to), the two paths part.
 
 use inertia_physics::glam::DVec3;
-use inertia_protocol::entity::buttons;
+use inertia_protocol::input::GameInput;
 use inertia_protocol::input::{InputBuffer, InputDatagram, MAX_REDUNDANT_INPUTS};
 use inertia_protocol::rng::SplitMix;
 use inertia_protocol::PlayerInput;
+use inertia_sandbox::{buttons, SandboxInput};
 use inertia_server::rules::SandboxRules;
 use inertia_server::scene::{Scene, SceneFormat};
 use inertia_server::sim::{SimConfig, Simulation};
@@ -91,9 +92,12 @@ fn run(base: f64, jitter: f64, stamp: Stamp, seed: u64) -> (Vec<DVec3>, u64) {
             made.push(PlayerInput {
                 sequence: k as u32 + 1,
                 tick: start + k,
-                movement,
-                yaw,
-                buttons: pressed,
+                payload: SandboxInput {
+                    movement,
+                    yaw,
+                    buttons: pressed,
+                }
+                .to_payload(),
                 view_behind: 0.0,
             });
             let delay = base + jitter * rng.uniform();

@@ -88,6 +88,9 @@ struct EndsAfter {
 }
 
 impl GameRules for EndsAfter {
+    fn input_bytes(&self) -> usize {
+        self.inner.input_bytes()
+    }
     fn on_connect(
         &mut self,
         c: ClientId,

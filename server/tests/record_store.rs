@@ -9,10 +9,9 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use inertia_protocol::PlayerInput;
 use inertia_server::record::{
-    Corruption, OpenReport, Record, RecordError, RecordOptions, RecordReader, RecordWriter,
-    Salvaged, SegmentDamage, MAX_RECORD_BYTES,
+    Corruption, LegacyInput, OpenReport, Record, RecordError, RecordOptions, RecordReader,
+    RecordWriter, Salvaged, SegmentDamage, MAX_RECORD_BYTES,
 };
 use proptest::prelude::*;
 
@@ -41,8 +40,8 @@ impl Drop for TempDir {
     }
 }
 
-fn input(client: u64, tick: u64) -> PlayerInput {
-    PlayerInput {
+fn input(client: u64, tick: u64) -> LegacyInput {
+    LegacyInput {
         sequence: tick as u32,
         tick,
         movement: [(client as f32) * 0.5 - 1.0, 0.25],

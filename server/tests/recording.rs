@@ -6,6 +6,7 @@
 //! instead of blocking the tick.
 
 use crate::common;
+use inertia_protocol::input::GameInput;
 
 use common::FLAT;
 
@@ -51,9 +52,12 @@ fn input(sequence: u32, tick: u64, x: f32) -> PlayerInput {
     PlayerInput {
         sequence,
         tick,
-        movement: [x, 0.5],
-        yaw: 0.25,
-        buttons: 0,
+        payload: inertia_sandbox::SandboxInput {
+            movement: [x, 0.5],
+            yaw: 0.25,
+            buttons: 0,
+        }
+        .to_payload(),
         view_behind: 0.0,
     }
 }

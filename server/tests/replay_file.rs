@@ -6,6 +6,7 @@
 //! path that holds no recording is misuse (exit 2).
 
 use crate::common;
+use inertia_protocol::input::GameInput;
 
 use common::FLAT;
 
@@ -67,9 +68,12 @@ fn record(dir: &Path) {
             let input = PlayerInput {
                 sequence: (i / 3 + 1) as u32,
                 tick: s.world().tick(),
-                movement: [(i as f32 / TICKS as f32).min(1.0), 0.5],
-                yaw: 0.25,
-                buttons: 0,
+                payload: inertia_sandbox::SandboxInput {
+                    movement: [(i as f32 / TICKS as f32).min(1.0), 0.5],
+                    yaw: 0.25,
+                    buttons: 0,
+                }
+                .to_payload(),
                 view_behind: 0.0,
             };
             s.input(7, &input).unwrap();

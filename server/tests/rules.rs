@@ -2,9 +2,10 @@
 //! when standing, cannot fly by spamming jump, pushes a crate, and bad
 //! inputs are refused or clamped.
 
-use inertia_protocol::entity::buttons;
+use inertia_protocol::input::GameInput;
 use inertia_protocol::input::InputBuffer;
 use inertia_protocol::{EntityKind, PlayerInput};
+use inertia_sandbox::buttons;
 use inertia_server::rules::{GameEvent, InputRefusal, JoinRefusal, SandboxRules};
 use inertia_server::scene::{Scene, SceneFormat};
 use inertia_server::sim::{SimConfig, Simulation};
@@ -40,9 +41,12 @@ impl Player {
         let input = PlayerInput {
             sequence: self.sequence,
             tick: sim.world().tick(),
-            movement,
-            yaw,
-            buttons,
+            payload: inertia_sandbox::SandboxInput {
+                movement,
+                yaw,
+                buttons,
+            }
+            .to_payload(),
             view_behind: 0.0,
         };
         sim.input(self.client, &input).unwrap();
@@ -200,16 +204,20 @@ fn bad_inputs_are_refused_or_clamped() {
     // A tick that has passed: the input is applied, and checked, at once
     // (one for a tick to come waits for it, and is checked then).
     let tick = sim.world().tick() - 1;
-    let nan = PlayerInput {
-        sequence: 1,
-        tick,
-        movement: [f32::NAN, 0.0],
-        ..PlayerInput::default()
-    };
-    assert!(matches!(
-        sim.input(1, &nan),
-        Err(InputRefusal::NonFinite(_))
-    ));
+    // Bytes the sandbox's input never has: an undefined button, and a
+    // payload of another game's size.
+    for bytes in [&[0x7f, 0x7f, 0, 0xf0, 0x0f][..], &[0; 3]] {
+        let junk = PlayerInput {
+            sequence: 1,
+            tick,
+            payload: inertia_protocol::input::InputPayload::new(bytes).unwrap(),
+            ..PlayerInput::default()
+        };
+        assert!(matches!(
+            sim.input(1, &junk),
+            Err(InputRefusal::Undecodable(_))
+        ));
+    }
     assert!(matches!(
         sim.input(2, &PlayerInput::default()),
         Err(InputRefusal::NotJoined(2))
@@ -217,9 +225,12 @@ fn bad_inputs_are_refused_or_clamped() {
     let huge = PlayerInput {
         sequence: 2,
         tick,
-        movement: [1e30, 1e30],
-        yaw: 1e20,
-        buttons: !(buttons::JUMP | buttons::PUSH),
+        payload: inertia_sandbox::SandboxInput {
+            movement: [1e30, 1e30],
+            yaw: 1e20,
+            buttons: !(buttons::JUMP | buttons::PUSH),
+        }
+        .to_payload(),
         view_behind: 0.0,
     };
     sim.input(1, &huge).unwrap();
@@ -262,13 +273,14 @@ fn bad_inputs_are_refused_or_clamped() {
         sim.input(1, &ahead),
         Err(InputRefusal::Future { .. })
     ));
-    // The four the simulation refused (not joined, not finite, too old,
-    // too far ahead); the buffer counted the replay and the reordering.
+    // The five the simulation refused (two undecodable, not joined, too
+    // old, too far ahead); the buffer counted the replay and the
+    // reordering.
     assert_eq!(
         sim.stats()
             .inputs_rejected
             .load(std::sync::atomic::Ordering::Relaxed),
-        4
+        5
     );
 }
 

@@ -106,7 +106,6 @@ fn a_flood_of_inputs_does_not_stall_the_tick() {
         let input = PlayerInput {
             sequence: seq,
             tick: h.frame().tick,
-            movement: [f32::NAN, 1.0],
             ..PlayerInput::default()
         };
         let s = Instant::now();

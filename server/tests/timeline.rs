@@ -6,15 +6,16 @@
 //! identical hashes, and bad checkpoint files are refused without changing
 //! anything; a paused clock runs no ticks.
 
+use inertia_protocol::input::GameInput;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use inertia_protocol::admin::{MassSpec, SpawnDesc, TimeMode};
-use inertia_protocol::entity::buttons;
 use inertia_protocol::input::quantize_input;
 use inertia_protocol::rng::SplitMix;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput, ShapeDesc};
+use inertia_sandbox::buttons;
 use inertia_server::record::RecorderConfig;
 use inertia_server::replay::checkpoint::{CheckpointDir, CheckpointError, CheckpointName};
 use inertia_server::replay::{JournalEntry, SimState, StateError, WorldEdit};
@@ -128,9 +129,12 @@ impl Bots {
         quantize_input(&PlayerInput {
             sequence,
             tick,
-            movement: [r.range(-1.0, 1.0) as f32, r.range(-1.0, 1.0) as f32],
-            yaw: r.range(-std::f64::consts::PI, std::f64::consts::PI) as f32,
-            buttons: b,
+            payload: inertia_sandbox::SandboxInput {
+                movement: [r.range(-1.0, 1.0) as f32, r.range(-1.0, 1.0) as f32],
+                yaw: r.range(-std::f64::consts::PI, std::f64::consts::PI) as f32,
+                buttons: b,
+            }
+            .to_payload(),
             view_behind: 0.0,
         })
     }

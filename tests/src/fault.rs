@@ -28,6 +28,9 @@ impl FaultRules {
 }
 
 impl GameRules for FaultRules {
+    fn input_bytes(&self) -> usize {
+        self.inner.input_bytes()
+    }
     fn on_connect(
         &mut self,
         client: ClientId,

@@ -6,6 +6,7 @@
 //! the session's token, and snapshots and inputs travel as the session's
 //! datagrams.
 
+use inertia_protocol::input::GameInput;
 use std::time::Duration;
 
 use inertia_protocol::client_session::{ClientConfig, ClientSession};
@@ -123,7 +124,14 @@ async fn issue_15_a_web_transport_session_joins_on_the_game_port_and_gets_snapsh
             largest_view = largest_view.max(view);
         }
         decoded += 1;
-        game.set_input([1.0, 0.0], 0.0, 0);
+        game.set_input(
+            inertia_sandbox::SandboxInput {
+                movement: [1.0, 0.0],
+                yaw: 0.0,
+                buttons: 0,
+            }
+            .to_payload(),
+        );
         let now = start.elapsed().as_secs_f64();
         if let Some(input) = game.poll_input(now, Some(snap_tick)) {
             session.send_datagram(input.into()).expect("sent");

@@ -34,7 +34,9 @@ async fn walk(what: &str, rtt_ms: u64, jitter_ms: u64, loss: f64, seconds: u64) 
     let mut before = None;
     for k in 0..frames {
         let angle = k as f32 * 0.02;
-        client.set_input([angle.cos(), angle.sin()], angle, 0);
+        client
+            .set_input([angle.cos(), angle.sin()], angle, 0)
+            .expect("the sandbox takes the sandbox's input");
         if k == 3 * 60 {
             before = Some(client.stats());
         }

@@ -30,8 +30,9 @@ use inertia_client::Client;
 use inertia_physics::rigid::body::RigidBodyDesc;
 use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
-use inertia_protocol::entity::buttons;
+use inertia_protocol::input::GameInput;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput};
+use inertia_sandbox::{buttons, SandboxInput, SANDBOX_INPUT_BYTES};
 use inertia_server::rules::{
     validate_input, ClientId, EntityLook, GameRules, InputRefusal, JoinRefusal, SimContext,
 };
@@ -87,6 +88,11 @@ impl Gallery {
 }
 
 impl GameRules for Gallery {
+    /// The players aim and fire with the sandbox's input.
+    fn input_bytes(&self) -> usize {
+        SANDBOX_INPUT_BYTES
+    }
+
     /// A view lags its input's tick by about 250 ms at a 100 ms round
     /// trip (the input's lead and the interpolation delay): half a second
     /// of poses covers it.
@@ -145,14 +151,15 @@ impl GameRules for Gallery {
         input: &PlayerInput,
         ctx: &mut SimContext<'_>,
     ) -> Result<(), InputRefusal> {
-        let input = validate_input(input)?;
+        let input = validate_input(input);
+        let aim = SandboxInput::from_payload(&input.payload)?;
         let Some(&(_, avatar)) = self.shooters.iter().find(|s| s.0 == client) else {
             return Err(InputRefusal::NotJoined(client));
         };
-        if input.buttons & FIRE == 0 {
+        if aim.buttons & FIRE == 0 {
             return Ok(());
         }
-        let yaw = f64::from(input.yaw);
+        let yaw = f64::from(aim.yaw);
         let dir = DVec3::new(yaw.sin(), 0.0, yaw.cos());
         let hit_target =
             |hit: Option<(Option<EntityId>, _)>| hit.is_some_and(|(id, _)| id == self.target);
@@ -222,12 +229,16 @@ async fn issue_17_shots_hit_what_the_shooter_saw_at_100ms_rtt() {
         if let Some(seen) = frame.get(target) {
             let to = seen.position - SHOOTER;
             let yaw = to.x.atan2(to.z);
-            client.set_input([0.0, 0.0], yaw as f32, FIRE);
+            client
+                .set_input([0.0, 0.0], yaw as f32, FIRE)
+                .expect("the sandbox takes the sandbox's input");
             frames += 1;
         }
         tokio::time::sleep(Duration::from_millis(4)).await;
     }
-    client.set_input([0.0, 0.0], 0.0, 0);
+    client
+        .set_input([0.0, 0.0], 0.0, 0)
+        .expect("the sandbox takes the sandbox's input");
 
     let shots = tally.shots.load(Ordering::Relaxed);
     let with = tally.hits_compensated.load(Ordering::Relaxed);

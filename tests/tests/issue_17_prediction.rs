@@ -57,7 +57,9 @@ async fn issue_17_the_predicted_avatar_answers_at_once_and_corrects_smoothly() {
     .expect("joins through the conditioner");
 
     // Standing still while the clock and the input lead settle.
-    client.set_input([0.0, 0.0], 0.0, 0);
+    client
+        .set_input([0.0, 0.0], 0.0, 0)
+        .expect("the sandbox takes the sandbox's input");
     tokio::time::sleep(Duration::from_secs(3)).await;
     let start = client.predicted_avatar().expect("the avatar is predicted");
     assert!(
@@ -69,7 +71,9 @@ async fn issue_17_the_predicted_avatar_answers_at_once_and_corrects_smoothly() {
     );
 
     // The first frame after the stick moves, the avatar does.
-    client.set_input([1.0, 0.0], 0.0, 0);
+    client
+        .set_input([1.0, 0.0], 0.0, 0)
+        .expect("the sandbox takes the sandbox's input");
     let mut frames = 0;
     let moved = loop {
         tokio::time::sleep(FRAME).await;
@@ -86,7 +90,9 @@ async fn issue_17_the_predicted_avatar_answers_at_once_and_corrects_smoothly() {
         moved.tick
     );
     assert!(frames <= 2, "the avatar answered after {frames} frames");
-    client.set_input([0.0, 0.0], 0.0, 0);
+    client
+        .set_input([0.0, 0.0], 0.0, 0)
+        .expect("the sandbox takes the sandbox's input");
     tokio::time::sleep(Duration::from_secs(1)).await;
 
     // The path, drawn frame by frame.
@@ -97,7 +103,9 @@ async fn issue_17_the_predicted_avatar_answers_at_once_and_corrects_smoothly() {
         let frames = (seconds / FRAME.as_secs_f64()).round() as usize;
         for f in 0..frames {
             // Jumps are presses: held for two frames, then let go.
-            client.set_input(movement, 0.0, if f < 2 { buttons } else { 0 });
+            client
+                .set_input(movement, 0.0, if f < 2 { buttons } else { 0 })
+                .expect("the sandbox takes the sandbox's input");
             tokio::time::sleep(FRAME).await;
             let a = client.predicted_avatar().expect("predicted");
             let motion = (a.predicted - last.predicted) - (a.corrected - last.corrected);
@@ -106,7 +114,9 @@ async fn issue_17_the_predicted_avatar_answers_at_once_and_corrects_smoothly() {
             last = a;
         }
     }
-    client.set_input([0.0, 0.0], 0.0, 0);
+    client
+        .set_input([0.0, 0.0], 0.0, 0)
+        .expect("the sandbox takes the sandbox's input");
     tokio::time::sleep(Duration::from_millis(500)).await;
 
     let stats = client.stats();

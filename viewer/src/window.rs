@@ -12,7 +12,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 use inertia_protocol::admin::AdminRequest;
-use inertia_protocol::entity::buttons;
+use inertia_sandbox::buttons;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
@@ -173,7 +173,9 @@ impl App {
             pressed |= buttons::PUSH;
         }
         let yaw = (-ahead.x).atan2(-ahead.z);
-        self.view.client().set_input([wish.x, wish.z], yaw, pressed);
+        // The sandbox's input: a server running another game refuses it,
+        // and the viewer then only watches.
+        let _ = self.view.client().set_input([wish.x, wish.z], yaw, pressed);
     }
 
     fn on_key(&mut self, code: KeyCode, state: ElementState) {

@@ -17,7 +17,7 @@ export class ControlError extends Error {}
 export const MAX_CONTROL_FRAME = 64 * 1024;
 
 /** The protocol version this client speaks (`PROTOCOL_VERSION`). */
-export const PROTOCOL_VERSION = 4;
+export const PROTOCOL_VERSION = 5;
 
 // ---- the messages ----
 
@@ -69,6 +69,8 @@ export interface Welcome {
   position_resolution: number;
   position_bound: number;
   snapshot: SnapshotParams;
+  /** Bytes of every input's payload: the game's input size. */
+  input_bytes: number;
   server_version: string;
 }
 
@@ -467,6 +469,7 @@ export function decodeServerControl(payload: Uint8Array): ServerControl {
             velocity_bound: r.f64(),
             max_datagram: r.u16(),
           },
+          input_bytes: r.u16(),
           server_version: r.string(),
         },
       };

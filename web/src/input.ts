@@ -1,6 +1,8 @@
-// The client's datagram, as `protocol/src/input.rs` lays it out: which
+// The client's datagram, as `protocol/src/input/mod.rs` lays it out: which
 // snapshots arrived (the server codes the next ones against them) and the
 // newest inputs, each repeated in the next few datagrams against loss.
+// What an input says is the game's: its payload, the game's bytes (the
+// sandbox's are made by `sandbox.ts`).
 
 import { BitWriter } from "./bits.js";
 
@@ -8,12 +10,8 @@ import { BitWriter } from "./bits.js";
 export const INPUT_DATAGRAM_TAG = 0x49;
 /** The most inputs one datagram carries. */
 export const MAX_REDUNDANT_INPUTS = 8;
-/** Defined buttons: jump 1, push 2. */
-export const BUTTONS = { JUMP: 1, PUSH: 2, ALL: 3 } as const;
-
-const MOVEMENT_BITS = 8;
-const YAW_BITS = 12;
-const MOVEMENT_STEPS = 127;
+/** The most bytes one input's payload may hold. */
+export const MAX_INPUT_BYTES = 64;
 /** Steps of the view offset per tick: it travels in 1/16 tick. */
 export const VIEW_STEPS_PER_TICK = 16;
 /** The most steps of the view offset the wire carries (4095/16 ticks). */
@@ -25,12 +23,9 @@ export interface PlayerInput {
   sequence: number;
   /** The server tick it is meant for. */
   tick: bigint;
-  /** Movement in the horizontal plane (x, z), each in [−1, 1]. */
-  movement: [number, number];
-  /** Facing angle about +Y, rad. */
-  yaw: number;
-  /** Held buttons ({@link BUTTONS}). */
-  buttons: number;
+  /** The game's input, as its bytes (at most {@link MAX_INPUT_BYTES}; one
+   * size in every input of a datagram). */
+  payload: Uint8Array;
   /** How far behind `tick` the world the player saw was, ticks (≥ 0; the
    * server answers its shots against the world at `tick − viewBehind`).
    * Sent in 1/16 tick, at most 4095/16; NaN and negative as 0. */
@@ -44,24 +39,6 @@ export interface InputDatagram {
   ackBits: number;
   /** The newest inputs, newest first, at most {@link MAX_REDUNDANT_INPUTS}. */
   inputs: PlayerInput[];
-}
-
-/** A movement axis on the wire's grid (NaN as 0, clamped to [−1, 1]). */
-function movementIndex(x: number): number {
-  const f = Math.fround(x);
-  const c = Number.isNaN(f) ? 0 : Math.min(1, Math.max(-1, f));
-  return Math.round((c + 1) * MOVEMENT_STEPS);
-}
-
-/** The yaw in 4096ths of a turn (not finite as 0). */
-function yawIndex(yaw: number): number {
-  const f = Math.fround(yaw);
-  if (!Number.isFinite(f)) {
-    return 0;
-  }
-  const turns = f / (2 * Math.PI);
-  const frac = turns - Math.floor(turns);
-  return Math.round(frac * 2 ** YAW_BITS) % 2 ** YAW_BITS;
 }
 
 /** The view offset in sixteenths of a tick (NaN, negative as 0; capped). */
@@ -90,17 +67,19 @@ function zigzag(v: bigint): bigint {
   return v >= 0n ? v << 1n : ((-v) << 1n) - 1n;
 }
 
-function writeBody(w: BitWriter, input: PlayerInput): void {
-  for (const m of input.movement) {
-    w.write(movementIndex(m), MOVEMENT_BITS);
+function writePayload(w: BitWriter, payload: Uint8Array): void {
+  for (const b of payload) {
+    w.write(b, 8);
   }
-  w.write(yawIndex(input.yaw), YAW_BITS);
-  w.write(input.buttons, 8);
+}
+
+function samePayload(a: Uint8Array, b: Uint8Array): boolean {
+  return a.length === b.length && a.every((x, i) => x === b[i]);
 }
 
 /** The datagram's bytes. Throws a `RangeError` for what the layout cannot
- * carry: too many inputs, ack bits without an ack, undefined buttons, a
- * sequence repeated. */
+ * carry: too many inputs, ack bits without an ack, payloads too long or of
+ * different sizes, a sequence repeated. */
 export function encodeInputDatagram(d: InputDatagram): Uint8Array {
   if (d.inputs.length > MAX_REDUNDANT_INPUTS) {
     throw new RangeError(`${d.inputs.length} inputs, the most is ${MAX_REDUNDANT_INPUTS}`);
@@ -118,14 +97,20 @@ export function encodeInputDatagram(d: InputDatagram): Uint8Array {
     w.write(d.ackBits >>> 0, 32);
   }
   w.write(d.inputs.length, 4);
+  const size = d.inputs[0]?.payload.length ?? 0;
+  if (size > MAX_INPUT_BYTES) {
+    throw new RangeError(`payloads of ${size} bytes, the most is ${MAX_INPUT_BYTES}`);
+  }
+  w.write(size, 7);
   let prev: PlayerInput | null = null;
   for (const input of d.inputs) {
-    if ((input.buttons & ~BUTTONS.ALL) !== 0) {
-      throw new RangeError(`undefined buttons ${input.buttons}`);
+    if (input.payload.length !== size) {
+      throw new RangeError(`a payload of ${input.payload.length} bytes among ones of ${size}`);
     }
     if (prev === null) {
       w.write(input.sequence >>> 0, 32);
       writeVarint(w, input.tick);
+      writePayload(w, input.payload);
     } else {
       const step = (prev.sequence - input.sequence) >>> 0;
       if (step === 0) {
@@ -145,8 +130,12 @@ export function encodeInputDatagram(d: InputDatagram): Uint8Array {
         w.writeBool(false);
         writeVarint(w, zigzag(raw));
       }
+      const same = samePayload(input.payload, prev.payload);
+      w.writeBool(same);
+      if (!same) {
+        writePayload(w, input.payload);
+      }
     }
-    writeBody(w, input);
     writeVarint(w, BigInt(viewIndex(input.viewBehind)));
     prev = input;
   }

@@ -15,6 +15,7 @@ import {
   type Welcome,
 } from "./control.js";
 import { Acks, encodeInputDatagram, type PlayerInput } from "./input.js";
+import { BUTTONS, encodeSandboxInput } from "./sandbox.js";
 import { meshOf, type Mesh } from "./mesh.js";
 import { pointSetOf, PointSetTrack } from "./points.js";
 import { SnapshotDecoder, type SnapshotConfig } from "./snapshot.js";
@@ -316,9 +317,8 @@ async function main(): Promise<void> {
     recent.unshift({
       sequence,
       tick: lead.stamped,
-      movement: [x, z],
-      yaw: 0,
-      buttons: keys.has(" ") ? 1 : 0,
+      // The stock server's game, the sandbox: walk and jump.
+      payload: encodeSandboxInput({ movement: [x, z], yaw: 0, buttons: keys.has(" ") ? BUTTONS.JUMP : 0 }),
       viewBehind,
     });
     recent.length = Math.min(recent.length, 8);

@@ -32,10 +32,11 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use inertia_protocol::entity::buttons;
 use inertia_protocol::input::quantize_input;
+use inertia_protocol::input::GameInput;
 use inertia_protocol::rng::SplitMix;
 use inertia_protocol::{EntityId, PlayerInput};
+use inertia_sandbox::buttons;
 use inertia_server::record::{Record, RecordReader, RecorderConfig};
 use inertia_server::replay::SimState;
 use inertia_server::rules::SandboxRules;
@@ -259,10 +260,13 @@ impl Bot {
         quantize_input(&PlayerInput {
             sequence: self.sequence,
             tick,
-            movement: [mx as f32, mz as f32],
-            yaw: ((self.yaw + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                - std::f64::consts::PI) as f32,
-            buttons: b,
+            payload: inertia_sandbox::SandboxInput {
+                movement: [mx as f32, mz as f32],
+                yaw: ((self.yaw + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                    - std::f64::consts::PI) as f32,
+                buttons: b,
+            }
+            .to_payload(),
             view_behind: 0.0,
         })
     }
@@ -699,7 +703,8 @@ mod tests {
             let i = bot.input(t);
             assert_eq!(i, quantize_input(&i));
             assert_eq!(i.sequence, t as u32 + 1);
-            assert!(i.buttons & !buttons::ALL == 0);
+            let sandbox = inertia_sandbox::SandboxInput::from_payload(&i.payload).unwrap();
+            assert!(sandbox.buttons & !buttons::ALL == 0);
         }
     }
 }

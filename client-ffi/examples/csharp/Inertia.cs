@@ -42,6 +42,8 @@ namespace Inertia
         public uint SnapshotHz;
         public double PositionResolution;
         [MarshalAs(UnmanagedType.ByValArray, SizeConst = 64)] public byte[] ServerVersion;
+        /// <summary>Bytes of the game's input (<see cref="Client.SetInput{T}"/> sends a struct of exactly this size).</summary>
+        public uint InputBytes;
     }
 
     /// <summary>One entity where the picture draws it (blittable).</summary>
@@ -120,6 +122,7 @@ namespace Inertia
         [DllImport(Lib)] public static extern void inertia_disconnect(IntPtr client);
         [DllImport(Lib)] public static extern Status inertia_server_info(IntPtr client, out ServerInfo info);
         [DllImport(Lib)] public static extern Status inertia_set_input(IntPtr client, float moveX, float moveZ, float yaw, byte buttons);
+        [DllImport(Lib)] public static extern Status inertia_set_input_bytes(IntPtr client, byte[] bytes, UIntPtr len);
         [DllImport(Lib)] public static extern Status inertia_poll_event(IntPtr client, out Event e);
         [DllImport(Lib)] public static extern Status inertia_sample(IntPtr client, [Out] EntityState[] states, UIntPtr capacity, out UIntPtr count);
         [DllImport(Lib)] public static extern Status inertia_entity_info(IntPtr client, uint id, out EntityInfo info);
@@ -194,8 +197,29 @@ namespace Inertia
 
         public ServerInfo Info { get { ServerInfo i; Check(Native.inertia_server_info(handle, out i), "server info"); return i; } }
 
+        /// <summary>The sandbox game's input (the stock server's).</summary>
         public void SetInput(float moveX, float moveZ, float yaw, byte buttons) =>
             Check(Native.inertia_set_input(handle, moveX, moveZ, yaw, buttons), "set input");
+
+        /// <summary>The game's input: a blittable struct laid out as the game
+        /// lays its input out (<c>[StructLayout(LayoutKind.Sequential, Pack = 1)]</c>),
+        /// exactly <see cref="ServerInfo.InputBytes"/> long.</summary>
+        public void SetInput<T>(T input) where T : struct
+        {
+            int size = Marshal.SizeOf<T>();
+            var bytes = new byte[size];
+            IntPtr at = Marshal.AllocHGlobal(size);
+            try
+            {
+                Marshal.StructureToPtr(input, at, false);
+                Marshal.Copy(at, bytes, 0, size);
+            }
+            finally
+            {
+                Marshal.FreeHGlobal(at);
+            }
+            Check(Native.inertia_set_input_bytes(handle, bytes, (UIntPtr)size), "set input");
+        }
 
         /// <summary>The next waiting event, or one of kind None.</summary>
         public Event PollEvent() { Event e; Check(Native.inertia_poll_event(handle, out e), "poll event"); return e; }

@@ -391,6 +391,7 @@ mod tests {
             tick_hz: 60,
             snapshot_hz: 30,
             snapshot: config,
+            input_bytes: 5,
             server_version: String::new(),
         };
         let session = ClientSession::new(

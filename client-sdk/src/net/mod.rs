@@ -13,9 +13,10 @@ use inertia_protocol::connection::{
     ClientConnection, ClientConnectionConfig, ClientConnectionEnd, ClientConnectionEvent,
 };
 use inertia_protocol::control::{DisconnectReason, Refusal, PROTOCOL_VERSION};
-use inertia_protocol::input::MAX_REDUNDANT_INPUTS;
+use inertia_protocol::input::{GameInput, InputPayload, MAX_REDUNDANT_INPUTS};
 use inertia_protocol::token::ConnectToken;
 use inertia_protocol::{ClientConfig, ClientSession};
+use inertia_sandbox::SandboxInput;
 use tokio::sync::mpsc;
 
 pub use driver::ClientEvent;
@@ -64,6 +65,15 @@ pub enum ClientError {
     /// The server did not answer in time.
     #[error("the server did not answer within {0:?}")]
     Timeout(Duration),
+    /// The game's input is not the size of the server's game's: this
+    /// client plays another game.
+    #[error("inputs of {ours} bytes, the server's game takes {server}")]
+    InputSize {
+        /// This client's, bytes.
+        ours: usize,
+        /// The server's, bytes.
+        server: usize,
+    },
 }
 
 /// Options of [`Client::connect_with`].
@@ -260,12 +270,39 @@ impl Client {
         self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Sets what the player wants from now on: movement in the horizontal
-    /// plane (each in [−1, 1]), facing angle (rad) and held buttons. It is
-    /// sent every input interval, with the last few inputs repeated in
-    /// every datagram against loss.
-    pub fn set_input(&self, movement: [f32; 2], yaw: f32, buttons: u8) {
-        self.lock().session.set_input(movement, yaw, buttons);
+    /// Sets what the player wants from now on: the game's input, the
+    /// type its rules read ([`GameInput`]). It is stamped for every tick
+    /// from now on and sent every input interval, with the last few inputs
+    /// repeated in every datagram against loss. Refused, changing nothing,
+    /// when the server's game takes inputs of another size.
+    pub fn set_game_input<I: GameInput>(&self, input: &I) -> Result<(), ClientError> {
+        self.set_input_payload(input.to_payload())
+    }
+
+    /// [`Client::set_game_input`] with the input's bytes (for bindings to
+    /// other languages, which encode the game's input themselves).
+    pub fn set_input_payload(&self, payload: InputPayload) -> Result<(), ClientError> {
+        if payload.len() != self.info.input_bytes {
+            return Err(ClientError::InputSize {
+                ours: payload.len(),
+                server: self.info.input_bytes,
+            });
+        }
+        self.lock().session.set_input(payload);
+        Ok(())
+    }
+
+    /// The sandbox game's input ([`SandboxInput`]): movement in the
+    /// horizontal plane (each in [−1, 1]), facing angle (rad) and held
+    /// buttons ([`inertia_sandbox::buttons`]), for the stock server. A
+    /// server running another game refuses it
+    /// ([`ClientError::InputSize`]).
+    pub fn set_input(&self, movement: [f32; 2], yaw: f32, buttons: u8) -> Result<(), ClientError> {
+        self.set_game_input(&SandboxInput {
+            movement,
+            yaw,
+            buttons,
+        })
     }
 
     /// The world as it should be drawn now: interpolated behind the

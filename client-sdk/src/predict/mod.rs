@@ -58,9 +58,10 @@ use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::rigid::solver::SolverConfig;
 use inertia_physics::{BodyHandle, PhysicsError, World, WorldConfig};
-use inertia_protocol::entity::buttons;
+use inertia_protocol::input::GameInput;
 use inertia_protocol::snapshot::ViewEntity;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput};
+use inertia_sandbox::{buttons, SandboxInput};
 
 pub use config::PredictionConfig;
 pub use smoothing::{Fold, VisualOffset};
@@ -410,6 +411,8 @@ impl Predictor {
             .next_back()
             .map(|(_, i)| *i)
             .unwrap_or_default();
+        // The sandbox's walker: an input it cannot read walks nowhere.
+        let input = SandboxInput::from_payload(&input.payload).unwrap_or_default();
         let movement = clamp_movement(input.movement);
         let pressed = input.buttons & !self.held;
         self.held = input.buttons;

@@ -1,5 +1,7 @@
 use super::*;
+use inertia_protocol::input::GameInput;
 use inertia_protocol::{EntityDesc, ShapeDesc};
+use inertia_sandbox::SandboxInput;
 
 const CLIENT: u64 = 1;
 const AVATAR: EntityId = 2;
@@ -55,9 +57,12 @@ fn input(tick: u64, movement: [f32; 2], buttons: u8) -> PlayerInput {
     PlayerInput {
         sequence: tick as u32,
         tick,
-        movement,
-        yaw: 0.0,
-        buttons,
+        payload: SandboxInput {
+            movement,
+            yaw: 0.0,
+            buttons,
+        }
+        .to_payload(),
         view_behind: 0.0,
     }
 }

@@ -62,6 +62,8 @@ pub struct ServerInfo {
     pub snapshot_hz: u32,
     /// The snapshot coding the server uses.
     pub snapshot: SnapshotConfig,
+    /// Bytes of every input's payload, the game's.
+    pub input_bytes: usize,
     /// The server's build.
     pub server_version: String,
 }
@@ -378,6 +380,7 @@ impl ClientConnection {
                         position_resolution,
                         position_bound,
                         snapshot,
+                        input_bytes,
                         server_version,
                     },
                 ) => {
@@ -390,6 +393,7 @@ impl ClientConnection {
                             tick_hz,
                             snapshot_hz,
                             snapshot,
+                            input_bytes: usize::from(input_bytes),
                             server_version,
                         }));
                 }

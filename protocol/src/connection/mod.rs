@@ -117,6 +117,12 @@ pub struct ServerConnectionConfig {
     pub finish: Duration,
     /// Inputs remembered for reordering and de-duplication.
     pub input_buffer: usize,
+    /// Bytes of every input's payload, as the game declares them
+    /// ([`GameInput::BYTES`](crate::input::GameInput::BYTES)): a datagram
+    /// with inputs of another size is refused whole
+    /// ([`InputError::WrongPayloadSize`](crate::input::InputError::WrongPayloadSize)).
+    /// `None` takes any size and leaves the check to the game's decoder.
+    pub input_bytes: Option<usize>,
 }
 
 impl Default for ServerConnectionConfig {
@@ -129,6 +135,7 @@ impl Default for ServerConnectionConfig {
             goodbye: GOODBYE_WAIT,
             finish: FINISH_WAIT,
             input_buffer: INPUT_BUFFER,
+            input_bytes: None,
         }
     }
 }

@@ -7,7 +7,7 @@ use std::time::Instant;
 use crate::control::{
     close_code, encode_frame, ClientControl, DisconnectReason, FrameDecoder, Refusal, ServerControl,
 };
-use crate::entity::PlayerInput;
+use crate::input::PlayerInput;
 use crate::input::{InputBuffer, InputDatagram, InputError};
 
 use super::last_words::LastWords;
@@ -248,6 +248,14 @@ impl ServerConnection {
         };
         *heard = now;
         let datagram = InputDatagram::decode(bytes)?;
+        if let (Some(expected), Some(input)) = (self.config.input_bytes, datagram.inputs.first()) {
+            if input.payload.len() != expected {
+                return Err(InputError::WrongPayloadSize {
+                    size: input.payload.len(),
+                    expected,
+                });
+            }
+        }
         self.inputs.push_datagram(&datagram);
         Ok(datagram.ack)
     }

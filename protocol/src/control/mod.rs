@@ -116,6 +116,11 @@ pub enum ServerControl {
         position_bound: f64,
         /// The rest of the snapshot coding.
         snapshot: SnapshotParams,
+        /// Bytes of every input's payload, as the game declares them
+        /// ([`GameInput::BYTES`](crate::input::GameInput::BYTES), at most
+        /// [`MAX_INPUT_BYTES`](crate::input::MAX_INPUT_BYTES)): a client
+        /// whose game input has another size is not playing this game.
+        input_bytes: u16,
         /// The server build, for logs (at most [`MAX_VERSION_BYTES`]).
         server_version: String,
     },

@@ -134,6 +134,7 @@ fn validation_refuses_what_serde_accepts() {
         position_resolution: 0.001,
         position_bound: 1000.0,
         snapshot: SnapshotParams::default(),
+        input_bytes: 5,
         server_version: "0.1.0".into(),
     };
     assert!(matches!(
@@ -292,6 +293,7 @@ fn every_message_round_trips() {
             position_resolution: 1.0 / 1024.0,
             position_bound: 4096.0,
             snapshot: SnapshotParams::default(),
+            input_bytes: 5,
             server_version: "0.1.0".into(),
         },
         ServerControl::Refused(Refusal::VersionMismatch {

@@ -199,9 +199,15 @@ impl ControlMessage for ServerControl {
                 position_resolution,
                 position_bound,
                 snapshot,
+                input_bytes,
                 server_version,
                 ..
             } => {
+                if usize::from(*input_bytes) > crate::input::MAX_INPUT_BYTES {
+                    return Err(ControlError::OutOfRange {
+                        what: "input payload size",
+                    });
+                }
                 snapshot
                     .config(*position_resolution, *position_bound)
                     .validate()

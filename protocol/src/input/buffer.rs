@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use crate::entity::PlayerInput;
+use super::PlayerInput;
 
 use super::InputDatagram;
 

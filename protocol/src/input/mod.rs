@@ -4,6 +4,10 @@
 //! datagram that carried it is. The server's [`InputBuffer`] removes the
 //! copies and hands each input on exactly once, in order.
 //!
+//! What the player wants is the game's: each input carries a payload of
+//! the game's bytes ([`InputPayload`], see [`GameInput`]), the same size
+//! in every input of a datagram.
+//!
 //! ## Layout (bit-packed with [`BitWriter`], least significant bit first)
 //!
 //! ```text
@@ -12,18 +16,23 @@
 //!   ack       16  newest snapshot sequence received     (if has_ack)
 //!   ack_bits  32  bit i: snapshot ack-1-i received       (if has_ack)
 //! count        4  inputs, 0 to MAX_REDUNDANT_INPUTS
+//! size         7  bytes of every input's payload, 0 to MAX_INPUT_BYTES (64)
 //! newest input:
 //!   sequence  32
 //!   tick      varint
-//!   body      36  movement x, z (8 bits each), yaw (12), buttons (8)
+//!   payload   8 × size
 //!   view      varint  how far behind `tick` the player's view was, in
 //!                 1/16 tick, 0 to MAX_VIEW_BEHIND_STEPS (4095)
 //! each older input (sequence and tick relative to the one before it):
 //!   seq_step   1  1: sequence is one less; 0: varint (difference − 2)
 //!   tick_step  1  1: tick is one less; 0: zigzag varint of the difference
-//!   body      36
+//!   same       1  1: the payload of the input before it; 0: its own,
+//!                 8 × size bits
 //!   view      varint
 //! ```
+//!
+//! A player holds the same stick for many ticks, so most redundant inputs
+//! cost a bit for their payload.
 //!
 //! `view` carries [`PlayerInput::view_behind`]: the player's render tick
 //! was `tick − view / 16`. Eight ticks or less behind take one group (8
@@ -39,32 +48,28 @@
 //! bytes), so `encode(decode(bytes)) == bytes` for every accepted datagram.
 
 mod buffer;
-
-use std::f64::consts::TAU;
+mod payload;
+mod player_input;
 
 use inertia_codec::{unzigzag, zigzag};
 use thiserror::Error;
 
 use crate::bits::{BitError, BitReader, BitWriter};
-use crate::entity::{buttons, PlayerInput};
 
 pub use buffer::{InputBuffer, InputBufferStats, INPUT_WINDOW};
+pub use payload::{GameInput, InputDecodeError, InputPayload, PayloadTooLong, MAX_INPUT_BYTES};
+pub use player_input::PlayerInput;
 
 /// The first byte of every input datagram.
 pub const INPUT_DATAGRAM_TAG: u8 = 0x49;
 /// The most inputs one datagram carries (the newest and its predecessors).
 pub const MAX_REDUNDANT_INPUTS: usize = 8;
-/// Bits of each movement axis.
-pub const MOVEMENT_BITS: u32 = 8;
-/// Bits of the yaw angle.
-pub const YAW_BITS: u32 = 12;
-/// Movement quantization: an axis in [−1, 1] maps to 0..=254, so 0 is
-/// exact.
-const MOVEMENT_STEPS: f64 = 127.0;
-const MOVEMENT_MAX_INDEX: u64 = 254;
+/// Bits of the payload size field.
+const SIZE_BITS: u32 = 7;
 const VARINT64_BITS: usize = 10 * 8;
 const VARINT32_BITS: usize = 5 * 8;
-const BODY_BITS: usize = 2 * MOVEMENT_BITS as usize + YAW_BITS as usize + 8;
+/// Bits of a payload at its largest.
+const PAYLOAD_BITS: usize = 8 * MAX_INPUT_BYTES;
 /// Steps of [`PlayerInput::view_behind`] per tick: it travels in 1/16 tick.
 pub const VIEW_STEPS_PER_TICK: u32 = 16;
 /// The most steps (1/16 tick each) of [`PlayerInput::view_behind`] on the
@@ -83,8 +88,10 @@ pub const MAX_INPUT_DATAGRAM_BYTES: usize = (8
     + 16
     + 32
     + 4
-    + (32 + VARINT64_BITS + BODY_BITS + VIEW_BITS)
-    + (MAX_REDUNDANT_INPUTS - 1) * (1 + VARINT32_BITS + 1 + VARINT64_BITS + BODY_BITS + VIEW_BITS))
+    + SIZE_BITS as usize
+    + (32 + VARINT64_BITS + PAYLOAD_BITS + VIEW_BITS)
+    + (MAX_REDUNDANT_INPUTS - 1)
+        * (1 + VARINT32_BITS + 1 + VARINT64_BITS + 1 + PAYLOAD_BITS + VIEW_BITS))
     .div_ceil(8);
 
 /// What a client sends every tick.
@@ -96,8 +103,8 @@ pub struct InputDatagram {
     /// Must be 0 when `ack` is `None`.
     pub ack_bits: u32,
     /// The newest inputs, newest first, at most [`MAX_REDUNDANT_INPUTS`],
-    /// with distinct sequences. Movement, yaw and buttons travel quantized
-    /// (see [`quantize_input`]).
+    /// with distinct sequences and payloads of one size. The view offset
+    /// travels quantized (see [`quantize_input`]); payloads as they are.
     pub inputs: Vec<PlayerInput>,
 }
 
@@ -135,17 +142,32 @@ pub enum InputError {
         /// The input's position in the datagram.
         index: usize,
     },
-    /// Button bits outside [`buttons::ALL`].
-    #[error("buttons {buttons:#010b} include undefined bits")]
-    UnknownButtons {
-        /// The buttons byte.
-        buttons: u8,
+    /// An input whose payload is not the size of the newest one's.
+    #[error("input {index}'s payload is {len} bytes, the newest one's {size}")]
+    MixedPayloadSizes {
+        /// The input's position in the datagram.
+        index: usize,
+        /// Its payload's length, bytes.
+        len: usize,
+        /// The newest input's, bytes.
+        size: usize,
     },
-    /// A movement index above the grid (255).
-    #[error("movement index {index} is off the grid")]
-    BadMovement {
-        /// The index read.
-        index: u8,
+    /// Payloads of another size than the game's
+    /// ([`ServerConnectionConfig::input_bytes`](crate::connection::ServerConnectionConfig::input_bytes)).
+    #[error("inputs of {size} bytes, this game's are {expected}")]
+    WrongPayloadSize {
+        /// The size sent, bytes.
+        size: usize,
+        /// The game's, bytes.
+        expected: usize,
+    },
+    /// A payload size past [`MAX_INPUT_BYTES`].
+    #[error("payloads of {size} bytes, the most is {max}")]
+    PayloadTooLong {
+        /// The size read, bytes.
+        size: usize,
+        /// The bound, bytes.
+        max: usize,
     },
     /// `ack_bits` without an `ack`.
     #[error("ack bits without an ack")]
@@ -211,32 +233,6 @@ fn read_varint(r: &mut BitReader<'_>, max_bits: u32) -> Result<u64, InputError> 
     }
 }
 
-fn movement_index(x: f32) -> u64 {
-    let x = if x.is_nan() {
-        0.0
-    } else {
-        f64::from(x).clamp(-1.0, 1.0)
-    };
-    ((x + 1.0) * MOVEMENT_STEPS).round() as u64
-}
-
-fn movement_value(i: u64) -> f32 {
-    (i as f64 / MOVEMENT_STEPS - 1.0) as f32
-}
-
-fn yaw_index(yaw: f32) -> u64 {
-    if !yaw.is_finite() {
-        return 0;
-    }
-    let turns = f64::from(yaw) / TAU;
-    let frac = turns - turns.floor();
-    ((frac * f64::from(1u32 << YAW_BITS)).round() as u64) & ((1 << YAW_BITS) - 1)
-}
-
-fn yaw_value(i: u64) -> f32 {
-    (i as f64 * TAU / f64::from(1u32 << YAW_BITS)) as f32
-}
-
 /// The wire's steps for a view offset: NaN, negative and zero as 0 (no
 /// rewind), rounded to 1/16 tick, at most [`MAX_VIEW_BEHIND_STEPS`].
 fn view_index(behind: f32) -> u64 {
@@ -272,93 +268,36 @@ pub fn unpack_view_behind(steps: u16) -> Result<f32, InputError> {
     Ok(view_value(u64::from(steps)))
 }
 
-/// An input as it arrives after the trip: movement on a grid of 1/127 per
-/// axis (NaN as 0, clamped to [−1, 1]), yaw in [0, 2π) rad in steps of
-/// 2π/4096 (not finite as 0), the view offset in steps of 1/16 tick within
-/// `0..=MAX_VIEW_BEHIND` (NaN and negative as 0). Quantizing twice changes
+/// An input as it arrives after the trip: its view offset in steps of
+/// 1/16 tick within `0..=MAX_VIEW_BEHIND` (NaN and negative as 0); its
+/// payload, sequence and tick as they are. Quantizing twice changes
 /// nothing.
 pub fn quantize_input(input: &PlayerInput) -> PlayerInput {
     PlayerInput {
-        movement: input.movement.map(|m| movement_value(movement_index(m))),
-        yaw: yaw_value(yaw_index(input.yaw)),
         view_behind: view_value(view_index(input.view_behind)),
         ..*input
     }
 }
 
-/// Bytes of a packed input body ([`pack_input_body`]).
-pub const PACKED_INPUT_BODY_BYTES: usize = 5;
-
-/// Movement, yaw and buttons of `input` packed as the wire packs them (36
-/// bits in 5 bytes), when that loses nothing: `None` unless `input` is
-/// already quantized ([`quantize_input`] returns it bit for bit) and its
-/// buttons are defined. For stores that keep inputs compactly.
-pub fn pack_input_body(input: &PlayerInput) -> Option<[u8; PACKED_INPUT_BODY_BYTES]> {
-    let q = quantize_input(input);
-    let same = q.movement[0].to_bits() == input.movement[0].to_bits()
-        && q.movement[1].to_bits() == input.movement[1].to_bits()
-        && q.yaw.to_bits() == input.yaw.to_bits()
-        && input.buttons & !buttons::ALL == 0;
-    if !same {
-        return None;
+fn write_payload(w: &mut BitWriter, payload: &InputPayload) {
+    for b in payload.as_bytes() {
+        w.write(u64::from(*b), 8);
     }
-    let mut w = BitWriter::new();
-    write_body(&mut w, input);
-    let bytes = w.finish();
-    let mut out = [0u8; PACKED_INPUT_BODY_BYTES];
-    out[..bytes.len().min(PACKED_INPUT_BODY_BYTES)]
-        .copy_from_slice(&bytes[..bytes.len().min(PACKED_INPUT_BODY_BYTES)]);
-    Some(out)
 }
 
-/// The input [`pack_input_body`] packed, with `sequence` and `tick` put
-/// back (and no view offset: see [`pack_view_behind`]).
-pub fn unpack_input_body(
-    bytes: [u8; PACKED_INPUT_BODY_BYTES],
-    sequence: u32,
-    tick: u64,
-) -> Result<PlayerInput, InputError> {
-    let mut r = BitReader::new(&bytes);
-    read_body(&mut r, sequence, tick)
-}
-
-fn write_body(w: &mut BitWriter, input: &PlayerInput) {
-    for m in input.movement {
-        w.write(movement_index(m), MOVEMENT_BITS);
+fn read_payload(r: &mut BitReader<'_>, size: usize) -> Result<InputPayload, InputError> {
+    let mut bytes = [0u8; MAX_INPUT_BYTES];
+    for b in &mut bytes[..size] {
+        *b = r.read(8)? as u8;
     }
-    w.write(yaw_index(input.yaw), YAW_BITS);
-    w.write(u64::from(input.buttons), 8);
-}
-
-fn read_body(r: &mut BitReader<'_>, sequence: u32, tick: u64) -> Result<PlayerInput, InputError> {
-    let mut movement = [0.0f32; 2];
-    for m in &mut movement {
-        let index = r.read(MOVEMENT_BITS)?;
-        if index > MOVEMENT_MAX_INDEX {
-            return Err(InputError::BadMovement { index: index as u8 });
-        }
-        *m = movement_value(index);
-    }
-    let yaw = yaw_value(r.read(YAW_BITS)?);
-    let buttons = r.read(8)? as u8;
-    if buttons & !buttons::ALL != 0 {
-        return Err(InputError::UnknownButtons { buttons });
-    }
-    Ok(PlayerInput {
-        sequence,
-        tick,
-        movement,
-        yaw,
-        buttons,
-        view_behind: 0.0,
-    })
+    Ok(InputPayload::new(&bytes[..size]).expect("size checked against MAX_INPUT_BYTES"))
 }
 
 impl InputDatagram {
     /// The datagram's bytes (at most [`MAX_INPUT_DATAGRAM_BYTES`]).
     /// Refuses more than [`MAX_REDUNDANT_INPUTS`] inputs, two inputs in a
-    /// row with one sequence, undefined buttons, and `ack_bits` without an
-    /// `ack`.
+    /// row with one sequence, payloads of different sizes, and `ack_bits`
+    /// without an `ack`.
     pub fn encode(&self) -> Result<Vec<u8>, InputError> {
         if self.inputs.len() > MAX_REDUNDANT_INPUTS {
             return Err(InputError::TooManyInputs {
@@ -378,17 +317,22 @@ impl InputDatagram {
             None => w.write_bool(false),
         }
         w.write(self.inputs.len() as u64, 4);
+        let size = self.inputs.first().map_or(0, |i| i.payload.len());
+        w.write(size as u64, SIZE_BITS);
         let mut prev: Option<&PlayerInput> = None;
         for (index, input) in self.inputs.iter().enumerate() {
-            if input.buttons & !buttons::ALL != 0 {
-                return Err(InputError::UnknownButtons {
-                    buttons: input.buttons,
+            if input.payload.len() != size {
+                return Err(InputError::MixedPayloadSizes {
+                    index,
+                    len: input.payload.len(),
+                    size,
                 });
             }
             match prev {
                 None => {
                     w.write(u64::from(input.sequence), 32);
                     write_varint(&mut w, input.tick);
+                    write_payload(&mut w, &input.payload);
                 }
                 Some(p) => {
                     let step = p.sequence.wrapping_sub(input.sequence);
@@ -407,9 +351,13 @@ impl InputDatagram {
                         w.write_bool(false);
                         write_varint(&mut w, zigzag(tick_step));
                     }
+                    let same = input.payload == p.payload;
+                    w.write_bool(same);
+                    if !same {
+                        write_payload(&mut w, &input.payload);
+                    }
                 }
             }
-            write_body(&mut w, input);
             write_varint(&mut w, view_index(input.view_behind));
             prev = Some(input);
         }
@@ -418,7 +366,8 @@ impl InputDatagram {
 
     /// Reads a datagram from untrusted bytes: every count is bounded,
     /// every field checked, and anything but a canonical datagram is a
-    /// typed error, never a panic. Movement and yaw come back quantized.
+    /// typed error, never a panic. Payloads come back as bytes, for the
+    /// game to decode ([`GameInput::from_payload`]).
     pub fn decode(bytes: &[u8]) -> Result<Self, InputError> {
         if bytes.len() > MAX_INPUT_DATAGRAM_BYTES {
             return Err(InputError::TooLong {
@@ -437,10 +386,26 @@ impl InputDatagram {
             (None, 0)
         };
         let count = r.read_count(4, MAX_REDUNDANT_INPUTS as u64, "inputs")? as usize;
+        let size = r.read(SIZE_BITS)? as usize;
+        if size > MAX_INPUT_BYTES {
+            return Err(InputError::PayloadTooLong {
+                size,
+                max: MAX_INPUT_BYTES,
+            });
+        }
+        if count == 0 && size != 0 {
+            return Err(InputError::NotCanonical {
+                what: "a payload size without inputs",
+            });
+        }
         let mut inputs: Vec<PlayerInput> = Vec::with_capacity(count);
         for _ in 0..count {
-            let (sequence, tick) = match inputs.last() {
-                None => (r.read(32)? as u32, read_varint(&mut r, 64)?),
+            let (sequence, tick, payload) = match inputs.last() {
+                None => {
+                    let sequence = r.read(32)? as u32;
+                    let tick = read_varint(&mut r, 64)?;
+                    (sequence, tick, read_payload(&mut r, size)?)
+                }
                 Some(p) => {
                     let sequence = if r.read_bool()? {
                         p.sequence.wrapping_sub(1)
@@ -466,12 +431,27 @@ impl InputDatagram {
                         }
                         p.tick.wrapping_add(step as u64)
                     };
-                    (sequence, tick)
+                    let payload = if r.read_bool()? {
+                        p.payload
+                    } else {
+                        let own = read_payload(&mut r, size)?;
+                        if own == p.payload {
+                            return Err(InputError::NotCanonical {
+                                what: "a repeated payload spelled out",
+                            });
+                        }
+                        own
+                    };
+                    (sequence, tick, payload)
                 }
             };
-            let mut input = read_body(&mut r, sequence, tick)?;
-            input.view_behind = view_value(read_varint(&mut r, VIEW_VALUE_BITS)?);
-            inputs.push(input);
+            let view_behind = view_value(read_varint(&mut r, VIEW_VALUE_BITS)?);
+            inputs.push(PlayerInput {
+                sequence,
+                tick,
+                payload,
+                view_behind,
+            });
         }
         let left = r.bits_left();
         if left >= 8 {
@@ -496,13 +476,17 @@ impl InputDatagram {
 mod tests {
     use super::*;
 
+    /// A 5-byte payload that changes every fourth sequence.
+    fn payload(sequence: u32) -> InputPayload {
+        let k = (sequence / 4) as u8;
+        InputPayload::new(&[0x80, 0x7f, k, 0x10, 0x01]).unwrap()
+    }
+
     fn input(sequence: u32, tick: u64) -> PlayerInput {
         PlayerInput {
             sequence,
             tick,
-            movement: [0.5, -1.0],
-            yaw: 1.0,
-            buttons: buttons::JUMP,
+            payload: payload(sequence),
             view_behind: 9.5,
         }
     }
@@ -527,31 +511,77 @@ mod tests {
             ..d.clone()
         };
         assert_eq!(InputDatagram::decode(&bytes).unwrap(), expected);
-        // Tag, acks, count, a full newest input, seven short ones; each
-        // input's view (9.5 ticks: 152 steps) in two varint groups.
+        // Tag, acks, count, size, a full newest input, seven short ones
+        // of which the payload changes in two (sequences u32::MAX - 2 down
+        // to u32::MAX - 9 cross two multiples of 4); each input's view
+        // (9.5 ticks: 152 steps) in two varint groups.
+        let changes: usize = d
+            .inputs
+            .windows(2)
+            .filter(|w| w[0].payload != w[1].payload)
+            .count();
+        assert_eq!(changes, 2);
         assert_eq!(
             bytes.len(),
-            (8 + 49 + 4 + 32 + 16 + 36 + 16 + 7 * (38 + 16usize)).div_ceil(8)
+            (8 + 49 + 4 + 7 + 32 + 16 + 40 + 16 + 7 * (3 + 16usize) + changes * 40).div_ceil(8)
         );
         assert!(bytes.len() <= MAX_INPUT_DATAGRAM_BYTES);
     }
 
     #[test]
-    fn quantization_is_exact_where_it_matters() {
-        let q = quantize_input(&PlayerInput {
-            movement: [0.0, 1.0],
-            yaw: -std::f32::consts::FRAC_PI_2,
-            ..input(0, 0)
-        });
-        assert_eq!(q.movement, [0.0, 1.0]);
-        assert!((q.yaw - 3.0 * std::f32::consts::FRAC_PI_2).abs() < 1e-6);
-        let nan = quantize_input(&PlayerInput {
-            movement: [f32::NAN, 7.0],
-            yaw: f32::INFINITY,
-            ..input(0, 0)
-        });
-        assert_eq!(nan.movement, [0.0, 1.0]);
-        assert_eq!(nan.yaw, 0.0);
+    fn payloads_travel_as_they_are_and_repeats_cost_a_bit() {
+        let same = |n: u32| InputDatagram {
+            ack: None,
+            ack_bits: 0,
+            inputs: (0..n)
+                .map(|k| PlayerInput {
+                    payload: payload(0),
+                    ..input(100 - k, u64::from(100 - k))
+                })
+                .collect(),
+        };
+        let one = same(1).encode().unwrap().len();
+        let eight = same(8).encode().unwrap().len();
+        // Each repeat: two step bits, the same-payload bit, a one-group
+        // view of 9.5 ticks (16 bits).
+        assert!(eight * 8 - one * 8 <= 7 * 19 + 7, "{one} {eight}");
+        for d in [same(8), datagram(77, 8)] {
+            let bytes = d.encode().unwrap();
+            let back = InputDatagram::decode(&bytes).unwrap();
+            assert_eq!(
+                back.inputs.iter().map(|i| i.payload).collect::<Vec<_>>(),
+                d.inputs.iter().map(|i| i.payload).collect::<Vec<_>>()
+            );
+            assert_eq!(back.encode().unwrap(), bytes, "canonical");
+        }
+        // A game without input bytes sends none.
+        let empty = InputDatagram {
+            ack: None,
+            ack_bits: 0,
+            inputs: vec![PlayerInput {
+                payload: InputPayload::EMPTY,
+                ..input(1, 1)
+            }],
+        };
+        let back = InputDatagram::decode(&empty.encode().unwrap()).unwrap();
+        assert!(back.inputs[0].payload.is_empty());
+        // The largest payloads fit the bound.
+        let big = InputDatagram {
+            ack: Some(1),
+            ack_bits: u32::MAX,
+            inputs: (0..MAX_REDUNDANT_INPUTS as u32)
+                .map(|k| PlayerInput {
+                    payload: InputPayload::new(&[k as u8; MAX_INPUT_BYTES]).unwrap(),
+                    ..input(u32::MAX - k, u64::MAX - u64::from(k) * 1000)
+                })
+                .collect(),
+        };
+        let bytes = big.encode().unwrap();
+        assert!(bytes.len() <= MAX_INPUT_DATAGRAM_BYTES, "{}", bytes.len());
+        assert_eq!(
+            InputDatagram::decode(&bytes).unwrap().inputs.len(),
+            MAX_REDUNDANT_INPUTS
+        );
     }
 
     #[test]
@@ -589,8 +619,9 @@ mod tests {
         w.write_bool(false);
         w.write(1, 4);
         w.write(1, 32);
+        w.write(5, SIZE_BITS);
         write_varint(&mut w, 1000);
-        write_body(&mut w, &with(0.0));
+        write_payload(&mut w, &payload(1));
         write_varint(&mut w, 4096);
         assert!(matches!(
             InputDatagram::decode(&w.finish()),
@@ -634,11 +665,45 @@ mod tests {
         for cut in 0..bytes.len() {
             assert!(InputDatagram::decode(&bytes[..cut]).is_err());
         }
-        let mut d = datagram(10, 1);
-        d.inputs[0].buttons = 0x80;
+        let mut d = datagram(10, 2);
+        d.inputs[1].payload = InputPayload::new(&[1]).unwrap();
         assert_eq!(
             d.encode(),
-            Err(InputError::UnknownButtons { buttons: 0x80 })
+            Err(InputError::MixedPayloadSizes {
+                index: 1,
+                len: 1,
+                size: 5
+            })
+        );
+        // A size past the bound, and a repeat spelled out.
+        let mut w = BitWriter::new();
+        w.write(u64::from(INPUT_DATAGRAM_TAG), 8);
+        w.write_bool(false);
+        w.write(1, 4);
+        w.write(65, SIZE_BITS);
+        assert_eq!(
+            InputDatagram::decode(&w.finish()),
+            Err(InputError::PayloadTooLong { size: 65, max: 64 })
+        );
+        let mut w = BitWriter::new();
+        w.write(u64::from(INPUT_DATAGRAM_TAG), 8);
+        w.write_bool(false);
+        w.write(2, 4);
+        w.write(1, SIZE_BITS);
+        w.write(9, 32);
+        write_varint(&mut w, 50);
+        w.write(0xab, 8);
+        write_varint(&mut w, 0);
+        w.write_bool(true);
+        w.write_bool(true);
+        w.write_bool(false);
+        w.write(0xab, 8);
+        write_varint(&mut w, 0);
+        assert_eq!(
+            InputDatagram::decode(&w.finish()),
+            Err(InputError::NotCanonical {
+                what: "a repeated payload spelled out"
+            })
         );
         let mut d = datagram(10, 2);
         d.inputs[1].sequence = 10;

@@ -145,6 +145,7 @@ pub(super) async fn admit(
         position_resolution: shared.streaming.snapshot.grid.resolution,
         position_bound: shared.streaming.snapshot.grid.bound,
         snapshot: SnapshotParams::from_config(&shared.streaming.snapshot),
+        input_bytes: shared.connection.input_bytes.unwrap_or(0) as u16,
         server_version: env!("CARGO_PKG_VERSION").to_string(),
     };
     Ok((Joined { client, avatar }, welcome))

@@ -22,6 +22,7 @@ use std::time::Instant;
 
 use inertia_protocol::connection::{ServerConnection, ServerConnectionEnd, ServerConnectionEvent};
 use inertia_protocol::control::{ClientControl, DisconnectReason};
+use inertia_protocol::input::InputError;
 use tokio::sync::oneshot;
 use tracing::{debug, info, info_span, warn, Instrument};
 
@@ -292,10 +293,15 @@ impl Shell {
             Err(e) => {
                 debug!(?client, error = %e, "malformed datagram dropped");
                 shared.metrics.malformed_datagrams.inc();
+                if let (Some(client), InputError::WrongPayloadSize { .. }) = (client, e) {
+                    shared.metrics.input_refused(client, "wrong_size");
+                }
             }
         }
         if let Some(client) = client {
             while let Some(input) = self.conn.poll_input() {
+                // The tick thread counts what it refuses, by client and
+                // reason; an input the full channel drops is counted here.
                 if shared.sim.input(client, input).is_err() {
                     shared.metrics.inputs_rejected.inc();
                 }

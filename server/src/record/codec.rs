@@ -8,12 +8,30 @@
 //! state hashes bit for bit.
 
 use inertia_codec::{ByteReader, ByteWriter};
-use inertia_protocol::PlayerInput;
 
 use super::error::{Corruption, RecordError};
 use super::MAX_RECORD_BYTES;
 
-/// Bytes of one `(client, PlayerInput)` entry in an `Inputs` payload
+/// An input as the recordings of the first builds kept it, before the
+/// journal ([`Record::Journal`]) and before games defined their inputs:
+/// the sandbox's fields, written out. Read from old recordings only.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LegacyInput {
+    /// The client's input sequence number.
+    pub sequence: u32,
+    /// The tick it was meant for.
+    pub tick: u64,
+    /// Movement in the horizontal plane (x, z).
+    pub movement: [f32; 2],
+    /// Facing angle about +Y, rad.
+    pub yaw: f32,
+    /// Held buttons.
+    pub buttons: u8,
+    /// How far behind `tick` the player's view was, ticks.
+    pub view_behind: f32,
+}
+
+/// Bytes of one `(client, LegacyInput)` entry in an `Inputs` payload
 /// (kind 7, with the view offset).
 pub(crate) const INPUT_ENTRY_BYTES: usize = 8 + 4 + 8 + 4 + 4 + 4 + 1 + 4;
 /// Bytes of one entry of the older `Inputs` payload (kind 3, no view).
@@ -42,12 +60,14 @@ pub enum Record {
         /// The saved state, bytes.
         state: Vec<u8>,
     },
-    /// Every player input applied at `tick`, in the order applied.
+    /// Every player input applied at `tick`, in the order applied, as the
+    /// first builds recorded them (read only; the journal holds inputs
+    /// now).
     Inputs {
         /// The tick the inputs were applied at.
         tick: u64,
         /// `(client id, input)` pairs.
-        inputs: Vec<(u64, PlayerInput)>,
+        inputs: Vec<(u64, LegacyInput)>,
     },
     /// The 64-bit state hash after `tick`, for checking a replay.
     TickHash {
@@ -177,9 +197,9 @@ impl Record {
             Self::Inputs { inputs, .. } => {
                 w.u32(inputs.len() as u32);
                 for (client, input) in inputs {
-                    // Destructured so a new field in PlayerInput fails to
-                    // compile here instead of silently not being recorded.
-                    let PlayerInput {
+                    // Destructured so a new field fails to compile here
+                    // instead of silently not being recorded.
+                    let LegacyInput {
                         sequence,
                         tick,
                         movement,
@@ -243,7 +263,7 @@ impl Record {
                 let mut inputs = Vec::with_capacity(count);
                 for _ in 0..count {
                     let client = r.u64()?;
-                    let input = PlayerInput {
+                    let input = LegacyInput {
                         sequence: r.u32()?,
                         tick: r.u64()?,
                         movement: [r.f32()?, r.f32()?],
@@ -291,8 +311,8 @@ fn string(r: &mut ByteReader<'_>, len: u32) -> Result<String, Corruption> {
 mod tests {
     use super::*;
 
-    fn input(seed: u32) -> PlayerInput {
-        PlayerInput {
+    fn input(seed: u32) -> LegacyInput {
+        LegacyInput {
             sequence: seed,
             tick: u64::from(seed) * 3 + 1,
             movement: [seed as f32 * 0.25 - 1.0, -0.5],
@@ -407,7 +427,7 @@ mod tests {
             inputs,
             vec![(
                 7,
-                PlayerInput {
+                LegacyInput {
                     sequence: 3,
                     tick: 4,
                     movement: [0.5, -1.0],

@@ -120,7 +120,7 @@ pub mod recorder;
 mod segment;
 pub mod writer;
 
-pub use codec::{Record, RecordKind};
+pub use codec::{LegacyInput, Record, RecordKind};
 pub use error::{Corruption, RecordError, SegmentDamage};
 pub use reader::{RecordReader, Records, Salvage, Salvaged, TickInputs};
 pub use recorder::{Recorder, RecorderConfig, RecorderStats};

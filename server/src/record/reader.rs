@@ -23,7 +23,7 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
-use inertia_protocol::PlayerInput;
+use super::codec::LegacyInput;
 
 use super::codec::Record;
 use super::error::{Corruption, RecordError, SegmentDamage};
@@ -34,7 +34,7 @@ use super::segment::{
 
 /// The inputs applied at one tick: the tick and its `(client id, input)`
 /// pairs, in the order applied.
-pub type TickInputs = (u64, Vec<(u64, PlayerInput)>);
+pub type TickInputs = (u64, Vec<(u64, LegacyInput)>);
 
 /// Reads a recording. Holds the segment list as of
 /// [`open`](Self::open); open again to see segments added or removed since.

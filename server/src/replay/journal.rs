@@ -14,30 +14,43 @@
 //! ```text
 //! 1 Join      varint client
 //! 2 Leave     varint client
-//! 3 Input     varint client, varint sequence, varint zigzag(input tick −
-//!             journal tick), 5 bytes: movement, yaw and buttons as the
-//!             wire packs them (inputs that came over the wire)
-//! 4 RawInput  varint client, varint sequence, u64 tick, f32 movement x,
-//!             f32 movement z, f32 yaw, u8 buttons (anything else, exactly)
 //! 5 Edit      varint length n, n bytes: the WorldEdit (postcard)
-//! 6 Input     as 3, then varint view: the view offset in the wire's
-//!             1/16 tick steps (inputs that came over the wire)
-//! 7 RawInput  as 4, then f32 view behind, ticks (anything else, exactly)
+//! 8 Input     varint client, varint sequence, varint zigzag(input tick −
+//!             journal tick), varint view: the view offset in the wire's
+//!             1/16 tick steps, varint n, n bytes: the game's payload
+//!             (inputs whose view the wire could carry)
+//! 9 RawInput  varint client, varint sequence, u64 tick, f32 view behind,
+//!             ticks, varint n, n bytes: the payload (anything else,
+//!             exactly)
+//! ```
+//!
+//! An input takes its payload and about 7 bytes this way.
+//!
+//! Tags 3, 4, 6 and 7 were written before games defined their inputs,
+//! when every input was the sandbox's; they are still read, as the
+//! sandbox's input ([`SandboxInput`]), and no longer written:
+//!
+//! ```text
+//! 3 Input     varint client, varint sequence, varint zigzag(input tick −
+//!             journal tick), 5 bytes: the SandboxInput's bytes
+//! 4 RawInput  varint client, varint sequence, u64 tick, f32 movement x,
+//!             f32 movement z, f32 yaw, u8 buttons (read as the
+//!             SandboxInput the wire would have made of them)
+//! 6 Input     as 3, then varint view in 1/16 tick steps
+//! 7 RawInput  as 4, then f32 view behind, ticks
 //! ```
 //!
 //! Tags 3 and 4 were written before inputs carried the tick their player
-//! saw ([`PlayerInput::view_behind`]); they are still read, as a view of 0
-//! (the world as it is), and no longer written.
-//!
-//! An input takes about 12 bytes this way, against 38 written out in full.
+//! saw ([`PlayerInput::view_behind`]): they are read with a view of 0 (the
+//! world as it is).
 
 use inertia_codec::{unzigzag, zigzag, ByteReader, ByteWriter, CodecError};
 use inertia_protocol::admin::SpawnDesc;
 use inertia_protocol::input::{
-    pack_input_body, pack_view_behind, unpack_input_body, unpack_view_behind,
-    PACKED_INPUT_BODY_BYTES,
+    pack_view_behind, unpack_view_behind, GameInput, InputPayload, MAX_INPUT_BYTES,
 };
 use inertia_protocol::{EntityId, PlayerInput};
+use inertia_sandbox::{SandboxInput, SANDBOX_INPUT_BYTES};
 use serde::{Deserialize, Serialize};
 
 use crate::rules::ClientId;
@@ -116,27 +129,24 @@ pub fn encode(tick: u64, entries: &[JournalEntry]) -> Vec<u8> {
                 w.varint(*c);
             }
             JournalEntry::Input(c, input) => {
-                match (pack_input_body(input), pack_view_behind(input)) {
-                    (Some(body), Some(view)) => {
-                        w.u8(6);
+                match pack_view_behind(input) {
+                    Some(view) => {
+                        w.u8(8);
                         w.varint(*c);
                         w.varint(u64::from(input.sequence));
                         w.varint(zigzag(input.tick.wrapping_sub(tick) as i64));
-                        w.bytes(&body);
                         w.varint(u64::from(view));
                     }
-                    _ => {
-                        w.u8(7);
+                    None => {
+                        w.u8(9);
                         w.varint(*c);
                         w.varint(u64::from(input.sequence));
                         w.u64(input.tick);
-                        w.f32(input.movement[0]);
-                        w.f32(input.movement[1]);
-                        w.f32(input.yaw);
-                        w.u8(input.buttons);
                         w.f32(input.view_behind);
                     }
                 }
+                w.varint(input.payload.len() as u64);
+                w.bytes(input.payload.as_bytes());
             }
             JournalEntry::Edit(edit) => {
                 w.u8(5);
@@ -154,6 +164,23 @@ fn u32_varint(r: &mut ByteReader<'_>) -> Result<u32, JournalError> {
     u32::try_from(r.varint()?).map_err(|_| err("a sequence number passes 32 bits"))
 }
 
+/// A view offset in the wire's 1/16 tick steps, within its cap.
+fn view(r: &mut ByteReader<'_>, client: ClientId) -> Result<f32, JournalError> {
+    let steps = u16::try_from(r.varint()?)
+        .map_err(|_| err(format!("view of client {client} past its cap")))?;
+    unpack_view_behind(steps).map_err(|e| err(format!("input of client {client}: {e}")))
+}
+
+/// A length-prefixed payload of at most [`MAX_INPUT_BYTES`].
+fn payload(r: &mut ByteReader<'_>, client: ClientId) -> Result<InputPayload, JournalError> {
+    let n = r.varint()?;
+    if n > MAX_INPUT_BYTES as u64 {
+        return Err(err(format!("an input of client {client} of {n} bytes")));
+    }
+    let bytes = r.bytes(n as usize)?;
+    Ok(InputPayload::new(bytes).expect("length checked"))
+}
+
 /// Decodes a journal payload written for `tick`. Counts and lengths are
 /// bounded; trailing bytes are refused.
 pub fn decode(tick: u64, bytes: &[u8]) -> Result<Vec<JournalEntry>, JournalError> {
@@ -167,38 +194,71 @@ pub fn decode(tick: u64, bytes: &[u8]) -> Result<Vec<JournalEntry>, JournalError
         let entry = match r.u8()? {
             1 => JournalEntry::Join(r.varint()?),
             2 => JournalEntry::Leave(r.varint()?),
+            8 => {
+                let client = r.varint()?;
+                let sequence = u32_varint(&mut r)?;
+                let input_tick = tick.wrapping_add(unzigzag(r.varint()?) as u64);
+                let view_behind = view(&mut r, client)?;
+                let payload = payload(&mut r, client)?;
+                JournalEntry::Input(
+                    client,
+                    PlayerInput {
+                        sequence,
+                        tick: input_tick,
+                        payload,
+                        view_behind,
+                    },
+                )
+            }
+            9 => {
+                let client = r.varint()?;
+                let sequence = u32_varint(&mut r)?;
+                let input_tick = r.u64()?;
+                let view_behind = r.f32()?;
+                let payload = payload(&mut r, client)?;
+                JournalEntry::Input(
+                    client,
+                    PlayerInput {
+                        sequence,
+                        tick: input_tick,
+                        payload,
+                        view_behind,
+                    },
+                )
+            }
             tag @ (3 | 6) => {
                 let client = r.varint()?;
                 let sequence = u32_varint(&mut r)?;
                 let input_tick = tick.wrapping_add(unzigzag(r.varint()?) as u64);
-                let body = r.array::<PACKED_INPUT_BODY_BYTES>()?;
-                let mut input = unpack_input_body(body, sequence, input_tick)
-                    .map_err(|e| err(format!("input of client {client}: {e}")))?;
-                if tag == 6 {
-                    let steps = u16::try_from(r.varint()?)
-                        .map_err(|_| err(format!("view of client {client} past its cap")))?;
-                    input.view_behind = unpack_view_behind(steps)
-                        .map_err(|e| err(format!("input of client {client}: {e}")))?;
-                }
-                JournalEntry::Input(client, input)
+                let body = r.array::<SANDBOX_INPUT_BYTES>()?;
+                let payload = InputPayload::new(&body).expect("5 bytes fit");
+                let view_behind = if tag == 6 { view(&mut r, client)? } else { 0.0 };
+                JournalEntry::Input(
+                    client,
+                    PlayerInput {
+                        sequence,
+                        tick: input_tick,
+                        payload,
+                        view_behind,
+                    },
+                )
             }
             tag @ (4 | 7) => {
                 let client = r.varint()?;
                 let sequence = u32_varint(&mut r)?;
                 let input_tick = r.u64()?;
-                let mx = r.f32()?;
-                let mz = r.f32()?;
-                let yaw = r.f32()?;
-                let buttons = r.u8()?;
+                let sandbox = SandboxInput {
+                    movement: [r.f32()?, r.f32()?],
+                    yaw: r.f32()?,
+                    buttons: r.u8()?,
+                };
                 let view_behind = if tag == 7 { r.f32()? } else { 0.0 };
                 JournalEntry::Input(
                     client,
                     PlayerInput {
                         sequence,
                         tick: input_tick,
-                        movement: [mx, mz],
-                        yaw,
-                        buttons,
+                        payload: sandbox.to_payload(),
                         view_behind,
                     },
                 )
@@ -234,9 +294,12 @@ mod tests {
         PlayerInput {
             sequence: seq,
             tick,
-            movement: [mx, -0.25],
-            yaw,
-            buttons,
+            payload: SandboxInput {
+                movement: [mx, -0.25],
+                yaw,
+                buttons,
+            }
+            .to_payload(),
             view_behind: 4.25,
         }
     }
@@ -244,7 +307,10 @@ mod tests {
     #[test]
     fn entries_round_trip_bit_for_bit() {
         let wire = quantize_input(&input(70_000, 995, 0.5, 1.0, 1));
-        let odd = input(3, 1_000_000, f32::NAN, -7.0, 0xFF);
+        let odd = PlayerInput {
+            payload: InputPayload::new(&[0xff; MAX_INPUT_BYTES]).unwrap(),
+            ..input(3, 1_000_000, f32::NAN, -7.0, 0xFF)
+        };
         let odd_view = PlayerInput {
             view_behind: f32::NAN,
             ..input(4, 1_000_000, 0.0, 0.0, 0)
@@ -284,41 +350,55 @@ mod tests {
                     assert_eq!(ca, cb);
                     assert_eq!(ia.sequence, ib.sequence);
                     assert_eq!(ia.tick, ib.tick);
-                    assert_eq!(ia.movement.map(f32::to_bits), ib.movement.map(f32::to_bits));
-                    assert_eq!(ia.yaw.to_bits(), ib.yaw.to_bits());
-                    assert_eq!(ia.buttons, ib.buttons);
+                    assert_eq!(ia.payload, ib.payload);
                     assert_eq!(ia.view_behind.to_bits(), ib.view_behind.to_bits());
                 }
                 _ => assert_eq!(a, b),
             }
         }
-        // A wire input is compact.
+        // A wire input is compact: the count, the tag, the client, a
+        // three-byte sequence, the tick step, the view, the length and its
+        // payload.
         let one = encode(1000, &[JournalEntry::Input(7, wire)]);
-        assert!(one.len() <= 13, "{} bytes", one.len());
+        assert_eq!(one.len(), 1 + 1 + 1 + 3 + 1 + 1 + 1 + 5);
+        // A payload past the bound is refused.
+        let mut long = encode(1000, &[JournalEntry::Input(7, wire)]);
+        let at = long.len() - 6;
+        assert_eq!(long[at], 5, "the payload's length");
+        long[at] = 65;
+        assert!(decode(1000, &long).is_err());
         assert_eq!(wire.view_behind, 4.25);
     }
 
     #[test]
     fn inputs_written_before_views_still_load() {
-        // Tag 3: client 7, sequence 5, tick step 0, a packed body.
-        let body = pack_input_body(&quantize_input(&input(5, 1000, 0.5, 1.0, 1))).unwrap();
+        // Tag 3: client 7, sequence 5, tick step 0, a packed body: the
+        // sandbox's input bytes, as the wire packed them then.
+        let sandbox = input(5, 1000, 0.5, 1.0, 1);
+        let body = sandbox.payload;
         let mut bytes = vec![1, 3, 7, 5, 0];
-        bytes.extend_from_slice(&body);
+        bytes.extend_from_slice(body.as_bytes());
         let back = decode(1000, &bytes).unwrap();
         let JournalEntry::Input(7, i) = back[0] else {
             panic!("{back:?}");
         };
         assert_eq!((i.sequence, i.tick, i.view_behind), (5, 1000, 0.0));
-        // Tag 4: the input written out, without a view.
+        assert_eq!(i.payload, body);
+        // Tag 4: the input written out, without a view: read as the
+        // sandbox input the wire would have made of it.
         let mut bytes = vec![1, 4, 7, 5];
         bytes.extend_from_slice(&1000u64.to_le_bytes());
-        bytes.extend_from_slice(&[0; 12]);
-        bytes.push(0);
+        for f in [0.5f32, -0.25, 1.0] {
+            bytes.extend_from_slice(&f.to_le_bytes());
+        }
+        bytes.push(1);
         let back = decode(1000, &bytes).unwrap();
-        assert!(matches!(back[0], JournalEntry::Input(7, i) if i.view_behind == 0.0));
+        assert!(
+            matches!(back[0], JournalEntry::Input(7, i) if i.view_behind == 0.0 && i.payload == body)
+        );
         // A packed view past the cap is refused.
         let mut bytes = vec![1, 6, 7, 5, 0];
-        bytes.extend_from_slice(&body);
+        bytes.extend_from_slice(body.as_bytes());
         bytes.extend_from_slice(&[0x80, 0x20]); // 4096 steps
         assert!(decode(1000, &bytes).is_err());
     }

@@ -9,9 +9,11 @@
 //! body at absurd speed.
 //!
 //! Inputs come from the network and are untrusted: the simulation's input
-//! schedule refuses inputs for ticks outside a window around now, and
-//! [`validate_input`] refuses NaN and infinities and clamps the rest (movement length ≤ 1, yaw wrapped to ±π,
-//! unknown button bits cleared). [`SandboxRules`] is the default game: a
+//! schedule refuses inputs for ticks outside a window around now,
+//! [`validate_input`] clamps the view every input carries, and the game's
+//! own decoder ([`GameInput::from_payload`](inertia_protocol::input::GameInput::from_payload))
+//! refuses payloads it does not define ([`InputRefusal::Undecodable`]).
+//! [`SandboxRules`] is the default game: a
 //! capsule avatar per client, moved by a capped control force towards the
 //! desired velocity, a jump only when standing on something, and a push
 //! for whatever is in front.
@@ -83,8 +85,17 @@ pub trait GameRules: Send {
     /// A client left (or was dropped): clean up after it.
     fn on_disconnect(&mut self, client: ClientId, ctx: &mut SimContext<'_>);
 
-    /// An input arrived. Validate it (see [`validate_input`]) before acting
-    /// on any field; a refused input changes nothing.
+    /// Bytes of this game's input ([`GameInput::BYTES`](inertia_protocol::input::GameInput::BYTES)
+    /// of the type its rules and clients share, at most
+    /// [`MAX_INPUT_BYTES`](inertia_protocol::input::MAX_INPUT_BYTES)): the
+    /// server tells every client in its welcome and refuses datagrams
+    /// whose inputs have another size before they reach the rules. Rules
+    /// whose players send no input say 0.
+    fn input_bytes(&self) -> usize;
+
+    /// An input arrived. Check it (see [`validate_input`]) and decode its
+    /// payload with the game's input type before acting on any field; a
+    /// refused input changes nothing.
     fn on_input(
         &mut self,
         client: ClientId,

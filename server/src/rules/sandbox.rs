@@ -2,14 +2,16 @@
 //! control force, a jump from the ground and a push for what is in front.
 
 use std::collections::BTreeMap;
+use std::f64::consts::PI;
 
 use inertia_physics::character::{self, WalkSettings};
 use inertia_physics::glam::DVec3;
 use inertia_physics::rigid::body::{BodyKind, RigidBodyDesc};
 use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
-use inertia_protocol::entity::buttons;
+use inertia_protocol::input::GameInput;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput};
+use inertia_sandbox::{buttons, SandboxInput, SANDBOX_INPUT_BYTES};
 
 use super::{
     validate_input, ClientId, EntityLook, GameEvent, GameRules, InputRefusal, JoinRefusal,
@@ -47,7 +49,7 @@ impl Default for SandboxSettings {
 struct Player {
     avatar: EntityId,
     /// The latest accepted (clamped) input.
-    input: PlayerInput,
+    input: HeldInput,
     /// The sequence of the latest input applied (the connection hands
     /// each sequence on once, in order).
     last_sequence: Option<u32>,
@@ -59,6 +61,50 @@ struct Player {
     /// No jump (push) before this tick.
     jump_ready_at: u64,
     push_ready_at: u64,
+}
+
+/// A player's latest accepted input as the sandbox keeps it: the input's
+/// stamp and its [`SandboxInput`], the stick clamped to length 1 and the
+/// yaw wrapped into (−π, π] (saved with the rules' state: field order is
+/// the format, the one inputs had before games defined their own).
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+struct HeldInput {
+    sequence: u32,
+    tick: u64,
+    /// Desired movement in the horizontal plane (x, z), length ≤ 1.
+    movement: [f32; 2],
+    /// Facing angle about +Y, rad, in (−π, π].
+    yaw: f32,
+    /// Held buttons ([`buttons`]).
+    buttons: u8,
+    /// How far behind its tick the player's view was, ticks.
+    view_behind: f32,
+}
+
+impl HeldInput {
+    /// Reads a (view-checked) input's payload as a [`SandboxInput`];
+    /// refused when the bytes are not one.
+    fn from_input(input: &PlayerInput) -> Result<HeldInput, InputRefusal> {
+        let game = SandboxInput::from_payload(&input.payload)?;
+        let [mut mx, mut mz] = game.movement;
+        let len = (mx * mx + mz * mz).sqrt();
+        if len > 1.0 {
+            mx /= len;
+            mz /= len;
+        }
+        let mut yaw = (f64::from(game.yaw) + PI).rem_euclid(2.0 * PI) - PI;
+        if yaw <= -PI {
+            yaw += 2.0 * PI;
+        }
+        Ok(HeldInput {
+            sequence: input.sequence,
+            tick: input.tick,
+            movement: [mx, mz],
+            yaw: yaw as f32,
+            buttons: game.buttons,
+            view_behind: input.view_behind,
+        })
+    }
 }
 
 /// The default game: every client walks a capsule avatar around the scene,
@@ -215,6 +261,10 @@ impl SandboxRules {
 }
 
 impl GameRules for SandboxRules {
+    fn input_bytes(&self) -> usize {
+        SANDBOX_INPUT_BYTES
+    }
+
     fn on_connect(
         &mut self,
         client: ClientId,
@@ -228,7 +278,7 @@ impl GameRules for SandboxRules {
             client,
             Player {
                 avatar,
-                input: PlayerInput::default(),
+                input: HeldInput::default(),
                 last_sequence: None,
                 held: 0,
                 jump_pressed: false,
@@ -258,7 +308,7 @@ impl GameRules for SandboxRules {
             .players
             .get_mut(&client)
             .ok_or(InputRefusal::NotJoined(client))?;
-        let input = validate_input(input)?;
+        let input = HeldInput::from_input(&validate_input(input))?;
         let pressed = input.buttons & !p.held;
         p.jump_pressed |= pressed & buttons::JUMP != 0;
         p.push_pressed |= pressed & buttons::PUSH != 0;

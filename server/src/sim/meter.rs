@@ -186,11 +186,18 @@ impl TickMeter {
         ran as f64 / span.as_secs_f64()
     }
 
-    /// An input the rules or the schedule refused.
-    pub(super) fn input_refused(&self) {
+    /// An input of `client` the rules or the schedule refused.
+    pub(super) fn input_refused(&self, client: u64, refusal: &crate::rules::InputRefusal) {
         self.stats.inputs_rejected.fetch_add(1, Ordering::Relaxed);
         if let Some(m) = &self.metrics {
-            m.inputs_rejected.inc();
+            m.input_refused(client, refusal.reason());
+        }
+    }
+
+    /// `client` left: its series in `/metrics` go.
+    pub(super) fn client_left(&self, client: u64) {
+        if let Some(m) = &self.metrics {
+            m.forget_client(client);
         }
     }
 

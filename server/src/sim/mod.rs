@@ -483,6 +483,7 @@ impl Simulation {
             self.inputs.forget(client);
         }
         if self.shown_mut().clients.remove(&client) {
+            self.meter.client_left(client);
             self.with_ctx(|rules, ctx| rules.on_disconnect(client, ctx));
             self.collect_events();
             self.update_gauges();
@@ -495,32 +496,29 @@ impl Simulation {
     /// while history is shown are dropped (the live world is not running).
     pub fn input(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputRefusal> {
         if self.timelines.past.is_some() || !self.timelines.live.clients.contains(&client) {
-            self.count_rejected_input();
-            return Err(InputRefusal::NotJoined(client));
+            return self.refused(client, InputRefusal::NotJoined(client));
         }
         let now = self.timelines.live.world.tick();
         match self.inputs.offer(client, input, now) {
             Offered::Held => Ok(()),
             Offered::Late => self.apply_input(client, input),
-            Offered::TooLate => {
-                self.count_rejected_input();
-                Err(InputRefusal::Stale {
+            Offered::TooLate => self.refused(
+                client,
+                InputRefusal::Stale {
                     tick: input.tick,
                     now,
-                })
-            }
-            Offered::TooEarly => {
-                self.count_rejected_input();
-                Err(InputRefusal::Future {
+                },
+            ),
+            Offered::TooEarly => self.refused(
+                client,
+                InputRefusal::Future {
                     tick: input.tick,
                     now,
-                })
-            }
+                },
+            ),
             Offered::Full => {
-                self.count_rejected_input();
-                Err(InputRefusal::Backlog {
-                    max: self.inputs.config().max_pending,
-                })
+                let max = self.inputs.config().max_pending;
+                self.refused(client, InputRefusal::Backlog { max })
             }
         }
     }
@@ -553,8 +551,11 @@ impl Simulation {
         r
     }
 
-    fn count_rejected_input(&self) {
-        self.meter.input_refused();
+    /// Counts `refusal` of an input of `client` (per client and reason in
+    /// `/metrics`) and returns it.
+    fn refused(&self, client: ClientId, refusal: InputRefusal) -> Result<(), InputRefusal> {
+        self.meter.input_refused(client, &refusal);
+        Err(refusal)
     }
 
     /// Hands an input to the rules. Whether its client is in was asked
@@ -562,10 +563,9 @@ impl Simulation {
     /// its waiting inputs dropped, and a journal holds only inputs of
     /// clients in at the time.
     fn input_here(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputRefusal> {
-        let r = self.with_ctx(|rules, ctx| rules.on_input(client, input, ctx));
-        if r.is_err() {
-            self.count_rejected_input();
+        match self.with_ctx(|rules, ctx| rules.on_input(client, input, ctx)) {
+            Ok(()) => Ok(()),
+            Err(refusal) => self.refused(client, refusal),
         }
-        r
     }
 }

@@ -9,6 +9,7 @@
 //! cargo run -p inertia-tests --bin inertia-fuzz-seeds -- fuzz/corpus
 //! ```
 
+use inertia_protocol::input::GameInput;
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -59,9 +60,12 @@ fn main() {
         let input = PlayerInput {
             sequence: i as u32 + 1,
             tick: sim.world().tick(),
-            movement: [(i % 10) as f32 / 10.0, 0.5],
-            yaw: 0.25,
-            buttons: (i % 4) as u8,
+            payload: inertia_sandbox::SandboxInput {
+                movement: [(i % 10) as f32 / 10.0, 0.5],
+                yaw: 0.25,
+                buttons: (i % 4) as u8,
+            }
+            .to_payload(),
             view_behind: 0.0,
         };
         let _ = sim.input(7, &input);

@@ -24,7 +24,7 @@ use std::process::ExitCode;
 
 use inertia_physics::{World, WorldConfig};
 use inertia_protocol::PlayerInput;
-use inertia_server::record::Record;
+use inertia_server::record::{LegacyInput, Record};
 use inertia_server::replay::journal::{self, JournalEntry};
 use inertia_server::replay::SimState;
 use serde_json::{json, Value};
@@ -183,7 +183,7 @@ fn record_json(record: &Record) -> Value {
             "tick": tick,
             "inputs": inputs
                 .iter()
-                .map(|(client, input)| input_json(*client, input))
+                .map(|(client, input)| legacy_input_json(*client, input))
                 .collect::<Vec<_>>(),
         }),
         Record::TickHash { tick, hash } => json!({
@@ -232,9 +232,22 @@ fn entry_json(entry: &JournalEntry) -> Value {
     }
 }
 
-/// A client's input as a JSON object (a float that is not finite comes
-/// out as null).
+/// A client's input as a JSON object: its payload, the game's bytes, in
+/// hex (a view that is not finite comes out as null).
 fn input_json(client: u64, input: &PlayerInput) -> Value {
+    json!({
+        "type": "input",
+        "client": client,
+        "sequence": input.sequence,
+        "tick": input.tick,
+        "view_behind": input.view_behind,
+        "payload": input.payload.as_bytes().iter().map(|b| format!("{b:02x}")).collect::<String>(),
+    })
+}
+
+/// An input of the first builds' recordings (the sandbox's fields) as a
+/// JSON object (a float that is not finite comes out as null).
+fn legacy_input_json(client: u64, input: &LegacyInput) -> Value {
     json!({
         "type": "input",
         "client": client,
