@@ -13,7 +13,7 @@ use inertia_protocol::control::{
     close_code, encode_frame, ClientControl, DisconnectReason, FrameDecoder, Refusal,
     ServerControl, SnapshotParams, PROTOCOL_VERSION,
 };
-use inertia_protocol::input::InputDatagram;
+use inertia_protocol::input::{InputDatagram, InputError, InputPayload};
 use inertia_protocol::PlayerInput;
 
 /// An input datagram acknowledging `ack`, with inputs of `sequences`
@@ -240,6 +240,54 @@ fn a_welcome_not_taken_in_time_lets_the_client_go() {
     assert_eq!(conn.end(), Some(&ServerConnectionEnd::HelloTimeout));
     assert_eq!(events(&mut conn), vec![ServerConnectionEvent::Ending]);
     assert_closed(&conn, close_code::REFUSED);
+}
+
+#[test]
+fn issue_43_inputs_of_another_size_are_refused_and_their_ack_taken() {
+    let t0 = Instant::now();
+    let mut conn = ServerConnection::new(
+        ServerConnectionConfig {
+            input_bytes: Some(5),
+            ..ServerConnectionConfig::default()
+        },
+        t0,
+    );
+    conn.on_control_data(&hello(), t0 + ms(5));
+    events(&mut conn);
+    conn.admit(&welcome(), t0 + ms(10));
+    take(&mut conn, t0 + ms(10), 1000);
+    assert_eq!(events(&mut conn), vec![ServerConnectionEvent::Live]);
+    let with = |ack: u16, sequence: u32, size: usize| {
+        InputDatagram {
+            ack: Some(ack),
+            ack_bits: 0,
+            inputs: vec![PlayerInput {
+                sequence,
+                tick: u64::from(sequence),
+                payload: InputPayload::new(&vec![7; size]).unwrap(),
+                view_behind: 0.0,
+            }],
+        }
+        .encode()
+        .unwrap()
+    };
+    // Another game's size: the inputs are refused, once, and the
+    // acknowledgement still goes to the client's session.
+    assert_eq!(conn.on_datagram(&with(3, 1, 2), t0 + ms(20)), Ok(Some(3)));
+    assert_eq!(conn.poll_input(), None);
+    assert_eq!(
+        conn.poll_refused_inputs(),
+        Some(InputError::WrongPayloadSize {
+            size: 2,
+            expected: 5
+        })
+    );
+    assert_eq!(conn.poll_refused_inputs(), None);
+    // The game's size goes through.
+    assert_eq!(conn.on_datagram(&with(4, 2, 5), t0 + ms(30)), Ok(Some(4)));
+    assert_eq!(conn.poll_input().map(|i| i.sequence), Some(2));
+    assert_eq!(conn.poll_refused_inputs(), None);
+    assert!(conn.is_live());
 }
 
 #[test]

@@ -132,6 +132,9 @@ pub struct ServerConnection {
     peer_finished: bool,
     /// The client's inputs, reordered and each once.
     inputs: InputBuffer,
+    /// Why the inputs of the last datagram were refused while its
+    /// acknowledgement was taken, until [`Self::poll_refused_inputs`].
+    refused_inputs: Option<InputError>,
     /// Why the connection ends, once it does.
     end: Option<ServerConnectionEnd>,
     events: VecDeque<ServerConnectionEvent>,
@@ -150,6 +153,7 @@ impl ServerConnection {
             outbox: Outbox::new(now),
             frames: FrameDecoder::new(),
             inputs: InputBuffer::new(config.input_buffer.max(1)),
+            refused_inputs: None,
             peer_finished: false,
             end: None,
             events: VecDeque::new(),
@@ -241,23 +245,33 @@ impl ServerConnection {
     /// ([`crate::ServerSession::on_ack`]). Only a live connection takes
     /// datagrams (before and after, they are dropped: `Ok(None)`); any
     /// datagram, even one that does not decode, keeps it from going
-    /// silent. One that does not decode changes nothing else.
+    /// silent. One that does not decode changes nothing else. One whose
+    /// inputs are not the game's size has them refused
+    /// ([`Self::poll_refused_inputs`]) and its acknowledgement taken: the
+    /// client's snapshots go on as they would.
     pub fn on_datagram(&mut self, bytes: &[u8], now: Instant) -> Result<Option<u16>, InputError> {
         let ServerPhase::Live { heard } = &mut self.state else {
             return Ok(None);
         };
         *heard = now;
         let datagram = InputDatagram::decode(bytes)?;
-        if let (Some(expected), Some(input)) = (self.config.input_bytes, datagram.inputs.first()) {
-            if input.payload.len() != expected {
-                return Err(InputError::WrongPayloadSize {
+        match (self.config.input_bytes, datagram.inputs.first()) {
+            (Some(expected), Some(input)) if input.payload.len() != expected => {
+                self.refused_inputs = Some(InputError::WrongPayloadSize {
                     size: input.payload.len(),
                     expected,
                 });
             }
+            _ => self.inputs.push_datagram(&datagram),
         }
-        self.inputs.push_datagram(&datagram);
         Ok(datagram.ack)
+    }
+
+    /// Why the last datagram's inputs were refused, once: inputs of
+    /// another size than the game's
+    /// ([`InputError::WrongPayloadSize`]), for the server to count.
+    pub fn poll_refused_inputs(&mut self) -> Option<InputError> {
+        self.refused_inputs.take()
     }
 
     /// The client's next input in sequence order, each exactly once.

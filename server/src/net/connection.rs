@@ -22,7 +22,6 @@ use std::time::Instant;
 
 use inertia_protocol::connection::{ServerConnection, ServerConnectionEnd, ServerConnectionEvent};
 use inertia_protocol::control::{ClientControl, DisconnectReason};
-use inertia_protocol::input::InputError;
 use tokio::sync::oneshot;
 use tracing::{debug, info, info_span, warn, Instrument};
 
@@ -293,9 +292,12 @@ impl Shell {
             Err(e) => {
                 debug!(?client, error = %e, "malformed datagram dropped");
                 shared.metrics.malformed_datagrams.inc();
-                if let (Some(client), InputError::WrongPayloadSize { .. }) = (client, e) {
-                    shared.metrics.input_refused(client, "wrong_size");
-                }
+            }
+        }
+        if let Some(e) = self.conn.poll_refused_inputs() {
+            debug!(?client, error = %e, "inputs refused");
+            if let Some(client) = client {
+                shared.metrics.input_refused(client, "wrong_size");
             }
         }
         if let Some(client) = client {
