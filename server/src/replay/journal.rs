@@ -194,71 +194,49 @@ pub fn decode(tick: u64, bytes: &[u8]) -> Result<Vec<JournalEntry>, JournalError
         let entry = match r.u8()? {
             1 => JournalEntry::Join(r.varint()?),
             2 => JournalEntry::Leave(r.varint()?),
-            8 => {
+            tag @ (3 | 4 | 6 | 7 | 8 | 9) => {
                 let client = r.varint()?;
                 let sequence = u32_varint(&mut r)?;
-                let input_tick = tick.wrapping_add(unzigzag(r.varint()?) as u64);
-                let view_behind = view(&mut r, client)?;
-                let payload = payload(&mut r, client)?;
-                JournalEntry::Input(
-                    client,
-                    PlayerInput {
-                        sequence,
-                        tick: input_tick,
-                        payload,
-                        view_behind,
-                    },
-                )
-            }
-            9 => {
-                let client = r.varint()?;
-                let sequence = u32_varint(&mut r)?;
-                let input_tick = r.u64()?;
-                let view_behind = r.f32()?;
-                let payload = payload(&mut r, client)?;
-                JournalEntry::Input(
-                    client,
-                    PlayerInput {
-                        sequence,
-                        tick: input_tick,
-                        payload,
-                        view_behind,
-                    },
-                )
-            }
-            tag @ (3 | 6) => {
-                let client = r.varint()?;
-                let sequence = u32_varint(&mut r)?;
-                let input_tick = tick.wrapping_add(unzigzag(r.varint()?) as u64);
-                let body = r.array::<SANDBOX_INPUT_BYTES>()?;
-                let payload = InputPayload::new(&body).expect("5 bytes fit");
-                let view_behind = if tag == 6 { view(&mut r, client)? } else { 0.0 };
-                JournalEntry::Input(
-                    client,
-                    PlayerInput {
-                        sequence,
-                        tick: input_tick,
-                        payload,
-                        view_behind,
-                    },
-                )
-            }
-            tag @ (4 | 7) => {
-                let client = r.varint()?;
-                let sequence = u32_varint(&mut r)?;
-                let input_tick = r.u64()?;
-                let sandbox = SandboxInput {
-                    movement: [r.f32()?, r.f32()?],
-                    yaw: r.f32()?,
-                    buttons: r.u8()?,
+                // Inputs that came over the wire keep their tick relative
+                // to the journal's; the others write it out.
+                let input_tick = match tag {
+                    3 | 6 | 8 => tick.wrapping_add(unzigzag(r.varint()?) as u64),
+                    _ => r.u64()?,
                 };
-                let view_behind = if tag == 7 { r.f32()? } else { 0.0 };
+                let (payload, view_behind) = match tag {
+                    8 => {
+                        let view_behind = view(&mut r, client)?;
+                        (payload(&mut r, client)?, view_behind)
+                    }
+                    9 => {
+                        let view_behind = r.f32()?;
+                        (payload(&mut r, client)?, view_behind)
+                    }
+                    // The sandbox's input, as the wire packed it then.
+                    3 | 6 => {
+                        let body = r.array::<SANDBOX_INPUT_BYTES>()?;
+                        let payload = InputPayload::new(&body).expect("5 bytes fit");
+                        let view_behind = if tag == 6 { view(&mut r, client)? } else { 0.0 };
+                        (payload, view_behind)
+                    }
+                    // The sandbox's input written out: as the wire would
+                    // have packed it.
+                    _ => {
+                        let sandbox = SandboxInput {
+                            movement: [r.f32()?, r.f32()?],
+                            yaw: r.f32()?,
+                            buttons: r.u8()?,
+                        };
+                        let view_behind = if tag == 7 { r.f32()? } else { 0.0 };
+                        (sandbox.to_payload(), view_behind)
+                    }
+                };
                 JournalEntry::Input(
                     client,
                     PlayerInput {
                         sequence,
                         tick: input_tick,
-                        payload: sandbox.to_payload(),
+                        payload,
                         view_behind,
                     },
                 )
