@@ -22,7 +22,7 @@ use clap::error::ErrorKind;
 use tracing_subscriber::EnvFilter;
 
 use crate::admin::tokens::AdminTokenStore;
-use crate::config::{ConfigError, LogFormat, ServerConfig};
+use crate::config::{binary_name, ConfigError, LogFormat, ServerConfig};
 use crate::rules::GameRules;
 use crate::secrets::Secrets;
 
@@ -33,6 +33,9 @@ pub const EXIT_SIMULATION_FAILED: u8 = 3;
 /// after the configuration is read). See the module docs for the exit
 /// status.
 pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> ExitCode {
+    // The running binary's name, for its messages: `inertia-server` or a
+    // game's own.
+    let name = binary_name(std::env::args_os().next().as_deref());
     let config = match ServerConfig::from_process() {
         Ok(c) => c,
         // Asked for: to standard output, and done.
@@ -48,7 +51,7 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
             return ExitCode::from(2);
         }
         Err(e) => {
-            eprintln!("{}: {e}", program_name());
+            eprintln!("{name}: {e}");
             return ExitCode::from(2);
         }
     };
@@ -67,7 +70,7 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
     {
         Ok(r) => r,
         Err(e) => {
-            eprintln!("{}: cannot start the I/O runtime: {e}", program_name());
+            eprintln!("{name}: cannot start the I/O runtime: {e}");
             return ExitCode::FAILURE;
         }
     };
@@ -79,14 +82,14 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
         let server = match crate::server::start_with_rules(config, rules).await {
             Ok(s) => s,
             Err(e) => {
-                eprintln!("{}: {e}", program_name());
+                eprintln!("{name}: {e}");
                 return ExitCode::FAILURE;
             }
         };
         if let Some(path) = server.credentials_path() {
             eprintln!(
                 "{}: dev mode on {} (metrics on http://{}); credentials in {}",
-                program_name(),
+                name,
                 server.addr(),
                 server.metrics_addr(),
                 path.display()
@@ -105,7 +108,7 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
                 ExitCode::SUCCESS
             }
             why = server.failed() => {
-                eprintln!("{}: {why}; exiting for a restart", program_name());
+                eprintln!("{name}: {why}; exiting for a restart");
                 ExitCode::from(EXIT_SIMULATION_FAILED)
             }
         };
@@ -202,19 +205,4 @@ async fn wait_for_stop() {
     {
         let _ = tokio::signal::ctrl_c().await;
     }
-}
-
-/// The running binary's name, for its messages (`inertia-server`, or a
-/// game's own).
-fn program_name() -> String {
-    std::env::args_os()
-        .next()
-        .and_then(|a| {
-            std::path::Path::new(&a)
-                .file_stem()
-                .and_then(|n| n.to_str())
-                .map(str::to_string)
-        })
-        .filter(|n| !n.is_empty())
-        .unwrap_or_else(|| "inertia-server".to_string())
 }

@@ -310,9 +310,8 @@ impl World {
                                     on_gpu.soft_bodies.insert(slot, buffers);
                                 }
                                 Err(why) => {
-                                    on_gpu.soft_bodies.remove(&slot);
                                     let h = SoftBodyHandle { index, generation };
-                                    to_cpu(body, h, why, report);
+                                    to_cpu(on_gpu, body, h, why, report);
                                 }
                             }
                         }
@@ -326,9 +325,8 @@ impl World {
                         // Bodies the GPU cannot take came near: the body
                         // goes back to the CPU and steps there, from now on.
                         crate::gpu::soft::download(ctx, body, &buffers)?;
-                        on_gpu.soft_bodies.remove(&slot);
                         let h = SoftBodyHandle { index, generation };
-                        to_cpu(body, h, why, report);
+                        to_cpu(on_gpu, body, h, why, report);
                     }
                 }
             }
@@ -423,11 +421,13 @@ impl World {
 /// on the CPU from now on because of `why`, which the step's report says.
 #[cfg(feature = "gpu")]
 fn to_cpu(
+    on_gpu: &mut crate::gpu::OnGpu,
     body: &mut SoftBody,
     h: SoftBodyHandle,
     why: PhysicsError,
     report: &mut super::StepReport,
 ) {
+    on_gpu.soft_bodies.remove(&(h.index, h.generation));
     body.backend = crate::particle_system::Backend::Cpu;
     report.soft_bodies_to_cpu.push((h, why));
 }

@@ -190,13 +190,7 @@ impl ServerArgs {
         T: Into<std::ffi::OsString> + Clone,
     {
         let args: Vec<std::ffi::OsString> = args.into_iter().map(Into::into).collect();
-        let name = args
-            .first()
-            .and_then(|a| Path::new(a).file_stem())
-            .and_then(|n| n.to_str())
-            .filter(|n| !n.is_empty())
-            .unwrap_or("inertia-server")
-            .to_string();
+        let name = binary_name(args.first().map(|a| a.as_os_str()));
         let command = ServerArgs::command()
             .version(version_line(&name))
             .name(name.clone())
@@ -204,6 +198,17 @@ impl ServerArgs {
         let matches = command.try_get_matches_from(args)?;
         ServerArgs::from_arg_matches(&matches)
     }
+}
+
+/// The name a binary goes by, from its program name (`argv[0]`): the
+/// file's stem, `inertia-server` when there is none.
+pub fn binary_name(program: Option<&std::ffi::OsStr>) -> String {
+    program
+        .and_then(|a| Path::new(a).file_stem())
+        .and_then(|n| n.to_str())
+        .filter(|n| !n.is_empty())
+        .unwrap_or("inertia-server")
+        .to_string()
 }
 
 /// What `--version` prints after the name of binary `bin`: the server

@@ -45,7 +45,7 @@ mod tests;
 pub use choices::{LogFormat, PhysicsPinning};
 pub use error::ConfigError;
 use layer::{agones_sdk_port, env_layer};
-pub use layer::{parse_toml, version_line, ConfigLayer, ServerArgs};
+pub use layer::{binary_name, parse_toml, version_line, ConfigLayer, ServerArgs};
 
 /// Default UDP port of the QUIC game and admin endpoint.
 pub const DEFAULT_PORT: u16 = 7777;

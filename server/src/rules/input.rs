@@ -84,6 +84,21 @@ mod tests {
     use super::*;
 
     #[test]
+    fn every_refusal_has_a_label_the_metrics_forget() {
+        // A client's series are removed by these labels when it leaves: a
+        // reason missing from the list would pile up.
+        for refusal in [
+            InputRefusal::NotJoined(1),
+            InputRefusal::Undecodable(InputDecodeError::Invalid("x".into())),
+            InputRefusal::Stale { tick: 1, now: 2 },
+            InputRefusal::Future { tick: 3, now: 2 },
+            InputRefusal::Backlog { max: 4 },
+        ] {
+            assert!(crate::metrics::INPUT_REFUSAL_REASONS.contains(&refusal.reason()));
+        }
+    }
+
+    #[test]
     fn bad_views_are_clamped_and_the_payload_kept() {
         let input = PlayerInput {
             sequence: 1,

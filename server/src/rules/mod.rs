@@ -9,8 +9,9 @@
 //! body at absurd speed.
 //!
 //! Inputs come from the network and are untrusted: the simulation's input
-//! schedule refuses inputs for ticks outside a window around now,
-//! [`validate_input`] clamps the view every input carries, and the game's
+//! schedule refuses inputs for ticks outside a window around now, the
+//! simulation clamps the view every input carries ([`validate_input`])
+//! before the rules see it, and the game's
 //! own decoder ([`GameInput::from_payload`](inertia_protocol::input::GameInput::from_payload))
 //! refuses payloads it does not define ([`InputRefusal::Undecodable`]).
 //! [`SandboxRules`] is the default game: a
@@ -93,9 +94,9 @@ pub trait GameRules: Send {
     /// whose players send no input say 0.
     fn input_bytes(&self) -> usize;
 
-    /// An input arrived. Check it (see [`validate_input`]) and decode its
-    /// payload with the game's input type before acting on any field; a
-    /// refused input changes nothing.
+    /// An input arrived, its tick and view already checked (see
+    /// [`validate_input`]). Decode its payload with the game's input type
+    /// before acting on any field; a refused input changes nothing.
     fn on_input(
         &mut self,
         client: ClientId,

@@ -13,10 +13,7 @@ use inertia_protocol::input::GameInput;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput};
 use inertia_sandbox::{buttons, SandboxInput, SANDBOX_INPUT_BYTES};
 
-use super::{
-    validate_input, ClientId, EntityLook, GameEvent, GameRules, InputRefusal, JoinRefusal,
-    SimContext,
-};
+use super::{ClientId, EntityLook, GameEvent, GameRules, InputRefusal, JoinRefusal, SimContext};
 
 /// Tuning of [`SandboxRules`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -82,7 +79,7 @@ struct HeldInput {
 }
 
 impl HeldInput {
-    /// Reads a (view-checked) input's payload as a [`SandboxInput`];
+    /// Reads an input's payload as a [`SandboxInput`];
     /// refused when the bytes are not one.
     fn from_input(input: &PlayerInput) -> Result<HeldInput, InputRefusal> {
         let game = SandboxInput::from_payload(&input.payload)?;
@@ -308,7 +305,7 @@ impl GameRules for SandboxRules {
             .players
             .get_mut(&client)
             .ok_or(InputRefusal::NotJoined(client))?;
-        let input = HeldInput::from_input(&validate_input(input))?;
+        let input = HeldInput::from_input(input)?;
         let pressed = input.buttons & !p.held;
         p.jump_pressed |= pressed & buttons::JUMP != 0;
         p.push_pressed |= pressed & buttons::PUSH != 0;

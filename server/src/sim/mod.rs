@@ -558,12 +558,15 @@ impl Simulation {
         Err(refusal)
     }
 
-    /// Hands an input to the rules. Whether its client is in was asked
-    /// once, as it arrived ([`Self::input`]); a client that left since had
-    /// its waiting inputs dropped, and a journal holds only inputs of
-    /// clients in at the time.
+    /// Hands an input to the rules, its view clamped
+    /// ([`validate_input`](crate::rules::validate_input)): whatever the
+    /// game, the rules never see a view they cannot rewind to. Whether
+    /// its client is in was asked once, as it arrived ([`Self::input`]); a
+    /// client that left since had its waiting inputs dropped, and a journal
+    /// holds only inputs of clients in at the time.
     fn input_here(&mut self, client: ClientId, input: &PlayerInput) -> Result<(), InputRefusal> {
-        match self.with_ctx(|rules, ctx| rules.on_input(client, input, ctx)) {
+        let input = crate::rules::validate_input(input);
+        match self.with_ctx(|rules, ctx| rules.on_input(client, &input, ctx)) {
             Ok(()) => Ok(()),
             Err(refusal) => self.refused(client, refusal),
         }
