@@ -13,7 +13,7 @@
  its calls. It changes whenever either does; a binding checks it once
  against the one it was written for.
  */
-#define INERTIA_ABI_VERSION 2
+#define INERTIA_ABI_VERSION 3
 
 /*
  Longest entity name, bytes, with its NUL.
@@ -21,13 +21,13 @@
 #define INERTIA_NAME_BYTES 65
 
 /*
- Longest event text (a message, an event's name, a reason), bytes, with
- its NUL.
+ Longest event text (why the connection ended), bytes, with its NUL.
  */
 #define INERTIA_TEXT_BYTES 256
 
 /*
- Longest payload of a game-defined event, bytes.
+ Longest game message, bytes (the protocol's bound: every message
+ fits an event whole).
  */
 #define INERTIA_EVENT_DATA_BYTES 1024
 
@@ -71,6 +71,32 @@ typedef enum InertiaStatus {
 } InertiaStatus;
 
 /*
+ How a game message travels.
+ */
+enum InertiaDelivery
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /*
+   On the control stream: arrives once, in order with every other
+   reliable message.
+   */
+  INERTIA_DELIVERY_RELIABLE = 0,
+  /*
+   In a datagram of its own: may be lost.
+   */
+  INERTIA_DELIVERY_UNRELIABLE = 1,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum InertiaDelivery InertiaDelivery;
+#else
+typedef uint32_t InertiaDelivery;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/*
  What an event is.
  */
 enum InertiaEventKind
@@ -104,22 +130,11 @@ enum InertiaEventKind
    */
   INERTIA_EVENT_KIND_DISCONNECTED = 5,
   /*
-   Two entities (`entity`, `other`) hit each other: `value` is the
-   impulse, N·s.
+   A message of the game's from the server's rules: its `data_len`
+   bytes in `data`, read as the game lays its messages out;
+   `delivery` says how it came.
    */
-  INERTIA_EVENT_KIND_CONTACT = 6,
-  /*
-   An explosion at `x`, `y`, `z` of radius `value`, m.
-   */
-  INERTIA_EVENT_KIND_EXPLOSION = 7,
-  /*
-   A text message for the player: `text`.
-   */
-  INERTIA_EVENT_KIND_MESSAGE = 8,
-  /*
-   A game-defined event: its name in `text`, its payload in `data`.
-   */
-  INERTIA_EVENT_KIND_CUSTOM = 9,
+  INERTIA_EVENT_KIND_MESSAGE = 6,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -301,13 +316,9 @@ typedef struct InertiaEvent {
    */
   uint32_t entity;
   /*
-   The other entity of a contact.
+   How a message came.
    */
-  uint32_t other;
-  /*
-   An impulse (N·s) or a radius (m).
-   */
-  double value;
+  InertiaDelivery delivery;
   /*
    Tick before a jump.
    */
@@ -317,18 +328,6 @@ typedef struct InertiaEvent {
    */
   double to_tick;
   /*
-   A place, m.
-   */
-  double x;
-  /*
-   A place, m.
-   */
-  double y;
-  /*
-   A place, m.
-   */
-  double z;
-  /*
    Text (NUL-terminated, UTF-8).
    */
   char text[INERTIA_TEXT_BYTES];
@@ -337,7 +336,7 @@ typedef struct InertiaEvent {
    */
   uint32_t data_len;
   /*
-   A game-defined event's payload.
+   A message's bytes.
    */
   uint8_t data[INERTIA_EVENT_DATA_BYTES];
 } InertiaEvent;
@@ -651,6 +650,25 @@ enum InertiaStatus inertia_set_input(struct InertiaClient *client,
 enum InertiaStatus inertia_set_input_bytes(struct InertiaClient *client,
                                            const uint8_t *bytes,
                                            size_t len);
+
+/*
+ Sends a message of the game's to the server's rules: its `len` bytes
+ at `bytes` (at most `INERTIA_EVENT_DATA_BYTES`), laid out as the game
+ lays its messages out, `delivery` reliable (in order, once) or
+ unreliable (may be lost). `INERTIA_STATUS_INVALID_ARGUMENT`, sending
+ nothing, for a longer message or a null `bytes` with a length;
+ `INERTIA_STATUS_DISCONNECTED` once the connection has ended. The
+ server takes at most its game's rate (30 a second unless the game says
+ otherwise) and refuses the rest.
+
+ # Safety
+ `client` is a live handle; `bytes` points to `len` readable bytes (or
+ is null with `len` 0).
+ */
+enum InertiaStatus inertia_send_message(struct InertiaClient *client,
+                                        const uint8_t *bytes,
+                                        size_t len,
+                                        InertiaDelivery delivery);
 
 /*
  Takes the oldest waiting event into `*out`; its kind is

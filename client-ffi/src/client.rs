@@ -13,8 +13,10 @@ use inertia_client::interp::Sample;
 use inertia_client::net::ClientEvent;
 use inertia_client::point_sets::PointSetSample;
 use inertia_client::{BlockingClient, ConnectOptions};
-use inertia_protocol::control::{DisconnectReason, WireEvent};
+use inertia_protocol::control::DisconnectReason;
+
 use inertia_protocol::input::InputPayload;
+use inertia_protocol::message::Delivery;
 use inertia_protocol::token::ConnectToken;
 use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
 
@@ -289,6 +291,51 @@ pub unsafe extern "C" fn inertia_set_input_bytes(
     })
 }
 
+/// Sends a message of the game's to the server's rules: its `len` bytes
+/// at `bytes` (at most `INERTIA_EVENT_DATA_BYTES`), laid out as the game
+/// lays its messages out, `delivery` reliable (in order, once) or
+/// unreliable (may be lost). `INERTIA_STATUS_INVALID_ARGUMENT`, sending
+/// nothing, for a longer message or a null `bytes` with a length;
+/// `INERTIA_STATUS_DISCONNECTED` once the connection has ended. The
+/// server takes at most its game's rate (30 a second unless the game says
+/// otherwise) and refuses the rest.
+///
+/// # Safety
+/// `client` is a live handle; `bytes` points to `len` readable bytes (or
+/// is null with `len` 0).
+#[no_mangle]
+pub unsafe extern "C" fn inertia_send_message(
+    client: *mut InertiaClient,
+    bytes: *const u8,
+    len: usize,
+    delivery: InertiaDelivery,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let h = unsafe { handle(client) }?;
+        let bytes = if len == 0 {
+            &[][..]
+        } else if bytes.is_null() {
+            return Err(Failure::invalid("bytes is null"));
+        } else {
+            // SAFETY: as the caller promises: `len` readable bytes.
+            unsafe { std::slice::from_raw_parts(bytes, len) }
+        };
+        let delivery = match delivery {
+            InertiaDelivery::Reliable => Delivery::Reliable,
+            InertiaDelivery::Unreliable => Delivery::Unreliable,
+        };
+        h.client
+            .send_message_bytes(bytes.to_vec(), delivery)
+            .map_err(|e| match e {
+                inertia_client::ClientError::Message(
+                    inertia_protocol::message::MessageRefusal::NotConnected,
+                ) => Failure::new(InertiaStatus::Disconnected, e.to_string()),
+                e => Failure::invalid(e.to_string()),
+            })
+    })
+}
+
 /// Takes the oldest waiting event into `*out`; its kind is
 /// `INERTIA_EVENT_KIND_NONE` when none was waiting. Call it until then
 /// every frame.
@@ -336,24 +383,15 @@ fn event_of(e: ClientEvent) -> InertiaEvent {
             out.kind = InertiaEventKind::Disconnected;
             write_c_string(&mut out.text, &reason_text(&reason));
         }
-        ClientEvent::Game(WireEvent::Contact { a, b, impulse }) => {
-            out.kind = InertiaEventKind::Contact;
-            (out.entity, out.other, out.value) = (a, b, f64::from(impulse));
-        }
-        ClientEvent::Game(WireEvent::Explosion { position, radius }) => {
-            out.kind = InertiaEventKind::Explosion;
-            [out.x, out.y, out.z] = position;
-            out.value = f64::from(radius);
-        }
-        ClientEvent::Game(WireEvent::Message { text }) => {
+        ClientEvent::Message { delivery, bytes } => {
             out.kind = InertiaEventKind::Message;
-            write_c_string(&mut out.text, &text);
-        }
-        ClientEvent::Game(WireEvent::Custom { name, data }) => {
-            out.kind = InertiaEventKind::Custom;
-            write_c_string(&mut out.text, &name);
-            let n = data.len().min(INERTIA_EVENT_DATA_BYTES);
-            out.data[..n].copy_from_slice(&data[..n]);
+            out.delivery = match delivery {
+                Delivery::Reliable => InertiaDelivery::Reliable,
+                Delivery::Unreliable => InertiaDelivery::Unreliable,
+            };
+            // Every message fits: the protocol bounds it to this.
+            let n = bytes.len().min(INERTIA_EVENT_DATA_BYTES);
+            out.data[..n].copy_from_slice(&bytes[..n]);
             out.data_len = n as u32;
         }
     }

@@ -6,11 +6,24 @@ use std::ffi::c_char;
 
 /// Longest entity name, bytes, with its NUL.
 pub const INERTIA_NAME_BYTES: usize = 65;
-/// Longest event text (a message, an event's name, a reason), bytes, with
-/// its NUL.
+/// Longest event text (why the connection ended), bytes, with its NUL.
 pub const INERTIA_TEXT_BYTES: usize = 256;
-/// Longest payload of a game-defined event, bytes.
+/// Longest game message, bytes (the protocol's bound: every message
+/// fits an event whole).
 pub const INERTIA_EVENT_DATA_BYTES: usize = 1024;
+
+const _: () = assert!(INERTIA_EVENT_DATA_BYTES == inertia_protocol::message::MAX_MESSAGE_BYTES);
+
+/// How a game message travels.
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InertiaDelivery {
+    /// On the control stream: arrives once, in order with every other
+    /// reliable message.
+    Reliable = 0,
+    /// In a datagram of its own: may be lost.
+    Unreliable = 1,
+}
 
 /// What the server told us when we joined.
 #[repr(C)]
@@ -162,15 +175,10 @@ pub enum InertiaEventKind {
     Resync = 4,
     /// The connection ended: `text` says why.
     Disconnected = 5,
-    /// Two entities (`entity`, `other`) hit each other: `value` is the
-    /// impulse, N·s.
-    Contact = 6,
-    /// An explosion at `x`, `y`, `z` of radius `value`, m.
-    Explosion = 7,
-    /// A text message for the player: `text`.
-    Message = 8,
-    /// A game-defined event: its name in `text`, its payload in `data`.
-    Custom = 9,
+    /// A message of the game's from the server's rules: its `data_len`
+    /// bytes in `data`, read as the game lays its messages out;
+    /// `delivery` says how it came.
+    Message = 6,
 }
 
 /// One event. Fields a kind does not use are zero.
@@ -181,25 +189,17 @@ pub struct InertiaEvent {
     pub kind: InertiaEventKind,
     /// The entity it is about.
     pub entity: u32,
-    /// The other entity of a contact.
-    pub other: u32,
-    /// An impulse (N·s) or a radius (m).
-    pub value: f64,
+    /// How a message came.
+    pub delivery: InertiaDelivery,
     /// Tick before a jump.
     pub from_tick: f64,
     /// Tick after a jump.
     pub to_tick: f64,
-    /// A place, m.
-    pub x: f64,
-    /// A place, m.
-    pub y: f64,
-    /// A place, m.
-    pub z: f64,
     /// Text (NUL-terminated, UTF-8).
     pub text: [c_char; INERTIA_TEXT_BYTES],
     /// Bytes of `data` used.
     pub data_len: u32,
-    /// A game-defined event's payload.
+    /// A message's bytes.
     pub data: [u8; INERTIA_EVENT_DATA_BYTES],
 }
 
@@ -208,13 +208,9 @@ impl Default for InertiaEvent {
         Self {
             kind: InertiaEventKind::None,
             entity: 0,
-            other: 0,
-            value: 0.0,
+            delivery: InertiaDelivery::Reliable,
             from_tick: 0.0,
             to_tick: 0.0,
-            x: 0.0,
-            y: 0.0,
-            z: 0.0,
             text: [0; INERTIA_TEXT_BYTES],
             data_len: 0,
             data: [0; INERTIA_EVENT_DATA_BYTES],

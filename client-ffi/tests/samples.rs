@@ -117,6 +117,7 @@ async fn the_c_sample_joins_a_server_and_sees_its_world_move() {
     assert!(printed.contains("saw the world move"), "{printed}");
     assert!(printed.contains("on time"), "{printed}");
     assert!(printed.contains("prediction: error"), "{printed}");
+    assert!(printed.contains("heard 1 chat line"), "{printed}");
     println!("{printed}");
     let _ = std::fs::remove_dir_all(&out);
 }
@@ -151,5 +152,6 @@ async fn the_csharp_sample_joins_a_server_through_p_invoke() {
     .await;
     assert!(printed.contains("joined"), "{printed}");
     assert!(printed.contains("saw the world move"), "{printed}");
+    assert!(printed.contains("heard 1 chat line"), "{printed}");
     let _ = std::fs::remove_dir_all(&out);
 }

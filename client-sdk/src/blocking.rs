@@ -79,6 +79,24 @@ impl BlockingClient {
         self.client().set_input_payload(payload)
     }
 
+    /// See [`Client::send_message`].
+    pub fn send_message<M: inertia_protocol::message::GameMessage>(
+        &self,
+        message: &M,
+        delivery: inertia_protocol::message::Delivery,
+    ) -> Result<(), ClientError> {
+        self.client().send_message(message, delivery)
+    }
+
+    /// See [`Client::send_message_bytes`].
+    pub fn send_message_bytes(
+        &self,
+        bytes: Vec<u8>,
+        delivery: inertia_protocol::message::Delivery,
+    ) -> Result<(), ClientError> {
+        self.client().send_message_bytes(bytes, delivery)
+    }
+
     /// See [`Client::sample`].
     pub fn sample(&self) -> Sample {
         self.client().sample()

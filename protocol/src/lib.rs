@@ -11,9 +11,11 @@
 //!   guard.
 //! - [`connection`]: a game connection's life (hello, live, closing) and
 //!   every deadline in it, as state machines the server and the SDK drive.
-//! - [`control`]: the reliable control channel (hello, spawns, events,
+//! - [`control`]: the reliable control channel (hello, spawns, messages,
 //!   goodbyes) and its framing.
 //! - [`input`]: the client's input datagram and the server's input buffer.
+//! - [`message`]: a game's messages both ways, their datagram and the
+//!   rate a client may send them at.
 //! - [`admin`]: the admin protocol (an operator's requests to a running
 //!   server and its answers), framed like the control channel.
 //! - [`snapshot`]: the snapshot datagram, delta-coded against acknowledged
@@ -30,6 +32,7 @@ pub mod engine_shape;
 pub mod entity;
 pub mod input;
 pub mod interest;
+pub mod message;
 pub mod priority;
 pub mod quantize;
 pub mod rng;
@@ -48,13 +51,14 @@ pub use bits::{BitError, BitReader, BitWriter};
 pub use client_session::{ClientConfig, ClientSession};
 pub use control::{
     encode_frame, handshake, ClientControl, ControlError, ControlMessage, DisconnectReason,
-    FrameDecoder, Refusal, ServerControl, SnapshotParams, TokenRefusal, WireEvent, ALPN,
-    MAX_CONTROL_FRAME, PROTOCOL_VERSION,
+    FrameDecoder, Refusal, ServerControl, SnapshotParams, TokenRefusal, ALPN, MAX_CONTROL_FRAME,
+    PROTOCOL_VERSION,
 };
 pub use entity::{EntityDesc, EntityId, EntityKind, EntityState, ShapeDesc};
 pub use input::PlayerInput;
 pub use input::{InputBuffer, InputDatagram, InputError, MAX_REDUNDANT_INPUTS};
 pub use interest::Interest;
+pub use message::{Delivery, GameMessage, MessageDecodeError, MessageRefusal, MAX_MESSAGE_BYTES};
 pub use priority::{PriorityAccumulator, PriorityWeights, Standing};
 pub use quantize::{read_rotation, write_rotation, PositionGrid};
 pub use session::{ServerSession, SessionConfig};

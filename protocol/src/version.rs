@@ -3,5 +3,7 @@
 
 /// The version of the whole wire protocol (control, datagrams and tokens).
 /// A client and server speak only when theirs are equal. 5: inputs carry
-/// the game's own bytes, and the welcome says how many.
-pub const PROTOCOL_VERSION: u16 = 5;
+/// the game's own bytes, and the welcome says how many. 6: the game's
+/// messages both ways (reliable on the control stream, unreliable in
+/// message datagrams) in place of the server's events.
+pub const PROTOCOL_VERSION: u16 = 6;

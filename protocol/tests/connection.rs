@@ -681,3 +681,114 @@ fn a_client_gives_up_without_a_welcome_and_refuses_what_breaks_the_protocol() {
     c.handle_timeout(drained);
     assert!(c.is_closed());
 }
+
+#[test]
+fn issue_43_a_clients_messages_are_taken_in_order_and_a_flood_or_an_oversize_one_refused() {
+    use inertia_protocol::connection::ReceivedMessage;
+    use inertia_protocol::message::{
+        Delivery, MessageDatagram, MessageLimits, MessageRefusal, MAX_MESSAGE_BYTES,
+    };
+    let t0 = Instant::now();
+    let limits = MessageLimits {
+        per_second: 10,
+        burst: 4,
+        bytes_per_second: 4096,
+        byte_burst: 4096,
+    };
+    let mut c = client(t0);
+    let mut s = ServerConnection::new(
+        ServerConnectionConfig {
+            messages: limits,
+            ..ServerConnectionConfig::default()
+        },
+        t0,
+    );
+    // Not live yet: the client's connection refuses to send.
+    assert_eq!(
+        c.send_message(b"early".to_vec(), t0),
+        Err(MessageRefusal::NotConnected)
+    );
+    exchange(&mut c, &mut s, t0 + ms(1), 1000);
+    events(&mut s);
+    s.admit(&welcome(), t0 + ms(2));
+    exchange(&mut c, &mut s, t0 + ms(3), 1000);
+    assert!(c.is_live() && s.is_live());
+    assert!(matches!(
+        c.poll_event(),
+        Some(ClientConnectionEvent::Welcomed(_))
+    ));
+
+    // Three reliable messages, cut into 3-byte pieces on the stream, and
+    // one unreliable one: taken in arrival order.
+    for text in ["buy", "ready", "vote 2"] {
+        c.send_message(text.as_bytes().to_vec(), t0 + ms(4))
+            .unwrap();
+    }
+    exchange(&mut c, &mut s, t0 + ms(4), 3);
+    let datagram = MessageDatagram::encode(b"ping").unwrap();
+    assert_eq!(s.on_datagram(&datagram, t0 + ms(5)), Ok(None));
+    let taken: Vec<_> = std::iter::from_fn(|| s.poll_message()).collect();
+    let msg = |delivery, bytes: &[u8]| {
+        Ok(ReceivedMessage {
+            delivery,
+            bytes: bytes.to_vec(),
+        })
+    };
+    assert_eq!(
+        taken,
+        [
+            msg(Delivery::Reliable, b"buy"),
+            msg(Delivery::Reliable, b"ready"),
+            msg(Delivery::Reliable, b"vote 2"),
+            msg(Delivery::Unreliable, b"ping"),
+        ]
+    );
+
+    // The burst is spent: a flood is refused message by message, counted
+    // by the caller, and nothing waits.
+    for _ in 0..100 {
+        c.send_message(b"spam".to_vec(), t0 + ms(6)).unwrap();
+    }
+    exchange(&mut c, &mut s, t0 + ms(6), 1000);
+    let flood: Vec<_> = std::iter::from_fn(|| s.poll_message()).collect();
+    assert_eq!(flood.len(), 100);
+    assert!(flood
+        .iter()
+        .all(|m| matches!(m, Err(MessageRefusal::RateLimited { .. }))));
+
+    // An oversize message (a client that skips its SDK's check) is
+    // refused too, and the connection lives on; so is a datagram tagged
+    // as a message that holds too much.
+    let later = t0 + ms(2000);
+    let long = encode_frame(&ClientControl::Message(vec![1; MAX_MESSAGE_BYTES + 1])).unwrap();
+    s.on_control_data(&long, later);
+    assert!(matches!(
+        s.poll_message(),
+        Some(Err(MessageRefusal::TooLong { .. }))
+    ));
+    let mut long_datagram = vec![0x4D];
+    long_datagram.extend_from_slice(&[0; MAX_MESSAGE_BYTES + 1]);
+    assert_eq!(s.on_datagram(&long_datagram, later), Ok(None));
+    assert!(matches!(
+        s.poll_message(),
+        Some(Err(MessageRefusal::TooLong { .. }))
+    ));
+    assert!(s.is_live());
+    // Refilled at the rate: the next message passes.
+    c.send_message(b"gg".to_vec(), later).unwrap();
+    exchange(&mut c, &mut s, later, 1000);
+    assert_eq!(s.poll_message(), Some(msg(Delivery::Reliable, b"gg")));
+
+    // The server's reliable message reaches the client as a message.
+    s.queue_control(
+        &encode_frame(&ServerControl::Message(b"goal".to_vec())).unwrap(),
+        later,
+    );
+    exchange(&mut c, &mut s, later, 1000);
+    assert_eq!(
+        c.poll_event(),
+        Some(ClientConnectionEvent::Message(ServerControl::Message(
+            b"goal".to_vec()
+        )))
+    );
+}

@@ -4,8 +4,8 @@
 
 use inertia_protocol::control::{
     decode_payload, encode_frame, handshake, ClientControl, ControlError, DisconnectReason,
-    FrameDecoder, Refusal, ServerControl, SnapshotParams, TokenRefusal, WireEvent,
-    MAX_CONTROL_FRAME, PROTOCOL_VERSION,
+    FrameDecoder, Refusal, ServerControl, SnapshotParams, TokenRefusal, MAX_CONTROL_FRAME,
+    MAX_MESSAGE_BYTES, PROTOCOL_VERSION,
 };
 use inertia_protocol::entity::{EntityDesc, EntityKind};
 use inertia_protocol::input::{
@@ -20,7 +20,7 @@ use proptest::collection::vec;
 use proptest::prelude::*;
 
 use crate::common;
-use common::{shape, size};
+use common::shape;
 
 const NOW: u64 = 1_750_000_000;
 
@@ -84,21 +84,6 @@ fn refusal() -> impl Strategy<Value = Refusal> {
     ]
 }
 
-fn event() -> impl Strategy<Value = WireEvent> {
-    prop_oneof![
-        (any::<u32>(), any::<u32>(), -1e6f32..1e6).prop_map(|(a, b, impulse)| WireEvent::Contact {
-            a,
-            b,
-            impulse
-        }),
-        ([-1e6f64..1e6, -1e6f64..1e6, -1e6f64..1e6], size())
-            .prop_map(|(position, radius)| WireEvent::Explosion { position, radius }),
-        "\\PC{0,100}".prop_map(|text| WireEvent::Message { text }),
-        ("[a-z_]{0,64}", vec(any::<u8>(), 0..300))
-            .prop_map(|(name, data)| WireEvent::Custom { name, data }),
-    ]
-}
-
 fn reason() -> impl Strategy<Value = DisconnectReason> {
     prop_oneof![
         Just(DisconnectReason::ServerShutdown),
@@ -146,7 +131,7 @@ fn server_control() -> impl Strategy<Value = ServerControl> {
         refusal().prop_map(ServerControl::Refused),
         entity().prop_map(ServerControl::Spawn),
         any::<u32>().prop_map(|id| ServerControl::Despawn { id }),
-        event().prop_map(ServerControl::Event),
+        vec(any::<u8>(), 0..=MAX_MESSAGE_BYTES).prop_map(ServerControl::Message),
         reason().prop_map(ServerControl::Goodbye),
     ]
 }
@@ -156,6 +141,7 @@ fn client_control() -> impl Strategy<Value = ClientControl> {
         (any::<u16>(), vec(any::<u8>(), 0..MAX_TOKEN_BYTES))
             .prop_map(|(version, token)| ClientControl::Hello { version, token }),
         Just(ClientControl::Goodbye),
+        vec(any::<u8>(), 0..300).prop_map(ClientControl::Message),
     ]
 }
 
@@ -463,24 +449,11 @@ proptest! {
 
 #[test]
 fn bounds_that_serde_cannot_see_are_refused_on_decode() {
-    let long_name = ServerControl::Event(WireEvent::Custom {
-        name: "n".repeat(65),
-        data: vec![],
-    });
-    let payload = postcard::to_allocvec(&long_name).unwrap();
+    let long_message = ServerControl::Message(vec![7; MAX_MESSAGE_BYTES + 1]);
+    let payload = postcard::to_allocvec(&long_message).unwrap();
     assert!(matches!(
         decode_payload::<ServerControl>(&payload),
         Err(ControlError::TooLong { .. })
-    ));
-    let nan = ServerControl::Event(WireEvent::Contact {
-        a: 1,
-        b: 2,
-        impulse: f32::NAN,
-    });
-    let payload = postcard::to_allocvec(&nan).unwrap();
-    assert!(matches!(
-        decode_payload::<ServerControl>(&payload),
-        Err(ControlError::NotFinite { .. })
     ));
     let huge_token = ClientControl::Hello {
         version: PROTOCOL_VERSION,

@@ -13,7 +13,7 @@
 
 use inertia_protocol::control::{
     decode_payload, encode_frame, ClientControl, DisconnectReason, InputReport, Refusal,
-    ServerControl, SnapshotParams, TokenRefusal, WireEvent, PROTOCOL_VERSION,
+    ServerControl, SnapshotParams, TokenRefusal, PROTOCOL_VERSION,
 };
 use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
 use serde_json::{json, Value};
@@ -285,34 +285,8 @@ fn server_messages() -> Vec<(&'static str, ServerControl)> {
             )),
         ),
         ("despawn", ServerControl::Despawn { id: 4_000_000_000 }),
-        (
-            "event: contact",
-            ServerControl::Event(WireEvent::Contact {
-                a: 1,
-                b: 300,
-                impulse: 12.5,
-            }),
-        ),
-        (
-            "event: explosion",
-            ServerControl::Event(WireEvent::Explosion {
-                position: [-3.0, 0.5, 7.25],
-                radius: 4.0,
-            }),
-        ),
-        (
-            "event: message",
-            ServerControl::Event(WireEvent::Message {
-                text: "round 2 — fight".into(),
-            }),
-        ),
-        (
-            "event: custom",
-            ServerControl::Event(WireEvent::Custom {
-                name: "score".into(),
-                data: vec![0, 1, 2, 255],
-            }),
-        ),
+        ("message", ServerControl::Message(vec![0, 1, 2, 255])),
+        ("message: empty", ServerControl::Message(vec![])),
         (
             "input timing",
             ServerControl::InputTiming(InputReport {
@@ -381,6 +355,7 @@ fn client_messages() -> Vec<(&'static str, ClientControl)> {
             },
         ),
         ("goodbye", ClientControl::Goodbye),
+        ("message", ClientControl::Message(b"ready".to_vec())),
     ]
 }
 
@@ -451,7 +426,7 @@ fn control_vectors_cover_every_message_and_every_shape() {
         "Refused",
         "Spawn",
         "Despawn",
-        "Event",
+        "Message",
         "Goodbye",
         "InputTiming",
     ] {
@@ -482,5 +457,5 @@ fn control_vectors_cover_every_message_and_every_shape() {
     ] {
         assert!(shapes.iter().any(|s| s == shape), "no {shape}");
     }
-    assert_eq!(variants(&v["client"]), ["Hello", "Goodbye"]);
+    assert_eq!(variants(&v["client"]), ["Hello", "Goodbye", "Message"]);
 }

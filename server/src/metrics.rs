@@ -55,6 +55,17 @@ pub struct Metrics {
     /// Inputs refused per connected `client` and `reason` (see
     /// [`INPUT_REFUSAL_REASONS`]); a client's series go when it leaves.
     pub inputs_refused: Family<Vec<(String, String)>, Counter>,
+    /// Clients' game messages the rules took, by `delivery` (`reliable`,
+    /// `unreliable`).
+    pub messages_received: Family<[(&'static str, &'static str); 1], Counter>,
+    /// Clients' game messages refused per connected `client` and `reason`
+    /// (see [`MESSAGE_REFUSAL_REASONS`]); a client's series go when it
+    /// leaves.
+    pub messages_refused: Family<Vec<(String, String)>, Counter>,
+    /// The rules' messages a client missed: its snapshot slots fell
+    /// further behind than the recent messages a frame carries
+    /// ([`crate::sim::RECENT_MESSAGES`]).
+    pub messages_missed: Counter,
     /// Connection attempts refused or failed before they were served, by
     /// `reason`: `tls` (no common ALPN, bad certificate), `handshake`,
     /// `handshake_timeout`, `handshake_limit`, `hello_timeout` (no hello,
@@ -105,7 +116,23 @@ pub const INPUT_REFUSAL_REASONS: [&str; 6] = [
     "wrong_size",
 ];
 
-fn input_labels(client: u64, reason: &str) -> Vec<(String, String)> {
+/// Why a client's message was refused, as `/metrics` labels it:
+/// `too_long` (past the size bound), `rate` (over the client's rate),
+/// `malformed` (a message datagram that is not one), `not_connected` (the
+/// client has left), `backlog` (too many waiting for the tick),
+/// `undecodable` (the game's decoder refused it), `rules` (the game's
+/// rules refused what it asks).
+pub const MESSAGE_REFUSAL_REASONS: [&str; 7] = [
+    "too_long",
+    "rate",
+    "malformed",
+    "not_connected",
+    "backlog",
+    "undecodable",
+    "rules",
+];
+
+fn client_labels(client: u64, reason: &str) -> Vec<(String, String)> {
     vec![
         ("client".to_string(), client.to_string()),
         ("reason".to_string(), reason.to_string()),
@@ -140,6 +167,9 @@ impl Metrics {
             malformed_datagrams: Counter::default(),
             inputs_rejected: Counter::default(),
             inputs_refused: Family::default(),
+            messages_received: Family::default(),
+            messages_refused: Family::default(),
+            messages_missed: Counter::default(),
             refused_connections: Family::default(),
             handshake_retries: Counter::default(),
             admin_actions: Family::default(),
@@ -227,6 +257,21 @@ impl Metrics {
             m.inputs_refused.clone(),
         );
         r.register(
+            "messages_received",
+            "Clients' game messages the rules took, by delivery",
+            m.messages_received.clone(),
+        );
+        r.register(
+            "messages_refused",
+            "Clients' game messages refused, by connected client and reason",
+            m.messages_refused.clone(),
+        );
+        r.register(
+            "messages_missed",
+            "Messages of the rules a client missed, its slots too far behind",
+            m.messages_missed.clone(),
+        );
+        r.register(
             "refused_connections",
             "Connection attempts refused or failed before being served, by reason",
             m.refused_connections.clone(),
@@ -279,7 +324,7 @@ impl Metrics {
     pub fn input_refused(&self, client: u64, reason: &'static str) {
         self.inputs_rejected.inc();
         self.inputs_refused
-            .get_or_create(&input_labels(client, reason))
+            .get_or_create(&client_labels(client, reason))
             .inc();
     }
 
@@ -287,15 +332,41 @@ impl Metrics {
     /// client that left).
     pub fn inputs_refused_count(&self, client: u64, reason: &'static str) -> u64 {
         self.inputs_refused
-            .get(&input_labels(client, reason))
+            .get(&client_labels(client, reason))
             .map_or(0, |c| c.get())
     }
 
-    /// `client` left: its input series go (a server sees many clients come
-    /// and go; their series must not pile up).
+    /// Counts one message of `client` refused for `reason` (one of
+    /// [`MESSAGE_REFUSAL_REASONS`]).
+    pub fn message_refused(&self, client: u64, reason: &'static str) {
+        self.messages_refused
+            .get_or_create(&client_labels(client, reason))
+            .inc();
+    }
+
+    /// Messages of `client` refused so far for `reason` (0 for none, or a
+    /// client that left).
+    pub fn messages_refused_count(&self, client: u64, reason: &'static str) -> u64 {
+        self.messages_refused
+            .get(&client_labels(client, reason))
+            .map_or(0, |c| c.get())
+    }
+
+    /// Counts one message the rules took, by how it came.
+    pub fn message_received(&self, delivery: &'static str) {
+        self.messages_received
+            .get_or_create(&[("delivery", delivery)])
+            .inc();
+    }
+
+    /// `client` left: its input and message series go (a server sees many
+    /// clients come and go; their series must not pile up).
     pub fn forget_client(&self, client: u64) {
         for reason in INPUT_REFUSAL_REASONS {
-            self.inputs_refused.remove(&input_labels(client, reason));
+            self.inputs_refused.remove(&client_labels(client, reason));
+        }
+        for reason in MESSAGE_REFUSAL_REASONS {
+            self.messages_refused.remove(&client_labels(client, reason));
         }
     }
 

@@ -209,6 +209,7 @@ pub async fn start_with_rules(
     };
     let history_budget = sim_config.history_budget;
     let input_bytes = rules.input_bytes();
+    let message_limits = rules.message_limits();
     if input_bytes > inertia_protocol::input::MAX_INPUT_BYTES {
         return Err(StartError::InputTooLarge(input_bytes));
     }
@@ -334,6 +335,7 @@ pub async fn start_with_rules(
         .with_frame_history(config.frame_history)
         .with_connection_config(ServerConnectionConfig {
             input_bytes: Some(input_bytes),
+            messages: message_limits,
             ..config.connection
         }),
     );

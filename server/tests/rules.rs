@@ -4,9 +4,11 @@
 
 use inertia_protocol::input::GameInput;
 use inertia_protocol::input::InputBuffer;
+use inertia_protocol::message::GameMessage;
 use inertia_protocol::{EntityKind, PlayerInput};
 use inertia_sandbox::buttons;
-use inertia_server::rules::{GameEvent, InputRefusal, JoinRefusal, SandboxRules};
+use inertia_sandbox::SandboxEvent;
+use inertia_server::rules::{InputRefusal, JoinRefusal, SandboxRules};
 use inertia_server::scene::{Scene, SceneFormat};
 use inertia_server::sim::{SimConfig, Simulation};
 
@@ -17,6 +19,20 @@ const FLAT: &str = r#"(
         (name: "crate", shape: Cuboid(half_extents: (0.4, 0.4, 0.4)), position: (0.0, 0.4, 3.0), density: 200.0),
     ],
 )"#;
+
+/// The sandbox's events among a frame's recent messages, with their ticks.
+fn events(frame: &inertia_server::sim::Frame) -> Vec<(u64, SandboxEvent)> {
+    frame
+        .messages
+        .iter()
+        .map(|m| {
+            (
+                m.tick,
+                SandboxEvent::decode(&m.message.bytes).expect("a sandbox event"),
+            )
+        })
+        .collect()
+}
 
 fn sim(max_clients: u32) -> Simulation {
     let built = Scene::parse(FLAT, SceneFormat::Ron)
@@ -117,11 +133,9 @@ fn jumps_once_when_grounded_and_cannot_fly() {
         sim.run_ticks(1);
         peak = peak.max(avatar_pos(&sim, avatar).y);
     }
-    let jumps = sim
-        .frame()
-        .events
+    let jumps = events(&sim.frame())
         .iter()
-        .filter(|e| matches!(e.event, GameEvent::Jumped { .. }))
+        .filter(|(_, e)| matches!(e, SandboxEvent::Jumped { .. }))
         .count();
     assert_eq!(jumps, 1, "holding the button jumps once");
     let rise = peak - ground_y;
@@ -144,11 +158,9 @@ fn jumps_once_when_grounded_and_cannot_fly() {
         rise < 1.8,
         "spamming jump must not climb higher than one jump: {rise}"
     );
-    let jumps = sim
-        .frame()
-        .events
+    let jumps = events(&sim.frame())
         .iter()
-        .filter(|e| e.tick > spam_from && matches!(e.event, GameEvent::Jumped { .. }))
+        .filter(|(tick, e)| *tick > spam_from && matches!(e, SandboxEvent::Jumped { .. }))
         .count();
     // Each jump takes about 1.1 s in the air: at most three in 3 s.
     assert!((1..=3).contains(&jumps), "{jumps} jumps, rise {rise}");
@@ -178,17 +190,16 @@ fn push_moves_the_crate_within_limits() {
     p.send(&mut sim, [0.0, 0.0], 0.0, buttons::PUSH);
     sim.run_ticks(1);
     let frame = sim.frame();
-    let pushed: Vec<_> = frame
-        .events
-        .iter()
-        .filter_map(|e| match &e.event {
-            GameEvent::Pushed {
+    let pushed: Vec<_> = events(&frame)
+        .into_iter()
+        .filter_map(|(_, e)| match e {
+            SandboxEvent::Pushed {
                 target, impulse, ..
-            } => Some((*target, *impulse)),
+            } => Some((target, impulse)),
             _ => None,
         })
         .collect();
-    assert_eq!(pushed.len(), 1, "{:?}", frame.events);
+    assert_eq!(pushed.len(), 1, "{:?}", events(&frame));
     let crate_h = sim.entities().body(pushed[0].0).unwrap();
     let b = sim.world().body(crate_h).unwrap();
     let v = b.linear_velocity();
@@ -300,10 +311,9 @@ fn joining_leaving_and_the_client_cap() {
     let f = sim.frame();
     assert!(f.catalog_version != v0);
     assert!(!f.catalog.contains_key(&a));
-    assert!(f
-        .events
+    assert!(events(&f)
         .iter()
-        .any(|e| matches!(e.event, GameEvent::Left { client: 1 })));
+        .any(|(_, e)| matches!(e, SandboxEvent::Left { client: 1 })));
     assert!(sim.join(3).is_ok());
 }
 
@@ -332,9 +342,9 @@ fn an_avatar_that_falls_off_the_world_comes_back() {
     for _ in 0..600 {
         p.send(&mut sim, [1.0, 0.0], 0.0, 0);
         sim.run_ticks(1);
-        for e in sim.frame().events.iter() {
-            if let GameEvent::Respawned { avatar, .. } = &e.event {
-                respawned = Some(*avatar);
+        for (_, e) in events(&sim.frame()) {
+            if let SandboxEvent::Respawned { avatar, .. } = e {
+                respawned = Some(avatar);
             }
         }
         if respawned.is_some() {

@@ -157,7 +157,7 @@ async fn async_join_and_frame_subscription() {
     .await
     .expect("a new tick within 2 s");
     assert!(f.tick > before);
-    assert!(f.events.iter().all(|e| e.tick <= f.tick));
+    assert!(f.messages.iter().all(|m| m.tick <= f.tick));
     assert!(f.catalog.contains_key(&a));
     drop(h);
 }

@@ -12,10 +12,12 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use inertia_protocol::admin::{MassSpec, SpawnDesc, TimeMode};
+use inertia_protocol::connection::ReceivedMessage;
 use inertia_protocol::input::quantize_input;
+use inertia_protocol::message::{Delivery, GameMessage};
 use inertia_protocol::rng::SplitMix;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput, ShapeDesc};
-use inertia_sandbox::buttons;
+use inertia_sandbox::{buttons, SandboxRequest};
 use inertia_server::record::RecorderConfig;
 use inertia_server::replay::checkpoint::{CheckpointDir, CheckpointError, CheckpointName};
 use inertia_server::replay::{JournalEntry, SimState, StateError, WorldEdit};
@@ -263,6 +265,13 @@ fn record(what: &str, ticks: u64, keyframe_ticks: u64) -> Run {
             })
             .expect("the visitor goes");
         }
+        // Players' messages: a chat line, and a respawn (which moves an
+        // avatar, so a seek past it reproduces the hash only if the
+        // journal hands it to the rules again at its tick).
+        if t == scaled(0.5) {
+            message(&mut sim, 1, &SandboxRequest::Chat { text: "gg".into() });
+            message(&mut sim, 2, &SandboxRequest::Respawn);
+        }
         bots.send(&mut sim);
         sim.run_ticks(1);
         hashes.push(sim.state_hash());
@@ -275,10 +284,20 @@ fn record(what: &str, ticks: u64, keyframe_ticks: u64) -> Run {
     }
 }
 
+/// `client` sends `request` reliably, as its connection would hand it on.
+fn message(sim: &mut Simulation, client: u64, request: &SandboxRequest) {
+    let message = ReceivedMessage {
+        delivery: Delivery::Reliable,
+        bytes: request.to_bytes(),
+    };
+    sim.message(client, message)
+        .expect("a message of a client in the game");
+}
+
 /// The kinds of entry the journal holds over `ticks`.
-fn journal_kinds(sim: &Simulation, ticks: std::ops::Range<u64>) -> [bool; 4] {
+fn journal_kinds(sim: &Simulation, ticks: std::ops::Range<u64>) -> [bool; 5] {
     let history = sim.history().expect("a history");
-    let mut kinds = [false; 4];
+    let mut kinds = [false; 5];
     for t in ticks {
         for e in history.journal_at(t) {
             let k = match e {
@@ -286,6 +305,7 @@ fn journal_kinds(sim: &Simulation, ticks: std::ops::Range<u64>) -> [bool; 4] {
                 JournalEntry::Leave(_) => 1,
                 JournalEntry::Input(..) => 2,
                 JournalEntry::Edit(_) => 3,
+                JournalEntry::Message(..) => 4,
             };
             kinds[k] = true;
         }
@@ -310,8 +330,8 @@ fn ten_thousand_ticks_of_eight_bots_seek_to_any_tick_with_the_recorded_hash() {
     assert_eq!(sim.client_count(), 7);
     assert_eq!(
         journal_kinds(&sim, 0..TICKS),
-        [true; 4],
-        "joins, leaves, inputs and edits are all in the journal"
+        [true; 5],
+        "joins, leaves, inputs, edits and messages are all in the journal"
     );
     {
         let history = sim.history().expect("a history");

@@ -4,7 +4,7 @@
 
 use inertia_protocol::{EntityId, PlayerInput};
 use inertia_server::rules::{
-    ClientId, GameEvent, GameRules, InputRefusal, JoinRefusal, SandboxRules, SandboxSettings,
+    ClientId, GameRules, InputRefusal, JoinRefusal, RemovalReason, SandboxRules, SandboxSettings,
     SimContext,
 };
 
@@ -66,7 +66,7 @@ impl GameRules for FaultRules {
         self.inner.after_tick(ctx);
     }
 
-    fn events(&mut self) -> Vec<GameEvent> {
-        self.inner.events()
+    fn on_removed(&mut self, entity: EntityId, reason: RemovalReason, ctx: &mut SimContext<'_>) {
+        self.inner.on_removed(entity, reason, ctx);
     }
 }

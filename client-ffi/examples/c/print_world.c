@@ -74,13 +74,18 @@ int main(int argc, char **argv) {
     inertia_set_input(client, 1.0f, 0.0f, 0.0f, 0);
     printf("joined %s as client %llu: %u ticks/s, %u snapshots/s\n", info.server_version,
            (unsigned long long)info.client_id, info.tick_hz, info.snapshot_hz);
+    /* Say hello: the sandbox's chat request (kind 1, the line's length,
+       its UTF-8), which its rules tell everyone, us included. */
+    static const uint8_t chat[] = {1, 5, 'h', 'e', 'l', 'l', 'o'};
+    if (inertia_send_message(client, chat, sizeof chat, INERTIA_DELIVERY_RELIABLE) != INERTIA_STATUS_OK)
+        return fail("send message");
 
     static InertiaEntityState states[MAX_ENTITIES];
     static float points[3 * MAX_POINTS];
     static uint8_t present[MAX_POINTS];
     double first_x = 0, last_x = 0;
     uint32_t watched = 0;
-    int moved = 0, spawned = 0;
+    int moved = 0, spawned = 0, heard = 0;
     for (int frame = 0; frame < seconds * 20; frame++) {
         sleep_ms(50);
         InertiaEvent event;
@@ -88,6 +93,8 @@ int main(int argc, char **argv) {
             if (inertia_poll_event(client, &event) != INERTIA_STATUS_OK) return fail("poll");
             if (event.kind == INERTIA_EVENT_KIND_NONE) break;
             if (event.kind == INERTIA_EVENT_KIND_SPAWNED) spawned++;
+            /* The sandbox's chat event: kind 7, the client, the line. */
+            if (event.kind == INERTIA_EVENT_KIND_MESSAGE && event.data_len > 0 && event.data[0] == 7) heard++;
             if (event.kind == INERTIA_EVENT_KIND_DISCONNECTED) {
                 printf("disconnected: %s\n", event.text);
                 inertia_disconnect(client);
@@ -149,6 +156,7 @@ int main(int argc, char **argv) {
         }
     }
     inertia_disconnect(client);
+    printf("heard %d chat line%s\n", heard, heard == 1 ? "" : "s");
     printf(moved ? "saw the world move\n" : "saw nothing move\n");
-    return moved ? 0 : 1;
+    return moved && heard > 0 ? 0 : 1;
 }

@@ -30,8 +30,11 @@ namespace Inertia
 
     public enum EventKind : uint
     {
-        None, Spawned, Despawned, Discontinuity, Resync, Disconnected, Contact, Explosion, Message, Custom,
+        None, Spawned, Despawned, Discontinuity, Resync, Disconnected, Message,
     }
+
+    /// <summary>How a game message travels.</summary>
+    public enum Delivery : uint { Reliable, Unreliable }
 
     [StructLayout(LayoutKind.Sequential)]
     public struct ServerInfo
@@ -79,15 +82,24 @@ namespace Inertia
     {
         public EventKind Kind;
         public uint Entity;
-        public uint Other;
-        public double Value;
+        public Delivery Delivery;
         public double FromTick, ToTick;
-        public double X, Y, Z;
         [MarshalAs(UnmanagedType.ByValArray, SizeConst = 256)] public byte[] TextBytes;
         public uint DataLen;
         [MarshalAs(UnmanagedType.ByValArray, SizeConst = 1024)] public byte[] Data;
 
         public string Text => Native.Text(TextBytes);
+
+        /// <summary>A message's bytes (kind Message), as the game lays its messages out.</summary>
+        public byte[] MessageBytes
+        {
+            get
+            {
+                var bytes = new byte[DataLen];
+                Array.Copy(Data, bytes, (int)DataLen);
+                return bytes;
+            }
+        }
     }
 
     [StructLayout(LayoutKind.Sequential)]
@@ -112,7 +124,7 @@ namespace Inertia
     public static class Native
     {
         public const string Lib = "inertia";
-        public const uint AbiVersion = 2;
+        public const uint AbiVersion = 3;
 
         [DllImport(Lib)] public static extern uint inertia_abi_version();
         [DllImport(Lib)] public static extern UIntPtr inertia_last_error(byte[] buf, UIntPtr len);
@@ -123,6 +135,7 @@ namespace Inertia
         [DllImport(Lib)] public static extern Status inertia_server_info(IntPtr client, out ServerInfo info);
         [DllImport(Lib)] public static extern Status inertia_set_input(IntPtr client, float moveX, float moveZ, float yaw, byte buttons);
         [DllImport(Lib)] public static extern Status inertia_set_input_bytes(IntPtr client, byte[] bytes, UIntPtr len);
+        [DllImport(Lib)] public static extern Status inertia_send_message(IntPtr client, byte[] bytes, UIntPtr len, Delivery delivery);
         [DllImport(Lib)] public static extern Status inertia_poll_event(IntPtr client, out Event e);
         [DllImport(Lib)] public static extern Status inertia_sample(IntPtr client, [Out] EntityState[] states, UIntPtr capacity, out UIntPtr count);
         [DllImport(Lib)] public static extern Status inertia_entity_info(IntPtr client, uint id, out EntityInfo info);
@@ -220,6 +233,11 @@ namespace Inertia
             }
             Check(Native.inertia_set_input_bytes(handle, bytes, (UIntPtr)size), "set input");
         }
+
+        /// <summary>Sends a message of the game's to the server's rules, laid out as the
+        /// game lays its messages out (at most 1024 bytes).</summary>
+        public void SendMessage(byte[] bytes, Delivery delivery = Delivery.Reliable) =>
+            Check(Native.inertia_send_message(handle, bytes, (UIntPtr)bytes.Length, delivery), "send message");
 
         /// <summary>The next waiting event, or one of kind None.</summary>
         public Event PollEvent() { Event e; Check(Native.inertia_poll_event(handle, out e), "poll event"); return e; }

@@ -30,6 +30,10 @@ static class PrintWorld
         {
             var info = client.Info;
             Console.WriteLine("joined " + Native.Text(info.ServerVersion) + " as client " + info.ClientId + ": " + info.TickHz + " ticks/s");
+            // Say hello: the sandbox's chat request (kind 1, the line's
+            // length, its UTF-8), which its rules tell everyone, us included.
+            client.SendMessage(new byte[] { 1, 5, (byte)'h', (byte)'e', (byte)'l', (byte)'l', (byte)'o' });
+            int heard = 0;
             var states = new EntityState[20000];
             var positions = new float[3 * 16384];
             var present = new byte[16384];
@@ -42,6 +46,8 @@ static class PrintWorld
                 for (var e = client.PollEvent(); e.Kind != EventKind.None; e = client.PollEvent())
                 {
                     if (e.Kind == EventKind.Spawned) spawned++;
+                    // The sandbox's chat event: kind 7, the client, the line.
+                    if (e.Kind == EventKind.Message && e.DataLen > 0 && e.Data[0] == 7) heard++;
                     if (e.Kind == EventKind.Disconnected) { Console.WriteLine("disconnected: " + e.Text); return 1; }
                 }
                 int count = Math.Min(client.Sample(states), states.Length);
@@ -75,8 +81,9 @@ static class PrintWorld
                 }
             }
             bool moved = watched != 0 && last != first;
+            Console.WriteLine("heard " + heard + " chat line" + (heard == 1 ? "" : "s"));
             Console.WriteLine(moved ? "saw the world move" : "saw nothing move");
-            return moved ? 0 : 1;
+            return moved && heard > 0 ? 0 : 1;
         }
     }
 }

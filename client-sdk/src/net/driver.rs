@@ -11,7 +11,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use inertia_protocol::connection::{ClientConnection, ClientConnectionEvent};
-use inertia_protocol::control::{DisconnectReason, ServerControl, WireEvent};
+use inertia_protocol::control::{DisconnectReason, ServerControl};
+use inertia_protocol::message::{Delivery, GameMessage, MessageDatagram, MessageDecodeError};
 use inertia_protocol::{ClientSession, EntityId};
 use tokio::sync::mpsc;
 
@@ -35,8 +36,14 @@ pub enum ClientEvent {
     Spawned(EntityId),
     /// An entity left the world or our view.
     Despawned(EntityId),
-    /// A game event from the server.
-    Game(WireEvent),
+    /// A message of the game's from the server's rules: how it came, and
+    /// its bytes (read them with the game's type: [`ClientEvent::message`]).
+    Message {
+        /// How it came.
+        delivery: Delivery,
+        /// The game's bytes.
+        bytes: Vec<u8>,
+    },
     /// The server's timeline jumped (seek, rewind, replay): cut or fade.
     Discontinuity(Discontinuity),
     /// Rendering fell far behind after an outage and jumped forwards.
@@ -48,6 +55,18 @@ pub enum ClientEvent {
     },
     /// The connection ended.
     Disconnected(DisconnectReason),
+}
+
+impl ClientEvent {
+    /// The game's message this event carries, read with the game's type
+    /// `M`; `None` for any other event. A message `M` refuses is the
+    /// server speaking another game (or another version of it).
+    pub fn message<M: GameMessage>(&self) -> Option<Result<M, MessageDecodeError>> {
+        match self {
+            ClientEvent::Message { bytes, .. } => Some(M::decode(bytes)),
+            _ => None,
+        }
+    }
 }
 
 /// What the connection knows, shared with the game.
@@ -139,6 +158,16 @@ impl ClientShared {
     }
 
     fn on_datagram(&mut self, now: f64, bytes: &[u8]) {
+        if MessageDatagram::is_one(bytes) {
+            match MessageDatagram::decode(bytes) {
+                Ok(message) => self.event(ClientEvent::Message {
+                    delivery: Delivery::Unreliable,
+                    bytes: message.to_vec(),
+                }),
+                Err(_) => self.stats.on_malformed(),
+            }
+            return;
+        }
         match self.session.on_datagram(bytes) {
             Ok(snap) => {
                 self.stats.on_snapshot(now, snap.sequence, bytes.len());
@@ -198,7 +227,10 @@ impl ClientShared {
                 self.interp.remove(id);
                 self.event(ClientEvent::Despawned(id));
             }
-            ServerControl::Event(e) => self.event(ClientEvent::Game(e)),
+            ServerControl::Message(bytes) => self.event(ClientEvent::Message {
+                delivery: Delivery::Reliable,
+                bytes,
+            }),
             ServerControl::InputTiming(report) => self.lead.on_report(report),
             ServerControl::Goodbye(reason) => {
                 self.disconnected = Some(reason.clone());
@@ -212,6 +244,8 @@ impl ClientShared {
 /// What the [`super::Client`] asks of its task.
 #[derive(Debug)]
 pub(crate) enum DriverCommand {
+    /// Send a reliable message of the game's (its size checked).
+    Send(Vec<u8>),
     /// Say goodbye and close.
     Close,
 }
@@ -295,10 +329,18 @@ pub(crate) async fn run(mut d: Driver) {
                 }
                 due = input_due(&d);
             },
-            command = d.commands.recv(), if commands_open => {
+            command = d.commands.recv(), if commands_open => match command {
+                Some(DriverCommand::Send(bytes)) => {
+                    // Refused only once the connection is ending: the
+                    // message goes nowhere, as it would have.
+                    let _ = d.conn.send_message(bytes, Instant::now());
+                }
+                Some(DriverCommand::Close) => d.conn.close(Instant::now()),
                 // A dropped client closes too.
-                commands_open = command.is_some();
-                d.conn.close(Instant::now());
+                None => {
+                    commands_open = false;
+                    d.conn.close(Instant::now());
+                }
             },
         }
     }

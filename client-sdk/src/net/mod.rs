@@ -14,6 +14,9 @@ use inertia_protocol::connection::{
 };
 use inertia_protocol::control::{DisconnectReason, Refusal, PROTOCOL_VERSION};
 use inertia_protocol::input::{GameInput, InputPayload, MAX_REDUNDANT_INPUTS};
+use inertia_protocol::message::{
+    check_len, Delivery, GameMessage, MessageDatagram, MessageRefusal,
+};
 use inertia_protocol::token::ConnectToken;
 use inertia_protocol::{ClientConfig, ClientSession};
 use inertia_sandbox::SandboxInput;
@@ -74,6 +77,10 @@ pub enum ClientError {
         /// The server's, bytes.
         server: usize,
     },
+    /// A message that cannot be sent: too long, or the connection has
+    /// ended (nothing was sent).
+    #[error("message not sent: {0}")]
+    Message(#[from] MessageRefusal),
 }
 
 /// Options of [`Client::connect_with`].
@@ -305,6 +312,48 @@ impl Client {
         })
     }
 
+    /// Sends a message of the game's to the server's rules: reliable (on
+    /// the control stream, in order with every other reliable message) or
+    /// unreliable (a datagram of its own, lost when it is). Refused,
+    /// sending nothing, past
+    /// [`MAX_MESSAGE_BYTES`](inertia_protocol::message::MAX_MESSAGE_BYTES)
+    /// or once the connection has ended. The server takes at most its
+    /// game's rate ([`MessageLimits`](inertia_protocol::message::MessageLimits),
+    /// 30 a second by default) and refuses the rest.
+    pub fn send_message<M: GameMessage>(
+        &self,
+        message: &M,
+        delivery: Delivery,
+    ) -> Result<(), ClientError> {
+        self.send_message_bytes(message.to_bytes(), delivery)
+    }
+
+    /// [`Client::send_message`] with the message's bytes (for bindings to
+    /// other languages, which encode the game's messages themselves).
+    pub fn send_message_bytes(
+        &self,
+        bytes: Vec<u8>,
+        delivery: Delivery,
+    ) -> Result<(), ClientError> {
+        check_len(&bytes)?;
+        if self.lock().disconnected.is_some() {
+            return Err(MessageRefusal::NotConnected.into());
+        }
+        match delivery {
+            Delivery::Reliable => self
+                .commands
+                .send(DriverCommand::Send(bytes))
+                .map_err(|_| MessageRefusal::NotConnected)?,
+            Delivery::Unreliable => {
+                let datagram = MessageDatagram::encode(&bytes)?;
+                self.connection
+                    .send_datagram(datagram.into())
+                    .map_err(|_| MessageRefusal::NotConnected)?;
+            }
+        }
+        Ok(())
+    }
+
     /// The world as it should be drawn now: interpolated behind the
     /// server by the buffer's delay.
     pub fn sample(&self) -> crate::interp::Sample {
@@ -386,8 +435,8 @@ impl Client {
         s.stats_at(now, rtt)
     }
 
-    /// The next event (spawns, despawns, game events, timeline breaks, the
-    /// disconnect), oldest first.
+    /// The next event (spawns, despawns, the game's messages, timeline
+    /// breaks, the disconnect), oldest first.
     pub fn poll_event(&self) -> Option<ClientEvent> {
         self.lock().events.pop_front()
     }

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 use crate::control::{
     close_code, encode_frame, ClientControl, DisconnectReason, FrameDecoder, Refusal, ServerControl,
 };
+use crate::message::{check_len, MessageRefusal};
 use crate::snapshot::SnapshotConfig;
 
 use super::last_words::LastWords;
@@ -73,8 +74,8 @@ pub struct ServerInfo {
 pub enum ClientConnectionEvent {
     /// The server welcomed the client: make its session.
     Welcomed(ServerInfo),
-    /// A control message for the game: a spawn, a despawn, an event, a
-    /// report on the inputs, or the server's goodbye (the connection then
+    /// A control message for the game: a spawn, a despawn, a game
+    /// message, a report on the inputs, or the server's goodbye (the connection then
     /// drains).
     Message(ServerControl),
 }
@@ -237,6 +238,22 @@ impl ClientConnection {
             ),
             ClientPhase::Leaving { .. } | ClientPhase::Closed { .. } => {}
         }
+    }
+
+    /// Queues a reliable game message at `now`, behind whatever waits on
+    /// the control stream. Refused, changing nothing, past
+    /// [`MAX_MESSAGE_BYTES`](crate::message::MAX_MESSAGE_BYTES) or while
+    /// the connection is not live. (An unreliable message is a datagram:
+    /// [`MessageDatagram::encode`](crate::message::MessageDatagram::encode).)
+    pub fn send_message(&mut self, bytes: Vec<u8>, now: Instant) -> Result<(), MessageRefusal> {
+        check_len(&bytes)?;
+        if !self.is_live() {
+            return Err(MessageRefusal::NotConnected);
+        }
+        let frame =
+            encode_frame(&ClientControl::Message(bytes)).map_err(|_| MessageRefusal::Malformed)?;
+        self.outbox.push_coded(&frame, now);
+        Ok(())
     }
 
     /// Acts on every deadline at or before `now`.

@@ -68,12 +68,16 @@ pub mod server;
 
 use std::time::Duration;
 
+use crate::message::MessageLimits;
+
 pub use client::{
     ClientConnection, ClientConnectionConfig, ClientConnectionEnd, ClientConnectionEvent,
     ServerInfo, HANDSHAKE_TIMEOUT,
 };
 pub use outbox::Outbox;
-pub use server::{Close, ServerConnection, ServerConnectionEnd, ServerConnectionEvent};
+pub use server::{
+    Close, ReceivedMessage, ServerConnection, ServerConnectionEnd, ServerConnectionEvent,
+};
 
 /// How long a client has to open its control stream and say hello, and
 /// then again to take the answer.
@@ -123,6 +127,9 @@ pub struct ServerConnectionConfig {
     /// ([`InputError::WrongPayloadSize`](crate::input::InputError::WrongPayloadSize)).
     /// `None` takes any size and leaves the check to the game's decoder.
     pub input_bytes: Option<usize>,
+    /// How fast the client may send game messages; more are refused and
+    /// counted ([`MessageRefusal::RateLimited`](crate::message::MessageRefusal::RateLimited)).
+    pub messages: MessageLimits,
 }
 
 impl Default for ServerConnectionConfig {
@@ -136,6 +143,7 @@ impl Default for ServerConnectionConfig {
             finish: FINISH_WAIT,
             input_buffer: INPUT_BUFFER,
             input_bytes: None,
+            messages: MessageLimits::default(),
         }
     }
 }

@@ -9,6 +9,7 @@ use crate::control::{
 };
 use crate::input::PlayerInput;
 use crate::input::{InputBuffer, InputDatagram, InputError};
+use crate::message::{check_len, Delivery, MessageDatagram, MessageLimiter, MessageRefusal};
 
 use super::last_words::LastWords;
 use super::outbox::Outbox;
@@ -135,9 +136,25 @@ pub struct ServerConnection {
     /// Why the inputs of the last datagram were refused while its
     /// acknowledgement was taken, until [`Self::poll_refused_inputs`].
     refused_inputs: Option<InputError>,
+    /// How fast the client may send messages.
+    limiter: MessageLimiter,
+    /// The client's messages taken, and those refused, in arrival order,
+    /// until [`Self::poll_message`]: the limiter bounds the first, what
+    /// one push or datagram holds the second.
+    messages: VecDeque<Result<ReceivedMessage, MessageRefusal>>,
     /// Why the connection ends, once it does.
     end: Option<ServerConnectionEnd>,
     events: VecDeque<ServerConnectionEvent>,
+}
+
+/// A game message a client sent, as its connection took it (within the
+/// size and rate bounds; the game's decoder reads it on the tick thread).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ReceivedMessage {
+    /// How it came.
+    pub delivery: Delivery,
+    /// The game's bytes.
+    pub bytes: Vec<u8>,
 }
 
 impl ServerConnection {
@@ -154,6 +171,8 @@ impl ServerConnection {
             frames: FrameDecoder::new(),
             inputs: InputBuffer::new(config.input_buffer.max(1)),
             refused_inputs: None,
+            limiter: MessageLimiter::new(config.messages, now),
+            messages: VecDeque::new(),
             peer_finished: false,
             end: None,
             events: VecDeque::new(),
@@ -254,6 +273,13 @@ impl ServerConnection {
             return Ok(None);
         };
         *heard = now;
+        if MessageDatagram::is_one(bytes) {
+            let taken = MessageDatagram::decode(bytes)
+                .map(|m| m.to_vec())
+                .and_then(|m| self.take_message(Delivery::Unreliable, m, now));
+            self.messages.push_back(taken);
+            return Ok(None);
+        }
         let datagram = InputDatagram::decode(bytes)?;
         match (self.config.input_bytes, datagram.inputs.first()) {
             (Some(expected), Some(input)) if input.payload.len() != expected => {
@@ -277,6 +303,26 @@ impl ServerConnection {
     /// The client's next input in sequence order, each exactly once.
     pub fn poll_input(&mut self) -> Option<PlayerInput> {
         self.inputs.pop()
+    }
+
+    /// The client's next message in arrival order (reliable ones in the
+    /// order sent), or why one was refused ([`MessageRefusal`]: too long,
+    /// over the client's rate, a message datagram that is not one), for
+    /// the server to count. A refused message changes nothing else.
+    pub fn poll_message(&mut self) -> Option<Result<ReceivedMessage, MessageRefusal>> {
+        self.messages.pop_front()
+    }
+
+    /// Takes a message of the client's at `now`, or refuses it.
+    fn take_message(
+        &mut self,
+        delivery: Delivery,
+        bytes: Vec<u8>,
+        now: Instant,
+    ) -> Result<ReceivedMessage, MessageRefusal> {
+        check_len(&bytes)?;
+        self.limiter.take(bytes.len(), now)?;
+        Ok(ReceivedMessage { delivery, bytes })
     }
 
     /// Admits the client whose hello was [`ServerConnectionEvent::Hello`], with
@@ -535,9 +581,10 @@ impl ServerConnection {
         )
     }
 
-    /// Decodes what the client sent, as far as the state lets it. Each
-    /// message a client may send ends a state (the hello its wait, any
-    /// message after it the connection), so at most one is taken.
+    /// Decodes what the client sent, as far as the state lets it. The
+    /// hello ends its state, and so at most one message is taken before
+    /// the welcome; a live client's game messages are taken until a
+    /// message ends the connection.
     fn take_messages(&mut self, now: Instant) {
         match self.state {
             ServerPhase::Hello { .. } => match self.frames.next::<ClientControl>() {
@@ -548,17 +595,30 @@ impl ServerConnection {
                         .push_back(ServerConnectionEvent::Hello { version, token });
                 }
                 // Anything but a hello first, or bytes that are no message.
-                Some(Ok(ClientControl::Goodbye)) | Some(Err(_)) => {
+                Some(Ok(ClientControl::Goodbye | ClientControl::Message(_))) | Some(Err(_)) => {
                     self.refuse(Refusal::Malformed, now);
                 }
             },
-            ServerPhase::Live { .. } => match self.frames.next::<ClientControl>() {
-                None => {}
-                Some(Ok(ClientControl::Goodbye)) => {
-                    self.end_now(ServerConnectionEnd::Left, Some(goodbye_close()));
+            ServerPhase::Live { .. } => loop {
+                match self.frames.next::<ClientControl>() {
+                    None => break,
+                    Some(Ok(ClientControl::Message(bytes))) => {
+                        let taken = self.take_message(Delivery::Reliable, bytes, now);
+                        self.messages.push_back(taken);
+                    }
+                    Some(Ok(ClientControl::Goodbye)) => {
+                        self.end_now(ServerConnectionEnd::Left, Some(goodbye_close()));
+                        break;
+                    }
+                    Some(Ok(ClientControl::Hello { .. })) => {
+                        self.fail("a second hello".into(), now);
+                        break;
+                    }
+                    Some(Err(e)) => {
+                        self.fail(e.to_string(), now);
+                        break;
+                    }
                 }
-                Some(Ok(ClientControl::Hello { .. })) => self.fail("a second hello".into(), now),
-                Some(Err(e)) => self.fail(e.to_string(), now),
             },
             // Read once the client is live.
             ServerPhase::Deciding | ServerPhase::Welcoming { .. } => {}

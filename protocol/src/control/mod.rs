@@ -1,5 +1,6 @@
 //! The reliable control channel: the hello and its answer, spawns and
-//! despawns, game events and goodbyes, carried on a QUIC stream.
+//! despawns, the game's reliable messages both ways and goodbyes, carried
+//! on a QUIC stream.
 //!
 //! Messages are serde types encoded with postcard. Each travels as a frame,
 //! a `u32` little-endian length followed by that many postcard bytes, at
@@ -70,12 +71,7 @@ pub const MAX_DECODER_BUFFER: usize = 2 * (4 + MAX_CONTROL_FRAME);
 pub const MAX_ENTITY_NAME_BYTES: usize = 64;
 /// Longest server version string in a welcome, bytes.
 pub const MAX_VERSION_BYTES: usize = 64;
-/// Longest text of a [`WireEvent::Message`], bytes.
-pub const MAX_MESSAGE_BYTES: usize = 1024;
-/// Longest name of a [`WireEvent::Custom`], bytes.
-pub const MAX_EVENT_NAME_BYTES: usize = 64;
-/// Longest data of a [`WireEvent::Custom`], bytes.
-pub const MAX_EVENT_DATA_BYTES: usize = 16 * 1024;
+pub use crate::message::MAX_MESSAGE_BYTES;
 /// Longest reason or description in a refusal or goodbye, bytes.
 pub const MAX_REASON_BYTES: usize = 256;
 /// Most bits a position axis may take on the grid a welcome announces
@@ -95,6 +91,9 @@ pub enum ClientControl {
     },
     /// The client is leaving.
     Goodbye,
+    /// A reliable message of the game's (its bytes, at most
+    /// [`MAX_MESSAGE_BYTES`]; see [`crate::message`]).
+    Message(Vec<u8>),
 }
 
 /// What a server says on the control stream.
@@ -133,8 +132,9 @@ pub enum ServerControl {
         /// The entity.
         id: EntityId,
     },
-    /// Something happened that the client should show.
-    Event(WireEvent),
+    /// A reliable message of the game's (its bytes, at most
+    /// [`MAX_MESSAGE_BYTES`]; see [`crate::message`]).
+    Message(Vec<u8>),
     /// The server is closing the connection.
     Goodbye(DisconnectReason),
     /// How the client's inputs have been arriving against the ticks they
@@ -210,41 +210,6 @@ impl SnapshotParams {
             max_datagram: usize::from(self.max_datagram),
         }
     }
-}
-
-/// Something that happened in the game, as the control stream carries it
-/// to the clients that should show it (a server's own events become one of
-/// these on their way out).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum WireEvent {
-    /// Two entities hit each other hard enough to matter.
-    Contact {
-        /// One entity.
-        a: EntityId,
-        /// The other.
-        b: EntityId,
-        /// The impulse exchanged, N·s.
-        impulse: f32,
-    },
-    /// An explosion.
-    Explosion {
-        /// Its centre, m.
-        position: [f64; 3],
-        /// Its radius, m.
-        radius: f32,
-    },
-    /// A text message (at most [`MAX_MESSAGE_BYTES`]).
-    Message {
-        /// The text.
-        text: String,
-    },
-    /// A game-defined event.
-    Custom {
-        /// Its name (at most [`MAX_EVENT_NAME_BYTES`]).
-        name: String,
-        /// Its payload (at most [`MAX_EVENT_DATA_BYTES`]).
-        data: Vec<u8>,
-    },
 }
 
 /// Why a control frame could not be encoded or decoded.

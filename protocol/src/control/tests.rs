@@ -40,9 +40,7 @@ fn frames_split_anywhere_reassemble() {
                 ([1.0; 3], [0.0, 0.0, 0.0, 1.0], ShapeDesc::Ground),
             ],
         })),
-        ServerControl::Event(WireEvent::Message {
-            text: "hello".into(),
-        }),
+        ServerControl::Message(b"hello".to_vec()),
     ];
     let stream: Vec<u8> = msgs.iter().flat_map(|m| encode_frame(m).unwrap()).collect();
     for chunk in 1..stream.len() {
@@ -304,10 +302,7 @@ fn every_message_round_trips() {
             vertices: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
             triangles: vec![[0, 1, 2]],
         })),
-        ServerControl::Event(WireEvent::Custom {
-            name: "score".into(),
-            data: vec![1, 2, 3],
-        }),
+        ServerControl::Message(vec![1, 2, 3]),
         ServerControl::Goodbye(DisconnectReason::Kicked {
             reason: "afk".into(),
         }),

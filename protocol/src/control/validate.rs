@@ -185,7 +185,10 @@ impl ControlMessage for ClientControl {
             ClientControl::Hello { token, .. } => {
                 check_len("connect token", token.len(), MAX_TOKEN_BYTES)
             }
-            ClientControl::Goodbye => Ok(()),
+            // Its length is the server connection's to check: a longer
+            // message is refused and counted there, and the connection
+            // lives on (the frame's own bound keeps it finite here).
+            ClientControl::Message(_) | ClientControl::Goodbye => Ok(()),
         }
     }
 }
@@ -246,20 +249,9 @@ impl ControlMessage for ServerControl {
             | ServerControl::Despawn { .. }
             | ServerControl::InputTiming(_) => Ok(()),
             ServerControl::Spawn(e) => validate_entity(e),
-            ServerControl::Event(event) => match event {
-                WireEvent::Contact { impulse, .. } => check_finite("contact impulse", &[*impulse]),
-                WireEvent::Explosion { position, radius } => {
-                    check_finite("explosion position", position)?;
-                    check_size("explosion radius", *radius)
-                }
-                WireEvent::Message { text } => {
-                    check_len("message text", text.len(), MAX_MESSAGE_BYTES)
-                }
-                WireEvent::Custom { name, data } => {
-                    check_len("event name", name.len(), MAX_EVENT_NAME_BYTES)?;
-                    check_len("event data", data.len(), MAX_EVENT_DATA_BYTES)
-                }
-            },
+            ServerControl::Message(bytes) => {
+                check_len("game message", bytes.len(), MAX_MESSAGE_BYTES)
+            }
             ServerControl::Goodbye(reason) => match reason {
                 DisconnectReason::Kicked { reason } => {
                     check_len("kick reason", reason.len(), MAX_REASON_BYTES)

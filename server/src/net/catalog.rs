@@ -1,8 +1,9 @@
-//! What each client has been told about the world on its control stream:
-//! the entity catalog (spawns and despawns) and the game events, brought
-//! up to date at the client's snapshot slots by the snapshot stage, so
-//! that a slot's control messages leave with its snapshot (see
-//! [`super::snapshots`]).
+//! What each client has been told about the world: the entity catalog
+//! (spawns and despawns, on its control stream) and the rules' messages
+//! for it (reliable ones on the control stream, after the slot's spawns;
+//! unreliable ones as datagrams), brought up to date at the client's
+//! snapshot slots by the snapshot stage, so that a slot's control messages
+//! leave with its snapshot (see [`super::snapshots`]).
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -10,46 +11,67 @@ use std::sync::Arc;
 use inertia_protocol::control::{encode_frame, ServerControl};
 use inertia_protocol::{EntityDesc, EntityId, ShapeDesc};
 
-use crate::sim::{CatalogChange, RecentEvent};
+use inertia_protocol::message::Delivery;
+
+use crate::rules::ClientId;
+use crate::sim::{CatalogChange, RecentMessage};
 
 /// What one client has been told.
 #[derive(Debug, Clone)]
 pub struct Told {
+    /// The client.
+    client: ClientId,
     /// Entities described to the client, ascending.
     known: Vec<EntityId>,
     /// The catalog version last told.
     catalog_version: Option<u64>,
-    /// The number of the last event told ([`crate::sim::RecentEvent::number`]).
-    events_told: u64,
+    /// The number of the last message looked at
+    /// ([`RecentMessage::number`]), whether it was for the client or not.
+    messages_told: u64,
+}
+
+/// What one [`Told::catch_up`] told.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CaughtUp {
+    /// Control-stream bytes appended.
+    pub bytes: usize,
+    /// Messages of the rules that had left the recent ones
+    /// ([`crate::sim::RECENT_MESSAGES`]) before the client's slot looked
+    /// at them: at most this many of them were for the client, and it
+    /// missed those.
+    pub missed: u64,
 }
 
 impl Told {
-    /// A client that has been told nothing of the catalog, and to whom the
-    /// `recent` events are not news (they happened before it came).
-    pub fn new(recent: &[Arc<RecentEvent>]) -> Self {
+    /// `client`, told nothing of the catalog yet, to whom the `recent`
+    /// messages are not news (they were sent before it came).
+    pub fn new(client: ClientId, recent: &[Arc<RecentMessage>]) -> Self {
         Self {
+            client,
             known: Vec::new(),
             catalog_version: None,
-            events_told: recent.last().map_or(0, |e| e.number),
+            messages_told: recent.last().map_or(0, |m| m.number),
         }
     }
 
-    /// Appends to `out` the control frames that bring the client up to
-    /// date with a frame's catalog (at `version`, reached by the recent
-    /// `changes`) and `recent` events: despawns, then spawns (both in id
-    /// order), then the events published since the last call, each coded
-    /// once for every client ([`RecentEvent::wire`]). A client told a
-    /// version the changes reach from is told each change since; one told
-    /// an older version (or none) is told the difference from one walk of
-    /// the whole catalog. Returns the bytes appended.
+    /// Brings the client up to date with a frame's catalog (at `version`,
+    /// reached by the recent `changes`) and `recent` messages: appends to
+    /// `out` the control frames of the despawns, then the spawns (both in
+    /// id order), then the reliable messages for the client published
+    /// since the last call; pushes the datagrams of the unreliable ones
+    /// onto `datagrams`. Each message is coded once for every client
+    /// ([`RecentMessage::wire`]). A client told a version the changes
+    /// reach from is told each change since; one told an older version (or
+    /// none) is told the difference from one walk of the whole catalog.
     pub fn catch_up(
         &mut self,
         version: u64,
         catalog: &BTreeMap<EntityId, EntityDesc>,
         changes: &[Arc<CatalogChange>],
-        recent: &[Arc<RecentEvent>],
+        recent: &[Arc<RecentMessage>],
         out: &mut Vec<u8>,
-    ) -> Result<usize, String> {
+        datagrams: &mut Vec<Vec<u8>>,
+    ) -> Result<CaughtUp, String> {
         let start = out.len();
         if self.catalog_version != Some(version) {
             let since = self
@@ -84,14 +106,28 @@ impl Told {
             }
             self.catalog_version = Some(version);
         }
-        let first = recent.partition_point(|e| e.number <= self.events_told);
-        for e in &recent[first..] {
-            if let Some(wire) = e.wire() {
-                out.extend_from_slice(wire);
-            }
-            self.events_told = e.number;
+        let first = recent.partition_point(|m| m.number <= self.messages_told);
+        let mut missed = 0;
+        if let Some(oldest) = recent[first..].first() {
+            // Numbers are consecutive: those between were dropped from the
+            // recent ones before this slot (whoever they were for).
+            missed = oldest.number.saturating_sub(self.messages_told + 1);
         }
-        Ok(out.len() - start)
+        for m in &recent[first..] {
+            self.messages_told = m.number;
+            if !m.message.to.includes(self.client) {
+                continue;
+            }
+            let Some(wire) = m.wire() else { continue };
+            match m.message.delivery {
+                Delivery::Reliable => out.extend_from_slice(wire),
+                Delivery::Unreliable => datagrams.push(wire.to_vec()),
+            }
+        }
+        Ok(CaughtUp {
+            bytes: out.len() - start,
+            missed,
+        })
     }
 
     /// Tells one change: its despawns of entities the client knows, then
@@ -149,11 +185,11 @@ fn push(out: &mut Vec<u8>, msg: &ServerControl) -> Result<(), String> {
 
 #[cfg(test)]
 mod tests {
-    use inertia_protocol::control::{FrameDecoder, WireEvent};
+    use inertia_protocol::control::FrameDecoder;
     use inertia_protocol::{EntityKind, ShapeDesc};
 
     use super::*;
-    use crate::rules::GameEvent;
+    use crate::rules::{OutgoingMessage, Recipients};
 
     fn desc(id: EntityId) -> EntityDesc {
         EntityDesc {
@@ -168,11 +204,31 @@ mod tests {
         }
     }
 
-    fn event(number: u64, tick: u64) -> Arc<RecentEvent> {
-        let event = GameEvent::Jumped {
-            avatar: number as EntityId,
+    /// Message `number`, to everyone, reliable: its bytes say its number.
+    fn event(number: u64, tick: u64) -> Arc<RecentMessage> {
+        message(number, tick, Recipients::All, Delivery::Reliable)
+    }
+
+    fn message(number: u64, tick: u64, to: Recipients, delivery: Delivery) -> Arc<RecentMessage> {
+        let message = OutgoingMessage {
+            to,
+            delivery,
+            bytes: format!("#{number}").into_bytes(),
         };
-        Arc::new(RecentEvent::new(number, tick, event))
+        Arc::new(RecentMessage::new(number, tick, message))
+    }
+
+    /// [`Told::catch_up`] for client 1, its datagrams dropped.
+    fn catch_up(
+        told: &mut Told,
+        version: u64,
+        catalog: &BTreeMap<EntityId, EntityDesc>,
+        changes: &[Arc<CatalogChange>],
+        recent: &[Arc<RecentMessage>],
+        out: &mut Vec<u8>,
+    ) -> Result<usize, String> {
+        told.catch_up(version, catalog, changes, recent, out, &mut Vec::new())
+            .map(|c| c.bytes)
     }
 
     /// The messages in `bytes`, as a client reads them.
@@ -184,20 +240,17 @@ mod tests {
 
     fn jumped(msg: &ServerControl) -> Option<String> {
         match msg {
-            ServerControl::Event(WireEvent::Custom { name, data }) if name == "jumped" => {
-                Some(String::from_utf8(data.clone()).unwrap())
-            }
+            ServerControl::Message(bytes) => Some(String::from_utf8(bytes.clone()).unwrap()),
             _ => None,
         }
     }
 
     #[test]
     fn a_client_is_told_despawns_then_spawns_then_new_events_once() {
-        let mut told = Told::new(&[event(1, 10)]);
+        let mut told = Told::new(1, &[event(1, 10)]);
         let catalog: BTreeMap<_, _> = [1, 2, 3].map(|id| (id, desc(id))).into();
         let mut out = Vec::new();
-        told.catch_up(1, &catalog, &[], &[event(1, 10)], &mut out)
-            .unwrap();
+        catch_up(&mut told, 1, &catalog, &[], &[event(1, 10)], &mut out).unwrap();
         let msgs = read(&out);
         let spawned: Vec<_> = msgs
             .iter()
@@ -216,16 +269,19 @@ mod tests {
         let catalog: BTreeMap<_, _> = [1, 3, 4].map(|id| (id, desc(id))).into();
         let recent = [event(1, 10), event(2, 11), event(3, 11)];
         out.clear();
-        told.catch_up(2, &catalog, &[], &recent, &mut out).unwrap();
+        catch_up(&mut told, 2, &catalog, &[], &recent, &mut out).unwrap();
         let msgs = read(&out);
         assert!(matches!(msgs[0], ServerControl::Despawn { id: 2 }));
         assert!(matches!(&msgs[1], ServerControl::Spawn(d) if d.id == 4));
         let events: Vec<_> = msgs.iter().filter_map(jumped).collect();
-        assert_eq!(events, [r#"{"avatar":2}"#, r#"{"avatar":3}"#]);
+        assert_eq!(events, ["#2", "#3"]);
 
         // Nothing new: nothing told.
         out.clear();
-        assert_eq!(told.catch_up(2, &catalog, &[], &recent, &mut out), Ok(0));
+        assert_eq!(
+            catch_up(&mut told, 2, &catalog, &[], &recent, &mut out),
+            Ok(0)
+        );
         assert!(out.is_empty());
     }
 
@@ -258,19 +314,19 @@ mod tests {
                 .collect()
         };
         // Told the change: the new shape alone.
-        let mut told = Told::new(&[]);
+        let mut told = Told::new(1, &[]);
         let mut out = Vec::new();
-        told.catch_up(1, &before, &[], &[], &mut out).unwrap();
+        catch_up(&mut told, 1, &before, &[], &[], &mut out).unwrap();
         out.clear();
-        told.catch_up(2, &after, &[change], &[], &mut out).unwrap();
+        catch_up(&mut told, 2, &after, &[change], &[], &mut out).unwrap();
         assert_eq!(spawns(&out), std::slice::from_ref(&torn));
         // Told by a walk of the whole catalog (the changes were lost): its
         // point sets again, whatever changed.
-        let mut walked = Told::new(&[]);
+        let mut walked = Told::new(1, &[]);
         out.clear();
-        walked.catch_up(1, &before, &[], &[], &mut out).unwrap();
+        catch_up(&mut walked, 1, &before, &[], &[], &mut out).unwrap();
         out.clear();
-        walked.catch_up(5, &after, &[], &[], &mut out).unwrap();
+        catch_up(&mut walked, 5, &after, &[], &[], &mut out).unwrap();
         assert_eq!(spawns(&out), [torn]);
     }
 
@@ -313,16 +369,20 @@ mod tests {
 
         // Told each version in turn: the same bytes as a walk of the whole
         // catalog.
-        let (mut by_change, mut by_walk) = (Told::new(&[]), Told::new(&[]));
+        let (mut by_change, mut by_walk) = (Told::new(1, &[]), Told::new(1, &[]));
         for (v, catalog) in catalogs.iter().enumerate() {
             let version = v as u64 + 1;
             let (mut a, mut b) = (Vec::new(), Vec::new());
-            by_change
-                .catch_up(version, catalog, &changes[..=v], &[], &mut a)
-                .unwrap();
-            by_walk
-                .catch_up(version, catalog, &[], &[], &mut b)
-                .unwrap();
+            catch_up(
+                &mut by_change,
+                version,
+                catalog,
+                &changes[..=v],
+                &[],
+                &mut a,
+            )
+            .unwrap();
+            catch_up(&mut by_walk, version, catalog, &[], &[], &mut b).unwrap();
             assert_eq!(a, b, "version {version}");
         }
 
@@ -330,14 +390,12 @@ mod tests {
         // holds what the catalog holds; one told a version older than the
         // changes reach is told the difference from a walk.
         for (told_at, changes_held) in [(1, &changes[..]), (1, &changes[3..])] {
-            let mut told = Told::new(&[]);
+            let mut told = Told::new(1, &[]);
             let mut out = Vec::new();
-            told.catch_up(told_at, &catalogs[0], &[], &[], &mut out)
-                .unwrap();
+            catch_up(&mut told, told_at, &catalogs[0], &[], &[], &mut out).unwrap();
             let held = held_after(Vec::new(), &out);
             out.clear();
-            told.catch_up(5, &catalogs[4], changes_held, &[], &mut out)
-                .unwrap();
+            catch_up(&mut told, 5, &catalogs[4], changes_held, &[], &mut out).unwrap();
             assert_eq!(held_after(held, &out), [4, 7]);
             assert_eq!(told.known, [4, 7]);
         }
@@ -346,16 +404,58 @@ mod tests {
     #[test]
     fn issue_12_events_after_a_rewind_are_told_though_their_ticks_went_back() {
         let catalog = BTreeMap::new();
-        let mut told = Told::new(&[]);
+        let mut told = Told::new(1, &[]);
         let mut out = Vec::new();
-        told.catch_up(0, &catalog, &[], &[event(1, 500)], &mut out)
-            .unwrap();
+        catch_up(&mut told, 0, &catalog, &[], &[event(1, 500)], &mut out).unwrap();
         assert_eq!(read(&out).len(), 1);
         // The world went back to tick 100 and an event happened there.
         let recent = [event(1, 500), event(2, 101)];
         out.clear();
-        told.catch_up(0, &catalog, &[], &recent, &mut out).unwrap();
+        catch_up(&mut told, 0, &catalog, &[], &recent, &mut out).unwrap();
         let events: Vec<_> = read(&out).iter().filter_map(jumped).collect();
-        assert_eq!(events, [r#"{"avatar":2}"#]);
+        assert_eq!(events, ["#2"]);
+    }
+
+    #[test]
+    fn issue_43_a_client_is_told_the_messages_for_it_reliable_on_the_stream_unreliable_as_datagrams(
+    ) {
+        use inertia_protocol::message::MessageDatagram;
+        let catalog = BTreeMap::new();
+        let recent = [
+            message(1, 5, Recipients::All, Delivery::Reliable),
+            message(2, 5, Recipients::One(2), Delivery::Reliable),
+            message(3, 5, Recipients::some([1, 3]), Delivery::Unreliable),
+            message(4, 5, Recipients::AllBut(1), Delivery::Unreliable),
+            message(5, 6, Recipients::AllBut(2), Delivery::Reliable),
+        ];
+        let mut told = Told::new(1, &[]);
+        let (mut out, mut datagrams) = (Vec::new(), Vec::new());
+        let caught = told
+            .catch_up(0, &catalog, &[], &recent, &mut out, &mut datagrams)
+            .unwrap();
+        assert_eq!(caught.missed, 0);
+        let reliable: Vec<_> = read(&out).iter().filter_map(jumped).collect();
+        assert_eq!(reliable, ["#1", "#5"]);
+        let unreliable: Vec<&[u8]> = datagrams
+            .iter()
+            .map(|d| MessageDatagram::decode(d).unwrap())
+            .collect();
+        assert_eq!(unreliable, [b"#3"]);
+
+        // A client whose slot comes after the recent messages moved past
+        // some it had not looked at is told how many it may have missed.
+        let later = [
+            message(9, 7, Recipients::All, Delivery::Reliable),
+            message(10, 7, Recipients::All, Delivery::Reliable),
+        ];
+        out.clear();
+        let caught = told
+            .catch_up(0, &catalog, &[], &later, &mut out, &mut datagrams)
+            .unwrap();
+        assert_eq!(caught.missed, 3);
+        assert_eq!(
+            read(&out).iter().filter_map(jumped).collect::<Vec<_>>(),
+            ["#9", "#10"]
+        );
     }
 }

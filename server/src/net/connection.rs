@@ -22,6 +22,7 @@ use std::time::Instant;
 
 use inertia_protocol::connection::{ServerConnection, ServerConnectionEnd, ServerConnectionEvent};
 use inertia_protocol::control::{ClientControl, DisconnectReason};
+use inertia_protocol::message::MessageRefusal;
 use tokio::sync::oneshot;
 use tracing::{debug, info, info_span, warn, Instrument};
 
@@ -132,7 +133,10 @@ impl Shell {
                 read = read_control(self.recv.as_mut(), &mut buf), if reads => {
                     let now = Instant::now();
                     match read {
-                        Ok(Some(n)) => self.conn.on_control_data(&buf[..n], now),
+                        Ok(Some(n)) => {
+                            self.conn.on_control_data(&buf[..n], now);
+                            self.forward_messages();
+                        }
                         Ok(None) => {
                             self.recv = None;
                             self.conn.on_control_finished();
@@ -308,6 +312,30 @@ impl Shell {
                     shared.metrics.inputs_rejected.inc();
                 }
             }
+        }
+        self.forward_messages();
+    }
+
+    /// Hands the client's messages its connection took to the tick
+    /// thread, and counts those it refused (too long, over the rate,
+    /// malformed) per client and reason. One the full channel drops is
+    /// counted as a backlog.
+    fn forward_messages(&mut self) {
+        let shared = &self.shared;
+        let client = self.joined.map(|j| j.client);
+        while let Some(taken) = self.conn.poll_message() {
+            let Some(client) = client else { continue };
+            let refusal = match taken {
+                Ok(message) => match shared.sim.message(client, message) {
+                    Ok(()) => continue,
+                    Err(_) => MessageRefusal::Backlog {
+                        max: shared.sim.input_capacity(),
+                    },
+                },
+                Err(refusal) => refusal,
+            };
+            debug!(client, error = %refusal, "message refused");
+            shared.metrics.message_refused(client, refusal.reason());
         }
     }
 

@@ -94,7 +94,7 @@ impl Served {
             avatar,
             acks: Mutex::new(Vec::new()),
             out: Mutex::new(SlotOutput {
-                told: Told::new(&frame.events),
+                told: Told::new(client, &frame.messages),
                 inputs_told: None,
                 control: Vec::new(),
                 datagram: None,
@@ -134,7 +134,8 @@ impl Served {
 /// packet when they fit in it.
 #[derive(Debug)]
 pub struct SlotOutput {
-    /// What the client has been told of the catalog and events.
+    /// What the client has been told of the catalog and the rules'
+    /// messages.
     told: Told,
     /// The last report on its inputs it was sent, and the live tick then.
     inputs_told: Option<(u64, InputReport)>,
@@ -358,6 +359,9 @@ fn serve(
     shared: &NetShared,
 ) {
     let (frame, quantized) = (slot.frame, slot.quantized);
+    // The rules' unreliable messages for the client, sent before its
+    // snapshot.
+    let mut datagrams = Vec::new();
     // What the slot tells the client, and the room it takes; the lock is
     // not held over the encode, so the connection task is never kept
     // waiting for one.
@@ -373,11 +377,15 @@ fn serve(
             frame.catalog_version,
             &frame.catalog,
             &frame.catalog_changes,
-            &frame.events,
+            &frame.messages,
             &mut out.control,
+            &mut datagrams,
         );
         match told {
-            Ok(bytes) => shared.metrics.bytes_sent.inc_by(bytes as u64),
+            Ok(caught) => {
+                shared.metrics.bytes_sent.inc_by(caught.bytes as u64);
+                shared.metrics.messages_missed.inc_by(caught.missed);
+            }
             Err(e) => {
                 out.error = Some(e);
                 served.ready.notify_one();
@@ -388,6 +396,13 @@ fn serve(
         shared.metrics.bytes_sent.inc_by(told as u64);
         out.control.len()
     };
+    for bytes in datagrams {
+        let len = bytes.len();
+        if served.connection.send_datagram(bytes.into()) {
+            shared.metrics.bytes_sent.inc_by(len as u64);
+            shared.metrics.packets_sent.inc();
+        }
+    }
     let max = served.connection.max_datagram_size().unwrap_or(1200);
     let max = max.saturating_sub(room_beside(control));
     served.take_acks(session);

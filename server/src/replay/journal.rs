@@ -1,6 +1,6 @@
 //! The journal: everything that changed a simulation between two ticks, in
-//! the order it was applied — joins, leaves, accepted inputs and live
-//! edits. Re-simulating a recording applies the journal of tick T (what
+//! the order it was applied — joins, leaves, accepted inputs and messages,
+//! and live edits. Re-simulating a recording applies the journal of tick T (what
 //! happened while the world stood at T) and then steps to T + 1; with the
 //! same state and the same journal the step is the same, bit for bit.
 //!
@@ -22,9 +22,12 @@
 //! 9 RawInput  varint client, varint sequence, u64 tick, f32 view behind,
 //!             ticks, varint n, n bytes: the payload (anything else,
 //!             exactly)
+//! 10 Message  varint client, u8 delivery (0 reliable, 1 unreliable),
+//!             varint n, n bytes: the message (n ≤ MAX_MESSAGE_BYTES)
 //! ```
 //!
-//! An input takes its payload and about 7 bytes this way.
+//! An input takes its payload and about 7 bytes this way; a message its
+//! bytes and about 4.
 //!
 //! Tags 3, 4, 6 and 7 were written before games defined their inputs,
 //! when every input was the sandbox's; they are still read, as the
@@ -49,6 +52,7 @@ use inertia_protocol::admin::SpawnDesc;
 use inertia_protocol::input::{
     pack_view_behind, unpack_view_behind, GameInput, InputPayload, MAX_INPUT_BYTES,
 };
+use inertia_protocol::message::{Delivery, MAX_MESSAGE_BYTES};
 use inertia_protocol::{EntityId, PlayerInput};
 use inertia_sandbox::{SandboxInput, SANDBOX_INPUT_BYTES};
 use serde::{Deserialize, Serialize};
@@ -69,6 +73,8 @@ pub enum JournalEntry {
     Leave(ClientId),
     /// The rules accepted an input from a client.
     Input(ClientId, PlayerInput),
+    /// The rules took a message from a client: how it came, and its bytes.
+    Message(ClientId, Delivery, Vec<u8>),
     /// An operator edited the world.
     Edit(Box<WorldEdit>),
 }
@@ -147,6 +153,16 @@ pub fn encode(tick: u64, entries: &[JournalEntry]) -> Vec<u8> {
                 }
                 w.varint(input.payload.len() as u64);
                 w.bytes(input.payload.as_bytes());
+            }
+            JournalEntry::Message(c, delivery, bytes) => {
+                w.u8(10);
+                w.varint(*c);
+                w.u8(match delivery {
+                    Delivery::Reliable => 0,
+                    Delivery::Unreliable => 1,
+                });
+                w.varint(bytes.len() as u64);
+                w.bytes(bytes);
             }
             JournalEntry::Edit(edit) => {
                 w.u8(5);
@@ -251,6 +267,19 @@ pub fn decode(tick: u64, bytes: &[u8]) -> Result<Vec<JournalEntry>, JournalError
                     postcard::from_bytes(bytes).map_err(|e| err(format!("edit: {e}")))?;
                 JournalEntry::Edit(Box::new(edit))
             }
+            10 => {
+                let client = r.varint()?;
+                let delivery = match r.u8()? {
+                    0 => Delivery::Reliable,
+                    1 => Delivery::Unreliable,
+                    d => return Err(err(format!("message delivery {d}"))),
+                };
+                let n = r.varint()?;
+                if n > MAX_MESSAGE_BYTES as u64 {
+                    return Err(err(format!("a message of client {client} of {n} bytes")));
+                }
+                JournalEntry::Message(client, delivery, r.bytes(n as usize)?.to_vec())
+            }
             tag => return Err(err(format!("unknown entry tag {tag}"))),
         };
         out.push(entry);
@@ -316,6 +345,9 @@ mod tests {
                     name: "crate".into(),
                 },
             })),
+            JournalEntry::Message(7, Delivery::Reliable, b"buy rifle".to_vec()),
+            JournalEntry::Message(2, Delivery::Unreliable, vec![0; MAX_MESSAGE_BYTES]),
+            JournalEntry::Message(3, Delivery::Reliable, vec![]),
             JournalEntry::Leave(7),
         ];
         let bytes = encode(1000, &entries);
@@ -346,6 +378,19 @@ mod tests {
         long[at] = 65;
         assert!(decode(1000, &long).is_err());
         assert_eq!(wire.view_behind, 4.25);
+        // A message: the count, the tag, the client, the delivery, the
+        // length and its bytes; one past the bound, or of a delivery that
+        // is none, is refused.
+        let one = encode(
+            1000,
+            &[JournalEntry::Message(7, Delivery::Reliable, b"gg".to_vec())],
+        );
+        assert_eq!(one, [1, 10, 7, 0, 2, b'g', b'g']);
+        let mut odd = one.clone();
+        odd[3] = 2;
+        assert!(decode(1000, &odd).is_err());
+        let too_long = JournalEntry::Message(7, Delivery::Reliable, vec![1; MAX_MESSAGE_BYTES + 1]);
+        assert!(decode(1000, &encode(1000, &[too_long])).is_err());
     }
 
     #[test]

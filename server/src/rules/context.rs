@@ -12,7 +12,9 @@ use inertia_protocol::{EntityDesc, EntityId, EntityKind};
 use crate::pose_history::{KeptPose, PoseHistory, RewindError, Rewound};
 use crate::scene::{shape_desc, EntitySource, EntityTable};
 
-use super::{ClientId, GameEvent};
+use inertia_protocol::message::{check_len, Delivery, GameMessage, MessageRefusal};
+
+use super::{ClientId, OutgoingMessage, Recipients};
 
 /// Caps on what rules may do to a body in one call.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -68,7 +70,7 @@ pub struct SimContext<'a> {
     world: &'a mut World,
     entities: &'a mut EntityTable,
     spawn_points: &'a [DVec3],
-    events: &'a mut Vec<GameEvent>,
+    messages: &'a mut Vec<OutgoingMessage>,
     tick: u64,
     dt: f64,
     limits: ControlLimits,
@@ -98,7 +100,7 @@ impl<'a> SimContext<'a> {
         world: &'a mut World,
         entities: &'a mut EntityTable,
         spawn_points: &'a [DVec3],
-        events: &'a mut Vec<GameEvent>,
+        messages: &'a mut Vec<OutgoingMessage>,
         tick: u64,
         dt: f64,
         limits: ControlLimits,
@@ -107,7 +109,7 @@ impl<'a> SimContext<'a> {
             world,
             entities,
             spawn_points,
-            events,
+            messages,
             tick,
             dt,
             limits,
@@ -304,9 +306,33 @@ impl<'a> SimContext<'a> {
         self.spawn_points
     }
 
-    /// Reports an event to clients.
-    pub fn emit(&mut self, event: GameEvent) {
-        self.events.push(event);
+    /// Sends a message of the game's to clients: `to` whom, `delivery`
+    /// how. It leaves with the frame of this tick (see
+    /// [`OutgoingMessage`]). Refused past
+    /// [`MAX_MESSAGE_BYTES`](inertia_protocol::message::MAX_MESSAGE_BYTES).
+    pub fn send<M: GameMessage>(
+        &mut self,
+        to: Recipients,
+        delivery: Delivery,
+        message: &M,
+    ) -> Result<(), MessageRefusal> {
+        self.send_bytes(to, delivery, message.to_bytes())
+    }
+
+    /// [`Self::send`] of bytes already coded.
+    pub fn send_bytes(
+        &mut self,
+        to: Recipients,
+        delivery: Delivery,
+        bytes: Vec<u8>,
+    ) -> Result<(), MessageRefusal> {
+        check_len(&bytes)?;
+        self.messages.push(OutgoingMessage {
+            to,
+            delivery,
+            bytes,
+        });
+        Ok(())
     }
 
     /// The body of an entity.

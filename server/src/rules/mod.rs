@@ -28,22 +28,34 @@
 //! ([`GameRules::rewind_window_ms`]); static bodies are tested as they
 //! are.
 //!
+//! Messages go both ways. A client's reach the rules on the tick thread
+//! ([`GameRules::on_message`]) at the start of the tick after they
+//! arrive, before that tick's inputs' forces are applied, ordered by
+//! client id and then as the client sent them (whatever order they came
+//! off the network in), and go into the recording's journal, so a replay
+//! or a seek hands the rules the very same bytes at the same tick. The
+//! rules send theirs with [`SimContext::send`] to everyone, one client or
+//! a set ([`Recipients`]), reliably or not.
+//!
 //! One concept a file: the rules' trait and the refusals it speaks in,
-//! here; `event.rs` what happens that clients may show, and its wire form;
-//! `input.rs` an input's validation; `context.rs` what
-//! the rules may do to the world ([`SimContext`]); `sandbox.rs` the
-//! default game ([`SandboxRules`]).
+//! here; `message.rs` the rules' messages on their way to clients;
+//! `removal.rs` why an entity left the world unasked; `input.rs` an
+//! input's validation; `context.rs` what the rules may do to the world
+//! ([`SimContext`]); `sandbox.rs` the default game ([`SandboxRules`]).
 
 mod context;
-mod event;
 mod input;
+mod message;
+mod removal;
 mod sandbox;
 
+use inertia_protocol::message::{Delivery, MessageDecodeError, MessageLimits, MessageRefusal};
 use inertia_protocol::{EntityId, PlayerInput};
 
 pub use context::{ContextError, ControlLimits, EntityLook, RewindCount, SimContext};
-pub use event::{GameEvent, RemovalReason};
 pub use input::{validate_input, InputRefusal};
+pub use message::{OutgoingMessage, Recipients};
+pub use removal::RemovalReason;
 pub use sandbox::{SandboxRules, SandboxSettings};
 
 /// A connected client, as the network layer numbers it.
@@ -73,8 +85,9 @@ pub enum JoinRefusal {
 }
 
 /// What a game does with players. Called on the tick thread only, in this
-/// order each loop: joins and leaves, inputs, then per tick `before_tick`,
-/// the physics step, `after_tick`, and `events`.
+/// order each loop: joins and leaves, late inputs, then per tick the
+/// clients' messages and the inputs due, `before_tick`, the physics step,
+/// `on_removed` for what the step took out, and `after_tick`.
 pub trait GameRules: Send {
     /// A client joins: make its avatar and return its entity id, or refuse.
     fn on_connect(
@@ -103,6 +116,37 @@ pub trait GameRules: Send {
         input: &PlayerInput,
         ctx: &mut SimContext<'_>,
     ) -> Result<(), InputRefusal>;
+
+    /// A client's message arrived (within the size and rate bounds,
+    /// [`GameRules::message_limits`]): decode it with the game's message
+    /// type ([`GameMessage::decode`](inertia_protocol::message::GameMessage::decode))
+    /// before acting on it. A refused message changes nothing; it is
+    /// counted per client and reason. Rules that take no messages keep
+    /// the default, which refuses every one.
+    fn on_message(
+        &mut self,
+        _client: ClientId,
+        _delivery: Delivery,
+        _bytes: &[u8],
+        _ctx: &mut SimContext<'_>,
+    ) -> Result<(), MessageRefusal> {
+        Err(MessageRefusal::Undecodable(MessageDecodeError::Invalid(
+            "these rules take no messages".into(),
+        )))
+    }
+
+    /// How fast each client may send messages; more are refused and
+    /// counted by its connection before they reach the tick thread.
+    fn message_limits(&self) -> MessageLimits {
+        MessageLimits::default()
+    }
+
+    /// An entity left the world without the rules asking: it fell out of
+    /// the world's bounds, its state went non-finite, or an operator
+    /// removed it. Its id is never reused. Rules that keep nothing about
+    /// entities keep the default.
+    fn on_removed(&mut self, _entity: EntityId, _reason: RemovalReason, _ctx: &mut SimContext<'_>) {
+    }
 
     /// How far back these rules look when they answer an input against
     /// the world the player saw (`SimContext::cast_ray_at` and
@@ -144,11 +188,6 @@ pub trait GameRules: Send {
     /// that never end a match keep the default.
     fn match_over(&self) -> Option<String> {
         None
-    }
-
-    /// Events the rules gathered since the last call (drained).
-    fn events(&mut self) -> Vec<GameEvent> {
-        Vec::new()
     }
 
     /// Everything the rules remember between ticks (players, their latest

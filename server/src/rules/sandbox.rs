@@ -13,7 +13,20 @@ use inertia_protocol::input::GameInput;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput};
 use inertia_sandbox::{buttons, SandboxInput, SANDBOX_INPUT_BYTES};
 
-use super::{ClientId, EntityLook, GameEvent, GameRules, InputRefusal, JoinRefusal, SimContext};
+use inertia_protocol::message::{Delivery, GameMessage, MessageRefusal};
+use inertia_sandbox::{Removal, SandboxEvent, SandboxRequest};
+
+use super::{
+    ClientId, EntityLook, GameRules, InputRefusal, JoinRefusal, Recipients, RemovalReason,
+    SimContext,
+};
+
+/// Tells every client what happened, reliably (an event is a message the
+/// sandbox's clients decode as [`SandboxEvent`]).
+fn tell(ctx: &mut SimContext<'_>, event: SandboxEvent) {
+    // An event is a few bytes: never past the bound.
+    let _ = ctx.send(Recipients::All, Delivery::Reliable, &event);
+}
 
 /// Tuning of [`SandboxRules`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -110,7 +123,6 @@ impl HeldInput {
 pub struct SandboxRules {
     settings: SandboxSettings,
     players: BTreeMap<ClientId, Player>,
-    events: Vec<GameEvent>,
 }
 
 impl SandboxRules {
@@ -119,7 +131,6 @@ impl SandboxRules {
         Self {
             settings,
             players: BTreeMap::new(),
-            events: Vec::new(),
         }
     }
 
@@ -226,7 +237,7 @@ impl SandboxRules {
         if let Some(j) = walk.jump(jump, grounded, tick, p.jump_ready_at, v, dt) {
             if ctx.apply_impulse(avatar, j.impulse, com).is_ok() {
                 p.jump_ready_at = j.ready_at;
-                ctx.emit(GameEvent::Jumped { avatar });
+                tell(ctx, SandboxEvent::Jumped { avatar });
             }
         }
         if push && tick >= p.push_ready_at {
@@ -246,11 +257,14 @@ impl SandboxRules {
                 let at = tb.center_of_mass();
                 let dir = (facing + DVec3::Y * 0.2).normalize();
                 if let Ok(given) = ctx.apply_impulse(target, dir * s.push_impulse, at) {
-                    ctx.emit(GameEvent::Pushed {
-                        avatar,
-                        target,
-                        impulse: given.to_array(),
-                    });
+                    tell(
+                        ctx,
+                        SandboxEvent::Pushed {
+                            avatar,
+                            target,
+                            impulse: given.as_vec3().to_array(),
+                        },
+                    );
                 }
             }
         }
@@ -284,14 +298,14 @@ impl GameRules for SandboxRules {
                 push_ready_at: 0,
             },
         );
-        self.events.push(GameEvent::Joined { client, avatar });
+        tell(ctx, SandboxEvent::Joined { client, avatar });
         Ok(avatar)
     }
 
     fn on_disconnect(&mut self, client: ClientId, ctx: &mut SimContext<'_>) {
         if let Some(p) = self.players.remove(&client) {
             ctx.despawn(p.avatar);
-            self.events.push(GameEvent::Left { client });
+            tell(ctx, SandboxEvent::Left { client });
         }
     }
 
@@ -328,7 +342,7 @@ impl GameRules for SandboxRules {
                         if let Some(p) = self.players.get_mut(&client) {
                             p.avatar = avatar;
                         }
-                        self.events.push(GameEvent::Respawned { client, avatar });
+                        tell(ctx, SandboxEvent::Respawned { client, avatar });
                     }
                     // No room this tick: try again next tick.
                     Err(_) => continue,
@@ -338,8 +352,41 @@ impl GameRules for SandboxRules {
         }
     }
 
-    fn events(&mut self) -> Vec<GameEvent> {
-        std::mem::take(&mut self.events)
+    /// A player's [`SandboxRequest`]: a chat line goes to everyone; a
+    /// respawn puts the player's avatar back at a free spawn point (as a
+    /// new avatar, like one that fell off the world).
+    fn on_message(
+        &mut self,
+        client: ClientId,
+        _delivery: Delivery,
+        bytes: &[u8],
+        ctx: &mut SimContext<'_>,
+    ) -> Result<(), MessageRefusal> {
+        if !self.players.contains_key(&client) {
+            return Err(MessageRefusal::NotConnected);
+        }
+        match SandboxRequest::decode(bytes)? {
+            SandboxRequest::Chat { text } => tell(ctx, SandboxEvent::Chat { client, text }),
+            SandboxRequest::Respawn => {
+                let avatar = self
+                    .spawn_avatar(client, ctx)
+                    .map_err(|e| MessageRefusal::Rules(e.to_string()))?;
+                if let Some(p) = self.players.get_mut(&client) {
+                    ctx.despawn(std::mem::replace(&mut p.avatar, avatar));
+                }
+                tell(ctx, SandboxEvent::Respawned { client, avatar });
+            }
+        }
+        Ok(())
+    }
+
+    fn on_removed(&mut self, entity: EntityId, reason: RemovalReason, ctx: &mut SimContext<'_>) {
+        let reason = match reason {
+            RemovalReason::OutOfBounds => Removal::OutOfBounds,
+            RemovalReason::Quarantined => Removal::Quarantined,
+            RemovalReason::Despawned => Removal::Despawned,
+        };
+        tell(ctx, SandboxEvent::Removed { entity, reason });
     }
 
     fn save_state(&self) -> Vec<u8> {
@@ -350,7 +397,6 @@ impl GameRules for SandboxRules {
         let players: BTreeMap<ClientId, Player> =
             postcard::from_bytes(bytes).map_err(|e| format!("sandbox players: {e}"))?;
         self.players = players;
-        self.events.clear();
         Ok(())
     }
 }

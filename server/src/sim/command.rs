@@ -6,7 +6,17 @@ use tokio::sync::oneshot;
 use super::clock_control::ClockControl;
 use super::Simulation;
 use crate::rules::{ClientId, JoinRefusal};
+use inertia_protocol::connection::ReceivedMessage;
 use inertia_protocol::{EntityId, PlayerInput};
+
+/// What a client sent that goes through the input channel.
+#[derive(Debug, Clone)]
+pub enum FromClient {
+    /// An input, for its tick.
+    Input(PlayerInput),
+    /// A message, for the next tick.
+    Message(ReceivedMessage),
+}
 
 /// A command to the tick thread.
 #[derive(Debug)]
@@ -29,6 +39,13 @@ pub enum Command {
         client: ClientId,
         /// What it asks.
         input: PlayerInput,
+    },
+    /// A client's message (goes through the input channel).
+    Message {
+        /// The client.
+        client: ClientId,
+        /// What it says.
+        message: ReceivedMessage,
     },
     /// Pause, resume, speed, step or run-to ([`Simulation::control_clock`]).
     Clock(ClockControl),
@@ -61,6 +78,18 @@ pub enum CommandError {
 }
 
 impl Simulation {
+    /// Takes what a client sent through the input channel.
+    pub fn from_client(&mut self, client: ClientId, sent: FromClient) {
+        match sent {
+            FromClient::Input(input) => {
+                let _ = self.input(client, &input);
+            }
+            FromClient::Message(message) => {
+                let _ = self.message(client, message);
+            }
+        }
+    }
+
     /// Applies one command; false for [`Command::Shutdown`].
     pub fn apply(&mut self, cmd: Command) -> bool {
         match cmd {
@@ -72,6 +101,9 @@ impl Simulation {
             Command::Leave { client } => self.leave(client),
             Command::Input { client, input } => {
                 let _ = self.input(client, &input);
+            }
+            Command::Message { client, message } => {
+                let _ = self.message(client, message);
             }
             Command::Clock(request) => {
                 if let Err(e) = self.control_clock(request) {

@@ -11,7 +11,7 @@ use inertia_protocol::{EntityId, EntityKind};
 
 use super::Simulation;
 use crate::replay::{JournalEntry, WorldEdit};
-use crate::rules::{ContextError, EntityLook, GameEvent, RemovalReason};
+use crate::rules::{ContextError, EntityLook, RemovalReason};
 
 /// Why an edit was refused (nothing changed).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -120,10 +120,8 @@ impl Simulation {
                 if !self.with_ctx(|_, ctx| ctx.despawn(id)) {
                     return Err(EditError::UnknownEntity(id));
                 }
-                self.events.push(GameEvent::Removed {
-                    entity: id,
-                    reason: RemovalReason::Despawned,
-                });
+                self.removed.push((id, RemovalReason::Despawned));
+                self.tell_removed();
                 EditOutcome::Despawned
             }
             WorldEdit::Impulse { id, impulse, point } => {
@@ -164,7 +162,7 @@ impl Simulation {
                 EditOutcome::Spawned(id)
             }
         };
-        self.collect_events();
+        self.collect_messages();
         self.update_gauges();
         Ok(outcome)
     }

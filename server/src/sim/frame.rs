@@ -1,21 +1,23 @@
 //! What the tick thread publishes after a loop's ticks: the states of
-//! everything that moves, the entity catalog, recent events and the
-//! clock, with the states quantized once for every client on demand.
+//! everything that moves, the entity catalog, the rules' recent messages
+//! and the clock, with the states quantized once for every client on demand.
 
 use std::collections::BTreeMap;
 use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
 use inertia_protocol::control::{encode_frame, InputReport, ServerControl};
+use inertia_protocol::message::{Delivery, MessageDatagram};
 use inertia_protocol::snapshot::{QuantizedFrame, SnapshotConfig};
 use inertia_protocol::{EntityDesc, EntityId, EntityKind, EntityState};
 
 use super::{Simulation, TimeMode};
-use crate::rules::GameEvent;
+use crate::rules::OutgoingMessage;
 
-/// Events a [`Frame`] carries: the most recent ones, whatever frame they
-/// were first published in.
-pub const RECENT_EVENTS: usize = 1024;
+/// Messages a [`Frame`] carries: the most recent ones, whatever frame they
+/// were first published in. A client whose slots fall further behind
+/// than this misses the oldest (counted in `/metrics`).
+pub const RECENT_MESSAGES: usize = 4096;
 
 /// Catalog changes a [`Frame`] carries: the most recent ones. A client
 /// told an older version is brought up to date by a walk of the whole
@@ -86,49 +88,57 @@ impl CatalogChange {
     }
 }
 
-/// One game event as frames carry it: its number, the tick it happened
-/// in, the event, and the control frame that tells a client of it, coded
-/// by the first connection that sends it and shared by every other (as
-/// [`Frame::quantized`] is), off the tick thread.
+/// One of the rules' messages as frames carry it: its number, the tick it
+/// was sent in, the message, and its wire form (a control frame or a
+/// message datagram), coded by the first connection that sends it and
+/// shared by every other (as [`Frame::quantized`] is), off the tick
+/// thread.
 #[derive(Debug)]
-pub struct RecentEvent {
-    /// Events are numbered from 1 in the order they are published, so a
+pub struct RecentMessage {
+    /// Messages are numbered from 1 in the order they are published, so a
     /// reader finds what is new to it by number, whatever the ticks did
     /// (they go back on a rewind).
     pub number: u64,
-    /// The tick it happened in.
+    /// The tick it was sent in.
     pub tick: u64,
-    /// The event.
-    pub event: GameEvent,
+    /// The message.
+    pub message: OutgoingMessage,
     wire: OnceLock<Option<Vec<u8>>>,
 }
 
-impl RecentEvent {
-    /// Event `number`, which happened in `tick`.
-    pub fn new(number: u64, tick: u64, event: GameEvent) -> Self {
+impl RecentMessage {
+    /// Message `number`, sent in `tick`.
+    pub fn new(number: u64, tick: u64, message: OutgoingMessage) -> Self {
         Self {
             number,
             tick,
-            event,
+            message,
             wire: OnceLock::new(),
         }
     }
 
-    /// `ServerControl::Event` of it as the control stream carries it
-    /// (length prefix included), coded once for every client; `None` for
-    /// an event that cannot be coded, which is logged once and sent to
-    /// nobody rather than ending every client's session.
+    /// The message as it travels, coded once for every client: a
+    /// `ServerControl::Message` frame (length prefix included) when
+    /// reliable, a message datagram when not; `None` for one that cannot
+    /// be coded (the rules' send refuses those, so never), sent to nobody
+    /// rather than ending every client's session.
     pub fn wire(&self) -> Option<&[u8]> {
         self.wire
-            .get_or_init(
-                || match encode_frame(&ServerControl::Event(self.event.to_wire())) {
-                    Ok(bytes) => Some(bytes),
-                    Err(e) => {
-                        tracing::warn!(tick = self.tick, error = %e, "an event that cannot be coded is not sent");
-                        None
+            .get_or_init(|| {
+                let bytes = &self.message.bytes;
+                let coded = match self.message.delivery {
+                    Delivery::Reliable => encode_frame(&ServerControl::Message(bytes.clone()))
+                        .map_err(|e| e.to_string()),
+                    Delivery::Unreliable => {
+                        MessageDatagram::encode(bytes).map_err(|e| e.to_string())
                     }
-                },
-            )
+                };
+                coded
+                    .map_err(|e| {
+                        tracing::warn!(tick = self.tick, error = %e, "a message that cannot be coded is not sent")
+                    })
+                    .ok()
+            })
             .as_deref()
     }
 }
@@ -157,10 +167,10 @@ pub struct Frame {
     /// [`RECENT_CATALOG_CHANGES`]), oldest first, the last one making
     /// `catalog_version` (none before the first change).
     pub catalog_changes: Arc<Vec<Arc<CatalogChange>>>,
-    /// The most recent events (at most [`RECENT_EVENTS`]), oldest first,
-    /// each with the tick it happened in; the same `Arc` until one
-    /// happens.
-    pub events: Arc<Vec<Arc<RecentEvent>>>,
+    /// The rules' most recent messages (at most [`RECENT_MESSAGES`]),
+    /// oldest first, each with the tick it was sent in; the same `Arc`
+    /// until one is sent.
+    pub messages: Arc<Vec<Arc<RecentMessage>>>,
     /// Wall time of the last tick.
     pub tick_duration: Duration,
     /// Loops that hit the catch-up cap so far.
@@ -207,8 +217,8 @@ impl Frame {
 
 impl Simulation {
     /// The frame of the current state, with the most recent
-    /// [`RECENT_EVENTS`] events (so a reader that skipped frames still sees
-    /// every event, as long as it keeps up within that many).
+    /// [`RECENT_MESSAGES`] messages (so a reader that skipped frames still
+    /// sees every message, as long as it keeps up within that many).
     pub fn frame(&mut self) -> Frame {
         self.frame_in(Vec::new())
     }
@@ -236,7 +246,7 @@ impl Simulation {
             catalog: publication.catalog.clone(),
             catalog_version: publication.catalog_version,
             catalog_changes: publication.catalog_changes.clone(),
-            events: publication.recent_events.clone(),
+            messages: publication.recent_messages.clone(),
             tick_duration: self.meter.last_tick(),
             overruns: self.shown().clock.overruns(),
             clients: self.live_clients() as u32,

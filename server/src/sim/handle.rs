@@ -8,11 +8,12 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use inertia_protocol::connection::ReceivedMessage;
 use inertia_protocol::{EntityId, PlayerInput};
 use tokio::sync::{oneshot, watch};
 
 use super::clock_control::ClockControl;
-use super::command::{Command, CommandError, SimCall};
+use super::command::{Command, CommandError, FromClient, SimCall};
 use super::frame::Frame;
 use super::stats::SimStats;
 use super::thread::{run, Publisher, SimExit};
@@ -26,7 +27,9 @@ use crate::scene::BuiltScene;
 #[derive(Debug)]
 pub struct SimHandle {
     control: SyncSender<Command>,
-    inputs: SyncSender<(ClientId, PlayerInput)>,
+    inputs: SyncSender<(ClientId, FromClient)>,
+    /// The input channel's capacity.
+    input_capacity: usize,
     frames: watch::Receiver<Arc<Frame>>,
     exit: watch::Receiver<Option<SimExit>>,
     stats: Arc<SimStats>,
@@ -60,7 +63,8 @@ impl SimHandle {
     /// a recording, say).
     pub fn run(mut sim: Simulation) -> std::io::Result<SimHandle> {
         let (control_tx, control_rx) = mpsc::sync_channel(sim.config.control_capacity.max(1));
-        let (input_tx, input_rx) = mpsc::sync_channel(sim.config.input_capacity.max(1));
+        let input_capacity = sim.config.input_capacity.max(1);
+        let (input_tx, input_rx) = mpsc::sync_channel(input_capacity);
         let stats = sim.stats();
         let (frame_tx, frame_rx) = watch::channel(Arc::new(sim.frame()));
         let (exit_tx, exit_rx) = watch::channel(None);
@@ -86,6 +90,7 @@ impl SimHandle {
         Ok(SimHandle {
             control: control_tx,
             inputs: input_tx,
+            input_capacity,
             frames: frame_rx,
             exit: exit_rx,
             stats,
@@ -109,6 +114,7 @@ impl SimHandle {
     pub fn command(&self, cmd: Command) -> Result<(), CommandError> {
         match cmd {
             Command::Input { client, input } => self.input(client, input),
+            Command::Message { client, message } => self.message(client, message),
             cmd => self.send(cmd),
         }
     }
@@ -147,7 +153,22 @@ impl SimHandle {
 
     /// A client's input; dropped (and counted) when the channel is full.
     pub fn input(&self, client: ClientId, input: PlayerInput) -> Result<(), CommandError> {
-        self.inputs.try_send((client, input)).map_err(|e| match e {
+        self.from_client(client, FromClient::Input(input))
+    }
+
+    /// A client's message, for the rules at the next tick; dropped (and
+    /// counted) when the channel is full.
+    pub fn message(&self, client: ClientId, message: ReceivedMessage) -> Result<(), CommandError> {
+        self.from_client(client, FromClient::Message(message))
+    }
+
+    /// Inputs and messages the input channel holds at most.
+    pub fn input_capacity(&self) -> usize {
+        self.input_capacity
+    }
+
+    fn from_client(&self, client: ClientId, sent: FromClient) -> Result<(), CommandError> {
+        self.inputs.try_send((client, sent)).map_err(|e| match e {
             TrySendError::Full(_) => {
                 self.stats.commands_dropped.fetch_add(1, Ordering::Relaxed);
                 CommandError::Busy

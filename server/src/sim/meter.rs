@@ -26,7 +26,7 @@ pub struct TickStages {
     /// table.
     pub physics: Duration,
     /// The rules' `after_tick`, the poses kept for lag compensation and
-    /// the tick's events.
+    /// the messages the rules sent.
     pub rules_after: Duration,
     /// The tick's hash, keyframe or checkpoint handed to the recording.
     pub record: Duration,
@@ -191,6 +191,24 @@ impl TickMeter {
         self.stats.inputs_rejected.fetch_add(1, Ordering::Relaxed);
         if let Some(m) = &self.metrics {
             m.input_refused(client, refusal.reason());
+        }
+    }
+
+    /// A message of `client` the tick thread or the rules refused.
+    pub(super) fn message_refused(
+        &self,
+        client: u64,
+        refusal: &inertia_protocol::message::MessageRefusal,
+    ) {
+        if let Some(m) = &self.metrics {
+            m.message_refused(client, refusal.reason());
+        }
+    }
+
+    /// A message the rules took.
+    pub(super) fn message_taken(&self, delivery: inertia_protocol::message::Delivery) {
+        if let Some(m) = &self.metrics {
+            m.message_received(delivery.label());
         }
     }
 

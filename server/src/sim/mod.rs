@@ -27,8 +27,8 @@
 //! schedule, the recording, the publication of frames and the meter.
 //!
 //! While recording (see [`crate::record::recorder`]), everything that
-//! changes the simulation between ticks — joins, leaves, accepted inputs,
-//! live edits — goes into the tick's journal (`Journal` records, written
+//! changes the simulation between ticks — joins, leaves, accepted inputs
+//! and messages, live edits — goes into the tick's journal (`Journal` records, written
 //! once a loop and before each tick); after each tick the recorder gets
 //! its state hash (`TickHash`) and, every
 //! [`RecorderConfig::keyframe_ticks`] ticks, the whole
@@ -43,8 +43,9 @@
 //! The module is laid out by concept. The parts: `timeline.rs` (the live
 //! timeline and the one shown), [`input_schedule`] (inputs waiting for
 //! their ticks), [`recording`] (the recording state machine and the
-//! journal), `publication.rs` (events and the catalog for frames) and
-//! `meter.rs` (what ticks cost; [`stats`] the counters it shares). What
+//! journal), [`message_queue`] (clients' messages waiting for the next
+//! tick), `publication.rs` (the rules' messages and the catalog for
+//! frames) and `meter.rs` (what ticks cost; [`stats`] the counters it shares). What
 //! works on them: [`tick`] (one tick's stages and the clock),
 //! [`time_travel`] (showing history), [`edit`] (live edits),
 //! [`clock_control`] (the one path for pause, speed, step and run-to),
@@ -57,12 +58,16 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 use inertia_physics::World;
+use inertia_protocol::connection::ReceivedMessage;
+use inertia_protocol::message::{Delivery, MessageRefusal};
 use inertia_protocol::{EntityId, PlayerInput};
 
 use crate::clock::Clock;
 use crate::pose_history::PoseHistory;
 use crate::replay::{JournalEntry, SimState, StateError};
-use crate::rules::{ClientId, GameEvent, GameRules, InputRefusal, JoinRefusal, SimContext};
+use crate::rules::{
+    ClientId, GameRules, InputRefusal, JoinRefusal, OutgoingMessage, RemovalReason, SimContext,
+};
 use crate::scene::{BuiltScene, EntityTable};
 use meter::TickMeter;
 use publication::Publication;
@@ -76,6 +81,7 @@ pub mod edit;
 pub mod frame;
 pub mod handle;
 pub mod input_schedule;
+pub mod message_queue;
 mod meter;
 mod publication;
 pub mod recording;
@@ -89,12 +95,13 @@ mod timeline;
 pub mod verify;
 
 pub use clock_control::ClockControl;
-pub use command::{Command, CommandError, SimCall};
+pub use command::{Command, CommandError, FromClient, SimCall};
 pub use config::{SimConfig, DEFAULT_CHECKPOINT_TICKS};
 pub use edit::EditError;
-pub use frame::{CatalogChange, Frame, RecentEvent, RECENT_CATALOG_CHANGES, RECENT_EVENTS};
+pub use frame::{CatalogChange, Frame, RecentMessage, RECENT_CATALOG_CHANGES, RECENT_MESSAGES};
 pub use handle::{spawn, SimHandle};
 pub use input_schedule::{InputSchedule, Offered, ScheduleConfig};
+pub use message_queue::{MessageQueue, MAX_WAITING_MESSAGES};
 pub use meter::TickStages;
 pub use recording::RecorderOpening;
 pub use stats::{SimStats, RATE_WINDOW, TICK_WINDOW};
@@ -113,11 +120,17 @@ pub struct Simulation {
     /// (the live one's is put aside in the [`time_travel::ShownHistory`]
     /// meanwhile).
     rules: Box<dyn GameRules>,
-    /// Events the rules' context gathered in the current call.
-    events: Vec<GameEvent>,
+    /// Messages the rules sent in the current call.
+    sent: Vec<OutgoingMessage>,
+    /// What left the world unasked in the current tick, for the rules'
+    /// `on_removed`.
+    removed: Vec<(EntityId, RemovalReason)>,
     /// The live clients' inputs waiting for their ticks
     /// ([`input_schedule`]).
     inputs: InputSchedule,
+    /// The live clients' messages waiting for the next tick
+    /// ([`message_queue`]).
+    messages: MessageQueue,
     /// The recording, the current tick's journal and the history held
     /// for seeking ([`recording`]).
     recording: Recording,
@@ -200,7 +213,9 @@ impl Simulation {
                 past: None,
             },
             rules,
-            events: Vec::new(),
+            sent: Vec::new(),
+            removed: Vec::new(),
+            messages: MessageQueue::default(),
             inputs: InputSchedule::new(ScheduleConfig::for_tick_rate(config.tick_hz)),
             recording: Recording::new(&config),
             meter: TickMeter::new(config.tick_hz, config.metrics.clone()),
@@ -315,6 +330,9 @@ impl Simulation {
             JournalEntry::Input(client, input) => {
                 let _ = self.input_here(*client, input);
             }
+            JournalEntry::Message(client, delivery, bytes) => {
+                let _ = self.message_here(*client, *delivery, bytes);
+            }
             JournalEntry::Edit(edit) => {
                 let _ = self.edit_here(edit);
             }
@@ -404,13 +422,13 @@ impl Simulation {
     fn with_ctx<R>(&mut self, f: impl FnOnce(&mut dyn GameRules, &mut SimContext<'_>) -> R) -> R {
         let tick = self.shown().world.tick();
         let dt = self.dt();
-        // The shown timeline, borrowed apart from the rules and events.
+        // The shown timeline, borrowed apart from the rules and messages.
         let shown = self.timelines.shown_mut();
         let mut ctx = SimContext::new(
             &mut shown.world,
             &mut shown.entities,
             &shown.spawn_points,
-            &mut self.events,
+            &mut self.sent,
             tick,
             dt,
             self.config.limits,
@@ -428,11 +446,19 @@ impl Simulation {
         &self.shown().poses
     }
 
-    fn collect_events(&mut self) {
-        let tick = self.shown().world.tick();
-        let events = std::mem::take(&mut self.events);
-        self.publication
-            .push_events(tick, events.into_iter().chain(self.rules.events()));
+    /// Hands the messages the rules sent to the next frame.
+    fn collect_messages(&mut self) {
+        if !self.sent.is_empty() {
+            let tick = self.shown().world.tick();
+            self.publication.push_messages(tick, self.sent.drain(..));
+        }
+    }
+
+    /// Tells the rules what left the world unasked since the last call.
+    fn tell_removed(&mut self) {
+        for (entity, reason) in std::mem::take(&mut self.removed) {
+            self.with_ctx(|rules, ctx| rules.on_removed(entity, reason, ctx));
+        }
     }
 
     /// A client joins (refused when full or already in). While history
@@ -461,7 +487,7 @@ impl Simulation {
         if r.is_ok() {
             self.shown_mut().clients.insert(client);
         }
-        self.collect_events();
+        self.collect_messages();
         self.update_gauges();
         r
     }
@@ -481,11 +507,12 @@ impl Simulation {
     fn leave_here(&mut self, client: ClientId) {
         if self.timelines.past.is_none() {
             self.inputs.forget(client);
+            self.messages.forget(client);
         }
         if self.shown_mut().clients.remove(&client) {
             self.meter.client_left(client);
             self.with_ctx(|rules, ctx| rules.on_disconnect(client, ctx));
-            self.collect_events();
+            self.collect_messages();
             self.update_gauges();
         }
     }
@@ -521,6 +548,69 @@ impl Simulation {
                 self.refused(client, InputRefusal::Backlog { max })
             }
         }
+    }
+
+    /// A client's message, as its connection took it: held for the next
+    /// live tick (see [`message_queue`]), where the rules get it. Refused
+    /// (and counted) from a client not in the live game, or past the
+    /// client's backlog. Messages that arrive while history is shown wait
+    /// for the live world to run again.
+    pub fn message(
+        &mut self,
+        client: ClientId,
+        message: ReceivedMessage,
+    ) -> Result<(), MessageRefusal> {
+        if !self.timelines.live.clients.contains(&client) {
+            return self.message_refused(client, MessageRefusal::NotConnected);
+        }
+        match self.messages.offer(client, message) {
+            Ok(()) => Ok(()),
+            Err(refusal) => self.message_refused(client, refusal),
+        }
+    }
+
+    /// Hands the rules every message waiting for the live tick now (see
+    /// [`message_queue`] for the order); each one taken goes into the
+    /// journal of this tick.
+    fn apply_waiting_messages(&mut self) {
+        if self.messages.is_empty() {
+            return;
+        }
+        for (client, message) in self.messages.take_all() {
+            if self
+                .message_here(client, message.delivery, &message.bytes)
+                .is_ok()
+            {
+                self.meter.message_taken(message.delivery);
+                self.journal_push(JournalEntry::Message(
+                    client,
+                    message.delivery,
+                    message.bytes,
+                ));
+            }
+        }
+    }
+
+    /// Hands a message to the rules; a refused one is counted.
+    fn message_here(
+        &mut self,
+        client: ClientId,
+        delivery: Delivery,
+        bytes: &[u8],
+    ) -> Result<(), MessageRefusal> {
+        let r = self.with_ctx(|rules, ctx| rules.on_message(client, delivery, bytes, ctx));
+        self.collect_messages();
+        r.or_else(|refusal| self.message_refused(client, refusal))
+    }
+
+    /// Counts `refusal` of a message of `client` and returns it.
+    fn message_refused(
+        &self,
+        client: ClientId,
+        refusal: MessageRefusal,
+    ) -> Result<(), MessageRefusal> {
+        self.meter.message_refused(client, &refusal);
+        Err(refusal)
     }
 
     /// How the client's inputs have been arriving against their ticks.

@@ -1,5 +1,5 @@
-//! The publication of frames: the events of the ticks since the last
-//! frame numbered and kept among the recent ones, and the entity catalog
+//! The publication of frames: the rules' messages of the ticks since the
+//! last frame numbered and kept among the recent ones, and the entity catalog
 //! remade (with the change it made) when the entity table changed or the
 //! timeline shown was swapped. Everything else a [`Frame`](super::Frame) carries is
 //! read off the timeline shown when it is made.
@@ -9,8 +9,8 @@ use std::sync::Arc;
 
 use inertia_protocol::{EntityDesc, EntityId};
 
-use super::frame::{CatalogChange, RecentEvent, RECENT_CATALOG_CHANGES, RECENT_EVENTS};
-use crate::rules::GameEvent;
+use super::frame::{CatalogChange, RecentMessage, RECENT_CATALOG_CHANGES, RECENT_MESSAGES};
+use crate::rules::OutgoingMessage;
 use crate::scene::EntityTable;
 
 /// What frames are published from besides the timeline shown.
@@ -23,12 +23,12 @@ pub(super) struct Publication {
     /// The most recent catalog changes, for
     /// [`Frame::catalog_changes`](super::Frame::catalog_changes).
     pub(super) catalog_changes: Arc<Vec<Arc<CatalogChange>>>,
-    /// The most recent events, for [`Frame::events`](super::Frame::events).
-    pub(super) recent_events: Arc<Vec<Arc<RecentEvent>>>,
-    /// Events of the ticks since the last frame, with their ticks.
-    pending_events: Vec<(u64, GameEvent)>,
-    /// Events published so far (the number of the newest).
-    events_published: u64,
+    /// The most recent messages, for [`Frame::messages`](super::Frame::messages).
+    pub(super) recent_messages: Arc<Vec<Arc<RecentMessage>>>,
+    /// Messages of the ticks since the last frame, with their ticks.
+    pending_messages: Vec<(u64, OutgoingMessage)>,
+    /// Messages published so far (the number of the newest).
+    messages_published: u64,
     /// The entity table version the catalog was last made from.
     catalog_seen: u64,
     /// The timeline shown was swapped: remake the catalog.
@@ -42,29 +42,33 @@ impl Publication {
             catalog: Arc::new(entities.catalog()),
             catalog_version: entities.version(),
             catalog_changes: Arc::new(Vec::new()),
-            recent_events: Arc::new(Vec::new()),
-            pending_events: Vec::new(),
-            events_published: 0,
+            recent_messages: Arc::new(Vec::new()),
+            pending_messages: Vec::new(),
+            messages_published: 0,
             catalog_seen: entities.version(),
             catalog_stale: false,
         }
     }
 
-    /// Events that happened in `tick`, for the next frame.
-    pub(super) fn push_events(&mut self, tick: u64, events: impl IntoIterator<Item = GameEvent>) {
-        self.pending_events
-            .extend(events.into_iter().map(|e| (tick, e)));
+    /// Messages the rules sent in `tick`, for the next frame.
+    pub(super) fn push_messages(
+        &mut self,
+        tick: u64,
+        messages: impl IntoIterator<Item = OutgoingMessage>,
+    ) {
+        self.pending_messages
+            .extend(messages.into_iter().map(|m| (tick, m)));
     }
 
-    /// How many events wait for the next frame.
+    /// How many messages wait for the next frame.
     pub(super) fn pending(&self) -> usize {
-        self.pending_events.len()
+        self.pending_messages.len()
     }
 
-    /// Forgets the events that came after the first `kept` waiting (the
+    /// Forgets the messages that came after the first `kept` waiting (the
     /// ticks a seek passed over are not news to anyone).
     pub(super) fn forget_pending_after(&mut self, kept: usize) {
-        self.pending_events.truncate(kept);
+        self.pending_messages.truncate(kept);
     }
 
     /// The timeline shown was swapped (its entity table's version says
@@ -73,19 +77,19 @@ impl Publication {
         self.catalog_stale = true;
     }
 
-    /// Brings the recent events and the catalog up to date for a frame of
-    /// `entities`.
+    /// Brings the recent messages and the catalog up to date for a frame
+    /// of `entities`.
     pub(super) fn update(&mut self, entities: &EntityTable) {
-        if !self.pending_events.is_empty() {
-            let mut recent = self.recent_events.as_ref().clone();
-            for (tick, event) in self.pending_events.drain(..) {
-                self.events_published += 1;
-                let number = self.events_published;
-                recent.push(Arc::new(RecentEvent::new(number, tick, event)));
+        if !self.pending_messages.is_empty() {
+            let mut recent = self.recent_messages.as_ref().clone();
+            for (tick, message) in self.pending_messages.drain(..) {
+                self.messages_published += 1;
+                let number = self.messages_published;
+                recent.push(Arc::new(RecentMessage::new(number, tick, message)));
             }
-            let excess = recent.len().saturating_sub(RECENT_EVENTS);
+            let excess = recent.len().saturating_sub(RECENT_MESSAGES);
             recent.drain(..excess);
-            self.recent_events = Arc::new(recent);
+            self.recent_messages = Arc::new(recent);
         }
         if self.catalog_stale || entities.version() != self.catalog_seen {
             let catalog = Arc::new(entities.catalog());

@@ -9,10 +9,10 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use inertia_protocol::{EntityState, PlayerInput};
+use inertia_protocol::EntityState;
 use tokio::sync::watch;
 
-use super::command::Command;
+use super::command::{Command, FromClient};
 use super::frame::Frame;
 use super::Simulation;
 use crate::rules::ClientId;
@@ -48,7 +48,7 @@ const IDLE_WAIT: Duration = Duration::from_millis(50);
 pub(super) fn run(
     mut sim: Simulation,
     control: Receiver<Command>,
-    inputs: Receiver<(ClientId, PlayerInput)>,
+    inputs: Receiver<(ClientId, FromClient)>,
     mut frames: Publisher,
     exit: watch::Sender<Option<SimExit>>,
     stopping: &AtomicBool,
@@ -141,7 +141,7 @@ fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
 fn run_loop(
     sim: &mut Simulation,
     control: Receiver<Command>,
-    inputs: Receiver<(ClientId, PlayerInput)>,
+    inputs: Receiver<(ClientId, FromClient)>,
     frames: &mut Publisher,
     stopping: &AtomicBool,
 ) {
@@ -178,9 +178,7 @@ fn run_loop(
         }
         for _ in 0..sim.config.max_inputs_per_loop {
             match inputs.try_recv() {
-                Ok((client, input)) => {
-                    let _ = sim.input(client, &input);
-                }
+                Ok((client, sent)) => sim.from_client(client, sent),
                 Err(_) => break,
             }
         }

@@ -8,19 +8,20 @@ use inertia_protocol::EntityId;
 use super::meter::{Stopwatch, TickMeter, TickStages};
 use super::timeline::Timeline;
 use super::{startup, Simulation};
-use crate::rules::{GameEvent, RemovalReason};
+use crate::rules::RemovalReason;
 
 impl Simulation {
     /// Runs one tick, stage by stage (each timed, in [`TickStages`]):
     ///
-    /// 1. **inputs** — the live clients' inputs due now go to the rules,
-    ///    and the journal so far to the recorder;
+    /// 1. **inputs** — the live clients' waiting messages and the inputs
+    ///    due now go to the rules, and the journal so far to the recorder;
     /// 2. **rules before** — the rules' `before_tick` (inputs become
     ///    forces);
     /// 3. **physics** — the world steps; what left it or went non-finite
-    ///    leaves the entity table too, as a `Removed` event;
-    /// 4. **rules after** — the rules' `after_tick`, the poses kept for
-    ///    lag compensation, and the tick's events for the next frame;
+    ///    leaves the entity table too;
+    /// 4. **rules after** — the rules' `on_removed` for what the step took
+    ///    out, their `after_tick`, the poses kept for lag compensation,
+    ///    and the messages the rules sent, for the next frame;
     /// 5. **record** — the tick's hash (and keyframe or checkpoint) to the
     ///    recording, live only.
     pub fn tick(&mut self) {
@@ -30,6 +31,7 @@ impl Simulation {
         let mut stages = TickStages::default();
 
         if live {
+            self.apply_waiting_messages();
             self.apply_due_inputs();
         }
         self.flush_journal();
@@ -43,18 +45,19 @@ impl Simulation {
         step_world(
             self.timelines.shown_mut(),
             dt,
-            &mut self.events,
+            &mut self.removed,
             &self.meter,
         );
         stages.physics = watch.lap();
 
+        self.tell_removed();
         self.with_ctx(|rules, ctx| rules.after_tick(ctx));
         // The tick as published: what clients will draw as this tick.
         let shown = self.timelines.shown_mut();
         shown
             .poses
             .record(shown.world.tick(), &shown.world, &shown.entities);
-        self.collect_events();
+        self.collect_messages();
         self.in_tick = false;
         stages.rules_after = watch.lap();
 
@@ -178,8 +181,13 @@ impl Simulation {
 
 /// The physics stage: steps the world of `shown` by `dt` s, and takes
 /// what the step removed (out of bounds) or quarantined (non-finite) out
-/// of the entity table, with a `Removed` event each.
-fn step_world(shown: &mut Timeline, dt: f64, events: &mut Vec<GameEvent>, meter: &TickMeter) {
+/// of the entity table, each noted in `removed` for the rules.
+fn step_world(
+    shown: &mut Timeline,
+    dt: f64,
+    removed: &mut Vec<(EntityId, RemovalReason)>,
+    meter: &TickMeter,
+) {
     let report = match shown.world.step(dt) {
         Ok(report) => report,
         Err(e) => {
@@ -191,7 +199,7 @@ fn step_world(shown: &mut Timeline, dt: f64, events: &mut Vec<GameEvent>, meter:
     };
     let mut removed = |id: Option<EntityId>, reason: RemovalReason| {
         if let Some(entity) = id {
-            events.push(GameEvent::Removed { entity, reason });
+            removed.push((entity, reason));
         }
     };
     for h in report.removed_bodies {

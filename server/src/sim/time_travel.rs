@@ -487,8 +487,8 @@ impl Simulation {
             self.restore(&state)?;
             (k.tick, k.applied as usize)
         };
-        // Events of the ticks passed over are not news to anyone.
-        let events_before = self.publication.pending();
+        // Messages of the ticks passed over are not news to anyone.
+        let messages_before = self.publication.pending();
         let mut resimulated = 0;
         while self.shown().world.tick() < target {
             let t = self.shown().world.tick();
@@ -508,8 +508,9 @@ impl Simulation {
                 }
             }
         }
-        self.publication.forget_pending_after(events_before);
-        self.events.clear();
+        self.publication.forget_pending_after(messages_before);
+        self.sent.clear();
+        self.removed.clear();
         if let Some(v) = &mut self.timelines.past {
             v.clean = true;
             if cache_from.is_some() {

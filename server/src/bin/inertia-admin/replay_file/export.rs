@@ -225,6 +225,12 @@ fn entry_json(entry: &JournalEntry) -> Value {
         JournalEntry::Join(client) => json!({ "type": "join", "client": client }),
         JournalEntry::Leave(client) => json!({ "type": "leave", "client": client }),
         JournalEntry::Input(client, input) => input_json(*client, input),
+        JournalEntry::Message(client, delivery, bytes) => json!({
+            "type": "message",
+            "client": client,
+            "delivery": delivery.label(),
+            "bytes": hex_bytes(bytes),
+        }),
         JournalEntry::Edit(edit) => json!({
             "type": "edit",
             "edit": serde_json::to_value(edit).unwrap_or(Value::Null),
@@ -241,8 +247,13 @@ fn input_json(client: u64, input: &PlayerInput) -> Value {
         "sequence": input.sequence,
         "tick": input.tick,
         "view_behind": input.view_behind,
-        "payload": input.payload.as_bytes().iter().map(|b| format!("{b:02x}")).collect::<String>(),
+        "payload": hex_bytes(input.payload.as_bytes()),
     })
+}
+
+/// Bytes in lowercase hex.
+fn hex_bytes(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// An input of the first builds' recordings (the sandbox's fields) as a

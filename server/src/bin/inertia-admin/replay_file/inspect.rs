@@ -57,6 +57,7 @@ struct Counts {
     joins: u64,
     leaves: u64,
     inputs: u64,
+    messages: u64,
     edits: u64,
     /// Journal records that did not decode (each is also damage).
     bad_journals: u64,
@@ -161,6 +162,7 @@ impl Summary {
                                 JournalEntry::Join(_) => c.joins += 1,
                                 JournalEntry::Leave(_) => c.leaves += 1,
                                 JournalEntry::Input(..) => c.inputs += 1,
+                                JournalEntry::Message(..) => c.messages += 1,
                                 JournalEntry::Edit(_) => c.edits += 1,
                             }
                         }
@@ -219,6 +221,7 @@ impl Summary {
                 "joins": c.joins,
                 "leaves": c.leaves,
                 "inputs": c.inputs,
+                "messages": c.messages,
                 "edits": c.edits,
             },
             "total_bytes": self.total_bytes,
@@ -290,10 +293,11 @@ impl Summary {
             out.push(count(c.input_records, "inputs record", "inputs records"));
         }
         out.push(format!(
-            "journal entries: {}, {}, {}, {}",
+            "journal entries: {}, {}, {}, {}, {}",
             count(c.joins, "join", "joins"),
             count(c.leaves, "leave", "leaves"),
             count(c.inputs, "input", "inputs"),
+            count(c.messages, "message", "messages"),
             count(c.edits, "edit", "edits"),
         ));
         match self.bytes_per_sim_hour() {
