@@ -33,6 +33,8 @@ interface Progress {
   entities: number;
   pointSets: number;
   points: number;
+  messages: number;
+  log: string[];
 }
 
 let server: ChildProcess;
@@ -155,6 +157,17 @@ test("the page joins over WebTransport and receives snapshots", async () => {
   const p = await until("60 snapshots", 30_000, (p) => p.snapshots >= 60);
   assert.equal(p.state, "joined");
   assert.ok(p.entities > 100, `${p.entities} entities described`);
+});
+
+test("the page hears the game's messages and its chat goes to the rules and back", async () => {
+  // The sandbox tells everyone who joined, the page included.
+  await until("the join told", 10_000, (p) => p.log.some((l) => l.endsWith("joined")));
+  // Enter asks for a line and sends it as the sandbox's chat request; the
+  // rules tell it to everyone.
+  page.once("dialog", (d) => void d.accept("hello from the page"));
+  await page.keyboard.press("Enter");
+  const p = await until("the chat line back", 10_000, (p) => p.log.some((l) => l.endsWith(": hello from the page")));
+  assert.ok(p.messages >= 2, `${p.messages} messages`);
 });
 
 test("the demo's soft bodies and fluid arrive as point sets", async () => {

@@ -17,7 +17,7 @@ export class ControlError extends Error {}
 export const MAX_CONTROL_FRAME = 64 * 1024;
 
 /** The protocol version this client speaks (`PROTOCOL_VERSION`). */
-export const PROTOCOL_VERSION = 5;
+export const PROTOCOL_VERSION = 6;
 
 // ---- the messages ----
 
@@ -92,12 +92,6 @@ export type Refusal =
   | "SimulationStopped"
   | { Rejected: { reason: string } };
 
-export type WireEvent =
-  | { Contact: { a: number; b: number; impulse: number } }
-  | { Explosion: { position: Vec3; radius: number } }
-  | { Message: { text: string } }
-  | { Custom: { name: string; data: number[] } };
-
 export type DisconnectReason =
   | "ServerShutdown"
   | { Kicked: { reason: string } }
@@ -112,7 +106,9 @@ export type ServerControl =
   | { Refused: Refusal }
   | { Spawn: EntityDesc }
   | { Despawn: { id: number } }
-  | { Event: WireEvent }
+  /** A reliable message of the game's: its bytes, read with the game's
+   * decoder (the sandbox's: `decodeSandboxEvent`). */
+  | { Message: number[] }
   | { Goodbye: DisconnectReason }
   | { InputTiming: InputReport };
 
@@ -125,7 +121,17 @@ export interface InputReport {
   min_lead: number | null;
 }
 
-export type ClientControl = { Hello: { version: number; token: Uint8Array } } | "Goodbye";
+export type ClientControl =
+  | { Hello: { version: number; token: Uint8Array } }
+  | "Goodbye"
+  /** A reliable message of the game's: its bytes (at most {@link MAX_MESSAGE_BYTES}). */
+  | { Message: Uint8Array };
+
+/** The most bytes one game message may hold, either way. */
+export const MAX_MESSAGE_BYTES = 1024;
+
+/** The first byte of a message datagram (an unreliable game message). */
+export const MESSAGE_DATAGRAM_TAG = 0x4d;
 
 // ---- postcard ----
 
@@ -414,19 +420,6 @@ function refusal(r: Reader): Refusal {
   }
 }
 
-function gameEvent(r: Reader): WireEvent {
-  switch (r.variant("WireEvent", 4)) {
-    case 0:
-      return { Contact: { a: r.u32(), b: r.u32(), impulse: r.f32() } };
-    case 1:
-      return { Explosion: { position: r.vec3f64(), radius: r.f32() } };
-    case 2:
-      return { Message: { text: r.string() } };
-    default:
-      return { Custom: { name: r.string(), data: r.bytesField() } };
-  }
-}
-
 function disconnectReason(r: Reader): DisconnectReason {
   switch (r.variant("DisconnectReason", 7)) {
     case 0:
@@ -483,9 +476,14 @@ export function decodeServerControl(payload: Uint8Array): ServerControl {
     case 3:
       msg = { Despawn: { id: r.u32() } };
       break;
-    case 4:
-      msg = { Event: gameEvent(r) };
+    case 4: {
+      const bytes = r.bytesField();
+      if (bytes.length > MAX_MESSAGE_BYTES) {
+        throw new ControlError(`a message of ${bytes.length} bytes, the most is ${MAX_MESSAGE_BYTES}`);
+      }
+      msg = { Message: bytes };
       break;
+    }
     case 5:
       msg = { Goodbye: disconnectReason(r) };
       break;
@@ -508,6 +506,12 @@ export function encodeClientControl(msg: ClientControl): Uint8Array {
   const w = new Writer();
   if (msg === "Goodbye") {
     w.varint(1);
+  } else if ("Message" in msg) {
+    if (msg.Message.length > MAX_MESSAGE_BYTES) {
+      throw new ControlError(`a message of ${msg.Message.length} bytes, the most is ${MAX_MESSAGE_BYTES}`);
+    }
+    w.varint(2);
+    w.bytes(msg.Message);
   } else {
     w.varint(0);
     w.varint(msg.Hello.version);

@@ -9,13 +9,20 @@ import {
   decodeServerControl,
   encodeClientControl,
   FrameDecoder,
+  MESSAGE_DATAGRAM_TAG,
   PROTOCOL_VERSION,
   type EntityDesc,
   type ServerControl,
   type Welcome,
 } from "./control.js";
 import { Acks, encodeInputDatagram, type PlayerInput } from "./input.js";
-import { BUTTONS, encodeSandboxInput } from "./sandbox.js";
+import {
+  BUTTONS,
+  decodeSandboxEvent,
+  encodeSandboxInput,
+  encodeSandboxRequest,
+  type SandboxEvent,
+} from "./sandbox.js";
 import { meshOf, type Mesh } from "./mesh.js";
 import { pointSetOf, PointSetTrack } from "./points.js";
 import { SnapshotDecoder, type SnapshotConfig } from "./snapshot.js";
@@ -42,6 +49,9 @@ export interface Progress {
   pointSets: number;
   points: number;
   frames: number;
+  /** The game's messages received, and the last few as lines. */
+  messages: number;
+  log: string[];
 }
 
 const progress: Progress = {
@@ -55,7 +65,42 @@ const progress: Progress = {
   pointSets: 0,
   points: 0,
   frames: 0,
+  messages: 0,
+  log: [],
 };
+
+/** A sandbox event as a line for the HUD. */
+function eventLine(e: SandboxEvent): string {
+  switch (e.kind) {
+    case "joined":
+      return `client ${e.client.toString(16)} joined`;
+    case "left":
+      return `client ${e.client.toString(16)} left`;
+    case "respawned":
+      return `client ${e.client.toString(16)} respawned`;
+    case "jumped":
+      return `#${e.avatar} jumped`;
+    case "pushed":
+      return `#${e.avatar} pushed #${e.target}`;
+    case "removed":
+      return `#${e.entity} removed (${e.reason.replaceAll("_", " ")})`;
+    case "chat":
+      return `${e.client.toString(16)}: ${e.text}`;
+  }
+}
+
+/** A game message arrived: the stock server's are the sandbox's events. */
+function onMessage(bytes: Uint8Array): void {
+  progress.messages++;
+  let line: string;
+  try {
+    line = eventLine(decodeSandboxEvent(bytes));
+  } catch {
+    line = `a message of ${bytes.length} bytes this page cannot read`;
+  }
+  progress.log.push(line);
+  progress.log.splice(0, Math.max(0, progress.log.length - 5));
+}
 (window as unknown as { inertia: Progress }).inertia = progress;
 
 function bytesOfHex(hex: string): Uint8Array<ArrayBuffer> {
@@ -209,6 +254,8 @@ async function main(): Promise<void> {
       world.describe(msg.Spawn);
     } else if ("Despawn" in msg) {
       world.forget(msg.Despawn.id);
+    } else if ("Message" in msg) {
+      onMessage(Uint8Array.from(msg.Message));
     } else if ("Refused" in msg) {
       throw new Error(`refused: ${JSON.stringify(msg.Refused)}`);
     } else if ("Goodbye" in msg) {
@@ -257,6 +304,10 @@ async function main(): Promise<void> {
       }
       const now = performance.now();
       bytesWindow.push([now, value.length]);
+      if (value[0] === MESSAGE_DATAGRAM_TAG) {
+        onMessage(value.subarray(1));
+        continue;
+      }
       try {
         const snap = decoder.decode(value);
         acks.received(snap.sequence);
@@ -302,6 +353,27 @@ async function main(): Promise<void> {
   const recent: PlayerInput[] = [];
   let sequence = 0;
   const keys = new Set<string>();
+  // The sandbox's requests: R respawns, Enter says something.
+  const request = (bytes: Uint8Array): void => {
+    void control.write(encodeClientControl({ Message: bytes })).catch(() => {});
+  };
+  addEventListener("keydown", (e) => {
+    if (e.repeat) {
+      return;
+    }
+    if (e.key === "r") {
+      request(encodeSandboxRequest({ kind: "respawn" }));
+    } else if (e.key === "Enter") {
+      const text = prompt("say") ?? "";
+      if (text) {
+        try {
+          request(encodeSandboxRequest({ kind: "chat", text }));
+        } catch (err) {
+          setStatus(err instanceof Error ? err.message : String(err));
+        }
+      }
+    }
+  });
   addEventListener("keydown", (e) => keys.add(e.key.toLowerCase()));
   addEventListener("keyup", (e) => keys.delete(e.key.toLowerCase()));
   setInterval(() => {
@@ -390,6 +462,7 @@ async function main(): Promise<void> {
       ["received", `${kbps.toFixed(0)} kbit/s`],
       ["buffer", `${world.interval.toFixed(0)} ms`],
       ["loss", `${loss.toFixed(1)} %`],
+      ["events", progress.log.length ? progress.log.join(" · ") : "—"],
     ]);
     if (progress.state === "joined") {
       requestAnimationFrame(frame);

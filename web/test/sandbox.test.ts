@@ -5,7 +5,14 @@ import assert from "node:assert/strict";
 import { readFileSync } from "node:fs";
 import { test } from "node:test";
 
-import { encodeSandboxInput, SANDBOX_INPUT_BYTES } from "../src/sandbox.js";
+import {
+  decodeSandboxEvent,
+  encodeSandboxInput,
+  encodeSandboxRequest,
+  MAX_CHAT_BYTES,
+  SANDBOX_INPUT_BYTES,
+  SandboxMessageError,
+} from "../src/sandbox.js";
 
 const FILE = new URL("../../../sandbox/tests/vectors/inputs.json", import.meta.url);
 
@@ -39,4 +46,48 @@ test("every sandbox input encodes to the Rust encoder's bytes", () => {
     assert.equal(bytes.length, SANDBOX_INPUT_BYTES);
     assert.equal(toHex(bytes), v.bytes, JSON.stringify(v));
   }
+});
+
+const MESSAGES = new URL("../../../sandbox/tests/vectors/messages.json", import.meta.url);
+
+interface MessageVector {
+  kind: string;
+  fields: Record<string, unknown>;
+  bytes: string;
+}
+
+function hex(s: string): Uint8Array {
+  return Uint8Array.from(s.match(/../g) ?? [], (b) => parseInt(b, 16));
+}
+
+test("every sandbox event decodes to the fields the Rust encoder wrote, and a cut one is refused", () => {
+  const vectors: MessageVector[] = JSON.parse(readFileSync(MESSAGES, "utf8")).events;
+  assert.ok(vectors.length >= 7);
+  for (const v of vectors) {
+    const bytes = hex(v.bytes);
+    const e = decodeSandboxEvent(bytes) as unknown as Record<string, unknown>;
+    assert.equal(e.kind, v.kind);
+    for (const [k, want] of Object.entries(v.fields)) {
+      const got = e[k];
+      if (typeof got === "bigint") {
+        assert.equal(got, BigInt(want as number), `${v.kind}.${k}`);
+      } else {
+        assert.deepEqual(got, want, `${v.kind}.${k}`);
+      }
+    }
+    assert.throws(() => decodeSandboxEvent(bytes.subarray(0, bytes.length - 1)), SandboxMessageError, v.kind);
+    const padded = Uint8Array.from([...bytes, 0]);
+    assert.throws(() => decodeSandboxEvent(padded), SandboxMessageError, `${v.kind}: padded`);
+  }
+  assert.throws(() => decodeSandboxEvent(Uint8Array.of(9)), SandboxMessageError);
+});
+
+test("every sandbox request encodes to the Rust encoder's bytes", () => {
+  const vectors: MessageVector[] = JSON.parse(readFileSync(MESSAGES, "utf8")).requests;
+  for (const v of vectors) {
+    const request =
+      v.kind === "respawn" ? ({ kind: "respawn" } as const) : ({ kind: "chat", text: v.fields.text as string } as const);
+    assert.equal(toHex(encodeSandboxRequest(request)), v.bytes, v.kind);
+  }
+  assert.throws(() => encodeSandboxRequest({ kind: "chat", text: "x".repeat(MAX_CHAT_BYTES + 1) }), RangeError);
 });

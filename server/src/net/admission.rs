@@ -64,11 +64,15 @@ fn join_refusal(client: u64, refusal: rules::JoinRefusal) -> Refusal {
 
 /// Asks the tick thread to let `client` join: its avatar, or the real
 /// reason it cannot.
-async fn join(shared: &NetShared, client: u64) -> Result<(u64, EntityId), Refusal> {
+async fn join(shared: &NetShared, client: u64) -> Result<Joined, Refusal> {
     let stopped = || not_running(shared).unwrap_or(Refusal::ShuttingDown);
     match shared.sim.request_join(client) {
         Ok(rx) => match rx.await {
-            Ok(Ok(avatar)) => Ok((client, avatar)),
+            Ok(Ok(at)) => Ok(Joined {
+                client,
+                avatar: at.avatar,
+                first_message: at.first_message,
+            }),
             Ok(Err(refusal)) => Err(join_refusal(client, refusal)),
             // The tick thread dropped the question: it has stopped.
             Err(_) => Err(stopped()),
@@ -96,6 +100,8 @@ pub(super) struct Joined {
     pub(super) client: u64,
     /// Its avatar's entity.
     pub(super) avatar: EntityId,
+    /// The first of the rules' messages that is news to it.
+    pub(super) first_message: u64,
 }
 
 /// Checks connection `connection`'s hello and asks the world for room:
@@ -135,10 +141,10 @@ pub(super) async fn admit(
     if let Some(refusal) = not_running(shared) {
         return Err(refusal);
     }
-    let (client, avatar) = join(shared, token.client_id).await?;
+    let joined = join(shared, token.client_id).await?;
     let frame = shared.sim.frame();
     let welcome = ServerControl::Welcome {
-        client_id: client,
+        client_id: joined.client,
         tick: frame.tick,
         tick_hz: shared.streaming.tick_hz,
         snapshot_hz: shared.streaming.snapshot_hz,
@@ -148,5 +154,5 @@ pub(super) async fn admit(
         input_bytes: shared.connection.input_bytes.unwrap_or(0) as u16,
         server_version: env!("CARGO_PKG_VERSION").to_string(),
     };
-    Ok((Joined { client, avatar }, welcome))
+    Ok((joined, welcome))
 }

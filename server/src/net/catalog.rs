@@ -43,14 +43,15 @@ pub struct CaughtUp {
 }
 
 impl Told {
-    /// `client`, told nothing of the catalog yet, to whom the `recent`
-    /// messages are not news (they were sent before it came).
-    pub fn new(client: ClientId, recent: &[Arc<RecentMessage>]) -> Self {
+    /// `client`, told nothing of the catalog yet, to whom the rules'
+    /// messages from number `first_message` on are news (those before
+    /// were sent before it came).
+    pub fn new(client: ClientId, first_message: u64) -> Self {
         Self {
             client,
             known: Vec::new(),
             catalog_version: None,
-            messages_told: recent.last().map_or(0, |m| m.number),
+            messages_told: first_message.saturating_sub(1),
         }
     }
 
@@ -247,7 +248,7 @@ mod tests {
 
     #[test]
     fn a_client_is_told_despawns_then_spawns_then_new_events_once() {
-        let mut told = Told::new(1, &[event(1, 10)]);
+        let mut told = Told::new(1, 2);
         let catalog: BTreeMap<_, _> = [1, 2, 3].map(|id| (id, desc(id))).into();
         let mut out = Vec::new();
         catch_up(&mut told, 1, &catalog, &[], &[event(1, 10)], &mut out).unwrap();
@@ -314,7 +315,7 @@ mod tests {
                 .collect()
         };
         // Told the change: the new shape alone.
-        let mut told = Told::new(1, &[]);
+        let mut told = Told::new(1, 1);
         let mut out = Vec::new();
         catch_up(&mut told, 1, &before, &[], &[], &mut out).unwrap();
         out.clear();
@@ -322,7 +323,7 @@ mod tests {
         assert_eq!(spawns(&out), std::slice::from_ref(&torn));
         // Told by a walk of the whole catalog (the changes were lost): its
         // point sets again, whatever changed.
-        let mut walked = Told::new(1, &[]);
+        let mut walked = Told::new(1, 1);
         out.clear();
         catch_up(&mut walked, 1, &before, &[], &[], &mut out).unwrap();
         out.clear();
@@ -369,7 +370,7 @@ mod tests {
 
         // Told each version in turn: the same bytes as a walk of the whole
         // catalog.
-        let (mut by_change, mut by_walk) = (Told::new(1, &[]), Told::new(1, &[]));
+        let (mut by_change, mut by_walk) = (Told::new(1, 1), Told::new(1, 1));
         for (v, catalog) in catalogs.iter().enumerate() {
             let version = v as u64 + 1;
             let (mut a, mut b) = (Vec::new(), Vec::new());
@@ -390,7 +391,7 @@ mod tests {
         // holds what the catalog holds; one told a version older than the
         // changes reach is told the difference from a walk.
         for (told_at, changes_held) in [(1, &changes[..]), (1, &changes[3..])] {
-            let mut told = Told::new(1, &[]);
+            let mut told = Told::new(1, 1);
             let mut out = Vec::new();
             catch_up(&mut told, told_at, &catalogs[0], &[], &[], &mut out).unwrap();
             let held = held_after(Vec::new(), &out);
@@ -404,7 +405,7 @@ mod tests {
     #[test]
     fn issue_12_events_after_a_rewind_are_told_though_their_ticks_went_back() {
         let catalog = BTreeMap::new();
-        let mut told = Told::new(1, &[]);
+        let mut told = Told::new(1, 1);
         let mut out = Vec::new();
         catch_up(&mut told, 0, &catalog, &[], &[event(1, 500)], &mut out).unwrap();
         assert_eq!(read(&out).len(), 1);
@@ -428,7 +429,7 @@ mod tests {
             message(4, 5, Recipients::AllBut(1), Delivery::Unreliable),
             message(5, 6, Recipients::AllBut(2), Delivery::Reliable),
         ];
-        let mut told = Told::new(1, &[]);
+        let mut told = Told::new(1, 1);
         let (mut out, mut datagrams) = (Vec::new(), Vec::new());
         let caught = told
             .catch_up(0, &catalog, &[], &recent, &mut out, &mut datagrams)

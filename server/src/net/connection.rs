@@ -201,7 +201,12 @@ impl Shell {
     /// The welcome went: the client is counted as connected, can be
     /// kicked, and is served snapshots.
     fn start_serving(&mut self) {
-        let Some(Joined { client, avatar }) = self.joined else {
+        let Some(Joined {
+            client,
+            avatar,
+            first_message,
+        }) = self.joined
+        else {
             return;
         };
         info!(client, avatar, "client joined");
@@ -221,7 +226,7 @@ impl Shell {
             self.link.clone(),
             client,
             avatar,
-            &shared.sim.frame(),
+            first_message,
         ));
         let guard = shared.served.add(stable, served.clone());
         self.served = Some((served, guard));

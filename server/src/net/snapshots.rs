@@ -81,12 +81,13 @@ pub struct Served {
 }
 
 impl Served {
-    /// A client joined at `frame` with `avatar`.
+    /// A client joined with `avatar`; the rules' messages from
+    /// `first_message` on are news to it ([`crate::sim::JoinedAt`]).
     pub fn new(
         connection: super::link::Link,
         client: u64,
         avatar: EntityId,
-        frame: &Frame,
+        first_message: u64,
     ) -> Self {
         Self {
             connection,
@@ -94,7 +95,7 @@ impl Served {
             avatar,
             acks: Mutex::new(Vec::new()),
             out: Mutex::new(SlotOutput {
-                told: Told::new(client, &frame.messages),
+                told: Told::new(client, first_message),
                 inputs_told: None,
                 control: Vec::new(),
                 datagram: None,

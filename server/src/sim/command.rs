@@ -9,6 +9,19 @@ use crate::rules::{ClientId, JoinRefusal};
 use inertia_protocol::connection::ReceivedMessage;
 use inertia_protocol::{EntityId, PlayerInput};
 
+/// Where a client that joined starts: its avatar, and the first of the
+/// rules' messages that is news to it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct JoinedAt {
+    /// Its avatar.
+    pub avatar: EntityId,
+    /// The number the first message the rules sent from its join on gets
+    /// ([`RecentMessage::number`](super::RecentMessage::number)): what its
+    /// join made the rules say (a welcome, its team) is news to it,
+    /// nothing before.
+    pub first_message: u64,
+}
+
 /// What a client sent that goes through the input channel.
 #[derive(Debug, Clone)]
 pub enum FromClient {
@@ -26,7 +39,7 @@ pub enum Command {
         /// The client.
         client: ClientId,
         /// Where the answer goes.
-        reply: oneshot::Sender<Result<EntityId, JoinRefusal>>,
+        reply: oneshot::Sender<Result<JoinedAt, JoinRefusal>>,
     },
     /// A client left.
     Leave {
@@ -94,7 +107,11 @@ impl Simulation {
     pub fn apply(&mut self, cmd: Command) -> bool {
         match cmd {
             Command::Join { client, reply } => {
-                let r = self.join(client);
+                let first_message = self.next_message_number();
+                let r = self.join(client).map(|avatar| JoinedAt {
+                    avatar,
+                    first_message,
+                });
                 // The asker may have given up; the avatar stays until Leave.
                 let _ = reply.send(r);
             }

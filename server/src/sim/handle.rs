@@ -13,7 +13,7 @@ use inertia_protocol::{EntityId, PlayerInput};
 use tokio::sync::{oneshot, watch};
 
 use super::clock_control::ClockControl;
-use super::command::{Command, CommandError, FromClient, SimCall};
+use super::command::{Command, CommandError, FromClient, JoinedAt, SimCall};
 use super::frame::Frame;
 use super::stats::SimStats;
 use super::thread::{run, Publisher, SimExit};
@@ -123,7 +123,7 @@ impl SimHandle {
     pub fn request_join(
         &self,
         client: ClientId,
-    ) -> Result<oneshot::Receiver<Result<EntityId, JoinRefusal>>, CommandError> {
+    ) -> Result<oneshot::Receiver<Result<JoinedAt, JoinRefusal>>, CommandError> {
         let (reply, rx) = oneshot::channel();
         self.send(Command::Join { client, reply })?;
         Ok(rx)
@@ -134,7 +134,9 @@ impl SimHandle {
         let rx = self
             .request_join(client)
             .map_err(|_| JoinRefusal::Unavailable)?;
-        rx.await.unwrap_or(Err(JoinRefusal::Unavailable))
+        rx.await
+            .unwrap_or(Err(JoinRefusal::Unavailable))
+            .map(|j| j.avatar)
     }
 
     /// [`SimHandle::join`] for threads outside an async runtime (panics
@@ -143,7 +145,9 @@ impl SimHandle {
         let rx = self
             .request_join(client)
             .map_err(|_| JoinRefusal::Unavailable)?;
-        rx.blocking_recv().unwrap_or(Err(JoinRefusal::Unavailable))
+        rx.blocking_recv()
+            .unwrap_or(Err(JoinRefusal::Unavailable))
+            .map(|j| j.avatar)
     }
 
     /// A client left.

@@ -95,7 +95,7 @@ mod timeline;
 pub mod verify;
 
 pub use clock_control::ClockControl;
-pub use command::{Command, CommandError, FromClient, SimCall};
+pub use command::{Command, CommandError, FromClient, JoinedAt, SimCall};
 pub use config::{SimConfig, DEFAULT_CHECKPOINT_TICKS};
 pub use edit::EditError;
 pub use frame::{CatalogChange, Frame, RecentMessage, RECENT_CATALOG_CHANGES, RECENT_MESSAGES};
@@ -444,6 +444,12 @@ impl Simulation {
     /// timeline shown).
     pub fn pose_history(&self) -> &PoseHistory {
         &self.shown().poses
+    }
+
+    /// The number the next message the rules send will get
+    /// ([`RecentMessage::number`]).
+    pub fn next_message_number(&self) -> u64 {
+        self.publication.next_number() + self.sent.len() as u64
     }
 
     /// Hands the messages the rules sent to the next frame.

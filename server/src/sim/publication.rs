@@ -60,6 +60,11 @@ impl Publication {
             .extend(messages.into_iter().map(|m| (tick, m)));
     }
 
+    /// The number the next message handed over will get.
+    pub(super) fn next_number(&self) -> u64 {
+        self.messages_published + self.pending_messages.len() as u64 + 1
+    }
+
     /// How many messages wait for the next frame.
     pub(super) fn pending(&self) -> usize {
         self.pending_messages.len()

@@ -13,7 +13,9 @@ use inertia_protocol::input::GameInput;
 use std::fs;
 use std::path::{Path, PathBuf};
 
+use inertia_protocol::message::{Delivery, GameMessage, MessageDatagram};
 use inertia_protocol::PlayerInput;
+use inertia_sandbox::{SandboxEvent, SandboxRequest};
 use inertia_server::record::compress::pack;
 use inertia_server::record::RecorderConfig;
 use inertia_server::replay::journal::{self, JournalEntry};
@@ -86,6 +88,7 @@ fn main() {
     let entries = vec![
         JournalEntry::Join(8),
         JournalEntry::Input(7, inputs[3]),
+        JournalEntry::Message(8, Delivery::Reliable, SandboxRequest::Respawn.to_bytes()),
         JournalEntry::Leave(8),
     ];
     let mut journal_seed = tick.to_le_bytes().to_vec();
@@ -103,6 +106,43 @@ fn main() {
         let mut bytes = vec![1u8];
         bytes.extend(fs::read(segment).expect("a segment"));
         write(&out, "fuzz_segment", &format!("segment-{i}"), &bytes);
+    }
+
+    // Game messages: the target's first byte picks the decoder (0 a
+    // message datagram, 1 a sandbox request, 2 a sandbox event).
+    let chat = SandboxRequest::Chat { text: "gg".into() };
+    let seeds: [(&str, u8, Vec<u8>); 5] = [
+        (
+            "datagram",
+            0,
+            MessageDatagram::encode(&chat.to_bytes()).expect("short"),
+        ),
+        ("request-chat", 1, chat.to_bytes()),
+        ("request-respawn", 1, SandboxRequest::Respawn.to_bytes()),
+        (
+            "event-pushed",
+            2,
+            SandboxEvent::Pushed {
+                avatar: 3,
+                target: 300,
+                impulse: [1.0, 2.0, -3.0],
+            }
+            .to_bytes(),
+        ),
+        (
+            "event-chat",
+            2,
+            SandboxEvent::Chat {
+                client: 7,
+                text: "hello".into(),
+            }
+            .to_bytes(),
+        ),
+    ];
+    for (name, which, bytes) in seeds {
+        let mut seed = vec![which];
+        seed.extend(bytes);
+        write(&out, "fuzz_game_messages", name, &seed);
     }
 
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../server/scenes");
