@@ -92,7 +92,7 @@ pub enum CommandError {
 
 impl Simulation {
     /// Takes what a client sent through the input channel.
-    pub fn from_client(&mut self, client: ClientId, sent: FromClient) {
+    pub fn take_from_client(&mut self, client: ClientId, sent: FromClient) {
         match sent {
             FromClient::Input(input) => {
                 let _ = self.input(client, &input);

@@ -157,13 +157,13 @@ impl SimHandle {
 
     /// A client's input; dropped (and counted) when the channel is full.
     pub fn input(&self, client: ClientId, input: PlayerInput) -> Result<(), CommandError> {
-        self.from_client(client, FromClient::Input(input))
+        self.send_from_client(client, FromClient::Input(input))
     }
 
     /// A client's message, for the rules at the next tick; dropped (and
     /// counted) when the channel is full.
     pub fn message(&self, client: ClientId, message: ReceivedMessage) -> Result<(), CommandError> {
-        self.from_client(client, FromClient::Message(message))
+        self.send_from_client(client, FromClient::Message(message))
     }
 
     /// Inputs and messages the input channel holds at most.
@@ -171,7 +171,7 @@ impl SimHandle {
         self.input_capacity
     }
 
-    fn from_client(&self, client: ClientId, sent: FromClient) -> Result<(), CommandError> {
+    fn send_from_client(&self, client: ClientId, sent: FromClient) -> Result<(), CommandError> {
         self.inputs.try_send((client, sent)).map_err(|e| match e {
             TrySendError::Full(_) => {
                 self.stats.commands_dropped.fetch_add(1, Ordering::Relaxed);

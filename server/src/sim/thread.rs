@@ -178,7 +178,7 @@ fn run_loop(
         }
         for _ in 0..sim.config.max_inputs_per_loop {
             match inputs.try_recv() {
-                Ok((client, sent)) => sim.from_client(client, sent),
+                Ok((client, sent)) => sim.take_from_client(client, sent),
                 Err(_) => break,
             }
         }
