@@ -194,6 +194,13 @@ impl ClientSession {
         self.sent.iter()
     }
 
+    /// The same session, reading the game's properties of `schema` (the
+    /// server's, from its welcome) in every snapshot.
+    pub fn with_properties(mut self, schema: std::sync::Arc<crate::property::PropertySchema>) -> Self {
+        self.decoder = self.decoder.with_properties(schema);
+        self
+    }
+
     /// The snapshot decoder (views held, what it acknowledges, counts).
     pub fn decoder(&self) -> &SnapshotDecoder {
         &self.decoder

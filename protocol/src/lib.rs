@@ -18,6 +18,8 @@
 //!   rate a client may send them at.
 //! - [`admin`]: the admin protocol (an operator's requests to a running
 //!   server and its answers), framed like the control channel.
+//! - [`property`]: the game's replicated state (per entity and per
+//!   match), as the snapshot carries it.
 //! - [`snapshot`]: the snapshot datagram, delta-coded against acknowledged
 //!   views and fitted to a budget by [`priority`] and [`interest`].
 
@@ -34,6 +36,7 @@ pub mod input;
 pub mod interest;
 pub mod message;
 pub mod priority;
+pub mod property;
 pub mod quantize;
 pub mod rng;
 pub mod session;

@@ -85,6 +85,13 @@ impl ServerSession {
         })
     }
 
+    /// The same session, coding the game's properties of `schema` in
+    /// every snapshot (see [`crate::property`]).
+    pub fn with_properties(mut self, schema: std::sync::Arc<crate::property::PropertySchema>) -> Self {
+        self.encoder = self.encoder.with_properties(schema);
+        self
+    }
+
     /// The configuration.
     pub fn config(&self) -> &SessionConfig {
         &self.config

@@ -15,6 +15,7 @@ mod connection;
 mod control;
 mod control_vectors;
 mod input_vectors;
+mod properties;
 mod session;
 mod snapshot;
 mod vectors;

@@ -1,8 +1,11 @@
 //! The client's half: [`SnapshotDecoder`] turns untrusted datagrams back
 //! into views and says what to acknowledge.
 
+use std::sync::Arc;
+
 use crate::bits::BitReader;
 use crate::entity::EntityId;
+use crate::property::{read_section, PropertyRow, PropertySchema};
 
 use super::code::{read_body, read_varuint, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES};
 use super::view::{QuantizedEntity, Ring, View, ViewEntity};
@@ -37,8 +40,15 @@ pub struct DecodedSnapshot {
     /// units. The rest of the view is as the baseline had it: no news of
     /// this tick ([`SnapshotDecoder::entities`] gives the whole view).
     pub updated: Vec<ViewEntity>,
-    /// Ids that left the view (despawned or out of interest), ascending.
+    /// Ids that left the view (despawned or out of interest), ascending;
+    /// their properties left with them.
     pub removed: Vec<EntityId>,
+    /// The property rows this snapshot changed (whole, raw, in the
+    /// schema's order), ascending by id: the game's properties of these
+    /// entities as of `tick`.
+    pub properties: Vec<(EntityId, PropertyRow)>,
+    /// The match's properties, when this snapshot changed them.
+    pub match_state: Option<PropertyRow>,
 }
 
 /// Counts of what arrived, by outcome.
@@ -70,6 +80,8 @@ pub struct SnapshotDecoder {
     updated: Vec<(EntityId, QuantizedEntity)>,
     /// The removals of the datagram being decoded (kept for its memory).
     removed: Vec<EntityId>,
+    /// The game's properties (none by default).
+    schema: Arc<PropertySchema>,
 }
 
 impl SnapshotDecoder {
@@ -84,7 +96,20 @@ impl SnapshotDecoder {
             stats: DecodeStats::default(),
             updated: Vec::new(),
             removed: Vec::new(),
+            schema: Arc::default(),
         })
+    }
+
+    /// The same decoder, reading the game's properties of `schema` (the
+    /// server's, from its welcome).
+    pub fn with_properties(mut self, schema: Arc<PropertySchema>) -> Self {
+        self.schema = schema;
+        self
+    }
+
+    /// The game's properties it reads.
+    pub fn schema(&self) -> &PropertySchema {
+        &self.schema
     }
 
     /// The configuration.
@@ -217,13 +242,28 @@ impl SnapshotDecoder {
         let paused = r.read_bool()?;
 
         read_entities(&mut r, base, &config, &mut self.removed, &mut self.updated)?;
+        let (removed, updated) = (&self.removed, &self.updated);
+        let (properties, match_state) = read_section(&mut r, &self.schema, base.properties(), |id| {
+            updated.binary_search_by_key(&id, |e| e.0).is_ok()
+                || (base.get(id).is_some() && removed.binary_search(&id).is_err())
+        })?;
+        if r.bits_left() >= 8 {
+            return Err(SnapshotError::Malformed("trailing bytes"));
+        }
         let spare = self.received.spare_for(sequence, baseline);
         let base = match baseline {
             Some(b) => self.received.get(b).expect("found above"),
             None => &empty,
         };
-        let view = base.apply_into(tick, &self.removed, &self.updated, spare);
+        let mut view = base.apply_into(tick, &self.removed, &self.updated, spare);
+        if !(properties.is_empty() && match_state.is_none() && view.properties.is_empty()) {
+            view.properties =
+                view.properties
+                    .apply(&self.removed, &properties, match_state.as_ref());
+        }
         self.received.insert(sequence, view);
+        out.properties = properties;
+        out.match_state = match_state;
         out.updated.clear();
         out.updated.extend(
             self.updated
@@ -290,8 +330,7 @@ fn read_id(r: &mut BitReader<'_>, prev: Option<EntityId>) -> Result<EntityId, Sn
 /// Reads a snapshot's removals and entities against its baseline `base`
 /// into `removed` and `updated` (emptied first), checking that every
 /// removal names an entity of the view, that none is both removed and
-/// updated, that nothing trails, and that the view stays within
-/// [`MAX_ENTITIES`].
+/// updated, and that the view stays within [`MAX_ENTITIES`].
 fn read_entities(
     r: &mut BitReader<'_>,
     base: &View,
@@ -326,9 +365,6 @@ fn read_entities(
         new += usize::from(held.is_none());
         let q = read_body(r, held, config)?;
         updated.push((id, q));
-    }
-    if r.bits_left() >= 8 {
-        return Err(SnapshotError::Malformed("trailing bytes"));
     }
     if base.len() - removed.len() + new > MAX_ENTITIES {
         return Err(SnapshotError::Malformed("view above MAX_ENTITIES"));

@@ -1,8 +1,11 @@
 //! The server's half: one [`SnapshotEncoder`] per client.
 
+use std::sync::Arc;
+
 use crate::bits::BitWriter;
 use crate::entity::{EntityId, EntityState};
 use crate::priority::{PriorityAccumulator, Standing};
+use crate::property::{section_bound_bits, PropertyRow, PropertySchema, SectionWriter};
 
 use super::code::{varuint_bits, write_varuint, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES};
 use super::frame::QuantizedFrame;
@@ -30,6 +33,12 @@ pub struct EncodeReport {
     pub removals_deferred: usize,
     /// Entities in the view the snapshot describes.
     pub view_len: usize,
+    /// Property values sent (of entities and the match).
+    pub properties: usize,
+    /// Bits the property section took.
+    pub property_bits: usize,
+    /// Entities whose property changes did not fit the budget.
+    pub properties_deferred: usize,
 }
 
 /// Codes the world for one client: remembers what it sent (the last
@@ -47,6 +56,12 @@ pub struct SnapshotEncoder {
     /// The deltas of [`Self::encode_frame`], which shares them with no
     /// other client (kept for their memory).
     own: SharedDeltas,
+    /// The game's properties (none by default).
+    schema: Arc<PropertySchema>,
+    /// The id after which the next snapshot starts listing property
+    /// changes of entities already in view, so that when they do not all
+    /// fit, each gets its turn.
+    property_cursor: EntityId,
 }
 
 /// What the encoders of one frame share, made once and kept: the deltas
@@ -165,7 +180,17 @@ impl SnapshotEncoder {
             last: EncodeReport::default(),
             spare: Sent::default(),
             own: SharedDeltas::new(),
+            schema: Arc::default(),
+            property_cursor: 0,
         })
+    }
+
+    /// The same encoder, coding the game's properties of `schema` from
+    /// each frame's ([`QuantizedFrame::with_properties`]); the client's
+    /// decoder must know the same schema.
+    pub fn with_properties(mut self, schema: Arc<PropertySchema>) -> Self {
+        self.schema = schema;
+        self
     }
 
     /// The configuration.
@@ -366,6 +391,24 @@ impl SnapshotEncoder {
             removed_sent.push(id);
         }
 
+        // The game's properties: the match's change, then the changes of
+        // entities already in view (and staying), within half of what is
+        // left; new entities' come with them, below.
+        let section = SectionWriter::new(&self.schema);
+        let mut props = PropertyPlan::default();
+        if !section.is_empty() {
+            used += section_bound_bits(&self.schema);
+            props.plan_held(
+                &section,
+                frame,
+                base,
+                &removed_sent,
+                self.property_cursor,
+                budget.saturating_sub(used) / 2,
+            );
+            used += props.bits;
+        }
+
         // A view never grows past MAX_ENTITIES: new entities beyond its
         // room wait.
         let mut room = MAX_ENTITIES.saturating_sub(base.len());
@@ -424,11 +467,25 @@ impl SnapshotEncoder {
                 // underflow.
                 cost = (cost + id_bits(Some(c.id), n)).saturating_sub(id_bits(prev, n));
             }
+            // A new entity's properties come with it.
+            let new_props = if new && !section.is_empty() {
+                let row = frame.properties().and_then(|p| p.entity(c.id));
+                let (mask, bits) = section.entity_change(row, None);
+                cost += if mask == 0 {
+                    0
+                } else {
+                    bits + SectionWriter::id_bound_bits(c.id)
+                };
+                (mask != 0).then(|| (c.id, mask, row.cloned()))
+            } else {
+                None
+            };
             if used + cost <= budget {
                 used += cost;
                 chosen.insert(index);
                 delta_of[index] = Some(delta);
                 room -= usize::from(new);
+                props.entities.extend(new_props);
                 misses = 0;
             } else {
                 misses += 1;
@@ -479,6 +536,28 @@ impl SnapshotEncoder {
             shared.deltas.write(frame, delta, &config, &mut w);
             prev = Some(id);
         }
+        let before_props = w.bit_len();
+        let (sent_rows, sent_match) = if section.is_empty() {
+            (Vec::new(), None)
+        } else {
+            props.entities.sort_unstable_by_key(|e| e.0);
+            let frame_match = frame.properties().and_then(|p| p.match_state.as_ref());
+            section.write(&mut w, (props.match_mask, frame_match), &props.entities);
+            if let Some(&(last, ..)) = props.held_last.as_ref() {
+                self.property_cursor = last;
+            }
+            let n = self.schema.entity.len();
+            let rows = props
+                .entities
+                .iter()
+                .map(|(id, _, row)| (*id, row.clone().unwrap_or_else(|| zeros(n))))
+                .collect();
+            let m = self.schema.match_state.len();
+            let match_row =
+                (props.match_mask != 0).then(|| frame_match.cloned().unwrap_or_else(|| zeros(m)));
+            (rows, match_row)
+        };
+        let property_bits = w.bit_len() - before_props;
         debug_assert!(
             w.bit_len() <= budget.max(used),
             "{} > {budget}",
@@ -499,6 +578,9 @@ impl SnapshotEncoder {
             removed: removed_sent.len(),
             removals_deferred: removed.len() - removed_sent.len(),
             view_len,
+            properties: props.values,
+            property_bits,
+            properties_deferred: props.deferred,
         };
         let replaced = self.log.record(Sent {
             sequence,
@@ -506,11 +588,105 @@ impl SnapshotEncoder {
             tick,
             removed: removed_sent,
             updated,
+            properties: sent_rows,
+            match_state: sent_match,
         });
         self.spare = replaced.unwrap_or_default();
         self.next = sequence.wrapping_add(1);
         shared.work = work;
         bytes
+    }
+}
+
+/// A row of `n` defaults.
+fn zeros(n: usize) -> PropertyRow {
+    vec![0; n].into()
+}
+
+/// The property changes one snapshot sends: the match's and the
+/// entities', with the bits they take.
+#[derive(Debug, Default)]
+struct PropertyPlan {
+    /// The match's change (0: none).
+    match_mask: u64,
+    /// Entities' changes: id, mask, row now.
+    entities: Vec<(EntityId, u64, Option<PropertyRow>)>,
+    /// The last entity already in view whose change was planned, in the
+    /// order they were taken (the next snapshot starts after it).
+    held_last: Option<(EntityId, u64)>,
+    /// Bits planned so far (counting each id gap at its widest).
+    bits: usize,
+    /// Values planned.
+    values: usize,
+    /// Entities in view whose change did not fit.
+    deferred: usize,
+}
+
+impl PropertyPlan {
+    /// Plans the match's change and those of entities in the baseline's
+    /// view that stay in it (in the frame, not removed), starting after
+    /// `cursor` and wrapping, within `budget` bits.
+    fn plan_held(
+        &mut self,
+        section: &SectionWriter<'_>,
+        frame: &QuantizedFrame,
+        base: &View,
+        removed: &[EntityId],
+        cursor: EntityId,
+        budget: usize,
+    ) {
+        let now = frame.properties();
+        let before = base.properties();
+        let (mask, bits) = section.match_change(
+            now.and_then(|p| p.match_state.as_ref()),
+            before.match_state(),
+        );
+        if mask != 0 {
+            self.match_mask = mask;
+            self.bits += bits;
+            self.values += mask.count_ones() as usize;
+        }
+        // Ids with a row on either side, ascending, once.
+        let empty = Vec::new();
+        let a = now.map_or(&empty, |p| &p.entities);
+        let b = &before.entities;
+        let mut changed: Vec<(EntityId, u64, usize, Option<PropertyRow>)> = Vec::new();
+        let (mut i, mut j) = (0, 0);
+        while i < a.len() || j < b.len() {
+            let id = match (a.get(i), b.get(j)) {
+                (Some(x), Some(y)) => x.0.min(y.0),
+                (Some(x), None) => x.0,
+                (None, Some(y)) => y.0,
+                (None, None) => break,
+            };
+            let row_now = a.get(i).filter(|x| x.0 == id).map(|x| &x.1);
+            let row_before = b.get(j).filter(|y| y.0 == id).map(|y| &y.1);
+            i += usize::from(row_now.is_some());
+            j += usize::from(row_before.is_some());
+            let stays = base.get(id).is_some()
+                && removed.binary_search(&id).is_err()
+                && frame.ids().binary_search(&id).is_ok();
+            if !stays {
+                continue;
+            }
+            let (mask, bits) = section.entity_change(row_now, row_before);
+            if mask != 0 {
+                changed.push((id, mask, bits + SectionWriter::id_bound_bits(id), row_now.cloned()));
+            }
+        }
+        // Those after the cursor first, then from the start.
+        let split = changed.partition_point(|c| c.0 <= cursor);
+        changed.rotate_left(split);
+        for (id, mask, bits, row) in changed {
+            if self.bits + bits > budget {
+                self.deferred += 1;
+                continue;
+            }
+            self.bits += bits;
+            self.values += mask.count_ones() as usize;
+            self.held_last = Some((id, mask));
+            self.entities.push((id, mask, row));
+        }
     }
 }
 

@@ -8,10 +8,12 @@
 //! interest and the budget differ per client.
 
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use glam::DVec3;
 
 use crate::entity::{EntityId, EntityState};
+use crate::property::FrameProperties;
 
 use super::view::{QuantizedEntity, QuantizedRotation};
 use super::{SnapshotConfig, MAX_TIME_SCALE};
@@ -46,6 +48,8 @@ pub struct QuantizedFrame {
     moving: Vec<bool>,
     /// The body sleeps.
     at_rest: Vec<bool>,
+    /// The game's properties at this tick (none: the game declares none).
+    properties: Option<Arc<FrameProperties>>,
 }
 
 /// The next [`QuantizedFrame::serial`] (0 is the empty default frame's).
@@ -85,6 +89,7 @@ impl QuantizedFrame {
             velocities: Vec::with_capacity(n),
             moving: Vec::with_capacity(n),
             at_rest: Vec::with_capacity(n),
+            properties: None,
         };
         for i in order {
             let e = &entities[i];
@@ -98,6 +103,17 @@ impl QuantizedFrame {
             frame.at_rest.push(q.at_rest);
         }
         frame
+    }
+
+    /// The same frame with the game's properties at its tick.
+    pub fn with_properties(mut self, properties: Arc<FrameProperties>) -> Self {
+        self.properties = Some(properties);
+        self
+    }
+
+    /// The game's properties at this tick, if it declares any.
+    pub fn properties(&self) -> Option<&FrameProperties> {
+        self.properties.as_deref()
     }
 
     /// Which frame this is, unique in the process (a copy has its

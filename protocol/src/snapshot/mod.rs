@@ -67,7 +67,7 @@
 //! is a class and three deltas of the small components when the same
 //! component was dropped, else the dropped index and three levels.
 
-mod code;
+pub(crate) mod code;
 mod decoder;
 mod encoder;
 mod frame;

@@ -12,6 +12,7 @@
 //! copied 44 KB a client every slot.
 
 use crate::entity::EntityId;
+use crate::property::PropertyRow;
 
 use super::view::{QuantizedEntity, View};
 use super::{sequence_newer, RING};
@@ -36,6 +37,26 @@ pub(crate) struct Sent {
     pub(crate) removed: Vec<EntityId>,
     /// The states it sent, ascending by id.
     pub(crate) updated: Vec<(EntityId, QuantizedEntity)>,
+    /// The property rows it sent (whole, as they are now), ascending by id.
+    pub(crate) properties: Vec<(EntityId, PropertyRow)>,
+    /// The match's row, when it sent a change of it.
+    pub(crate) match_state: Option<PropertyRow>,
+}
+
+impl Sent {
+    /// Puts what this snapshot sent of the properties into `view`, built
+    /// from its baseline's entities and properties.
+    fn apply_properties(&self, view: &mut View) {
+        if self.properties.is_empty()
+            && self.match_state.is_none()
+            && (self.removed.is_empty() || view.properties.is_empty())
+        {
+            return;
+        }
+        view.properties =
+            view.properties
+                .apply(&self.removed, &self.properties, self.match_state.as_ref());
+    }
 }
 
 /// The encoder's memory of what it sent and what the client holds.
@@ -122,7 +143,7 @@ impl SentLog {
         self.held.extend(old);
         let mut scratch = std::mem::take(&mut self.scratch);
         let sent = self.slots[slot].as_ref().expect("found above");
-        let view = match base {
+        let mut view = match base {
             None => View::default().apply_into(sent.tick, &sent.removed, &sent.updated, scratch),
             Some(b) => {
                 let Some(at) = self.held.iter().position(|(h, _)| *h == b) else {
@@ -145,6 +166,8 @@ impl SentLog {
                 }
             }
         };
+        let sent = self.slots[slot].as_ref().expect("found above");
+        sent.apply_properties(&mut view);
         self.acked = Some((sequence, view));
         // Keep only the older views a snapshot in flight still needs.
         let held = std::mem::take(&mut self.held);
@@ -172,7 +195,9 @@ impl SentLog {
                 _ => self.held.iter().find(|(h, _)| *h == b).map(|(_, v)| v)?,
             },
         };
-        Some(from.apply_into(sent.tick, &sent.removed, &sent.updated, Vec::new()))
+        let mut view = from.apply_into(sent.tick, &sent.removed, &sent.updated, Vec::new());
+        sent.apply_properties(&mut view);
+        Some(view)
     }
 
     /// Whole views held, and snapshots remembered (for memory figures).

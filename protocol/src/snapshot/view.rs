@@ -5,6 +5,7 @@
 use glam::{DQuat, DVec3};
 
 use crate::entity::{EntityId, EntityState};
+use crate::property::PropertyView;
 use crate::quantize::{rotation_from_levels, rotation_levels};
 
 use super::{SnapshotConfig, RING};
@@ -117,16 +118,22 @@ impl From<&EntityState> for ViewEntity {
     }
 }
 
-/// A full quantized view: the tick it describes and its entities,
-/// ascending by id.
+/// A full quantized view: the tick it describes, its entities, ascending
+/// by id, and their properties and the match's.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct View {
     /// The tick the view describes.
     pub tick: u64,
     pub(crate) entities: Vec<(EntityId, QuantizedEntity)>,
+    pub(crate) properties: PropertyView,
 }
 
 impl View {
+    /// The properties of its entities and of the match.
+    pub fn properties(&self) -> &PropertyView {
+        &self.properties
+    }
+
     /// The entities, ascending by id.
     pub fn entities(&self) -> &[(EntityId, QuantizedEntity)] {
         &self.entities
@@ -207,6 +214,7 @@ impl View {
         View {
             tick,
             entities: buffer,
+            properties: self.properties.clone(),
         }
     }
 
@@ -314,6 +322,7 @@ mod tests {
         let view = View {
             tick: 1,
             entities: (0..300u32).map(|i| (i * 8 + i % 7, q(i))).collect(),
+            ..View::default()
         };
         for stride in [1u32, 2, 5, 40, 333] {
             let mut at = 0;
@@ -332,6 +341,7 @@ mod tests {
         let base = View {
             tick: 1,
             entities: vec![(1, q(1)), (3, q(3)), (5, q(5)), (7, q(7))],
+            ..View::default()
         };
         let (removed, updated) = ([3, 7], [(0, q(9)), (5, q(8)), (9, q(9))]);
         let next = base.apply_into(2, &removed, &updated, vec![(4, q(4))]);
@@ -368,6 +378,7 @@ mod tests {
             let base = View {
                 tick: 1,
                 entities: held.iter().map(|&id| (id, q(id))).collect(),
+                ..View::default()
             };
             let mut model: std::collections::BTreeMap<u32, QuantizedEntity> =
                 base.entities.iter().copied().collect();
