@@ -33,6 +33,7 @@ pub mod lead;
 pub mod net;
 pub mod point_sets;
 pub mod predict;
+pub mod properties;
 pub mod stats;
 
 pub use blocking::BlockingClient;

@@ -41,6 +41,9 @@ pub struct SessionConfig {
     pub interest_full_m: f64,
     /// Beyond this distance of the avatar entities are not sent, m.
     pub interest_max_m: f64,
+    /// The game's properties every snapshot carries (see
+    /// [`crate::property`]; none by default).
+    pub properties: std::sync::Arc<crate::property::PropertySchema>,
 }
 
 impl SessionConfig {
@@ -53,6 +56,7 @@ impl SessionConfig {
             every_slots: 1,
             interest_full_m: INTEREST_FULL_M,
             interest_max_m: INTEREST_MAX_M,
+            properties: Default::default(),
         }
     }
 }
@@ -74,7 +78,8 @@ pub struct ServerSession {
 impl ServerSession {
     /// A session that has sent nothing and received nothing.
     pub fn new(config: SessionConfig) -> Result<Self, SnapshotConfigError> {
-        let encoder = SnapshotEncoder::new(config.snapshot)?;
+        let encoder =
+            SnapshotEncoder::new(config.snapshot)?.with_properties(config.properties.clone());
         Ok(Self {
             priorities: PriorityAccumulator::new(Interest::everything()),
             encoder,
@@ -83,13 +88,6 @@ impl ServerSession {
             divisor: 1,
             phase: 0,
         })
-    }
-
-    /// The same session, coding the game's properties of `schema` in
-    /// every snapshot (see [`crate::property`]).
-    pub fn with_properties(mut self, schema: std::sync::Arc<crate::property::PropertySchema>) -> Self {
-        self.encoder = self.encoder.with_properties(schema);
-        self
     }
 
     /// The configuration.

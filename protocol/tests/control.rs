@@ -126,6 +126,7 @@ fn server_control() -> impl Strategy<Value = ServerControl> {
                     snapshot: SnapshotParams::default(),
                     input_bytes: (tick % 65) as u16,
                     server_version,
+                    properties: Default::default(),
                 }
             ),
         refusal().prop_map(ServerControl::Refused),

@@ -11,6 +11,7 @@
 //! change the frames rewrites the file with
 //! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test integration control_vectors::`.
 
+use inertia_protocol::property::{PropertyDecl, PropertyKind, PropertySchema};
 use inertia_protocol::control::{
     decode_payload, encode_frame, ClientControl, DisconnectReason, InputReport, Refusal,
     ServerControl, SnapshotParams, TokenRefusal, PROTOCOL_VERSION,
@@ -56,6 +57,15 @@ fn server_messages() -> Vec<(&'static str, ServerControl)> {
         },
         input_bytes: 5,
         server_version: "0.1.0".into(),
+        properties: PropertySchema {
+            entity: vec![
+                PropertyDecl::new("health", PropertyKind::UInt { bits: 7 }),
+                PropertyDecl::new("team", PropertyKind::UInt { bits: 2 }),
+                PropertyDecl::new("alive", PropertyKind::Bool),
+                PropertyDecl::new("heading", PropertyKind::Int { bits: 10 }),
+            ],
+            match_state: vec![PropertyDecl::new("clock", PropertyKind::F32)],
+        },
     };
     let mut avatar = entity(
         4,

@@ -14,6 +14,7 @@ pub mod play;
 pub mod pose_history;
 pub mod priority;
 pub mod process;
+pub mod properties;
 pub mod record;
 pub mod replay;
 pub mod rules;

@@ -38,6 +38,9 @@ pub enum StartError {
     /// The game's input is larger than the protocol carries.
     #[error("the game's input is {0} bytes, the most an input carries is {max}", max = inertia_protocol::input::MAX_INPUT_BYTES)]
     InputTooLarge(usize),
+    /// The game's property schema breaks a bound of the protocol's.
+    #[error(transparent)]
+    Properties(#[from] inertia_protocol::property::PropertyError),
     /// The configuration is invalid.
     #[error("configuration: {0}")]
     Config(#[from] crate::config::ConfigError),
@@ -210,6 +213,8 @@ pub async fn start_with_rules(
     let history_budget = sim_config.history_budget;
     let input_bytes = rules.input_bytes();
     let message_limits = rules.message_limits();
+    let properties = Arc::new(rules.properties());
+    properties.validate().map_err(StartError::Properties)?;
     if input_bytes > inertia_protocol::input::MAX_INPUT_BYTES {
         return Err(StartError::InputTooLarge(input_bytes));
     }
@@ -328,6 +333,7 @@ pub async fn start_with_rules(
                 snapshot_hz: config.snapshot_hz,
                 tick_hz: config.tick_hz,
                 budget_bytes_per_sec: config.client_budget_bytes_per_sec(),
+                properties,
             },
             shutdown_rx,
             Arc::new(admin),

@@ -72,6 +72,23 @@ export interface Welcome {
   /** Bytes of every input's payload: the game's input size. */
   input_bytes: number;
   server_version: string;
+  /** The game's properties, per entity and per match, as snapshots carry them. */
+  properties: PropertySchema;
+}
+
+/** A property's kind: what values it takes and its width on the wire. */
+export type PropertyKind = "Bool" | { UInt: { bits: number } } | { Int: { bits: number } } | "F32";
+
+/** One property a game declares. */
+export interface PropertyDecl {
+  name: string;
+  kind: PropertyKind;
+}
+
+/** The properties a game declares, in the wire's order. */
+export interface PropertySchema {
+  entity: PropertyDecl[];
+  match_state: PropertyDecl[];
 }
 
 export type TokenRefusal =
@@ -420,6 +437,24 @@ function refusal(r: Reader): Refusal {
   }
 }
 
+function propertyKind(r: Reader): PropertyKind {
+  switch (r.variant("PropertyKind", 4)) {
+    case 0:
+      return "Bool";
+    case 1:
+      return { UInt: { bits: r.u8() } };
+    case 2:
+      return { Int: { bits: r.u8() } };
+    default:
+      return "F32";
+  }
+}
+
+function propertySchema(r: Reader): PropertySchema {
+  const decls = (): PropertyDecl[] => r.list(() => ({ name: r.string(), kind: propertyKind(r) }));
+  return { entity: decls(), match_state: decls() };
+}
+
 function disconnectReason(r: Reader): DisconnectReason {
   switch (r.variant("DisconnectReason", 7)) {
     case 0:
@@ -464,6 +499,7 @@ export function decodeServerControl(payload: Uint8Array): ServerControl {
           },
           input_bytes: r.u16(),
           server_version: r.string(),
+          properties: propertySchema(r),
         },
       };
       break;

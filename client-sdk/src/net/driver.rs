@@ -21,6 +21,7 @@ use crate::entities::KnownEntities;
 use crate::interp::{InterpEvent, InterpolationBuffer};
 use crate::lead::InputLead;
 use crate::predict::Predictor;
+use crate::properties::{KnownProperties, PropertyChange};
 use crate::stats::{ClientStats, StatsRecorder};
 
 use super::ServerInfo;
@@ -43,6 +44,15 @@ pub enum ClientEvent {
         delivery: Delivery,
         /// The game's bytes.
         bytes: Vec<u8>,
+    },
+    /// The game's properties changed: an entity's (`Some`), or the
+    /// match's (`None`), as of `tick` (read them with
+    /// [`super::Client::properties`] and [`super::Client::match_state`]).
+    PropertiesChanged {
+        /// The entity, or `None` for the match.
+        entity: Option<EntityId>,
+        /// The tick the snapshot that said so describes.
+        tick: u64,
     },
     /// The server's timeline jumped (seek, rewind, replay): cut or fade.
     Discontinuity(Discontinuity),
@@ -88,6 +98,8 @@ pub(crate) struct ClientShared {
     pub lead: InputLead,
     /// The own avatar's prediction, when the game asked for it.
     pub predictor: Option<Predictor>,
+    /// The game's properties as the snapshots said them.
+    pub properties: KnownProperties,
 }
 
 impl ClientShared {
@@ -104,6 +116,7 @@ impl ClientShared {
             events_dropped: 0,
             lead: InputLead::default(),
             predictor: None,
+            properties: KnownProperties::new(info.properties.clone()),
         }
     }
 
@@ -187,6 +200,25 @@ impl ClientShared {
                     }
                     self.latest = Some((snap.tick, snap.sequence));
                     self.latest_meta = Some(meta);
+                }
+                let changes = match self.session.decoder().view(snap.sequence) {
+                    Some(view) if snap.newest && !self.properties.schema().is_empty() => {
+                        self.properties.on_view(snap.tick, view)
+                    }
+                    _ => Vec::new(),
+                };
+                for change in changes {
+                    let e = match change {
+                        PropertyChange::Entity(id) => ClientEvent::PropertiesChanged {
+                            entity: Some(id),
+                            tick: snap.tick,
+                        },
+                        PropertyChange::Match => ClientEvent::PropertiesChanged {
+                            entity: None,
+                            tick: snap.tick,
+                        },
+                    };
+                    self.event(e);
                 }
                 // Only the states this snapshot carried: the rest of the
                 // view is what earlier snapshots said, no news of this
@@ -435,6 +467,7 @@ mod tests {
             snapshot: config,
             input_bytes: 5,
             server_version: String::new(),
+            properties: Default::default(),
         };
         let session = ClientSession::new(
             ClientConfig {

@@ -17,8 +17,9 @@ use inertia_protocol::input::{GameInput, InputPayload, MAX_REDUNDANT_INPUTS};
 use inertia_protocol::message::{
     check_len, Delivery, GameMessage, MessageDatagram, MessageRefusal,
 };
+use inertia_protocol::property::{PropertySchema, PropertyValue};
 use inertia_protocol::token::ConnectToken;
-use inertia_protocol::{ClientConfig, ClientSession};
+use inertia_protocol::{ClientConfig, ClientSession, EntityId};
 use inertia_sandbox::SandboxInput;
 use tokio::sync::mpsc;
 
@@ -228,7 +229,8 @@ impl Client {
             },
             info.tick,
         )
-        .map_err(|e| ClientError::Protocol(format!("snapshot settings: {e}")))?;
+        .map_err(|e| ClientError::Protocol(format!("snapshot settings: {e}")))?
+        .with_properties(info.properties.clone());
         let predictor = options
             .predict
             .map(|config| crate::predict::Predictor::new(config, info.client_id, info.tick_hz))
@@ -388,6 +390,51 @@ impl Client {
             }
         }
         frame
+    }
+
+    /// The game's properties, per entity and per match, as the server
+    /// declared them (names and kinds, in the order values come in).
+    pub fn property_schema(&self) -> Arc<PropertySchema> {
+        self.info.properties.clone()
+    }
+
+    /// An entity's properties as of the tick last drawn (the render tick
+    /// of the last [`Client::sample`]; the newest before any), in the
+    /// schema's order, defaults where the rules set none; `None` for an
+    /// entity not in view.
+    pub fn properties(&self, entity: EntityId) -> Option<Vec<PropertyValue>> {
+        let s = self.lock();
+        match s.session.view_tick() {
+            Some(t) => s.properties.entity_at(entity, t.floor().max(0.0) as u64),
+            None => s.properties.entity(entity),
+        }
+    }
+
+    /// One property of an entity by name, as [`Client::properties`].
+    pub fn property(&self, entity: EntityId, name: &str) -> Option<PropertyValue> {
+        let i = self.info.properties.entity_index(name)?;
+        self.properties(entity)?.get(i).copied()
+    }
+
+    /// The match's properties (the score, the clock, the phase) as of the
+    /// tick last drawn, in the schema's order.
+    pub fn match_state(&self) -> Vec<PropertyValue> {
+        let s = self.lock();
+        match s.session.view_tick() {
+            Some(t) => s.properties.match_at(t.floor().max(0.0) as u64),
+            None => s.properties.match_state(),
+        }
+    }
+
+    /// One match property by name, as [`Client::match_state`].
+    pub fn match_property(&self, name: &str) -> Option<PropertyValue> {
+        let i = self.info.properties.match_index(name)?;
+        self.match_state().get(i).copied()
+    }
+
+    /// Entities whose properties this client holds, ascending.
+    pub fn entities_with_properties(&self) -> Vec<EntityId> {
+        self.lock().properties.entities().collect()
     }
 
     /// The own avatar as predicted, when prediction is on

@@ -67,6 +67,9 @@ pub struct ServerInfo {
     pub input_bytes: usize,
     /// The server's build.
     pub server_version: String,
+    /// The game's properties, per entity and per match (give them to the
+    /// session: [`crate::ClientSession::with_properties`]).
+    pub properties: std::sync::Arc<crate::property::PropertySchema>,
 }
 
 /// Something the client must act on.
@@ -399,6 +402,7 @@ impl ClientConnection {
                         snapshot,
                         input_bytes,
                         server_version,
+                        properties,
                     },
                 ) => {
                     let snapshot = snapshot.config(position_resolution, position_bound);
@@ -412,6 +416,7 @@ impl ClientConnection {
                             snapshot,
                             input_bytes: usize::from(input_bytes),
                             server_version,
+                            properties: std::sync::Arc::new(properties),
                         }));
                 }
                 (ClientPhase::Hello { .. }, other) => {

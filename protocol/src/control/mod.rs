@@ -38,6 +38,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::entity::{EntityDesc, EntityId};
+use crate::property::PropertySchema;
 use crate::quantize::PositionGrid;
 use crate::snapshot::SnapshotConfig;
 
@@ -122,6 +123,9 @@ pub enum ServerControl {
         input_bytes: u16,
         /// The server build, for logs (at most [`MAX_VERSION_BYTES`]).
         server_version: String,
+        /// The game's properties, per entity and per match, as every
+        /// snapshot carries them (see [`crate::property`]).
+        properties: PropertySchema,
     },
     /// The hello was refused; the server closes the connection next.
     Refused(Refusal),

@@ -134,6 +134,7 @@ fn validation_refuses_what_serde_accepts() {
         snapshot: SnapshotParams::default(),
         input_bytes: 5,
         server_version: "0.1.0".into(),
+        properties: Default::default(),
     };
     assert!(matches!(
         encode_frame(&welcome),
@@ -293,6 +294,7 @@ fn every_message_round_trips() {
             snapshot: SnapshotParams::default(),
             input_bytes: 5,
             server_version: "0.1.0".into(),
+            properties: Default::default(),
         },
         ServerControl::Refused(Refusal::VersionMismatch {
             server: 1,

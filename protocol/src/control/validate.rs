@@ -204,8 +204,12 @@ impl ControlMessage for ServerControl {
                 snapshot,
                 input_bytes,
                 server_version,
+                properties,
                 ..
             } => {
+                properties.validate().map_err(|_| ControlError::OutOfRange {
+                    what: "property schema",
+                })?;
                 if usize::from(*input_bytes) > crate::input::MAX_INPUT_BYTES {
                     return Err(ControlError::OutOfRange {
                         what: "input payload size",

@@ -123,6 +123,30 @@ impl PropertyValue {
     }
 }
 
+impl From<bool> for PropertyValue {
+    fn from(v: bool) -> Self {
+        PropertyValue::Bool(v)
+    }
+}
+
+impl From<f32> for PropertyValue {
+    fn from(v: f32) -> Self {
+        PropertyValue::F32(v)
+    }
+}
+
+macro_rules! from_ints {
+    ($variant:ident, $wide:ty: $($t:ty),*) => {
+        $(impl From<$t> for PropertyValue {
+            fn from(v: $t) -> Self {
+                PropertyValue::$variant(<$wide>::from(v))
+            }
+        })*
+    };
+}
+from_ints!(UInt, u64: u8, u16, u32, u64);
+from_ints!(Int, i64: i8, i16, i32, i64);
+
 impl std::fmt::Display for PropertyValue {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {

@@ -1,11 +1,14 @@
 //! How the server streams the world to every client: how snapshots are
 //! coded, how often, and within what budget.
 
+use std::sync::Arc;
+
+use inertia_protocol::property::PropertySchema;
 use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::SessionConfig;
 
 /// The server's snapshot stream, the same for every client.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Streaming {
     /// How snapshots are coded.
     pub snapshot: SnapshotConfig,
@@ -15,6 +18,8 @@ pub struct Streaming {
     pub tick_hz: u32,
     /// Per-client budget, bytes per second.
     pub budget_bytes_per_sec: u64,
+    /// The game's properties, which every snapshot carries.
+    pub properties: Arc<PropertySchema>,
 }
 
 impl Streaming {
@@ -22,6 +27,9 @@ impl Streaming {
     /// within its per-client budget, one snapshot's worth.
     pub fn session_config(&self) -> SessionConfig {
         let budget = self.budget_bytes_per_sec / u64::from(self.snapshot_hz.max(1));
-        SessionConfig::new(self.snapshot, budget as usize)
+        SessionConfig {
+            properties: self.properties.clone(),
+            ..SessionConfig::new(self.snapshot, budget as usize)
+        }
     }
 }

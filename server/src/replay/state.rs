@@ -9,8 +9,9 @@
 //!
 //! ```text
 //! 0..4    magic "ISIM"
-//! 4..6    u16 format version, 2 (1 is read too: it ends after the
-//!         rules' state, with no pose window)
+//! 4..6    u16 format version, 3 (1 and 2 are read too: 1 ends after
+//!         the rules' state, with no pose window; 2 after the pose
+//!         window, with no properties)
 //! 6..14   u64 tick
 //! 14..18  u32 applied: entries of the journal of `tick` already in this
 //!         state (0 for a keyframe taken right after the tick's step)
@@ -21,7 +22,11 @@
 //!         u32 n, n bytes: the rules' state (theirs to define)
 //!         u32 n, n bytes: the pose window for lag compensation
 //!         ([`PoseHistory::to_bytes`]); n = 0: none       (version 2)
+//!         u32 n, n bytes: the game's properties
+//!         ([`PropertyStore::to_bytes`]); n = 0: all defaults (version 3)
 //! ```
+//!
+//! [`PropertyStore::to_bytes`]: crate::properties::PropertyStore::to_bytes
 //!
 //! The pose window is saved, not rebuilt: re-simulating from this state
 //! must answer a rewound shot exactly as the live run did, and the ticks
@@ -43,7 +48,7 @@ use crate::scene::entities::{EntityTable, TableError};
 /// The magic bytes a saved simulation state starts with.
 pub const STATE_MAGIC: [u8; 4] = *b"ISIM";
 /// The format version [`SimState::encode`] writes.
-pub const STATE_VERSION: u16 = 2;
+pub const STATE_VERSION: u16 = 3;
 /// The oldest format version [`SimState::decode`] reads.
 pub const OLDEST_STATE_VERSION: u16 = 1;
 
@@ -68,6 +73,10 @@ pub struct SimState {
     /// compensation; `None` for a fresh scene or a state of format
     /// version 1 (a window then starts at `tick`).
     pub poses: Option<PoseHistory>,
+    /// The game's properties, saved
+    /// ([`crate::properties::PropertyStore::to_bytes`]); empty: all
+    /// defaults (and every state of format version 1 or 2).
+    pub properties: Vec<u8>,
 }
 
 /// Why a saved state was refused.
@@ -94,6 +103,9 @@ pub enum StateError {
     /// The rules refused their part.
     #[error("the game rules refused their saved state: {0}")]
     Rules(String),
+    /// The properties saved are not those of these rules.
+    #[error("{0}")]
+    Properties(String),
 }
 
 impl SimState {
@@ -114,7 +126,8 @@ impl SimState {
             + (4 + self.spawn_points.len() * 24)
             + (4 + self.clients.len() * 8)
             + (4 + self.rules.len())
-            + (4 + poses.len());
+            + (4 + poses.len())
+            + (4 + self.properties.len());
         let mut out = Vec::with_capacity(len);
         let mut w = ByteWriter::new(&mut out);
         w.bytes(&STATE_MAGIC);
@@ -135,6 +148,7 @@ impl SimState {
         }
         put_bytes(&mut w, &self.rules);
         put_bytes(&mut w, &poses);
+        put_bytes(&mut w, &self.properties);
         debug_assert_eq!(out.len(), len);
         out
     }
@@ -190,6 +204,10 @@ impl SimState {
                 bytes => Some(PoseHistory::from_bytes(bytes).map_err(StateError::Malformed)?),
             },
         };
+        let properties = match version {
+            1 | 2 => Vec::new(),
+            _ => sized_bytes(&mut r)?.to_vec(),
+        };
         if !r.is_empty() {
             return Err(StateError::Malformed(format!(
                 "{} trailing bytes",
@@ -205,6 +223,7 @@ impl SimState {
             clients,
             rules,
             poses,
+            properties,
         })
     }
 }

@@ -10,9 +10,11 @@ use inertia_physics::{PhysicsError, QueryIndex, World};
 use inertia_protocol::{EntityDesc, EntityId, EntityKind};
 
 use crate::pose_history::{KeptPose, PoseHistory, RewindError, Rewound};
+use crate::properties::PropertyStore;
 use crate::scene::{shape_desc, EntitySource, EntityTable};
 
 use inertia_protocol::message::{check_len, Delivery, GameMessage, MessageRefusal};
+use inertia_protocol::property::{PropertyError, PropertyValue};
 
 use super::{ClientId, OutgoingMessage, Recipients};
 
@@ -71,6 +73,7 @@ pub struct SimContext<'a> {
     entities: &'a mut EntityTable,
     spawn_points: &'a [DVec3],
     messages: &'a mut Vec<OutgoingMessage>,
+    properties: &'a mut PropertyStore,
     tick: u64,
     dt: f64,
     limits: ControlLimits,
@@ -101,6 +104,7 @@ impl<'a> SimContext<'a> {
         entities: &'a mut EntityTable,
         spawn_points: &'a [DVec3],
         messages: &'a mut Vec<OutgoingMessage>,
+        properties: &'a mut PropertyStore,
         tick: u64,
         dt: f64,
         limits: ControlLimits,
@@ -110,6 +114,7 @@ impl<'a> SimContext<'a> {
             entities,
             spawn_points,
             messages,
+            properties,
             tick,
             dt,
             limits,
@@ -306,6 +311,48 @@ impl<'a> SimContext<'a> {
         self.spawn_points
     }
 
+    /// Sets entity property `index` (of the rules' schema,
+    /// [`GameRules::properties`](super::GameRules::properties)) of entity
+    /// `id`: every client that has the entity in view holds the new value
+    /// within a snapshot or two. Refused, changing nothing, for an entity
+    /// that is not there, an index the schema lacks or a value not of its
+    /// kind.
+    pub fn set_property(
+        &mut self,
+        id: EntityId,
+        index: usize,
+        value: impl Into<PropertyValue>,
+    ) -> Result<(), PropertyError> {
+        if self.entities.get(id).is_none() {
+            return Err(PropertyError::UnknownEntity(id));
+        }
+        self.properties.set(id, index, value.into())
+    }
+
+    /// Entity property `index` of entity `id` (its default until set).
+    pub fn property(&self, id: EntityId, index: usize) -> Result<PropertyValue, PropertyError> {
+        if self.entities.get(id).is_none() {
+            return Err(PropertyError::UnknownEntity(id));
+        }
+        self.properties.get(id, index)
+    }
+
+    /// Sets match property `index` (the score, the clock, the phase):
+    /// every client holds the new value within a snapshot or two. Refused,
+    /// changing nothing, as [`Self::set_property`].
+    pub fn set_match_property(
+        &mut self,
+        index: usize,
+        value: impl Into<PropertyValue>,
+    ) -> Result<(), PropertyError> {
+        self.properties.set_match(index, value.into())
+    }
+
+    /// Match property `index` (its default until set).
+    pub fn match_property(&self, index: usize) -> Result<PropertyValue, PropertyError> {
+        self.properties.get_match(index)
+    }
+
     /// Sends a message of the game's to clients: `to` whom, `delivery`
     /// how. It leaves with the frame of this tick (see
     /// [`OutgoingMessage`]). Refused past
@@ -374,6 +421,7 @@ impl<'a> SimContext<'a> {
             return false;
         };
         self.query.take();
+        self.properties.forget(id);
         // Already gone from the world is fine: the table was stale.
         let _ = match e.source {
             EntitySource::Body(h) => self.world.remove_body(h),

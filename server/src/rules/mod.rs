@@ -50,6 +50,7 @@ mod removal;
 mod sandbox;
 
 use inertia_protocol::message::{Delivery, MessageDecodeError, MessageLimits, MessageRefusal};
+use inertia_protocol::property::PropertySchema;
 use inertia_protocol::{EntityId, PlayerInput};
 
 pub use context::{ContextError, ControlLimits, EntityLook, RewindCount, SimContext};
@@ -146,6 +147,15 @@ pub trait GameRules: Send {
     /// removed it. Its id is never reused. Rules that keep nothing about
     /// entities keep the default.
     fn on_removed(&mut self, _entity: EntityId, _reason: RemovalReason, _ctx: &mut SimContext<'_>) {
+    }
+
+    /// The game's properties, per entity and per match (health, team;
+    /// score, clock), that the rules set through the context
+    /// ([`SimContext::set_property`], [`SimContext::set_match_property`])
+    /// and every client holds as of its snapshots. Asked once, at start.
+    /// Rules without any keep the default: none, at no cost.
+    fn properties(&self) -> PropertySchema {
+        PropertySchema::default()
     }
 
     /// How far back these rules look when they answer an input against

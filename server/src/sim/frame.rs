@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use inertia_protocol::control::{encode_frame, InputReport, ServerControl};
 use inertia_protocol::message::{Delivery, MessageDatagram};
+use inertia_protocol::property::FrameProperties;
 use inertia_protocol::snapshot::{QuantizedFrame, SnapshotConfig};
 use inertia_protocol::{EntityDesc, EntityId, EntityKind, EntityState};
 
@@ -171,6 +172,9 @@ pub struct Frame {
     /// oldest first, each with the tick it was sent in; the same `Arc`
     /// until one is sent.
     pub messages: Arc<Vec<Arc<RecentMessage>>>,
+    /// The game's properties at this tick (none: it declares none); the
+    /// same `Arc` until one changes.
+    pub properties: Option<Arc<FrameProperties>>,
     /// Wall time of the last tick.
     pub tick_duration: Duration,
     /// Loops that hit the catch-up cap so far.
@@ -196,13 +200,17 @@ impl Frame {
     /// caller must pass the same config (the server has one).
     pub fn quantized(&self, config: &SnapshotConfig) -> &QuantizedFrame {
         self.quantized.get_or_init(|| {
-            QuantizedFrame::new(
+            let frame = QuantizedFrame::new(
                 self.tick,
                 self.time_scale as f32,
                 self.paused,
                 &self.entities,
                 config,
-            )
+            );
+            match &self.properties {
+                Some(p) => frame.with_properties(p.clone()),
+                None => frame,
+            }
         })
     }
 
@@ -226,7 +234,8 @@ impl Simulation {
     /// [`Self::frame`], its states written into `states` (emptied; passed
     /// in for its memory).
     pub(crate) fn frame_in(&mut self, mut states: Vec<EntityState>) -> Frame {
-        self.publication.update(&self.timelines.shown().entities);
+        let shown = self.timelines.shown();
+        self.publication.update(&shown.entities, &shown.properties);
         let publication = &self.publication;
         Frame {
             tick: self.shown().world.tick(),
@@ -247,6 +256,7 @@ impl Simulation {
             catalog_version: publication.catalog_version,
             catalog_changes: publication.catalog_changes.clone(),
             messages: publication.recent_messages.clone(),
+            properties: publication.properties.clone(),
             tick_duration: self.meter.last_tick(),
             overruns: self.shown().clock.overruns(),
             clients: self.live_clients() as u32,

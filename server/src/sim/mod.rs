@@ -64,6 +64,7 @@ use inertia_protocol::{EntityId, PlayerInput};
 
 use crate::clock::Clock;
 use crate::pose_history::PoseHistory;
+use crate::properties::PropertyStore;
 use crate::replay::{JournalEntry, SimState, StateError};
 use crate::rules::{
     ClientId, GameRules, InputRefusal, JoinRefusal, OutgoingMessage, RemovalReason, SimContext,
@@ -167,6 +168,7 @@ fn capture(shown: &Timeline, rules: &dyn GameRules, applied: u32) -> SimState {
         clients: shown.clients.iter().copied().collect(),
         rules: rules.save_state(),
         poses: Some(shown.poses.clone()),
+        properties: shown.properties.to_bytes(),
     }
 }
 
@@ -198,6 +200,11 @@ impl Simulation {
         let clock =
             Clock::new(config.tick_hz, config.max_catch_up_ticks).with_tick(scene.world.tick());
         let mut poses = PoseHistory::new(rewind_window(rules.as_ref(), &config));
+        // A schema the protocol refuses is no schema (the server checks it
+        // before it starts one).
+        let properties = Some(rules.properties())
+            .filter(|s| s.validate().is_ok())
+            .unwrap_or_default();
         poses.record(scene.world.tick(), &scene.world, &scene.entities);
         let mut sim = Simulation {
             publication: Publication::new(&scene.entities),
@@ -209,6 +216,7 @@ impl Simulation {
                     spawn_points: scene.spawn_points,
                     clock,
                     poses,
+                    properties: PropertyStore::new(Arc::new(properties)),
                 },
                 past: None,
             },
@@ -282,6 +290,10 @@ impl Simulation {
     /// Makes `state` the shown state (the world, entities, clients, spawn
     /// points and rules). On error nothing changes.
     pub fn restore(&mut self, state: &SimState) -> Result<(), StateError> {
+        let mut properties = self.shown().properties.clone();
+        properties
+            .restore(&state.properties)
+            .map_err(StateError::Properties)?;
         let old_rules = self.rules.save_state();
         self.rules
             .restore_state(&state.rules)
@@ -292,6 +304,7 @@ impl Simulation {
         }
         let window = rewind_window(self.rules.as_ref(), &self.config);
         let shown = self.shown_mut();
+        shown.properties = properties;
         shown.entities = state.entities.clone();
         shown.spawn_points = state.spawn_points.clone();
         shown.clients = state.clients.iter().copied().collect();
@@ -373,6 +386,7 @@ impl Simulation {
             clients: Vec::new(),
             rules: self.rules.save_state(),
             poses: None,
+            properties: Vec::new(),
         };
         self.load(&state, operator)
     }
@@ -429,6 +443,7 @@ impl Simulation {
             &mut shown.entities,
             &shown.spawn_points,
             &mut self.sent,
+            &mut shown.properties,
             tick,
             dt,
             self.config.limits,

@@ -7,9 +7,11 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
+use inertia_protocol::property::FrameProperties;
 use inertia_protocol::{EntityDesc, EntityId};
 
 use super::frame::{CatalogChange, RecentMessage, RECENT_CATALOG_CHANGES, RECENT_MESSAGES};
+use crate::properties::PropertyStore;
 use crate::rules::OutgoingMessage;
 use crate::scene::EntityTable;
 
@@ -33,6 +35,10 @@ pub(super) struct Publication {
     catalog_seen: u64,
     /// The timeline shown was swapped: remake the catalog.
     catalog_stale: bool,
+    /// The game's properties as last published (none: it declares none).
+    pub(super) properties: Option<Arc<FrameProperties>>,
+    /// The property store version they were made from.
+    properties_seen: Option<u64>,
 }
 
 impl Publication {
@@ -47,6 +53,8 @@ impl Publication {
             messages_published: 0,
             catalog_seen: entities.version(),
             catalog_stale: false,
+            properties: None,
+            properties_seen: None,
         }
     }
 
@@ -80,11 +88,16 @@ impl Publication {
     /// nothing of the last one's): the next frame remakes the catalog.
     pub(super) fn timeline_swapped(&mut self) {
         self.catalog_stale = true;
+        self.properties_seen = None;
     }
 
-    /// Brings the recent messages and the catalog up to date for a frame
-    /// of `entities`.
-    pub(super) fn update(&mut self, entities: &EntityTable) {
+    /// Brings the recent messages, the catalog and the properties up to
+    /// date for a frame of `entities` and `properties`.
+    pub(super) fn update(&mut self, entities: &EntityTable, properties: &PropertyStore) {
+        if !properties.is_empty() && self.properties_seen != Some(properties.version()) {
+            self.properties = Some(Arc::new(properties.frame()));
+            self.properties_seen = Some(properties.version());
+        }
         if !self.pending_messages.is_empty() {
             let mut recent = self.recent_messages.as_ref().clone();
             for (tick, message) in self.pending_messages.drain(..) {

@@ -79,7 +79,7 @@ impl Simulation {
     /// The records of the tick just run (see [`super::recording`]).
     fn record_tick(&mut self) {
         let tick = self.shown().world.tick();
-        let hash = self.shown().world.state_hash();
+        let hash = self.shown().state_hash();
         let (timelines, rules) = (&self.timelines, &*self.rules);
         self.recording
             .record_tick(tick, hash, &self.meter, |applied| {
@@ -150,7 +150,7 @@ impl Simulation {
 
     /// The 64-bit state hash of the world now.
     pub fn state_hash(&self) -> u64 {
-        self.shown().world.state_hash()
+        self.shown().state_hash()
     }
 
     /// The 99th percentile of the last
@@ -197,8 +197,10 @@ fn step_world(
             return;
         }
     };
+    let properties = &mut shown.properties;
     let mut removed = |id: Option<EntityId>, reason: RemovalReason| {
         if let Some(entity) = id {
+            properties.forget(entity);
             removed.push((entity, reason));
         }
     };

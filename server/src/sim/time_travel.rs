@@ -208,6 +208,9 @@ impl Simulation {
             spawn_points: self.timelines.live.spawn_points.clone(),
             clock,
             poses: PoseHistory::new(self.timelines.live.poses.capacity()),
+            properties: crate::properties::PropertyStore::new(
+                self.timelines.live.properties.schema().clone(),
+            ),
         };
         self.timelines.past = Some(ShownHistory {
             shown,
@@ -525,7 +528,7 @@ impl Simulation {
         shown.clock = shown.clock.clone().with_tick(target);
         Ok(SeekReport {
             tick: target,
-            state_hash: self.shown().world.state_hash(),
+            state_hash: self.shown().state_hash(),
             recorded_hash: history.hash_at(target),
             base_tick,
             resimulated,
@@ -540,7 +543,7 @@ impl Simulation {
         let tick = self.shown().world.tick();
         SeekReport {
             tick,
-            state_hash: self.shown().world.state_hash(),
+            state_hash: self.shown().state_hash(),
             recorded_hash: self
                 .recording
                 .history
@@ -614,6 +617,6 @@ impl Simulation {
             }
         }
         tracing::info!(operator, tick = state.tick, "checkpoint loaded");
-        Ok(self.shown().world.state_hash())
+        Ok(self.shown().state_hash())
     }
 }

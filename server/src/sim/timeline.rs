@@ -10,6 +10,7 @@ use inertia_physics::World;
 use super::time_travel::ShownHistory;
 use crate::clock::Clock;
 use crate::pose_history::PoseHistory;
+use crate::properties::PropertyStore;
 use crate::rules::ClientId;
 use crate::scene::EntityTable;
 
@@ -25,6 +26,17 @@ pub(crate) struct Timeline {
     /// The moving bodies' poses over the last ticks, for lag
     /// compensation ([`crate::pose_history`]).
     pub(super) poses: PoseHistory,
+    /// The game's properties ([`crate::properties`]).
+    pub(super) properties: PropertyStore,
+}
+
+impl Timeline {
+    /// The hash a recording keeps for each tick: the world's, with the
+    /// game's properties folded in (a game without any hashes as the
+    /// world alone).
+    pub(super) fn state_hash(&self) -> u64 {
+        self.world.state_hash() ^ self.properties.hash()
+    }
 }
 
 /// The live timeline and the history shown instead of it, if any.
