@@ -135,6 +135,14 @@ enum InertiaEventKind
    `delivery` says how it came.
    */
   INERTIA_EVENT_KIND_MESSAGE = 6,
+  /*
+   `entity`'s properties changed, as of tick `to_tick`.
+   */
+  INERTIA_EVENT_KIND_PROPERTIES = 7,
+  /*
+   The match's properties changed, as of tick `to_tick`.
+   */
+  INERTIA_EVENT_KIND_MATCH_STATE = 8,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L

@@ -383,6 +383,16 @@ fn event_of(e: ClientEvent) -> InertiaEvent {
             out.kind = InertiaEventKind::Disconnected;
             write_c_string(&mut out.text, &reason_text(&reason));
         }
+        ClientEvent::PropertiesChanged { entity, tick } => {
+            match entity {
+                Some(id) => {
+                    out.kind = InertiaEventKind::Properties;
+                    out.entity = id;
+                }
+                None => out.kind = InertiaEventKind::MatchState,
+            }
+            out.to_tick = tick as f64;
+        }
         ClientEvent::Message { delivery, bytes } => {
             out.kind = InertiaEventKind::Message;
             out.delivery = match delivery {

@@ -179,6 +179,10 @@ pub enum InertiaEventKind {
     /// bytes in `data`, read as the game lays its messages out;
     /// `delivery` says how it came.
     Message = 6,
+    /// `entity`'s properties changed, as of tick `to_tick`.
+    Properties = 7,
+    /// The match's properties changed, as of tick `to_tick`.
+    MatchState = 8,
 }
 
 /// One event. Fields a kind does not use are zero.

@@ -129,7 +129,9 @@ impl KnownProperties {
         for id in gone {
             if view.get(id).is_some() {
                 let h = self.entities.get_mut(&id).expect("listed");
-                if h.newest().is_some_and(|r| r.iter().any(|&v| v != 0)) && h.push(tick, zeros.clone()) {
+                if h.newest().is_some_and(|r| r.iter().any(|&v| v != 0))
+                    && h.push(tick, zeros.clone())
+                {
                     changed.push(PropertyChange::Entity(id));
                 }
             } else {
@@ -208,46 +210,71 @@ mod tests {
             match_state: vec![PropertyDecl::new("clock", PropertyKind::F32)],
         });
         let config = SnapshotConfig::default();
-        let mut enc = SnapshotEncoder::new(config).unwrap().with_properties(schema.clone());
-        let mut dec = SnapshotDecoder::new(config).unwrap().with_properties(schema.clone());
+        let mut enc = SnapshotEncoder::new(config)
+            .unwrap()
+            .with_properties(schema.clone());
+        let mut dec = SnapshotDecoder::new(config)
+            .unwrap()
+            .with_properties(schema.clone());
         let mut pri = PriorityAccumulator::new(Interest::everything());
         let mut known = KnownProperties::new(schema);
-        let mut send = |tick: u64, ids: &[EntityId], rows: &[(EntityId, u64)]| {
-            let states: Vec<EntityState> = ids
-                .iter()
-                .map(|&id| EntityState {
-                    id,
-                    position: glam::DVec3::ZERO,
-                    rotation: glam::DQuat::IDENTITY,
-                    linear_velocity: glam::DVec3::ZERO,
-                    angular_velocity: glam::DVec3::ZERO,
-                    asleep: true,
-                })
-                .collect();
-            let props = FrameProperties {
-                entities: rows.iter().map(|&(id, v)| (id, PropertyRow::from(vec![v]))).collect(),
-                match_state: None,
+        let mut send =
+            |known: &mut KnownProperties, tick: u64, ids: &[EntityId], rows: &[(EntityId, u64)]| {
+                let states: Vec<EntityState> = ids
+                    .iter()
+                    .map(|&id| EntityState {
+                        id,
+                        position: glam::DVec3::ZERO,
+                        rotation: glam::DQuat::IDENTITY,
+                        linear_velocity: glam::DVec3::ZERO,
+                        angular_velocity: glam::DVec3::ZERO,
+                        asleep: true,
+                    })
+                    .collect();
+                let props = FrameProperties {
+                    entities: rows
+                        .iter()
+                        .map(|&(id, v)| (id, PropertyRow::from(vec![v])))
+                        .collect(),
+                    match_state: None,
+                };
+                let frame = QuantizedFrame::new(tick, 1.0, false, &states, &config)
+                    .with_properties(Arc::new(props));
+                let got = dec
+                    .decode(&enc.encode_frame(&frame, &mut pri, 1200))
+                    .unwrap();
+                enc.on_ack(got.sequence);
+                known.on_view(tick, dec.view(got.sequence).unwrap())
             };
-            let frame = QuantizedFrame::new(tick, 1.0, false, &states, &config)
-                .with_properties(Arc::new(props));
-            let got = dec.decode(&enc.encode_frame(&frame, &mut pri, 1200)).unwrap();
-            enc.on_ack(got.sequence);
-            known.on_view(tick, dec.view(got.sequence).unwrap())
-        };
-        assert_eq!(send(10, &[4, 5], &[(4, 100)]), [PropertyChange::Entity(4)]);
-        assert!(send(15, &[4, 5], &[(4, 100)]).is_empty(), "nothing changed");
-        assert_eq!(send(20, &[4, 5], &[(4, 80)]), [PropertyChange::Entity(4)]);
+        assert_eq!(
+            send(&mut known, 10, &[4, 5], &[(4, 100)]),
+            [PropertyChange::Entity(4)]
+        );
+        assert!(
+            send(&mut known, 15, &[4, 5], &[(4, 100)]).is_empty(),
+            "nothing changed"
+        );
+        assert_eq!(
+            send(&mut known, 20, &[4, 5], &[(4, 80)]),
+            [PropertyChange::Entity(4)]
+        );
         assert_eq!(known.entity_at(4, 12), Some(vec![PropertyValue::UInt(100)]));
         assert_eq!(known.entity_at(4, 25), Some(vec![PropertyValue::UInt(80)]));
         assert_eq!(known.entity_at(4, 5), Some(vec![PropertyValue::UInt(100)]));
         assert_eq!(known.match_state(), vec![PropertyValue::F32(0.0)]);
         // Back to the default: a row of zeros; then the entity leaves.
-        assert_eq!(send(25, &[4, 5], &[]), [PropertyChange::Entity(4)]);
+        assert_eq!(
+            send(&mut known, 25, &[4, 5], &[]),
+            [PropertyChange::Entity(4)]
+        );
         assert_eq!(known.entity(4), Some(vec![PropertyValue::UInt(0)]));
-        send(30, &[5], &[]);
+        send(&mut known, 30, &[5], &[]);
         assert_eq!(known.entity(4), None);
         // The timeline went back: the history starts again.
-        assert_eq!(send(12, &[4, 5], &[(4, 60)]), [PropertyChange::Entity(4)]);
+        assert_eq!(
+            send(&mut known, 12, &[4, 5], &[(4, 60)]),
+            [PropertyChange::Entity(4)]
+        );
         assert_eq!(known.entity_at(4, 30), Some(vec![PropertyValue::UInt(60)]));
     }
 }

@@ -196,7 +196,10 @@ impl ClientSession {
 
     /// The same session, reading the game's properties of `schema` (the
     /// server's, from its welcome) in every snapshot.
-    pub fn with_properties(mut self, schema: std::sync::Arc<crate::property::PropertySchema>) -> Self {
+    pub fn with_properties(
+        mut self,
+        schema: std::sync::Arc<crate::property::PropertySchema>,
+    ) -> Self {
         self.decoder = self.decoder.with_properties(schema);
         self
     }

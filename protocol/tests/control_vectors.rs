@@ -11,11 +11,11 @@
 //! change the frames rewrites the file with
 //! `INERTIA_WRITE_VECTORS=1 cargo test -p inertia-protocol --test integration control_vectors::`.
 
-use inertia_protocol::property::{PropertyDecl, PropertyKind, PropertySchema};
 use inertia_protocol::control::{
     decode_payload, encode_frame, ClientControl, DisconnectReason, InputReport, Refusal,
     ServerControl, SnapshotParams, TokenRefusal, PROTOCOL_VERSION,
 };
+use inertia_protocol::property::{PropertyDecl, PropertyKind, PropertySchema};
 use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
 use serde_json::{json, Value};
 

@@ -90,8 +90,12 @@ fn held(dec: &SnapshotDecoder, seq: u16, id: EntityId) -> Vec<u64> {
 #[test]
 fn issue_43_property_changes_reach_the_client_under_loss_and_unchanged_ones_cost_nothing() {
     let config = SnapshotConfig::default();
-    let mut enc = SnapshotEncoder::new(config).unwrap().with_properties(schema());
-    let mut dec = SnapshotDecoder::new(config).unwrap().with_properties(schema());
+    let mut enc = SnapshotEncoder::new(config)
+        .unwrap()
+        .with_properties(schema());
+    let mut dec = SnapshotDecoder::new(config)
+        .unwrap()
+        .with_properties(schema());
     let mut pri = PriorityAccumulator::new(Interest::everything());
     let mut world = World::new(300);
     let mut rng = SplitMix(0x9e37);
@@ -142,7 +146,10 @@ fn issue_43_property_changes_reach_the_client_under_loss_and_unchanged_ones_cost
         assert_eq!(held(&dec, seq, id), world.row(id), "entity {id}");
     }
     let view = dec.view(seq).unwrap();
-    assert_eq!(view.properties().match_state().map(|r| r.to_vec()), Some(world.match_state.clone()));
+    assert_eq!(
+        view.properties().match_state().map(|r| r.to_vec()),
+        Some(world.match_state.clone())
+    );
     // Nothing changed for a while: the section is its fixed bits only
     // (the match's changed bit and an empty count, 5 bits), nothing per
     // property.
@@ -154,8 +161,12 @@ fn issue_43_property_changes_reach_the_client_under_loss_and_unchanged_ones_cost
 #[test]
 fn issue_43_a_new_entitys_properties_come_with_it_and_a_removed_ones_go() {
     let config = SnapshotConfig::default();
-    let mut enc = SnapshotEncoder::new(config).unwrap().with_properties(schema());
-    let mut dec = SnapshotDecoder::new(config).unwrap().with_properties(schema());
+    let mut enc = SnapshotEncoder::new(config)
+        .unwrap()
+        .with_properties(schema());
+    let mut dec = SnapshotDecoder::new(config)
+        .unwrap()
+        .with_properties(schema());
     let mut pri = PriorityAccumulator::new(Interest::everything());
     let mut world = World::new(5);
     world.rows.insert(3, vec![55, 2, 1]);
@@ -176,7 +187,10 @@ fn issue_43_a_new_entitys_properties_come_with_it_and_a_removed_ones_go() {
     world.rows.insert(9, vec![100, 1, 1]);
     let got = step(&world, &mut enc, &mut dec);
     assert_eq!(got.updated.iter().map(|e| e.id).collect::<Vec<_>>(), [9]);
-    assert_eq!(got.properties, vec![(9, PropertyRow::from(vec![100, 1, 1]))]);
+    assert_eq!(
+        got.properties,
+        vec![(9, PropertyRow::from(vec![100, 1, 1]))]
+    );
 
     // Entity 3 goes: so do its properties.
     world.tick += 1;
@@ -193,7 +207,9 @@ fn issue_43_a_new_entitys_properties_come_with_it_and_a_removed_ones_go() {
 #[test]
 fn issue_43_both_ends_must_know_the_schema() {
     let config = SnapshotConfig::default();
-    let mut enc = SnapshotEncoder::new(config).unwrap().with_properties(schema());
+    let mut enc = SnapshotEncoder::new(config)
+        .unwrap()
+        .with_properties(schema());
     let mut pri = PriorityAccumulator::new(Interest::everything());
     let mut world = World::new(3);
     world.rows.insert(2, vec![1, 1, 1]);
@@ -202,11 +218,15 @@ fn issue_43_both_ends_must_know_the_schema() {
     // for; one with the schema reads them.
     let mut blind = SnapshotDecoder::new(config).unwrap();
     assert!(blind.decode(&bytes).is_err());
-    let mut dec = SnapshotDecoder::new(config).unwrap().with_properties(schema());
+    let mut dec = SnapshotDecoder::new(config)
+        .unwrap()
+        .with_properties(schema());
     assert!(dec.decode(&bytes).is_ok());
     // Every cut of it is refused, never a panic.
     for cut in 0..bytes.len() {
-        let mut d = SnapshotDecoder::new(config).unwrap().with_properties(schema());
+        let mut d = SnapshotDecoder::new(config)
+            .unwrap()
+            .with_properties(schema());
         assert!(d.decode(&bytes[..cut]).is_err(), "cut at {cut}");
     }
 }

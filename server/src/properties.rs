@@ -61,10 +61,14 @@ impl PropertyStore {
 
     /// Entity property `index` of `entity` (its default when never set).
     pub fn get(&self, entity: EntityId, index: usize) -> Result<PropertyValue, PropertyError> {
-        let decl = self.schema.entity.get(index).ok_or(PropertyError::NoSuchProperty {
-            index,
-            count: self.schema.entity.len(),
-        })?;
+        let decl = self
+            .schema
+            .entity
+            .get(index)
+            .ok_or(PropertyError::NoSuchProperty {
+                index,
+                count: self.schema.entity.len(),
+            })?;
         let raw = self.entities.get(&entity).map_or(0, |r| r[index]);
         Ok(PropertyValue::from_raw(decl.kind, raw))
     }
@@ -169,7 +173,8 @@ impl PropertyStore {
             return Vec::new();
         }
         let n = self.schema.entity.len();
-        let mut out = Vec::with_capacity(8 + 8 * self.match_state.len() + self.entities.len() * (4 + 8 * n));
+        let mut out =
+            Vec::with_capacity(8 + 8 * self.match_state.len() + self.entities.len() * (4 + 8 * n));
         let mut w = ByteWriter::new(&mut out);
         w.u16(n as u16);
         w.u16(self.match_state.len() as u16);
@@ -197,7 +202,10 @@ impl PropertyStore {
         }
         let err = |e: inertia_codec::CodecError| format!("properties: {e}");
         let mut r = ByteReader::new(bytes);
-        let (n, m) = (usize::from(r.u16().map_err(err)?), usize::from(r.u16().map_err(err)?));
+        let (n, m) = (
+            usize::from(r.u16().map_err(err)?),
+            usize::from(r.u16().map_err(err)?),
+        );
         if n != self.schema.entity.len() || m != self.schema.match_state.len() {
             return Err(format!(
                 "properties saved for {n} entity and {m} match properties; these rules declare {} and {}",
@@ -270,8 +278,14 @@ mod tests {
         s.set(4, 0, PropertyValue::UInt(100)).unwrap();
         s.set(9, 1, PropertyValue::Int(-300)).unwrap();
         s.set_match(0, PropertyValue::F32(12.5)).unwrap();
-        assert!(s.set(4, 0, PropertyValue::UInt(128)).is_err(), "past 7 bits");
-        assert!(s.set(4, 2, PropertyValue::UInt(1)).is_err(), "no property 2");
+        assert!(
+            s.set(4, 0, PropertyValue::UInt(128)).is_err(),
+            "past 7 bits"
+        );
+        assert!(
+            s.set(4, 2, PropertyValue::UInt(1)).is_err(),
+            "no property 2"
+        );
         assert!(s.set(4, 1, PropertyValue::UInt(1)).is_err(), "another kind");
         assert_eq!(s.get(4, 0), Ok(PropertyValue::UInt(100)));
         let hash = s.hash();
@@ -288,7 +302,10 @@ mod tests {
         // changing nothing.
         let other = PropertyStore::new(Arc::new(PropertySchema::default()));
         let mut kept = back.clone();
-        assert!(kept.restore(&other.to_bytes()[..]).is_ok(), "empty: defaults");
+        assert!(
+            kept.restore(&other.to_bytes()[..]).is_ok(),
+            "empty: defaults"
+        );
         let mut kept = back.clone();
         for cut in 1..bytes.len() {
             assert!(kept.restore(&bytes[..cut]).is_err(), "cut at {cut}");

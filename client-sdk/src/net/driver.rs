@@ -201,25 +201,7 @@ impl ClientShared {
                     self.latest = Some((snap.tick, snap.sequence));
                     self.latest_meta = Some(meta);
                 }
-                let changes = match self.session.decoder().view(snap.sequence) {
-                    Some(view) if snap.newest && !self.properties.schema().is_empty() => {
-                        self.properties.on_view(snap.tick, view)
-                    }
-                    _ => Vec::new(),
-                };
-                for change in changes {
-                    let e = match change {
-                        PropertyChange::Entity(id) => ClientEvent::PropertiesChanged {
-                            entity: Some(id),
-                            tick: snap.tick,
-                        },
-                        PropertyChange::Match => ClientEvent::PropertiesChanged {
-                            entity: None,
-                            tick: snap.tick,
-                        },
-                    };
-                    self.event(e);
-                }
+                let (sequence, tick, newest) = (snap.sequence, snap.tick, snap.newest);
                 // Only the states this snapshot carried: the rest of the
                 // view is what earlier snapshots said, no news of this
                 // tick (an entity not sent keeps its last state in the
@@ -236,6 +218,24 @@ impl ClientShared {
                         }
                         InterpEvent::Resync { from_tick, to_tick } => {
                             ClientEvent::Resync { from_tick, to_tick }
+                        }
+                    };
+                    self.event(e);
+                }
+                let changes = match self.session.decoder().view(sequence) {
+                    Some(view) if newest && !self.properties.schema().is_empty() => {
+                        self.properties.on_view(tick, view)
+                    }
+                    _ => Vec::new(),
+                };
+                for change in changes {
+                    let e = match change {
+                        PropertyChange::Entity(id) => ClientEvent::PropertiesChanged {
+                            entity: Some(id),
+                            tick,
+                        },
+                        PropertyChange::Match => {
+                            ClientEvent::PropertiesChanged { entity: None, tick }
                         }
                     };
                     self.event(e);

@@ -207,9 +207,11 @@ impl ControlMessage for ServerControl {
                 properties,
                 ..
             } => {
-                properties.validate().map_err(|_| ControlError::OutOfRange {
-                    what: "property schema",
-                })?;
+                properties
+                    .validate()
+                    .map_err(|_| ControlError::OutOfRange {
+                        what: "property schema",
+                    })?;
                 if usize::from(*input_bytes) > crate::input::MAX_INPUT_BYTES {
                     return Err(ControlError::OutOfRange {
                         what: "input payload size",

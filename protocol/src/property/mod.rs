@@ -40,7 +40,9 @@ mod section;
 mod value;
 mod view;
 
-pub use schema::{PropertyDecl, PropertyKind, PropertySchema, MAX_PROPERTIES, MAX_PROPERTY_NAME_BYTES};
+pub use schema::{
+    PropertyDecl, PropertyKind, PropertySchema, MAX_PROPERTIES, MAX_PROPERTY_NAME_BYTES,
+};
 pub(crate) use section::{read_section, section_bound_bits, SectionWriter};
 pub use value::{PropertyError, PropertyValue};
 pub use view::{FrameProperties, PropertyRow, PropertyView};

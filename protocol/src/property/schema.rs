@@ -48,7 +48,10 @@ impl PropertyKind {
         if ok {
             Ok(())
         } else {
-            Err(PropertyError::Schema(format!("a property of {} bits", self.bits())))
+            Err(PropertyError::Schema(format!(
+                "a property of {} bits",
+                self.bits()
+            )))
         }
     }
 }

@@ -67,7 +67,14 @@ impl<'a> SectionWriter<'a> {
     ) -> (u64, usize) {
         let decls = &self.schema.match_state;
         let mask = changed_mask(now, before, decls.len());
-        (mask, if mask == 0 { 0 } else { change_bits(decls, mask) })
+        (
+            mask,
+            if mask == 0 {
+                0
+            } else {
+                change_bits(decls, mask)
+            },
+        )
     }
 
     /// An entity's change against the baseline's row: its mask (0: none)
@@ -79,7 +86,14 @@ impl<'a> SectionWriter<'a> {
     ) -> (u64, usize) {
         let decls = &self.schema.entity;
         let mask = changed_mask(now, before, decls.len());
-        (mask, if mask == 0 { 0 } else { change_bits(decls, mask) })
+        (
+            mask,
+            if mask == 0 {
+                0
+            } else {
+                change_bits(decls, mask)
+            },
+        )
     }
 
     /// The most bits an entity entry's id gap takes (its whole id).
@@ -124,7 +138,9 @@ fn read_change(
 ) -> Result<PropertyRow, SnapshotError> {
     let mask = r.read(decls.len() as u32)?;
     if mask == 0 {
-        return Err(SnapshotError::Malformed("a property change that changes nothing"));
+        return Err(SnapshotError::Malformed(
+            "a property change that changes nothing",
+        ));
     }
     let mut row: Vec<u64> = (0..decls.len()).map(|i| raw_at(before, i)).collect();
     for (i, d) in decls.iter().enumerate() {
@@ -134,7 +150,9 @@ fn read_change(
                 return Err(SnapshotError::Malformed("a property value out of its kind"));
             }
             if raw == raw_at(before, i) {
-                return Err(SnapshotError::Malformed("a property change to the same value"));
+                return Err(SnapshotError::Malformed(
+                    "a property change to the same value",
+                ));
             }
             row[i] = raw;
         }
@@ -177,7 +195,9 @@ pub(crate) fn read_section(
                 .and_then(|id| EntityId::try_from(id).ok())
                 .ok_or(SnapshotError::Malformed("entity id overflows"))?;
             if !in_view(id) {
-                return Err(SnapshotError::Malformed("properties of an entity not in view"));
+                return Err(SnapshotError::Malformed(
+                    "properties of an entity not in view",
+                ));
             }
             updated.push((id, read_change(r, &schema.entity, base.entity(id))?));
             prev = Some(id);

@@ -167,7 +167,10 @@ mod tests {
         let cases = [
             (PropertyKind::Bool, PropertyValue::Bool(true)),
             (PropertyKind::UInt { bits: 7 }, PropertyValue::UInt(100)),
-            (PropertyKind::UInt { bits: 64 }, PropertyValue::UInt(u64::MAX)),
+            (
+                PropertyKind::UInt { bits: 64 },
+                PropertyValue::UInt(u64::MAX),
+            ),
             (PropertyKind::Int { bits: 8 }, PropertyValue::Int(-128)),
             (PropertyKind::Int { bits: 8 }, PropertyValue::Int(127)),
             (PropertyKind::Int { bits: 64 }, PropertyValue::Int(i64::MIN)),

@@ -18,7 +18,11 @@ pub(crate) fn raw_at(row: Option<&PropertyRow>, i: usize) -> u64 {
 
 /// The mask of the values that differ between two rows of `n` values (a
 /// missing row is all zeros).
-pub(crate) fn changed_mask(now: Option<&PropertyRow>, before: Option<&PropertyRow>, n: usize) -> u64 {
+pub(crate) fn changed_mask(
+    now: Option<&PropertyRow>,
+    before: Option<&PropertyRow>,
+    n: usize,
+) -> u64 {
     if let (Some(a), Some(b)) = (now, before) {
         if Arc::ptr_eq(a, b) {
             return 0;
@@ -141,7 +145,10 @@ mod tests {
         assert_eq!(next.match_state, Some(row(&[7, 7])));
         let scored = next.apply(&[], &[], Some(&row(&[8, 7])));
         assert_eq!(scored.match_state(), Some(&row(&[8, 7])));
-        assert_eq!(changed_mask(Some(&row(&[8, 7])), Some(&row(&[7, 7])), 2), 0b01);
+        assert_eq!(
+            changed_mask(Some(&row(&[8, 7])), Some(&row(&[7, 7])), 2),
+            0b01
+        );
         assert_eq!(changed_mask(None, Some(&row(&[0, 4])), 2), 0b10);
         assert_eq!(changed_mask(None, None, 2), 0);
     }

@@ -243,10 +243,11 @@ impl SnapshotDecoder {
 
         read_entities(&mut r, base, &config, &mut self.removed, &mut self.updated)?;
         let (removed, updated) = (&self.removed, &self.updated);
-        let (properties, match_state) = read_section(&mut r, &self.schema, base.properties(), |id| {
-            updated.binary_search_by_key(&id, |e| e.0).is_ok()
-                || (base.get(id).is_some() && removed.binary_search(&id).is_err())
-        })?;
+        let (properties, match_state) =
+            read_section(&mut r, &self.schema, base.properties(), |id| {
+                updated.binary_search_by_key(&id, |e| e.0).is_ok()
+                    || (base.get(id).is_some() && removed.binary_search(&id).is_err())
+            })?;
         if r.bits_left() >= 8 {
             return Err(SnapshotError::Malformed("trailing bytes"));
         }

@@ -671,7 +671,12 @@ impl PropertyPlan {
             }
             let (mask, bits) = section.entity_change(row_now, row_before);
             if mask != 0 {
-                changed.push((id, mask, bits + SectionWriter::id_bound_bits(id), row_now.cloned()));
+                changed.push((
+                    id,
+                    mask,
+                    bits + SectionWriter::id_bound_bits(id),
+                    row_now.cloned(),
+                ));
             }
         }
         // Those after the cursor first, then from the start.
