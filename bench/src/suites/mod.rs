@@ -7,6 +7,7 @@ pub mod integrators;
 pub mod nbody;
 pub mod particles;
 pub mod physics;
+pub mod properties;
 pub mod replay;
 pub mod soak;
 pub mod soft;
@@ -73,7 +74,10 @@ impl Suite {
             Suite::Particles => particles::run(opts, sink),
             Suite::Nbody => nbody::run(opts, sink),
             Suite::Physics => physics::run(opts, sink),
-            Suite::Bandwidth => bandwidth::run(opts, sink),
+            Suite::Bandwidth => {
+                bandwidth::run(opts, sink)?;
+                properties::run(opts, sink)
+            }
             Suite::Capacity => capacity::run(opts, sink),
             Suite::Replay => replay::run(opts, sink),
             Suite::Soak => soak::run(opts, sink),

@@ -392,8 +392,9 @@ impl SnapshotEncoder {
         }
 
         // The game's properties: the match's change, then the changes of
-        // entities already in view (and staying), within half of what is
-        // left; new entities' come with them, below.
+        // entities already in view (and staying), within three quarters
+        // of what is left (a quarter stays for the entities' states); new
+        // entities' come with them, below.
         let section = SectionWriter::new(&self.schema);
         let mut props = PropertyPlan::default();
         if !section.is_empty() {
@@ -404,7 +405,7 @@ impl SnapshotEncoder {
                 base,
                 &removed_sent,
                 self.property_cursor,
-                budget.saturating_sub(used) / 2,
+                budget.saturating_sub(used) * 3 / 4,
             );
             used += props.bits;
         }
