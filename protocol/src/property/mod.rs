@@ -33,16 +33,16 @@
 //!
 //! `m` and `n` are the schema's counts of match and entity properties;
 //! mask bit `i` says property `i` changed. Id gaps and counts are coded as
-//! the snapshot's (see [`crate::snapshot`]).
+//! the snapshot's; the snapshot codec writes and reads the section
+//! (`snapshot/property_section.rs`).
 
 mod schema;
-mod section;
 mod value;
 mod view;
 
 pub use schema::{
     PropertyDecl, PropertyKind, PropertySchema, MAX_PROPERTIES, MAX_PROPERTY_NAME_BYTES,
 };
-pub(crate) use section::{read_section, section_bound_bits, SectionWriter};
 pub use value::{PropertyError, PropertyValue};
+pub(crate) use view::{changed_mask, raw_at};
 pub use view::{FrameProperties, PropertyRow, PropertyView};

@@ -5,7 +5,9 @@ use std::sync::Arc;
 
 use crate::bits::BitReader;
 use crate::entity::EntityId;
-use crate::property::{read_section, PropertyRow, PropertySchema};
+use crate::property::{PropertyRow, PropertySchema};
+
+use super::property_section::read_section;
 
 use super::code::{read_body, read_varuint, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES};
 use super::view::{QuantizedEntity, Ring, View, ViewEntity};

@@ -5,7 +5,9 @@ use std::sync::Arc;
 use crate::bits::BitWriter;
 use crate::entity::{EntityId, EntityState};
 use crate::priority::{PriorityAccumulator, Standing};
-use crate::property::{section_bound_bits, PropertyRow, PropertySchema, SectionWriter};
+use crate::property::{PropertyRow, PropertySchema};
+
+use super::property_section::{section_bound_bits, SectionWriter};
 
 use super::code::{varuint_bits, write_varuint, COUNT_CLASSES, ID_CLASSES, TICK_CLASSES};
 use super::frame::QuantizedFrame;

@@ -67,10 +67,11 @@
 //! is a class and three deltas of the small components when the same
 //! component was dropped, else the dropped index and three levels.
 
-pub(crate) mod code;
+mod code;
 mod decoder;
 mod encoder;
 mod frame;
+mod property_section;
 mod sent;
 mod shared;
 mod view;

@@ -1,15 +1,16 @@
-//! The properties section of a snapshot (see the [module docs](super)):
-//! what changed against the baseline's view, written and read.
+//! The properties section of a snapshot (see [`crate::property`]): what
+//! changed against the baseline's view, written and read.
 
 use std::sync::Arc;
 
 use crate::bits::{BitReader, BitWriter};
 use crate::entity::{EntityId, MAX_ENTITIES};
-use crate::snapshot::code::{read_varuint, varuint_bits, write_varuint, COUNT_CLASSES, ID_CLASSES};
-use crate::snapshot::SnapshotError;
+use crate::property::{
+    changed_mask, raw_at, PropertyDecl, PropertyRow, PropertySchema, PropertyValue, PropertyView,
+};
 
-use super::view::{changed_mask, raw_at};
-use super::{PropertyDecl, PropertyRow, PropertySchema, PropertyValue, PropertyView};
+use super::code::{read_varuint, varuint_bits, write_varuint, COUNT_CLASSES, ID_CLASSES};
+use super::SnapshotError;
 
 /// Bits the section takes whatever changed: the match's changed bit and
 /// the entity count at its widest (none for a schema without either).
