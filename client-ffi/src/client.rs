@@ -258,6 +258,22 @@ pub unsafe extern "C" fn inertia_set_input(
     })
 }
 
+/// The `len` bytes at `bytes`: empty for a length of 0 (whatever the
+/// pointer), refused for a null pointer with a length.
+///
+/// # Safety
+/// `bytes` points to `len` readable bytes, or is null with `len` 0.
+unsafe fn byte_slice<'a>(bytes: *const u8, len: usize) -> Result<&'a [u8], Failure> {
+    if len == 0 {
+        Ok(&[])
+    } else if bytes.is_null() {
+        Err(Failure::invalid("bytes is null"))
+    } else {
+        // SAFETY: as the caller promises: `len` readable bytes.
+        Ok(unsafe { std::slice::from_raw_parts(bytes, len) })
+    }
+}
+
 /// Sets the game's input for every tick from now on, until changed: its
 /// `len` bytes at `bytes`, encoded as the game lays its input out, exactly
 /// `InertiaServerInfo::input_bytes` long (at most 64). Stamped and sent as
@@ -276,14 +292,8 @@ pub unsafe extern "C" fn inertia_set_input_bytes(
     guard(|| {
         // SAFETY: as the caller promises.
         let h = unsafe { handle(client) }?;
-        let bytes = if len == 0 {
-            &[][..]
-        } else if bytes.is_null() {
-            return Err(Failure::invalid("bytes is null"));
-        } else {
-            // SAFETY: as the caller promises: `len` readable bytes.
-            unsafe { std::slice::from_raw_parts(bytes, len) }
-        };
+        // SAFETY: as the caller promises.
+        let bytes = unsafe { byte_slice(bytes, len) }?;
         let payload = InputPayload::new(bytes).map_err(|e| Failure::invalid(e.to_string()))?;
         h.client
             .set_input_payload(payload)
@@ -313,14 +323,8 @@ pub unsafe extern "C" fn inertia_send_message(
     guard(|| {
         // SAFETY: as the caller promises.
         let h = unsafe { handle(client) }?;
-        let bytes = if len == 0 {
-            &[][..]
-        } else if bytes.is_null() {
-            return Err(Failure::invalid("bytes is null"));
-        } else {
-            // SAFETY: as the caller promises: `len` readable bytes.
-            unsafe { std::slice::from_raw_parts(bytes, len) }
-        };
+        // SAFETY: as the caller promises.
+        let bytes = unsafe { byte_slice(bytes, len) }?;
         let delivery = match delivery {
             InertiaDelivery::Reliable => Delivery::Reliable,
             InertiaDelivery::Unreliable => Delivery::Unreliable,

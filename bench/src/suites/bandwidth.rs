@@ -193,7 +193,7 @@ fn states(scene: &CubeScene) -> Vec<EntityState> {
 }
 
 /// The `p`-quantile of `xs` (sorted here), 0 for none.
-fn quantile(xs: &mut [f64], p: f64) -> f64 {
+pub(crate) fn quantile(xs: &mut [f64], p: f64) -> f64 {
     if xs.is_empty() {
         return 0.0;
     }

@@ -34,7 +34,7 @@ use inertia_protocol::{
     SnapshotEncoder,
 };
 
-use super::bandwidth::{codec_config, BUDGET_KBPS, DELAY, JITTER, SNAPSHOT_HZ};
+use super::bandwidth::{codec_config, quantile, BUDGET_KBPS, DELAY, JITTER, SNAPSHOT_HZ};
 use crate::report::{progress, Measurement, Sink, Suspended};
 use crate::{BenchError, Opts};
 
@@ -213,15 +213,6 @@ pub fn stream(ticks: u64, changing: f64, loss: f64, seed: u64) -> Result<StreamR
     }
     report.undelivered = pending.len() as u64;
     Ok(report)
-}
-
-/// The `p`-quantile of `xs` (sorted here), 0 for none.
-fn quantile(xs: &mut [f64], p: f64) -> f64 {
-    if xs.is_empty() {
-        return 0.0;
-    }
-    xs.sort_by(f64::total_cmp);
-    xs[((xs.len() - 1) as f64 * p).round() as usize]
 }
 
 /// Runs the case for `--seconds` (default [`DEFAULT_SECONDS`]; 3 with

@@ -97,18 +97,35 @@ pub struct RewindCount {
     pub clamped: u64,
 }
 
+/// The parts of a timeline the rules act on through a [`SimContext`].
+#[derive(Debug)]
+pub struct TimelineParts<'a> {
+    /// The world.
+    pub world: &'a mut World,
+    /// Its entities.
+    pub entities: &'a mut EntityTable,
+    /// Where avatars may appear, m.
+    pub spawn_points: &'a [DVec3],
+    /// The game's properties.
+    pub properties: &'a mut PropertyStore,
+}
+
 impl<'a> SimContext<'a> {
-    /// A context over `world` and `entities` at `tick` (ticks of `dt` s).
+    /// A context over a timeline's `parts` at `tick` (ticks of `dt` s),
+    /// the rules' messages going to `messages`.
     pub fn new(
-        world: &'a mut World,
-        entities: &'a mut EntityTable,
-        spawn_points: &'a [DVec3],
+        parts: TimelineParts<'a>,
         messages: &'a mut Vec<OutgoingMessage>,
-        properties: &'a mut PropertyStore,
         tick: u64,
         dt: f64,
         limits: ControlLimits,
     ) -> Self {
+        let TimelineParts {
+            world,
+            entities,
+            spawn_points,
+            properties,
+        } = parts;
         Self {
             world,
             entities,

@@ -53,7 +53,9 @@ use inertia_protocol::message::{Delivery, MessageDecodeError, MessageLimits, Mes
 use inertia_protocol::property::PropertySchema;
 use inertia_protocol::{EntityId, PlayerInput};
 
-pub use context::{ContextError, ControlLimits, EntityLook, RewindCount, SimContext};
+pub use context::{
+    ContextError, ControlLimits, EntityLook, RewindCount, SimContext, TimelineParts,
+};
 pub use input::{validate_input, InputRefusal};
 pub use message::{OutgoingMessage, Recipients};
 pub use removal::RemovalReason;

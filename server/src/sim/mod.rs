@@ -438,17 +438,14 @@ impl Simulation {
         let dt = self.dt();
         // The shown timeline, borrowed apart from the rules and messages.
         let shown = self.timelines.shown_mut();
-        let mut ctx = SimContext::new(
-            &mut shown.world,
-            &mut shown.entities,
-            &shown.spawn_points,
-            &mut self.sent,
-            &mut shown.properties,
-            tick,
-            dt,
-            self.config.limits,
-        )
-        .with_poses(&shown.poses);
+        let parts = crate::rules::TimelineParts {
+            world: &mut shown.world,
+            entities: &mut shown.entities,
+            spawn_points: &shown.spawn_points,
+            properties: &mut shown.properties,
+        };
+        let mut ctx = SimContext::new(parts, &mut self.sent, tick, dt, self.config.limits)
+            .with_poses(&shown.poses);
         let r = f(self.rules.as_mut(), &mut ctx);
         let rewinds = ctx.rewinds();
         self.meter.rewound(rewinds.asked, rewinds.clamped);
