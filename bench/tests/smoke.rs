@@ -382,6 +382,22 @@ fn bandwidth_suite_gives_its_seconds_in_order() {
         .filter_map(Value::as_f64)
         .fold(0.0, f64::max);
     assert_eq!(max, num(m, "kbps_max_1s"));
+    // The properties cases: both loads, both losses, with their cost and
+    // delivery.
+    let cases: Vec<&str> = all[1..].iter().map(|m| m["case"].as_str().unwrap()).collect();
+    assert_eq!(
+        cases,
+        [
+            "properties_1000",
+            "properties_1000",
+            "properties_1000_light",
+            "properties_1000_light"
+        ]
+    );
+    for m in &all[1..] {
+        assert!(num(m, "bits_per_changed_property") > 0.0, "{m:?}");
+        assert!(num(m, "delivery_periods_p99") >= 0.0, "{m:?}");
+    }
 }
 
 #[test]

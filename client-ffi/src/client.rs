@@ -17,6 +17,7 @@ use inertia_protocol::control::DisconnectReason;
 
 use inertia_protocol::input::InputPayload;
 use inertia_protocol::message::Delivery;
+use inertia_protocol::property::{PropertyKind, PropertyValue};
 use inertia_protocol::token::ConnectToken;
 use inertia_protocol::{EntityDesc, EntityKind, ShapeDesc};
 
@@ -222,8 +223,155 @@ pub unsafe extern "C" fn inertia_server_info(
             position_resolution: info.snapshot.grid.resolution,
             server_version,
             input_bytes: info.input_bytes as u32,
+            entity_properties: info.properties.entity.len() as u32,
+            match_properties: info.properties.match_state.len() as u32,
         };
         Ok(())
+    })
+}
+
+/// The declaration of property `index` of the game's schema: a match
+/// property when `of_match` is nonzero, else an entity property.
+/// `INERTIA_STATUS_NOT_FOUND` past the counts `InertiaServerInfo` gives.
+///
+/// # Safety
+/// `client` is a live handle; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_property_decl(
+    client: *mut InertiaClient,
+    of_match: u8,
+    index: u32,
+    out: *mut InertiaPropertyDecl,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let (h, out) = unsafe { (handle(client)?, out_ref(out, "out")?) };
+        let schema = h.client.property_schema();
+        let list = if of_match != 0 {
+            &schema.match_state
+        } else {
+            &schema.entity
+        };
+        let decl = list
+            .get(index as usize)
+            .ok_or_else(|| Failure::new(InertiaStatus::NotFound, format!("no property {index}")))?;
+        let mut name = [0; INERTIA_PROPERTY_NAME_BYTES];
+        write_c_string(&mut name, &decl.name);
+        *out = InertiaPropertyDecl {
+            name,
+            kind: kind_of(decl.kind),
+            bits: decl.kind.bits(),
+        };
+        Ok(())
+    })
+}
+
+fn kind_of(kind: PropertyKind) -> InertiaPropertyKind {
+    match kind {
+        PropertyKind::Bool => InertiaPropertyKind::Bool,
+        PropertyKind::UInt { .. } => InertiaPropertyKind::UInt,
+        PropertyKind::Int { .. } => InertiaPropertyKind::Int,
+        PropertyKind::F32 => InertiaPropertyKind::F32,
+    }
+}
+
+fn value_of(v: PropertyValue) -> InertiaPropertyValue {
+    match v {
+        PropertyValue::Bool(b) => InertiaPropertyValue {
+            kind: InertiaPropertyKind::Bool,
+            as_u64: u64::from(b),
+            as_i64: i64::from(b),
+            as_f64: f64::from(u8::from(b)),
+        },
+        PropertyValue::UInt(n) => InertiaPropertyValue {
+            kind: InertiaPropertyKind::UInt,
+            as_u64: n,
+            as_i64: n as i64,
+            as_f64: n as f64,
+        },
+        PropertyValue::Int(n) => InertiaPropertyValue {
+            kind: InertiaPropertyKind::Int,
+            as_u64: n as u64,
+            as_i64: n,
+            as_f64: n as f64,
+        },
+        PropertyValue::F32(x) => InertiaPropertyValue {
+            kind: InertiaPropertyKind::F32,
+            as_u64: u64::from(x.to_bits()),
+            as_i64: x as i64,
+            as_f64: f64::from(x),
+        },
+    }
+}
+
+/// Writes `values` into `out` and their count into `*count`;
+/// `INERTIA_STATUS_BUFFER_TOO_SMALL` when they do not all fit (the first
+/// `out.len()` are written).
+fn write_values(
+    values: &[PropertyValue],
+    out: &mut [InertiaPropertyValue],
+    count: &mut usize,
+) -> Result<(), Failure> {
+    *count = values.len();
+    for (o, v) in out.iter_mut().zip(values) {
+        *o = value_of(*v);
+    }
+    if out.len() < values.len() {
+        return Err(Failure::new(
+            InertiaStatus::BufferTooSmall,
+            format!("{} values, room for {}", values.len(), out.len()),
+        ));
+    }
+    Ok(())
+}
+
+/// An entity's properties as of the tick last drawn (`inertia_sample`),
+/// in the schema's order, into `out` (room for `capacity`); `*count` is
+/// how many the game declares. `INERTIA_STATUS_NOT_FOUND` for an entity
+/// not in view.
+///
+/// # Safety
+/// `client` is a live handle; `out` has room for `capacity` values (or is
+/// null with `capacity` 0); `count` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_properties(
+    client: *mut InertiaClient,
+    entity: u32,
+    out: *mut InertiaPropertyValue,
+    capacity: usize,
+    count: *mut usize,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let (h, count) = unsafe { (handle(client)?, out_ref(count, "count")?) };
+        // SAFETY: as the caller promises.
+        let out = unsafe { buffer(out, capacity, "out") }?;
+        let values = h
+            .client
+            .properties(entity)
+            .ok_or_else(|| Failure::new(InertiaStatus::NotFound, format!("no entity {entity}")))?;
+        write_values(&values, out, count)
+    })
+}
+
+/// The match's properties (the score, the clock) as of the tick last
+/// drawn, in the schema's order, as `inertia_properties` writes them.
+///
+/// # Safety
+/// As `inertia_properties`.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_match_state(
+    client: *mut InertiaClient,
+    out: *mut InertiaPropertyValue,
+    capacity: usize,
+    count: *mut usize,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let (h, count) = unsafe { (handle(client)?, out_ref(count, "count")?) };
+        // SAFETY: as the caller promises.
+        let out = unsafe { buffer(out, capacity, "out") }?;
+        write_values(&h.client.match_state(), out, count)
     })
 }
 

@@ -44,6 +44,56 @@ pub struct InertiaServerInfo {
     /// Bytes of the game's input (`inertia_set_input_bytes` takes exactly
     /// this many; the stock server's sandbox takes 5).
     pub input_bytes: u32,
+    /// Properties the game declares per entity (`inertia_property_decl`).
+    pub entity_properties: u32,
+    /// Properties the game declares per match.
+    pub match_properties: u32,
+}
+
+/// Longest property name, bytes, with its NUL.
+pub const INERTIA_PROPERTY_NAME_BYTES: usize = 33;
+
+/// A property's kind.
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum InertiaPropertyKind {
+    /// A flag.
+    #[default]
+    Bool = 0,
+    /// An unsigned integer of `bits` bits.
+    UInt = 1,
+    /// A signed integer of `bits` bits.
+    Int = 2,
+    /// A 32-bit float.
+    F32 = 3,
+}
+
+/// One property a game declares.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct InertiaPropertyDecl {
+    /// Its name (NUL-terminated, UTF-8).
+    pub name: [c_char; INERTIA_PROPERTY_NAME_BYTES],
+    /// Its kind.
+    pub kind: InertiaPropertyKind,
+    /// Its width on the wire, bits.
+    pub bits: u32,
+}
+
+/// One property's value, in every form that holds it: read the one of
+/// its kind (a flag is 0 or 1 in all three).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct InertiaPropertyValue {
+    /// Its kind.
+    pub kind: InertiaPropertyKind,
+    /// As an unsigned integer (a flag, an unsigned; a signed one's two's
+    /// complement).
+    pub as_u64: u64,
+    /// As a signed integer.
+    pub as_i64: i64,
+    /// As a float (exact for a float, a flag and integers up to 2^53).
+    pub as_f64: f64,
 }
 
 /// One entity where the picture draws it.

@@ -7,13 +7,16 @@
 //! The credentials default to `./inertia-data/dev-credentials.json`, which a
 //! dev-mode server writes. With `--json`, one object per second with
 //! `tick`, `entities`, `snapshots_received`, `kbps`, `rtt_ms`, `buffer_ms`
-//! and more.
+//! and more, and the game's replicated state: `match_state` (the match's
+//! properties by name, as of the tick drawn) and `entities_with_properties`
+//! (how many entities in view hold properties).
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::Parser;
 use inertia_client::{dev, BlockingClient, ClientEvent};
+use inertia_protocol::property::PropertyValue;
 
 #[derive(Debug, Parser)]
 #[command(about = "Watch what an Inertia server streams")]
@@ -26,6 +29,28 @@ struct Args {
     /// One JSON object per second instead of a table.
     #[arg(long)]
     json: bool,
+}
+
+/// The match's properties by name, as JSON values (a flag as a bool, a
+/// number as a number).
+fn match_state(client: &BlockingClient) -> serde_json::Value {
+    let schema = client.property_schema();
+    let values = client.match_state();
+    let by_name: serde_json::Map<String, serde_json::Value> = schema
+        .match_state
+        .iter()
+        .zip(values)
+        .map(|(decl, value)| {
+            let v = match value {
+                PropertyValue::Bool(b) => serde_json::json!(b),
+                PropertyValue::UInt(n) => serde_json::json!(n),
+                PropertyValue::Int(n) => serde_json::json!(n),
+                PropertyValue::F32(x) => serde_json::json!(x),
+            };
+            (decl.name.clone(), v)
+        })
+        .collect();
+    serde_json::Value::Object(by_name)
 }
 
 fn main() -> ExitCode {
@@ -103,6 +128,8 @@ fn main() -> ExitCode {
                 "buffer_ms": s.buffer_ms,
                 "loss": s.loss,
                 "stalls": s.stalls,
+                "match_state": match_state(&client),
+                "entities_with_properties": client.entities_with_properties().len(),
             });
             println!("{line}");
         } else {

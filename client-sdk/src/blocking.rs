@@ -97,6 +97,43 @@ impl BlockingClient {
         self.client().send_message_bytes(bytes, delivery)
     }
 
+    /// See [`Client::property_schema`].
+    pub fn property_schema(&self) -> std::sync::Arc<inertia_protocol::property::PropertySchema> {
+        self.client().property_schema()
+    }
+
+    /// See [`Client::properties`].
+    pub fn properties(
+        &self,
+        entity: inertia_protocol::EntityId,
+    ) -> Option<Vec<inertia_protocol::property::PropertyValue>> {
+        self.client().properties(entity)
+    }
+
+    /// See [`Client::property`].
+    pub fn property(
+        &self,
+        entity: inertia_protocol::EntityId,
+        name: &str,
+    ) -> Option<inertia_protocol::property::PropertyValue> {
+        self.client().property(entity, name)
+    }
+
+    /// See [`Client::match_state`].
+    pub fn match_state(&self) -> Vec<inertia_protocol::property::PropertyValue> {
+        self.client().match_state()
+    }
+
+    /// See [`Client::match_property`].
+    pub fn match_property(&self, name: &str) -> Option<inertia_protocol::property::PropertyValue> {
+        self.client().match_property(name)
+    }
+
+    /// See [`Client::entities_with_properties`].
+    pub fn entities_with_properties(&self) -> Vec<inertia_protocol::EntityId> {
+        self.client().entities_with_properties()
+    }
+
     /// See [`Client::sample`].
     pub fn sample(&self) -> Sample {
         self.client().sample()

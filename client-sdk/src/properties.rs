@@ -170,6 +170,12 @@ impl KnownProperties {
         Some(values(&self.schema.entity, h.at(tick)))
     }
 
+    /// The defaults of an entity's properties (schema order): what an
+    /// entity in view whose properties the rules never set holds.
+    pub fn entity_defaults(&self) -> Vec<PropertyValue> {
+        values(&self.schema.entity, None)
+    }
+
     /// An entity's newest values.
     pub fn entity(&self, id: EntityId) -> Option<Vec<PropertyValue>> {
         let h = self.entities.get(&id)?;

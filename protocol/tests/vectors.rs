@@ -19,9 +19,14 @@
 //! read every earlier snapshot of the stream holds the baseline each one
 //! names.
 
+use std::sync::Arc;
+
 use glam::{DQuat, DVec3};
+use inertia_protocol::property::{
+    FrameProperties, PropertyDecl, PropertyKind, PropertyRow, PropertySchema,
+};
 use inertia_protocol::quantize::PositionGrid;
-use inertia_protocol::snapshot::QuantizedEntity;
+use inertia_protocol::snapshot::{QuantizedEntity, QuantizedFrame};
 use inertia_protocol::{
     EntityState, Interest, PriorityAccumulator, SnapshotConfig, SnapshotDecoder, SnapshotEncoder,
 };
@@ -39,6 +44,8 @@ struct Step {
     time_scale: f32,
     paused: bool,
     world: Vec<EntityState>,
+    /// The game's properties at this step (streams with a schema).
+    properties: Option<FrameProperties>,
 }
 
 fn body(id: u32, at: [f64; 3], rotation: DQuat, velocity: [f64; 3], asleep: bool) -> EntityState {
@@ -129,6 +136,7 @@ fn moving_stream() -> (SnapshotConfig, Vec<Step>) {
                 time_scale: 1.0,
                 paused: false,
                 world: first,
+                properties: None,
             },
             Step {
                 acked: Some(0),
@@ -136,6 +144,7 @@ fn moving_stream() -> (SnapshotConfig, Vec<Step>) {
                 time_scale: 0.5,
                 paused: false,
                 world: second,
+                properties: None,
             },
             // Played backwards from the timeline: the tick goes down.
             Step {
@@ -144,6 +153,7 @@ fn moving_stream() -> (SnapshotConfig, Vec<Step>) {
                 time_scale: -2.0,
                 paused: false,
                 world: third.clone(),
+                properties: None,
             },
             // Snapshot 2 not acknowledged: still against 1, far ahead.
             Step {
@@ -152,6 +162,7 @@ fn moving_stream() -> (SnapshotConfig, Vec<Step>) {
                 time_scale: 0.0,
                 paused: true,
                 world: third,
+                properties: None,
             },
         ],
     )
@@ -193,6 +204,7 @@ fn coarse_stream() -> (SnapshotConfig, Vec<Step>) {
                 time_scale: 8.0,
                 paused: false,
                 world,
+                properties: None,
             },
             Step {
                 acked: Some(0),
@@ -200,9 +212,88 @@ fn coarse_stream() -> (SnapshotConfig, Vec<Step>) {
                 time_scale: 1.0,
                 paused: false,
                 world: moved,
+                properties: None,
             },
         ],
     )
+}
+
+/// Stream `properties`: a few entities with a property of every kind
+/// (a flag, unsigned and signed integers up to 64 bits, a float) and the
+/// match's, changing, an entity leaving with its row, and one arriving
+/// with its own.
+fn property_stream() -> (SnapshotConfig, PropertySchema, Vec<Step>) {
+    let schema = PropertySchema {
+        entity: vec![
+            PropertyDecl::new("health", PropertyKind::UInt { bits: 7 }),
+            PropertyDecl::new("team", PropertyKind::UInt { bits: 2 }),
+            PropertyDecl::new("alive", PropertyKind::Bool),
+            PropertyDecl::new("heading", PropertyKind::Int { bits: 10 }),
+            PropertyDecl::new("owner", PropertyKind::UInt { bits: 64 }),
+        ],
+        match_state: vec![
+            PropertyDecl::new("score", PropertyKind::UInt { bits: 8 }),
+            PropertyDecl::new("clock", PropertyKind::F32),
+            PropertyDecl::new("bonus", PropertyKind::Int { bits: 64 }),
+        ],
+    };
+    let at = |id: u32| body(id, [f64::from(id), 0.5, 0.0], DQuat::IDENTITY, [0.0; 3], true);
+    let row = |v: [u64; 5]| -> PropertyRow { v.to_vec().into() };
+    let props = |rows: Vec<(u32, PropertyRow)>, m: [u64; 3]| {
+        Some(FrameProperties {
+            entities: rows,
+            match_state: Some(m.to_vec().into()),
+        })
+    };
+    let heading = |h: i64| (h as u64) & 0x3ff;
+    let clock = |c: f32| u64::from(c.to_bits());
+    let steps = vec![
+        Step {
+            acked: None,
+            tick: 10,
+            time_scale: 1.0,
+            paused: false,
+            world: vec![at(1), at(2), at(40)],
+            properties: props(
+                vec![(1, row([100, 1, 1, heading(-3), u64::MAX])), (40, row([55, 3, 1, heading(511), 7]))],
+                [0, clock(90.0), 0],
+            ),
+        },
+        Step {
+            acked: Some(0),
+            tick: 12,
+            time_scale: 1.0,
+            paused: false,
+            world: vec![at(1), at(2), at(40)],
+            properties: props(
+                vec![(1, row([80, 1, 1, heading(-3), u64::MAX])), (2, row([0, 2, 0, heading(-512), 0])), (40, row([55, 3, 1, heading(511), 7]))],
+                [1, clock(89.5), -5i64 as u64],
+            ),
+        },
+        Step {
+            acked: Some(1),
+            tick: 14,
+            time_scale: 1.0,
+            paused: false,
+            world: vec![at(1), at(2), at(700)],
+            properties: props(
+                vec![(1, row([0, 1, 0, heading(-3), u64::MAX])), (2, row([0, 2, 0, heading(-512), 0])), (700, row([127, 0, 1, 0, 1 << 40]))],
+                [1, clock(89.0), -5i64 as u64],
+            ),
+        },
+        Step {
+            acked: Some(2),
+            tick: 16,
+            time_scale: 1.0,
+            paused: false,
+            world: vec![at(1), at(2), at(700)],
+            properties: props(
+                vec![(1, row([0, 1, 0, heading(-3), u64::MAX])), (2, row([0, 2, 0, heading(-512), 0])), (700, row([127, 0, 1, 0, 1 << 40]))],
+                [1, clock(89.0), -5i64 as u64],
+            ),
+        },
+    ];
+    (SnapshotConfig::default(), schema, steps)
 }
 
 fn quantized(q: &QuantizedEntity) -> Value {
@@ -214,24 +305,33 @@ fn quantized(q: &QuantizedEntity) -> Value {
     })
 }
 
+/// Raw property values as decimal text (64-bit values stay exact in
+/// every JSON reader).
+fn raws(row: &PropertyRow) -> Value {
+    json!(row.iter().map(|v| v.to_string()).collect::<Vec<_>>())
+}
+
 /// Encodes and decodes a stream, as the vectors file holds it.
-fn run(name: &str, config: SnapshotConfig, steps: Vec<Step>) -> Value {
-    let mut encoder = SnapshotEncoder::new(config).unwrap();
-    let mut decoder = SnapshotDecoder::new(config).unwrap();
+fn run(name: &str, config: SnapshotConfig, schema: PropertySchema, steps: Vec<Step>) -> Value {
+    let schema = Arc::new(schema);
+    let mut encoder = SnapshotEncoder::new(config)
+        .unwrap()
+        .with_properties(schema.clone());
+    let mut decoder = SnapshotDecoder::new(config)
+        .unwrap()
+        .with_properties(schema.clone());
     let mut priorities = PriorityAccumulator::new(Interest::everything());
     let mut snapshots = Vec::new();
     for step in steps {
         if let Some(a) = step.acked {
             encoder.on_ack(a);
         }
-        let bytes = encoder.encode(
-            step.tick,
-            step.time_scale,
-            step.paused,
-            &step.world,
-            &mut priorities,
-            usize::MAX,
-        );
+        let mut frame =
+            QuantizedFrame::new(step.tick, step.time_scale, step.paused, &step.world, &config);
+        if let Some(p) = step.properties {
+            frame = frame.with_properties(Arc::new(p));
+        }
+        let bytes = encoder.encode_frame(&frame, &mut priorities, usize::MAX);
         let report = encoder.last_report();
         assert_eq!(report.deferred, 0, "{name}: every entity fits");
         let d = decoder.decode(&bytes).unwrap();
@@ -261,6 +361,8 @@ fn run(name: &str, config: SnapshotConfig, steps: Vec<Step>) -> Value {
             "paused": d.paused,
             "removed": d.removed,
             "updated": updated,
+            "properties": d.properties.iter().map(|(id, row)| json!([id, raws(row)])).collect::<Vec<_>>(),
+            "match_state": d.match_state.as_ref().map(raws),
         }));
     }
     json!({
@@ -275,18 +377,21 @@ fn run(name: &str, config: SnapshotConfig, steps: Vec<Step>) -> Value {
                                "bits": config.velocity_grid.bits() },
             "max_datagram": config.max_datagram,
         },
+        "properties": *schema,
         "snapshots": snapshots,
     })
 }
 
 fn vectors() -> Value {
     let (c, s) = moving_stream();
-    let moving = run("velocities", c, s);
+    let moving = run("velocities", c, PropertySchema::default(), s);
     let (c, s) = coarse_stream();
-    let coarse = run("coarse", c, s);
+    let coarse = run("coarse", c, PropertySchema::default(), s);
+    let (c, schema, s) = property_stream();
+    let properties = run("properties", c, schema, s);
     json!({
         "format": "inertia snapshot datagram (protocol/src/snapshot/mod.rs)",
-        "streams": [moving, coarse],
+        "streams": [moving, coarse, properties],
     })
 }
 

@@ -24,3 +24,4 @@ mod issue_17_prediction;
 mod issue_42_connections;
 mod issue_43_game_input;
 mod issue_43_messages;
+mod issue_43_properties;

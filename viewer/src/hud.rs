@@ -34,6 +34,9 @@ pub struct HudModel {
     pub following: bool,
     /// True once our avatar has been described.
     pub has_avatar: bool,
+    /// The game's properties to show, a line each: the match's, then our
+    /// avatar's (name, value as of the tick drawn).
+    pub properties: Vec<(String, String)>,
 }
 
 /// What the operator asked for.
@@ -133,6 +136,9 @@ pub fn show(ui: &mut egui::Ui, model: &HudModel, state: &mut HudState) -> Vec<Hu
                 row("buffer", format!("{:.0} ms", model.stats.buffer_ms));
                 row("loss", format!("{:.1} %", model.stats.loss * 100.0));
                 row("frames", format!("{:.0} /s", model.fps));
+                for (name, value) in &model.properties {
+                    row(name, value.clone());
+                }
             });
             if model.has_avatar {
                 let mut follow = model.following;

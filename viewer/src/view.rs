@@ -169,6 +169,31 @@ impl Viewer {
             .avatar_of(self.client.server_info().client_id)
     }
 
+    /// The game's properties as HUD lines: each match property, then
+    /// each of our avatar's (as `my <name>`), as of the tick drawn.
+    pub fn property_lines(
+        &self,
+        avatar: Option<inertia_protocol::EntityId>,
+    ) -> Vec<(String, String)> {
+        let schema = self.client.property_schema();
+        let mut lines: Vec<(String, String)> = schema
+            .match_state
+            .iter()
+            .zip(self.client.match_state())
+            .map(|(d, v)| (d.name.clone(), v.to_string()))
+            .collect();
+        if let Some(values) = avatar.and_then(|id| self.client.properties(id)) {
+            lines.extend(
+                schema
+                    .entity
+                    .iter()
+                    .zip(values)
+                    .map(|(d, v)| (format!("my {}", d.name), v.to_string())),
+            );
+        }
+        lines
+    }
+
     /// Carries out what the HUD asked for.
     fn act(&mut self, actions: Vec<HudAction>) {
         for a in actions {
@@ -252,6 +277,7 @@ impl Viewer {
             fps: self.fps,
             following: self.following,
             has_avatar: avatar.is_some(),
+            properties: self.property_lines(avatar),
         };
         let mut actions = Vec::new();
         let hud_state = &mut self.hud;

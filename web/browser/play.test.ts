@@ -35,6 +35,7 @@ interface Progress {
   points: number;
   messages: number;
   log: string[];
+  matchState: Record<string, number>;
 }
 
 let server: ChildProcess;
@@ -168,6 +169,12 @@ test("the page hears the game's messages and its chat goes to the rules and back
   await page.keyboard.press("Enter");
   const p = await until("the chat line back", 10_000, (p) => p.log.some((l) => l.endsWith(": hello from the page")));
   assert.ok(p.messages >= 2, `${p.messages} messages`);
+});
+
+test("the page holds the game's match state from the snapshots", async () => {
+  // The sandbox's players, a property of the match: the page is one.
+  const p = await until("the players", 10_000, (p) => (p.matchState.players ?? 0) >= 1);
+  assert.ok(p.matchState.players! >= 1, JSON.stringify(p.matchState));
 });
 
 test("the demo's soft bodies and fluid arrive as point sets", async () => {

@@ -25,7 +25,7 @@ import {
 } from "./sandbox.js";
 import { meshOf, type Mesh } from "./mesh.js";
 import { pointSetOf, PointSetTrack } from "./points.js";
-import { SnapshotDecoder, type SnapshotConfig } from "./snapshot.js";
+import { propertyValue, SnapshotDecoder, type SnapshotConfig } from "./snapshot.js";
 import { Renderer, type Pose } from "./render.js";
 
 interface Session {
@@ -52,6 +52,8 @@ export interface Progress {
   /** The game's messages received, and the last few as lines. */
   messages: number;
   log: string[];
+  /** The game's match properties by name, as of the newest snapshot. */
+  matchState: Record<string, number>;
 }
 
 const progress: Progress = {
@@ -67,6 +69,7 @@ const progress: Progress = {
   frames: 0,
   messages: 0,
   log: [],
+  matchState: {},
 };
 
 /** A sandbox event as a line for the HUD. */
@@ -291,7 +294,7 @@ async function main(): Promise<void> {
   progress.state = "joined";
   setStatus("");
 
-  const decoder = new SnapshotDecoder(snapshotConfig(joined));
+  const decoder = new SnapshotDecoder(snapshotConfig(joined), joined.properties);
   const acks = new Acks();
   let received = 0;
   let bytesWindow: [number, number][] = [];
@@ -318,6 +321,11 @@ async function main(): Promise<void> {
         if (Number(snap.tick) >= progress.tick) {
           progress.tick = Number(snap.tick);
           world.arrived(now);
+          // The game's match state as of the newest snapshot, by name.
+          const raw = decoder.matchState(snap.sequence);
+          joined.properties.match_state.forEach((d, i) => {
+            progress.matchState[d.name] = propertyValue(d.kind, raw?.[i] ?? 0n);
+          });
         }
         for (const id of snap.removed) {
           world.forget(id);
@@ -463,6 +471,11 @@ async function main(): Promise<void> {
       ["buffer", `${world.interval.toFixed(0)} ms`],
       ["loss", `${loss.toFixed(1)} %`],
       ["events", progress.log.length ? progress.log.join(" · ") : "—"],
+      // A line per match property (the score, the clock).
+      ...Object.entries(progress.matchState).map(([name, v]): [string, string] => [
+        name,
+        Number.isInteger(v) ? v.toString() : v.toFixed(2),
+      ]),
     ]);
     if (progress.state === "joined") {
       requestAnimationFrame(frame);

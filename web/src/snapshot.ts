@@ -6,6 +6,7 @@
 // decoders cannot drift apart.
 
 import { BitReader, SnapshotError } from "./bits.js";
+import type { PropertyKind, PropertySchema } from "./control.js";
 
 export { SnapshotError };
 
@@ -99,13 +100,41 @@ export interface DecodedSnapshot {
   paused: boolean;
   removed: number[];
   updated: ViewEntity[];
+  /** The property rows this snapshot changed (raw values, whole rows), by id. */
+  properties: [number, bigint[]][];
+  /** The match's properties (raw), when this snapshot changed them. */
+  matchState: bigint[] | null;
 }
 
-/** A view: its tick and its entities in ascending id order. */
+/** Bits one value of `kind` takes. */
+export function propertyBits(kind: PropertyKind): number {
+  if (kind === "Bool") return 1;
+  if (kind === "F32") return 32;
+  return "UInt" in kind ? kind.UInt.bits : kind.Int.bits;
+}
+
+/** A raw property value as a number (a flag 0 or 1, a signed integer
+ * sign-extended, a float read from its bits). */
+export function propertyValue(kind: PropertyKind, raw: bigint): number {
+  if (kind === "F32") {
+    const v = new DataView(new ArrayBuffer(4));
+    v.setUint32(0, Number(raw), true);
+    return v.getFloat32(0, true);
+  }
+  if (kind !== "Bool" && "Int" in kind) {
+    return Number(BigInt.asIntN(kind.Int.bits, raw));
+  }
+  return Number(raw);
+}
+
+/** A view: its tick, its entities in ascending id order, and the game's
+ * properties (rows by entity; the match's). */
 interface View {
   tick: bigint;
   ids: number[];
   states: QuantizedEntity[];
+  props: Map<number, bigint[]>;
+  matchState: bigint[] | null;
 }
 
 const SMALL_BOUND = Math.SQRT1_2;
@@ -235,6 +264,36 @@ function readIds(r: BitReader, bound: number): number[] {
   return ids;
 }
 
+/** Reads a raw value of `bits` bits (up to 64). */
+function readRaw(r: BitReader, bits: number): bigint {
+  let v = 0n;
+  let got = 0;
+  while (got < bits) {
+    const take = Math.min(32, bits - got);
+    v |= BigInt(r.read(take)) << BigInt(got);
+    got += take;
+  }
+  return v;
+}
+
+/** One property change onto `before` (missing: zeros): the new row, as
+ * `protocol/src/snapshot/property_section.rs` reads it. */
+function readChange(r: BitReader, kinds: PropertyKind[], before: bigint[] | undefined | null): bigint[] {
+  const mask = readRaw(r, kinds.length);
+  if (mask === 0n) throw new SnapshotError("a property change that changes nothing");
+  const row = kinds.map((_, i) => before?.[i] ?? 0n);
+  kinds.forEach((kind, i) => {
+    if (((mask >> BigInt(i)) & 1n) === 0n) return;
+    const raw = readRaw(r, propertyBits(kind));
+    if (kind === "F32" && !Number.isFinite(propertyValue(kind, raw))) {
+      throw new SnapshotError("a property value out of its kind");
+    }
+    if (raw === row[i]) throw new SnapshotError("a property change to the same value");
+    row[i] = raw;
+  });
+  return row;
+}
+
 /** Finds `id` in a view's ascending ids, from `at` on (a cursor). */
 function findFrom(view: View, at: { i: number }, id: number): number | undefined {
   while (at.i < view.ids.length && view.ids[at.i]! < id) at.i++;
@@ -251,7 +310,12 @@ export class SnapshotDecoder {
   private readonly views = new Map<number, View>();
   private newest: number | null = null;
 
-  constructor(readonly config: SnapshotConfig) {}
+  /** A decoder for snapshots coded under `config`, carrying the game's
+   * properties of `schema` (the welcome's; none by default). */
+  constructor(
+    readonly config: SnapshotConfig,
+    readonly schema: PropertySchema = { entity: [], match_state: [] },
+  ) {}
 
   decode(bytes: Uint8Array): DecodedSnapshot {
     const c = this.config;
@@ -270,7 +334,7 @@ export class SnapshotDecoder {
         throw new SnapshotError("baseline not within the ring before the snapshot");
       }
     }
-    const empty: View = { tick: 0n, ids: [], states: [] };
+    const empty: View = { tick: 0n, ids: [], states: [], props: new Map(), matchState: null };
     const base = baseline === null ? empty : this.views.get(baseline);
     if (!base) throw new SnapshotError(`baseline ${baseline} is not held`);
     let tick: bigint;
@@ -318,13 +382,43 @@ export class SnapshotDecoder {
       updatedIds.push(id);
       updatedStates.push(readBody(r, held === undefined ? undefined : base.states[held], c));
     }
-    if (r.bitsLeft() >= 8) throw new SnapshotError("trailing bytes");
     if (base.ids.length - removed.length + fresh > MAX_ENTITIES) {
       throw new SnapshotError("view above MAX_ENTITIES");
     }
 
+    // The game's properties: the match's change, then the entities'.
+    const entityKinds = this.schema.entity.map((d) => d.kind);
+    const matchKinds = this.schema.match_state.map((d) => d.kind);
+    let matchState: bigint[] | null = null;
+    if (matchKinds.length > 0 && r.readBool()) {
+      matchState = readChange(r, matchKinds, base.matchState);
+    }
+    const properties: [number, bigint[]][] = [];
+    if (entityKinds.length > 0) {
+      const bound = Math.min(MAX_ENTITIES, Math.floor(r.bitsLeft() / (2 + entityKinds.length)));
+      const n = readVaruint(r, COUNT_CLASSES);
+      if (n > bound) throw new SnapshotError("count above its bound");
+      const updatedSet = new Set(updatedIds);
+      const inBase = new Set(base.ids);
+      let last: number | null = null;
+      for (let k = 0; k < n; k++) {
+        const gap = readVaruint(r, ID_CLASSES);
+        const id: number = last === null ? gap : last + 1 + gap;
+        if (id > 0xffff_ffff) throw new SnapshotError("entity id overflows");
+        if (!(updatedSet.has(id) || (inBase.has(id) && !removedSet.has(id)))) {
+          throw new SnapshotError("properties of an entity not in view");
+        }
+        properties.push([id, readChange(r, entityKinds, base.props.get(id))]);
+        last = id;
+      }
+    }
+    if (r.bitsLeft() >= 8) throw new SnapshotError("trailing bytes");
+
     // The new view: the baseline less the removals, with the updates in.
-    const view: View = { tick, ids: [], states: [] };
+    const props = new Map(base.props);
+    for (const id of removed) props.delete(id);
+    for (const [id, row] of properties) props.set(id, row);
+    const view: View = { tick, ids: [], states: [], props, matchState: matchState ?? base.matchState };
     let u = 0;
     for (let i = 0; i < base.ids.length; i++) {
       const id = base.ids[i]!;
@@ -353,7 +447,18 @@ export class SnapshotDecoder {
     }
 
     const updated = updatedIds.map((id, k) => this.dequantize(id, updatedStates[k]!));
-    return { sequence, baseline, tick, timeScale, paused, removed, updated };
+    return { sequence, baseline, tick, timeScale, paused, removed, updated, properties, matchState };
+  }
+
+  /** The properties of entity `id` in the view of `sequence` (raw, schema
+   * order; undefined: none set, or not held). */
+  properties(sequence: number, id: number): bigint[] | undefined {
+    return this.views.get(sequence)?.props.get(id);
+  }
+
+  /** The match's properties in the view of `sequence` (raw; null: none set). */
+  matchState(sequence: number): bigint[] | null {
+    return this.views.get(sequence)?.matchState ?? null;
   }
 
   /** The entities of the view of `sequence`, in world units. */

@@ -5,7 +5,13 @@ import assert from "node:assert/strict";
 import { readFileSync } from "node:fs";
 import { test } from "node:test";
 
-import { gridBits, SnapshotDecoder, SnapshotError, type SnapshotConfig } from "../src/snapshot.js";
+import {
+  gridBits,
+  SnapshotDecoder,
+  SnapshotError,
+  type SnapshotConfig,
+} from "../src/snapshot.js";
+import type { PropertySchema } from "../src/control.js";
 
 const FILE = new URL("../../../protocol/tests/vectors/snapshots.json", import.meta.url);
 
@@ -44,7 +50,10 @@ interface JsonStream {
       rotation: number[];
       velocity: number[] | null;
     }[];
+    properties: [number, string[]][];
+    match_state: string[] | null;
   }[];
+  properties: PropertySchema;
 }
 
 const streams: JsonStream[] = JSON.parse(readFileSync(FILE, "utf8")).streams;
@@ -73,10 +82,16 @@ for (const stream of streams) {
     const c = config(stream);
     assert.equal(gridBits(c.grid), stream.config.grid.bits);
     assert.equal(gridBits(c.velocityGrid), stream.config.velocity_grid.bits);
-    const decoder = new SnapshotDecoder(c);
+    const decoder = new SnapshotDecoder(c, stream.properties);
     for (const want of stream.snapshots) {
       const got = decoder.decode(hex(want.bytes));
       const at = `${stream.name} #${want.sequence}`;
+      assert.deepEqual(
+        got.properties.map(([id, row]) => [id, row.map(String)]),
+        want.properties,
+        `${at}: properties`,
+      );
+      assert.deepEqual(got.matchState?.map(String) ?? null, want.match_state, `${at}: match state`);
       assert.equal(got.sequence, want.sequence, at);
       assert.equal(got.baseline, want.baseline, at);
       assert.equal(got.tick, BigInt(want.tick), at);

@@ -295,6 +295,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
                     r.full_view_tick.map_or(f64::NAN, |t| t as f64 / hz),
                 )
                 .num("deferred_per_snapshot", r.deferred as f64 / snapshots)
+                .field("threads", 1)
                 .num("wall_s", wall.as_secs_f64()),
         );
     }

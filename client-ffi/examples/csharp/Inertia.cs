@@ -30,7 +30,7 @@ namespace Inertia
 
     public enum EventKind : uint
     {
-        None, Spawned, Despawned, Discontinuity, Resync, Disconnected, Message,
+        None, Spawned, Despawned, Discontinuity, Resync, Disconnected, Message, Properties, MatchState,
     }
 
     /// <summary>How a game message travels.</summary>
@@ -47,6 +47,37 @@ namespace Inertia
         [MarshalAs(UnmanagedType.ByValArray, SizeConst = 64)] public byte[] ServerVersion;
         /// <summary>Bytes of the game's input (<see cref="Client.SetInput{T}"/> sends a struct of exactly this size).</summary>
         public uint InputBytes;
+        /// <summary>Properties the game declares per entity, and per match.</summary>
+        public uint EntityProperties, MatchProperties;
+    }
+
+    public enum PropertyKind : uint { Bool, UInt, Int, F32 }
+
+    /// <summary>One property the game declares.</summary>
+    [StructLayout(LayoutKind.Sequential)]
+    public struct PropertyDecl
+    {
+        [MarshalAs(UnmanagedType.ByValArray, SizeConst = 33)] public byte[] NameBytes;
+        public PropertyKind Kind;
+        public uint Bits;
+
+        public string Name => Native.Text(NameBytes);
+    }
+
+    /// <summary>One property's value: read the field of its kind (a flag is 0 or 1 in all).</summary>
+    [StructLayout(LayoutKind.Sequential)]
+    public struct PropertyValue
+    {
+        public PropertyKind Kind;
+        public ulong AsU64;
+        public long AsI64;
+        public double AsF64;
+
+        public override string ToString() =>
+            Kind == PropertyKind.Bool ? (AsU64 != 0).ToString()
+            : Kind == PropertyKind.UInt ? AsU64.ToString()
+            : Kind == PropertyKind.Int ? AsI64.ToString()
+            : AsF64.ToString();
     }
 
     /// <summary>One entity where the picture draws it (blittable).</summary>
@@ -137,6 +168,9 @@ namespace Inertia
         [DllImport(Lib)] public static extern Status inertia_set_input_bytes(IntPtr client, byte[] bytes, UIntPtr len);
         [DllImport(Lib)] public static extern Status inertia_send_message(IntPtr client, byte[] bytes, UIntPtr len, Delivery delivery);
         [DllImport(Lib)] public static extern Status inertia_poll_event(IntPtr client, out Event e);
+        [DllImport(Lib)] public static extern Status inertia_property_decl(IntPtr client, byte ofMatch, uint index, out PropertyDecl decl);
+        [DllImport(Lib)] public static extern Status inertia_properties(IntPtr client, uint entity, [Out] PropertyValue[] values, UIntPtr capacity, out UIntPtr count);
+        [DllImport(Lib)] public static extern Status inertia_match_state(IntPtr client, [Out] PropertyValue[] values, UIntPtr capacity, out UIntPtr count);
         [DllImport(Lib)] public static extern Status inertia_sample(IntPtr client, [Out] EntityState[] states, UIntPtr capacity, out UIntPtr count);
         [DllImport(Lib)] public static extern Status inertia_entity_info(IntPtr client, uint id, out EntityInfo info);
         [DllImport(Lib)] public static extern Status inertia_point_set(IntPtr client, uint set, [Out] float[] positions, [Out] byte[] present, UIntPtr capacity, out UIntPtr count);
@@ -238,6 +272,34 @@ namespace Inertia
         /// game lays its messages out (at most 1024 bytes).</summary>
         public void SendMessage(byte[] bytes, Delivery delivery = Delivery.Reliable) =>
             Check(Native.inertia_send_message(handle, bytes, (UIntPtr)bytes.Length, delivery), "send message");
+
+        /// <summary>Declaration <paramref name="index"/> of the game's match or entity properties.</summary>
+        public PropertyDecl PropertyDecl(bool ofMatch, uint index)
+        {
+            PropertyDecl d;
+            Check(Native.inertia_property_decl(handle, (byte)(ofMatch ? 1 : 0), index, out d), "property declaration");
+            return d;
+        }
+
+        /// <summary>An entity's properties as of the tick last drawn, in the schema's order; null for an entity not in view.</summary>
+        public PropertyValue[] Properties(uint entity)
+        {
+            var values = new PropertyValue[Info.EntityProperties];
+            UIntPtr count;
+            var s = Native.inertia_properties(handle, entity, values, (UIntPtr)values.Length, out count);
+            if (s == Status.NotFound) return null;
+            Check(s, "properties");
+            return values;
+        }
+
+        /// <summary>The match's properties (the score, the clock) as of the tick last drawn.</summary>
+        public PropertyValue[] MatchState()
+        {
+            var values = new PropertyValue[Info.MatchProperties];
+            UIntPtr count;
+            Check(Native.inertia_match_state(handle, values, (UIntPtr)values.Length, out count), "match state");
+            return values;
+        }
 
         /// <summary>The next waiting event, or one of kind None.</summary>
         public Event PollEvent() { Event e; Check(Native.inertia_poll_event(handle, out e), "poll event"); return e; }

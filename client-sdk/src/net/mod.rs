@@ -404,10 +404,17 @@ impl Client {
     /// entity not in view.
     pub fn properties(&self, entity: EntityId) -> Option<Vec<PropertyValue>> {
         let s = self.lock();
-        match s.session.view_tick() {
+        let held = match s.session.view_tick() {
             Some(t) => s.properties.entity_at(entity, t.floor().max(0.0) as u64),
             None => s.properties.entity(entity),
-        }
+        };
+        // An entity described whose properties were never set holds the
+        // defaults.
+        held.or_else(|| {
+            s.entities
+                .get(entity)
+                .map(|_| s.properties.entity_defaults())
+        })
     }
 
     /// One property of an entity by name, as [`Client::properties`].

@@ -14,12 +14,27 @@ use inertia_protocol::{EntityId, EntityKind, PlayerInput};
 use inertia_sandbox::{buttons, SandboxInput, SANDBOX_INPUT_BYTES};
 
 use inertia_protocol::message::{Delivery, GameMessage, MessageRefusal};
+use inertia_protocol::property::{PropertyDecl, PropertyKind, PropertySchema, PropertyValue};
 use inertia_sandbox::{Removal, SandboxEvent, SandboxRequest};
 
 use super::{
     ClientId, EntityLook, GameRules, InputRefusal, JoinRefusal, Recipients, RemovalReason,
     SimContext,
 };
+
+/// The sandbox's entity properties, by index: an avatar's jumps and
+/// pushes so far.
+const JUMPS: usize = 0;
+const PUSHES: usize = 1;
+/// The sandbox's match property: players in the game.
+const PLAYERS: usize = 0;
+
+/// Adds one to an avatar's count `index` (saturating at its 16 bits).
+fn count_up(ctx: &mut SimContext<'_>, avatar: EntityId, index: usize) {
+    if let Ok(PropertyValue::UInt(n)) = ctx.property(avatar, index) {
+        let _ = ctx.set_property(avatar, index, (n + 1).min(u64::from(u16::MAX)));
+    }
+}
 
 /// Tells every client what happened, reliably (an event is a message the
 /// sandbox's clients decode as [`SandboxEvent`]).
@@ -238,6 +253,7 @@ impl SandboxRules {
             if ctx.apply_impulse(avatar, j.impulse, com).is_ok() {
                 p.jump_ready_at = j.ready_at;
                 tell(ctx, SandboxEvent::Jumped { avatar });
+                count_up(ctx, avatar, JUMPS);
             }
         }
         if push && tick >= p.push_ready_at {
@@ -257,6 +273,7 @@ impl SandboxRules {
                 let at = tb.center_of_mass();
                 let dir = (facing + DVec3::Y * 0.2).normalize();
                 if let Ok(given) = ctx.apply_impulse(target, dir * s.push_impulse, at) {
+                    count_up(ctx, avatar, PUSHES);
                     tell(
                         ctx,
                         SandboxEvent::Pushed {
@@ -274,6 +291,17 @@ impl SandboxRules {
 impl GameRules for SandboxRules {
     fn input_bytes(&self) -> usize {
         SANDBOX_INPUT_BYTES
+    }
+
+    /// Each avatar's jumps and pushes, and the players in the game.
+    fn properties(&self) -> PropertySchema {
+        PropertySchema {
+            entity: vec![
+                PropertyDecl::new("jumps", PropertyKind::UInt { bits: 16 }),
+                PropertyDecl::new("pushes", PropertyKind::UInt { bits: 16 }),
+            ],
+            match_state: vec![PropertyDecl::new("players", PropertyKind::UInt { bits: 10 })],
+        }
     }
 
     fn on_connect(
@@ -299,6 +327,7 @@ impl GameRules for SandboxRules {
             },
         );
         tell(ctx, SandboxEvent::Joined { client, avatar });
+        let _ = ctx.set_match_property(PLAYERS, self.players.len().min(1023) as u64);
         Ok(avatar)
     }
 
@@ -306,6 +335,7 @@ impl GameRules for SandboxRules {
         if let Some(p) = self.players.remove(&client) {
             ctx.despawn(p.avatar);
             tell(ctx, SandboxEvent::Left { client });
+            let _ = ctx.set_match_property(PLAYERS, self.players.len().min(1023) as u64);
         }
     }
 
