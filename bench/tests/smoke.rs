@@ -384,7 +384,10 @@ fn bandwidth_suite_gives_its_seconds_in_order() {
     assert_eq!(max, num(m, "kbps_max_1s"));
     // The properties cases: both loads, both losses, with their cost and
     // delivery.
-    let cases: Vec<&str> = all[1..].iter().map(|m| m["case"].as_str().unwrap()).collect();
+    let cases: Vec<&str> = all[1..]
+        .iter()
+        .map(|m| m["case"].as_str().unwrap())
+        .collect();
     assert_eq!(
         cases,
         [

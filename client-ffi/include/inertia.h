@@ -32,6 +32,11 @@
 #define INERTIA_EVENT_DATA_BYTES 1024
 
 /*
+ Longest property name, bytes, with its NUL.
+ */
+#define INERTIA_PROPERTY_NAME_BYTES 33
+
+/*
  The outcome of a call. Anything but `INERTIA_STATUS_OK` leaves a
  message for [`inertia_last_error`] on the calling thread.
  */
@@ -69,6 +74,39 @@ typedef enum InertiaStatus {
    */
   INERTIA_STATUS_INTERNAL = 6,
 } InertiaStatus;
+
+/*
+ A property's kind.
+ */
+enum InertiaPropertyKind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /*
+   A flag.
+   */
+  INERTIA_PROPERTY_KIND_BOOL = 0,
+  /*
+   An unsigned integer of `bits` bits.
+   */
+  INERTIA_PROPERTY_KIND_U_INT = 1,
+  /*
+   A signed integer of `bits` bits.
+   */
+  INERTIA_PROPERTY_KIND_INT = 2,
+  /*
+   A 32-bit float.
+   */
+  INERTIA_PROPERTY_KIND_F32 = 3,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum InertiaPropertyKind InertiaPropertyKind;
+#else
+typedef uint32_t InertiaPropertyKind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
 
 /*
  How a game message travels.
@@ -309,7 +347,57 @@ typedef struct InertiaServerInfo {
    this many; the stock server's sandbox takes 5).
    */
   uint32_t input_bytes;
+  /*
+   Properties the game declares per entity (`inertia_property_decl`).
+   */
+  uint32_t entity_properties;
+  /*
+   Properties the game declares per match.
+   */
+  uint32_t match_properties;
 } InertiaServerInfo;
+
+/*
+ One property a game declares.
+ */
+typedef struct InertiaPropertyDecl {
+  /*
+   Its name (NUL-terminated, UTF-8).
+   */
+  char name[INERTIA_PROPERTY_NAME_BYTES];
+  /*
+   Its kind.
+   */
+  InertiaPropertyKind kind;
+  /*
+   Its width on the wire, bits.
+   */
+  uint32_t bits;
+} InertiaPropertyDecl;
+
+/*
+ One property's value, in every form that holds it: read the one of
+ its kind (a flag is 0 or 1 in all three).
+ */
+typedef struct InertiaPropertyValue {
+  /*
+   Its kind.
+   */
+  InertiaPropertyKind kind;
+  /*
+   As an unsigned integer (a flag, an unsigned; a signed one's two's
+   complement).
+   */
+  uint64_t as_u64;
+  /*
+   As a signed integer.
+   */
+  int64_t as_i64;
+  /*
+   As a float (exact for a float, a flag and integers up to 2^53).
+   */
+  double as_f64;
+} InertiaPropertyValue;
 
 /*
  One event. Fields a kind does not use are zero.
@@ -624,6 +712,47 @@ void inertia_disconnect(struct InertiaClient *client);
  `client` is a live handle; `out` is writable.
  */
 enum InertiaStatus inertia_server_info(struct InertiaClient *client, struct InertiaServerInfo *out);
+
+/*
+ The declaration of property `index` of the game's schema: a match
+ property when `of_match` is nonzero, else an entity property.
+ `INERTIA_STATUS_NOT_FOUND` past the counts `InertiaServerInfo` gives.
+
+ # Safety
+ `client` is a live handle; `out` is writable.
+ */
+enum InertiaStatus inertia_property_decl(struct InertiaClient *client,
+                                         uint8_t of_match,
+                                         uint32_t index,
+                                         struct InertiaPropertyDecl *out);
+
+/*
+ An entity's properties as of the tick last drawn (`inertia_sample`),
+ in the schema's order, into `out` (room for `capacity`); `*count` is
+ how many the game declares. `INERTIA_STATUS_NOT_FOUND` for an entity
+ not in view.
+
+ # Safety
+ `client` is a live handle; `out` has room for `capacity` values (or is
+ null with `capacity` 0); `count` is writable.
+ */
+enum InertiaStatus inertia_properties(struct InertiaClient *client,
+                                      uint32_t entity,
+                                      struct InertiaPropertyValue *out,
+                                      size_t capacity,
+                                      size_t *count);
+
+/*
+ The match's properties (the score, the clock) as of the tick last
+ drawn, in the schema's order, as `inertia_properties` writes them.
+
+ # Safety
+ As `inertia_properties`.
+ */
+enum InertiaStatus inertia_match_state(struct InertiaClient *client,
+                                       struct InertiaPropertyValue *out,
+                                       size_t capacity,
+                                       size_t *count);
 
 /*
  Sets the sandbox game's input (the stock server's) for every tick from

@@ -118,6 +118,7 @@ async fn the_c_sample_joins_a_server_and_sees_its_world_move() {
     assert!(printed.contains("on time"), "{printed}");
     assert!(printed.contains("prediction: error"), "{printed}");
     assert!(printed.contains("heard 1 chat line"), "{printed}");
+    assert!(printed.contains("match players = 1"), "{printed}");
     println!("{printed}");
     let _ = std::fs::remove_dir_all(&out);
 }
@@ -153,5 +154,6 @@ async fn the_csharp_sample_joins_a_server_through_p_invoke() {
     assert!(printed.contains("joined"), "{printed}");
     assert!(printed.contains("saw the world move"), "{printed}");
     assert!(printed.contains("heard 1 chat line"), "{printed}");
+    assert!(printed.contains("match players = 1"), "{printed}");
     let _ = std::fs::remove_dir_all(&out);
 }

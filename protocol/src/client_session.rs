@@ -17,7 +17,7 @@ use crate::snapshot::{
 };
 
 /// How a [`ClientSession`] talks to its server.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ClientConfig {
     /// How the server codes snapshots (from its welcome).
     pub snapshot: SnapshotConfig,
@@ -27,6 +27,9 @@ pub struct ClientConfig {
     /// [`MAX_REDUNDANT_INPUTS`]: an input is lost only when that many
     /// datagrams in a row are.
     pub input_redundancy: usize,
+    /// The game's properties every snapshot carries (from the welcome:
+    /// [`ServerInfo::properties`](crate::connection::ServerInfo::properties)).
+    pub properties: std::sync::Arc<crate::property::PropertySchema>,
 }
 
 /// One client's session: its snapshot decoder (views received, what to
@@ -63,7 +66,8 @@ impl ClientSession {
             ..config
         };
         Ok(Self {
-            decoder: SnapshotDecoder::new(config.snapshot)?,
+            decoder: SnapshotDecoder::new(config.snapshot)?
+                .with_properties(config.properties.clone()),
             input: PlayerInput {
                 tick,
                 ..PlayerInput::default()
@@ -194,7 +198,6 @@ impl ClientSession {
         self.sent.iter()
     }
 
-    /// The same session, reading the game's properties of `schema` (the
     /// server's, from its welcome) in every snapshot.
     pub fn with_properties(
         mut self,
@@ -221,6 +224,7 @@ mod tests {
                 snapshot: SnapshotConfig::default(),
                 input_hz: hz,
                 input_redundancy: redundancy,
+                properties: Default::default(),
             },
             100,
         )
@@ -236,6 +240,7 @@ mod tests {
                 snapshot: SnapshotConfig::default(),
                 input_hz: 60,
                 input_redundancy: 4,
+                properties: Default::default(),
             },
             100,
         )

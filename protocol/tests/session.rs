@@ -160,6 +160,7 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
             snapshot: client_config,
             input_hz: 60,
             input_redundancy: MAX_REDUNDANT_INPUTS,
+            properties: Default::default(),
         },
         0,
     )

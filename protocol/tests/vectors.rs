@@ -237,7 +237,15 @@ fn property_stream() -> (SnapshotConfig, PropertySchema, Vec<Step>) {
             PropertyDecl::new("bonus", PropertyKind::Int { bits: 64 }),
         ],
     };
-    let at = |id: u32| body(id, [f64::from(id), 0.5, 0.0], DQuat::IDENTITY, [0.0; 3], true);
+    let at = |id: u32| {
+        body(
+            id,
+            [f64::from(id), 0.5, 0.0],
+            DQuat::IDENTITY,
+            [0.0; 3],
+            true,
+        )
+    };
     let row = |v: [u64; 5]| -> PropertyRow { v.to_vec().into() };
     let props = |rows: Vec<(u32, PropertyRow)>, m: [u64; 3]| {
         Some(FrameProperties {
@@ -255,7 +263,10 @@ fn property_stream() -> (SnapshotConfig, PropertySchema, Vec<Step>) {
             paused: false,
             world: vec![at(1), at(2), at(40)],
             properties: props(
-                vec![(1, row([100, 1, 1, heading(-3), u64::MAX])), (40, row([55, 3, 1, heading(511), 7]))],
+                vec![
+                    (1, row([100, 1, 1, heading(-3), u64::MAX])),
+                    (40, row([55, 3, 1, heading(511), 7])),
+                ],
                 [0, clock(90.0), 0],
             ),
         },
@@ -266,7 +277,11 @@ fn property_stream() -> (SnapshotConfig, PropertySchema, Vec<Step>) {
             paused: false,
             world: vec![at(1), at(2), at(40)],
             properties: props(
-                vec![(1, row([80, 1, 1, heading(-3), u64::MAX])), (2, row([0, 2, 0, heading(-512), 0])), (40, row([55, 3, 1, heading(511), 7]))],
+                vec![
+                    (1, row([80, 1, 1, heading(-3), u64::MAX])),
+                    (2, row([0, 2, 0, heading(-512), 0])),
+                    (40, row([55, 3, 1, heading(511), 7])),
+                ],
                 [1, clock(89.5), -5i64 as u64],
             ),
         },
@@ -277,7 +292,11 @@ fn property_stream() -> (SnapshotConfig, PropertySchema, Vec<Step>) {
             paused: false,
             world: vec![at(1), at(2), at(700)],
             properties: props(
-                vec![(1, row([0, 1, 0, heading(-3), u64::MAX])), (2, row([0, 2, 0, heading(-512), 0])), (700, row([127, 0, 1, 0, 1 << 40]))],
+                vec![
+                    (1, row([0, 1, 0, heading(-3), u64::MAX])),
+                    (2, row([0, 2, 0, heading(-512), 0])),
+                    (700, row([127, 0, 1, 0, 1 << 40])),
+                ],
                 [1, clock(89.0), -5i64 as u64],
             ),
         },
@@ -288,7 +307,11 @@ fn property_stream() -> (SnapshotConfig, PropertySchema, Vec<Step>) {
             paused: false,
             world: vec![at(1), at(2), at(700)],
             properties: props(
-                vec![(1, row([0, 1, 0, heading(-3), u64::MAX])), (2, row([0, 2, 0, heading(-512), 0])), (700, row([127, 0, 1, 0, 1 << 40]))],
+                vec![
+                    (1, row([0, 1, 0, heading(-3), u64::MAX])),
+                    (2, row([0, 2, 0, heading(-512), 0])),
+                    (700, row([127, 0, 1, 0, 1 << 40])),
+                ],
                 [1, clock(89.0), -5i64 as u64],
             ),
         },
@@ -326,8 +349,13 @@ fn run(name: &str, config: SnapshotConfig, schema: PropertySchema, steps: Vec<St
         if let Some(a) = step.acked {
             encoder.on_ack(a);
         }
-        let mut frame =
-            QuantizedFrame::new(step.tick, step.time_scale, step.paused, &step.world, &config);
+        let mut frame = QuantizedFrame::new(
+            step.tick,
+            step.time_scale,
+            step.paused,
+            &step.world,
+            &config,
+        );
         if let Some(p) = step.properties {
             frame = frame.with_properties(Arc::new(p));
         }

@@ -90,6 +90,7 @@ async fn issue_15_a_web_transport_session_joins_on_the_game_port_and_gets_snapsh
         position_resolution,
         position_bound,
         snapshot,
+        properties,
         ..
     } = welcome
     else {
@@ -101,6 +102,7 @@ async fn issue_15_a_web_transport_session_joins_on_the_game_port_and_gets_snapsh
             snapshot: snapshot.config(position_resolution, position_bound),
             input_hz: tick_hz,
             input_redundancy: MAX_REDUNDANT_INPUTS,
+            properties: std::sync::Arc::new(properties),
         },
         tick,
     )

@@ -155,6 +155,15 @@ int main(int argc, char **argv) {
                    stats.prediction_snap_max_m * 1e3, (unsigned long long)stats.prediction_corrections);
         }
     }
+    /* The game's match state: each property by name, as of the tick drawn. */
+    InertiaPropertyValue values[32];
+    size_t n_values = 0;
+    if (inertia_match_state(client, values, 32, &n_values) != INERTIA_STATUS_OK) return fail("match state");
+    for (uint32_t i = 0; i < n_values && i < 32; i++) {
+        InertiaPropertyDecl decl;
+        if (inertia_property_decl(client, 1, i, &decl) != INERTIA_STATUS_OK) return fail("property");
+        printf("match %s = %llu\n", decl.name, (unsigned long long)values[i].as_u64);
+    }
     inertia_disconnect(client);
     printf("heard %d chat line%s\n", heard, heard == 1 ? "" : "s");
     printf(moved ? "saw the world move\n" : "saw nothing move\n");

@@ -81,6 +81,9 @@ static class PrintWorld
                 }
             }
             bool moved = watched != 0 && last != first;
+            var state = client.MatchState();
+            for (uint i = 0; i < state.Length; i++)
+                Console.WriteLine("match " + client.PropertyDecl(true, i).Name + " = " + state[i]);
             Console.WriteLine("heard " + heard + " chat line" + (heard == 1 ? "" : "s"));
             Console.WriteLine(moved ? "saw the world move" : "saw nothing move");
             return moved && heard > 0 ? 0 : 1;

@@ -474,6 +474,7 @@ mod tests {
                 snapshot: config,
                 input_hz: 30,
                 input_redundancy: 4,
+                properties: Default::default(),
             },
             0,
         )

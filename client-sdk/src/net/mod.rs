@@ -226,11 +226,11 @@ impl Client {
                     .input_redundancy
                     .unwrap_or(MAX_REDUNDANT_INPUTS)
                     .clamp(1, MAX_REDUNDANT_INPUTS),
+                properties: info.properties.clone(),
             },
             info.tick,
         )
-        .map_err(|e| ClientError::Protocol(format!("snapshot settings: {e}")))?
-        .with_properties(info.properties.clone());
+        .map_err(|e| ClientError::Protocol(format!("snapshot settings: {e}")))?;
         let predictor = options
             .predict
             .map(|config| crate::predict::Predictor::new(config, info.client_id, info.tick_hz))

@@ -300,7 +300,10 @@ impl GameRules for SandboxRules {
                 PropertyDecl::new("jumps", PropertyKind::UInt { bits: 16 }),
                 PropertyDecl::new("pushes", PropertyKind::UInt { bits: 16 }),
             ],
-            match_state: vec![PropertyDecl::new("players", PropertyKind::UInt { bits: 10 })],
+            match_state: vec![PropertyDecl::new(
+                "players",
+                PropertyKind::UInt { bits: 10 },
+            )],
         }
     }
 

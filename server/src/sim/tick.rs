@@ -148,9 +148,15 @@ impl Simulation {
         n
     }
 
-    /// The 64-bit state hash of the world now.
+    /// The 64-bit state hash of what is shown now: the world's, with the
+    /// game's properties folded in.
     pub fn state_hash(&self) -> u64 {
         self.shown().state_hash()
+    }
+
+    /// The game's properties, as shown now.
+    pub fn properties(&self) -> &crate::properties::PropertyStore {
+        &self.shown().properties
     }
 
     /// The 99th percentile of the last

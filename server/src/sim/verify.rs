@@ -112,8 +112,11 @@ pub fn verify(
                             probe
                                 .restore(&state.world)
                                 .map_err(|e| bad(e.to_string()))?;
+                            let mut properties = s.properties().clone();
+                            properties.restore(&state.properties).map_err(bad)?;
                             report.keyframes_checked += 1;
-                            let (want, got) = (probe.state_hash(), s.state_hash());
+                            let want = probe.state_hash() ^ properties.hash();
+                            let got = s.state_hash();
                             if want != got {
                                 note_mismatch(&mut report, tick, want, got);
                             }

@@ -135,6 +135,7 @@ async fn play(
                     snapshot: info.snapshot,
                     input_hz: 30,
                     input_redundancy: 4,
+                    properties: info.properties.clone(),
                 };
                 match ClientSession::new(config, info.tick) {
                     Ok(s) => session = Some((s, info.tick, info.tick_hz)),
