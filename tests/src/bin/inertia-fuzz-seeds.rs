@@ -14,7 +14,9 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use inertia_protocol::message::{Delivery, GameMessage, MessageDatagram};
+use inertia_protocol::property::{PropertyDecl, PropertyKind, PropertySchema, PropertyValue};
 use inertia_protocol::PlayerInput;
+use inertia_server::properties::PropertyStore;
 use inertia_sandbox::{SandboxEvent, SandboxRequest};
 use inertia_server::record::compress::pack;
 use inertia_server::record::RecorderConfig;
@@ -144,6 +146,26 @@ fn main() {
         seed.extend(bytes);
         write(&out, "fuzz_game_messages", name, &seed);
     }
+
+    // The game's properties as a keyframe saves them (the target's schema:
+    // health, heading, speed per entity; over, bonus per match).
+    let schema = std::sync::Arc::new(PropertySchema {
+        entity: vec![
+            PropertyDecl::new("health", PropertyKind::UInt { bits: 7 }),
+            PropertyDecl::new("heading", PropertyKind::Int { bits: 10 }),
+            PropertyDecl::new("speed", PropertyKind::F32),
+        ],
+        match_state: vec![
+            PropertyDecl::new("over", PropertyKind::Bool),
+            PropertyDecl::new("bonus", PropertyKind::Int { bits: 64 }),
+        ],
+    });
+    let mut store = PropertyStore::new(schema);
+    store.set(3, 0, PropertyValue::UInt(100)).expect("in range");
+    store.set(9, 1, PropertyValue::Int(-300)).expect("in range");
+    store.set(9, 2, PropertyValue::F32(2.5)).expect("in range");
+    store.set_match(1, PropertyValue::Int(i64::MIN)).expect("in range");
+    write(&out, "fuzz_property_store", "two-rows", &store.to_bytes());
 
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../server/scenes");
     for entry in fs::read_dir(&scenes).expect("server/scenes") {
