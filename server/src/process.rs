@@ -4,8 +4,19 @@
 //! on SIGHUP ([`crate::secrets`]; only the admin token file in dev mode,
 //! [`AdminTokenStore::reload`]), and the exit status an orchestrator acts
 //! on.
-//! A studio's own server binary is `fn main() -> ExitCode { run(my_rules) }`,
-//! best with the allocator `inertia-server` declares
+//! A studio's own server binary is its rules and this process:
+//!
+//! ```no_run
+//! # use inertia_server::rules::SandboxRules;
+//! fn main() -> std::process::ExitCode {
+//!     inertia_server::process::Game::new(|_config| Box::new(SandboxRules::default()))
+//!         .default_scene(inertia_server::scene::demo::DEMO_RON)
+//!         .run()
+//! }
+//! ```
+//!
+//! ([`run`] is the same with the built-in demo scene), best with the
+//! allocator `inertia-server` declares
 //! (`#[global_allocator] static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;`):
 //! the capacity figures are measured with it, and glibc's allocator
 //! serialises the tick thread and the network workers on its arena locks.
@@ -29,10 +40,51 @@ use crate::secrets::Secrets;
 /// Exit status after the simulation failed while serving.
 pub const EXIT_SIMULATION_FAILED: u8 = 3;
 
-/// Runs the server process with the rules `make_rules` builds (called once,
-/// after the configuration is read). See the module docs for the exit
-/// status.
+/// A game's server process: its rules and the scene it plays when the
+/// configuration names none, run as `inertia-server` runs (every option,
+/// dev mode, signals, Agones, recording, admin, metrics).
+pub struct Game<F> {
+    make_rules: F,
+    default_scene: &'static str,
+}
+
+impl<F: FnOnce(&ServerConfig) -> Box<dyn GameRules>> Game<F> {
+    /// The game whose rules `make_rules` builds (called once, after the
+    /// configuration is read), on the built-in demo scene until
+    /// [`Game::default_scene`] names its own.
+    pub fn new(make_rules: F) -> Self {
+        Self {
+            make_rules,
+            default_scene: crate::scene::demo::DEMO_RON,
+        }
+    }
+
+    /// The scene (RON text, see `docs/scene-format.md`) the game plays
+    /// when `--scene` names none: typically `include_str!` of the game's
+    /// own file.
+    pub fn default_scene(mut self, ron: &'static str) -> Self {
+        self.default_scene = ron;
+        self
+    }
+
+    /// Runs the process until it is stopped or the match ends; the exit
+    /// status as the module docs say.
+    pub fn run(self) -> ExitCode {
+        run_game(self.make_rules, self.default_scene)
+    }
+}
+
+/// Runs the server process with the rules `make_rules` builds on the
+/// built-in demo scene (unless `--scene` names one): [`Game::new`] then
+/// [`Game::run`]. See the module docs for the exit status.
 pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> ExitCode {
+    Game::new(make_rules).run()
+}
+
+fn run_game(
+    make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>,
+    default_scene: &'static str,
+) -> ExitCode {
     // The running binary's name, for its messages: `inertia-server` or a
     // game's own.
     let name = binary_name(std::env::args_os().next().as_deref());
@@ -79,7 +131,7 @@ pub fn run(make_rules: impl FnOnce(&ServerConfig) -> Box<dyn GameRules>) -> Exit
         // Listened for before the server starts, so a SIGHUP that comes
         // once it serves never falls to the default action (ending it).
         let hangups = hangups();
-        let server = match crate::server::start_with_rules(config, rules).await {
+        let server = match crate::server::start_game(config, rules, default_scene).await {
             Ok(s) => s,
             Err(e) => {
                 eprintln!("{name}: {e}");

@@ -133,10 +133,22 @@ pub async fn start(config: ServerConfig) -> Result<RunningServer, StartError> {
     .await
 }
 
-/// Starts a server with the game's own `rules`.
+/// Starts a server with the game's own `rules` on the built-in demo
+/// scene unless the configuration names one.
 pub async fn start_with_rules(
     config: ServerConfig,
     rules: Box<dyn GameRules>,
+) -> Result<RunningServer, StartError> {
+    start_game(config, rules, DEMO_RON).await
+}
+
+/// Starts a server with the game's own `rules`, on the scene the
+/// configuration names or else on `default_scene` (a scene in RON, the
+/// game's own: see [`crate::scene`]).
+pub async fn start_game(
+    config: ServerConfig,
+    rules: Box<dyn GameRules>,
+    default_scene: &str,
 ) -> Result<RunningServer, StartError> {
     config.validate()?;
     let listen = config.listen_addr();
@@ -153,7 +165,7 @@ pub async fn start_with_rules(
         Some(path) => Scene::read_file(path)?
             .build_with(world_config)
             .map_err(|e| e.in_file(path)),
-        None => Scene::read(DEMO_RON, SceneFormat::Ron)?.build_with(world_config),
+        None => Scene::read(default_scene, SceneFormat::Ron)?.build_with(world_config),
     };
     let built = built.map_err(|e| match e.body_limit() {
         Some(max) => StartError::TooManyBodies {
