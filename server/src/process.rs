@@ -48,6 +48,14 @@ pub struct Game<F> {
     default_scene: &'static str,
 }
 
+impl<F> std::fmt::Debug for Game<F> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Game")
+            .field("default_scene", &self.default_scene.len())
+            .finish_non_exhaustive()
+    }
+}
+
 impl<F: FnOnce(&ServerConfig) -> Box<dyn GameRules>> Game<F> {
     /// The game whose rules `make_rules` builds (called once, after the
     /// configuration is read), on the built-in demo scene until
@@ -94,8 +102,7 @@ fn run_game(
         Err(ConfigError::Cli(e))
             if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) =>
         {
-            print!("{e}");
-            return ExitCode::SUCCESS;
+            return print_asked(&name, &e.to_string());
         }
         Err(ConfigError::Cli(e)) => {
             // clap's own rendering: the usage and a hint.
@@ -177,6 +184,23 @@ fn run_game(
     // the exit: shutdown has already had its deadline.
     runtime.shutdown_timeout(EXIT_GRACE);
     code
+}
+
+/// Prints what was asked for (the help, the version) to standard output:
+/// status 0, or, when the output cannot take it, a line on standard error
+/// and status 1. A reader that went away (`--help | head -1`) is not an
+/// error: status 0, and nothing said.
+fn print_asked(name: &str, text: &str) -> ExitCode {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{name}: cannot write to standard output: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }
 
 /// How long blocking tasks still running at exit are waited for.

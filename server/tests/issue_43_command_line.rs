@@ -63,3 +63,24 @@ fn issue_43_a_bad_option_is_refused_on_standard_error_with_status_2() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("--no-such-option"), "{stderr}");
 }
+
+#[test]
+fn issue_43_help_to_an_output_that_cannot_take_it_is_an_error_not_a_panic() {
+    // `inertia-server --help | head -1` closes the pipe; a full disk
+    // refuses the write. Either way the process says so (or, for a closed
+    // pipe, nothing) and exits, never panics.
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .expect("/dev/full");
+    let out = Command::new(env!("CARGO_BIN_EXE_inertia-server"))
+        .arg("--help")
+        .env_remove("INERTIA_CONFIG")
+        .stdout(full)
+        .output()
+        .expect("inertia-server runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("inertia-server: cannot write"), "{stderr}");
+}

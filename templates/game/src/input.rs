@@ -30,7 +30,11 @@ impl GameInput for Drive {
         let dash = match bytes[2] {
             0 => false,
             1 => true,
-            _ => return Err(InputDecodeError::Invalid("a dash that is not 0 or 1".into())),
+            _ => {
+                return Err(InputDecodeError::Invalid(
+                    "a dash that is not 0 or 1".into(),
+                ))
+            }
         };
         Ok(Drive { stick, dash })
     }

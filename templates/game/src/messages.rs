@@ -61,7 +61,9 @@ fn done<T>(r: &ByteReader<'_>, value: T) -> Result<T, MessageDecodeError> {
     if r.is_empty() {
         Ok(value)
     } else {
-        Err(MessageDecodeError::Invalid("bytes after the message".into()))
+        Err(MessageDecodeError::Invalid(
+            "bytes after the message".into(),
+        ))
     }
 }
 

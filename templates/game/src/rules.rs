@@ -58,7 +58,8 @@ struct Player {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 struct Round {
     players: BTreeMap<ClientId, Player>,
-    orbs: Vec<EntityId>,
+    /// The orbs on the floor and where they lie, m.
+    orbs: Vec<(EntityId, [f64; 3])>,
     phase: u64,
     ticks_left: u64,
     winner: Option<ClientId>,
@@ -86,7 +87,7 @@ impl OrbsRules {
                 name: format!("orb[{i}]"),
             };
             if let Ok(id) = ctx.spawn(&desc, look) {
-                self.round.orbs.push(id);
+                self.round.orbs.push((id, at.to_array()));
             }
         }
         self.round.phase = PLAYING;
@@ -103,7 +104,9 @@ impl OrbsRules {
         let _ = ctx.set_match_property(PHASE, r.phase);
     }
 
-    /// Gives each ball the orbs it touches.
+    /// Gives each ball the orbs it touches (orbs are sensors: balls roll
+    /// through them, and the rules, which know where each lies, see the
+    /// touch).
     fn collect(&mut self, ctx: &mut SimContext<'_>) {
         let clients: Vec<ClientId> = self.round.players.keys().copied().collect();
         for client in clients {
@@ -113,12 +116,15 @@ impl OrbsRules {
             let Some(at) = ctx.body(ball).map(|b| b.center_of_mass()) else {
                 continue;
             };
-            for hit in ctx.overlap_sphere(at, BALL_RADIUS + ORB_RADIUS) {
-                let Some(k) = self.round.orbs.iter().position(|&o| o == hit) else {
-                    continue;
-                };
-                self.round.orbs.remove(k);
-                ctx.despawn(hit);
+            let reach = BALL_RADIUS + ORB_RADIUS;
+            while let Some(k) = self
+                .round
+                .orbs
+                .iter()
+                .position(|(_, o)| DVec3::from_array(*o).distance(at) <= reach)
+            {
+                let (orb, _) = self.round.orbs.remove(k);
+                ctx.despawn(orb);
                 let Some(p) = self.round.players.get_mut(&client) else {
                     continue;
                 };
@@ -285,4 +291,3 @@ impl GameRules for OrbsRules {
         Ok(())
     }
 }
-

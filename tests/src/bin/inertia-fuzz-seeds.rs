@@ -16,8 +16,8 @@ use std::path::{Path, PathBuf};
 use inertia_protocol::message::{Delivery, GameMessage, MessageDatagram};
 use inertia_protocol::property::{PropertyDecl, PropertyKind, PropertySchema, PropertyValue};
 use inertia_protocol::PlayerInput;
-use inertia_server::properties::PropertyStore;
 use inertia_sandbox::{SandboxEvent, SandboxRequest};
+use inertia_server::properties::PropertyStore;
 use inertia_server::record::compress::pack;
 use inertia_server::record::RecorderConfig;
 use inertia_server::replay::journal::{self, JournalEntry};
@@ -164,7 +164,9 @@ fn main() {
     store.set(3, 0, PropertyValue::UInt(100)).expect("in range");
     store.set(9, 1, PropertyValue::Int(-300)).expect("in range");
     store.set(9, 2, PropertyValue::F32(2.5)).expect("in range");
-    store.set_match(1, PropertyValue::Int(i64::MIN)).expect("in range");
+    store
+        .set_match(1, PropertyValue::Int(i64::MIN))
+        .expect("in range");
     write(&out, "fuzz_property_store", "two-rows", &store.to_bytes());
 
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../server/scenes");
