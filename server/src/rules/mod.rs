@@ -211,6 +211,23 @@ pub trait GameRules: Send {
         Vec::new()
     }
 
+    /// A hash of the rules' state, folded into the state hash a recording
+    /// keeps for every tick: a seek or a replay that reproduces the
+    /// recorded hash reproduced the rules' state too. By default a hash of
+    /// [`GameRules::save_state`]'s bytes (0 for rules that remember
+    /// nothing); rules whose saved state is large may hash the same state
+    /// more cheaply.
+    fn state_hash(&self) -> u64 {
+        let bytes = self.save_state();
+        if bytes.is_empty() {
+            return 0;
+        }
+        // FNV-1a.
+        bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+        })
+    }
+
     /// Replaces the rules' state with one from [`GameRules::save_state`].
     /// On error nothing changes.
     fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {

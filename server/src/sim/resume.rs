@@ -244,7 +244,7 @@ impl Simulation {
             report.resimulated += 1;
             if let Some(want) = history.hash_at(self.shown().world.tick()) {
                 report.hashes_checked += 1;
-                if want != self.shown().state_hash() {
+                if want != self.state_hash() {
                     report.mismatches += 1;
                 }
             }

@@ -79,7 +79,7 @@ impl Simulation {
     /// The records of the tick just run (see [`super::recording`]).
     fn record_tick(&mut self) {
         let tick = self.shown().world.tick();
-        let hash = self.shown().state_hash();
+        let hash = self.state_hash();
         let (timelines, rules) = (&self.timelines, &*self.rules);
         self.recording
             .record_tick(tick, hash, &self.meter, |applied| {
@@ -148,10 +148,12 @@ impl Simulation {
         n
     }
 
-    /// The 64-bit state hash of what is shown now: the world's, with the
-    /// game's properties folded in.
+    /// The 64-bit state hash of what is shown now, as the recording keeps
+    /// it for each tick: the world's, with the game's properties and the
+    /// rules' own state ([`GameRules::state_hash`](crate::rules::GameRules::state_hash))
+    /// folded in. A seek that reproduces it reproduced all three.
     pub fn state_hash(&self) -> u64 {
-        self.shown().state_hash()
+        self.shown().state_hash() ^ self.rules.state_hash().rotate_left(42)
     }
 
     /// The game's properties, as shown now.

@@ -528,7 +528,7 @@ impl Simulation {
         shown.clock = shown.clock.clone().with_tick(target);
         Ok(SeekReport {
             tick: target,
-            state_hash: self.shown().state_hash(),
+            state_hash: self.state_hash(),
             recorded_hash: history.hash_at(target),
             base_tick,
             resimulated,
@@ -543,7 +543,7 @@ impl Simulation {
         let tick = self.shown().world.tick();
         SeekReport {
             tick,
-            state_hash: self.shown().state_hash(),
+            state_hash: self.state_hash(),
             recorded_hash: self
                 .recording
                 .history
@@ -617,6 +617,6 @@ impl Simulation {
             }
         }
         tracing::info!(operator, tick = state.tick, "checkpoint loaded");
-        Ok(self.shown().state_hash())
+        Ok(self.state_hash())
     }
 }

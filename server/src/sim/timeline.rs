@@ -31,11 +31,11 @@ pub(crate) struct Timeline {
 }
 
 impl Timeline {
-    /// The hash a recording keeps for each tick: the world's, with the
-    /// game's properties folded in (a game without any hashes as the
-    /// world alone).
+    /// The world's hash with the game's properties folded in (a game
+    /// without any hashes as the world alone); the simulation folds the
+    /// rules' state in too ([`super::Simulation::state_hash`]).
     pub(super) fn state_hash(&self) -> u64 {
-        self.world.state_hash() ^ self.properties.hash()
+        self.world.state_hash() ^ self.properties.hash().rotate_left(21)
     }
 }
 

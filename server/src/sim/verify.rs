@@ -114,8 +114,12 @@ pub fn verify(
                                 .map_err(|e| bad(e.to_string()))?;
                             let mut properties = s.properties().clone();
                             properties.restore(&state.properties).map_err(bad)?;
+                            let mut rules = make_rules();
+                            rules.restore_state(&state.rules).map_err(bad)?;
                             report.keyframes_checked += 1;
-                            let want = probe.state_hash() ^ properties.hash();
+                            let want = probe.state_hash()
+                                ^ properties.hash().rotate_left(21)
+                                ^ rules.state_hash().rotate_left(42);
                             let got = s.state_hash();
                             if want != got {
                                 note_mismatch(&mut report, tick, want, got);
