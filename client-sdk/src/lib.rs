@@ -37,4 +37,4 @@ pub mod properties;
 pub mod stats;
 
 pub use blocking::BlockingClient;
-pub use net::{Client, ClientError, ClientEvent, ConnectOptions, ServerInfo};
+pub use net::{Client, ClientError, ClientEvent, ConnectOptions, ControllerFactory, ServerInfo};

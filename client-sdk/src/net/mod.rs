@@ -104,6 +104,23 @@ pub struct ConnectOptions {
     /// sandbox); `None` (the default): the avatar is drawn from snapshots
     /// like every other entity.
     pub predict: Option<crate::predict::PredictionConfig>,
+    /// With [`Self::predict`]: how the game's rules move the avatar, made
+    /// for the connection (a game's own input and avatar); `None` (the
+    /// default): the sandbox's walker.
+    pub controller: Option<ControllerFactory>,
+}
+
+/// Makes the [`AvatarController`](crate::predict::AvatarController) a
+/// connection predicts with.
+#[derive(Clone)]
+pub struct ControllerFactory(
+    pub Arc<dyn Fn() -> Box<dyn crate::predict::AvatarController> + Send + Sync>,
+);
+
+impl std::fmt::Debug for ControllerFactory {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ControllerFactory")
+    }
 }
 
 impl Default for ConnectOptions {
@@ -114,6 +131,7 @@ impl Default for ConnectOptions {
             input_hz: None,
             input_redundancy: None,
             predict: None,
+            controller: None,
         }
     }
 }
@@ -233,7 +251,15 @@ impl Client {
         .map_err(|e| ClientError::Protocol(format!("snapshot settings: {e}")))?;
         let predictor = options
             .predict
-            .map(|config| crate::predict::Predictor::new(config, info.client_id, info.tick_hz))
+            .map(|config| match &options.controller {
+                Some(make) => crate::predict::Predictor::with_controller(
+                    config,
+                    (make.0)(),
+                    info.client_id,
+                    info.tick_hz,
+                ),
+                None => crate::predict::Predictor::new(config, info.client_id, info.tick_hz),
+            })
             .transpose()?;
         let epoch = Instant::now();
         let mut state = ClientShared::new(&info, session);

@@ -10,14 +10,17 @@
 //!
 //! # How
 //!
-//! [`Predictor`] owns a small physics world: the own avatar, a dynamic
-//! capsule built by the same [`WalkSettings`](inertia_physics::character)
-//! the server's rules use, and what is near it ([`PredictionConfig::
+//! [`Predictor`] owns a small physics world: the own avatar, whose body
+//! and controller are the game's ([`AvatarController`]: by default the
+//! sandbox's walker, a dynamic capsule built by the same
+//! [`WalkSettings`](inertia_physics::character) the server's rules use;
+//! a game whose rules move avatars their own way gives its own, which
+//! reads the game's input bytes), and what is near it ([`PredictionConfig::
 //! neighbour_radius`]): static entities as static bodies and every other
 //! moving entity as a kinematic body held at its newest known pose. The
 //! SDK stamps one input per tick, ahead of the server (see
 //! [`crate::lead`]); each one steps the local world one tick with the
-//! shared controller ([`Predictor::on_input`]), so the avatar answers in
+//! controller ([`Predictor::on_input`]), so the avatar answers in
 //! the very next frame. The state after each step is kept by tick.
 //!
 //! A snapshot at tick `T` holds the state after `T` steps, before the
@@ -45,12 +48,15 @@
 //! the predicted pose comes out.
 
 mod config;
+pub mod controller;
 pub mod shape;
 pub mod smoothing;
 mod stats;
 
 use std::collections::BTreeMap;
 
+pub use config::PredictionConfig;
+pub use controller::{AvatarController, ControlStep, SandboxWalker};
 use glam::{DQuat, DVec3};
 use inertia_physics::character::WalkSettings;
 use inertia_physics::rigid::body::RigidBodyDesc;
@@ -58,12 +64,8 @@ use inertia_physics::rigid::pose::Pose;
 use inertia_physics::rigid::shape::Shape;
 use inertia_physics::rigid::solver::SolverConfig;
 use inertia_physics::{BodyHandle, PhysicsError, World, WorldConfig};
-use inertia_protocol::input::GameInput;
 use inertia_protocol::snapshot::ViewEntity;
 use inertia_protocol::{EntityId, EntityKind, PlayerInput};
-use inertia_sandbox::{buttons, SandboxInput};
-
-pub use config::PredictionConfig;
 pub use smoothing::{Fold, VisualOffset};
 pub use stats::PredictionStats;
 
@@ -80,6 +82,9 @@ pub enum PredictionError {
     /// gravity or substeps): fix the [`PredictionConfig`].
     #[error("prediction settings: {0}")]
     Settings(#[from] PhysicsError),
+    /// The avatar's shape was refused (an [`AvatarController`]'s body).
+    #[error("the avatar's shape: {0}")]
+    Shape(#[from] inertia_physics::rigid::shape::ShapeError),
 }
 
 /// The own avatar as prediction has it.
@@ -105,16 +110,14 @@ pub struct PredictedAvatar {
 }
 
 /// The avatar and its controller at the start of one tick.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 struct TickState {
     position: DVec3,
     rotation: DQuat,
     velocity: DVec3,
     angular_velocity: DVec3,
-    /// Buttons of the previous input, for press edges.
-    held: u8,
-    /// No jump before this tick.
-    jump_ready_at: u64,
+    /// The controller's memory ([`AvatarController::memory`]).
+    memory: Vec<u8>,
 }
 
 /// A body in the local world standing for a neighbour.
@@ -141,8 +144,8 @@ pub struct Predictor {
     history: BTreeMap<u64, TickState>,
     /// The tick the local world is at, once the avatar is known.
     present: Option<u64>,
-    held: u8,
-    jump_ready_at: u64,
+    /// How the game's rules move the avatar.
+    controller: Box<dyn AvatarController>,
     offset: VisualOffset,
     corrected: DVec3,
     stats: StatsCollector,
@@ -165,9 +168,21 @@ const MAX_INPUTS: usize = 240;
 
 impl Predictor {
     /// A predictor for the avatar of `client_id` on a server stepping at
-    /// `tick_hz`.
+    /// `tick_hz`, walking it as the sandbox's rules do ([`SandboxWalker`]).
     pub fn new(
         config: PredictionConfig,
+        client_id: u64,
+        tick_hz: u32,
+    ) -> Result<Self, PredictionError> {
+        let walker = SandboxWalker::new(&config);
+        Self::with_controller(config, Box::new(walker), client_id, tick_hz)
+    }
+
+    /// A predictor that moves the avatar as `controller` says the game's
+    /// rules do (a game's own input and avatar).
+    pub fn with_controller(
+        config: PredictionConfig,
+        controller: Box<dyn AvatarController>,
         client_id: u64,
         tick_hz: u32,
     ) -> Result<Self, PredictionError> {
@@ -185,8 +200,8 @@ impl Predictor {
             substeps: config.solver_substeps,
             ..SolverConfig::default()
         })?;
-        // Checks the capsule and mass now rather than at the first snapshot.
-        config.walk.body_desc(DVec3::ZERO)?;
+        // Checks the body now rather than at the first snapshot.
+        controller.body(DVec3::ZERO)?;
         Ok(Self {
             offset: VisualOffset::new(config.smoothing, dt, config.snap_distance),
             config,
@@ -199,8 +214,7 @@ impl Predictor {
             inputs: BTreeMap::new(),
             history: BTreeMap::new(),
             present: None,
-            held: 0,
-            jump_ready_at: 0,
+            controller,
             corrected: DVec3::ZERO,
             stats: StatsCollector::default(),
         })
@@ -288,12 +302,11 @@ impl Predictor {
                 if self.place_avatar(own_id, state).is_err() {
                     return;
                 }
-                self.held = 0;
-                self.jump_ready_at = 0;
+                self.controller.recall(&[]);
                 self.rollback(tick, state);
             }
             Some(present) => {
-                let Some(&predicted) = self.history.get(&tick) else {
+                let Some(predicted) = self.history.get(&tick).cloned() else {
                     if tick > present {
                         // The server is ahead of what was predicted (no
                         // inputs for a while): start again from its state.
@@ -305,8 +318,7 @@ impl Predictor {
                 self.stats.on_error(error);
                 let dv = (predicted.velocity - velocity).length();
                 if error > self.config.tolerance || dv > self.config.velocity_tolerance {
-                    self.held = predicted.held;
-                    self.jump_ready_at = predicted.jump_ready_at;
+                    self.controller.recall(&predicted.memory);
                     self.rollback(tick, state);
                 }
             }
@@ -332,10 +344,10 @@ impl Predictor {
         self.offset.clear();
     }
 
-    fn place_avatar(&mut self, id: EntityId, state: &ViewEntity) -> Result<(), PhysicsError> {
+    fn place_avatar(&mut self, id: EntityId, state: &ViewEntity) -> Result<(), PredictionError> {
         let h = self
             .world
-            .add_body(&self.config.walk.body_desc(state.position)?)?;
+            .add_body(&self.controller.body(state.position)?)?;
         self.avatar = Some((id, h));
         Ok(())
     }
@@ -395,8 +407,7 @@ impl Predictor {
             rotation: b.map_or(DQuat::IDENTITY, |b| b.pose().rotation),
             velocity: b.map_or(DVec3::ZERO, |b| b.linear_velocity()),
             angular_velocity: b.map_or(DVec3::ZERO, |b| b.angular_velocity()),
-            held: self.held,
-            jump_ready_at: self.jump_ready_at,
+            memory: self.controller.memory(),
         }
     }
 
@@ -411,43 +422,13 @@ impl Predictor {
             .next_back()
             .map(|(_, i)| *i)
             .unwrap_or_default();
-        // The sandbox's walker: an input it cannot read walks nowhere.
-        let input = SandboxInput::from_payload(&input.payload).unwrap_or_default();
-        let movement = clamp_movement(input.movement);
-        let pressed = input.buttons & !self.held;
-        self.held = input.buttons;
-        let Some(b) = self.world.body(h) else { return };
-        let (v, com) = (b.linear_velocity(), b.center_of_mass());
-        let walk = self.config.walk;
-        let world = &self.world;
-        let grounded = walk.grounded(com, |from, dir, reach| {
-            world
-                .cast_ray(from, dir, reach, |other, body| {
-                    other != h && !body.is_sensor()
-                })
-                .ok()
-                .flatten()
-                .is_some()
+        self.controller.control(ControlStep {
+            world: &mut self.world,
+            avatar: h,
+            input: &input.payload,
+            tick: t,
+            dt: self.dt,
         });
-        let _ = self
-            .world
-            .set_body_control(h, walk.walk_force(movement, v, grounded), DVec3::ZERO);
-        let jump_pressed = pressed & buttons::JUMP != 0;
-        if let Some(j) = walk.jump(jump_pressed, grounded, t, self.jump_ready_at, v, self.dt) {
-            let cap = self
-                .config
-                .max_impulse
-                .min(walk.mass * self.config.max_delta_v);
-            let len = j.impulse.length();
-            let impulse = if len > cap {
-                j.impulse * (cap / len)
-            } else {
-                j.impulse
-            };
-            if self.world.apply_body_impulse(h, impulse, com).is_ok() {
-                self.jump_ready_at = j.ready_at;
-            }
-        }
         if self.world.step(self.dt).is_err() {
             return;
         }
@@ -527,20 +508,6 @@ impl Predictor {
 /// Distance from `p` to a box, m (0 inside).
 fn distance_to(b: &inertia_physics::rigid::aabb::Aabb, p: DVec3) -> f64 {
     (b.min - p).max(p - b.max).max(DVec3::ZERO).length()
-}
-
-/// The server's clamp of movement: each axis to [−1, 1], the length to 1.
-fn clamp_movement([x, z]: [f32; 2]) -> [f32; 2] {
-    if !(x.is_finite() && z.is_finite()) {
-        return [0.0, 0.0];
-    }
-    let (mut x, mut z) = (x.clamp(-1.0, 1.0), z.clamp(-1.0, 1.0));
-    let len = (x * x + z * z).sqrt();
-    if len > 1.0 {
-        x /= len;
-        z /= len;
-    }
-    [x, z]
 }
 
 #[cfg(test)]

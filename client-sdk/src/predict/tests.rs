@@ -189,3 +189,81 @@ fn inputs_are_forgotten_once_a_snapshot_covers_them() {
     assert_eq!(c.inputs_held(), 8, "ticks 12 to 19 wait for the server");
     assert_eq!(c.avatar().unwrap().tick, 20);
 }
+
+/// A game's own avatar: a ball rolled by a 2-byte stick, and a memory of
+/// how many ticks it has been pushed (to see a correction put it back).
+#[derive(Debug, Default)]
+struct Roller {
+    pushed: u64,
+}
+
+impl AvatarController for Roller {
+    fn body(&self, at: DVec3) -> Result<RigidBodyDesc, PredictionError> {
+        Ok(RigidBodyDesc::dynamic(
+            Shape::sphere(0.5)?,
+            200.0,
+            Pose::from_translation(at),
+        )?)
+    }
+
+    fn control(&mut self, step: ControlStep<'_>) {
+        let bytes = step.input.as_bytes();
+        let [x, z] =
+            [bytes.first(), bytes.get(1)].map(|b| f64::from(b.copied().unwrap_or(0) as i8));
+        if x != 0.0 || z != 0.0 {
+            self.pushed += 1;
+        }
+        let _ = step
+            .world
+            .set_body_control(step.avatar, DVec3::new(x, 0.0, z) * 20.0, DVec3::ZERO);
+    }
+
+    fn memory(&self) -> Vec<u8> {
+        self.pushed.to_le_bytes().to_vec()
+    }
+
+    fn recall(&mut self, memory: &[u8]) {
+        self.pushed = memory.try_into().map_or(0, u64::from_le_bytes);
+    }
+}
+
+#[test]
+fn issue_43_a_games_own_controller_predicts_its_own_input() {
+    let table = table();
+    let mut p = Predictor::with_controller(
+        PredictionConfig::default(),
+        Box::new(Roller::default()),
+        CLIENT,
+        60,
+    )
+    .unwrap();
+    p.on_snapshot(0, &[state(DVec3::new(0.0, 0.5, 0.0), DVec3::ZERO)], &table);
+    // The game's own bytes: the stick right, for half a second.
+    for t in 0..30 {
+        p.on_input(&PlayerInput {
+            sequence: t as u32,
+            tick: t,
+            payload: inertia_protocol::input::InputPayload::new(&[100, 0]).unwrap(),
+            view_behind: 0.0,
+        });
+    }
+    let a = p.avatar().expect("predicted");
+    assert_eq!(a.tick, 30);
+    assert!(a.predicted.x > 0.5, "rolled right: {}", a.predicted);
+    assert!(a.predicted.z.abs() < 1e-6, "{}", a.predicted);
+    // The server saw it elsewhere at tick 10: the prediction replays the
+    // inputs from there, with the controller's memory as of tick 10.
+    p.on_snapshot(
+        10,
+        &[state(DVec3::new(-3.0, 0.5, 0.0), DVec3::ZERO)],
+        &table,
+    );
+    let b = p.avatar().expect("predicted");
+    assert_eq!(b.tick, 30);
+    assert!(
+        b.predicted.x < a.predicted.x - 2.0,
+        "{} then {}",
+        a.predicted,
+        b.predicted
+    );
+}

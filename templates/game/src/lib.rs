@@ -10,10 +10,12 @@
 //! - [`properties`]: what every client sees of the game's state (each
 //!   ball's score; the orbs left, the clock and the phase);
 //! - [`rules`]: the rules themselves ([`OrbsRules`]);
+//! - [`predict`]: the client's prediction of its own ball ([`predict::Roller`]);
 //! - `main.rs`: the server process around them.
 
 pub mod input;
 pub mod messages;
+pub mod predict;
 pub mod properties;
 pub mod rules;
 

@@ -23,12 +23,21 @@ use crate::{Ask, Drive, Tell};
 
 /// A ball's radius, m.
 pub const BALL_RADIUS: f64 = 0.5;
+/// A ball's density, kg/m³.
+pub const BALL_DENSITY: f64 = 200.0;
 /// An orb's radius, m.
 pub const ORB_RADIUS: f64 = 0.3;
 /// The force a full stick rolls a ball with, N (twice as much dashing).
 pub const ROLL_FORCE: f64 = 2_000.0;
 /// A round's length, s.
 pub const ROUND_SECONDS: f64 = 90.0;
+
+/// The force a drive rolls a ball with, N: the rules' and the client's
+/// prediction's ([`crate::predict::Roller`]) alike.
+pub fn roll_force(drive: &Drive) -> DVec3 {
+    let scale = if drive.dash { 2.0 } else { 1.0 } * ROLL_FORCE / 127.0;
+    DVec3::new(f64::from(drive.stick[0]), 0.0, f64::from(drive.stick[1])) * scale
+}
 
 /// Where the orbs lie, m: one a stride from each place to start, then a
 /// ring round the middle.
@@ -177,7 +186,7 @@ impl GameRules for OrbsRules {
             .copied()
             .ok_or(JoinRefusal::NoRoom)?;
         let shape = Shape::sphere(BALL_RADIUS).map_err(|e| JoinRefusal::Rules(e.to_string()))?;
-        let desc = RigidBodyDesc::dynamic(shape, 200.0, Pose::from_translation(at))
+        let desc = RigidBodyDesc::dynamic(shape, BALL_DENSITY, Pose::from_translation(at))
             .map_err(|e| JoinRefusal::Rules(e.to_string()))?;
         let look = EntityLook {
             kind: EntityKind::Avatar,
@@ -254,9 +263,11 @@ impl GameRules for OrbsRules {
 
     fn before_tick(&mut self, ctx: &mut SimContext<'_>) {
         for p in self.round.players.values() {
-            let scale = if p.dash { 2.0 } else { 1.0 } * ROLL_FORCE / 127.0;
-            let push = DVec3::new(f64::from(p.stick[0]), 0.0, f64::from(p.stick[1])) * scale;
-            let _ = ctx.set_control_force(p.ball, push);
+            let drive = Drive {
+                stick: p.stick,
+                dash: p.dash,
+            };
+            let _ = ctx.set_control_force(p.ball, roll_force(&drive));
         }
     }
 

@@ -6,7 +6,11 @@
 use std::time::{Duration, Instant};
 
 use inertia_client::dev::dev_token;
-use inertia_client::{Client, ClientEvent};
+use std::sync::Arc;
+
+use inertia_client::predict::PredictionConfig;
+use inertia_client::{Client, ClientEvent, ConnectOptions, ControllerFactory};
+use inertia_game_template::predict::Roller;
 use inertia_game_template::properties::PLAYING;
 use inertia_game_template::{Ask, Drive, OrbsRules, Tell};
 use inertia_protocol::message::Delivery;
@@ -47,11 +51,23 @@ async fn a_round_of_orbs_over_a_real_server() {
         .await
         .expect("the server starts");
     let credentials = server.credentials_path().expect("dev mode").to_path_buf();
-    let join = |id| {
-        let (addr, token, _) = dev_token(&credentials, Some(id)).expect("a token");
-        async move { Client::connect(addr, &token).await.expect("joins") }
+    // Player 1 predicts its own ball with the game's roller; player 2
+    // draws everything from snapshots.
+    let predicting = ConnectOptions {
+        predict: Some(PredictionConfig::default()),
+        controller: Some(ControllerFactory(Arc::new(|| Box::new(Roller)))),
+        ..ConnectOptions::default()
     };
-    let (a, b) = (join(1).await, join(2).await);
+    let join = |id, options: ConnectOptions| {
+        let (addr, token, _) = dev_token(&credentials, Some(id)).expect("a token");
+        async move {
+            Client::connect_with(addr, &token, options)
+                .await
+                .expect("joins")
+        }
+    };
+    let a = join(1, predicting).await;
+    let b = join(2, ConnectOptions::default()).await;
     assert_eq!(a.server_info().input_bytes, 3);
 
     // Both ready: the round starts, with twelve orbs on the floor.
@@ -78,6 +94,7 @@ async fn a_round_of_orbs_over_a_real_server() {
         .find(|d| d.owner == Some(1))
         .map(|d| d.id)
         .expect("1's ball");
+    let start = a.predicted_avatar().map(|p| p.predicted.x);
     let (mut to_a, mut to_b) = (Vec::new(), Vec::new());
     until("both see 1 holding an orb", || {
         a.sample();
@@ -96,6 +113,13 @@ async fn a_round_of_orbs_over_a_real_server() {
     })
     .await;
     assert!(to_b.contains(&Tell::Started));
+    // 1's own ball was predicted with the game's roller, and rolled right.
+    let predicted = a.predicted_avatar().expect("1's ball predicted");
+    assert_eq!(predicted.id, ball);
+    assert!(
+        predicted.predicted.x > start.unwrap_or(-6.0) + 0.5,
+        "{predicted:?}"
+    );
     // As of the tick 2 draws, which the collection reaches a little
     // after it is told.
     until("2 sees fewer orbs left", || {
