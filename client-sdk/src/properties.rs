@@ -73,6 +73,8 @@ pub struct KnownProperties {
     schema: Arc<PropertySchema>,
     entities: BTreeMap<EntityId, History>,
     match_state: History,
+    /// The tick of the newest view taken.
+    newest_tick: Option<u64>,
 }
 
 fn values(decls: &[PropertyDecl], row: Option<&PropertyRow>) -> Vec<PropertyValue> {
@@ -107,15 +109,10 @@ impl KnownProperties {
     /// held (the server's timeline went back) starts the history anew.
     pub fn on_view(&mut self, tick: u64, view: &View) -> Vec<PropertyChange> {
         let props = view.properties();
-        let newest_tick = self
-            .entities
-            .values()
-            .chain(std::iter::once(&self.match_state))
-            .filter_map(|h| h.rows.back().map(|(t, _)| *t))
-            .max();
-        if newest_tick.is_some_and(|t| t > tick) {
+        if self.newest_tick.is_some_and(|t| t > tick) {
             self.clear();
         }
+        self.newest_tick = Some(tick);
         let mut changed = Vec::new();
         // Entities that left the view go; those whose row went back to
         // the defaults take a row of zeros.

@@ -16,10 +16,19 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use inertia_codec::{ByteReader, ByteWriter};
+use inertia_physics::saved_state::hash::StateHasher;
 use inertia_protocol::property::{
-    FrameProperties, PropertyError, PropertyRow, PropertySchema, PropertyValue,
+    FrameProperties, PropertyDecl, PropertyError, PropertyRow, PropertySchema, PropertyValue,
 };
 use inertia_protocol::EntityId;
+
+/// Declaration `index` of `list`, or why there is none.
+fn decl(list: &[PropertyDecl], index: usize) -> Result<&PropertyDecl, PropertyError> {
+    list.get(index).ok_or(PropertyError::NoSuchProperty {
+        index,
+        count: list.len(),
+    })
+}
 
 /// Every property of one timeline: rows of raw values by entity (only
 /// entities with a value set) and the match's row.
@@ -83,12 +92,7 @@ impl PropertyStore {
         value: PropertyValue,
     ) -> Result<(), PropertyError> {
         let n = self.schema.entity.len();
-        let decl = self
-            .schema
-            .entity
-            .get(index)
-            .ok_or(PropertyError::NoSuchProperty { index, count: n })?;
-        let raw = value.to_raw(decl.kind)?;
+        let raw = value.to_raw(decl(&self.schema.entity, index)?.kind)?;
         let row = self
             .entities
             .entry(entity)
@@ -102,29 +106,14 @@ impl PropertyStore {
 
     /// Match property `index` (its default when never set).
     pub fn get_match(&self, index: usize) -> Result<PropertyValue, PropertyError> {
-        let decl = self
-            .schema
-            .match_state
-            .get(index)
-            .ok_or(PropertyError::NoSuchProperty {
-                index,
-                count: self.schema.match_state.len(),
-            })?;
+        let decl = decl(&self.schema.match_state, index)?;
         Ok(PropertyValue::from_raw(decl.kind, self.match_state[index]))
     }
 
     /// Sets match property `index`; refused, changing nothing, as
     /// [`Self::set`].
     pub fn set_match(&mut self, index: usize, value: PropertyValue) -> Result<(), PropertyError> {
-        let decl = self
-            .schema
-            .match_state
-            .get(index)
-            .ok_or(PropertyError::NoSuchProperty {
-                index,
-                count: self.schema.match_state.len(),
-            })?;
-        let raw = value.to_raw(decl.kind)?;
+        let raw = value.to_raw(decl(&self.schema.match_state, index)?.kind)?;
         if self.match_state[index] != raw {
             Arc::make_mut(&mut self.match_state)[index] = raw;
             self.version += 1;
@@ -158,12 +147,14 @@ impl PropertyStore {
         if self.is_empty() {
             return 0;
         }
-        // FNV-1a over the saved form.
-        self.to_bytes()
-            .iter()
-            .fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
-                (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-            })
+        // Over the values as the saved form lists them, without making it.
+        let mut h = StateHasher::default();
+        self.match_state.iter().for_each(|&v| h.write_u64(v));
+        for (id, row) in &self.entities {
+            h.write_u64(u64::from(*id));
+            row.iter().for_each(|&v| h.write_u64(v));
+        }
+        h.finish()
     }
 
     /// The saved form (see the module docs); empty for a game without

@@ -63,8 +63,9 @@ impl StateSink for StateHasher {
     }
 }
 
-/// Hashes a byte slice (used as the checksum of saved files).
-pub(crate) fn hash_bytes(bytes: &[u8]) -> u64 {
+/// Hashes a byte slice (the checksum of saved files; the server's digest
+/// of its game rules' saved state).
+pub fn hash_bytes(bytes: &[u8]) -> u64 {
     let mut h = StateHasher::default();
     let mut chunks = bytes.chunks_exact(8);
     for c in &mut chunks {

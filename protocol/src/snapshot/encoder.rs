@@ -546,7 +546,7 @@ impl SnapshotEncoder {
             props.entities.sort_unstable_by_key(|e| e.0);
             let frame_match = frame.properties().and_then(|p| p.match_state.as_ref());
             section.write(&mut w, (props.match_mask, frame_match), &props.entities);
-            if let Some(&(last, ..)) = props.held_last.as_ref() {
+            if let Some(last) = props.held_last {
                 self.property_cursor = last;
             }
             let n = self.schema.entity.len();
@@ -616,7 +616,7 @@ struct PropertyPlan {
     entities: Vec<(EntityId, u64, Option<PropertyRow>)>,
     /// The last entity already in view whose change was planned, in the
     /// order they were taken (the next snapshot starts after it).
-    held_last: Option<(EntityId, u64)>,
+    held_last: Option<EntityId>,
     /// Bits planned so far (counting each id gap at its widest).
     bits: usize,
     /// Values planned.
@@ -692,7 +692,7 @@ impl PropertyPlan {
             }
             self.bits += bits;
             self.values += mask.count_ones() as usize;
-            self.held_last = Some((id, mask));
+            self.held_last = Some(id);
             self.entities.push((id, mask, row));
         }
     }

@@ -222,10 +222,7 @@ pub trait GameRules: Send {
         if bytes.is_empty() {
             return 0;
         }
-        // FNV-1a.
-        bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
-            (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-        })
+        inertia_physics::saved_state::hash::hash_bytes(&bytes)
     }
 
     /// Replaces the rules' state with one from [`GameRules::save_state`].

@@ -17,8 +17,10 @@ use crate::rules::OutgoingMessage;
 
 /// Messages a [`Frame`] carries: the most recent ones, whatever frame they
 /// were first published in. A client whose slots fall further behind
-/// than this misses the oldest (counted in `/metrics`).
-pub const RECENT_MESSAGES: usize = 4096;
+/// than this misses the oldest (counted in `/metrics`). The tick thread
+/// copies the list (its `Arc`s) whenever a message is published, so it
+/// stays short.
+pub const RECENT_MESSAGES: usize = 1024;
 
 /// Catalog changes a [`Frame`] carries: the most recent ones. A client
 /// told an older version is brought up to date by a walk of the whole

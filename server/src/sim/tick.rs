@@ -153,7 +153,7 @@ impl Simulation {
     /// rules' own state ([`GameRules::state_hash`](crate::rules::GameRules::state_hash))
     /// folded in. A seek that reproduces it reproduced all three.
     pub fn state_hash(&self) -> u64 {
-        self.shown().state_hash() ^ self.rules.state_hash().rotate_left(42)
+        self.shown().state_hash(self.rules.state_hash())
     }
 
     /// The game's properties, as shown now.

@@ -31,12 +31,20 @@ pub(crate) struct Timeline {
 }
 
 impl Timeline {
-    /// The world's hash with the game's properties folded in (a game
-    /// without any hashes as the world alone); the simulation folds the
-    /// rules' state in too ([`super::Simulation::state_hash`]).
-    pub(super) fn state_hash(&self) -> u64 {
-        self.world.state_hash() ^ self.properties.hash().rotate_left(21)
+    /// The state hash of this timeline under rules whose state hashes to
+    /// `rules` ([`crate::rules::GameRules::state_hash`]): see
+    /// [`state_hash`].
+    pub(super) fn state_hash(&self, rules: u64) -> u64 {
+        state_hash(self.world.state_hash(), self.properties.hash(), rules)
     }
+}
+
+/// The hash a recording keeps for a tick: the world's, with the game's
+/// properties and the rules' own state folded in (0 each for a game
+/// without properties and rules that remember nothing, so such a game
+/// hashes as its world alone).
+pub(super) fn state_hash(world: u64, properties: u64, rules: u64) -> u64 {
+    world ^ properties.rotate_left(21) ^ rules.rotate_left(42)
 }
 
 /// The live timeline and the history shown instead of it, if any.

@@ -117,9 +117,11 @@ pub fn verify(
                             let mut rules = make_rules();
                             rules.restore_state(&state.rules).map_err(bad)?;
                             report.keyframes_checked += 1;
-                            let want = probe.state_hash()
-                                ^ properties.hash().rotate_left(21)
-                                ^ rules.state_hash().rotate_left(42);
+                            let want = super::timeline::state_hash(
+                                probe.state_hash(),
+                                properties.hash(),
+                                rules.state_hash(),
+                            );
                             let got = s.state_hash();
                             if want != got {
                                 note_mismatch(&mut report, tick, want, got);
