@@ -13,7 +13,7 @@
  its calls. It changes whenever either does; a binding checks it once
  against the one it was written for.
  */
-#define INERTIA_ABI_VERSION 3
+#define INERTIA_ABI_VERSION 4
 
 /*
  Longest entity name, bytes, with its NUL.
@@ -30,6 +30,11 @@
  fits an event whole).
  */
 #define INERTIA_EVENT_DATA_BYTES 1024
+
+/*
+ Longest game name, bytes, with its NUL.
+ */
+#define INERTIA_GAME_NAME_BYTES 33
 
 /*
  Longest property name, bytes, with its NUL.
@@ -355,6 +360,11 @@ typedef struct InertiaServerInfo {
    Properties the game declares per match.
    */
   uint32_t match_properties;
+  /*
+   The game's name (NUL-terminated; empty when its rules give none):
+   pick the controls and the HUD by it.
+   */
+  char game[INERTIA_GAME_NAME_BYTES];
 } InertiaServerInfo;
 
 /*

@@ -215,6 +215,8 @@ pub unsafe extern "C" fn inertia_server_info(
         let info = h.client.server_info();
         let mut server_version = [0; 64];
         write_c_string(&mut server_version, &info.server_version);
+        let mut game = [0; INERTIA_GAME_NAME_BYTES];
+        write_c_string(&mut game, &info.game);
         *out = InertiaServerInfo {
             client_id: info.client_id,
             tick: info.tick,
@@ -225,6 +227,7 @@ pub unsafe extern "C" fn inertia_server_info(
             input_bytes: info.input_bytes as u32,
             entity_properties: info.properties.entity.len() as u32,
             match_properties: info.properties.match_state.len() as u32,
+            game,
         };
         Ok(())
     })

@@ -48,7 +48,13 @@ pub struct InertiaServerInfo {
     pub entity_properties: u32,
     /// Properties the game declares per match.
     pub match_properties: u32,
+    /// The game's name (NUL-terminated; empty when its rules give none):
+    /// pick the controls and the HUD by it.
+    pub game: [c_char; INERTIA_GAME_NAME_BYTES],
 }
+
+/// Longest game name, bytes, with its NUL.
+pub const INERTIA_GAME_NAME_BYTES: usize = 33;
 
 /// Longest property name, bytes, with its NUL.
 pub const INERTIA_PROPERTY_NAME_BYTES: usize = 33;

@@ -5,5 +5,7 @@
 /// A client and server speak only when theirs are equal. 5: inputs carry
 /// the game's own bytes, and the welcome says how many. 6: the game's
 /// messages both ways (reliable on the control stream, unreliable in
-/// message datagrams) in place of the server's events.
-pub const PROTOCOL_VERSION: u16 = 6;
+/// message datagrams) in place of the server's events, and the game's
+/// properties (their schema in the welcome, a section in every
+/// snapshot). 7: the welcome names the game.
+pub const PROTOCOL_VERSION: u16 = 7;

@@ -58,6 +58,7 @@ fn welcome() -> ServerControl {
         snapshot: SnapshotParams::default(),
         input_bytes: 5,
         server_version: "test".into(),
+        game: "sandbox".into(),
         properties: Default::default(),
     }
 }

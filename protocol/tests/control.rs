@@ -126,6 +126,7 @@ fn server_control() -> impl Strategy<Value = ServerControl> {
                     snapshot: SnapshotParams::default(),
                     input_bytes: (tick % 65) as u16,
                     server_version,
+                    game: "football".into(),
                     properties: Default::default(),
                 }
             ),

@@ -57,6 +57,7 @@ fn server_messages() -> Vec<(&'static str, ServerControl)> {
         },
         input_bytes: 5,
         server_version: "0.1.0".into(),
+        game: "sandbox".into(),
         properties: PropertySchema {
             entity: vec![
                 PropertyDecl::new("health", PropertyKind::UInt { bits: 7 }),

@@ -128,6 +128,7 @@ fn a_session_over_bad_links_keeps_both_ends_in_step() {
             snapshot: SnapshotParams::from_config(&config),
             input_bytes: 5,
             server_version: "test".into(),
+            game: "sandbox".into(),
             properties: Default::default(),
         },
         t0,

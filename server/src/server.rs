@@ -38,6 +38,9 @@ pub enum StartError {
     /// The game's input is larger than the protocol carries.
     #[error("the game's input is {0} bytes, the most an input carries is {max}", max = inertia_protocol::input::MAX_INPUT_BYTES)]
     InputTooLarge(usize),
+    /// The game's name is longer than a welcome carries.
+    #[error("the game's name {0:?} is longer than {max} bytes", max = inertia_protocol::control::MAX_GAME_NAME_BYTES)]
+    GameNameTooLong(String),
     /// The game's property schema breaks a bound of the protocol's.
     #[error(transparent)]
     Properties(#[from] inertia_protocol::property::PropertyError),
@@ -224,6 +227,10 @@ pub async fn start_game(
     };
     let history_budget = sim_config.history_budget;
     let input_bytes = rules.input_bytes();
+    let game = rules.name().to_string();
+    if game.len() > inertia_protocol::control::MAX_GAME_NAME_BYTES {
+        return Err(StartError::GameNameTooLong(game));
+    }
     let message_limits = rules.message_limits();
     let properties = Arc::new(rules.properties());
     properties.validate().map_err(StartError::Properties)?;
@@ -351,6 +358,7 @@ pub async fn start_game(
             Arc::new(admin),
         )
         .with_frame_history(config.frame_history)
+        .with_game(&game)
         .with_connection_config(ServerConnectionConfig {
             input_bytes: Some(input_bytes),
             messages: message_limits,

@@ -22,6 +22,7 @@ mod issue_17_inputs_on_their_tick;
 mod issue_17_lag_compensation;
 mod issue_17_prediction;
 mod issue_42_connections;
+mod issue_43_football;
 mod issue_43_game_input;
 mod issue_43_messages;
 mod issue_43_properties;

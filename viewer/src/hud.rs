@@ -37,6 +37,8 @@ pub struct HudModel {
     /// The game's properties to show, a line each: the match's, then our
     /// avatar's (name, value as of the tick drawn).
     pub properties: Vec<(String, String)>,
+    /// The game's headline (football's score and clock), at the top.
+    pub headline: Option<String>,
 }
 
 /// What the operator asked for.
@@ -105,6 +107,13 @@ pub fn show(ui: &mut egui::Ui, model: &HudModel, state: &mut HudState) -> Vec<Hu
         egui::Panel::bottom("clock").show(ui, |ui| {
             clock_controls(ui, admin, state, &mut actions);
         });
+    }
+    if let Some(headline) = &model.headline {
+        egui::Area::new(egui::Id::unique("headline"))
+            .anchor(egui::Align2::CENTER_TOP, [0.0, 8.0])
+            .show(ui.ctx(), |ui| {
+                ui.label(egui::RichText::new(headline).size(22.0).strong());
+            });
     }
     egui::Window::new("Inertia")
         .anchor(egui::Align2::RIGHT_TOP, [-8.0, 8.0])

@@ -15,10 +15,12 @@
 //! - [`render`]: the wgpu renderer (scene and HUD).
 //! - [`hud`]: the HUD and the clock's controls (egui).
 //! - [`admin`]: the admin link, on its own thread.
+//! - [`controls`]: what the keys send and the HUD headlines, by game.
 //! - [`view`]: one viewer's state, window or not.
 
 pub mod admin;
 pub mod camera;
+pub mod controls;
 pub mod headless;
 pub mod hud;
 pub mod mesh;

@@ -12,6 +12,7 @@ use inertia_client::{dev, BlockingClient, ClientEvent};
 
 use crate::admin::AdminLink;
 use crate::camera::OrbitCamera;
+use crate::controls::Controls;
 use crate::hud::{self, HudAction, HudModel, HudState};
 use crate::render::HudPaint;
 use crate::scene::{position_in, Catalogue, DrawList};
@@ -163,6 +164,11 @@ impl Viewer {
         }
     }
 
+    /// The controls and headline of the game the server runs.
+    pub fn controls(&self) -> Controls {
+        Controls::for_game(&self.client.server_info().game)
+    }
+
     /// Our avatar, once described.
     pub fn avatar(&self) -> Option<inertia_protocol::EntityId> {
         self.catalogue
@@ -278,6 +284,7 @@ impl Viewer {
             following: self.following,
             has_avatar: avatar.is_some(),
             properties: self.property_lines(avatar),
+            headline: self.controls().headline(&self.client),
         };
         let mut actions = Vec::new();
         let hud_state = &mut self.hud;

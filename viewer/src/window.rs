@@ -12,13 +12,13 @@ use std::sync::Arc;
 
 use glam::Vec3;
 use inertia_protocol::admin::AdminRequest;
-use inertia_sandbox::buttons;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
+use crate::controls::Wish;
 use crate::render::Renderer;
 use crate::view::Viewer;
 use crate::ViewerError;
@@ -165,17 +165,17 @@ impl App {
         } else {
             wish
         };
-        let mut pressed = 0;
-        if held(&[KeyCode::Space]) {
-            pressed |= buttons::JUMP;
-        }
-        if held(&[KeyCode::KeyE]) {
-            pressed |= buttons::PUSH;
-        }
         let yaw = (-ahead.x).atan2(-ahead.z);
-        // The sandbox's input: a server running another game refuses it,
-        // and the viewer then only watches.
-        let _ = self.view.client().set_input([wish.x, wish.z], yaw, pressed);
+        let wish = Wish {
+            movement: [wish.x, wish.z],
+            yaw,
+            jump: held(&[KeyCode::Space]),
+            action: held(&[KeyCode::KeyE]),
+            lob: held(&[KeyCode::ShiftLeft, KeyCode::ShiftRight]),
+        };
+        // The game's own input, by the name in the welcome; a game the
+        // viewer has no controls for is watched.
+        self.view.controls().send(self.view.client(), wish);
     }
 
     fn on_key(&mut self, code: KeyCode, state: ElementState) {

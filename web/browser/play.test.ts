@@ -8,61 +8,25 @@
 // CHROMIUM_BIN another browser).
 
 import assert from "node:assert/strict";
-import { spawn, spawnSync, type ChildProcess } from "node:child_process";
-import { mkdtempSync, rmSync } from "node:fs";
-import { tmpdir } from "node:os";
+import { spawnSync } from "node:child_process";
 import { join } from "node:path";
-import { createInterface } from "node:readline";
 import { after, before, test } from "node:test";
-import { fileURLToPath } from "node:url";
 
-import { chromium, type Browser, type Page } from "playwright-core";
+import { close, open, progress as progressOf, ROOT, until as untilOn, type Progress, type Session } from "./harness.js";
 
-const ROOT = fileURLToPath(new URL("../../../", import.meta.url));
 const SERVER = process.env.INERTIA_SERVER_BIN ?? join(ROOT, "target/debug/inertia-server");
 const ADMIN = process.env.INERTIA_ADMIN_BIN ?? join(ROOT, "target/debug/inertia-admin");
-const BROWSER = process.env.CHROMIUM_BIN ?? "/usr/bin/chromium";
 
-interface Progress {
-  state: string;
-  error: string | null;
-  snapshots: number;
-  tick: number;
-  paused: boolean;
-  frames: number;
-  entities: number;
-  pointSets: number;
-  points: number;
-  messages: number;
-  log: string[];
-  matchState: Record<string, number>;
-}
-
-let server: ChildProcess;
+let session: Session;
+let page: Session["page"];
 let dataDir: string;
-let metrics: string;
-let browser: Browser;
-let page: Page;
 
 async function progress(): Promise<Progress> {
-  return page.evaluate(() => (window as unknown as { inertia: Progress }).inertia);
+  return progressOf(page);
 }
 
 async function until(what: string, limitMs: number, done: (p: Progress) => boolean): Promise<Progress> {
-  const start = Date.now();
-  for (;;) {
-    const p = await progress();
-    if (p.state === "failed") {
-      assert.fail(`the page failed: ${p.error}`);
-    }
-    if (done(p)) {
-      return p;
-    }
-    if (Date.now() - start > limitMs) {
-      assert.fail(`${what}: not within ${limitMs} ms (${JSON.stringify(p)})`);
-    }
-    await new Promise((r) => setTimeout(r, 100));
-  }
+  return untilOn(page, what, limitMs, done);
 }
 
 interface Pixels {
@@ -108,55 +72,20 @@ function admin(...args: string[]): void {
 }
 
 before(async () => {
-  dataDir = mkdtempSync(join(tmpdir(), "inertia-browser-"));
-  server = spawn(
-    SERVER,
-    [
-      "--listen", "127.0.0.1:0",
-      "--metrics", "127.0.0.1:0",
-      "--data-dir", dataDir,
-      "--web-dir", join(ROOT, "web/dist/src"),
-      "--log-format", "json",
-    ],
-    { stdio: ["ignore", "pipe", "inherit"] },
-  );
-  metrics = await new Promise<string>((resolve, reject) => {
-    const lines = createInterface({ input: server.stdout! });
-    const timer = setTimeout(() => reject(new Error("the server did not get ready in 60 s")), 60_000);
-    lines.on("line", (line) => {
-      try {
-        const fields = JSON.parse(line).fields ?? {};
-        if (fields.message === "server ready" && typeof fields.metrics_addr === "string") {
-          clearTimeout(timer);
-          resolve(fields.metrics_addr);
-        }
-      } catch {
-        // Not a log line of ours.
-      }
-    });
-    server.on("exit", (code) => reject(new Error(`the server exited with ${code}`)));
-  });
-  browser = await chromium.launch({
-    executablePath: BROWSER,
-    headless: true,
-    // No GPU here: WebGL2 through SwiftShader.
-    args: ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"],
-  });
-  page = await browser.newPage({ viewport: { width: 960, height: 540 } });
+  session = await open(SERVER);
+  page = session.page;
+  dataDir = session.dataDir;
 });
 
 after(async () => {
-  await browser?.close();
-  server?.kill("SIGTERM");
-  if (dataDir) {
-    rmSync(dataDir, { recursive: true, force: true });
-  }
+  await close(session);
 });
 
 test("the page joins over WebTransport and receives snapshots", async () => {
-  await page.goto(`http://${metrics}/play/`);
   const p = await until("60 snapshots", 30_000, (p) => p.snapshots >= 60);
   assert.equal(p.state, "joined");
+  assert.equal(p.game, "sandbox");
+  assert.equal(p.headline, null, "the sandbox has no headline");
   assert.ok(p.entities > 100, `${p.entities} entities described`);
 });
 

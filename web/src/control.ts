@@ -17,7 +17,7 @@ export class ControlError extends Error {}
 export const MAX_CONTROL_FRAME = 64 * 1024;
 
 /** The protocol version this client speaks (`PROTOCOL_VERSION`). */
-export const PROTOCOL_VERSION = 6;
+export const PROTOCOL_VERSION = 7;
 
 // ---- the messages ----
 
@@ -72,6 +72,8 @@ export interface Welcome {
   /** Bytes of every input's payload: the game's input size. */
   input_bytes: number;
   server_version: string;
+  /** The game's name (empty when its rules give none): the page picks its controls by it. */
+  game: string;
   /** The game's properties, per entity and per match, as snapshots carry them. */
   properties: PropertySchema;
 }
@@ -499,6 +501,7 @@ export function decodeServerControl(payload: Uint8Array): ServerControl {
           },
           input_bytes: r.u16(),
           server_version: r.string(),
+          game: r.string(),
           properties: propertySchema(r),
         },
       };

@@ -23,6 +23,15 @@ import {
   encodeSandboxRequest,
   type SandboxEvent,
 } from "./sandbox.js";
+import {
+  decodeFootballTell,
+  encodeFootballAsk,
+  encodeFootballPlay,
+  FOOTBALL_BUTTONS,
+  footballHeadline,
+  TEAMS,
+  type FootballTell,
+} from "./football.js";
 import { meshOf, type Mesh } from "./mesh.js";
 import { pointSetOf, PointSetTrack } from "./points.js";
 import { propertyValue, SnapshotDecoder, type SnapshotConfig } from "./snapshot.js";
@@ -39,6 +48,10 @@ interface Session {
 export interface Progress {
   state: "connecting" | "joined" | "closed" | "failed";
   error: string | null;
+  /** The game the server runs, as its welcome names it. */
+  game: string;
+  /** The game's headline (football's score and clock), if it has one. */
+  headline: string | null;
   snapshots: number;
   tick: number;
   paused: boolean;
@@ -59,6 +72,8 @@ export interface Progress {
 const progress: Progress = {
   state: "connecting",
   error: null,
+  game: "",
+  headline: null,
   snapshots: 0,
   tick: 0,
   paused: false,
@@ -92,12 +107,39 @@ function eventLine(e: SandboxEvent): string {
   }
 }
 
-/** A game message arrived: the stock server's are the sandbox's events. */
+/** A football message as a line for the HUD. */
+function tellLine(t: FootballTell): string {
+  const team = (code: number): string => TEAMS[code] ?? "?";
+  switch (t.kind) {
+    case "joined":
+      return `client ${t.client.toString(16)} plays for ${team(t.team)}`;
+    case "kickoff":
+      return `kickoff, ${team(t.team)} to kick`;
+    case "goal":
+      return `goal for ${team(t.team)}! ${t.score[0]}–${t.score[1]}`;
+    case "over":
+      return `${team(t.winner)} wins ${t.score[0]}–${t.score[1]}`;
+    case "said":
+      return `${t.client.toString(16)}: ${t.text}`;
+  }
+}
+
+/** The game the server runs, as its welcome names it: the page plays the
+ * sandbox and football, and watches any other. */
+let game = "";
+
+/** A game message arrived, read as the game's. */
 function onMessage(bytes: Uint8Array): void {
   progress.messages++;
   let line: string;
   try {
-    line = eventLine(decodeSandboxEvent(bytes));
+    if (game === "football") {
+      line = tellLine(decodeFootballTell(bytes));
+    } else if (game === "sandbox") {
+      line = eventLine(decodeSandboxEvent(bytes));
+    } else {
+      line = `a message of ${bytes.length} bytes`;
+    }
   } catch {
     line = `a message of ${bytes.length} bytes this page cannot read`;
   }
@@ -253,6 +295,8 @@ async function main(): Promise<void> {
       }
     } else if ("Welcome" in msg) {
       welcome = msg.Welcome;
+      game = welcome.game;
+      progress.game = game;
     } else if ("Spawn" in msg) {
       world.describe(msg.Spawn);
     } else if ("Despawn" in msg) {
@@ -361,7 +405,8 @@ async function main(): Promise<void> {
   const recent: PlayerInput[] = [];
   let sequence = 0;
   const keys = new Set<string>();
-  // The sandbox's requests: R respawns, Enter says something.
+  // The game's requests: in the sandbox R respawns, in football T
+  // switches team; Enter says something in both.
   const request = (bytes: Uint8Array): void => {
     void control.write(encodeClientControl({ Message: bytes })).catch(() => {});
   };
@@ -369,13 +414,19 @@ async function main(): Promise<void> {
     if (e.repeat) {
       return;
     }
-    if (e.key === "r") {
+    if (e.key === "r" && game === "sandbox") {
       request(encodeSandboxRequest({ kind: "respawn" }));
+    } else if (e.key === "t" && game === "football") {
+      request(encodeFootballAsk({ kind: "switch_team" }));
     } else if (e.key === "Enter") {
       const text = prompt("say") ?? "";
       if (text) {
         try {
-          request(encodeSandboxRequest({ kind: "chat", text }));
+          if (game === "football") {
+            request(encodeFootballAsk({ kind: "say", text }));
+          } else if (game === "sandbox") {
+            request(encodeSandboxRequest({ kind: "chat", text }));
+          }
         } catch (err) {
           setStatus(err instanceof Error ? err.message : String(err));
         }
@@ -384,9 +435,35 @@ async function main(): Promise<void> {
   });
   addEventListener("keydown", (e) => keys.add(e.key.toLowerCase()));
   addEventListener("keyup", (e) => keys.delete(e.key.toLowerCase()));
-  setInterval(() => {
+  /** This tick's input, the game's own: the sandbox walks along the
+   * world's axes; football runs and kicks along the camera's view (Space
+   * jumps, E kicks, Shift lobs). */
+  const play = (): Uint8Array | null => {
     const x = (keys.has("d") ? 1 : 0) - (keys.has("a") ? 1 : 0);
     const z = (keys.has("s") ? 1 : 0) - (keys.has("w") ? 1 : 0);
+    if (game === "sandbox") {
+      return encodeSandboxInput({ movement: [x, z], yaw: 0, buttons: keys.has(" ") ? BUTTONS.JUMP : 0 });
+    }
+    if (game !== "football") {
+      return null;
+    }
+    // Ahead is away from the camera; W runs ahead, D to its right.
+    const yaw = renderer.camera.yaw + Math.PI;
+    const ahead: [number, number] = [Math.sin(yaw), Math.cos(yaw)];
+    const side: [number, number] = [-ahead[1], ahead[0]];
+    let stick: [number, number] = [ahead[0] * -z + side[0] * x, ahead[1] * -z + side[1] * x];
+    const len = Math.hypot(stick[0], stick[1]);
+    if (len > 1) {
+      stick = [stick[0] / len, stick[1] / len];
+    }
+    const buttons = (keys.has(" ") ? FOOTBALL_BUTTONS.JUMP : 0) | (keys.has("e") ? FOOTBALL_BUTTONS.KICK : 0);
+    return encodeFootballPlay({ stick, yaw, pitch: keys.has("shift") ? 40 : 10, buttons });
+  };
+  setInterval(() => {
+    const payload = play();
+    if (payload === null) {
+      return;
+    }
     sequence = (sequence + 1) >>> 0;
     const ahead = Math.ceil(((rttMs ?? 0) / 1000) * joined.tick_hz + lead.margin);
     const wanted = BigInt(progress.tick) + BigInt(ahead);
@@ -397,8 +474,7 @@ async function main(): Promise<void> {
     recent.unshift({
       sequence,
       tick: lead.stamped,
-      // The stock server's game, the sandbox: walk and jump.
-      payload: encodeSandboxInput({ movement: [x, z], yaw: 0, buttons: keys.has(" ") ? BUTTONS.JUMP : 0 }),
+      payload,
       viewBehind,
     });
     recent.length = Math.min(recent.length, 8);
@@ -458,7 +534,14 @@ async function main(): Promise<void> {
       seen += (ackBits >>> k) & 1;
     }
     const loss = received > 32 ? ((32 - seen) / 32) * 100 : 0;
+    const m = progress.matchState;
+    progress.headline =
+      game === "football"
+        ? footballHeadline([m.score_red ?? 0, m.score_blue ?? 0], m.clock ?? 0, m.phase ?? 0, m.winner ?? 0)
+        : null;
     showFigures([
+      // The game's headline: football's score and clock.
+      ...(progress.headline === null ? [] : [["score", progress.headline] as [string, string]]),
       ["server", new URL(session.url).host],
       ["client", session.client_id.toString(16)],
       ["tick", progress.tick.toString()],

@@ -72,8 +72,8 @@ int main(int argc, char **argv) {
     inertia_server_info(client, &info);
     /* Walk: one input per tick from now on, until changed. */
     inertia_set_input(client, 1.0f, 0.0f, 0.0f, 0);
-    printf("joined %s as client %llu: %u ticks/s, %u snapshots/s\n", info.server_version,
-           (unsigned long long)info.client_id, info.tick_hz, info.snapshot_hz);
+    printf("joined %s (%s) as client %llu: %u ticks/s, %u snapshots/s\n", info.server_version,
+           info.game, (unsigned long long)info.client_id, info.tick_hz, info.snapshot_hz);
     /* Say hello: the sandbox's chat request (kind 1, the line's length,
        its UTF-8), which its rules tell everyone, us included. */
     static const uint8_t chat[] = {1, 5, 'h', 'e', 'l', 'l', 'o'};

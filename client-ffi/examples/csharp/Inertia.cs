@@ -49,6 +49,10 @@ namespace Inertia
         public uint InputBytes;
         /// <summary>Properties the game declares per entity, and per match.</summary>
         public uint EntityProperties, MatchProperties;
+        [MarshalAs(UnmanagedType.ByValArray, SizeConst = 33)] public byte[] GameBytes;
+
+        /// <summary>The game's name (empty when its rules give none).</summary>
+        public string Game => Native.Text(GameBytes);
     }
 
     public enum PropertyKind : uint { Bool, UInt, Int, F32 }
@@ -155,7 +159,7 @@ namespace Inertia
     public static class Native
     {
         public const string Lib = "inertia";
-        public const uint AbiVersion = 3;
+        public const uint AbiVersion = 4;
 
         [DllImport(Lib)] public static extern uint inertia_abi_version();
         [DllImport(Lib)] public static extern UIntPtr inertia_last_error(byte[] buf, UIntPtr len);

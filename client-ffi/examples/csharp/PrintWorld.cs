@@ -29,7 +29,7 @@ static class PrintWorld
         using (var client = args[0] == "--dev" ? InertiaClient.ConnectDev(args[1]) : InertiaClient.Connect(args[0], FromHex(args[1]), predict: true))
         {
             var info = client.Info;
-            Console.WriteLine("joined " + Native.Text(info.ServerVersion) + " as client " + info.ClientId + ": " + info.TickHz + " ticks/s");
+            Console.WriteLine("joined " + Native.Text(info.ServerVersion) + " (" + info.Game + ") as client " + info.ClientId + ": " + info.TickHz + " ticks/s");
             // Say hello: the sandbox's chat request (kind 1, the line's
             // length, its UTF-8), which its rules tell everyone, us included.
             client.SendMessage(new byte[] { 1, 5, (byte)'h', (byte)'e', (byte)'l', (byte)'l', (byte)'o' });

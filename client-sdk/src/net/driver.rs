@@ -467,6 +467,7 @@ mod tests {
             snapshot: config,
             input_bytes: 5,
             server_version: String::new(),
+            game: String::new(),
             properties: Default::default(),
         };
         let session = ClientSession::new(

@@ -67,6 +67,9 @@ pub struct ServerInfo {
     pub input_bytes: usize,
     /// The server's build.
     pub server_version: String,
+    /// The game's name, as its rules give it (empty when they give none):
+    /// which controls and HUD a client offers.
+    pub game: String,
     /// The game's properties, per entity and per match (give them to the
     /// session: [`crate::ClientSession::with_properties`]).
     pub properties: std::sync::Arc<crate::property::PropertySchema>,
@@ -402,6 +405,7 @@ impl ClientConnection {
                         snapshot,
                         input_bytes,
                         server_version,
+                        game,
                         properties,
                     },
                 ) => {
@@ -416,6 +420,7 @@ impl ClientConnection {
                             snapshot,
                             input_bytes: usize::from(input_bytes),
                             server_version,
+                            game,
                             properties: std::sync::Arc::new(properties),
                         }));
                 }

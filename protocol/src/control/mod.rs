@@ -72,6 +72,9 @@ pub const MAX_DECODER_BUFFER: usize = 2 * (4 + MAX_CONTROL_FRAME);
 pub const MAX_ENTITY_NAME_BYTES: usize = 64;
 /// Longest server version string in a welcome, bytes.
 pub const MAX_VERSION_BYTES: usize = 64;
+
+/// The longest game name a welcome carries, bytes of UTF-8.
+pub const MAX_GAME_NAME_BYTES: usize = 32;
 pub use crate::message::MAX_MESSAGE_BYTES;
 /// Longest reason or description in a refusal or goodbye, bytes.
 pub const MAX_REASON_BYTES: usize = 256;
@@ -123,6 +126,10 @@ pub enum ServerControl {
         input_bytes: u16,
         /// The server build, for logs (at most [`MAX_VERSION_BYTES`]).
         server_version: String,
+        /// The game's name (its rules' `name`, at most
+        /// [`MAX_GAME_NAME_BYTES`]; empty when the rules give none): a
+        /// client picks its controls and its HUD by it.
+        game: String,
         /// The game's properties, per entity and per match, as every
         /// snapshot carries them (see [`crate::property`]).
         properties: PropertySchema,

@@ -134,6 +134,7 @@ fn validation_refuses_what_serde_accepts() {
         snapshot: SnapshotParams::default(),
         input_bytes: 5,
         server_version: "0.1.0".into(),
+        game: "sandbox".into(),
         properties: Default::default(),
     };
     assert!(matches!(
@@ -145,6 +146,16 @@ fn validation_refuses_what_serde_accepts() {
     };
     *tick_hz = 60;
     assert!(encode_frame(&welcome).is_ok());
+    // A game named past its bound.
+    let mut long_named = welcome.clone();
+    let ServerControl::Welcome { game, .. } = &mut long_named else {
+        unreachable!()
+    };
+    *game = "g".repeat(MAX_GAME_NAME_BYTES + 1);
+    assert!(matches!(
+        encode_frame(&long_named),
+        Err(ControlError::TooLong { .. })
+    ));
     // A grid finer than the snapshot codec's 32 bits an axis.
     let ServerControl::Welcome {
         position_resolution,
@@ -294,6 +305,7 @@ fn every_message_round_trips() {
             snapshot: SnapshotParams::default(),
             input_bytes: 5,
             server_version: "0.1.0".into(),
+            game: "sandbox".into(),
             properties: Default::default(),
         },
         ServerControl::Refused(Refusal::VersionMismatch {

@@ -204,6 +204,7 @@ impl ControlMessage for ServerControl {
                 snapshot,
                 input_bytes,
                 server_version,
+                game,
                 properties,
                 ..
             } => {
@@ -224,6 +225,7 @@ impl ControlMessage for ServerControl {
                         what: "snapshot coding",
                     })?;
                 check_len("server version", server_version.len(), MAX_VERSION_BYTES)?;
+                check_len("game name", game.len(), MAX_GAME_NAME_BYTES)?;
                 if *tick_hz == 0 {
                     return Err(ControlError::OutOfRange { what: "tick rate" });
                 }

@@ -153,6 +153,7 @@ pub(super) async fn admit(
         snapshot: SnapshotParams::from_config(&shared.streaming.snapshot),
         input_bytes: shared.connection.input_bytes.unwrap_or(0) as u16,
         server_version: env!("CARGO_PKG_VERSION").to_string(),
+        game: shared.game.clone(),
         properties: (*shared.streaming.properties).clone(),
     };
     Ok((joined, welcome))

@@ -63,6 +63,8 @@ pub struct NetShared {
     pub served: Arc<snapshots::ServedClients>,
     /// The deadlines of each game connection's life.
     pub connection: ServerConnectionConfig,
+    /// The game's name, as its rules give it; every welcome carries it.
+    pub game: String,
 }
 
 impl std::fmt::Debug for NetShared {
@@ -97,7 +99,14 @@ impl NetShared {
             admin,
             served: Arc::default(),
             connection: ServerConnectionConfig::default(),
+            game: String::new(),
         }
+    }
+
+    /// The same, for the game named `game` (its rules' name).
+    pub fn with_game(mut self, game: &str) -> Self {
+        self.game = game.to_string();
+        self
     }
 
     /// The same, keeping the last `frames` frames by tick (see

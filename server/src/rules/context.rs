@@ -505,6 +505,22 @@ impl<'a> SimContext<'a> {
         Ok(())
     }
 
+    /// Sets an entity's body's velocities (m/s and rad/s, world), capped
+    /// as one impulse's change is ([`ControlLimits::max_delta_v`]): what
+    /// a teleport that starts at rest pairs with [`Self::set_pose`].
+    /// Refused for bodies that are not dynamic or kinematic.
+    pub fn set_velocity(
+        &mut self,
+        id: EntityId,
+        linear: DVec3,
+        angular: DVec3,
+    ) -> Result<(), ContextError> {
+        let h = self.body_handle(id)?;
+        let linear = clamp_length(linear, self.limits.max_delta_v);
+        self.world.set_body_velocity(h, linear, angular)?;
+        Ok(())
+    }
+
     /// The nearest hit of a ray (`dir` need not be unit; `max_t` in units of
     /// `|dir|`) on solid bodies, skipping `ignore`. Returns the entity hit
     /// (`None` for a body without one) and the hit. The answer is
@@ -541,6 +557,27 @@ impl<'a> SimContext<'a> {
         hits.into_iter()
             .filter(|&h| self.world.body(h).is_some_and(|b| !b.is_sensor()))
             .filter_map(|h| self.entities.by_body(h))
+            .collect()
+    }
+
+    /// The sensors an entity's body touches now (entities whose sensor
+    /// bodies overlap its shape where it stands): how a rule sees a ball
+    /// in a goal or a player in a zone. Empty for an entity without a
+    /// shaped body.
+    pub fn sensors_touching(&self, id: EntityId) -> Vec<EntityId> {
+        let Some(b) = self.body(id) else {
+            return Vec::new();
+        };
+        let Some(shape) = b.shape() else {
+            return Vec::new();
+        };
+        let Ok(hits) = self.world.overlap_shape(shape, b.pose()) else {
+            return Vec::new();
+        };
+        hits.into_iter()
+            .filter(|&h| self.world.body(h).is_some_and(|b| b.is_sensor()))
+            .filter_map(|h| self.entities.by_body(h))
+            .filter(|&other| other != id)
             .collect()
     }
 }

@@ -92,6 +92,15 @@ pub enum JoinRefusal {
 /// clients' messages and the inputs due, `before_tick`, the physics step,
 /// `on_removed` for what the step took out, and `after_tick`.
 pub trait GameRules: Send {
+    /// The game's name, which every welcome carries (at most
+    /// [`MAX_GAME_NAME_BYTES`](inertia_protocol::control::MAX_GAME_NAME_BYTES)
+    /// bytes; a longer one stops the server at start): clients pick their
+    /// controls and HUD by it. Empty by default: a client then plays only
+    /// with controls it was given for this game.
+    fn name(&self) -> &str {
+        ""
+    }
+
     /// A client joins: make its avatar and return its entity id, or refuse.
     fn on_connect(
         &mut self,

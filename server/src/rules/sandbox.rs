@@ -289,6 +289,10 @@ impl SandboxRules {
 }
 
 impl GameRules for SandboxRules {
+    fn name(&self) -> &str {
+        "sandbox"
+    }
+
     fn input_bytes(&self) -> usize {
         SANDBOX_INPUT_BYTES
     }

@@ -167,6 +167,10 @@ impl OrbsRules {
 }
 
 impl GameRules for OrbsRules {
+    fn name(&self) -> &str {
+        "orbs"
+    }
+
     fn input_bytes(&self) -> usize {
         Drive::BYTES
     }

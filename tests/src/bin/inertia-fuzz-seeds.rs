@@ -141,7 +141,34 @@ fn main() {
             .to_bytes(),
         ),
     ];
-    for (name, which, bytes) in seeds {
+    // Football's: an ask, a tell, a play.
+    let football: [(&str, u8, Vec<u8>); 3] = [
+        (
+            "football-ask",
+            3,
+            inertia_football::Ask::Say("gl".into()).to_bytes(),
+        ),
+        (
+            "football-tell-goal",
+            4,
+            inertia_football::Tell::Goal {
+                tick: 400,
+                team: inertia_football::properties::Team::Red,
+                scorer: Some(1),
+                score: [1, 0],
+            }
+            .to_bytes(),
+        ),
+        (
+            "football-play",
+            5,
+            inertia_football::Play::new([1.0, 0.0], 1.0, 10.0, 2)
+                .to_payload()
+                .as_bytes()
+                .to_vec(),
+        ),
+    ];
+    for (name, which, bytes) in seeds.into_iter().chain(football) {
         let mut seed = vec![which];
         seed.extend(bytes);
         write(&out, "fuzz_game_messages", name, &seed);
