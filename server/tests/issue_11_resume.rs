@@ -18,7 +18,7 @@ use inertia_protocol::PlayerInput;
 use inertia_server::record::compress::{pack, unpack};
 use inertia_server::record::crc32::crc32;
 use inertia_server::record::{RecordReader, RecorderConfig};
-use inertia_server::replay::DEFAULT_KEYFRAME_BUDGET;
+use inertia_server::replay::{DamageKind, DEFAULT_KEYFRAME_BUDGET};
 use inertia_server::rules::SandboxRules;
 use inertia_server::scene::{Scene, SceneFormat};
 use inertia_server::sim::resume::{read_for_resume, ResumeError, ResumeReport};
@@ -249,7 +249,7 @@ fn admin(args: &[&str]) -> std::process::Output {
 }
 
 #[test]
-fn issue_11_a_flipped_bit_inside_the_newest_segment_keeps_it_whole_and_resumes_before_it() {
+fn issue_44_a_flipped_bit_inside_the_newest_segment_keeps_it_whole_and_resumes_past_it() {
     let scratch = Scratch::new("flip");
     let dir = scratch.recording();
     record(&dir, 1500, 5, 64 * 1024 * 1024);
@@ -261,19 +261,21 @@ fn issue_11_a_flipped_bit_inside_the_newest_segment_keeps_it_whole_and_resumes_b
     // payload: its checksum fails, with almost the whole segment after it.
     let at = bytes.len() / 100;
     let hit = *frames(&bytes).iter().find(|f| f.contains(at)).unwrap();
-    let keyframes = keyframes_before(&bytes, hit.offset);
+    let newest = *keyframes_before(&bytes, bytes.len()).last().unwrap();
+    let durable = last_hash_before(&bytes, bytes.len()).max(newest);
     assert!(
-        keyframes.len() >= 2,
-        "keyframes before the damage: {keyframes:?}"
+        keyframes_before(&bytes, hit.offset).last() < Some(&newest),
+        "keyframes after the damage"
     );
-    let durable = last_hash_before(&bytes, hit.offset);
     bytes[hit.offset + 5 + hit.len / 2] ^= 0x10;
     fs::write(path, &bytes).unwrap();
     let before = snapshot(&dir);
 
-    let (mut sim, report) = resume(&dir).expect("resume carries on from before the damage");
+    // Reading goes on at the record after the damaged one: the resume
+    // carries on from the newest keyframe, past the damage.
+    let (mut sim, report) = resume(&dir).expect("resume carries on past the damage");
     println!("{report:?}");
-    assert_eq!(report.keyframe_tick, *keyframes.last().unwrap());
+    assert_eq!(report.keyframe_tick, newest);
     assert_eq!(report.tick, durable);
     assert_eq!(report.mismatches, 0);
     assert_eq!(
@@ -285,6 +287,14 @@ fn issue_11_a_flipped_bit_inside_the_newest_segment_keeps_it_whole_and_resumes_b
     assert_eq!(report.damage.len(), 1, "{:?}", report.damage);
     assert_eq!(report.damage[0].path, *path);
     assert_eq!(report.damage[0].offset, hit.offset as u64);
+    assert!(
+        matches!(
+            report.damage[0].why,
+            DamageKind::Frame { read_on_at: Some(at), .. } if at == hit.end() as u64
+        ),
+        "the skipped bytes said: {}",
+        report.damage[0]
+    );
     assert_eq!(report.bytes_cut(), 0);
 
     // Recording goes on in a new segment, never after the damage.
@@ -315,15 +325,52 @@ fn issue_11_a_flipped_bit_inside_the_newest_segment_keeps_it_whole_and_resumes_b
 }
 
 #[test]
-fn issue_11_a_flipped_bit_in_the_only_keyframe_cuts_nothing_and_fails_typed() {
-    let scratch = Scratch::new("first-keyframe");
+fn issue_44_a_flipped_bit_in_a_segments_first_keyframe_resumes_from_its_newest() {
+    let scratch = Scratch::new("first-of-many");
+    let dir = scratch.recording();
+    record(&dir, 600, 30, 64 * 1024 * 1024);
+    let files = segments(&dir);
+    assert_eq!(files.len(), 1);
+    let mut bytes = fs::read(&files[0]).unwrap();
+    let all = frames(&bytes);
+    let first = *all.iter().find(|f| f.kind == KEYFRAME).unwrap();
+    let newest = *keyframes_before(&bytes, bytes.len()).last().unwrap();
+    assert!(newest >= 600, "every later keyframe intact: {newest}");
+    bytes[first.offset + 5 + first.len / 2] ^= 0x01;
+    fs::write(&files[0], &bytes).unwrap();
+    let before = snapshot(&dir);
+
+    let (_, report) = resume(&dir).expect("the later keyframes resume");
+    assert_same_files(&dir, &before, "nothing on disk changed");
+    assert_eq!(report.keyframe_tick, newest);
+    assert_eq!(report.mismatches, 0);
+    assert_eq!(report.damage.len(), 1, "{:?}", report.damage);
+    assert_eq!(report.damage[0].offset, first.offset as u64);
+    assert!(
+        report.damage[0]
+            .to_string()
+            .contains(&format!("read on at byte {}", first.end())),
+        "{}",
+        report.damage[0]
+    );
+}
+
+#[test]
+fn issue_11_a_flipped_bit_in_every_keyframe_cuts_nothing_and_fails_typed() {
+    let scratch = Scratch::new("every-keyframe");
     let dir = scratch.recording();
     record(&dir, 200, 30, 64 * 1024 * 1024);
     let files = segments(&dir);
     assert_eq!(files.len(), 1);
     let mut bytes = fs::read(&files[0]).unwrap();
-    let first = *frames(&bytes).iter().find(|f| f.kind == KEYFRAME).unwrap();
-    bytes[first.offset + 5 + first.len / 2] ^= 0x01;
+    let keyframes: Vec<Frame> = frames(&bytes)
+        .into_iter()
+        .filter(|f| f.kind == KEYFRAME)
+        .collect();
+    assert!(keyframes.len() >= 2, "{keyframes:?}");
+    for k in &keyframes {
+        bytes[k.offset + 5 + k.len / 2] ^= 0x01;
+    }
     fs::write(&files[0], &bytes).unwrap();
     let before = snapshot(&dir);
 
@@ -331,8 +378,9 @@ fn issue_11_a_flipped_bit_in_the_only_keyframe_cuts_nothing_and_fails_typed() {
     assert_same_files(&dir, &before, "a failed resume changes no file");
     match result {
         Err(ResumeError::NoIntactKeyframe { damage, .. }) => {
-            assert_eq!(damage.len(), 1, "{damage:?}");
-            assert_eq!(damage[0].offset, first.offset as u64);
+            let offsets: Vec<u64> = damage.iter().map(|d| d.offset).collect();
+            let want: Vec<u64> = keyframes.iter().map(|k| k.offset as u64).collect();
+            assert_eq!(offsets, want, "each damaged keyframe said, and read past");
         }
         Err(e) => panic!("the wrong error: {e}"),
         Ok((_, report)) => panic!("resumed from damage: {report:?}"),
@@ -357,13 +405,19 @@ fn issue_11_damage_in_an_older_segment_leaves_the_newest_untouched() {
     fs::write(first, &bytes).unwrap();
     let pristine = snapshot(&dir);
 
-    // Loading went on with the segment after the damage, from its
-    // keyframe, as a session of its own: nothing re-simulates across the
-    // records lost after the damage.
+    // Loading went on past the damage, from the next keyframe after it (in
+    // the same segment, or the next), as a session of its own: nothing
+    // re-simulates across the records lost in the damage.
     let plan = read_for_resume(&dir, DEFAULT_KEYFRAME_BUDGET).unwrap();
     let second = fs::read(&files[1]).unwrap();
     let second_start = frames(&second)[0].tick(&second);
-    assert_eq!(plan.history().session_of(second_start), Some(second_start));
+    let next_keyframe = frames(&bytes)
+        .iter()
+        .filter(|f| f.kind == KEYFRAME && f.offset > middle.offset)
+        .map(|f| f.tick(&bytes))
+        .next()
+        .unwrap_or(second_start);
+    assert_eq!(plan.history().session_of(second_start), Some(next_keyframe));
     assert_eq!(plan.damage().len(), 1, "{:?}", plan.damage());
     drop(plan);
 
@@ -469,8 +523,9 @@ fn issue_11_a_length_flipped_mid_segment_is_damage_not_a_torn_tail() {
     bytes[hit.offset + 3] ^= 0x08; // + 512 KiB
     fs::write(&path, &bytes).unwrap();
     let before = snapshot(&dir);
-    let (_, report) = resume(&dir).expect("resumes before the damage");
-    assert_eq!(report.tick, last_hash_before(&bytes, hit.offset));
+    // Reading goes on at the record after it, to the end.
+    let (_, report) = resume(&dir).expect("resumes past the damage");
+    assert_eq!(report.tick, 300, "the last tick recorded");
     assert_same_files(&dir, &before, "nothing cut");
     assert_eq!(report.bytes_cut(), 0);
     assert_eq!(report.damage.len(), 1, "{:?}", report.damage);
@@ -555,10 +610,11 @@ fn issue_11_a_keyframe_that_does_not_decode_is_damage_and_resume_uses_the_one_be
 
 #[test]
 fn issue_11_damage_at_the_start_of_the_newest_segment_resumes_from_the_segment_before() {
-    // The keyframe that starts the newest segment fails its checksum: the
-    // resume comes from the segment before, and the recording cannot go on
-    // in a new segment of that same first tick, so it is moved aside whole
-    // (nothing in it changed) and a fresh one starts.
+    // Every keyframe of the newest segment fails its checksum, the one
+    // that starts it first: the resume comes from the segment before, and
+    // the recording cannot go on in a new segment of that same first tick,
+    // so it is moved aside whole (nothing in it changed) and a fresh one
+    // starts.
     let scratch = Scratch::new("newest-start");
     let dir = scratch.recording();
     // 610 ticks: the last keyframe every 30 is at 600, and the one that
@@ -571,7 +627,9 @@ fn issue_11_damage_at_the_start_of_the_newest_segment_resumes_from_the_segment_b
     let first = frames(&bytes)[0];
     assert_eq!(first.kind, KEYFRAME);
     let first_tick = first.tick(&bytes);
-    bytes[first.offset + 5 + first.len / 2] ^= 0x02;
+    for keyframe in frames(&bytes).iter().filter(|f| f.kind == KEYFRAME) {
+        bytes[keyframe.offset + 5 + keyframe.len / 2] ^= 0x02;
+    }
     fs::write(newest, &bytes).unwrap();
     let before = snapshot(&dir);
 

@@ -117,7 +117,7 @@ fn salvage_all(path: &Path) -> Vec<Record> {
         .salvage()
         .filter_map(|r| match r.unwrap() {
             Salvaged::Record { record, .. } => Some(record),
-            Salvaged::Damaged(_) | Salvaged::TornTail(_) => None,
+            Salvaged::Damaged { .. } | Salvaged::TornTail(_) => None,
         })
         .collect()
 }

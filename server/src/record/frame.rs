@@ -7,7 +7,7 @@
 //! tail to cut (only at the end of the newest segment) is the caller's
 //! business.
 
-use std::io::{self, Read};
+use std::io::{self, Read, Seek, SeekFrom};
 
 use super::codec::{Record, RecordKind};
 use super::crc32::{crc32, Crc32};
@@ -184,6 +184,33 @@ impl<R: Read> FrameReader<R> {
     }
 }
 
+impl<R: Read + Seek> FrameReader<R> {
+    /// After the damage [`Self::next_frame`] reported at `damaged`, looks
+    /// past it for the next intact frame (see [`find_intact_frame`]) and
+    /// stands there, so that reading goes on with the records after the
+    /// damage. Returns that frame's offset, or `None` when nothing after
+    /// the damage can be trusted (the reader then stays at its end).
+    pub(crate) fn resync(&mut self, damaged: u64) -> io::Result<Option<u64>> {
+        let from = damaged + 1;
+        if from >= self.end {
+            return Ok(None);
+        }
+        self.inner.seek(SeekFrom::Start(from))?;
+        let mut rest = Vec::new();
+        (&mut self.inner)
+            .take(self.end - from)
+            .read_to_end(&mut rest)?;
+        let Search::Found(at) = find_intact_frame(&rest) else {
+            return Ok(None);
+        };
+        let offset = from + at as u64;
+        self.inner.seek(SeekFrom::Start(offset))?;
+        self.offset = offset;
+        self.done = false;
+        Ok(Some(offset))
+    }
+}
+
 /// Largest payload of a frame [`is_torn_frame`] looks for after a frame
 /// cut short, bytes. Most records (tick hashes, journals) are far smaller,
 /// so an intact one follows any damage within a few dozen bytes; looking
@@ -220,11 +247,24 @@ pub(crate) fn is_torn_frame(tail: &[u8]) -> bool {
     !holds_intact_frame(&tail[1..])
 }
 
-/// Whether an intact frame (a record kind, a payload of at most
-/// [`RESYNC_PAYLOAD_BYTES`], its checksum right) starts anywhere in
-/// `bytes`; `true` as well when looking would cost more than
-/// [`RESYNC_CRC_BUDGET`].
-fn holds_intact_frame(bytes: &[u8]) -> bool {
+/// What [`find_intact_frame`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Search {
+    /// An intact frame starts this many bytes in.
+    Found(usize),
+    /// None starts anywhere.
+    None,
+    /// Looking would checksum more than [`RESYNC_CRC_BUDGET`] bytes.
+    GaveUp,
+}
+
+/// Where the first intact frame (a record kind, a payload of at most
+/// [`RESYNC_PAYLOAD_BYTES`], its checksum right) starts in `bytes`. Every
+/// tick writes a small record (its hash, its journal), so one follows any
+/// damage within a tick's worth of bytes; from it, reading goes on frame by
+/// frame, large keyframes included. A false start needs a random CRC-32 to
+/// match (about one in 4·10⁹ per candidate) and its record to decode.
+pub(crate) fn find_intact_frame(bytes: &[u8]) -> Search {
     let overhead = FRAME_OVERHEAD as usize;
     let mut budget = RESYNC_CRC_BUDGET;
     for start in 0..bytes.len() {
@@ -240,16 +280,23 @@ fn holds_intact_frame(bytes: &[u8]) -> bool {
             continue;
         }
         let Some(left) = budget.checked_sub(5 + len) else {
-            return true;
+            return Search::GaveUp;
         };
         budget = left;
         let body = &rest[..5 + len];
         let stored = &rest[5 + len..overhead + len];
         if crc32(body).to_le_bytes() == stored {
-            return true;
+            return Search::Found(start);
         }
     }
-    false
+    Search::None
+}
+
+/// Whether an intact frame starts anywhere in `bytes`; `true` as well
+/// when looking would cost more than [`RESYNC_CRC_BUDGET`] (never cut a
+/// tail on a doubt).
+fn holds_intact_frame(bytes: &[u8]) -> bool {
+    find_intact_frame(bytes) != Search::None
 }
 
 /// `read_exact`, except that a file that ends early (it shrank since its
@@ -363,6 +410,52 @@ mod tests {
                 ..
             }
         ));
+    }
+
+    #[test]
+    fn issue_44_reading_goes_on_at_the_next_intact_frame_after_damage() {
+        let records: Vec<Record> = (1..=4)
+            .map(|tick| Record::TickHash {
+                tick,
+                hash: tick * 10,
+            })
+            .collect();
+        let mut bytes = segment(&records);
+        let second = HEADER_BYTES + FRAME_OVERHEAD + 16;
+        bytes[second as usize + 7] ^= 1;
+        let len = bytes.len() as u64;
+        let mut reader = FrameReader::new(io::Cursor::new(&bytes), len)
+            .unwrap()
+            .unwrap();
+        assert!(matches!(
+            reader.next_frame().unwrap(),
+            Framed::Record { .. }
+        ));
+        let Framed::Damaged { offset, .. } = reader.next_frame().unwrap() else {
+            panic!("the second frame is damaged");
+        };
+        assert_eq!(offset, second);
+        // On at the third frame, and to the end.
+        let third = second + FRAME_OVERHEAD + 16;
+        assert_eq!(reader.resync(offset).unwrap(), Some(third));
+        let mut after = Vec::new();
+        while let Framed::Record { record, .. } = reader.next_frame().unwrap() {
+            after.push(record);
+        }
+        assert_eq!(after, records[2..]);
+        // Damage in the last frame: nothing after it to read.
+        let mut bytes = segment(&records[..1]);
+        let last = bytes.len() - 3;
+        bytes[last] ^= 1;
+        let len = bytes.len() as u64;
+        let mut reader = FrameReader::new(io::Cursor::new(&bytes), len)
+            .unwrap()
+            .unwrap();
+        assert!(matches!(
+            reader.next_frame().unwrap(),
+            Framed::Damaged { .. }
+        ));
+        assert_eq!(reader.resync(HEADER_BYTES).unwrap(), None);
     }
 
     #[test]

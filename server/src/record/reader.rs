@@ -307,20 +307,28 @@ pub enum Salvaged {
         /// The record.
         record: Record,
     },
-    /// Damage: nothing after it in that segment is read (nothing there can
-    /// be trusted to be where its framing says); reading goes on with the
+    /// Damage: reading goes on at the next intact frame after it in the
+    /// same segment (`read_on_at`), or, when none can be found, with the
     /// next segment.
-    Damaged(SegmentDamage),
+    Damaged {
+        /// Where and what.
+        damage: SegmentDamage,
+        /// Byte offset in the same file where reading went on past the
+        /// damage; `None` when the rest of the segment was skipped.
+        read_on_at: Option<u64>,
+    },
     /// The newest segment ends in a torn tail here (an append cut short by
     /// a crash): the records end cleanly before it.
     TornTail(SegmentDamage),
 }
 
-/// Reads a recording as far as it can be trusted: every segment from its
-/// start up to its first damage, reported as [`Salvaged::Damaged`], then
-/// on with the next segment (each segment after a directory's first starts
-/// at a keyframe, or a session start and its keyframe, so replay can start
-/// again there). Yields `Err` once on an I/O error, then ends. Made by
+/// Reads a recording as far as it can be trusted: every intact frame of
+/// every segment, oldest first. Damage is reported as
+/// [`Salvaged::Damaged`] and read past: reading goes on at the next intact
+/// frame (a checksum that holds; every tick writes a small record, so one
+/// follows soon), or with the next segment when none does (each segment
+/// after a directory's first starts at a keyframe, or a session start and
+/// its keyframe). Replay starts again at the next keyframe after damage. Yields `Err` once on an I/O error, then ends. Made by
 /// [`RecordReader::salvage`].
 #[derive(Debug)]
 pub struct Salvage {
@@ -371,8 +379,23 @@ impl Salvage {
                 }
                 Framed::End => self.current = None,
                 Framed::Damaged { offset, why } => {
-                    self.current = None;
-                    return self.damaged(index, offset, why).map(Some);
+                    let torn = index + 1 == self.segments.len() && torn_at(path, offset, why)?;
+                    let damage = SegmentDamage {
+                        path: path.clone(),
+                        offset,
+                        why,
+                    };
+                    if torn {
+                        self.current = None;
+                        return Ok(Some(Salvaged::TornTail(damage)));
+                    }
+                    let read_on_at = reader
+                        .resync(offset)
+                        .map_err(|e| RecordError::io(&damage.path, e))?;
+                    if read_on_at.is_none() {
+                        self.current = None;
+                    }
+                    return Ok(Some(Salvaged::Damaged { damage, read_on_at }));
                 }
             }
         }
@@ -393,7 +416,10 @@ impl Salvage {
         Ok(if torn {
             Salvaged::TornTail(damage)
         } else {
-            Salvaged::Damaged(damage)
+            Salvaged::Damaged {
+                damage,
+                read_on_at: None,
+            }
         })
     }
 }

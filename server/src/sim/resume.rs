@@ -16,14 +16,15 @@
 //! nothing on disk:
 //!
 //! 1. [`read_for_resume`] only reads: it loads the recording with
-//!    [`History::salvage`], which reads each segment up to its first
-//!    damage, never past it within that segment, and stops before a torn
-//!    tail.
+//!    [`History::salvage`], which reads past damage at the next intact
+//!    record (a flipped bit costs the records it hit, not the rest of its
+//!    segment), takes up replay again at the next keyframe after it, and
+//!    stops before a torn tail.
 //! 2. [`Simulation::resume`] restores the newest keyframe that decodes and
 //!    restores, falling back keyframe by keyframe (one that does not is
 //!    damage too), and re-simulates from it up to the last tick hashed in
 //!    its session — so a run of records broken by damage ends at the
-//!    damage. Only then does it open the directory for writing, which cuts
+//!    damage, and one after it starts at its first keyframe. Only then does it open the directory for writing, which cuts
 //!    a genuine torn tail (an incomplete last record at the end of the
 //!    newest segment), keeping the bytes cut in a file beside it. Damaged
 //!    segments are left exactly as they are; when the newest one is
@@ -59,8 +60,8 @@ pub struct ResumeReport {
     /// The torn tail cut off the newest segment, and where its bytes were
     /// kept.
     pub torn_tail: Option<TailCut>,
-    /// Damage found, oldest first: damaged frames (nothing after one in
-    /// its segment was used), keyframes that do not decode or restore
+    /// Damage found, oldest first: damaged frames (skipped up to the next
+    /// intact one, and replay up to the next keyframe), keyframes that do not decode or restore
     /// (skipped), journals that do not decode. All of it left on disk as
     /// it was.
     pub damage: Vec<Damage>,

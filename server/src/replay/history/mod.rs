@@ -231,9 +231,20 @@ pub struct Damage {
 /// What is wrong where a [`Damage`] is.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DamageKind {
-    /// The frame is damaged: nothing after it in that segment is used.
-    #[error(transparent)]
-    Frame(Corruption),
+    /// The frame is damaged. Reading went on at the next intact frame in
+    /// the same file (`read_on_at`), or, when none could be found, with the
+    /// next segment; what lies between is skipped, and replay starts again
+    /// at the next keyframe.
+    #[error("{why}; {}", match read_on_at {
+        Some(at) => format!("read on at byte {at}"),
+        None => "the rest of the segment skipped".to_string(),
+    })]
+    Frame {
+        /// What is wrong.
+        why: Corruption,
+        /// Where reading went on in the same file, bytes.
+        read_on_at: Option<u64>,
+    },
     /// The frame is intact but the keyframe's state does not unpack, read
     /// or restore: that keyframe is not used.
     #[error("the keyframe of tick {tick} does not decode: {error}")]
@@ -660,11 +671,14 @@ impl History {
                     offset,
                     record,
                 } => (segment, offset, record),
-                Salvaged::Damaged(d) => {
+                Salvaged::Damaged { damage, read_on_at } => {
                     report.damage.push(Damage {
-                        path: d.path,
-                        offset: d.offset,
-                        why: DamageKind::Frame(d.why),
+                        path: damage.path,
+                        offset: damage.offset,
+                        why: DamageKind::Frame {
+                            why: damage.why,
+                            read_on_at,
+                        },
                     });
                     resync = true;
                     continue;
