@@ -12,7 +12,7 @@ use std::net::SocketAddr;
 use inertia_client::interp::Sample;
 use inertia_client::net::ClientEvent;
 use inertia_client::point_sets::PointSetSample;
-use inertia_client::{BlockingClient, ConnectOptions};
+use inertia_client::{BlockingClient, ConnectOptions, ReplayEvent};
 use inertia_protocol::control::DisconnectReason;
 
 use inertia_protocol::input::InputPayload;
@@ -547,6 +547,21 @@ fn event_of(e: ClientEvent) -> InertiaEvent {
                 None => out.kind = InertiaEventKind::MatchState,
             }
             out.to_tick = tick as f64;
+        }
+        ClientEvent::Replay(ReplayEvent::Started {
+            from_tick, to_tick, ..
+        }) => {
+            out.kind = InertiaEventKind::ReplayStarted;
+            out.from_tick = from_tick as f64;
+            out.to_tick = to_tick as f64;
+        }
+        ClientEvent::Replay(ReplayEvent::Refused(why)) => {
+            out.kind = InertiaEventKind::ReplayRefused;
+            write_c_string(&mut out.text, &why.to_string());
+        }
+        ClientEvent::Replay(ReplayEvent::Ended(why)) => {
+            out.kind = InertiaEventKind::ReplayEnded;
+            write_c_string(&mut out.text, why.label());
         }
         ClientEvent::Message { delivery, bytes } => {
             out.kind = InertiaEventKind::Message;

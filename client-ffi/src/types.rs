@@ -239,6 +239,15 @@ pub enum InertiaEventKind {
     Properties = 7,
     /// The match's properties changed, as of tick `to_tick`.
     MatchState = 8,
+    /// The replay asked for (`inertia_kill_cam`, `inertia_replay`) started:
+    /// it shows ticks `from_tick` to `to_tick`; draw it with
+    /// `inertia_replay_sample`.
+    ReplayStarted = 9,
+    /// The replay asked for was refused: `text` says why.
+    ReplayRefused = 10,
+    /// The replay ended: `text` says how (`finished`, `cancelled`,
+    /// `replaced`, `window_passed`); draw the live world again.
+    ReplayEnded = 11,
 }
 
 /// One event. Fields a kind does not use are zero.

@@ -34,7 +34,9 @@ pub mod net;
 pub mod point_sets;
 pub mod predict;
 pub mod properties;
+pub mod replay;
 pub mod stats;
 
 pub use blocking::BlockingClient;
 pub use net::{Client, ClientError, ClientEvent, ConnectOptions, ControllerFactory, ServerInfo};
+pub use replay::{ReplayEvent, ReplayStatus};

@@ -38,6 +38,7 @@ pub mod message;
 pub mod priority;
 pub mod property;
 pub mod quantize;
+pub mod replay;
 pub mod rng;
 pub mod session;
 pub mod sim_link;

@@ -155,6 +155,21 @@ impl ServerSession {
         if !self.serves_slot(slot) {
             return None;
         }
+        Some(self.snapshot_at(frame, frame.time_scale, shared, max_datagram))
+    }
+
+    /// The snapshot of `frame` with the header's time scale `time_scale`
+    /// (a replay's speed), whatever the slot, at most `max_datagram`
+    /// bytes: what a replay of the recent past sends, on a session of its
+    /// own (its own views and sequence numbers) whose "avatar" is the
+    /// entity it centres on.
+    pub fn snapshot_at(
+        &mut self,
+        frame: &QuantizedFrame,
+        time_scale: f32,
+        shared: &mut SharedDeltas,
+        max_datagram: usize,
+    ) -> Vec<u8> {
         let point = self
             .avatar
             .and_then(|a| frame.index_of(a))
@@ -168,10 +183,8 @@ impl ServerSession {
             interest.radius_max = self.config.interest_max_m;
         }
         let budget = self.config.budget_bytes.min(max_datagram);
-        Some(
-            self.encoder
-                .encode_shared(frame, shared, &mut self.priorities, budget),
-        )
+        self.encoder
+            .encode_shared_at(frame, time_scale, shared, &mut self.priorities, budget)
     }
 
     /// What the last snapshot did.

@@ -7,5 +7,7 @@
 /// messages both ways (reliable on the control stream, unreliable in
 /// message datagrams) in place of the server's events, and the game's
 /// properties (their schema in the welcome, a section in every
-/// snapshot). 7: the welcome names the game.
-pub const PROTOCOL_VERSION: u16 = 7;
+/// snapshot). 7: the welcome names the game. 8: players' replays of the
+/// recent past (asked and answered on the control stream, played in
+/// replay datagrams).
+pub const PROTOCOL_VERSION: u16 = 8;

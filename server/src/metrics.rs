@@ -91,9 +91,20 @@ pub struct Metrics {
     /// replayed.
     pub record_dropped: Counter,
     /// Memory held for seeking by `part`: `keyframes` and `checkpoints`
-    /// (within `--seek-memory-mb`), `hashes` and `journal` (every recorded
-    /// tick's, outside it), bytes.
+    /// (within `--seek-memory-mb`), `replay_window` (the frames held for
+    /// players' replays, within a quarter of it), `hashes` and `journal`
+    /// (every recorded tick's, outside it), bytes.
     pub seek_memory: Family<[(&'static str, &'static str); 1], Gauge>,
+    /// Players' replays playing now ([`crate::net::replays`]).
+    pub replays_playing: Gauge,
+    /// Players' replay requests waiting for room now.
+    pub replays_waiting: Gauge,
+    /// Players' replays by `outcome`: `started`, a refusal's reason
+    /// ([`inertia_protocol::replay::ReplayRefusal::reason`]), or how one
+    /// ended (`finished`, `cancelled`, `replaced`, `window_passed`).
+    pub replays: Family<[(&'static str, &'static str); 1], Counter>,
+    /// Replay snapshots sent.
+    pub replay_snapshots: Counter,
     registry: Arc<Registry>,
 }
 
@@ -177,6 +188,10 @@ impl Metrics {
             admin_operators: Gauge::default(),
             record_dropped: Counter::default(),
             seek_memory: Family::default(),
+            replays_playing: Gauge::default(),
+            replays_waiting: Gauge::default(),
+            replays: Family::default(),
+            replay_snapshots: Counter::default(),
             registry: Arc::new(Registry::default()),
         };
         let mut r = Registry::with_prefix("inertia");
@@ -306,10 +321,35 @@ impl Metrics {
             "Memory held for seeking by part, bytes: keyframes and checkpoints (within --seek-memory-mb), hashes and journal (every recorded tick's, outside it)",
             m.seek_memory.clone(),
         );
+        r.register(
+            "replays_playing",
+            "Players' replays of the recent past playing now",
+            m.replays_playing.clone(),
+        );
+        r.register(
+            "replays_waiting",
+            "Players' replay requests waiting for room now",
+            m.replays_waiting.clone(),
+        );
+        r.register(
+            "replays",
+            "Players' replays by outcome: started, a refusal's reason, or how one ended",
+            m.replays.clone(),
+        );
+        r.register(
+            "replay_snapshots",
+            "Snapshots of players' replays sent",
+            m.replay_snapshots.clone(),
+        );
         Metrics {
             registry: Arc::new(r),
             ..m
         }
+    }
+
+    /// Counts one player's replay by `outcome` (see [`Self::replays`]).
+    pub fn replay_outcome(&self, outcome: &'static str) {
+        self.replays.get_or_create(&[("outcome", outcome)]).inc();
     }
 
     /// Counts one refused or failed connection attempt.

@@ -353,6 +353,7 @@ pub async fn start_game(
                 tick_hz: config.tick_hz,
                 budget_bytes_per_sec: config.client_budget_bytes_per_sec(),
                 properties,
+                replays: config.replays(),
             },
             shutdown_rx,
             Arc::new(admin),

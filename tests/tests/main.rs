@@ -26,3 +26,4 @@ mod issue_43_football;
 mod issue_43_game_input;
 mod issue_43_messages;
 mod issue_43_properties;
+mod issue_44_replays;

@@ -17,7 +17,7 @@ export class ControlError extends Error {}
 export const MAX_CONTROL_FRAME = 64 * 1024;
 
 /** The protocol version this client speaks (`PROTOCOL_VERSION`). */
-export const PROTOCOL_VERSION = 7;
+export const PROTOCOL_VERSION = 8;
 
 // ---- the messages ----
 

@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 use inertia_protocol::connection::{ClientConnection, ClientConnectionEvent};
 use inertia_protocol::control::{DisconnectReason, ServerControl};
 use inertia_protocol::message::{Delivery, GameMessage, MessageDatagram, MessageDecodeError};
+use inertia_protocol::replay::{ReplayAnswer, ReplayDatagram, ReplayRequest};
 use inertia_protocol::{ClientSession, EntityId};
 use tokio::sync::mpsc;
 
@@ -22,6 +23,7 @@ use crate::interp::{InterpEvent, InterpolationBuffer};
 use crate::lead::InputLead;
 use crate::predict::Predictor;
 use crate::properties::{KnownProperties, PropertyChange};
+use crate::replay::{ReplayEvent, ReplayView};
 use crate::stats::{ClientStats, StatsRecorder};
 
 use super::ServerInfo;
@@ -37,6 +39,9 @@ pub enum ClientEvent {
     Spawned(EntityId),
     /// An entity left the world or our view.
     Despawned(EntityId),
+    /// The replay the player asked for started, was refused or ended (see
+    /// [`super::Client::replay`]).
+    Replay(ReplayEvent),
     /// A message of the game's from the server's rules: how it came, and
     /// its bytes (read them with the game's type: [`ClientEvent::message`]).
     Message {
@@ -100,6 +105,8 @@ pub(crate) struct ClientShared {
     pub predictor: Option<Predictor>,
     /// The game's properties as the snapshots said them.
     pub properties: KnownProperties,
+    /// The replay the player asked for, apart from the live stream.
+    pub replay: ReplayView,
 }
 
 impl ClientShared {
@@ -117,6 +124,7 @@ impl ClientShared {
             lead: InputLead::default(),
             predictor: None,
             properties: KnownProperties::new(info.properties.clone()),
+            replay: ReplayView::new(info.snapshot, info.tick_hz, info.properties.clone()),
         }
     }
 
@@ -170,7 +178,21 @@ impl ClientShared {
         Some(bytes)
     }
 
-    fn on_datagram(&mut self, now: f64, bytes: &[u8]) {
+    /// A datagram from the server at `now` (s); returns the
+    /// acknowledgement to send back for a replay snapshot.
+    fn on_datagram(&mut self, now: f64, bytes: &[u8]) -> Option<Vec<u8>> {
+        if ReplayDatagram::is_one(bytes) {
+            let ack = self.replay.on_datagram(now, bytes);
+            if ack.is_none() {
+                self.stats.on_malformed();
+            }
+            return ack;
+        }
+        self.on_live_datagram(now, bytes);
+        None
+    }
+
+    fn on_live_datagram(&mut self, now: f64, bytes: &[u8]) {
         if MessageDatagram::is_one(bytes) {
             match MessageDatagram::decode(bytes) {
                 Ok(message) => self.event(ClientEvent::Message {
@@ -264,6 +286,10 @@ impl ClientShared {
                 bytes,
             }),
             ServerControl::InputTiming(report) => self.lead.on_report(report),
+            ServerControl::Replay(answer) => {
+                let e = self.replay.on_answer(answer);
+                self.event(ClientEvent::Replay(e));
+            }
             ServerControl::Goodbye(reason) => {
                 self.disconnected = Some(reason.clone());
                 self.event(ClientEvent::Disconnected(reason));
@@ -278,6 +304,10 @@ impl ClientShared {
 pub(crate) enum DriverCommand {
     /// Send a reliable message of the game's (its size checked).
     Send(Vec<u8>),
+    /// Ask for a replay of the recent past.
+    Replay(ReplayRequest),
+    /// Stop the replay playing.
+    CancelReplay,
     /// Say goodbye and close.
     Close,
 }
@@ -334,7 +364,10 @@ pub(crate) async fn run(mut d: Driver) {
             datagram = d.connection.read_datagram() => match datagram {
                 Ok(bytes) => {
                     let now = d.epoch.elapsed().as_secs_f64();
-                    d.lock().on_datagram(now, &bytes);
+                    let ack = d.lock().on_datagram(now, &bytes);
+                    if let Some(ack) = ack {
+                        let _ = d.connection.send_datagram(ack.into());
+                    }
                 }
                 Err(e) => d.conn.on_lost(closed_reason(&e)),
             },
@@ -366,6 +399,16 @@ pub(crate) async fn run(mut d: Driver) {
                     // Refused only once the connection is ending: the
                     // message goes nowhere, as it would have.
                     let _ = d.conn.send_message(bytes, Instant::now());
+                }
+                Some(DriverCommand::Replay(request)) => {
+                    if let Err(why) = d.conn.ask_replay(request, Instant::now()) {
+                        let mut s = d.lock();
+                        let e = s.replay.on_answer(ReplayAnswer::Refused(why));
+                        s.event(ClientEvent::Replay(e));
+                    }
+                }
+                Some(DriverCommand::CancelReplay) => {
+                    let _ = d.conn.cancel_replay(Instant::now());
                 }
                 Some(DriverCommand::Close) => d.conn.close(Instant::now()),
                 // A dropped client closes too.

@@ -82,6 +82,10 @@ pub enum ClientError {
     /// ended (nothing was sent).
     #[error("message not sent: {0}")]
     Message(#[from] MessageRefusal),
+    /// A replay that cannot be asked for: its stretch is empty, its speed
+    /// out of range, or the connection has ended (nothing was sent).
+    #[error("replay not asked for: {0}")]
+    Replay(#[from] inertia_protocol::replay::ReplayRefusal),
 }
 
 /// Options of [`Client::connect_with`].
@@ -380,6 +384,95 @@ impl Client {
             }
         }
         Ok(())
+    }
+
+    /// Asks the server to show this stretch of the recent past (a
+    /// kill-cam, an instant replay) beside the live match: ticks
+    /// `request.from_tick..=request.to_tick`, at `request.speed` times
+    /// real time, its interest centred on `request.focus` (the own avatar
+    /// when `None`). The answer comes as [`ClientEvent::Replay`]; while it
+    /// plays, [`Client::replay_sample`] draws it. The live stream, its
+    /// interpolation and the prediction go on as before, and the player's
+    /// inputs still reach the server: whether a player who watches may
+    /// act is the game's rules' choice. A new request replaces the replay
+    /// playing. Refused, sending nothing, when the stretch is empty, the
+    /// speed out of range or the connection has ended; the server refuses
+    /// (and says why) a stretch it no longer holds or has not reached,
+    /// one longer than its window, and more than one request a second.
+    pub fn replay(
+        &self,
+        request: inertia_protocol::replay::ReplayRequest,
+    ) -> Result<(), ClientError> {
+        use inertia_protocol::replay::ReplayRefusal;
+        request.check()?;
+        let mut s = self.lock();
+        if s.disconnected.is_some() {
+            return Err(ReplayRefusal::NotJoined.into());
+        }
+        self.commands
+            .send(DriverCommand::Replay(request))
+            .map_err(|_| ReplayRefusal::NotJoined)?;
+        s.replay.asked();
+        Ok(())
+    }
+
+    /// The kill-cam: the last `seconds` of the match up to the newest
+    /// tick received, at `speed`, centred on `focus` (the one that hit
+    /// the player; `None`: the own avatar). See [`Client::replay`].
+    pub fn kill_cam(
+        &self,
+        seconds: f32,
+        speed: f32,
+        focus: Option<EntityId>,
+    ) -> Result<(), ClientError> {
+        let now = self.lock().latest.map_or(self.info.tick, |(tick, _)| tick);
+        self.replay(inertia_protocol::replay::ReplayRequest::last_seconds(
+            now,
+            self.info.tick_hz,
+            seconds,
+            speed,
+            focus,
+        ))
+    }
+
+    /// Stops the replay playing, if any (answered by
+    /// [`ClientEvent::Replay`] with [`ReplayEnd::Cancelled`](inertia_protocol::replay::ReplayEnd::Cancelled)).
+    pub fn cancel_replay(&self) -> Result<(), ClientError> {
+        self.commands
+            .send(DriverCommand::CancelReplay)
+            .map_err(|_| inertia_protocol::replay::ReplayRefusal::NotJoined)?;
+        Ok(())
+    }
+
+    /// Where the player's replay stands.
+    pub fn replay_status(&self) -> crate::replay::ReplayStatus {
+        self.lock().replay.status()
+    }
+
+    /// The replayed world as it should be drawn now (see
+    /// [`Client::replay`]): `None` before any replayed state came. Once
+    /// the replay ended it shows its last frames to their end; draw
+    /// [`Client::sample`] again when [`Client::replay_status`] is no
+    /// longer playing.
+    pub fn replay_sample(&self) -> Option<crate::interp::Sample> {
+        let now = self.local_time();
+        self.lock().replay.sample(now)
+    }
+
+    /// The newest replayed tick received.
+    pub fn replay_tick(&self) -> Option<u64> {
+        self.lock().replay.newest_tick()
+    }
+
+    /// An entity's properties as the replay shows them (as they were at
+    /// the replayed tick).
+    pub fn replay_properties(&self, entity: EntityId) -> Option<Vec<PropertyValue>> {
+        self.lock().replay.properties(entity)
+    }
+
+    /// The match's properties as the replay shows them.
+    pub fn replay_match_state(&self) -> Vec<PropertyValue> {
+        self.lock().replay.match_state()
     }
 
     /// The world as it should be drawn now: interpolated behind the

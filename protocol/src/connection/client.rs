@@ -262,6 +262,37 @@ impl ClientConnection {
         Ok(())
     }
 
+    /// Asks the server for a replay of the recent past (see
+    /// [`crate::replay`]); it answers on the control stream. Refused
+    /// before the welcome and once the connection is ending.
+    pub fn ask_replay(
+        &mut self,
+        request: crate::replay::ReplayRequest,
+        now: Instant,
+    ) -> Result<(), crate::replay::ReplayRefusal> {
+        self.send_control(&ClientControl::Replay(request), now)
+    }
+
+    /// Asks the server to stop the replay playing, if any.
+    pub fn cancel_replay(&mut self, now: Instant) -> Result<(), crate::replay::ReplayRefusal> {
+        self.send_control(&ClientControl::CancelReplay, now)
+    }
+
+    fn send_control(
+        &mut self,
+        message: &ClientControl,
+        now: Instant,
+    ) -> Result<(), crate::replay::ReplayRefusal> {
+        if !self.is_live() {
+            return Err(crate::replay::ReplayRefusal::NotJoined);
+        }
+        // Both always encode: nothing in them is bounded by the frame.
+        if let Ok(frame) = encode_frame(message) {
+            self.outbox.push_coded(&frame, now);
+        }
+        Ok(())
+    }
+
     /// Acts on every deadline at or before `now`.
     pub fn handle_timeout(&mut self, now: Instant) {
         match self.state {

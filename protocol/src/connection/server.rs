@@ -10,6 +10,9 @@ use crate::control::{
 use crate::input::PlayerInput;
 use crate::input::{InputBuffer, InputDatagram, InputError};
 use crate::message::{check_len, Delivery, MessageDatagram, MessageLimiter, MessageRefusal};
+use crate::replay::{
+    ReplayAnswer, ReplayAsk, ReplayDatagram, ReplayRefusal, ReplayRequest, REPLAY_REQUEST_LIMITS,
+};
 
 use super::last_words::LastWords;
 use super::outbox::Outbox;
@@ -142,10 +145,22 @@ pub struct ServerConnection {
     /// until [`Self::poll_message`]: the limiter bounds the first, what
     /// one push or datagram holds the second.
     messages: VecDeque<Result<ReceivedMessage, MessageRefusal>>,
+    /// How fast the client may ask for replays.
+    replay_limiter: MessageLimiter,
+    /// What the client asked of replays, and the asks refused here (and
+    /// answered), in arrival order, until [`Self::poll_replay`].
+    replays: VecDeque<Result<ReplayAsk, ReplayRefusal>>,
+    /// The replay snapshots the client acknowledged (replay, sequence),
+    /// until [`Self::poll_replay_ack`]; at most [`MAX_REPLAY_ACKS`].
+    replay_acks: VecDeque<(u16, u16)>,
     /// Why the connection ends, once it does.
     end: Option<ServerConnectionEnd>,
     events: VecDeque<ServerConnectionEvent>,
 }
+
+/// Replay acknowledgements a connection holds at most between two
+/// looks; beyond, the oldest go (a newer one makes a better baseline).
+pub const MAX_REPLAY_ACKS: usize = 64;
 
 /// A game message a client sent, as its connection took it (within the
 /// size and rate bounds; the game's decoder reads it on the tick thread).
@@ -173,6 +188,9 @@ impl ServerConnection {
             refused_inputs: None,
             limiter: MessageLimiter::new(config.messages, now),
             messages: VecDeque::new(),
+            replay_limiter: MessageLimiter::new(REPLAY_REQUEST_LIMITS, now),
+            replays: VecDeque::new(),
+            replay_acks: VecDeque::new(),
             peer_finished: false,
             end: None,
             events: VecDeque::new(),
@@ -280,6 +298,18 @@ impl ServerConnection {
             self.messages.push_back(taken);
             return Ok(None);
         }
+        if ReplayDatagram::is_one(bytes) {
+            match ReplayDatagram::decode_ack(bytes) {
+                Ok(ReplayDatagram::Ack { replay, sequence }) => {
+                    if self.replay_acks.len() >= MAX_REPLAY_ACKS {
+                        self.replay_acks.pop_front();
+                    }
+                    self.replay_acks.push_back((replay, sequence));
+                    return Ok(None);
+                }
+                _ => return Err(InputError::ReplayAck),
+            }
+        }
         let datagram = InputDatagram::decode(bytes)?;
         match (self.config.input_bytes, datagram.inputs.first()) {
             (Some(expected), Some(input)) if input.payload.len() != expected => {
@@ -311,6 +341,44 @@ impl ServerConnection {
     /// the server to count. A refused message changes nothing else.
     pub fn poll_message(&mut self) -> Option<Result<ReceivedMessage, MessageRefusal>> {
         self.messages.pop_front()
+    }
+
+    /// What the client asked of replays next, in arrival order: a
+    /// request whose shape is sound and within the client's rate, or a
+    /// cancel; or why a request was refused here (already answered on
+    /// the control stream), for the server to count. Whether the server
+    /// holds the stretch and has room to play it is the server's to
+    /// answer ([`Self::answer_replay`]).
+    pub fn poll_replay(&mut self) -> Option<Result<ReplayAsk, ReplayRefusal>> {
+        self.replays.pop_front()
+    }
+
+    /// The next replay snapshot the client acknowledged: (replay,
+    /// sequence), in arrival order.
+    pub fn poll_replay_ack(&mut self) -> Option<(u16, u16)> {
+        self.replay_acks.pop_front()
+    }
+
+    /// Tells the client `answer` about its replay, behind whatever waits
+    /// on the control stream.
+    pub fn answer_replay(&mut self, answer: ReplayAnswer, now: Instant) {
+        if let Ok(frame) = encode_frame(&ServerControl::Replay(answer)) {
+            self.queue_control(&frame, now);
+        }
+    }
+
+    /// Takes a replay request at `now`, or refuses it (and says so).
+    fn take_replay(&mut self, request: ReplayRequest, now: Instant) {
+        let taken = request.check().and_then(|()| {
+            self.replay_limiter
+                .take(0, now)
+                .map_err(|_| ReplayRefusal::RateLimited)
+        });
+        if let Err(why) = taken {
+            self.answer_replay(ReplayAnswer::Refused(why), now);
+        }
+        self.replays
+            .push_back(taken.map(|()| ReplayAsk::Play(request)));
     }
 
     /// Takes a message of the client's at `now`, or refuses it.
@@ -595,7 +663,13 @@ impl ServerConnection {
                         .push_back(ServerConnectionEvent::Hello { version, token });
                 }
                 // Anything but a hello first, or bytes that are no message.
-                Some(Ok(ClientControl::Goodbye | ClientControl::Message(_))) | Some(Err(_)) => {
+                Some(Ok(
+                    ClientControl::Goodbye
+                    | ClientControl::Message(_)
+                    | ClientControl::Replay(_)
+                    | ClientControl::CancelReplay,
+                ))
+                | Some(Err(_)) => {
                     self.refuse(Refusal::Malformed, now);
                 }
             },
@@ -605,6 +679,10 @@ impl ServerConnection {
                     Some(Ok(ClientControl::Message(bytes))) => {
                         let taken = self.take_message(Delivery::Reliable, bytes, now);
                         self.messages.push_back(taken);
+                    }
+                    Some(Ok(ClientControl::Replay(request))) => self.take_replay(request, now),
+                    Some(Ok(ClientControl::CancelReplay)) => {
+                        self.replays.push_back(Ok(ReplayAsk::Cancel));
                     }
                     Some(Ok(ClientControl::Goodbye)) => {
                         self.end_now(ServerConnectionEnd::Left, Some(goodbye_close()));

@@ -98,6 +98,11 @@ pub enum ClientControl {
     /// A reliable message of the game's (its bytes, at most
     /// [`MAX_MESSAGE_BYTES`]; see [`crate::message`]).
     Message(Vec<u8>),
+    /// Show me this stretch of the recent past, beside the live match
+    /// (see [`crate::replay`]); it replaces any replay playing.
+    Replay(crate::replay::ReplayRequest),
+    /// Stop the replay playing, if any.
+    CancelReplay,
 }
 
 /// What a server says on the control stream.
@@ -152,6 +157,8 @@ pub enum ServerControl {
     /// are for: sent about once a second while it changes, so the client
     /// can run as far ahead as its inputs need to arrive in time.
     InputTiming(InputReport),
+    /// About the replay the client asked for (see [`crate::replay`]).
+    Replay(crate::replay::ReplayAnswer),
 }
 
 /// How a client's inputs have been arriving, as the server counted them

@@ -189,6 +189,10 @@ impl ControlMessage for ClientControl {
             // message is refused and counted there, and the connection
             // lives on (the frame's own bound keeps it finite here).
             ClientControl::Message(_) | ClientControl::Goodbye => Ok(()),
+            // Its shape and its stretch are the server's to check: a
+            // refused replay is answered and counted, and the connection
+            // lives on.
+            ClientControl::Replay(_) | ClientControl::CancelReplay => Ok(()),
         }
     }
 }
@@ -253,7 +257,15 @@ impl ControlMessage for ServerControl {
             ServerControl::Refused(Refusal::Rejected { reason }) => {
                 check_len("refusal reason", reason.len(), MAX_REASON_BYTES)
             }
+            ServerControl::Replay(crate::replay::ReplayAnswer::Started { speed, .. })
+                if !speed.is_finite() =>
+            {
+                Err(ControlError::OutOfRange {
+                    what: "a replay's speed",
+                })
+            }
             ServerControl::Refused(_)
+            | ServerControl::Replay(_)
             | ServerControl::Despawn { .. }
             | ServerControl::InputTiming(_) => Ok(()),
             ServerControl::Spawn(e) => validate_entity(e),

@@ -128,6 +128,10 @@ pub enum InputError {
         /// The tag found.
         tag: u8,
     },
+    /// A replay datagram (its tag) that is not a whole acknowledgement
+    /// ([`crate::replay::ReplayDatagram::decode_ack`]).
+    #[error("a replay datagram that is not an acknowledgement")]
+    ReplayAck,
     /// More than [`MAX_REDUNDANT_INPUTS`] inputs.
     #[error("{count} inputs, the most is {max}")]
     TooManyInputs {

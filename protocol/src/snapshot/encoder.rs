@@ -290,13 +290,26 @@ impl SnapshotEncoder {
         priorities: &mut PriorityAccumulator,
         budget_bytes: usize,
     ) -> Vec<u8> {
+        self.encode_shared_at(frame, frame.time_scale, shared, priorities, budget_bytes)
+    }
+
+    /// [`Self::encode_shared`] with the header's time scale `time_scale`
+    /// in place of the frame's: a replay of the frame at that speed.
+    pub fn encode_shared_at(
+        &mut self,
+        frame: &QuantizedFrame,
+        time_scale: f32,
+        shared: &mut SharedDeltas,
+        priorities: &mut PriorityAccumulator,
+        budget_bytes: usize,
+    ) -> Vec<u8> {
         let config = self.config;
         shared.deltas.start(frame);
         let (tick, paused) = (frame.tick, frame.paused);
         // The decoder refuses scales no clock produces (the frame's field
         // is public, so it is checked here too).
-        let time_scale = if frame.time_scale.is_finite() {
-            frame.time_scale.clamp(-MAX_TIME_SCALE, MAX_TIME_SCALE)
+        let time_scale = if time_scale.is_finite() {
+            time_scale.clamp(-MAX_TIME_SCALE, MAX_TIME_SCALE)
         } else {
             0.0
         };

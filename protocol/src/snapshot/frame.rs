@@ -122,6 +122,20 @@ impl QuantizedFrame {
         self.serial
     }
 
+    /// The memory its columns take, bytes (the properties, shared with
+    /// the published frame, not counted): what a server holding frames
+    /// for replays counts against its budget.
+    pub fn heap_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.ids.capacity() * size_of::<EntityId>()
+            + self.positions.capacity() * size_of::<DVec3>()
+            + self.grid.capacity() * size_of::<[u32; 3]>()
+            + self.rotations.capacity() * size_of::<QuantizedRotation>()
+            + self.velocities.capacity() * size_of::<[u32; 3]>()
+            + self.moving.capacity()
+            + self.at_rest.capacity()
+    }
+
     /// Entities in the frame.
     pub fn len(&self) -> usize {
         self.ids.len()

@@ -5,7 +5,8 @@ use std::path::PathBuf;
 
 use super::{
     MAX_BODIES_LIMIT, MAX_CLIENTS_LIMIT, MAX_KEYFRAME_TICKS, MAX_PHYSICS_THREADS,
-    MAX_RETRY_ABOVE_PER_SEC, MAX_TICK_HZ, MIN_RECORD_MAX_BYTES,
+    MAX_REPLAYS_LIMIT, MAX_REPLAY_WINDOW_S, MAX_RETRY_ABOVE_PER_SEC, MAX_TICK_HZ,
+    MIN_RECORD_MAX_BYTES,
 };
 
 /// Why the configuration was refused. Each says which setting and how to
@@ -80,6 +81,12 @@ pub enum ConfigError {
     /// `seek_memory_mb` outside 16..=1048576.
     #[error("seek_memory_mb must be in 16..=1048576, got {0}")]
     SeekMemory(u64),
+    /// `replay_window_s` above 300.
+    #[error("replay_window_s must be at most {MAX_REPLAY_WINDOW_S}, got {0}")]
+    ReplayWindow(u32),
+    /// `max_replays` above 256.
+    #[error("max_replays must be at most {MAX_REPLAYS_LIMIT}, got {0}")]
+    MaxReplays(u32),
     /// `checkpoint_ticks` above 1000000.
     #[error("checkpoint_ticks must be at most {MAX_KEYFRAME_TICKS}, got {0}")]
     CheckpointTicks(u64),

@@ -153,6 +153,17 @@ pub struct ConfigLayer {
     /// at most 1000000; default 10).
     #[arg(long)]
     pub checkpoint_ticks: Option<u64>,
+    /// Players' replays: how much of the recent past the server keeps for
+    /// them, s (0..=300, default 30; 0: no replays). The frames held take
+    /// at most a quarter of --seek-memory-mb (about 70 bytes a moving
+    /// entity a snapshot: 1000 moving bodies at 30 Hz hold 30 s in 63 MB);
+    /// past it the window is shorter.
+    #[arg(long)]
+    pub replay_window_s: Option<u32>,
+    /// Players' replays playing at once, at most (0..=256, default 10);
+    /// more wait half a second in a queue, then are refused as busy.
+    #[arg(long)]
+    pub max_replays: Option<u32>,
     /// Carry on from the recording in <data-dir>/recording (after a crash:
     /// its newest keyframe, re-simulated to the last tick on disk).
     #[arg(long, value_name = "BOOL", num_args = 0..=1, default_missing_value = "true")]
@@ -261,6 +272,8 @@ impl ConfigLayer {
             resume: self.resume.or(lower.resume),
             seek_memory_mb: self.seek_memory_mb.or(lower.seek_memory_mb),
             checkpoint_ticks: self.checkpoint_ticks.or(lower.checkpoint_ticks),
+            replay_window_s: self.replay_window_s.or(lower.replay_window_s),
+            max_replays: self.max_replays.or(lower.max_replays),
         }
     }
 }
@@ -334,6 +347,8 @@ pub(super) fn env_layer(env: &impl Fn(&str) -> Option<String>) -> Result<ConfigL
         resume: get(env, "INERTIA_RESUME")?,
         seek_memory_mb: get(env, "INERTIA_SEEK_MEMORY_MB")?,
         checkpoint_ticks: get(env, "INERTIA_CHECKPOINT_TICKS")?,
+        replay_window_s: get(env, "INERTIA_REPLAY_WINDOW_S")?,
+        max_replays: get(env, "INERTIA_MAX_REPLAYS")?,
     })
 }
 

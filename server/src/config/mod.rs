@@ -82,6 +82,17 @@ pub const DEFAULT_SEEK_MEMORY_MB: u64 = (crate::replay::DEFAULT_KEYFRAME_BUDGET 
 pub const SEEK_MEMORY_MB_RANGE: std::ops::RangeInclusive<u64> = 16..=1_048_576;
 /// Default interval of the in-memory checkpoints, ticks.
 pub const DEFAULT_CHECKPOINT_TICKS: u64 = crate::sim::DEFAULT_CHECKPOINT_TICKS;
+/// Default recent past kept for players' replays, s.
+pub const DEFAULT_REPLAY_WINDOW_S: u32 = 30;
+/// Longest recent past kept for players' replays, s.
+pub const MAX_REPLAY_WINDOW_S: u32 = 300;
+/// Default players' replays playing at once.
+pub const DEFAULT_MAX_REPLAYS: u32 = 10;
+/// Most players' replays playing at once that may be configured.
+pub const MAX_REPLAYS_LIMIT: u32 = 256;
+/// The share of the seeking memory the frames held for replays may take:
+/// one part in this many.
+pub const REPLAY_SHARE_OF_SEEK_MEMORY: u64 = 4;
 /// Smallest accepted retention limit, bytes (1 MiB).
 pub const MIN_RECORD_MAX_BYTES: u64 = 1024 * 1024;
 /// Highest accepted tick rate, Hz.
@@ -169,6 +180,10 @@ pub struct ServerConfig {
     pub seek_memory_mb: u64,
     /// In-memory checkpoint interval, ticks (0: none).
     pub checkpoint_ticks: u64,
+    /// Recent past kept for players' replays, s (0: no replays).
+    pub replay_window_s: u32,
+    /// Players' replays playing at once, at most.
+    pub max_replays: u32,
     /// Published frames kept by tick for [`crate::RunningServer::frame_at`]
     /// (tests and tools comparing what clients saw with the truth); 0,
     /// the default, keeps none. Not a command-line setting: each frame
@@ -216,6 +231,8 @@ impl Default for ServerConfig {
             resume: false,
             seek_memory_mb: DEFAULT_SEEK_MEMORY_MB,
             checkpoint_ticks: DEFAULT_CHECKPOINT_TICKS,
+            replay_window_s: DEFAULT_REPLAY_WINDOW_S,
+            max_replays: DEFAULT_MAX_REPLAYS,
             frame_history: 0,
             connection: ServerConnectionConfig::default(),
         }
@@ -320,6 +337,8 @@ impl ServerConfig {
             resume: layer.resume.unwrap_or(self.resume),
             seek_memory_mb: layer.seek_memory_mb.unwrap_or(self.seek_memory_mb),
             checkpoint_ticks: layer.checkpoint_ticks.unwrap_or(self.checkpoint_ticks),
+            replay_window_s: layer.replay_window_s.unwrap_or(self.replay_window_s),
+            max_replays: layer.max_replays.unwrap_or(self.max_replays),
             frame_history: self.frame_history,
             connection: self.connection,
         }
@@ -364,6 +383,12 @@ impl ServerConfig {
         }
         if !SEEK_MEMORY_MB_RANGE.contains(&self.seek_memory_mb) {
             return Err(ConfigError::SeekMemory(self.seek_memory_mb));
+        }
+        if self.replay_window_s > MAX_REPLAY_WINDOW_S {
+            return Err(ConfigError::ReplayWindow(self.replay_window_s));
+        }
+        if self.max_replays > MAX_REPLAYS_LIMIT {
+            return Err(ConfigError::MaxReplays(self.max_replays));
         }
         if self.checkpoint_ticks > MAX_KEYFRAME_TICKS {
             return Err(ConfigError::CheckpointTicks(self.checkpoint_ticks));
@@ -477,6 +502,30 @@ impl ServerConfig {
         1.0 / f64::from(self.tick_hz)
     }
 
+    /// The memory the frames held for players' replays may take, bytes: a
+    /// share of the seeking memory ([`REPLAY_SHARE_OF_SEEK_MEMORY`]),
+    /// none without replays.
+    pub fn replay_window_bytes(&self) -> usize {
+        if self.replay_window_s == 0 || self.max_replays == 0 {
+            return 0;
+        }
+        usize::try_from((self.seek_memory_mb << 20) / REPLAY_SHARE_OF_SEEK_MEMORY)
+            .unwrap_or(usize::MAX)
+    }
+
+    /// Players' replays as the snapshot stage keeps and plays them.
+    pub fn replays(&self) -> crate::net::streaming::ReplaySettings {
+        crate::net::streaming::ReplaySettings {
+            window_s: if self.max_replays == 0 {
+                0
+            } else {
+                self.replay_window_s
+            },
+            window_bytes: self.replay_window_bytes(),
+            max_playing: self.max_replays as usize,
+        }
+    }
+
     /// The per-client budget in bytes per wall second.
     pub fn client_budget_bytes_per_sec(&self) -> u64 {
         u64::from(self.client_budget_kbps) * 1000 / 8
@@ -507,7 +556,10 @@ impl From<&ServerConfig> for SimConfig {
             metrics: None,
             recording: None,
             record_at_start: false,
-            history_budget: usize::try_from(c.seek_memory_mb << 20).unwrap_or(usize::MAX),
+            history_budget: usize::try_from(
+                (c.seek_memory_mb << 20) - c.replay_window_bytes() as u64,
+            )
+            .unwrap_or(usize::MAX),
             checkpoint_ticks: c.checkpoint_ticks,
             tick_realtime: c.tick_realtime,
             max_rewind_ms: crate::pose_history::DEFAULT_MAX_REWIND_MS,

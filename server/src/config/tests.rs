@@ -345,7 +345,26 @@ fn recording_settings_come_from_every_layer() {
     .unwrap();
     assert_eq!((c.seek_memory_mb, c.checkpoint_ticks), (64, 30));
     let sim = SimConfig::from(&c);
-    assert_eq!((sim.history_budget, sim.checkpoint_ticks), (64 << 20, 30));
+    // A quarter of it holds the frames of players' replays.
+    assert_eq!((sim.history_budget, sim.checkpoint_ticks), (48 << 20, 30));
+    assert_eq!(c.replay_window_bytes(), 16 << 20);
+    let no_replays = ServerConfig::from_args(
+        ["s", "--seek-memory-mb", "64", "--replay-window-s", "0"],
+        env_of(&[]),
+    )
+    .unwrap();
+    assert_eq!(SimConfig::from(&no_replays).history_budget, 64 << 20);
+    assert_eq!(no_replays.replays().window_s, 0);
+    let c = ServerConfig::from_args(["s"], env_of(&[("INERTIA_MAX_REPLAYS", "3")])).unwrap();
+    assert_eq!((c.replays().max_playing, c.replays().window_s), (3, 30));
+    assert!(matches!(
+        ServerConfig::from_args(["s", "--replay-window-s", "301"], env_of(&[])),
+        Err(ConfigError::ReplayWindow(301))
+    ));
+    assert!(matches!(
+        ServerConfig::from_args(["s", "--max-replays", "257"], env_of(&[])),
+        Err(ConfigError::MaxReplays(257))
+    ));
     assert!(matches!(
         ServerConfig::from_args(["s", "--seek-memory-mb", "1"], env_of(&[])),
         Err(ConfigError::SeekMemory(1))

@@ -136,6 +136,7 @@ impl Shell {
                         Ok(Some(n)) => {
                             self.conn.on_control_data(&buf[..n], now);
                             self.forward_messages();
+                            self.forward_replays();
                         }
                         Ok(None) => {
                             self.recv = None;
@@ -319,6 +320,26 @@ impl Shell {
             }
         }
         self.forward_messages();
+        self.forward_replays();
+    }
+
+    /// Hands what the client asked of replays, and its acknowledgements
+    /// of replay snapshots, to the snapshot stage, and counts the
+    /// requests its connection refused (and answered).
+    fn forward_replays(&mut self) {
+        let served = self.served.as_ref().map(|(s, _)| s.clone());
+        while let Some(asked) = self.conn.poll_replay() {
+            match (asked, &served) {
+                (Ok(ask), Some(served)) => served.replays.ask(ask),
+                (Ok(_), None) => {}
+                (Err(why), _) => self.shared.metrics.replay_outcome(why.reason()),
+            }
+        }
+        while let Some((replay, sequence)) = self.conn.poll_replay_ack() {
+            if let Some(served) = &served {
+                served.replays.ack(replay, sequence);
+            }
+        }
     }
 
     /// Hands the client's messages its connection took to the tick

@@ -11,6 +11,7 @@ pub mod connection;
 pub mod gate;
 pub mod governor;
 pub mod link;
+pub mod replays;
 pub mod snapshots;
 pub mod streaming;
 pub mod tls;

@@ -48,11 +48,13 @@ use std::time::{Duration, Instant};
 
 use inertia_protocol::admin::TimeMode;
 use inertia_protocol::control::{encode_frame, InputReport, ServerControl};
+use inertia_protocol::replay::ReplayAnswer;
 use inertia_protocol::snapshot::{QuantizedFrame, SharedDeltas};
 use inertia_protocol::{EntityId, ServerSession, SessionConfig};
 
 use super::catalog::Told;
 use super::governor::{degrade_rank, rate_for, Candidate, Decision, RateGovernor};
+use super::replays::{DeskOutput, ReplayDesk, ReplayMailbox, ReplayWindow};
 use super::NetShared;
 use crate::sim::Frame;
 
@@ -78,6 +80,8 @@ pub struct Served {
     pub out: Mutex<SlotOutput>,
     /// Wakes its connection task when `out` has something.
     pub ready: tokio::sync::Notify,
+    /// What it asked of replays, for the stage.
+    pub replays: ReplayMailbox,
 }
 
 impl Served {
@@ -102,6 +106,7 @@ impl Served {
                 error: None,
             }),
             ready: tokio::sync::Notify::new(),
+            replays: ReplayMailbox::default(),
         }
     }
 }
@@ -254,6 +259,10 @@ pub async fn run(shared: Arc<NetShared>) {
     // Every client's session, by connection number: the stage's alone.
     let mut sessions: BTreeMap<u64, ServerSession> = BTreeMap::new();
     let session_config = shared.streaming.session_config();
+    // The live frames served lately, and the players' replays of them.
+    let mut window = shared.streaming.replay_window();
+    let mut desk = shared.streaming.replay_desk();
+    let mut replayed = Vec::new();
     loop {
         tokio::select! {
             changed = frames.changed() => if changed.is_err() { return },
@@ -286,8 +295,17 @@ pub async fn run(shared: Arc<NetShared>) {
                     serve(served, session, &slot_of, &mut deltas, &shared);
                 }
             }
-            let decision =
-                governor.after_slot(serving.elapsed(), frame.tick_duration, clients.len());
+            let live = serving.elapsed();
+            if frame.mode == TimeMode::Live {
+                window.push(quantized);
+            }
+            let replays = Replays {
+                desk: &mut desk,
+                window: &window,
+                until: serving + period.mul_f64(REPLAY_SLOT_SHARE),
+            };
+            replays.serve(&clients, &sessions, &shared, &mut replayed);
+            let decision = governor.after_slot(live, frame.tick_duration, clients.len());
             let direction = match decision {
                 Decision::Hold => None,
                 Decision::Degrade => Some("degrade"),
@@ -312,6 +330,11 @@ pub async fn run(shared: Arc<NetShared>) {
                 .set(governor.degraded() as i64);
             clients.clear();
         }
+        shared
+            .metrics
+            .seek_memory
+            .get_or_create(&[("part", "replay_window")])
+            .set(window.bytes() as i64);
         slot += 1;
         opens += period;
         // Slots missed while the stage was behind are skipped, not run in
@@ -337,6 +360,104 @@ fn follow_clients(
             session
         });
     }
+}
+
+/// How far into a slot's period replays may still be served: the live
+/// clients go first, and replays take what is left of the first 60 % of
+/// the period (the rest is the tick's and the network's).
+const REPLAY_SLOT_SHARE: f64 = 0.6;
+
+/// The players' replays in one slot: the desk that plays them, the frames
+/// they show, and until when the slot has time for them.
+struct Replays<'a> {
+    desk: &'a mut ReplayDesk,
+    window: &'a ReplayWindow,
+    until: Instant,
+}
+
+impl Replays<'_> {
+    /// Takes what every client asked of replays since the last slot, plays
+    /// each replay its next frame while the slot has time, and hands the
+    /// clients what that made: answers on their control streams, replay
+    /// datagrams sent from here.
+    fn serve(
+        self,
+        clients: &[(u64, Arc<Served>)],
+        sessions: &BTreeMap<u64, ServerSession>,
+        shared: &NetShared,
+        out: &mut Vec<DeskOutput>,
+    ) {
+        let now = Instant::now();
+        self.desk
+            .retain(|c| clients.binary_search_by_key(&c, |(id, _)| *id).is_ok());
+        for (id, served) in clients {
+            let avatar = sessions.get(id).and_then(|s| s.avatar());
+            for ask in served.replays.take_asks() {
+                self.desk.ask(*id, ask, avatar, self.window, now, out);
+            }
+            for (replay, sequence) in served.replays.take_acks() {
+                self.desk.on_ack(*id, replay, sequence);
+            }
+        }
+        let max_datagram = |c: u64| {
+            find(clients, c)
+                .and_then(|s| s.connection.max_datagram_size())
+                .unwrap_or(1200)
+                .saturating_sub(ACK_ROOM)
+        };
+        let until = self.until;
+        self.desk.serve(
+            self.window,
+            now,
+            max_datagram,
+            || Instant::now() < until,
+            out,
+        );
+        for output in out.drain(..) {
+            match output {
+                DeskOutput::Datagram { connection, bytes } => {
+                    if let Some(served) = find(clients, connection) {
+                        send_datagram(&served.connection, bytes, shared);
+                        shared.metrics.replay_snapshots.inc();
+                    }
+                }
+                DeskOutput::Answer { connection, answer } => {
+                    shared.metrics.replay_outcome(answer.label());
+                    if let Some(served) = find(clients, connection) {
+                        tell_replay(served, answer);
+                    }
+                }
+            }
+        }
+        shared
+            .metrics
+            .replays_playing
+            .set(self.desk.playing() as i64);
+        shared
+            .metrics
+            .replays_waiting
+            .set(self.desk.waiting() as i64);
+    }
+}
+
+/// The client served as connection `connection`.
+fn find(clients: &[(u64, Arc<Served>)], connection: u64) -> Option<&Served> {
+    clients
+        .binary_search_by_key(&connection, |(id, _)| *id)
+        .ok()
+        .map(|i| &*clients[i].1)
+}
+
+/// Queues `answer` on the client's control stream and wakes its
+/// connection task to write it.
+fn tell_replay(served: &Served, answer: ReplayAnswer) {
+    let Ok(bytes) = encode_frame(&ServerControl::Replay(answer)) else {
+        return;
+    };
+    if let Ok(mut out) = served.out.lock() {
+        out.control.extend_from_slice(&bytes);
+    }
+    served.ready.notify_one();
 }
 
 /// One snapshot slot: its number and the frame it serves, quantized.
