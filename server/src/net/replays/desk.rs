@@ -432,3 +432,327 @@ impl DeltaPool {
         self.by_frame.retain(|serial, _| used.contains(serial));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use glam::{DQuat, DVec3};
+    use inertia_protocol::snapshot::{SnapshotConfig, SnapshotDecoder, ViewEntity};
+    use inertia_protocol::EntityState;
+
+    use super::*;
+
+    const TICK_HZ: u32 = 60;
+    const SNAPSHOT_HZ: u32 = 30;
+
+    /// Three bodies moving at tick `tick`, quantized.
+    fn frame(tick: u64) -> QuantizedFrame {
+        let states: Vec<EntityState> = (1..=3u32)
+            .map(|id| EntityState {
+                id,
+                position: DVec3::new(f64::from(id) + tick as f64 * 0.01 * f64::from(id), 1.0, 0.0),
+                rotation: DQuat::from_rotation_y(tick as f64 * 0.02),
+                linear_velocity: DVec3::new(0.6 * f64::from(id), 0.0, 0.0),
+                angular_velocity: DVec3::ZERO,
+                asleep: false,
+            })
+            .collect();
+        QuantizedFrame::new(tick, 1.0, false, &states, &SnapshotConfig::default())
+    }
+
+    fn config() -> SessionConfig {
+        SessionConfig::new(SnapshotConfig::default(), 1200)
+    }
+
+    fn desk(max_playing: usize, max_queued: usize) -> ReplayDesk {
+        ReplayDesk::new(
+            ReplayLimits {
+                max_queued,
+                ..ReplayLimits::new(max_playing, TICK_HZ, SNAPSHOT_HZ)
+            },
+            config(),
+        )
+    }
+
+    fn play(from_tick: u64, to_tick: u64, speed: f32) -> ReplayAsk {
+        ReplayAsk::Play(ReplayRequest {
+            from_tick,
+            to_tick,
+            speed,
+            focus: None,
+        })
+    }
+
+    fn answers(out: &[DeskOutput]) -> Vec<(u64, ReplayAnswer)> {
+        out.iter()
+            .filter_map(|o| match o {
+                DeskOutput::Answer { connection, answer } => Some((*connection, *answer)),
+                DeskOutput::Datagram { .. } => None,
+            })
+            .collect()
+    }
+
+    /// A window of ticks 0, 2, … `last`, and the views a live client
+    /// decoded of the same frames, by tick.
+    fn live_until(last: u64) -> (ReplayWindow, BTreeMap<u64, Vec<ViewEntity>>) {
+        let mut window = ReplayWindow::new(30 * u64::from(TICK_HZ), usize::MAX);
+        let mut session = ServerSession::new(config()).unwrap();
+        let mut decoder = SnapshotDecoder::new(SnapshotConfig::default()).unwrap();
+        let mut shared = SharedDeltas::new();
+        let mut views = BTreeMap::new();
+        for tick in (0..=last).step_by(2) {
+            let f = frame(tick);
+            let bytes = session.poll_snapshot(&f, &mut shared, tick / 2, 1200).unwrap();
+            let snap = decoder.decode(&bytes).unwrap();
+            let sequence = snap.sequence;
+            session.on_ack(sequence);
+            views.insert(tick, decoder.entities(sequence).unwrap());
+            window.push(&f);
+        }
+        (window, views)
+    }
+
+    #[test]
+    fn a_replay_shows_exactly_what_the_live_clients_were_sent_at_its_speed_and_ends() {
+        let (window, live) = live_until(400);
+        let mut desk = desk(4, 4);
+        let now = Instant::now();
+        let mut out = Vec::new();
+        desk.ask(7, play(100, 200, 1.0), None, &window, now, &mut out);
+        assert_eq!(
+            answers(&out),
+            [(
+                7,
+                ReplayAnswer::Started {
+                    replay: 0,
+                    from_tick: 100,
+                    to_tick: 200,
+                    speed: 1.0
+                }
+            )]
+        );
+        let mut decoder = SnapshotDecoder::new(SnapshotConfig::default()).unwrap();
+        let mut shown = Vec::new();
+        for slot in 0..200 {
+            out.clear();
+            desk.serve(&window, now, |_| 1200, || true, &mut out);
+            for o in &out {
+                match o {
+                    DeskOutput::Datagram { connection, bytes } => {
+                        assert_eq!(*connection, 7);
+                        let Ok(ReplayDatagram::Snapshot { replay, snapshot }) =
+                            ReplayDatagram::decode_snapshot(bytes)
+                        else {
+                            panic!("a replay datagram");
+                        };
+                        assert_eq!(replay, 0);
+                        let snap = decoder.decode(snapshot).unwrap();
+                        assert_eq!(snap.time_scale, 1.0);
+                        let (tick, sequence) = (snap.tick, snap.sequence);
+                        // Acknowledged every other slot, as a lossy link would.
+                        if slot % 2 == 0 {
+                            desk.on_ack(7, 0, sequence);
+                        }
+                        assert_eq!(
+                            decoder.entities(sequence).unwrap(),
+                            live[&tick],
+                            "tick {tick}: the replay shows what was live"
+                        );
+                        shown.push(tick);
+                    }
+                    DeskOutput::Answer { answer, .. } => assert_eq!(
+                        *answer,
+                        ReplayAnswer::Ended {
+                            replay: 0,
+                            why: ReplayEnd::Finished
+                        }
+                    ),
+                }
+            }
+            if desk.playing() == 0 {
+                break;
+            }
+        }
+        // At real time: a frame (2 ticks) a slot, every frame once.
+        assert_eq!(shown, (100..=200).step_by(2).collect::<Vec<_>>());
+        assert_eq!(desk.playing(), 0);
+
+        // At a quarter speed, each frame shows once, one slot in four.
+        let mut slow = Vec::new();
+        out.clear();
+        desk.ask(7, play(100, 110, 0.25), None, &window, now, &mut out);
+        for _ in 0..40 {
+            out.clear();
+            desk.serve(&window, now, |_| 1200, || true, &mut out);
+            slow.push(out.iter().any(|o| matches!(o, DeskOutput::Datagram { .. })));
+        }
+        assert_eq!(slow.iter().filter(|s| **s).count(), 6);
+        assert_eq!(&slow[..5], [true, false, false, false, true]);
+    }
+
+    #[test]
+    fn stretches_the_window_does_not_hold_are_refused_with_what_it_holds() {
+        let (window, _) = live_until(400);
+        let mut desk = desk(4, 4);
+        let now = Instant::now();
+        let refused = |desk: &mut ReplayDesk, ask| {
+            let mut out = Vec::new();
+            desk.ask(1, ask, None, &window, now, &mut out);
+            match answers(&out)[..] {
+                [(1, ReplayAnswer::Refused(why))] => why,
+                ref other => panic!("{other:?}"),
+            }
+        };
+        assert_eq!(
+            refused(&mut desk, play(390, 500, 1.0)),
+            ReplayRefusal::Future { newest: 400 }
+        );
+        assert_eq!(
+            refused(&mut desk, play(0, 30 * 60 + 1, 1.0)),
+            ReplayRefusal::TooLong { max_ticks: 1800 }
+        );
+        assert_eq!(refused(&mut desk, play(10, 10, 1.0)), ReplayRefusal::Empty);
+        assert_eq!(refused(&mut desk, play(10, 20, 20.0)), ReplayRefusal::Speed);
+        let mut short = ReplayWindow::new(100, usize::MAX);
+        for t in (0..=400).step_by(2) {
+            short.push(&frame(t));
+        }
+        let mut out = Vec::new();
+        desk.ask(1, play(200, 300, 1.0), None, &short, now, &mut out);
+        assert_eq!(
+            answers(&out),
+            [(1, ReplayAnswer::Refused(ReplayRefusal::TooOld { oldest: 300 }))]
+        );
+        let off = ReplayWindow::new(0, 0);
+        out.clear();
+        desk.ask(1, play(200, 300, 1.0), None, &off, now, &mut out);
+        assert_eq!(
+            answers(&out),
+            [(1, ReplayAnswer::Refused(ReplayRefusal::Disabled))]
+        );
+        assert_eq!(desk.playing(), 0);
+    }
+
+    #[test]
+    fn replays_beyond_the_limit_wait_until_their_deadline_and_are_then_refused_as_busy() {
+        let (window, _) = live_until(400);
+        let mut desk = desk(1, 1);
+        let t0 = Instant::now();
+        let mut out = Vec::new();
+        desk.ask(1, play(100, 300, 1.0), None, &window, t0, &mut out);
+        desk.ask(2, play(100, 300, 1.0), None, &window, t0, &mut out);
+        desk.ask(3, play(100, 300, 1.0), None, &window, t0, &mut out);
+        let a = answers(&out);
+        assert!(matches!(a[0], (1, ReplayAnswer::Started { .. })));
+        assert_eq!(a[1], (3, ReplayAnswer::Refused(ReplayRefusal::Busy)));
+        assert_eq!((desk.playing(), desk.waiting()), (1, 1));
+        // Room comes before the deadline: the one waiting starts.
+        out.clear();
+        desk.ask(1, ReplayAsk::Cancel, None, &window, t0, &mut out);
+        desk.serve(&window, t0 + Duration::from_millis(100), |_| 1200, || true, &mut out);
+        let a = answers(&out);
+        assert_eq!(
+            a[0],
+            (
+                1,
+                ReplayAnswer::Ended {
+                    replay: 0,
+                    why: ReplayEnd::Cancelled
+                }
+            )
+        );
+        assert!(matches!(a[1], (2, ReplayAnswer::Started { replay: 0, .. })));
+        // Another waits, and its deadline passes first.
+        out.clear();
+        desk.ask(4, play(100, 300, 1.0), None, &window, t0, &mut out);
+        desk.serve(&window, t0 + Duration::from_secs(1), |_| 1200, || true, &mut out);
+        assert_eq!(
+            answers(&out),
+            [(4, ReplayAnswer::Refused(ReplayRefusal::Busy))]
+        );
+        // A new request of the one playing replaces its replay in place.
+        out.clear();
+        desk.ask(2, play(150, 300, 2.0), None, &window, t0, &mut out);
+        assert_eq!(
+            answers(&out),
+            [
+                (
+                    2,
+                    ReplayAnswer::Ended {
+                        replay: 0,
+                        why: ReplayEnd::Replaced
+                    }
+                ),
+                (
+                    2,
+                    ReplayAnswer::Started {
+                        replay: 1,
+                        from_tick: 150,
+                        to_tick: 300,
+                        speed: 2.0
+                    }
+                )
+            ]
+        );
+        // A client that left is forgotten without an answer.
+        desk.retain(|c| c != 2);
+        assert_eq!(desk.playing(), 0);
+    }
+
+    #[test]
+    fn a_slot_without_time_left_holds_the_replays_back_and_a_slow_one_the_window_passes_ends() {
+        let (window, _) = live_until(400);
+        let mut desk = desk(4, 4);
+        let now = Instant::now();
+        let mut out = Vec::new();
+        desk.ask(1, play(300, 380, 1.0), None, &window, now, &mut out);
+        desk.ask(2, play(300, 380, 1.0), None, &window, now, &mut out);
+        out.clear();
+        desk.serve(&window, now, |_| 1200, || false, &mut out);
+        assert!(out.is_empty(), "no time: nothing sent, nothing lost");
+        let mut budget = 1;
+        desk.serve(
+            &window,
+            now,
+            |_| 1200,
+            || {
+                budget -= 1;
+                budget >= 0
+            },
+            &mut out,
+        );
+        assert_eq!(out.len(), 1, "one replay had time");
+        out.clear();
+        desk.serve(&window, now, |_| 1200, || true, &mut out);
+        assert_eq!(out.len(), 2);
+
+        // A window of 40 ticks that moves on at real time passes a replay
+        // at a tenth of it.
+        let mut short = ReplayWindow::new(40, usize::MAX);
+        for t in (0..=400).step_by(2) {
+            short.push(&frame(t));
+        }
+        let mut desk = self::desk(4, 4);
+        out.clear();
+        desk.ask(1, play(362, 400, 0.1), None, &short, now, &mut out);
+        let mut tick = 400;
+        for _ in 0..100 {
+            tick += 2;
+            short.push(&frame(tick));
+            desk.serve(&short, now, |_| 1200, || true, &mut out);
+        }
+        assert!(
+            answers(&out).contains(&(
+                1,
+                ReplayAnswer::Ended {
+                    replay: 0,
+                    why: ReplayEnd::WindowPassed
+                }
+            )),
+            "{:?}",
+            answers(&out)
+        );
+        assert_eq!(desk.playing(), 0);
+    }
+}
