@@ -13,7 +13,12 @@
  its calls. It changes whenever either does; a binding checks it once
  against the one it was written for.
  */
-#define INERTIA_ABI_VERSION 4
+#define INERTIA_ABI_VERSION 5
+
+/*
+ No entity: a replay centred on the player's own avatar.
+ */
+#define INERTIA_NO_ENTITY UINT32_MAX
 
 /*
  Longest entity name, bytes, with its NUL.
@@ -186,6 +191,21 @@ enum InertiaEventKind
    The match's properties changed, as of tick `to_tick`.
    */
   INERTIA_EVENT_KIND_MATCH_STATE = 8,
+  /*
+   The replay asked for (`inertia_kill_cam`, `inertia_replay`) started:
+   it shows ticks `from_tick` to `to_tick`; draw it with
+   `inertia_replay_sample`.
+   */
+  INERTIA_EVENT_KIND_REPLAY_STARTED = 9,
+  /*
+   The replay asked for was refused: `text` says why.
+   */
+  INERTIA_EVENT_KIND_REPLAY_REFUSED = 10,
+  /*
+   The replay ended: `text` says how (`finished`, `cancelled`,
+   `replaced`, `window_passed`); draw the live world again.
+   */
+  INERTIA_EVENT_KIND_REPLAY_ENDED = 11,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -410,44 +430,6 @@ typedef struct InertiaPropertyValue {
 } InertiaPropertyValue;
 
 /*
- One event. Fields a kind does not use are zero.
- */
-typedef struct InertiaEvent {
-  /*
-   What happened.
-   */
-  InertiaEventKind kind;
-  /*
-   The entity it is about.
-   */
-  uint32_t entity;
-  /*
-   How a message came.
-   */
-  InertiaDelivery delivery;
-  /*
-   Tick before a jump.
-   */
-  double from_tick;
-  /*
-   Tick after a jump.
-   */
-  double to_tick;
-  /*
-   Text (NUL-terminated, UTF-8).
-   */
-  char text[INERTIA_TEXT_BYTES];
-  /*
-   Bytes of `data` used.
-   */
-  uint32_t data_len;
-  /*
-   A message's bytes.
-   */
-  uint8_t data[INERTIA_EVENT_DATA_BYTES];
-} InertiaEvent;
-
-/*
  One entity where the picture draws it.
  */
 typedef struct InertiaEntityState {
@@ -489,6 +471,44 @@ typedef struct InertiaEntityState {
    */
   double qw;
 } InertiaEntityState;
+
+/*
+ One event. Fields a kind does not use are zero.
+ */
+typedef struct InertiaEvent {
+  /*
+   What happened.
+   */
+  InertiaEventKind kind;
+  /*
+   The entity it is about.
+   */
+  uint32_t entity;
+  /*
+   How a message came.
+   */
+  InertiaDelivery delivery;
+  /*
+   Tick before a jump.
+   */
+  double from_tick;
+  /*
+   Tick after a jump.
+   */
+  double to_tick;
+  /*
+   Text (NUL-terminated, UTF-8).
+   */
+  char text[INERTIA_TEXT_BYTES];
+  /*
+   Bytes of `data` used.
+   */
+  uint32_t data_len;
+  /*
+   A message's bytes.
+   */
+  uint8_t data[INERTIA_EVENT_DATA_BYTES];
+} InertiaEvent;
 
 /*
  How an entity looks, from its description.
@@ -816,6 +836,57 @@ enum InertiaStatus inertia_send_message(struct InertiaClient *client,
                                         const uint8_t *bytes,
                                         size_t len,
                                         InertiaDelivery delivery);
+
+/*
+ Asks for the kill-cam: the last `seconds` of the match at `speed` times
+ real time (1: as it happened), centred on entity `focus` (the one that
+ hit the player; `INERTIA_NO_ENTITY`: the own avatar), beside the live
+ match. The answer comes as an event (`INERTIA_EVENT_KIND_REPLAY_STARTED`,
+ `_REFUSED`, then `_ENDED`); while it plays, draw
+ `inertia_replay_sample`. A speed out of 0.05..=8 or not finite is
+ `INERTIA_STATUS_INVALID_ARGUMENT`, and nothing is sent.
+
+ # Safety
+ `client` is a live handle.
+ */
+enum InertiaStatus inertia_kill_cam(struct InertiaClient *client,
+                                    float seconds,
+                                    float speed,
+                                    uint32_t focus);
+
+/*
+ Asks for a replay of ticks `from_tick` to `to_tick` (inclusive) at
+ `speed`, centred on `focus` (`INERTIA_NO_ENTITY`: the own avatar); as
+ `inertia_kill_cam`.
+
+ # Safety
+ `client` is a live handle.
+ */
+enum InertiaStatus inertia_replay(struct InertiaClient *client,
+                                  uint64_t from_tick,
+                                  uint64_t to_tick,
+                                  float speed,
+                                  uint32_t focus);
+
+/*
+ Stops the replay playing, if any.
+
+ # Safety
+ `client` is a live handle.
+ */
+enum InertiaStatus inertia_cancel_replay(struct InertiaClient *client);
+
+/*
+ Draws the replay now, as `inertia_sample` draws the live world: `*count`
+ is 0 before any replayed state came.
+
+ # Safety
+ As `inertia_sample`.
+ */
+enum InertiaStatus inertia_replay_sample(struct InertiaClient *client,
+                                         struct InertiaEntityState *out,
+                                         size_t capacity,
+                                         size_t *count);
 
 /*
  Takes the oldest waiting event into `*out`; its kind is

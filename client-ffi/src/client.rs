@@ -491,6 +491,111 @@ pub unsafe extern "C" fn inertia_send_message(
     })
 }
 
+/// No entity: a replay centred on the player's own avatar.
+pub const INERTIA_NO_ENTITY: u32 = u32::MAX;
+
+fn replay_failure(e: inertia_client::ClientError) -> Failure {
+    match e {
+        inertia_client::ClientError::Replay(inertia_protocol::replay::ReplayRefusal::NotJoined) => {
+            Failure::new(InertiaStatus::Disconnected, e.to_string())
+        }
+        e => Failure::invalid(e.to_string()),
+    }
+}
+
+fn focus_of(focus: u32) -> Option<u32> {
+    (focus != INERTIA_NO_ENTITY).then_some(focus)
+}
+
+/// Asks for the kill-cam: the last `seconds` of the match at `speed` times
+/// real time (1: as it happened), centred on entity `focus` (the one that
+/// hit the player; `INERTIA_NO_ENTITY`: the own avatar), beside the live
+/// match. The answer comes as an event (`INERTIA_EVENT_KIND_REPLAY_STARTED`,
+/// `_REFUSED`, then `_ENDED`); while it plays, draw
+/// `inertia_replay_sample`. A speed out of 0.05..=8 or not finite is
+/// `INERTIA_STATUS_INVALID_ARGUMENT`, and nothing is sent.
+///
+/// # Safety
+/// `client` is a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_kill_cam(
+    client: *mut InertiaClient,
+    seconds: f32,
+    speed: f32,
+    focus: u32,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let h = unsafe { handle(client) }?;
+        h.client
+            .kill_cam(seconds, speed, focus_of(focus))
+            .map_err(replay_failure)
+    })
+}
+
+/// Asks for a replay of ticks `from_tick` to `to_tick` (inclusive) at
+/// `speed`, centred on `focus` (`INERTIA_NO_ENTITY`: the own avatar); as
+/// `inertia_kill_cam`.
+///
+/// # Safety
+/// `client` is a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_replay(
+    client: *mut InertiaClient,
+    from_tick: u64,
+    to_tick: u64,
+    speed: f32,
+    focus: u32,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let h = unsafe { handle(client) }?;
+        h.client
+            .replay(inertia_protocol::replay::ReplayRequest {
+                from_tick,
+                to_tick,
+                speed,
+                focus: focus_of(focus),
+            })
+            .map_err(replay_failure)
+    })
+}
+
+/// Stops the replay playing, if any.
+///
+/// # Safety
+/// `client` is a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_cancel_replay(client: *mut InertiaClient) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let h = unsafe { handle(client) }?;
+        h.client.cancel_replay().map_err(replay_failure)
+    })
+}
+
+/// Draws the replay now, as `inertia_sample` draws the live world: `*count`
+/// is 0 before any replayed state came.
+///
+/// # Safety
+/// As `inertia_sample`.
+#[no_mangle]
+pub unsafe extern "C" fn inertia_replay_sample(
+    client: *mut InertiaClient,
+    out: *mut InertiaEntityState,
+    capacity: usize,
+    count: *mut usize,
+) -> InertiaStatus {
+    guard(|| {
+        // SAFETY: as the caller promises.
+        let (h, count) = unsafe { (handle(client)?, out_ref(count, "count")?) };
+        // SAFETY: as the caller promises (see the function's safety section).
+        let out = unsafe { buffer(out, capacity, "out") }?;
+        let frame = h.client.replay_sample().unwrap_or_default();
+        write_states(&frame, out, capacity, count)
+    })
+}
+
 /// Takes the oldest waiting event into `*out`; its kind is
 /// `INERTIA_EVENT_KIND_NONE` when none was waiting. Call it until then
 /// every frame.
@@ -612,32 +717,43 @@ pub unsafe extern "C" fn inertia_sample(
         // SAFETY: as the caller promises (see the function's safety section).
         let out = unsafe { buffer(out, capacity, "out") }?;
         h.frame = h.client.sample();
-        *count = h.frame.entities.len();
-        for (dst, e) in out.iter_mut().zip(&h.frame.entities) {
-            let q = e.rotation;
-            *dst = InertiaEntityState {
-                id: e.id,
-                extrapolated: u8::from(e.extrapolated),
-                x: e.position.x,
-                y: e.position.y,
-                z: e.position.z,
-                qx: q.x,
-                qy: q.y,
-                qz: q.z,
-                qw: q.w,
-            };
-        }
-        if h.frame.entities.len() > capacity {
-            return Err(Failure::new(
-                InertiaStatus::BufferTooSmall,
-                format!(
-                    "the picture holds {} entities, the buffer {capacity}",
-                    h.frame.entities.len()
-                ),
-            ));
-        }
-        Ok(())
+        write_states(&h.frame, out, capacity, count)
     })
+}
+
+/// Writes `frame`'s entities into `out` (room for `capacity`) and their
+/// number into `*count`.
+fn write_states(
+    frame: &Sample,
+    out: &mut [InertiaEntityState],
+    capacity: usize,
+    count: &mut usize,
+) -> Result<(), Failure> {
+    *count = frame.entities.len();
+    for (dst, e) in out.iter_mut().zip(&frame.entities) {
+        let q = e.rotation;
+        *dst = InertiaEntityState {
+            id: e.id,
+            extrapolated: u8::from(e.extrapolated),
+            x: e.position.x,
+            y: e.position.y,
+            z: e.position.z,
+            qx: q.x,
+            qy: q.y,
+            qz: q.z,
+            qw: q.w,
+        };
+    }
+    if frame.entities.len() > capacity {
+        return Err(Failure::new(
+            InertiaStatus::BufferTooSmall,
+            format!(
+                "the picture holds {} entities, the buffer {capacity}",
+                frame.entities.len()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// How entity `id` looks (its description), into `*out`;

@@ -28,7 +28,7 @@ pub mod types;
 /// The version of this ABI: the layout of its structs and the meaning of
 /// its calls. It changes whenever either does; a binding checks it once
 /// against the one it was written for.
-pub const INERTIA_ABI_VERSION: u32 = 4;
+pub const INERTIA_ABI_VERSION: u32 = 5;
 
 /// The ABI version of the library loaded ([`INERTIA_ABI_VERSION`]).
 #[no_mangle]

@@ -119,6 +119,7 @@ async fn the_c_sample_joins_a_server_and_sees_its_world_move() {
     assert!(printed.contains("prediction: error"), "{printed}");
     assert!(printed.contains("heard 1 chat line"), "{printed}");
     assert!(printed.contains("match players = 1"), "{printed}");
+    assert!(printed.contains("replay ended: finished"), "{printed}");
     println!("{printed}");
     let _ = std::fs::remove_dir_all(&out);
 }
@@ -155,5 +156,6 @@ async fn the_csharp_sample_joins_a_server_through_p_invoke() {
     assert!(printed.contains("saw the world move"), "{printed}");
     assert!(printed.contains("heard 1 chat line"), "{printed}");
     assert!(printed.contains("match players = 1"), "{printed}");
+    assert!(printed.contains("replay ended: finished"), "{printed}");
     let _ = std::fs::remove_dir_all(&out);
 }

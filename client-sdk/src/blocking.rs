@@ -134,6 +134,39 @@ impl BlockingClient {
         self.client().entities_with_properties()
     }
 
+    /// See [`Client::replay`].
+    pub fn replay(
+        &self,
+        request: inertia_protocol::replay::ReplayRequest,
+    ) -> Result<(), ClientError> {
+        self.client().replay(request)
+    }
+
+    /// See [`Client::kill_cam`].
+    pub fn kill_cam(
+        &self,
+        seconds: f32,
+        speed: f32,
+        focus: Option<inertia_protocol::EntityId>,
+    ) -> Result<(), ClientError> {
+        self.client().kill_cam(seconds, speed, focus)
+    }
+
+    /// See [`Client::cancel_replay`].
+    pub fn cancel_replay(&self) -> Result<(), ClientError> {
+        self.client().cancel_replay()
+    }
+
+    /// See [`Client::replay_status`].
+    pub fn replay_status(&self) -> crate::replay::ReplayStatus {
+        self.client().replay_status()
+    }
+
+    /// See [`Client::replay_sample`].
+    pub fn replay_sample(&self) -> Option<Sample> {
+        self.client().replay_sample()
+    }
+
     /// See [`Client::sample`].
     pub fn sample(&self) -> Sample {
         self.client().sample()

@@ -155,6 +155,28 @@ int main(int argc, char **argv) {
                    stats.prediction_snap_max_m * 1e3, (unsigned long long)stats.prediction_corrections);
         }
     }
+    /* The kill-cam: the last second again, beside the live match. */
+    if (inertia_kill_cam(client, 1.0f, 1.0f, INERTIA_NO_ENTITY) != INERTIA_STATUS_OK) return fail("kill-cam");
+    size_t replayed = 0;
+    for (int frame = 0; frame < 60; frame++) {
+        sleep_ms(50);
+        size_t count = 0;
+        InertiaStatus s = inertia_replay_sample(client, states, MAX_ENTITIES, &count);
+        if (s != INERTIA_STATUS_OK && s != INERTIA_STATUS_BUFFER_TOO_SMALL) return fail("replay sample");
+        if (count > replayed) replayed = count;
+        InertiaEvent event;
+        for (;;) {
+            if (inertia_poll_event(client, &event) != INERTIA_STATUS_OK) return fail("poll");
+            if (event.kind == INERTIA_EVENT_KIND_NONE) break;
+            if (event.kind == INERTIA_EVENT_KIND_REPLAY_STARTED)
+                printf("replay: ticks %.0f to %.0f\n", event.from_tick, event.to_tick);
+            if (event.kind == INERTIA_EVENT_KIND_REPLAY_REFUSED) printf("replay refused: %s\n", event.text);
+            if (event.kind == INERTIA_EVENT_KIND_REPLAY_ENDED) {
+                printf("replay ended: %s, %zu entities in its picture\n", event.text, replayed);
+                frame = 60;
+            }
+        }
+    }
     /* The game's match state: each property by name, as of the tick drawn. */
     InertiaPropertyValue values[32];
     size_t n_values = 0;

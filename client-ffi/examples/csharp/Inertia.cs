@@ -31,6 +31,7 @@ namespace Inertia
     public enum EventKind : uint
     {
         None, Spawned, Despawned, Discontinuity, Resync, Disconnected, Message, Properties, MatchState,
+        ReplayStarted, ReplayRefused, ReplayEnded,
     }
 
     /// <summary>How a game message travels.</summary>
@@ -159,7 +160,9 @@ namespace Inertia
     public static class Native
     {
         public const string Lib = "inertia";
-        public const uint AbiVersion = 4;
+        public const uint AbiVersion = 5;
+        /// <summary>No entity: a replay centred on the player's own avatar.</summary>
+        public const uint NoEntity = uint.MaxValue;
 
         [DllImport(Lib)] public static extern uint inertia_abi_version();
         [DllImport(Lib)] public static extern UIntPtr inertia_last_error(byte[] buf, UIntPtr len);
@@ -176,6 +179,10 @@ namespace Inertia
         [DllImport(Lib)] public static extern Status inertia_properties(IntPtr client, uint entity, [Out] PropertyValue[] values, UIntPtr capacity, out UIntPtr count);
         [DllImport(Lib)] public static extern Status inertia_match_state(IntPtr client, [Out] PropertyValue[] values, UIntPtr capacity, out UIntPtr count);
         [DllImport(Lib)] public static extern Status inertia_sample(IntPtr client, [Out] EntityState[] states, UIntPtr capacity, out UIntPtr count);
+        [DllImport(Lib)] public static extern Status inertia_kill_cam(IntPtr client, float seconds, float speed, uint focus);
+        [DllImport(Lib)] public static extern Status inertia_replay(IntPtr client, ulong fromTick, ulong toTick, float speed, uint focus);
+        [DllImport(Lib)] public static extern Status inertia_cancel_replay(IntPtr client);
+        [DllImport(Lib)] public static extern Status inertia_replay_sample(IntPtr client, [Out] EntityState[] states, UIntPtr capacity, out UIntPtr count);
         [DllImport(Lib)] public static extern Status inertia_entity_info(IntPtr client, uint id, out EntityInfo info);
         [DllImport(Lib)] public static extern Status inertia_point_set(IntPtr client, uint set, [Out] float[] positions, [Out] byte[] present, UIntPtr capacity, out UIntPtr count);
         [DllImport(Lib)] public static extern Status inertia_point_set_triangles(IntPtr client, uint set, [Out] uint[] indices, UIntPtr capacity, out UIntPtr count);
@@ -314,6 +321,24 @@ namespace Inertia
             UIntPtr count;
             var s = Native.inertia_sample(handle, states, (UIntPtr)states.Length, out count);
             if (s != Status.BufferTooSmall) Check(s, "sample");
+            return (int)count;
+        }
+
+        /// <summary>Asks for the kill-cam: the last `seconds` at `speed`, centred on `focus` (Native.NoEntity: the own avatar), beside the live match; answered by ReplayStarted/ReplayRefused, then ReplayEnded events.</summary>
+        public void KillCam(float seconds, float speed = 1f, uint focus = Native.NoEntity) => Check(Native.inertia_kill_cam(handle, seconds, speed, focus), "kill-cam");
+
+        /// <summary>Asks for a replay of ticks `fromTick` to `toTick` at `speed`, centred on `focus`.</summary>
+        public void Replay(ulong fromTick, ulong toTick, float speed = 1f, uint focus = Native.NoEntity) => Check(Native.inertia_replay(handle, fromTick, toTick, speed, focus), "replay");
+
+        /// <summary>Stops the replay playing, if any.</summary>
+        public void CancelReplay() => Check(Native.inertia_cancel_replay(handle), "cancel replay");
+
+        /// <summary>Draws the replay now into `states`, as Sample draws the live world; 0 before any replayed state came.</summary>
+        public int ReplaySample(EntityState[] states)
+        {
+            UIntPtr count;
+            var s = Native.inertia_replay_sample(handle, states, (UIntPtr)states.Length, out count);
+            if (s != Status.BufferTooSmall) Check(s, "replay sample");
             return (int)count;
         }
 

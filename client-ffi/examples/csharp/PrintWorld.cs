@@ -80,6 +80,21 @@ static class PrintWorld
                     Console.WriteLine("  inputs for tick " + st.InputTick + ": " + st.InputsOnTime + " on time, " + st.InputsLate + " late");
                 }
             }
+            // The kill-cam: the last second again, beside the live match.
+            client.KillCam(1f);
+            int replayed = 0;
+            for (int frame = 0; frame < 60; frame++)
+            {
+                Thread.Sleep(50);
+                replayed = Math.Max(replayed, Math.Min(client.ReplaySample(states), states.Length));
+                var e = client.PollEvent();
+                for (; e.Kind != EventKind.None; e = client.PollEvent())
+                {
+                    if (e.Kind == EventKind.ReplayStarted) Console.WriteLine("replay: ticks " + e.FromTick + " to " + e.ToTick);
+                    if (e.Kind == EventKind.ReplayRefused) Console.WriteLine("replay refused: " + e.Text);
+                    if (e.Kind == EventKind.ReplayEnded) { Console.WriteLine("replay ended: " + e.Text + ", " + replayed + " entities in its picture"); frame = 60; }
+                }
+            }
             bool moved = watched != 0 && last != first;
             var state = client.MatchState();
             for (uint i = 0; i < state.Length; i++)

@@ -503,7 +503,9 @@ mod tests {
         let mut views = BTreeMap::new();
         for tick in (0..=last).step_by(2) {
             let f = frame(tick);
-            let bytes = session.poll_snapshot(&f, &mut shared, tick / 2, 1200).unwrap();
+            let bytes = session
+                .poll_snapshot(&f, &mut shared, tick / 2, 1200)
+                .unwrap();
             let snap = decoder.decode(&bytes).unwrap();
             let sequence = snap.sequence;
             session.on_ack(sequence);
@@ -622,7 +624,10 @@ mod tests {
         desk.ask(1, play(200, 300, 1.0), None, &short, now, &mut out);
         assert_eq!(
             answers(&out),
-            [(1, ReplayAnswer::Refused(ReplayRefusal::TooOld { oldest: 300 }))]
+            [(
+                1,
+                ReplayAnswer::Refused(ReplayRefusal::TooOld { oldest: 300 })
+            )]
         );
         let off = ReplayWindow::new(0, 0);
         out.clear();
@@ -650,7 +655,13 @@ mod tests {
         // Room comes before the deadline: the one waiting starts.
         out.clear();
         desk.ask(1, ReplayAsk::Cancel, None, &window, t0, &mut out);
-        desk.serve(&window, t0 + Duration::from_millis(100), |_| 1200, || true, &mut out);
+        desk.serve(
+            &window,
+            t0 + Duration::from_millis(100),
+            |_| 1200,
+            || true,
+            &mut out,
+        );
         let a = answers(&out);
         assert_eq!(
             a[0],
@@ -666,7 +677,13 @@ mod tests {
         // Another waits, and its deadline passes first.
         out.clear();
         desk.ask(4, play(100, 300, 1.0), None, &window, t0, &mut out);
-        desk.serve(&window, t0 + Duration::from_secs(1), |_| 1200, || true, &mut out);
+        desk.serve(
+            &window,
+            t0 + Duration::from_secs(1),
+            |_| 1200,
+            || true,
+            &mut out,
+        );
         assert_eq!(
             answers(&out),
             [(4, ReplayAnswer::Refused(ReplayRefusal::Busy))]
