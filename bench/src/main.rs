@@ -31,6 +31,8 @@ enum SuiteArg {
     Capacity,
     /// Recording bytes per hour, seek time and verify speed of a recorded game (1000 bodies, 8 bots).
     Replay,
+    /// Players' kill-cams beside 200 live clients and 1000 moving bodies: time to the first replay snapshot, the live tick and snapshot rate without and with 10 replays, and that a replay shows what was live.
+    Replays,
     /// An hour of simulated time at fast-forward with recording and client churn: memory and file handles bounded.
     Soak,
     /// Soft bodies and fluids on XPBD small steps: cloth 64², 128², 387², a jelly, fluid 10k and 100k; 1 and 2 threads.
@@ -47,6 +49,7 @@ impl From<SuiteArg> for Suite {
             SuiteArg::Bandwidth => Suite::Bandwidth,
             SuiteArg::Capacity => Suite::Capacity,
             SuiteArg::Replay => Suite::Replay,
+            SuiteArg::Replays => Suite::Replays,
             SuiteArg::Soak => Suite::Soak,
             SuiteArg::Soft => Suite::Soft,
         }

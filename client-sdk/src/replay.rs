@@ -68,12 +68,12 @@ pub struct ReplayView {
     tick_hz: f64,
     properties: Arc<PropertySchema>,
     status: ReplayStatus,
-    /// The replay whose datagrams are taken: the one playing, or the
-    /// next one after those that ended (its datagrams may come before
-    /// its answer).
+    /// The replay whose datagrams are taken (the one playing, or the last
+    /// one until another is asked for).
     current: Option<u16>,
-    /// The newest replay number that ended.
-    ended: Option<u16>,
+    /// The newest replay number begun: a replay's first datagrams may
+    /// come before its answer, and are taken when the number is newer.
+    begun: Option<u16>,
     decoder: SnapshotDecoder,
     decoded: DecodedSnapshot,
     interp: InterpolationBuffer,
@@ -96,7 +96,7 @@ impl ReplayView {
             properties,
             status: ReplayStatus::Idle,
             current: None,
-            ended: None,
+            begun: None,
             decoder,
             decoded: DecodedSnapshot::default(),
             interp: InterpolationBuffer::new(f64::from(tick_hz)),
@@ -109,9 +109,13 @@ impl ReplayView {
         self.status
     }
 
-    /// The player asked for a replay.
+    /// The player asked for a replay: the last one's datagrams still on
+    /// their way are no longer taken, and the newest tick is the new
+    /// one's once it comes.
     pub fn asked(&mut self) {
         self.status = ReplayStatus::Asked;
+        self.current = None;
+        self.newest_tick = None;
     }
 
     /// The server's answer: what to tell the game.
@@ -123,7 +127,7 @@ impl ReplayView {
                 to_tick,
                 speed,
             } => {
-                if self.current != Some(replay) {
+                if self.current != Some(replay) && self.begun.is_none_or(|b| replay > b) {
                     self.begin(replay);
                 }
                 self.status = ReplayStatus::Playing {
@@ -146,9 +150,7 @@ impl ReplayView {
                 ReplayEvent::Refused(why)
             }
             ReplayAnswer::Ended { replay, why } => {
-                self.ended = Some(self.ended.map_or(replay, |e| e.max(replay)));
-                if self.current == Some(replay) {
-                    self.current = None;
+                if self.current == Some(replay) && self.status != ReplayStatus::Asked {
                     self.status = ReplayStatus::Ended(why);
                 }
                 ReplayEvent::Ended(why)
@@ -160,6 +162,7 @@ impl ReplayView {
     /// fresh buffer.
     fn begin(&mut self, replay: u16) {
         self.current = Some(replay);
+        self.begun = Some(replay);
         self.decoder = SnapshotDecoder::new(self.config)
             .expect("checked at start")
             .with_properties(self.properties.clone());
@@ -179,9 +182,7 @@ impl ReplayView {
         };
         if self.current != Some(replay) {
             // A newer replay's first datagrams may come before its answer.
-            let newer = self.ended.is_none_or(|e| replay > e)
-                && self.current.is_none_or(|c| replay > c)
-                && self.status == ReplayStatus::Asked;
+            let newer = self.status == ReplayStatus::Asked && self.begun.is_none_or(|b| replay > b);
             if !newer {
                 return None;
             }
@@ -233,5 +234,116 @@ impl ReplayView {
     /// The match's properties as the replay shows them now.
     pub fn match_state(&self) -> Vec<PropertyValue> {
         self.known.match_state()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{DQuat, DVec3};
+    use inertia_protocol::snapshot::SnapshotEncoder;
+    use inertia_protocol::{EntityState, PriorityAccumulator};
+
+    use super::*;
+
+    fn snapshot(encoder: &mut SnapshotEncoder, tick: u64, x: f64) -> Vec<u8> {
+        let state = EntityState {
+            id: 4,
+            position: DVec3::new(x, 1.0, 0.0),
+            rotation: DQuat::IDENTITY,
+            linear_velocity: DVec3::ZERO,
+            angular_velocity: DVec3::ZERO,
+            asleep: false,
+        };
+        let mut priorities = PriorityAccumulator::default();
+        encoder.encode(tick, 1.0, false, &[state], &mut priorities, 1200)
+    }
+
+    fn view() -> ReplayView {
+        ReplayView::new(SnapshotConfig::default(), 60, Default::default())
+    }
+
+    #[test]
+    fn a_replay_is_taken_before_its_answer_and_the_last_ones_stragglers_are_not() {
+        let mut v = view();
+        let mut e = SnapshotEncoder::new(SnapshotConfig::default()).unwrap();
+        // Nothing asked: a replay datagram is nobody's.
+        let d0 = ReplayDatagram::snapshot(0, &snapshot(&mut e, 100, 1.0));
+        assert_eq!(v.on_datagram(0.0, &d0), None);
+        v.asked();
+        // Its first snapshot before the answer is taken and acknowledged.
+        let ack = v.on_datagram(0.0, &d0).expect("taken");
+        assert_eq!(
+            ReplayDatagram::decode_ack(&ack),
+            Ok(ReplayDatagram::Ack {
+                replay: 0,
+                sequence: 0
+            })
+        );
+        assert_eq!(v.newest_tick(), Some(100));
+        let started = v.on_answer(ReplayAnswer::Started {
+            replay: 0,
+            from_tick: 100,
+            to_tick: 200,
+            speed: 1.0,
+        });
+        assert!(matches!(started, ReplayEvent::Started { .. }));
+        assert_eq!(v.newest_tick(), Some(100), "the answer keeps what came");
+        let d1 = ReplayDatagram::snapshot(0, &snapshot(&mut e, 102, 1.1));
+        assert!(v.on_datagram(1.0 / 30.0, &d1).is_some());
+        assert_eq!(v.newest_tick(), Some(102));
+        assert!(v.sample(0.5).is_some_and(|s| s.get(4).is_some()));
+
+        // Another is asked for: the first one's datagrams still on their
+        // way change nothing, the second one's are taken.
+        v.asked();
+        assert_eq!(v.newest_tick(), None);
+        let late = ReplayDatagram::snapshot(0, &snapshot(&mut e, 104, 1.2));
+        assert_eq!(v.on_datagram(0.1, &late), None);
+        assert_eq!(v.newest_tick(), None);
+        let mut e2 = SnapshotEncoder::new(SnapshotConfig::default()).unwrap();
+        let second = ReplayDatagram::snapshot(1, &snapshot(&mut e2, 50, 3.0));
+        assert!(v.on_datagram(0.2, &second).is_some());
+        assert_eq!(v.newest_tick(), Some(50));
+        // The first one's end does not end the second.
+        v.on_answer(ReplayAnswer::Ended {
+            replay: 0,
+            why: ReplayEnd::Replaced,
+        });
+        assert_eq!(v.status(), ReplayStatus::Asked);
+        v.on_answer(ReplayAnswer::Started {
+            replay: 1,
+            from_tick: 50,
+            to_tick: 80,
+            speed: 0.5,
+        });
+        v.on_answer(ReplayAnswer::Ended {
+            replay: 1,
+            why: ReplayEnd::Finished,
+        });
+        assert_eq!(v.status(), ReplayStatus::Ended(ReplayEnd::Finished));
+        // Bytes that are not a replay snapshot change nothing.
+        assert_eq!(v.on_datagram(0.3, &[0x52, 1]), None);
+        assert_eq!(v.on_datagram(0.3, &ReplayDatagram::ack(1, 3)), None);
+    }
+
+    #[test]
+    fn a_refusal_leaves_a_replay_playing_as_it_was() {
+        let mut v = view();
+        v.asked();
+        v.on_answer(ReplayAnswer::Started {
+            replay: 0,
+            from_tick: 1,
+            to_tick: 9,
+            speed: 1.0,
+        });
+        v.on_answer(ReplayAnswer::Refused(ReplayRefusal::RateLimited));
+        assert!(matches!(
+            v.status(),
+            ReplayStatus::Playing { replay: 0, .. }
+        ));
+        let mut idle = view();
+        idle.asked();
+        idle.on_answer(ReplayAnswer::Refused(ReplayRefusal::Busy));
+        assert_eq!(idle.status(), ReplayStatus::Refused(ReplayRefusal::Busy));
     }
 }

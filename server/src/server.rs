@@ -10,7 +10,6 @@ use std::time::Duration;
 use inertia_protocol::admin::MatchName;
 use inertia_protocol::connection::ServerConnectionConfig;
 use inertia_protocol::control::{truncate_utf8, DisconnectReason, MAX_REASON_BYTES};
-use inertia_protocol::snapshot::SnapshotConfig;
 use inertia_protocol::token::TokenKey;
 use tokio::sync::watch;
 use tokio::task::JoinHandle;
@@ -316,23 +315,7 @@ pub async fn start_game(
     })?;
     let (shutdown, shutdown_rx) = watch::channel(None);
     let shutdown = Arc::new(shutdown);
-    // Velocities let clients interpolate with Hermite curves and
-    // extrapolate over a lost snapshot; they cost little for the bodies at
-    // rest, which send none.
-    let default = SnapshotConfig::default();
-    let snapshot = SnapshotConfig {
-        velocities: true,
-        grid: inertia_protocol::PositionGrid {
-            resolution: config.position_resolution_mm / 1000.0,
-            // Finer grids cover less ground within the codec's 32 bits an
-            // axis.
-            bound: default
-                .grid
-                .bound
-                .min(config.position_resolution_mm / 1000.0 * f64::from(u32::MAX) / 2.0 * 0.99),
-        },
-        ..default
-    };
+    let snapshot = config.snapshot_config();
     let admin = AdminShared::new(
         sim.clone(),
         metrics.clone(),

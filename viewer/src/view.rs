@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use inertia_client::interp::Sample;
-use inertia_client::{dev, BlockingClient, ClientEvent};
+use inertia_client::{dev, BlockingClient, ClientEvent, ReplayStatus};
 
 use crate::admin::AdminLink;
 use crate::camera::OrbitCamera;
@@ -17,6 +17,9 @@ use crate::hud::{self, HudAction, HudModel, HudState};
 use crate::render::HudPaint;
 use crate::scene::{position_in, Catalogue, DrawList};
 use crate::ViewerError;
+
+/// The kill-cam's length, s.
+pub const KILL_CAM_S: f32 = 5.0;
 
 /// How to reach the server.
 #[derive(Debug, Clone)]
@@ -164,6 +167,32 @@ impl Viewer {
         }
     }
 
+    /// Asks for the kill-cam: the last [`KILL_CAM_S`] s again at real
+    /// time, centred on the own avatar, beside the live match (key R).
+    pub fn kill_cam(&self) {
+        if let Err(e) = self.client.kill_cam(KILL_CAM_S, 1.0, None) {
+            tracing::warn!(error = %e, "no kill-cam");
+        }
+    }
+
+    /// The HUD's headline: the game's, and the replay playing with the
+    /// tick it shows (drawn at `render_tick`).
+    fn headline(&self, render_tick: f64) -> Option<String> {
+        let game = self.controls().headline(&self.client);
+        let replay = match self.client.replay_status() {
+            ReplayStatus::Playing { to_tick, .. } => Some(format!(
+                "REPLAY  tick {} of {to_tick}",
+                render_tick.max(0.0) as u64
+            )),
+            ReplayStatus::Refused(why) => Some(format!("no replay: {why}")),
+            _ => None,
+        };
+        match (game, replay) {
+            (Some(g), Some(r)) => Some(format!("{g}   {r}")),
+            (g, r) => g.or(r),
+        }
+    }
+
     /// The controls and headline of the game the server runs.
     pub fn controls(&self) -> Controls {
         Controls::for_game(&self.client.server_info().game)
@@ -246,7 +275,13 @@ impl Viewer {
             };
         }
         self.absorb_events();
-        let frame = self.client.sample();
+        let live = self.client.sample();
+        // While a replay plays it is the picture; the live match goes on
+        // beneath it and is back the frame the replay ends.
+        let frame = match self.client.replay_status() {
+            ReplayStatus::Playing { .. } => self.client.replay_sample().unwrap_or(live),
+            _ => live,
+        };
         if self.following {
             if let Some(p) = self.avatar().and_then(|id| position_in(&frame, id)) {
                 self.camera.follow(p, dt as f32);
@@ -284,7 +319,7 @@ impl Viewer {
             following: self.following,
             has_avatar: avatar.is_some(),
             properties: self.property_lines(avatar),
-            headline: self.controls().headline(&self.client),
+            headline: self.headline(frame.render_tick),
         };
         let mut actions = Vec::new();
         let hud_state = &mut self.hud;

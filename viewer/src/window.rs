@@ -198,6 +198,7 @@ impl App {
                     KeyCode::KeyN => {
                         self.view.admin_call(AdminRequest::Step { ticks: 1 });
                     }
+                    KeyCode::KeyR => self.view.kill_cam(),
                     _ => {}
                 }
             }

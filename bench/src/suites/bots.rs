@@ -63,7 +63,7 @@ const REPORT_TIMEOUT: Duration = Duration::from_secs(20);
 
 /// What a bot prints when told to stop: what it received between `start`
 /// and `stop`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct BotReport {
     /// The bot's client id.
     pub client_id: u64,
@@ -88,7 +88,24 @@ pub struct BotReport {
     pub frames: u64,
     /// Whether the server said goodbye or dropped the bot.
     pub disconnected: bool,
+    /// Kill-cams a watching bot asked for in the window.
+    #[serde(default)]
+    pub replays_asked: u64,
+    /// Of those, the ones the server refused.
+    #[serde(default)]
+    pub replays_refused: u64,
+    /// For each kill-cam that played, the wall time from asking to its
+    /// first replay snapshot, ms (to within one bot frame).
+    #[serde(default)]
+    pub replay_first_ms: Vec<f64>,
 }
+
+/// What a watching bot asks for, again as soon as the last one ended:
+/// the last this many seconds, at real time.
+pub const BOT_REPLAY_S: f32 = 10.0;
+/// The least time between two of a watching bot's requests, s (the
+/// server takes one a second).
+const BOT_REPLAY_GAP: Duration = Duration::from_millis(1100);
 
 /// `inertia-bench bot …`: one bot process (started by the suites).
 #[derive(Debug, Parser)]
@@ -106,6 +123,11 @@ pub struct BotArgs {
     /// Give up and exit after this many seconds whatever happens.
     #[arg(long, default_value_t = 120.0)]
     pub seconds: f64,
+    /// How many of this process's clients (the first ones) watch
+    /// kill-cams while counting: each asks for the last
+    /// [`BOT_REPLAY_S`] s again as soon as its last one ended.
+    #[arg(long, default_value_t = 0)]
+    pub replays: u64,
 }
 
 /// This process's user + system CPU time so far, s (`/proc/self/stat`).
@@ -183,6 +205,7 @@ async fn play(args: BotArgs) -> Result<(), BenchError> {
     });
     let mut clients = tokio::task::JoinSet::new();
     let connecting = std::sync::Arc::new(tokio::sync::Semaphore::new(CONNECTS_AT_ONCE));
+    let (first_id, replays) = (args.client_id, args.replays);
     for id in args.client_id..args.client_id + args.count {
         let credentials = args.credentials.clone();
         let phase = phase.clone();
@@ -216,7 +239,8 @@ async fn play(args: BotArgs) -> Result<(), BenchError> {
                 let _ = writeln!(out, "{{\"ready\":{id}}}");
                 let _ = out.flush();
             }
-            Ok::<_, String>(bot(id, client, phase).await)
+            let watches = id < first_id + replays;
+            Ok::<_, String>(bot(id, client, phase, watches).await)
         });
     }
     // The process's CPU over the count, shared out over its clients.
@@ -260,13 +284,19 @@ async fn play(args: BotArgs) -> Result<(), BenchError> {
 }
 
 /// One client's play, until the phase says stop: its report.
-async fn bot(id: u64, client: Client, mut phase: tokio::sync::watch::Receiver<Phase>) -> BotReport {
+async fn bot(
+    id: u64,
+    client: Client,
+    mut phase: tokio::sync::watch::Receiver<Phase>,
+    watches: bool,
+) -> BotReport {
     let began = Instant::now();
     let mut timer = tokio::time::interval(Duration::from_secs_f64(1.0 / BOT_FRAME_HZ));
     timer.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let sample_every = (BOT_FRAME_HZ / BOT_SAMPLE_HZ).round().max(1.0) as u64;
     let mut frames = 0u64;
     let mut from: Option<(Instant, ClientStats, u64)> = None;
+    let mut watcher = Watcher::default();
     // Each bot walks its own pattern.
     let phase_offset = (id % 97) as f32 * 0.37;
     loop {
@@ -285,6 +315,9 @@ async fn bot(id: u64, client: Client, mut phase: tokio::sync::watch::Receiver<Ph
         let movement = [(0.7 * t).sin(), (0.45 * t).cos()];
         let yaw = (0.3 * t).sin() * std::f32::consts::PI;
         let frame = (t * BOT_FRAME_HZ as f32) as u64;
+        if watches && from.is_some() {
+            watcher.frame(&client);
+        }
         let mut pressed = 0;
         // Jump for a frame every 2 s, push every 1.5 s.
         if frame % 120 == 0 {
@@ -317,9 +350,48 @@ async fn bot(id: u64, client: Client, mut phase: tokio::sync::watch::Receiver<Ph
         cpu_percent: 0.0,
         frames: frames - f0,
         disconnected: client.disconnected().is_some(),
+        replays_asked: watcher.asked,
+        replays_refused: watcher.refused,
+        replay_first_ms: watcher.first_ms,
     };
     client.close().await;
     report
+}
+
+/// A watching bot's kill-cams: when it asked last, and what it saw.
+#[derive(Debug, Default)]
+struct Watcher {
+    /// When the last request went, and whether its first snapshot came.
+    asked_at: Option<(Instant, bool)>,
+    asked: u64,
+    refused: u64,
+    first_ms: Vec<f64>,
+}
+
+impl Watcher {
+    /// One frame: notes the first snapshot of the replay asked for, and
+    /// asks for the next once the last one is over.
+    fn frame(&mut self, client: &Client) {
+        use inertia_client::ReplayStatus;
+        let status = client.replay_status();
+        if let Some((at, false)) = self.asked_at {
+            if client.replay_tick().is_some() {
+                self.first_ms.push(at.elapsed().as_secs_f64() * 1e3);
+                self.asked_at = Some((at, true));
+            } else if let ReplayStatus::Refused(_) = status {
+                self.refused += 1;
+                self.asked_at = Some((at, true));
+            }
+        }
+        let busy = matches!(status, ReplayStatus::Asked | ReplayStatus::Playing { .. });
+        let rested = self
+            .asked_at
+            .is_none_or(|(at, _)| at.elapsed() >= BOT_REPLAY_GAP);
+        if !busy && rested && client.kill_cam(BOT_REPLAY_S, 1.0, None).is_ok() {
+            self.asked += 1;
+            self.asked_at = Some((Instant::now(), false));
+        }
+    }
 }
 
 /// A line from a bot process, or its end.
@@ -346,6 +418,17 @@ impl Bots {
         ids: &[u64],
         lifetime_s: f64,
     ) -> Result<Self, BenchError> {
+        Self::spawn_watching(credentials, ids, 0, lifetime_s)
+    }
+
+    /// [`Bots::spawn`], the first `replays` of `ids` watching kill-cams
+    /// while counting ([`BotArgs::replays`]).
+    pub(crate) fn spawn_watching(
+        credentials: &Path,
+        ids: &[u64],
+        replays: usize,
+        lifetime_s: f64,
+    ) -> Result<Self, BenchError> {
         let exe = std::env::current_exe()?;
         let (tx, lines) = mpsc::channel();
         let mut bots = Bots {
@@ -354,7 +437,20 @@ impl Bots {
             lines,
             clients: ids.len(),
         };
-        for (i, (first, count)) in runs(ids, BOTS_PER_PROCESS).into_iter().enumerate() {
+        // The watchers in processes of their own, as players on machines
+        // of their own: a request's answer then waits for the server, not
+        // behind a hundred other clients' snapshots in a busy bot.
+        let replays = replays.min(ids.len());
+        let (watching, playing) = ids.split_at(replays);
+        let groups = runs(watching, BOTS_PER_PROCESS)
+            .into_iter()
+            .map(|(first, count)| (first, count, count))
+            .chain(
+                runs(playing, BOTS_PER_PROCESS)
+                    .into_iter()
+                    .map(|(first, count)| (first, count, 0)),
+            );
+        for (i, (first, count, watching)) in groups.enumerate() {
             let mut child = Command::new(&exe)
                 .arg("bot")
                 .arg("--credentials")
@@ -365,6 +461,8 @@ impl Bots {
                 .arg(count.to_string())
                 .arg("--seconds")
                 .arg(format!("{lifetime_s:.0}"))
+                .arg("--replays")
+                .arg(watching.to_string())
                 .stdin(Stdio::piped())
                 .stdout(Stdio::piped())
                 .stderr(Stdio::piped())

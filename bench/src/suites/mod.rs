@@ -9,6 +9,7 @@ pub mod particles;
 pub mod physics;
 pub mod properties;
 pub mod replay;
+pub mod replays;
 pub mod soak;
 pub mod soft;
 
@@ -32,6 +33,8 @@ pub enum Suite {
     Capacity,
     /// Recording size, seek time and offline verification of a recorded game.
     Replay,
+    /// Players' kill-cams beside a loaded live match: their latency, what they cost the live clients, and that they show what was live.
+    Replays,
     /// An hour of simulated time at fast-forward: memory and file handles bounded.
     Soak,
     /// Soft bodies and fluids on XPBD small steps: cloth, jelly, fluid.
@@ -40,7 +43,7 @@ pub enum Suite {
 
 impl Suite {
     /// Every suite.
-    pub const ALL: [Suite; 9] = [
+    pub const ALL: [Suite; 10] = [
         Suite::Integrators,
         Suite::Particles,
         Suite::Nbody,
@@ -48,6 +51,7 @@ impl Suite {
         Suite::Bandwidth,
         Suite::Capacity,
         Suite::Replay,
+        Suite::Replays,
         Suite::Soak,
         Suite::Soft,
     ];
@@ -62,6 +66,7 @@ impl Suite {
             Suite::Bandwidth => "bandwidth",
             Suite::Capacity => "capacity",
             Suite::Replay => "replay",
+            Suite::Replays => "replays",
             Suite::Soak => "soak",
             Suite::Soft => "soft",
         }
@@ -80,6 +85,7 @@ impl Suite {
             }
             Suite::Capacity => capacity::run(opts, sink),
             Suite::Replay => replay::run(opts, sink),
+            Suite::Replays => replays::run(opts, sink),
             Suite::Soak => soak::run(opts, sink),
             Suite::Soft => soft::run(opts, sink),
         }

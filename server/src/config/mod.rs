@@ -526,6 +526,27 @@ impl ServerConfig {
         }
     }
 
+    /// How snapshots are coded: velocities sent (they let clients
+    /// interpolate with Hermite curves and extrapolate over a lost
+    /// snapshot, and cost little for the bodies at rest, which send none),
+    /// positions on the configured grid.
+    pub fn snapshot_config(&self) -> inertia_protocol::snapshot::SnapshotConfig {
+        let default = inertia_protocol::snapshot::SnapshotConfig::default();
+        inertia_protocol::snapshot::SnapshotConfig {
+            velocities: true,
+            grid: inertia_protocol::PositionGrid {
+                resolution: self.position_resolution_mm / 1000.0,
+                // Finer grids cover less ground within the codec's 32 bits
+                // an axis.
+                bound: default
+                    .grid
+                    .bound
+                    .min(self.position_resolution_mm / 1000.0 * f64::from(u32::MAX) / 2.0 * 0.99),
+            },
+            ..default
+        }
+    }
+
     /// The per-client budget in bytes per wall second.
     pub fn client_budget_bytes_per_sec(&self) -> u64 {
         u64::from(self.client_budget_kbps) * 1000 / 8
