@@ -311,6 +311,13 @@ fn a_wrong_hash_or_damage_fails_verify() {
     let out = admin(&["replay-file", "verify", arg(&damaged)]);
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     assert!(stderr(&out).contains("damaged"), "{}", stderr(&out));
+    assert!(
+        stdout(&out).contains("DAMAGED"),
+        "{}{}",
+        stdout(&out),
+        stderr(&out)
+    );
+    issue_44_verify_reads_past_damage_and_checks_the_rest(&good, &damaged);
     let out = admin(&["replay-file", "inspect", arg(&damaged), "--json"]);
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     let s = object(&out);
@@ -343,6 +350,34 @@ fn a_wrong_hash_or_damage_fails_verify() {
     );
     let out = admin(&["replay-file", "verify", arg(&torn), "--json"]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+}
+
+/// One flipped byte made `verify` refuse the whole recording although
+/// every later keyframe was intact. It reads past the damage now, starts
+/// again at the next keyframe, checks every hash from there without a
+/// false mismatch, and says where the damage was and where it went on.
+fn issue_44_verify_reads_past_damage_and_checks_the_rest(good: &Path, damaged: &Path) {
+    let all = object(&admin(&["replay-file", "verify", arg(good), "--json"]));
+    let out = admin(&["replay-file", "verify", arg(damaged), "--json"]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let v = object(&out);
+    assert_eq!(v["ok"], false);
+    assert_eq!(v["mismatch_count"], 0, "the gap is not re-simulated: {v}");
+    let damage = v["damage"].as_array().expect("the damage listed");
+    assert!(!damage.is_empty());
+    assert!(damage[0]["offset"].as_u64().unwrap() > 0);
+    assert!(
+        damage.iter().any(|d| d["restarted_at"].as_u64().is_some()),
+        "{v}"
+    );
+    let (checked, of) = (
+        v["hashes_checked"].as_u64().unwrap(),
+        all["hashes_checked"].as_u64().unwrap(),
+    );
+    assert!(
+        checked > 0 && checked < of,
+        "the rest is checked: {checked} of {of} hashes"
+    );
 }
 
 #[test]

@@ -1,12 +1,19 @@
 //! Re-simulating a recording directory from its first keyframe and
 //! checking every stored hash (and every keyframe against the state
 //! re-simulation reached), for tools and tests.
+//!
+//! A damaged recording is verified as far as it can be trusted: the
+//! salvaging reader ([`RecordReader::salvage`]) reads on at the next
+//! intact frame past damage, and re-simulation starts again at the next
+//! keyframe after it (what lies between cannot be re-simulated: a lost
+//! journal would make every later hash differ). Each place is reported
+//! ([`VerifyReport::damage`]), and the recording does not verify.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::{SimConfig, Simulation};
-use crate::record::{Record, RecordReader};
+use crate::record::{Record, RecordReader, Salvaged};
 use crate::replay::journal;
 use crate::replay::SimState;
 use crate::rules::GameRules;
@@ -30,6 +37,11 @@ pub struct VerifyReport {
     pub mismatches: Vec<(u64, u64, u64)>,
     /// How many hashes differed in all.
     pub mismatch_count: u64,
+    /// The damage read past, in the order met.
+    pub damage: Vec<SkippedDamage>,
+    /// The newest segment ends in a torn tail (an append cut short by a
+    /// crash; the records before it are whole): noted, not damage.
+    pub torn_tail: bool,
     /// Wall time, s.
     pub seconds: f64,
 }
@@ -44,10 +56,27 @@ impl VerifyReport {
         }
     }
 
-    /// True when every hash matched.
+    /// True when every hash matched and nothing was damaged.
     pub fn ok(&self) -> bool {
-        self.mismatch_count == 0
+        self.mismatch_count == 0 && self.damage.is_empty()
     }
+}
+
+/// One damaged place a verification read past.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SkippedDamage {
+    /// The segment file.
+    pub path: PathBuf,
+    /// Byte offset of the damage in it.
+    pub offset: u64,
+    /// What is wrong there.
+    pub why: String,
+    /// Where reading went on in the same file; `None`: the rest of the
+    /// segment was skipped.
+    pub read_on_at: Option<u64>,
+    /// The keyframe re-simulation started again at after it; `None`: no
+    /// keyframe came after it.
+    pub restarted_at: Option<u64>,
 }
 
 /// Why a recording could not be verified at all.
@@ -79,12 +108,25 @@ pub fn verify(
 ) -> Result<VerifyReport, VerifyError> {
     let started = Instant::now();
     let reader = RecordReader::open(dir)?;
-    let last = reader
-        .segments()?
-        .iter()
-        .map(|s| s.last_tick)
-        .max()
-        .unwrap_or(0);
+    // The last tick, for the progress: a damaged recording's newest
+    // segment's first, when its segments cannot be read through.
+    let last = match reader.segments() {
+        Ok(segments) => segments.iter().map(|s| s.last_tick).max().unwrap_or(0),
+        // A file that is no segment at all is not a damaged recording.
+        Err(
+            e @ crate::record::RecordError::Corrupt {
+                offset: 0,
+                why: crate::record::Corruption::BadMagic,
+                ..
+            },
+        ) => return Err(e.into()),
+        Err(_) => reader
+            .segment_files()
+            .iter()
+            .map(|s| s.first_tick)
+            .max()
+            .unwrap_or(0),
+    };
     let mut report = VerifyReport::default();
     let mut sim: Option<Simulation> = None;
     // A new session restarts from its keyframe.
@@ -92,8 +134,32 @@ pub fn verify(
     // Entries of the current tick recorded after the state reached: a
     // keyframe holds those recorded before it (its `applied`).
     let mut pending: Vec<journal::JournalEntry> = Vec::new();
-    for record in reader.iter() {
-        let record = record?;
+    // Since damage, until a keyframe: nothing can be re-simulated.
+    let mut lost = false;
+    for step in reader.salvage() {
+        let record = match step? {
+            Salvaged::Record { record, .. } => record,
+            Salvaged::Damaged { damage, read_on_at } => {
+                report.damage.push(SkippedDamage {
+                    path: damage.path,
+                    offset: damage.offset,
+                    why: damage.why.to_string(),
+                    read_on_at,
+                    restarted_at: None,
+                });
+                lost = true;
+                fresh_session = true;
+                pending.clear();
+                continue;
+            }
+            Salvaged::TornTail(_) => {
+                report.torn_tail = true;
+                continue;
+            }
+        };
+        if lost && !matches!(record, Record::Keyframe { .. }) {
+            continue;
+        }
         match record {
             Record::SessionStart { .. } => {
                 report.sessions += 1;
@@ -135,6 +201,12 @@ pub fn verify(
                         s.clock_mut().pause();
                         if sim.is_none() {
                             report.first_tick = tick;
+                        }
+                        if lost {
+                            lost = false;
+                            if let Some(d) = report.damage.last_mut() {
+                                d.restarted_at = Some(tick);
+                            }
                         }
                         pending.clear();
                         sim = Some(s);

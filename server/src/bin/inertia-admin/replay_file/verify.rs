@@ -1,8 +1,10 @@
 //! `replay-file verify`: re-simulates a recording from its first keyframe
 //! under the sandbox rules and checks every stored tick hash (and every
 //! keyframe against the state re-simulation reached), with a progress bar
-//! on a terminal. Exit 0 when everything matches, 1 when a hash differs or
-//! the recording is damaged.
+//! on a terminal. A damaged recording is verified as far as it can be
+//! trusted: reading goes on past the damage and re-simulation starts again
+//! at the next keyframe, and each damaged place is listed. Exit 0 when
+//! everything matches, 1 when a hash differs or the recording is damaged.
 
 use std::io::IsTerminal;
 use std::path::Path;
@@ -43,6 +45,20 @@ pub fn run(dir: &Path, json: bool) -> Result<ExitCode, Failure> {
     }
     if report.ok() {
         return Ok(ExitCode::SUCCESS);
+    }
+    if let Some(d) = report.damage.first() {
+        eprintln!(
+            "inertia-admin: the recording is damaged in {} place{} (the first: {} at byte {}: {}); \
+             the rest was verified from the next keyframe after each",
+            report.damage.len(),
+            if report.damage.len() == 1 { "" } else { "s" },
+            d.path.display(),
+            d.offset,
+            d.why,
+        );
+    }
+    if report.mismatch_count == 0 {
+        return Ok(ExitCode::from(1));
     }
     let first = report
         .mismatches
@@ -126,6 +142,14 @@ fn report_json(r: &VerifyReport) -> serde_json::Value {
         "last_tick": r.last_tick,
         "sessions": r.sessions,
         "seconds": r.seconds,
+        "damage": r.damage.iter().map(|d| json!({
+            "path": d.path.display().to_string(),
+            "offset": d.offset,
+            "why": d.why,
+            "read_on_at": d.read_on_at,
+            "restarted_at": d.restarted_at,
+        })).collect::<Vec<_>>(),
+        "torn_tail": r.torn_tail,
     })
 }
 
@@ -146,8 +170,29 @@ fn report_text(r: &VerifyReport) -> String {
             count(r.keyframes_checked, "keyframe", "keyframes"),
         ),
     ];
-    if r.ok() {
+    for d in &r.damage {
+        let on = match d.read_on_at {
+            Some(at) => format!("read on at byte {at}"),
+            None => "the rest of the segment skipped".into(),
+        };
+        let again = match d.restarted_at {
+            Some(tick) => format!("re-simulated again from the keyframe of tick {tick}"),
+            None => "no keyframe after it".into(),
+        };
+        out.push(format!(
+            "DAMAGED {} at byte {}: {}; {on}; {again}",
+            d.path.display(),
+            d.offset,
+            d.why
+        ));
+    }
+    if r.torn_tail {
+        out.push("the newest segment ends in a torn tail (a crash mid-append): not damage".into());
+    }
+    if r.mismatch_count == 0 && r.damage.is_empty() {
         out.push("every hash matches".into());
+    } else if r.mismatch_count == 0 {
+        out.push("every hash checked matches".into());
     } else {
         out.push(format!(
             "{} DIFFER; the first:",
