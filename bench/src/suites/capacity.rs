@@ -115,6 +115,26 @@ pub fn scene_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../server/scenes/capacity.ron")
 }
 
+/// The bench's server: a dev-mode server on loopback and ephemeral
+/// ports, data in `data_dir`, the capacity scene at [`TICK_HZ`] ticks and
+/// [`SNAPSHOT_HZ`] snapshots a second, room for `clients` (at least 64).
+pub fn server_config(data_dir: PathBuf, clients: u32) -> ServerConfig {
+    ServerConfig {
+        listen: Some(std::net::SocketAddr::from(([127, 0, 0, 1], 0))),
+        metrics: std::net::SocketAddr::from(([127, 0, 0, 1], 0)),
+        scene: Some(scene_path()),
+        data_dir,
+        tick_hz: TICK_HZ,
+        snapshot_hz: SNAPSHOT_HZ,
+        max_clients: clients.max(64),
+        // A game server's tick on a machine whose cores are all busy; where
+        // the privilege is missing it runs at a raised nice value, and
+        // `tick_realtime` says which.
+        tick_realtime: true,
+        ..ServerConfig::default()
+    }
+}
+
 /// The machine's busy, total and stolen CPU time so far, s
 /// (`/proc/stat`; stolen: time the host ran something else while this
 /// machine's virtual cores had work).
@@ -302,20 +322,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     let data_dir =
         std::env::temp_dir().join(format!("inertia-bench-capacity-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&data_dir);
-    let config = ServerConfig {
-        listen: Some("127.0.0.1:0".parse()?),
-        metrics: "127.0.0.1:0".parse()?,
-        scene: Some(scene_path()),
-        data_dir: data_dir.clone(),
-        tick_hz: TICK_HZ,
-        snapshot_hz: SNAPSHOT_HZ,
-        max_clients: max_k.max(64),
-        // A game server's tick on a machine whose cores are all busy; where
-        // the privilege is missing it runs at a raised nice value, and
-        // `tick_realtime` says which.
-        tick_realtime: true,
-        ..ServerConfig::default()
-    };
+    let config = server_config(data_dir.clone(), max_k);
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .thread_name("inertia-bench-server")
         .enable_all()

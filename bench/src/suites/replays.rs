@@ -41,12 +41,11 @@ use std::time::{Duration, Instant};
 use inertia_protocol::replay::{ReplayAsk, ReplayDatagram, ReplayRequest};
 use inertia_protocol::snapshot::{QuantizedFrame, SharedDeltas, SnapshotConfig, SnapshotDecoder};
 use inertia_protocol::{ServerSession, SessionConfig, ViewEntity};
-use inertia_server::config::ServerConfig;
 use inertia_server::net::replays::{DeskOutput, ReplayDesk, ReplayLimits, ReplayWindow};
 use inertia_server::server::{start, RunningServer};
 
 use super::bots::{process_cpu_s, BotReport, Bots};
-use super::capacity::{scene_path, SNAPSHOT_HZ, TICK_HZ};
+use super::capacity::{server_config, SNAPSHOT_HZ, TICK_HZ};
 use crate::report::{progress, Measurement, Sink, Suspended};
 use crate::{BenchError, Opts};
 
@@ -97,17 +96,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     let data_dir =
         std::env::temp_dir().join(format!("inertia-bench-replays-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&data_dir);
-    let config = ServerConfig {
-        listen: Some("127.0.0.1:0".parse()?),
-        metrics: "127.0.0.1:0".parse()?,
-        scene: Some(scene_path()),
-        data_dir: data_dir.clone(),
-        tick_hz: TICK_HZ,
-        snapshot_hz: SNAPSHOT_HZ,
-        max_clients: k.max(64),
-        tick_realtime: true,
-        ..ServerConfig::default()
-    };
+    let config = server_config(data_dir.clone(), k);
     let snapshot = config.snapshot_config();
     let budget = (config.client_budget_bytes_per_sec() / u64::from(SNAPSHOT_HZ)) as usize;
     let runtime = tokio::runtime::Builder::new_multi_thread()
