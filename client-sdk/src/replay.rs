@@ -86,9 +86,7 @@ impl ReplayView {
     /// No replay yet; replays are coded as `config` says (the welcome's),
     /// at `tick_hz`, carrying `properties`.
     pub fn new(config: SnapshotConfig, tick_hz: u32, properties: Arc<PropertySchema>) -> Self {
-        let decoder = SnapshotDecoder::new(config)
-            .expect("the welcome's snapshot settings were checked")
-            .with_properties(properties.clone());
+        let decoder = fresh_decoder(config, &properties);
         Self {
             config,
             tick_hz: f64::from(tick_hz),
@@ -163,9 +161,7 @@ impl ReplayView {
     fn begin(&mut self, replay: u16) {
         self.current = Some(replay);
         self.begun = Some(replay);
-        self.decoder = SnapshotDecoder::new(self.config)
-            .expect("checked at start")
-            .with_properties(self.properties.clone());
+        self.decoder = fresh_decoder(self.config, &self.properties);
         self.interp = InterpolationBuffer::new(self.tick_hz);
         self.known = KnownProperties::new(self.properties.clone());
         self.newest_tick = None;
@@ -235,6 +231,13 @@ impl ReplayView {
     pub fn match_state(&self) -> Vec<PropertyValue> {
         self.known.match_state()
     }
+}
+
+/// A decoder that has received nothing, for a replay's own views.
+fn fresh_decoder(config: SnapshotConfig, properties: &Arc<PropertySchema>) -> SnapshotDecoder {
+    SnapshotDecoder::new(config)
+        .expect("the welcome's snapshot settings were checked")
+        .with_properties(properties.clone())
 }
 
 #[cfg(test)]

@@ -270,12 +270,35 @@ pub(crate) fn exposed(text: &str, name: &str) -> Option<f64> {
 }
 
 /// The `p`-quantile of `xs` (sorted here), NaN for none.
-fn quantile(xs: &mut [f64], p: f64) -> f64 {
+/// The `p` quantile of `xs` (sorted in place), NaN when empty.
+pub(crate) fn quantile(xs: &mut [f64], p: f64) -> f64 {
     if xs.is_empty() {
         return f64::NAN;
     }
     xs.sort_by(f64::total_cmp);
     xs[((xs.len() - 1) as f64 * p).round() as usize]
+}
+
+/// Logs every tick `server` publishes, with its wall time (ms), into
+/// `log`, until the returned task is aborted.
+pub(crate) fn record_ticks(
+    runtime: &tokio::runtime::Runtime,
+    server: &RunningServer,
+    log: TickLog,
+) -> tokio::task::JoinHandle<()> {
+    let mut frames = server.sim().subscribe();
+    runtime.spawn(async move {
+        let mut last = 0u64;
+        while frames.changed().await.is_ok() {
+            let f = frames.borrow_and_update().clone();
+            if f.tick != last {
+                last = f.tick;
+                if let Ok(mut l) = log.lock() {
+                    l.push((f.tick, f.tick_duration.as_secs_f64() * 1e3));
+                }
+            }
+        }
+    })
 }
 
 /// One measured step.
@@ -295,7 +318,7 @@ struct Step {
 }
 
 /// What the tick thread published: each frame's tick and tick time.
-type TickLog = Arc<Mutex<Vec<(u64, f64)>>>;
+pub(crate) type TickLog = Arc<Mutex<Vec<(u64, f64)>>>;
 
 /// Runs the steps and reports one record per K and the verdict.
 pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
@@ -378,22 +401,7 @@ fn steps(
 
     // Every frame the tick thread publishes, with its last tick's time.
     let log: TickLog = Arc::new(Mutex::new(Vec::new()));
-    let recorder = {
-        let log = log.clone();
-        let mut frames = server.sim().subscribe();
-        runtime.spawn(async move {
-            let mut last = 0u64;
-            while frames.changed().await.is_ok() {
-                let f = frames.borrow_and_update().clone();
-                if f.tick != last {
-                    last = f.tick;
-                    if let Ok(mut l) = log.lock() {
-                        l.push((f.tick, f.tick_duration.as_secs_f64() * 1e3));
-                    }
-                }
-            }
-        })
-    };
+    let recorder = record_ticks(runtime, server, log.clone());
 
     // The server alone first: what it spends with no client, and its
     // resident set, for the figures per client.

@@ -45,7 +45,7 @@ use inertia_server::net::replays::{DeskOutput, ReplayDesk, ReplayLimits, ReplayW
 use inertia_server::server::{start, RunningServer};
 
 use super::bots::{process_cpu_s, BotReport, Bots};
-use super::capacity::{server_config, SNAPSHOT_HZ, TICK_HZ};
+use super::capacity::{quantile, record_ticks, server_config, TickLog, SNAPSHOT_HZ, TICK_HZ};
 use crate::report::{progress, Measurement, Sink, Suspended};
 use crate::{BenchError, Opts};
 
@@ -115,7 +115,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
             .ok_or("the bench server runs in dev mode")?
             .clone();
         let log: TickLog = Arc::new(Mutex::new(Vec::new()));
-        record_ticks(&runtime, &server, log.clone());
+        let recorder = record_ticks(&runtime, &server, log.clone());
         let mut without = Vec::new();
         let mut with = Vec::new();
         for round in 0..rounds {
@@ -148,6 +148,7 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
             }
         }
         pb.finish_and_clear();
+        recorder.abort();
         let mut first: Vec<f64> = with.iter().flat_map(|s| s.first_ms.clone()).collect();
         let worst =
             |steps: &[Step], f: fn(&Step) -> f64| steps.iter().map(f).fold(f64::NAN, f64::max);
@@ -204,25 +205,6 @@ pub fn run(opts: &Opts, sink: &mut dyn Sink) -> Result<(), BenchError> {
     result
 }
 
-/// Every tick the server publishes, with its wall time, ms.
-type TickLog = Arc<Mutex<Vec<f64>>>;
-
-fn record_ticks(runtime: &tokio::runtime::Runtime, server: &RunningServer, log: TickLog) {
-    let mut frames = server.sim().subscribe();
-    runtime.spawn(async move {
-        let mut last = 0u64;
-        while frames.changed().await.is_ok() {
-            let f = frames.borrow_and_update().clone();
-            if f.tick != last {
-                last = f.tick;
-                if let Ok(mut l) = log.lock() {
-                    l.push(f.tick_duration.as_secs_f64() * 1e3);
-                }
-            }
-        }
-    });
-}
-
 /// One step: `ids` join as bots, the first `watchers` of them watching
 /// kill-cams while counting; measured for `seconds` after `warmup`.
 fn step(
@@ -250,7 +232,10 @@ fn step(
     let (t0, cpu0) = (Instant::now(), process_cpu_s());
     std::thread::sleep(Duration::from_secs_f64(seconds));
     let cpu = (process_cpu_s() - cpu0) / t0.elapsed().as_secs_f64() * 100.0;
-    let mut ticks = log.lock().map(|l| l.clone()).unwrap_or_default();
+    let mut ticks: Vec<f64> = log
+        .lock()
+        .map(|l| l.iter().map(|(_, ms)| *ms).collect())
+        .unwrap_or_default();
     let reports: Vec<BotReport> = bots.stop()?;
     drop(bots);
     let deadline = Instant::now() + Duration::from_secs(5);
@@ -423,15 +408,6 @@ fn full_view(frame: &QuantizedFrame, config: SnapshotConfig) -> BTreeMap<u32, Vi
         }
     }
     BTreeMap::new()
-}
-
-fn quantile(xs: &mut [f64], p: f64) -> f64 {
-    if xs.is_empty() {
-        return f64::NAN;
-    }
-    xs.sort_by(f64::total_cmp);
-    let i = ((xs.len() - 1) as f64 * p).round() as usize;
-    xs[i]
 }
 
 fn mean(xs: impl Iterator<Item = f64>) -> f64 {
